@@ -1,0 +1,53 @@
+# facepair: the two commands a newcomer needs.
+#   make demo   set up .venv and run the demo (the embedded default: SQLite, local files)
+#   make test   set up .venv and the Debian packages the tests need, then run every test
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed-stamp
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+# Debian packages: EGL/Mesa for headless rendering, chromium + driver for browser tests.
+DEBS_TEST := chromium chromium-driver libegl1 libgl1-mesa-dri libegl-mesa0
+DEBS_DEMO := libegl1 libgl1-mesa-dri libegl-mesa0
+
+.PHONY: demo test venv debs-test debs-demo lint bench clean
+
+venv: $(STAMP)
+
+$(STAMP): pyproject.toml
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[test]'
+	@touch $(STAMP)
+
+# apt-get update runs once, and only when a package is missing.
+debs-test:
+	@missing=$$(for p in $(DEBS_TEST); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages: $$missing"; \
+	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
+	fi
+
+debs-demo:
+	@missing=$$(for p in $(DEBS_DEMO); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages: $$missing"; \
+	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
+	fi
+
+test: $(STAMP) debs-test
+	$(PY) -m pytest
+
+demo: $(STAMP) debs-demo
+	$(VENV)/bin/facepair demo
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check app renderer tests benchmarks
+	$(VENV)/bin/mypy app/stimuli app/analysis app/trials renderer
+
+bench: $(STAMP)
+	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
+
+clean:
+	rm -rf $(VENV) .pytest_cache build dist *.egg-info

@@ -1,0 +1,55 @@
+"""facepair: perceptual paired-comparison studies of talking-face animation.
+
+``create_app`` builds the web application. Flask is imported inside it so that the pure
+packages (``app.stimuli``, ``app.trials``, ``app.analysis``) and the renderer stay free of the
+web stack: importing them never loads Flask.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from flask import Flask
+
+__version__ = "0.1.0"
+
+
+def create_app(config: Mapping[str, Any] | None = None) -> Flask:
+    """Application factory: defaults -> instance ``config.py`` -> ``FACEPAIR_*``/env -> ``config``.
+
+    With no configuration the database is SQLite in the instance folder.
+    """
+    from flask import Flask
+
+    from app.extensions import init_extensions
+    from app.web import init_web
+
+    app = Flask(__name__, instance_relative_config=True, static_folder="../static",
+                static_url_path="/static")
+    os.makedirs(app.instance_path, exist_ok=True)
+    app.config.from_mapping(
+        SECRET_KEY="dev-only-change-me",
+        SQLALCHEMY_DATABASE_URI="sqlite:///" + os.path.join(app.instance_path, "facepair.sqlite"),
+        SQLALCHEMY_ENGINE_OPTIONS={"pool_pre_ping": True},
+        MEDIA_ROOT=os.path.join(app.instance_path, "media"),
+        REDIS_URL=None,
+        # "thread": a local worker thread; "inline": run at once (tests); RQ if REDIS_URL is set.
+        JOB_RUNNER="thread",
+        # Minutes without activity after which an unfinished participant counts as dropped.
+        DROPPED_AFTER_MINUTES=30,
+        MAX_CONTENT_LENGTH=200 * 1024 * 1024,
+    )
+    app.config.from_pyfile("config.py", silent=True)
+    if os.environ.get("DATABASE_URL"):
+        app.config["SQLALCHEMY_DATABASE_URI"] = os.environ["DATABASE_URL"]
+    for key in ("SECRET_KEY", "REDIS_URL", "MEDIA_ROOT"):
+        if os.environ.get(key):
+            app.config[key] = os.environ[key]
+    if config:
+        app.config.update(config)
+    init_extensions(app)
+    init_web(app)
+    return app

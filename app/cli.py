@@ -1,0 +1,43 @@
+"""The ``facepair`` command line: one click group with a subcommand group per job.
+
+A user error (:class:`app.errors.InputError`) exits with code 2 and one line on stderr, never
+a traceback.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from app import __version__
+from app.errors import InputError
+
+
+class FacepairGroup(click.Group):
+    """Turns bad input anywhere below into one line and exit code 2."""
+
+    def invoke(self, ctx: click.Context):  # type: ignore[override]
+        try:
+            return super().invoke(ctx)
+        except InputError as exc:
+            click.echo(f"facepair: error: {exc}", err=True)
+            sys.exit(2)
+
+
+@click.group(cls=FacepairGroup)
+@click.version_option(__version__, prog_name="facepair")
+def main() -> None:
+    """facepair: paired-comparison studies of talking-face animation."""
+
+
+def _register() -> None:
+    from app.commands import analyze, render, stimuli, web
+
+    main.add_command(stimuli.stimuli)
+    main.add_command(render.render)
+    main.add_command(analyze.analyze)
+    web.register(main)
+
+
+_register()

@@ -1,0 +1,1 @@
+"""Subcommand groups of the ``facepair`` CLI, one module per job (registered in app.cli)."""
