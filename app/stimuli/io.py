@@ -1,0 +1,32 @@
+"""Load and save motion tracks by file extension (.fap or .csv)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from app.errors import InputError
+from app.stimuli.fapfile import read_fap, write_fap
+from app.stimuli.track import MotionTrack
+from app.stimuli.trackcsv import read_track_csv, write_track_csv
+
+
+def load_track(path: str | Path, fps: float | None = None) -> MotionTrack:
+    """Read a ``.fap`` or ``.csv`` motion track (``fps`` for a CSV without a ``# fps=`` line)."""
+    suffix = Path(path).suffix.lower()
+    if suffix == ".fap":
+        return read_fap(path)
+    if suffix == ".csv":
+        return read_track_csv(path, fps=fps)
+    raise InputError(f"unknown motion track type {suffix!r}: expected .fap or .csv", path=path)
+
+
+def save_track(track: MotionTrack, path: str | Path) -> None:
+    """Write a motion track as ``.fap`` or ``.csv`` by the path's extension."""
+    suffix = Path(path).suffix.lower()
+    if suffix == ".fap":
+        write_fap(track, path)
+    elif suffix == ".csv":
+        write_track_csv(track, path)
+    else:
+        raise InputError(f"unknown motion track type {suffix!r}: expected .fap or .csv",
+                         path=path)
