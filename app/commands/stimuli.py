@@ -1,0 +1,240 @@
+"""``facepair stimuli``: speech + ground truth -> the motion tracks of each condition."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+
+@click.group()
+def stimuli() -> None:
+    """Generate and inspect the motion tracks of experimental conditions."""
+
+
+@stimuli.command("convert")
+@click.argument("source", type=click.Path(dir_okay=False))
+@click.argument("target", type=click.Path(dir_okay=False))
+@click.option("--fps", type=float, default=None,
+              help="Frame rate of a CSV source without a '# fps=' line; or resample to it.")
+def convert(source: str, target: str, fps: float | None) -> None:
+    """Convert a motion track between .fap and .csv (by extension), optionally resampling."""
+    from app.stimuli.io import load_track, save_track
+
+    track = load_track(source, fps=fps if source.lower().endswith(".csv") else None)
+    if fps is not None and fps != track.fps:
+        track = track.resample(fps)
+    save_track(track, target)
+    click.echo(f"{target}: {track.n_frames} frames at {track.fps:g} fps, "
+               f"FAPs {', '.join(map(str, track.channels)) or 'none'}")
+
+
+def _speech_options(f):
+    """Options shared by the commands that analyse speech."""
+    f = click.option("--fps", type=float, default=30.0, show_default=True,
+                     help="Video frame rate of the tracks.")(f)
+    f = click.option("--pitch-floor", type=float, default=75.0, show_default=True,
+                     help="Lowest F0 of the speaker, Hz.")(f)
+    f = click.option("--pitch-ceiling", type=float, default=600.0, show_default=True,
+                     help="Highest F0 of the speaker, Hz (e.g. 300 for a male voice).")(f)
+    return f
+
+
+@stimuli.command("reference")
+@click.option("--audio", required=True, type=click.Path(dir_okay=False),
+              help="Speech recording (WAV or FLAC).")
+@click.option("--out", required=True, type=click.Path(dir_okay=False),
+              help="Track to write (.fap or .csv).")
+@click.option("--seed", type=int, default=0, show_default=True)
+@_speech_options
+def reference(audio: str, out: str, seed: int, fps: float, pitch_floor: float,
+              pitch_ceiling: float) -> None:
+    """Write the SYNTHETIC reference speaker's motion for a recording (a ground-truth stand-in)."""
+    from app.stimuli.io import save_track
+    from app.stimuli.reference_speaker import synthesize_reference
+    from app.stimuli.speech import extract_features
+
+    feats = extract_features(audio, fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling)
+    track = synthesize_reference(feats, seed=seed)
+    save_track(track, out)
+    click.echo(f"{out}: {track.n_frames} frames at {track.fps:g} fps of the SYNTHETIC "
+               f"reference speaker (seed {seed}); not a recording")
+
+
+@stimuli.command("fit-head-model")
+@click.option("--audio", required=True, type=click.Path(dir_okay=False))
+@click.option("--ground-truth", "ground_truth", required=True, type=click.Path(dir_okay=False),
+              help="Head motion to learn from (.fap or .csv).")
+@click.option("--out", required=True, type=click.Path(dir_okay=False),
+              help="Model file to write (JSON).")
+@click.option("--ridge", type=float, default=0.0, show_default=True,
+              help="Ridge penalty, relative to the regressors' energy.")
+@click.option("--label", default=None,
+              help="What the model was fitted on, kept in the model file and shown in summaries.")
+@_speech_options
+def fit_head_model(audio: str, ground_truth: str, out: str, ridge: float, label: str | None,
+                   fps: float, pitch_floor: float, pitch_ceiling: float) -> None:
+    """Fit the speech-driven head ARX model (na=4, nb=4, nk=1) and save it as JSON.
+
+    This is how data/models/head_arx_default.json is made from the demo data.
+    """
+    from app.stimuli.conditions.ground_truth import align_to_features
+    from app.stimuli.conditions.head_arx import HeadPoseArx
+    from app.stimuli.io import load_track
+    from app.stimuli.speech import extract_features
+
+    feats = extract_features(audio, fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling)
+    gt = load_track(ground_truth, fps=fps)
+    model = HeadPoseArx.fit(feats, align_to_features(gt, feats), ridge=ridge)
+    synthetic = "synthetic" in gt.source.lower()
+    model.provenance.update(
+        fitted_on=label or (f"{Path(audio).name} with {Path(ground_truth).name}"
+                            + (" (synthetic reference speaker)" if synthetic else "")),
+        audio=Path(audio).name, ground_truth=Path(ground_truth).name,
+        ridge=ridge, fps=fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling)
+    model.save(out)
+    info = model.arx.info
+    click.echo(f"{out}: head ARX model from {feats.n_frames} frames; spectral radius "
+               f"{info['spectral_radius']:.3f}; free-run RMSE (AU) "
+               + ", ".join(f"{v:.0f}" for v in info["free_run_rmse"]))
+
+
+@stimuli.command("generate")
+@click.option("--audio", required=True, type=click.Path(dir_okay=False),
+              help="Speech recording (WAV or FLAC).")
+@click.option("--ground-truth", "ground_truth", type=click.Path(dir_okay=False), default=None,
+              help="Captured motion (.fap or .csv), aligned and resampled to the audio.")
+@click.option("--conditions", default=None,
+              help="Comma-separated condition names [default: none,random,speech_driven and, "
+                   "with --ground-truth, ground_truth].")
+@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
+              help="Folder for <condition>.fap, summary.json and summary.png.")
+@click.option("--normalize", is_flag=True,
+              help="Give every condition the ground truth's per-channel mean and sd "
+                   "(thesis sec. 5.3).")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--f0-threshold", default="207", show_default=True,
+              help="Eyebrow rule F0 threshold in Hz, or 'auto' (75th percentile of voiced F0).")
+@click.option("--intensity-threshold", default="45", show_default=True,
+              help="Eyebrow release intensity threshold in dB, or 'auto' (recording level).")
+@click.option("--model", "model_path", type=click.Path(dir_okay=False), default=None,
+              help="Fitted head model (JSON) for speech_driven instead of fitting/the default.")
+@click.option("--plot/--no-plot", default=True, show_default=True,
+              help="Also draw summary.png.")
+@_speech_options
+def generate(audio: str, ground_truth: str | None, conditions: str | None, out_dir: str,
+             normalize: bool, seed: int, f0_threshold: str, intensity_threshold: str,
+             model_path: str | None, plot: bool, fps: float, pitch_floor: float,
+             pitch_ceiling: float) -> None:
+    """Generate the motion track of each condition for a recording, with objective measures.
+
+    Demo: facepair stimuli generate --audio data/demo/speech.wav
+    --ground-truth data/demo/ground_truth.fap --out demo-out --pitch-ceiling 300
+    --f0-threshold auto --intensity-threshold auto
+    """
+    import sys
+
+    from tqdm import tqdm
+
+    from app.stimuli.generate import generate_conditions, write_outputs
+
+    if conditions is None:
+        conditions = "none,random,speech_driven" + (",ground_truth" if ground_truth else "")
+    bars: list[tqdm] = []  # made on the first report, so an early error prints alone
+
+    def progress(done: int, total: int) -> None:
+        if not bars:
+            bars.append(tqdm(total=total, desc="stimuli", unit="step", file=sys.stderr,
+                             leave=False))
+        bars[0].update(done - bars[0].n)
+
+    sd_params = {"f0_threshold": f0_threshold, "intensity_threshold": intensity_threshold}
+    try:
+        result = generate_conditions(
+            audio, conditions=conditions, ground_truth=ground_truth, fps=fps, seed=seed,
+            normalize=normalize, model_path=model_path, progress=progress,
+            pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling,
+            condition_params={"speech_driven": sd_params})
+        written = write_outputs(result, out_dir, plot=plot)
+    finally:
+        for bar in bars:
+            bar.close()
+    feats = result.features
+    click.echo(f"{audio}: {feats.n_frames} frames at {feats.fps:g} fps, "
+               f"{feats.voiced.mean():.0%} voiced")
+    for path in written:
+        click.echo(f"  wrote {path}")
+    for note in result.summary["notes"]:
+        click.echo(f"  note: {note}")
+
+# -- live head-and-eye model (app/stimuli/live) --------------------------------------------------
+
+@stimuli.command("train-live")
+@click.option("--audio", "audio", multiple=True, required=True,
+              type=click.Path(dir_okay=False),
+              help="Speech recording (.wav); repeat the option for several takes.")
+@click.option("--ground-truth", "ground_truth", multiple=True, type=click.Path(dir_okay=False),
+              help="Motion of each --audio take (.fap or .csv), in the same order: head 48-50 "
+                   "required, gaze 23-26 and eyelids 19-22 used when present.")
+@click.option("--reference", is_flag=True,
+              help="Instead of --ground-truth: the synthetic reference speaker's motion for "
+                   "each take (app.stimuli.reference_speaker).")
+@click.option("--reference-seed", type=int, default=0, show_default=True)
+@click.option("--repeat", type=click.IntRange(min=1), default=1, show_default=True,
+              help="With --reference: play each audio file N times in a row as one take "
+                   "(more motion, blinks and gaze shifts to learn from a short file).")
+@click.option("--out", required=True, type=click.Path(dir_okay=False),
+              help="Model file to write (.npz).")
+@_speech_options
+@click.option("--components", type=click.IntRange(min=1), default=10, show_default=True,
+              help="Gaussian components per mixture (sec. 5.1).")
+@click.option("--seed", type=int, default=0, show_default=True, help="EM initialisation seed.")
+def train_live(audio: tuple[str, ...], ground_truth: tuple[str, ...], reference: bool,
+               reference_seed: int, repeat: int, out: str, fps: float, pitch_floor: float,
+               pitch_ceiling: float, components: int, seed: int) -> None:
+    """Train the live speech-driven head-and-eye model (Le, Ma & Deng 2012) and save it."""
+    import sys
+
+    import numpy as np
+    from tqdm import tqdm
+
+    from app.errors import InputError
+    from app.stimuli.features import SpeechFeatures
+    from app.stimuli.io import load_track
+    from app.stimuli.live.model import save_model, train_live_model
+    from app.stimuli.speech import extract_features
+
+    if reference and ground_truth:
+        raise InputError("give either --ground-truth or --reference, not both",
+                         field="--reference")
+    if not reference and len(ground_truth) != len(audio):
+        raise InputError(f"give one --ground-truth per --audio ({len(audio)} audio, "
+                         f"{len(ground_truth)} ground truth), or --reference",
+                         field="--ground-truth")
+    if repeat > 1 and not reference:
+        raise InputError("--repeat needs --reference (a recorded ground truth does not repeat)",
+                         field="--repeat")
+    feats, truths = [], []
+    with tqdm(total=len(audio) + 12, desc="train-live", unit="step", file=sys.stderr,
+              disable=None) as bar:
+        for i, path in enumerate(audio):
+            f = extract_features(path, fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling)
+            if repeat > 1:
+                f = SpeechFeatures(f.fps, np.tile(f.f0, repeat), np.tile(f.intensity, repeat),
+                                   np.tile(f.f0_conditioned, repeat),
+                                   {**f.metadata, "repeated": repeat})
+            feats.append(f)
+            if reference:
+                from app.stimuli.reference_speaker import synthesize_reference
+
+                truths.append(synthesize_reference(f, seed=reference_seed + i))
+            else:
+                truths.append(load_track(ground_truth[i]))
+            bar.update()
+        model = train_live_model(feats, truths, n_components=components, seed=seed,
+                                 progress=bar.update)
+    save_model(model, out)
+    s = model.summary
+    click.echo(f"{out}: {s['takes']} take(s), {s['frames']} frames at {s['fps']:g} fps, "
+               f"{s['eyelids']['blinks']} blinks, gaze "
+               f"{'on' if s['gaze_enabled'] else 'off (no gaze in the ground truth)'}")

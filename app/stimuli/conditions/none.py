@@ -1,0 +1,21 @@
+"""NO_PROSODY (thesis sec. 4.3.1): head and eyebrow FAPs set to zero.
+
+Jaw and lips (and, by default, gaze and eyelids) come from the ground truth when there is one;
+``eyes="neutral"`` zeroes gaze and eyelids as well.
+"""
+
+from __future__ import annotations
+
+from app.stimuli.conditions.base import Condition
+from app.stimuli.features import SpeechFeatures
+from app.stimuli.track import MotionTrack
+
+
+class NoProsodyCondition(Condition):
+    """Neutral head and eyebrows: the floor of the comparison."""
+
+    name = "none"
+
+    def generate(self, features: SpeechFeatures, *, seed: int = 0,
+                 ground_truth: MotionTrack | None = None) -> MotionTrack:
+        return self.base_track(features, ground_truth)

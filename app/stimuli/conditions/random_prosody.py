@@ -1,0 +1,102 @@
+"""RANDOM (thesis sec. 4.3.3): head and eyebrow motion from fractal Perlin noise.
+
+Thesis eq. 32-34 (:mod:`app.stimuli.perlin`): 6 octaves, persistence 0.8, the noise input a
+function of the frame number. Eyebrows use one trajectory for all raise channels (left = right,
+as the thesis' eyebrow FAPs) with negative values set to zero ("negative values were
+neglected"); each head angle gets its own frame offset, so the three angles are uncorrelated.
+The seed of the generator is the ``seed`` given to :meth:`RandomCondition.generate`.
+
+Amplitudes: :meth:`RandomCondition.fit` takes a reference track (the ground truth) and matches
+each head angle's mean and standard deviation to it, and each eyebrow channel's standard
+deviation (a scale only, which keeps the eyebrows non-negative); without a reference the
+defaults below apply. Lattice rates: the first octave at 0.2 Hz for the head and 0.4 Hz for the
+eyebrows, so the sixth octave (x 32) stays under the 15 Hz Nyquist rate of 30 fps video.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from app.stimuli.conditions.base import Condition
+from app.stimuli.conditions.ground_truth import align_to_features
+from app.stimuli.fap import EYEBROW_RAISE, HEAD
+from app.stimuli.features import SpeechFeatures
+from app.stimuli.perlin import frame_noise
+from app.stimuli.track import MotionTrack
+
+#: Default standard deviations without a reference: head in AU (1 deg = 1745 AU), eyebrows ENS.
+DEFAULT_STD = {48: 2500.0, 49: 3500.0, 50: 1500.0, 31: 30.0, 32: 30.0, 33: 24.0, 34: 24.0,
+               35: 15.0, 36: 15.0}
+#: Frame offsets of the head angles (thesis: "each head inclination ... a different
+#: frameOffset"); far apart relative to the lattice spacing, so the trajectories are unrelated.
+HEAD_OFFSETS = {48: 0, 49: 104_729, 50: 209_459}
+EYEBROW_OFFSET = 314_159
+
+
+class RandomCondition(Condition):
+    """Perlin-noise visual prosody: the baseline with natural frequency content."""
+
+    name = "random"
+
+    def __init__(self, *, octaves: int = 6, persistence: float = 0.8,
+                 head_frequency: float = 0.2, eyebrow_frequency: float = 0.4,
+                 eyes: str = "ground_truth") -> None:
+        super().__init__(eyes=eyes)
+        self.octaves, self.persistence = int(octaves), float(persistence)
+        self.head_frequency, self.eyebrow_frequency = float(head_frequency), float(
+            eyebrow_frequency)
+        self.target: dict[int, tuple[float | None, float]] = {
+            c: (None, s) for c, s in DEFAULT_STD.items()}
+        self.matched_to = ""
+
+    def fit(self, features: SpeechFeatures, ground_truth: MotionTrack | None
+            ) -> RandomCondition:
+        """Match amplitudes to a reference track's per-channel statistics."""
+        if ground_truth is None:
+            return self
+        ref = align_to_features(ground_truth, features)
+        for c in (*HEAD, *EYEBROW_RAISE):
+            if c in ref.channels:
+                self.target[c] = (float(ref[c].mean()), float(ref[c].std()))
+        self.matched_to = ground_truth.source or "reference track"
+        return self
+
+    def _noise(self, n: int, fps: float, frequency: float, offset: int, seed: int
+               ) -> np.ndarray:
+        return frame_noise(n, fps, frequency=frequency, frame_offset=offset, seed=seed,
+                           octaves=self.octaves, persistence=self.persistence)
+
+    def generate(self, features: SpeechFeatures, *, seed: int = 0,
+                 ground_truth: MotionTrack | None = None) -> MotionTrack:
+        n, fps = features.n_frames, features.fps
+        track = self.base_track(features, ground_truth)
+        cols: dict[int, np.ndarray] = {}
+        for c in HEAD:
+            z = _standardise(self._noise(n, fps, self.head_frequency, HEAD_OFFSETS[c], seed))
+            mean, std = self.target[c]
+            cols[c] = (mean or 0.0) + std * z
+        brow = np.maximum(self._noise(n, fps, self.eyebrow_frequency, EYEBROW_OFFSET, seed), 0)
+        brow_sd = brow.std() if n else 0.0
+        for c in EYEBROW_RAISE:
+            scale = self.target[c][1] / brow_sd if brow_sd > 0 else 0.0
+            cols[c] = brow * scale
+        meta = dict(track.metadata, seed=seed,
+                    amplitudes="matched to " + self.matched_to if self.matched_to
+                    else "defaults (no reference track)")
+        return track.with_channels(cols).replace(metadata=meta)
+
+    def describe(self) -> dict[str, Any]:
+        return {"eyes": self.eyes, "octaves": self.octaves, "persistence": self.persistence,
+                "head_frequency_hz": self.head_frequency,
+                "eyebrow_frequency_hz": self.eyebrow_frequency,
+                "amplitudes": self.matched_to or "defaults",
+                "target_mean_std": {c: list(v) for c, v in self.target.items()}}
+
+
+def _standardise(x: np.ndarray) -> np.ndarray:
+    if len(x) == 0:
+        return x
+    sd = x.std()
+    return (x - x.mean()) / sd if sd > 0 else np.zeros_like(x)

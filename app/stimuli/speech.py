@@ -1,0 +1,255 @@
+"""Speech features per video frame: Praat F0 and intensity, F0 conditioning, smoothed contours.
+
+Thesis sec. 4.3.4.1: F0 and energy are computed with Praat (Boersma & Weenink); unvoiced frames
+are treated as missing and filled by a cubic spline through the voiced frames, and the result is
+clipped to [0, max observed F0] (eq. 35). Sec. 4.3.4.2 adds 1-second (30-frame) mean-filtered
+contours so the head model works at two time scales.
+
+Audio handling (documented behaviour, see ``docs/stimuli.md``):
+
+- WAV (8/16/24/32-bit PCM, 32/64-bit float) and FLAC, read by Praat through parselmouth.
+- Several channels are mixed to mono (their mean); ``metadata["mixed_to_mono"]`` records the
+  original channel count.
+- Not audio, an unsupported encoding or sample width, no samples, shorter than
+  :data:`MIN_DURATION_S`, longer than ``max_duration`` (default :data:`MAX_DURATION_S`), or
+  all digital silence: :class:`~app.errors.InputError`, one line naming the file.
+
+Example
+-------
+>>> import numpy as np
+>>> t = np.arange(16000) / 16000
+>>> feats = features_from_samples(0.3 * np.sin(2 * np.pi * 150 * t), 16000, fps=30)
+>>> feats.n_frames, round(float(np.median(feats.f0[5:-5])))
+(30, 150)
+"""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+import parselmouth
+from scipy import interpolate, ndimage
+
+from app.errors import InputError
+from app.stimuli.features import SpeechFeatures
+
+#: Longest audio accepted by default, in seconds (a study stimulus is a few seconds to minutes).
+MAX_DURATION_S = 600.0
+#: Shortest audio accepted: Praat's pitch analysis needs a few periods of the pitch floor.
+MIN_DURATION_S = 0.1
+#: Intensity floor in dB: Praat gives about -300 dB for digital silence; such frames read as this.
+INTENSITY_FLOOR_DB = 0.0
+#: Peak amplitude (full scale = 1) below which a recording counts as silence.
+SILENCE_PEAK = 1e-6
+
+
+def load_audio(path: str | Path, *, max_duration: float = MAX_DURATION_S
+               ) -> tuple[np.ndarray, float]:
+    """Read a WAV or FLAC file as mono float64 samples in [-1, 1] and its sample rate.
+
+    Several channels are averaged to mono (use :func:`load_sound` to learn whether that
+    happened). Raises :class:`InputError` for anything that is not usable speech audio.
+    """
+    sound, _ = load_sound(path, max_duration=max_duration)
+    return sound.values[0].astype(np.float64), float(sound.sampling_frequency)
+
+
+def load_sound(path: str | Path, *, max_duration: float = MAX_DURATION_S
+               ) -> tuple[parselmouth.Sound, int]:
+    """Read and validate audio as a mono Praat sound; returns it and the original channel count."""
+    p = Path(path)
+    if not p.is_file():
+        raise InputError("no such audio file", path=p)
+    if p.stat().st_size == 0:
+        raise InputError("empty file: expected WAV or FLAC audio", path=p)
+    _check_wav_header(p)
+    try:
+        sound = parselmouth.Sound(str(p))
+    except parselmouth.PraatError as exc:
+        reason = " ".join(str(exc).split())[:160]
+        raise InputError(
+            f"not readable as WAV/FLAC audio (PCM 8/16/24/32-bit or float): {reason}", path=p
+        ) from None
+    n_channels = int(sound.n_channels)
+    if sound.n_samples == 0:
+        raise InputError("the audio holds no samples", path=p)
+    if sound.duration < MIN_DURATION_S:
+        raise InputError(
+            f"audio is {sound.duration * 1000:.0f} ms long; at least "
+            f"{MIN_DURATION_S * 1000:.0f} ms is needed for pitch analysis", path=p)
+    if sound.duration > max_duration:
+        raise InputError(
+            f"audio is {sound.duration:.1f} s long; the limit is {max_duration:g} s "
+            "(cut it into stimuli or raise max_duration)", path=p)
+    if n_channels > 1:
+        sound = sound.convert_to_mono()
+    if not np.all(np.isfinite(sound.values)):
+        raise InputError("the audio holds non-finite samples (NaN or infinity)", path=p)
+    if np.max(np.abs(sound.values)) < SILENCE_PEAK:
+        raise InputError("the audio is all silence: no speech to analyse", path=p)
+    return sound, n_channels
+
+
+#: WAV format tags and the sample containers (bytes per sample) facepair accepts for them.
+_WAV_CONTAINERS = {1: (1, 2, 3, 4), 3: (4, 8), 0xFFFE: (1, 2, 3, 4, 8)}
+
+
+def _check_wav_header(path: Path) -> None:
+    """Refuse a WAV whose fmt chunk declares a sample width no reader handles correctly.
+
+    Praat reads odd widths (e.g. 40 or 64-bit integer PCM) without complaint but wrongly, so
+    the header is checked first: PCM in 1-4 byte containers, float in 4 or 8, bits per sample
+    no wider than the container and block align = channels x container. Other files pass
+    through to Praat, which refuses what it cannot read.
+    """
+    with path.open("rb") as f:
+        head = f.read(12)
+        if len(head) < 12 or head[:4] not in (b"RIFF", b"RIFX") or head[8:12] != b"WAVE":
+            return
+        endian = "<" if head[:4] == b"RIFF" else ">"
+        while True:
+            chunk = f.read(8)
+            if len(chunk) < 8:
+                raise InputError("WAV file has no fmt chunk (truncated?)", path=path)
+            cid, size = chunk[:4], struct.unpack(endian + "I", chunk[4:])[0]
+            if cid == b"fmt ":
+                fmt = f.read(min(size, 16))
+                if len(fmt) < 16:
+                    raise InputError("WAV fmt chunk is truncated", path=path)
+                tag, channels, _, _, align, bits = struct.unpack(endian + "HHIIHH", fmt)
+                break
+            f.seek(size + (size & 1), 1)
+    if tag not in _WAV_CONTAINERS:
+        return  # compressed encodings: Praat names what it does not support
+    container = align // channels if channels else 0
+    if (channels == 0 or align % channels or container not in _WAV_CONTAINERS[tag]
+            or not 0 < bits <= 8 * container):
+        raise InputError(
+            f"unsupported WAV sample width: {bits} bits per sample in {align}-byte frames of "
+            f"{channels} channel(s); expected 8/16/24/32-bit PCM or 32/64-bit float", path=path)
+
+
+def extract_features(audio_path: str | Path, fps: float = 30.0, *, pitch_floor: float = 75.0,
+                     pitch_ceiling: float = 600.0, max_duration: float = MAX_DURATION_S
+                     ) -> SpeechFeatures:
+    """F0 (Hz, 0 unvoiced), intensity (dB) and conditioned F0 per video frame of an audio file.
+
+    Praat's autocorrelation pitch and intensity run with time step = the frame period ``1/fps``
+    and are read at the frame times ``i / fps`` for ``i < round(duration * fps)`` (thesis sec.
+    4.3.4.1). ``pitch_floor``/``pitch_ceiling`` are per speaker (e.g. 75-300 Hz for a male
+    voice, 100-600 Hz for a female one); the intensity window follows Praat's convention of
+    3.2 periods of the pitch floor.
+    """
+    if not (0 < pitch_floor < pitch_ceiling):
+        raise InputError(f"need 0 < pitch floor < pitch ceiling, got {pitch_floor:g} and "
+                         f"{pitch_ceiling:g}", field="pitch_floor")
+    if not np.isfinite(fps) or fps <= 0:
+        raise InputError(f"fps must be positive, got {fps!r}", field="fps")
+    sound, n_channels = load_sound(audio_path, max_duration=max_duration)
+    feats = _features(sound, fps, pitch_floor, pitch_ceiling)
+    feats.metadata.update(audio=str(audio_path), channels=n_channels,
+                          mixed_to_mono=n_channels > 1)
+    return feats
+
+
+def features_from_samples(samples: np.ndarray, sample_rate: float, fps: float = 30.0, *,
+                          pitch_floor: float = 75.0, pitch_ceiling: float = 600.0
+                          ) -> SpeechFeatures:
+    """Like :func:`extract_features`, from mono samples already in memory (tests, streams)."""
+    sound = parselmouth.Sound(np.asarray(samples, dtype=np.float64), float(sample_rate))
+    return _features(sound, fps, pitch_floor, pitch_ceiling)
+
+
+def _features(sound: parselmouth.Sound, fps: float, floor: float, ceiling: float
+              ) -> SpeechFeatures:
+    n = round(sound.duration * fps)
+    t = np.arange(n) / fps
+    pitch = sound.to_pitch_ac(time_step=1.0 / fps, pitch_floor=floor, pitch_ceiling=ceiling)
+    f0 = _read_f0(pitch.xs(), pitch.selected_array["frequency"], t)
+    inten = sound.to_intensity(minimum_pitch=floor, time_step=1.0 / fps)
+    db = np.maximum(inten.values[0], INTENSITY_FLOOR_DB)
+    if len(db) >= 2:
+        intensity = np.interp(t, inten.xs(), db)
+    else:  # shorter than one intensity window: one value for the whole sound
+        intensity = np.full(n, float(db[0]) if len(db) else INTENSITY_FLOOR_DB)
+    meta = dict(sample_rate=float(sound.sampling_frequency), duration=float(sound.duration),
+                pitch_floor=floor, pitch_ceiling=ceiling)
+    return SpeechFeatures(float(fps), f0, intensity, condition_f0(f0), meta)
+
+
+def _read_f0(xs: np.ndarray, freq: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Praat pitch frames read at times ``t``: linear between two voiced frames, else nearest."""
+    if len(xs) == 0:
+        return np.zeros(len(t))
+    if len(xs) == 1:
+        return np.full(len(t), float(freq[0]))
+    dt = xs[1] - xs[0]
+    pos = np.clip((t - xs[0]) / dt, 0, len(xs) - 1)
+    i0 = np.minimum(np.floor(pos).astype(int), len(xs) - 2)
+    w = pos - i0
+    a, b = freq[i0], freq[i0 + 1]
+    nearest = np.where(w < 0.5, a, b)
+    return np.where((a > 0) & (b > 0), a + w * (b - a), nearest)
+
+
+def condition_f0(f0: np.ndarray) -> np.ndarray:
+    """Thesis eq. 35: unvoiced gaps filled by a cubic spline through the voiced frames, clipped.
+
+    ``F0cond = min(max(spline(F0), 0), max(F0))``. Before the first and after the last voiced
+    frame the spline is not extrapolated (a cubic runs away over a long pause): the edge voiced
+    value is held. No voiced frame at all gives zeros.
+
+    >>> condition_f0(np.array([0, 100.0, 0, 120.0, 0])).tolist()
+    [100.0, 100.0, 110.0, 120.0, 120.0]
+    """
+    f0 = np.asarray(f0, dtype=np.float64)
+    voiced = np.flatnonzero(f0 > 0)
+    if len(voiced) == 0:
+        return np.zeros_like(f0)
+    if len(voiced) == 1:
+        return np.full_like(f0, f0[voiced[0]])
+    frames = np.arange(len(f0))
+    inner = np.clip(frames, voiced[0], voiced[-1])
+    spline = interpolate.CubicSpline(voiced, f0[voiced])
+    out = spline(inner)
+    return np.clip(out, 0.0, f0[voiced].max())
+
+
+def mean_filter(x: np.ndarray, width: int, *, causal: bool = False) -> np.ndarray:
+    """Moving average over ``width`` frames (edges repeat the end value).
+
+    Centred by default (offline generation); ``causal=True`` averages the current and the
+    ``width - 1`` previous frames, for streaming use.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    width = max(int(width), 1)
+    if width == 1 or len(x) == 0:
+        return x.copy()
+    origin = (width - 1) // 2 if causal else 0
+    if causal and width % 2 == 0:
+        origin = width // 2 - 1
+    return ndimage.uniform_filter1d(x, width, mode="nearest", origin=origin)
+
+
+def smooth_3(x: np.ndarray) -> np.ndarray:
+    """3-frame mean filter (the short time scale)."""
+    return mean_filter(x, 3)
+
+
+def smooth_1s(x: np.ndarray, fps: float, *, causal: bool = False) -> np.ndarray:
+    """1-second mean filter, ``round(fps)`` frames (thesis sec. 4.3.4.2: 30 frames at 30 fps)."""
+    return mean_filter(x, round(fps), causal=causal)
+
+
+def loudness_sones(intensity_db: np.ndarray) -> np.ndarray:
+    """Loudness in sones from intensity in dB, Stevens' rule ``2 ** ((L - 40) / 10)``.
+
+    Intensity stands in for loudness level (phon), which ignores the ear's frequency weighting;
+    good enough to compare frames of one recording.
+
+    >>> loudness_sones(np.array([40.0, 50.0])).tolist()
+    [1.0, 2.0]
+    """
+    return np.power(2.0, (np.asarray(intensity_db, dtype=np.float64) - 40.0) / 10.0)

@@ -1,0 +1,72 @@
+import numpy as np
+
+from app.stimuli.conditions.eyebrow_rule import (
+    eyebrow_contour,
+    eyebrow_raise_events,
+    eyebrow_raise_sizes,
+    rising_crossings,
+)
+
+FPS = 30.0
+
+
+def known_contours():
+    """F0 rises across 207 Hz at frames 10, 60 and 100; intensity drops at known frames."""
+    n = 150
+    f0 = np.full(n, 150.0)
+    f0[10:25] = np.linspace(210, 260, 15)  # crossing at 10, peak inside the hold
+    f0[60:70] = 230.0  # crossing at 60
+    f0[100:104] = 220.0  # crossing at 100, brief
+    intensity = np.full(n, 60.0)
+    intensity[30:35] = 40.0  # first drop below 45 dB after the hold of raise 1: release at 30
+    intensity[62:65] = 40.0  # a drop inside raise 2's 300 ms hold: ignored
+    intensity[80:90] = 40.0  # raise 2 released at 80
+    intensity[105:] = 40.0  # raise 3: quiet from 105, so it ends right after its hold
+    return f0, intensity
+
+
+def test_raises_start_at_the_crossings_and_release_on_the_drop():
+    f0, intensity = known_contours()
+    assert rising_crossings(f0, 207.0).tolist() == [10, 60, 100]
+    events = eyebrow_raise_events(f0, intensity, FPS)
+    assert events == [(10, 30), (60, 80), (100, 109)]
+    for start, release in events:
+        assert (release - start) / FPS >= 0.3 - 1e-12  # held at least 300 ms
+
+
+def test_contour_holds_then_ramps_down_in_three_frames():
+    f0, intensity = known_contours()
+    events = eyebrow_raise_events(f0, intensity, FPS)
+    peaks = eyebrow_raise_sizes(f0, events, FPS)
+    assert peaks.tolist() == [f0[18], 230.0, 220.0]  # highest F0 during the 9-frame hold
+    y = eyebrow_contour(150, events, 0.5 * peaks)
+    assert np.all(y[:10] == 0) and np.all(y[10:30] == 0.5 * f0[18])
+    np.testing.assert_allclose(y[30:34], 0.5 * f0[18] * np.array([0.75, 0.5, 0.25, 0]))
+    assert np.all(y[60:80] == 115) and y[83] == 0
+    assert np.all(y[100:109] == 110) and y[109] == 82.5 and np.all(y[112:] == 0)
+
+
+def test_thresholds_are_parameters():
+    f0, intensity = known_contours()
+    assert eyebrow_raise_events(f0, intensity, FPS, f0_threshold=300.0) == []
+    quiet = eyebrow_raise_events(f0, intensity, FPS, intensity_threshold=70.0)
+    assert quiet == [(10, 19), (60, 69), (100, 109)]  # always quiet: minimum hold only
+    # a 1-s hold: raise 1 lasts to 40, is loud there until 80; the crossings at 60 and 100
+    # fall inside it and extend it to 100 + 30 frames, where it is quiet
+    assert eyebrow_raise_events(f0, intensity, FPS, min_hold_s=1.0) == [(10, 130)]
+
+
+def test_a_new_crossing_during_a_raise_extends_it():
+    f0 = np.full(60, 150.0)
+    f0[5:8] = 250.0
+    f0[12:14] = 250.0  # second crossing at 12, while raise 1 is held
+    intensity = np.full(60, 40.0)  # quiet: only minimum holds apply
+    assert eyebrow_raise_events(f0, intensity, FPS) == [(5, 21)]
+
+
+def test_edge_cases():
+    f0 = np.full(20, 250.0)  # above the threshold from the start: no rising edge
+    assert eyebrow_raise_events(f0, np.full(20, 60.0), FPS) == []
+    f0[:3] = 100
+    assert eyebrow_raise_events(f0, np.full(20, 60.0), FPS) == [(3, 20)]  # held to the end
+    assert eyebrow_contour(20, [(3, 20)], np.array([7.0]))[-1] == 7.0
