@@ -1,0 +1,133 @@
+"""The streaming head-and-eye generator: one frame of speech in, one frame of motion out.
+
+The three modules run in the paper's chain (Le, Ma & Deng 2012, sec. 3, Fig. 1): the head
+(sec. 5) from the frame's pitch and loudness and the two previous poses; the gaze (sec. 6) from
+the new pose and the loudness; the eyelids (sec. 7) from the new gaze and the mode. Only the
+current and past input is read. The offline path (:meth:`LiveGenerator.run`,
+:func:`generate_track`) is a loop over :meth:`LiveGenerator.step`, so streaming and offline
+generation give identical frames for the same seed.
+
+Randomness: one ``numpy`` generator per module, spawned from ``SeedSequence(seed)``: the head's
+start noise (eq. 5) and the blink intervals (eq. 19) are drawn in frame order.
+
+Example
+-------
+>>> gen = LiveGenerator(model, fps=30.0, seed=0)          # doctest: +SKIP
+>>> frame = gen.step(f0=180.0, intensity=68.0)            # doctest: +SKIP
+>>> dict(zip(OUTPUT_CHANNELS, frame))[48]                 # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.stimuli.fap import EYELIDS, GAZE, HEAD
+from app.stimuli.features import SpeechFeatures
+from app.stimuli.live.audio import AudioFrameStream
+from app.stimuli.live.eyelids import BlinkClock
+from app.stimuli.live.inputs import LOUDNESS_FLOOR_DB
+from app.stimuli.live.model import DEG_PER_AU, LiveModel
+from app.stimuli.track import MotionTrack
+
+#: FAPs of each output frame, ascending: eyelids 19-22, gaze 23-26, head 48-50.
+OUTPUT_CHANNELS: tuple[int, ...] = EYELIDS + GAZE + HEAD
+
+
+class LiveGenerator:
+    """Stateful per-frame generator. ``fps`` defaults to the model's training frame rate."""
+
+    def __init__(self, model: LiveModel, *, fps: float | None = None, seed: int = 0) -> None:
+        self.model = model
+        self.fps = float(fps or model.fps)
+        head_seq, blink_seq = np.random.SeedSequence(seed).spawn(2)
+        self._rng = np.random.default_rng(head_seq)
+        self._blinks = BlinkClock(model.eyelids.blink, np.random.default_rng(blink_seq),
+                                  model.eyelids.shape)
+        rest = model.head.kin_mean[:3].copy()
+        self._prev1, self._prev2 = rest.copy(), rest.copy()
+        self._eta = 1.0
+        self._noise = model.head.step_std / self.fps
+        self._gaze_hat = np.zeros(model.gaze.r)
+        self._coupling = model.gaze.coupling()
+        self._window = max(1, int(round(model.talk_window_s * self.fps)))
+        self._last_loud = -(10**9)
+        self.frame = 0
+        self._audio: AudioFrameStream | None = None
+
+    @property
+    def blink_log(self) -> list[tuple[float, bool, float]]:
+        """(onset time s, talking mode, next interval s) of every blink started so far."""
+        return self._blinks.log
+
+    def step(self, f0: float, intensity: float) -> np.ndarray:
+        """The next frame, FAP values for :data:`OUTPUT_CHANNELS`, from this frame's F0 (Hz,
+        0 or NaN when unvoiced) and intensity (dB)."""
+        m = self.model
+        scale = m.scale
+        loud_db = intensity if intensity == intensity else LOUDNESS_FLOOR_DB
+        loud_db = max(loud_db, LOUDNESS_FLOOR_DB)
+        lz = (loud_db - scale.loud_mean) / scale.loud_std
+        if f0 == f0 and f0 > 0:
+            pz = (12.0 * np.log2(f0 / 100.0) - scale.pitch_mean) / scale.pitch_std
+        else:
+            pz = np.nan
+        # Head (sec. 5): eq. 5 start, eq. 4 ascent.
+        coeffs = m.head.frame_coefficients(pz, lz)
+        start = self._prev1 + self._noise * self._rng.standard_normal(3)
+        pose, self._eta = m.head.ascend(start, self._prev1, self._prev2, self.fps, coeffs,
+                                        self._eta)
+        self._prev2, self._prev1 = self._prev1, pose
+        # Gaze (sec. 6): eq. 13-15 on (pose, loudness).
+        h = np.array([pose[0], pose[1], pose[2], lz])
+        gaze, self._gaze_hat = m.gaze.step(h, self._gaze_hat, self._coupling)
+        # Eyelids (sec. 7): mode from loudness, blink clock, eq. 18.
+        if loud_db >= scale.threshold_db:
+            self._last_loud = self.frame
+        talking = self.frame - self._last_loud < self._window
+        closure = self._blinks.step(self.frame / self.fps, talking)
+        lids = m.eyelids.faps(m.eyelids.openness(gaze), closure)
+        self.frame += 1
+        out = np.empty(len(OUTPUT_CHANNELS))
+        out[:4] = lids
+        gaze_au = gaze / DEG_PER_AU
+        out[4:8] = (gaze_au[0], gaze_au[0], gaze_au[1], gaze_au[1])
+        au = pose / DEG_PER_AU
+        out[8:11] = (au[1], au[0], au[2])  # FAP 48 pitch, 49 yaw, 50 roll
+        return out
+
+    def push_audio(self, samples: np.ndarray, sample_rate: int) -> np.ndarray:
+        """Feed a block of mono audio samples; returns the (k, 11) frames it completed (k >= 0).
+
+        Features come from :class:`app.stimuli.live.audio.AudioFrameStream`, which reads only
+        samples up to each frame's time."""
+        if self._audio is None:
+            self._audio = AudioFrameStream(sample_rate, self.fps)
+        elif self._audio.sample_rate != sample_rate:
+            raise ValueError(f"sample rate changed from {self._audio.sample_rate} to "
+                             f"{sample_rate}")
+        feats = self._audio.push(samples)
+        out = np.empty((len(feats), len(OUTPUT_CHANNELS)))
+        for i, (f0, db) in enumerate(feats):
+            out[i] = self.step(f0, db)
+        return out
+
+    def run(self, f0: np.ndarray, intensity: np.ndarray) -> np.ndarray:
+        """Offline: the frames for whole F0 and intensity arrays, by :meth:`step`."""
+        f0 = np.asarray(f0, dtype=np.float64)
+        intensity = np.asarray(intensity, dtype=np.float64)
+        out = np.empty((len(f0), len(OUTPUT_CHANNELS)))
+        for t in range(len(f0)):
+            out[t] = self.step(float(f0[t]), float(intensity[t]))
+        return out
+
+
+def generate_track(model: LiveModel, features: SpeechFeatures, *, seed: int = 0,
+                   name: str = "live_gmm") -> MotionTrack:
+    """Offline generation over whole speech features (raw F0, so unvoiced frames stay
+    unvoiced): a :class:`MotionTrack` with FAPs 19-26 and 48-50."""
+    gen = LiveGenerator(model, fps=features.fps, seed=seed)
+    values = gen.run(features.f0, features.intensity)
+    return MotionTrack(features.fps, values, OUTPUT_CHANNELS, name=name, source="live_gmm",
+                       metadata={"condition": "live_gmm", "seed": seed,
+                                 "blinks": len(gen.blink_log),
+                                 "model_training": model.summary})

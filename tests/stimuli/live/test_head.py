@@ -1,0 +1,80 @@
+"""Head model: eq. 1 features, the analytic gradient of eq. 4 against finite differences, ascent."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.stimuli.live.head import HeadModel, fit_head_model, kinematic_features
+
+
+def test_kinematic_features_known_values():
+    angles = np.array([[0.0, 0.0, 0.0], [3.0, 4.0, 0.0], [6.0, 8.0, 12.0]])
+    k = kinematic_features(angles, fps=10.0)
+    np.testing.assert_allclose(k[:, :3], angles)
+    assert np.isnan(k[0, 3]) and np.isnan(k[:2, 4]).all()
+    np.testing.assert_allclose(k[1:, 3], [50.0, 130.0])  # 10 * |(3,4,0)|, 10 * |(3,4,12)|
+    np.testing.assert_allclose(k[2, 4], 1200.0)  # 100 * |(0,0,12)|
+
+
+@pytest.fixture(scope="module")
+def head(live_model) -> HeadModel:
+    return live_model.head
+
+
+@pytest.mark.parametrize("pitch_z", [0.4, -1.1, np.nan])  # voiced and unvoiced frames
+def test_analytic_gradient_matches_finite_differences(head, pitch_z):
+    rng = np.random.default_rng(5)
+    coeffs = head.frame_coefficients(pitch_z, 0.3)
+    for _ in range(5):
+        prev2 = head.kin_mean[:3] + rng.normal(0, 2, 3)
+        prev1 = prev2 + rng.normal(0, 0.3, 3)
+        theta = prev1 + rng.normal(0, 0.3, 3)
+        _, grad = head.objective(theta, prev1, prev2, 30.0, coeffs)
+        h = 1e-6
+        fd = np.empty(3)
+        for i in range(3):
+            e = np.zeros(3)
+            e[i] = h
+            fd[i] = (head.objective(theta + e, prev1, prev2, 30.0, coeffs)[0]
+                     - head.objective(theta - e, prev1, prev2, 30.0, coeffs)[0]) / (2 * h)
+        np.testing.assert_allclose(grad, fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
+
+
+def test_objective_is_the_weighted_sum_of_mixture_log_densities(head):
+    prev2, prev1, theta = np.zeros(3), np.array([0.1, 0.0, 0.0]), np.array([0.3, -0.2, 0.1])
+    f, _ = head.objective(theta, prev1, prev2, 30.0, head.frame_coefficients(0.5, -0.2))
+    kin = kinematic_features(np.stack([prev2, prev1, theta]), 30.0)[2]
+    z = (kin - head.kin_mean) / head.kin_std
+    want = sum(w * m.log_density(np.array([z[g], 0.5, -0.2]))[0]
+               for g, (w, m) in enumerate(zip(head.weights, head.voiced.mixtures, strict=True)))
+    assert f == pytest.approx(want, rel=1e-9)
+
+
+def test_ascent_never_decreases_the_objective(head):
+    rng = np.random.default_rng(1)
+    coeffs = head.frame_coefficients(0.2, 0.5)
+    prev = head.kin_mean[:3]
+    for _ in range(10):
+        start = prev + rng.normal(0, 1.0, 3)
+        f0, _ = head.objective(start, prev, prev, 30.0, coeffs)
+        best, eta = head.ascend(start, prev, prev, 30.0, coeffs, 1.0)
+        f1, g1 = head.objective(best, prev, prev, 30.0, coeffs)
+        assert f1 >= f0 and eta > 0
+
+
+def test_pose_follows_the_speech_the_model_was_trained_on():
+    # Pitch angle = 5 * standardised pitch: the ascent should land near it for each pitch.
+    rng = np.random.default_rng(0)
+    n = 4000
+    pz = np.sin(np.arange(n) / 40.0) + rng.normal(0, 0.05, n)
+    lz = rng.normal(0, 1, n)
+    angles = np.column_stack([rng.normal(0, 0.2, n).cumsum() * 0.01, 5 * pz,
+                              np.zeros(n) + rng.normal(0, 0.05, n)])
+    model = fit_head_model(angles, pz, lz, 30.0, n_components=4, weights=[1, 1, 1, 0, 0])
+    for target in (-0.8, 0.0, 0.8):
+        coeffs = model.frame_coefficients(target, 0.0)
+        pose = np.array([0.0, 0.0, 0.0])
+        for _ in range(20):  # a few frames at the same speech input
+            pose, _ = model.ascend(pose, pose, pose, 30.0, coeffs, 1.0)
+        assert pose[1] == pytest.approx(5 * target, abs=0.6)

@@ -1,0 +1,87 @@
+"""The streaming generator: streaming == offline, causal, seeded; blinks follow the fitted
+log-normals per mode; head motion beats the random condition on held-out reference speech."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from app.stimuli.features import SpeechFeatures
+from app.stimuli.live.eyelids import BLINK_SHAPE, blink_onsets, closure_from_faps
+from app.stimuli.live.stream import OUTPUT_CHANNELS, LiveGenerator, generate_track
+
+
+@pytest.fixture(scope="module")
+def speech(live_training_data) -> SpeechFeatures:
+    return live_training_data[0].slice(0, 400)
+
+
+def test_streaming_frames_equal_offline_frames(live_model, speech):
+    offline = generate_track(live_model, speech, seed=11)
+    assert offline.channels == OUTPUT_CHANNELS == (19, 20, 21, 22, 23, 24, 25, 26, 48, 49, 50)
+    gen = LiveGenerator(live_model, fps=speech.fps, seed=11)
+    for t in range(speech.n_frames):
+        frame = gen.step(float(speech.f0[t]), float(speech.intensity[t]))
+        np.testing.assert_array_equal(frame, offline.values[t])
+
+
+def test_frames_use_only_past_and_current_input(live_model, speech):
+    full = generate_track(live_model, speech, seed=2).values
+    changed = SpeechFeatures(speech.fps, speech.f0.copy(), speech.intensity.copy(),
+                             speech.f0_conditioned.copy())
+    changed.f0[200:] = 0.0
+    changed.intensity[200:] = 10.0
+    other = generate_track(live_model, changed, seed=2).values
+    np.testing.assert_array_equal(other[:200], full[:200])
+    assert not np.array_equal(other[200:], full[200:])
+
+
+def test_same_seed_same_frames_other_seed_other_frames(live_model, speech):
+    a = generate_track(live_model, speech, seed=5)
+    assert a.equals(generate_track(live_model, speech, seed=5))
+    assert not np.allclose(a[48], generate_track(live_model, speech, seed=6)[48])
+    assert np.all(np.isfinite(a.values))
+
+
+def test_audio_blocks_of_any_size_give_the_same_frames(live_model):
+    sr = 16000
+    rng = np.random.default_rng(0)
+    t = np.arange(3 * sr) / sr
+    f0 = 140 + 30 * np.sin(2 * np.pi * 0.7 * t)
+    voice = 0.2 * np.sin(2 * np.pi * np.cumsum(f0) / sr) * (np.sin(2 * np.pi * 1.5 * t) > -0.2)
+    audio = voice + 0.001 * rng.normal(size=len(t))
+    whole = LiveGenerator(live_model, seed=3).push_audio(audio, sr)
+    assert len(whole) == 91  # frames at 0, 1/30, ..., 90/30 s: each needs samples before it
+    gen = LiveGenerator(live_model, seed=3)
+    cuts = np.sort(rng.choice(len(audio), 40, replace=False))
+    blocks = np.split(audio, cuts)
+    streamed = np.vstack([gen.push_audio(b, sr) for b in blocks])
+    np.testing.assert_array_equal(streamed, whole)
+
+
+@pytest.mark.slow
+def test_blink_intervals_follow_the_fitted_log_normals(live_model):
+    fps, block = 30.0, 600  # 20 s talking, 20 s listening, alternating
+    n = 12000
+    talk = (np.arange(n) // block) % 2 == 0
+    f0 = np.where(talk, 130.0, 0.0)
+    intensity = np.where(talk, 66.0, 20.0)
+    features = SpeechFeatures(fps, f0, intensity, np.full(n, 130.0))
+    gen = LiveGenerator(live_model, fps=fps, seed=8)
+    values = gen.run(features.f0, features.intensity)
+    log = np.array(gen.blink_log)
+    # Onsets seen in the eyelid FAPs match the generator's onsets (half closed within Tc).
+    closure, _ = closure_from_faps(values[:, :4])
+    seen = blink_onsets(closure) / fps
+    logged = log[log[:, 0] < (n - 1) / fps - BLINK_SHAPE[0], 0]
+    assert len(seen) == len(logged)
+    assert np.all((seen - logged >= 0) & (seen - logged <= BLINK_SHAPE[0] + 1 / fps))
+    gaps, mode = np.diff(seen), log[: len(seen) - 1, 1].astype(bool)
+    for i, sel in enumerate((mode, ~mode)):
+        mu, sigma = live_model.eyelids.blink[i]
+        assert sel.sum() >= 40
+        fitted = stats.lognorm(s=sigma, scale=np.exp(mu))
+        assert stats.kstest(gaps[sel], fitted.cdf).pvalue > 0.01
+    # The two modes really differ here (known: talking median 1.8 s, listening 3.7 s).
+    assert np.median(gaps[mode]) < np.median(gaps[~mode])
