@@ -1,0 +1,348 @@
+"""Study files: a whole paired-comparison study described in one TOML file.
+
+The file holds what the seeds' experiments fixed by hand: the conditions (thesis sec. 5.2: the
+four models NO_PROSODY, RANDOM, SPEECH_DRIVEN, GROUND_TRUTH), the clips (the thesis' segments S2
+and S7; the 2012 paper's ten audio clips, sec. 8.1.1), the question (thesis sec. 5.2: "Which
+animation do you consider to be more realistic motion-wise?"), the pair design
+(:mod:`app.trials.design`), the undecided option (Le et al. 2012, sec. 8.1) and the replay policy
+(:mod:`app.trials.rules`), plus what a remote study needs: consent text, a completion code, a
+redirect URL, a target number of participants and the seed every schedule derives from.
+
+Every key is documented in ``docs/studyfile.md``; ``examples/study.toml`` is a complete example.
+Every mistake is one :class:`~app.errors.InputError` line naming the file and the field, e.g.
+``study.toml: design: expected one of all_ordered, reference, unordered_counterbalanced, got
+'foo'``. Relative paths are resolved against the directory of the study file.
+"""
+
+from __future__ import annotations
+
+import inspect
+import re
+import tomllib
+from collections.abc import Mapping
+from dataclasses import replace
+from pathlib import Path
+from typing import Any, Final
+
+from app.errors import InputError
+from app.trials.design import PAIR_DESIGNS, Pair
+from app.trials.fields import MISSING, FieldReader, describe
+from app.trials.rules import REPLAY_KINDS, ReplayPolicy
+from app.trials.schedule import CATCH_KINDS
+from app.trials.studyspec import MODELS, ClipSpec, ConditionSpec, StudySpec
+
+__all__ = [
+    "StudySpec",
+    "ConditionSpec",
+    "ClipSpec",
+    "load_study_file",
+    "loads_study",
+    "parse_study",
+    "MODELS",
+]
+
+AUDIO_SUFFIXES: Final = (".wav", ".flac", ".ogg", ".mp3", ".aiff", ".aif")
+TRACK_SUFFIXES: Final = (".fap", ".csv")
+
+
+def load_study_file(
+    path: str | Path, *, check_files: bool = True, confine: bool = False
+) -> StudySpec:
+    """Read and validate a TOML study file; paths inside resolve against its directory.
+
+    ``check_files=False`` skips checking that audio and track files exist (for a file read
+    without its media); ``confine=True`` refuses absolute paths and paths leaving the file's
+    directory (use it for uploaded study files). Raises :class:`~app.errors.InputError` with
+    one line naming the file and the field for every problem, including TOML syntax errors
+    (with their line).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError("no such study file", path=path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read study file: {exc}", path=path) from None
+    return loads_study(
+        text, source=str(path), base_dir=path.parent, check_files=check_files, confine=confine
+    )
+
+
+def loads_study(
+    text: str,
+    *,
+    source: str = "study.toml",
+    base_dir: str | Path = ".",
+    check_files: bool = True,
+    confine: bool = False,
+) -> StudySpec:
+    """Parse and validate study-file text; ``source`` names it in errors (see
+    :func:`load_study_file` for the options)."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        found = re.search(r"at line (\d+)", str(exc))
+        message = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
+        raise InputError(
+            f"invalid TOML: {message}", path=source, line=int(found.group(1)) if found else None
+        ) from None
+    return parse_study(
+        data, source=source, base_dir=base_dir, check_files=check_files, confine=confine
+    )
+
+
+def parse_study(
+    data: Mapping[str, Any],
+    *,
+    source: str = "study.toml",
+    base_dir: str | Path = ".",
+    check_files: bool = True,
+    confine: bool = False,
+) -> StudySpec:
+    """Validate an already-parsed study (a TOML document or a web form's mapping)."""
+    reader = _StudyReader(source, Path(base_dir), check_files=check_files, confine=confine)
+    return reader.study(data)
+
+
+_TOP_KEYS: Final = (
+    "title",
+    "question",
+    "instructions",
+    "consent",
+    "design",
+    "reference",
+    "seed",
+    "target_participants",
+    "completion_code",
+    "redirect_url",
+    "block_by_clip",
+    "practice",
+    "practice_clip",
+    "undecided",
+    "replay",
+    "catch",
+    "conditions",
+    "clips",
+)
+
+
+class _StudyReader(FieldReader):
+    """The study-file schema on top of the typed field access of :class:`FieldReader`."""
+
+    def study(self, data: Mapping[str, Any]) -> StudySpec:
+        top = self.table(data, "", _TOP_KEYS)
+        # read in the order of docs/studyfile.md, so errors come top-down as a user fixes them
+        title = self.text(top, "title", "title", nonempty=True)
+        question = self.text(top, "question", "question", nonempty=True)
+        instructions = self.text(top, "instructions", "instructions", "")
+        consent = self.text(top, "consent", "consent", "")
+        design = self.choice(top, "design", "design", PAIR_DESIGNS, "all_ordered")
+        reference = self.text(top, "reference", "reference", None)
+        seed = self.integer(top, "seed", "seed", 0, 0)
+        target = self.integer(top, "target_participants", "target_participants", 20, 1)
+        completion_code = self.text(top, "completion_code", "completion_code", "")
+        redirect = self.text(top, "redirect_url", "redirect_url", None)
+        if redirect is not None and not re.fullmatch(r"https?://[^\s/]+[^\s]*", redirect):
+            raise self.error(
+                "redirect_url", f"expected an http:// or https:// URL, got {redirect!r}"
+            )
+        block_by_clip = self.get(
+            top, "block_by_clip", "block_by_clip", (bool,), "true or false", True
+        )
+        undecided = self.table(top.get("undecided", {}), "undecided", ("allowed", "label"))
+        allowed = self.get(
+            undecided, "allowed", "undecided.allowed", (bool,), "true or false", True
+        )
+        label = self.text(undecided, "label", "undecided.label", "Undecided", nonempty=True)
+        replay = self.replay(top)
+        catch = self.table(top.get("catch", {}), "catch", ("trials", "kind"))
+        catch_trials = self.integer(catch, "trials", "catch.trials", 0, 0)
+        catch_kind = self.choice(catch, "kind", "catch.kind", CATCH_KINDS, "identical")
+        if catch_trials and catch_kind == "identical" and not allowed:
+            raise self.error(
+                "catch.kind",
+                "'identical' catch trials expect the answer "
+                "'undecided', which undecided.allowed = false forbids",
+            )
+        clips = self.clips(top)
+        conditions = self.conditions(top, clips)
+        names = [c.name for c in conditions]
+        if design == "reference":
+            if reference is None:
+                raise self.error("reference", "missing (required by design = 'reference')")
+            if reference not in names:
+                raise self.error(
+                    "reference",
+                    f"expected one of the conditions {', '.join(names)}, got {reference!r}",
+                )
+        elif reference is not None:
+            raise self.error("reference", f"only applies to design = 'reference', not {design!r}")
+        practice, practice_clip = self.practice(top, names, [c.name for c in clips])
+        spec = StudySpec(
+            title=title,
+            question=question,
+            instructions=instructions,
+            consent=consent,
+            conditions=conditions,
+            clips=clips,
+            design=design,
+            reference=reference,
+            undecided_allowed=bool(allowed),
+            undecided_label=str(label),
+            replay=replay,
+            catch_trials=catch_trials,
+            catch_kind=catch_kind,
+            target_participants=target,
+            completion_code=completion_code,
+            redirect_url=redirect,
+            seed=seed,
+            practice=practice,
+            practice_clip=practice_clip,
+            block_by_clip=bool(block_by_clip),
+        )
+        main = len(replace(spec, catch_trials=0, practice=None).schedule(seed=0, list_index=0))
+        if catch_trials > main:
+            raise self.error(
+                "catch.trials",
+                f"{catch_trials} catch trials do not fit among the "
+                f"{main} trials of a participant (at most one each)",
+            )
+        return spec
+
+    def replay(self, top: Mapping[str, Any]) -> ReplayPolicy:
+        replay = self.table(top.get("replay", {}), "replay", ("policy", "max_plays"))
+        policy = self.choice(replay, "policy", "replay.policy", REPLAY_KINDS, "unlimited")
+        if policy == "max_plays":
+            max_plays: int | None = self.integer(
+                replay, "max_plays", "replay.max_plays", MISSING, 1
+            )
+        else:
+            if "max_plays" in replay:
+                raise self.error(
+                    "replay.max_plays", f"only applies to policy = 'max_plays', not {policy!r}"
+                )
+            max_plays = None
+        return ReplayPolicy(policy, max_plays)
+
+    def clips(self, top: Mapping[str, Any]) -> tuple[ClipSpec, ...]:
+        items = self.get(top, "clips", "clips", (list,), "an array of tables ([[clips]])")
+        if not items:
+            raise self.error("clips", "needs at least one clip")
+        clips: list[ClipSpec] = []
+        for index, item in enumerate(items):
+            name = f"clips[{index}]"
+            item = self.table(item, name, ("name", "audio", "ground_truth"))
+            clip_name = self.identifier(item, "name", f"{name}.name")
+            if clip_name in [c.name for c in clips]:
+                raise self.error(f"{name}.name", f"repeats clip name {clip_name!r}")
+            audio = self.file(item, "audio", f"{name}.audio", AUDIO_SUFFIXES)
+            truth = self.file(item, "ground_truth", f"{name}.ground_truth", TRACK_SUFFIXES, None)
+            clips.append(ClipSpec(clip_name, audio, truth))
+        return tuple(clips)
+
+    def conditions(
+        self, top: Mapping[str, Any], clips: tuple[ClipSpec, ...]
+    ) -> tuple[ConditionSpec, ...]:
+        items = self.get(
+            top, "conditions", "conditions", (list,), "an array of tables ([[conditions]])"
+        )
+        if len(items) < 2:
+            raise self.error("conditions", f"needs at least two conditions, got {len(items)}")
+        out: list[ConditionSpec] = []
+        clip_names = [c.name for c in clips]
+        for index, item in enumerate(items):
+            name = f"conditions[{index}]"
+            item = self.table(item, name, ("name", "model", "settings", "tracks"))
+            cond = self.identifier(item, "name", f"{name}.name")
+            if cond in [c.name for c in out]:
+                raise self.error(f"{name}.name", f"repeats condition name {cond!r}")
+            if "tracks" in item:
+                for key in ("model", "settings"):
+                    if key in item:
+                        raise self.error(
+                            f"{name}.{key}",
+                            "a condition has either uploaded tracks or a model, not both",
+                        )
+                tracks = self.table(item["tracks"], f"{name}.tracks", tuple(clip_names))
+                missing = [c for c in clip_names if c not in tracks]
+                if missing:
+                    raise self.error(f"{name}.tracks", f"no track for clip(s) {', '.join(missing)}")
+                paths = {
+                    c: self.file(tracks, c, f"{name}.tracks.{c}", TRACK_SUFFIXES)
+                    for c in clip_names
+                }
+                out.append(ConditionSpec(cond, None, {}, paths))
+                continue
+            if "model" not in item and cond not in MODELS:
+                raise self.error(
+                    f"{name}.model",
+                    f"missing: give a model ({', '.join(MODELS)}) or uploaded tracks",
+                )
+            model = self.choice(item, "model", f"{name}.model", MODELS, cond)
+            settings = self.get(item, "settings", f"{name}.settings", (dict,), "a table", {})
+            problem = _settings_problem(model, settings)
+            if problem:
+                raise self.error(f"{name}.settings", problem)
+            if model == "ground_truth":
+                for number, clip in enumerate(clips):
+                    if clip.ground_truth is None:
+                        raise self.error(
+                            f"clips[{number}].ground_truth",
+                            f"missing (required by condition {cond!r}, model 'ground_truth')",
+                        )
+            out.append(ConditionSpec(cond, model, dict(settings), {}))
+        return tuple(out)
+
+    def practice(
+        self, top: Mapping[str, Any], conditions: list[str], clips: list[str]
+    ) -> tuple[Pair | None, str | None]:
+        value = top.get("practice", [conditions[0], conditions[-1]])
+        if value is False:
+            pair = None
+        elif (
+            not isinstance(value, list)
+            or len(value) != 2
+            or not all(isinstance(v, str) for v in value)
+        ):
+            raise self.error(
+                "practice", f"expected two condition names or false, got {describe(value)}"
+            )
+        else:
+            for v in value:
+                if v not in conditions:
+                    raise self.error(
+                        "practice", f"expected condition names ({', '.join(conditions)}), got {v!r}"
+                    )
+            pair = Pair(value[0], value[1])
+        clip = self.text(top, "practice_clip", "practice_clip", None)
+        if clip is not None and clip not in clips:
+            raise self.error(
+                "practice_clip", f"expected one of the clips {', '.join(clips)}, got {clip!r}"
+            )
+        return pair, clip
+
+
+def _settings_problem(model: str, settings: Mapping[str, Any]) -> str | None:
+    """Why ``settings`` cannot be the keyword parameters of ``model``'s class, if it can be told.
+
+    Asks the stimulus engine's registry (``condition_class``); when the registry or the model's
+    module is not installed the settings are left for the generation step to check.
+    """
+    try:
+        from app.stimuli.conditions import condition_class
+
+        parameters = inspect.signature(condition_class(model)).parameters.values()
+    except (ImportError, InputError, TypeError, ValueError):
+        return None
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters):
+        return None
+    accepted = [
+        p.name
+        for p in parameters
+        if p.kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    ]
+    unknown = [key for key in settings if key not in accepted]
+    if unknown:
+        takes = ", ".join(accepted) if accepted else "no settings"
+        return f"model {model!r} takes {takes}; unknown: {', '.join(unknown)}"
+    return None

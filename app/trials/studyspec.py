@@ -1,0 +1,249 @@
+"""The validated form of a study: what a study file or the web form describes.
+
+Dataclasses only, plus the derived design quantities (pairs, number of lists, a participant's
+schedule); reading and validating the TOML file is :mod:`app.trials.studyfile`. The fields follow
+the seeds' experiments: conditions (thesis sec. 5.2: NO_PROSODY, RANDOM, SPEECH_DRIVEN,
+GROUND_TRUTH), clips (the thesis' segments S2 and S7; the 2012 paper's ten audio clips, sec.
+8.1.1), the question (thesis sec. 5.2), the pair design, the undecided option (Le et al. 2012,
+sec. 8.1) and the replay policy.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Final
+
+from app.trials.design import Pair, build_pairs
+from app.trials.fields import key_text
+from app.trials.rules import ReplayPolicy
+from app.trials.schedule import Trial, make_schedule, n_lists_for, shown_stimuli
+
+KNOWN_MODELS: Final = ("none", "random", "speech_driven", "ground_truth", "live_gmm")
+"""The models of the stimulus engine's interface; every one must be a key of
+``app.stimuli.conditions.CONDITIONS`` (the tests check it when that module is present)."""
+
+
+def _registered_models() -> tuple[str, ...]:
+    """Model names from the stimulus engine's registry, the one place for them, if installed."""
+    try:
+        from app.stimuli.conditions import CONDITIONS
+    except ImportError:
+        return KNOWN_MODELS
+    return tuple(CONDITIONS)
+
+
+MODELS: Final[tuple[str, ...]] = _registered_models()
+"""Model names a condition may use."""
+
+
+@dataclass(frozen=True, slots=True)
+class ConditionSpec:
+    """One experimental condition: a model with settings, or uploaded tracks, one per clip.
+
+    ``model`` names an entry of ``app.stimuli.conditions.CONDITIONS`` and ``settings`` are its
+    keyword parameters (``make_condition(model, **settings)``); with ``tracks`` (clip name ->
+    ``.fap``/``.csv`` path) the condition is an uploaded motion track per clip and ``model`` is
+    ``None``.
+    """
+
+    name: str
+    model: str | None = None
+    settings: Mapping[str, Any] = field(default_factory=dict)
+    tracks: Mapping[str, Path] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, slots=True)
+class ClipSpec:
+    """One speech segment: its audio and, optionally, the captured (ground-truth) motion."""
+
+    name: str
+    audio: Path
+    ground_truth: Path | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class StudySpec:
+    """A validated study; see ``docs/studyfile.md`` for the meaning of every field."""
+
+    title: str
+    question: str
+    conditions: tuple[ConditionSpec, ...]
+    clips: tuple[ClipSpec, ...]
+    instructions: str = ""
+    consent: str = ""
+    design: str = "all_ordered"
+    reference: str | None = None
+    undecided_allowed: bool = True
+    undecided_label: str = "Undecided"
+    replay: ReplayPolicy = field(default_factory=ReplayPolicy)
+    catch_trials: int = 0
+    catch_kind: str = "identical"
+    target_participants: int = 20
+    completion_code: str = ""
+    redirect_url: str | None = None
+    seed: int = 0
+    practice: Pair | None = None
+    practice_clip: str | None = None
+    block_by_clip: bool = True
+
+    @property
+    def condition_names(self) -> list[str]:
+        """Condition names in file order."""
+        return [c.name for c in self.conditions]
+
+    @property
+    def clip_names(self) -> list[str]:
+        """Clip names in file order."""
+        return [c.name for c in self.clips]
+
+    def pairs(self) -> list[Pair]:
+        """The design's pairs (:func:`app.trials.design.build_pairs`)."""
+        return build_pairs(self.condition_names, self.design, reference=self.reference)
+
+    def n_lists(self) -> int:
+        """Lists in one counterbalancing cycle (:func:`app.trials.schedule.n_lists_for`)."""
+        return n_lists_for(self.design, n_clips=len(self.clips), block_by_clip=self.block_by_clip)
+
+    def stimuli(self) -> list[tuple[str, Pair]]:
+        """Every (clip name, displayed pair) some schedule shows: the side-by-side clips to render
+        (:func:`app.trials.schedule.shown_stimuli`)."""
+        return shown_stimuli(
+            clips=self.clip_names,
+            pairs=self.pairs(),
+            design=self.design,
+            catch_trials=self.catch_trials,
+            catch_kind=self.catch_kind,
+            practice_pair=self.practice,
+            practice_clip=self.practice_clip,
+        )
+
+    def schedule(self, *, seed: int, list_index: int) -> list[Trial]:
+        """One participant's schedule from their stored seed and assigned list."""
+        return make_schedule(
+            clips=self.clip_names,
+            pairs=self.pairs(),
+            design=self.design,
+            seed=seed,
+            list_index=list_index,
+            n_lists=self.n_lists(),
+            catch_trials=self.catch_trials,
+            practice_pair=self.practice,
+            catch_kind=self.catch_kind,
+            practice_clip=self.practice_clip,
+            block_by_clip=self.block_by_clip,
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """The study as a study-file mapping (paths as strings), e.g. to store as JSON.
+
+        ``app.trials.studyfile.parse_study(spec.to_dict())`` gives back an equal spec.
+        """
+        out: dict[str, Any] = {
+            "title": self.title,
+            "question": self.question,
+            "instructions": self.instructions,
+            "consent": self.consent,
+            "design": self.design,
+        }
+        if self.reference is not None:
+            out["reference"] = self.reference
+        out |= {
+            "seed": self.seed,
+            "target_participants": self.target_participants,
+            "completion_code": self.completion_code,
+        }
+        if self.redirect_url is not None:
+            out["redirect_url"] = self.redirect_url
+        out["block_by_clip"] = self.block_by_clip
+        out["practice"] = (
+            False if self.practice is None else [self.practice.left, self.practice.right]
+        )
+        if self.practice_clip is not None:
+            out["practice_clip"] = self.practice_clip
+        out["undecided"] = {"allowed": self.undecided_allowed, "label": self.undecided_label}
+        out["replay"] = {"policy": self.replay.kind}
+        if self.replay.max_plays is not None:
+            out["replay"]["max_plays"] = self.replay.max_plays
+        out["catch"] = {"trials": self.catch_trials, "kind": self.catch_kind}
+        out["conditions"] = [_condition_dict(c) for c in self.conditions]
+        out["clips"] = [_clip_dict(c) for c in self.clips]
+        return out
+
+    def to_toml(self) -> str:
+        """The study as TOML text that ``app.trials.studyfile.loads_study`` reads back."""
+        return dump_toml(self.to_dict())
+
+
+def _condition_dict(condition: ConditionSpec) -> dict[str, Any]:
+    out: dict[str, Any] = {"name": condition.name}
+    if condition.tracks:
+        out["tracks"] = {clip: str(path) for clip, path in condition.tracks.items()}
+    else:
+        out["model"] = condition.model
+        if condition.settings:
+            out["settings"] = dict(condition.settings)
+    return out
+
+
+def _clip_dict(clip: ClipSpec) -> dict[str, Any]:
+    out: dict[str, Any] = {"name": clip.name, "audio": str(clip.audio)}
+    if clip.ground_truth is not None:
+        out["ground_truth"] = str(clip.ground_truth)
+    return out
+
+
+def dump_toml(document: Mapping[str, Any]) -> str:
+    """Write a study-file mapping as TOML: plain keys, then tables, then arrays of tables.
+
+    Covers the value types a study file holds (strings, integers, floats, booleans, arrays and
+    nested tables inside ``settings``); strings use JSON escapes, which TOML basic strings share.
+
+    >>> print(dump_toml({"title": "A", "replay": {"policy": "unlimited"}}), end="")
+    title = "A"
+    <BLANKLINE>
+    [replay]
+    policy = "unlimited"
+    """
+    lines: list[str] = []
+    tables = {k: v for k, v in document.items() if isinstance(v, Mapping)}
+    arrays = {
+        k: v
+        for k, v in document.items()
+        if isinstance(v, list) and v and all(isinstance(i, Mapping) for i in v)
+    }
+    for key, value in document.items():
+        if key not in tables and key not in arrays:
+            lines.append(f"{key_text(key)} = {_value(value)}")
+    for key, table in tables.items():
+        lines += ["", f"[{key_text(key)}]"] + [
+            f"{key_text(k)} = {_value(v)}" for k, v in table.items()
+        ]
+    for key, items in arrays.items():
+        for item in items:
+            lines += ["", f"[[{key_text(key)}]]"]
+            lines += [f"{key_text(k)} = {_value(v)}" for k, v in item.items()]
+    return "\n".join(lines) + "\n"
+
+
+def _value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False).replace("\x7f", "\\u007f")
+    if isinstance(value, list):
+        return "[" + ", ".join(_value(v) for v in value) + "]"
+    if isinstance(value, Mapping):
+        return "{" + ", ".join(f"{key_text(k)} = {_value(v)}" for k, v in value.items()) + "}"
+    raise TypeError(f"cannot write {type(value).__name__} to TOML")

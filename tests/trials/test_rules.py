@@ -1,0 +1,105 @@
+"""Replay and vote rules, and the vote choices shared with the analysis package."""
+
+from __future__ import annotations
+
+import doctest
+import importlib.util
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from app.trials import rules
+from app.trials.rules import (
+    CHOICES,
+    KNOWN_CHOICES,
+    REPLAY_KINDS,
+    ReplayPolicy,
+    VoteChoice,
+    allowed_choices,
+    check_choice,
+    may_play,
+    may_vote,
+)
+
+
+def test_docstring_examples() -> None:
+    assert doctest.testmod(rules).failed == 0
+
+
+def test_choices_equal_the_analysis_votes_schema() -> None:
+    if importlib.util.find_spec("app.analysis.votes") is None:
+        pytest.skip("app.analysis.votes is not on this branch yet")
+    from app.analysis.votes import CHOICES as ANALYSIS_CHOICES
+
+    assert tuple(ANALYSIS_CHOICES) == KNOWN_CHOICES
+    assert tuple(CHOICES) == tuple(ANALYSIS_CHOICES)
+
+
+def test_vote_choice_values_are_the_choices_in_order() -> None:
+    assert tuple(c.value for c in VoteChoice) == tuple(CHOICES)
+    assert VoteChoice("left") == "left"
+
+
+def test_unlimited_plays_need_one_start_before_a_vote() -> None:
+    # Le et al. 2012, sec. 8.1: clips viewed "for unlimited times before made their decisions"
+    policy = ReplayPolicy()
+    assert policy.kind == "unlimited"
+    assert all(may_play(policy, n) for n in range(100))
+    assert not may_vote(policy, 0, False)
+    assert may_vote(policy, 1, False) and may_vote(policy, 50, True)
+
+
+def test_max_plays_caps_the_starts() -> None:
+    policy = ReplayPolicy("max_plays", max_plays=2)
+    assert [may_play(policy, n) for n in range(4)] == [True, True, False, False]
+    assert [may_vote(policy, n, False) for n in range(4)] == [False, True, True, False]
+
+
+def test_play_to_end_needs_a_finished_play() -> None:
+    policy = ReplayPolicy("play_to_end")
+    assert may_play(policy, 0) and may_play(policy, 10)
+    assert not may_vote(policy, 1, False) and not may_vote(policy, 3, False)
+    assert may_vote(policy, 1, True)
+    assert not may_vote(policy, 0, True)
+
+
+@given(st.sampled_from(REPLAY_KINDS), st.integers(1, 9), st.integers(0, 20), st.booleans())
+def test_a_vote_never_comes_without_a_play(kind: str, cap: int, plays: int, finished: bool) -> None:
+    policy = ReplayPolicy(kind, cap if kind == "max_plays" else None)
+    if may_vote(policy, plays, finished):
+        assert plays >= 1
+    if kind == "max_plays":
+        assert may_play(policy, plays) == (plays < cap)
+
+
+@pytest.mark.parametrize(
+    ("kind", "max_plays", "message"),
+    [
+        ("twice", None, "expected one of unlimited, max_plays, play_to_end, got 'twice'"),
+        ("max_plays", None, "positive integer"),
+        ("max_plays", 0, "positive integer"),
+        ("max_plays", True, "positive integer"),
+        ("unlimited", 3, "only applies to kind 'max_plays'"),
+    ],
+)
+def test_bad_policies_are_refused(kind: str, max_plays: int | None, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        ReplayPolicy(kind, max_plays)
+
+
+def test_negative_plays_are_refused() -> None:
+    with pytest.raises(ValueError):
+        may_play(ReplayPolicy(), -1)
+    with pytest.raises(ValueError):
+        may_vote(ReplayPolicy(), -1, False)
+
+
+def test_undecided_only_when_allowed() -> None:
+    assert allowed_choices(undecided_allowed=True) == ("left", "right", "undecided")
+    assert allowed_choices(undecided_allowed=False) == ("left", "right")
+    assert check_choice("undecided", undecided_allowed=True) is VoteChoice.UNDECIDED
+    with pytest.raises(ValueError, match="expected one of left, right, got 'undecided'"):
+        check_choice("undecided", undecided_allowed=False)
+    with pytest.raises(ValueError, match="got 'up'"):
+        check_choice("up", undecided_allowed=True)
