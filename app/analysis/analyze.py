@@ -1,0 +1,211 @@
+"""From a votes table to every statistic of a paired-comparison study, per clip and pooled.
+
+The layout is the one of issue 5: ``{"clips": {CLIP: SECTION}, "pooled": SECTION,
+"participants": {ID: {...}}}`` plus ``"conditions"``, ``"input"`` (source, votes, skipped bad
+rows) and ``"options"`` (how undecided votes were treated, bootstrap settings). A SECTION holds
+ballots, undecided, confusion, scores, paired_t, agreement, sign_tests and scale; see
+docs/analysis.md for every field. The result is plain JSON (NaN written as null).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from app.analysis.agreement import coefficient_of_agreement
+from app.analysis.consistence import consistence_p, consistence_row, consistence_table
+from app.analysis.counts import UNDECIDED_TREATMENTS, VoteCounts, ballots, count_votes
+from app.analysis.scaling import JOD_SIGMA, bootstrap_scale, connected
+from app.analysis.signtest import sign_test_p
+from app.analysis.ttest import holm, paired_t_many
+from app.analysis.votes import VotesTable, read_votes
+from app.errors import InputError
+
+
+def _num(x: Any) -> Any:
+    """A JSON-ready number: Python int/float, NaN and infinities as None."""
+    if x is None:
+        return None
+    if isinstance(x, np.integer | int) and not isinstance(x, bool):
+        return int(x)
+    x = float(x)
+    return x if np.isfinite(x) else None
+
+
+def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    return np.triu_indices(n, 1)
+
+
+def _section(t: np.ndarray, names: Sequence[str], *, undecided: str, bootstrap: int,
+             seed: int, confidence: float, anchor: int | None) -> dict[str, Any]:
+    """Statistics of one clip (or the pool): ``t`` is (P, n, n, 3) for that clip."""
+    seen = t.sum(axis=(1, 2, 3)) > 0
+    t = t[seen]
+    total = t.sum(axis=0)
+    n = len(names)
+    wins = t[..., 0] + np.swapaxes(t[..., 1], -1, -2)
+    und = t[..., 2] + np.swapaxes(t[..., 2], -1, -2)
+    judged = wins + 0.5 * und if undecided == "split" else wins.astype(float)
+    off = ~np.eye(n, dtype=bool)
+    i, j = _pairs(n)
+
+    # Per-participant scores: their ballots per condition (NaN where never shown).
+    shown = (t.sum(axis=(2, 3)) + t.sum(axis=(1, 3))) > 0
+    scores = np.where(shown, judged.sum(axis=-1), np.nan)
+    tt = paired_t_many(scores[:, i], scores[:, j], confidence=confidence)
+    p_holm = holm(tt["p"])
+    paired = [{"a": names[a], "b": names[b], **{k: _num(tt[k][q]) for k in
+               ("mean", "sd", "sem", "ci_low", "ci_high", "t", "p")},
+               "n": int(tt["n"][q]), "df": None if np.isnan(tt["df"][q]) else int(tt["df"][q]),
+               "p_holm": _num(p_holm[q])} for q, (a, b) in enumerate(zip(i, j, strict=True))]
+
+    pooled_judged = np.where(off, judged.sum(axis=0), 0.0)
+    raw_agree = coefficient_of_agreement(pooled_judged).as_dict()
+    agree: dict[str, Any] = {k: _num(v) for k, v in raw_agree.items()}
+    agree["undecided"] = undecided
+    agree["undecided_votes"] = int(total[..., 2][off].sum())
+
+    w_all, u_all = wins.sum(axis=0), und.sum(axis=0)
+    signs = []
+    for a, b in zip(i, j, strict=True):
+        win, loss, tie = int(w_all[a, b]), int(w_all[b, a]), int(u_all[a, b])
+        if win + loss + tie == 0:
+            continue
+        signs.append({"a": names[a], "b": names[b], "wins": win, "losses": loss,
+                      "undecided": tie, "p": _num(sign_test_p(win, loss, tie)),
+                      "p_split": _num(sign_test_p(win, loss, tie, undecided_rule="split")),
+                      "p_undecided_as_losses": _num(sign_test_p(win, loss, tie,
+                                                                undecided_rule="loss"))})
+    holm_signs = holm([s["p"] for s in signs]) if signs else np.zeros(0)
+    for s, ph in zip(signs, holm_signs, strict=True):
+        s["p_holm"] = _num(ph)
+
+    scale_rows, note = _scale(np.where(off, judged, 0.0), names, bootstrap=bootstrap,
+                              seed=seed, confidence=confidence, anchor=anchor)
+    ballot_counts = ballots(total)
+    return {
+        "votes": int(total.sum()),
+        "participants": int(seen.sum()),
+        "ballots": {c: int(v) for c, v in zip(names, ballot_counts, strict=True)},
+        "undecided": int(total[..., 2].sum()),
+        "same_condition_votes": int(np.trace(total.sum(axis=-1))),
+        "confusion": {"conditions": list(names), "left": total[..., 0].tolist(),
+                      "right": total[..., 1].tolist(), "undecided": total[..., 2].tolist()},
+        "scores": {c: {"mean": _num(np.nanmean(scores[:, q])) if shown[:, q].any() else None,
+                       "sd": _num(np.nanstd(scores[:, q], ddof=1)) if shown[:, q].sum() > 1
+                       else None} for q, c in enumerate(names)},
+        "paired_t": paired,
+        "agreement": agree,
+        "sign_tests": signs,
+        "scale": scale_rows,
+        "scale_note": note,
+    }
+
+
+def _scale(per_participant: np.ndarray, names: Sequence[str], *, bootstrap: int, seed: int,
+           confidence: float, anchor: int | None) -> tuple[list[dict[str, Any]], str | None]:
+    """Case V rows for the conditions that were compared; others (and a split graph) get None."""
+    pooled = per_participant.sum(axis=0)
+    active = np.flatnonzero((pooled + pooled.T).sum(axis=1) > 0)
+    empty = [{"condition": c, "score": None, "ci_low": None, "ci_high": None} for c in names]
+    if active.size < 2:
+        return empty, "fewer than two conditions have decided comparisons"
+    sub = per_participant[:, active][:, :, active]
+    if not connected(sub.sum(axis=0)):
+        return empty, "the compared pairs do not link all conditions; no common scale"
+    sub_anchor = None
+    if anchor is not None:
+        if anchor not in active:
+            return empty, f"anchor {names[anchor]!r} was never compared"
+        sub_anchor = int(np.flatnonzero(active == anchor)[0])
+    scale, low, high = bootstrap_scale(sub, replicates=bootstrap, seed=seed,
+                                       confidence=confidence, anchor=sub_anchor)
+    for q, c in enumerate(active.tolist()):
+        empty[c] = {"condition": names[c], "score": _num(scale[q]), "ci_low": _num(low[q]),
+                    "ci_high": _num(high[q])}
+    missing = [names[c] for c in range(len(names)) if c not in set(active.tolist())]
+    return empty, (f"never compared: {', '.join(missing)}" if missing else None)
+
+
+def _participants(counts: VoteCounts) -> dict[str, Any]:
+    """Each participant's votes, scores per condition (pooled) and coefficient of consistence."""
+    t = counts.tensor.sum(axis=1)  # (P, n, n, 3) pooled over clips
+    wins = t[..., 0] + np.swapaxes(t[..., 1], -1, -2)
+    beats = wins > np.swapaxes(wins, -1, -2)
+    table = consistence_table(beats)
+    scores = wins.sum(axis=-1)
+    out: dict[str, Any] = {}
+    for q, pid in enumerate(counts.participants):
+        out[pid] = {
+            "votes": int(t[q].sum()),
+            "undecided": int(t[q][..., 2].sum()),
+            "clips": int((counts.tensor[q].sum(axis=(1, 2, 3)) > 0).sum()),
+            "ballots": {c: int(v) for c, v in zip(counts.conditions, scores[q], strict=True)},
+            "consistence": consistence_row(table, q),
+        }
+    return out
+
+
+def _consistence_summary(participants: dict[str, Any], n: int) -> dict[str, Any]:
+    z = np.array([p["consistence"]["zeta"] for p in participants.values()], dtype=float)
+    p = np.array([np.nan if p["consistence"]["p"] is None else p["consistence"]["p"]
+                  for p in participants.values()])
+    smallest = consistence_p(np.zeros(1), n)[0][0] if n >= 3 else np.nan
+    return {"participants": len(z), "conditions": n, "min_p": _num(smallest),
+            "tested": int((~np.isnan(p)).sum()),
+            "significant_05": int((p < 0.05).sum()),
+            "median_zeta": _num(np.nanmedian(z)) if (~np.isnan(z)).any() else None,
+            "mean_zeta": _num(np.nanmean(z)) if (~np.isnan(z)).any() else None}
+
+
+def analyze(votes: VotesTable | pd.DataFrame | str | Path, *,
+            conditions: Sequence[str] | None = None, undecided: str = "exclude",
+            skip_bad_rows: bool = False, bootstrap: int = 1000, seed: int = 0,
+            confidence: float = 0.95, anchor: str | None = None) -> dict[str, Any]:
+    """Every statistic of issue 5 for a votes table (or a votes CSV path / frame).
+
+    ``undecided`` is "exclude" (default: undecided votes count in ballots' undecided column
+    only) or "split" (half a judgement to each side in scores, u and the scale; sign tests
+    always report both). ``bootstrap`` replicates with ``seed`` give the scale's intervals;
+    ``anchor`` fixes that condition at 0 instead of the mean.
+    """
+    if undecided not in UNDECIDED_TREATMENTS:
+        raise InputError(f"must be one of {', '.join(UNDECIDED_TREATMENTS)}, got {undecided!r}",
+                         field="undecided")
+    if not 0.0 < confidence < 1.0:
+        raise InputError(f"must lie between 0 and 1, got {confidence}", field="confidence")
+    table = votes if isinstance(votes, VotesTable) else read_votes(
+        votes, skip_bad_rows=skip_bad_rows, conditions=conditions)
+    if len(table) == 0:
+        raise InputError("no valid votes to analyse", path=table.source)
+    counts = count_votes(table, conditions)
+    names = counts.conditions
+    anchor_idx = None
+    if anchor is not None:
+        if anchor not in names:
+            raise InputError(f"unknown condition {anchor!r}", field="anchor")
+        anchor_idx = names.index(anchor)
+    kw: dict[str, Any] = {"undecided": undecided, "bootstrap": bootstrap, "seed": seed,
+          "confidence": confidence, "anchor": anchor_idx}
+    clips = {clip: _section(counts.tensor[:, k], names, **kw)
+             for k, clip in enumerate(counts.clips)}
+    pooled = _section(counts.tensor.sum(axis=1), names, **kw)
+    participants = _participants(counts)
+    pooled["consistence"] = _consistence_summary(participants, len(names))
+    return {
+        "conditions": list(names),
+        "input": {"source": table.source, "votes": len(table), "skipped_rows": table.skipped,
+                  "problems": list(table.problems), "participants": len(counts.participants),
+                  "clips": list(counts.clips)},
+        "options": {"undecided": undecided, "bootstrap": bootstrap, "seed": seed,
+                    "confidence": confidence, "anchor": anchor,
+                    "scale": "Thurstone Case V, least squares, JOD units",
+                    "jod_sigma": JOD_SIGMA},
+        "clips": clips,
+        "pooled": pooled,
+        "participants": participants,
+    }

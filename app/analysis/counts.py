@@ -1,0 +1,94 @@
+"""Vote counts: the one array every statistic is computed from.
+
+``VoteCounts.tensor[p, k, l, r, c]`` counts participant p's votes on clip k when condition l was
+on the left and r on the right, with answer c (0 left, 1 right, 2 undecided). Ballots, the
+confusion matrix, preference counts, per-participant scores and every test are sums over it,
+so a vote is classified in exactly one place.
+
+Thesis sec. 5.2: every ordered pair of the 4 x 4 combinations is shown, same-condition pairs
+included; a vote on a same-condition pair is a ballot for that condition (collapsed ballots)
+but carries no preference between conditions, so it is left out of u, sign tests and scaling.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from app.analysis.votes import CHOICES, VotesTable
+from app.errors import InputError
+
+UNDECIDED_TREATMENTS = ("exclude", "split")
+
+
+@dataclass(frozen=True)
+class VoteCounts:
+    """Counts of votes by participant, clip, left condition, right condition and answer."""
+
+    participants: tuple[str, ...]
+    clips: tuple[str, ...]
+    conditions: tuple[str, ...]
+    tensor: np.ndarray  # (P, K, n, n, 3) int64
+
+    def wins(self, undecided: str = "exclude") -> np.ndarray:
+        """(P, K, n, n): judgements of i over j, whichever side i was on.
+
+        With ``undecided="split"`` every undecided vote adds 1/2 to both directions. The
+        diagonal holds same-condition votes (a ballot for that condition).
+        """
+        t = self.tensor
+        w = t[..., 0] + np.swapaxes(t[..., 1], -1, -2)
+        if undecided == "split":
+            u = t[..., 2] + np.swapaxes(t[..., 2], -1, -2)
+            return w + 0.5 * u
+        if undecided != "exclude":
+            raise InputError(f"undecided must be one of {', '.join(UNDECIDED_TREATMENTS)}, "
+                             f"got {undecided!r}", field="undecided")
+        return w
+
+    def undecided_pairs(self) -> np.ndarray:
+        """(P, K, n, n) symmetric: undecided votes on the unordered pair {i, j}."""
+        u = self.tensor[..., 2]
+        return u + np.swapaxes(u, -1, -2)
+
+
+def count_votes(votes: VotesTable, conditions: Sequence[str] | None = None) -> VoteCounts:
+    """Build :class:`VoteCounts`; conditions come from ``conditions`` or, sorted, from the data.
+
+    A vote naming a condition outside an explicit list raises :class:`InputError`.
+    """
+    frame = votes.frame
+    if conditions is None:
+        names = tuple(sorted(set(frame["left"]) | set(frame["right"])))
+    else:
+        names = tuple(dict.fromkeys(str(c).strip() for c in conditions))
+        if not names or any(not c for c in names):
+            raise InputError("give at least one non-empty condition name", field="conditions")
+        unknown = sorted((set(frame["left"]) | set(frame["right"])) - set(names))
+        if unknown:
+            raise InputError(f"votes name conditions not in the list: {', '.join(unknown)}",
+                             path=votes.source, field="conditions")
+    people = pd.Categorical(frame["participant"])
+    clip_cat = pd.Categorical(frame["clip"])
+    cond_index = {c: i for i, c in enumerate(names)}
+    left = frame["left"].map(cond_index).to_numpy(dtype=np.int64)
+    right = frame["right"].map(cond_index).to_numpy(dtype=np.int64)
+    choice = pd.Categorical(frame["choice"], categories=CHOICES).codes.astype(np.int64)
+    n_p, n_k, n_c = len(people.categories), len(clip_cat.categories), len(names)
+    flat = (((people.codes.astype(np.int64) * n_k + clip_cat.codes) * n_c + left) * n_c
+            + right) * 3 + choice
+    tensor = np.bincount(flat, minlength=n_p * n_k * n_c * n_c * 3).reshape(
+        n_p, n_k, n_c, n_c, 3)
+    return VoteCounts(tuple(map(str, people.categories)), tuple(map(str, clip_cat.categories)),
+                      names, tensor)
+
+
+def ballots(tensor: np.ndarray) -> np.ndarray:
+    """Times each condition was chosen, whichever side (last axis: conditions).
+
+    ``tensor`` is (..., n, n, 3); same-condition votes count for that condition.
+    """
+    return tensor[..., 0].sum(axis=-1) + tensor[..., 1].sum(axis=-2)

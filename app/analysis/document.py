@@ -1,0 +1,296 @@
+"""The report's content - headings, generated text, tables, plots - independent of its format.
+
+:func:`build_document` turns an :func:`app.analysis.analyze` result into a list of blocks that
+:mod:`app.analysis.report` writes as HTML and as PDF, so both say the same. Numbers are printed
+the way a paper's results section prints them (APA: p without leading zero, "< .001").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from matplotlib.figure import Figure
+
+from app.analysis import figures
+
+ALPHA = 0.05
+MAX_LISTED_PARTICIPANTS = 60
+
+
+@dataclass
+class Heading:
+    text: str
+    level: int = 2
+
+
+@dataclass
+class Paragraph:
+    text: str
+
+
+@dataclass
+class Table:
+    caption: str
+    header: list[str]
+    rows: list[list[str]]
+    note: str = ""
+    numeric: list[bool] = field(default_factory=list)
+
+
+@dataclass
+class Plot:
+    caption: str
+    figure: Figure
+
+
+Block = Heading | Paragraph | Table | Plot
+
+METHOD_TEXT = (
+    "Ballots are the collapsed ballots of the thesis (sec. 5.2): the times a condition was "
+    "chosen, on either side; a vote on a same-condition pair counts for that condition.",
+    "Agreement (Kendall & Babington Smith 1940; Le, Ma & Deng 2012, sec. 8.1.1): with a_ij the "
+    "judgements preferring i to j, m judgements per pair and n conditions, "
+    "Σ = Σ_(i≠j) C(a_ij, 2), u = 2Σ / (C(m,2) C(n,2)) − 1, "
+    "χ² = 4/(m−2) · (Σ − ½ C(n,2) C(m,2) (m−3)/(m−2)), df = C(n,2) m(m−1)/(m−2)². Each "
+    "presentation is one judgement; same-condition pairs are left out; when pairs were judged "
+    "unequally often the sums run pair by pair with each pair's own m.",
+    "Consistence (Kendall & Babington Smith 1940): with s_i a participant's wins, "
+    "d = n(n−1)(2n−1)/12 − ½ Σ s_i² circular triads, ζ = 1 − d/d_max; the test gives "
+    "P(d ≤ observed) under random choice, exact by enumeration for n ≤ 7 and by the χ² "
+    "approximation otherwise. A pair without a majority preference is resolved both ways and "
+    "d and P are averaged over the resolutions.",
+    "Sign tests: exact two-sided binomial test of wins against losses (Le, Ma & Deng 2012, "
+    "Fig. 9 counts). Paired t-tests: differences of per-participant ballots, reported as SPSS "
+    "does. Holm (1979) step-down adjustment over the pairs of each table.",
+    "Scale: Thurstone Case V by weighted least squares on σ·Φ⁻¹(P_ij), σ = 1.4826 so that "
+    "1 JOD = 75 % preference; percentile intervals from {boot} bootstrap resamples of "
+    "participants (seed {seed}).",
+)
+
+
+def fmt(x: float | int | None, digits: int = 2) -> str:
+    """A number for the reader; "-" for a statistic that could not be computed."""
+    if x is None:
+        return "-"
+    if isinstance(x, int) or float(x).is_integer() and abs(x) >= 1000:
+        return f"{int(x)}"
+    return f"{x:.{digits}f}"
+
+
+def fmt_p(p: float | None) -> str:
+    """APA-style p: ".023", "< .001", "1"; "-" when undefined."""
+    if p is None:
+        return "-"
+    if p < 0.001:
+        return "< .001"
+    return "1" if p >= 0.9995 else f"{p:.3f}".lstrip("0")
+
+
+def _p_eq(p: float | None) -> str:
+    text = fmt_p(p)
+    return f"p {text}" if text.startswith("<") else f"p = {text}"
+
+
+def _summary_text(r: dict[str, Any]) -> list[str]:
+    """The results paragraphs: the statistics in words, strongest findings first."""
+    pooled, info, opts = r["pooled"], r["input"], r["options"]
+    und_rule = ("undecided votes excluded" if opts["undecided"] == "exclude"
+                else "undecided votes split half to each side")
+    n_clips = len(info["clips"])
+    out = [f"{info['participants']} participants cast {info['votes']} votes on {n_clips} "
+           f"clip{'s' if n_clips != 1 else ''} ({pooled['undecided']} undecided, "
+           f"{100.0 * pooled['undecided'] / max(pooled['votes'], 1):.1f} %; "
+           f"{pooled['same_condition_votes']} votes on same-condition pairs)."
+           + (f" {info['skipped_rows']} bad rows of the votes file were skipped and are not "
+              "part of any statistic." if info["skipped_rows"] else
+              " No rows of the votes file were skipped.")]
+    ag = pooled["agreement"]
+    if ag["u"] is not None:
+        verdict = "agreed beyond chance" if ag["p"] < ALPHA else "did not agree beyond chance"
+        spread = (f"{ag['judges_min']}" if ag["judges_min"] == ag["judges_max"]
+                  else f"{ag['judges_min']}-{ag['judges_max']}")
+        out.append(
+            f"Pooled over clips, the judgements {verdict} (Kendall & Babington Smith "
+            f"u = {ag['u']:.3f}, χ²({ag['df']:.2f}) = {ag['chi2']:.2f}, {_p_eq(ag['p'])}; "
+            f"continuity-corrected {_p_eq(ag['p_corrected'])}; {spread} judgements per pair, "
+            f"{und_rule}).")
+    names = sorted(r["conditions"], key=lambda c: -pooled["ballots"][c])
+    listing = ", ".join(f"{c} ({pooled['ballots'][c]})" for c in names)
+    out.append(f"Ballots per condition, pooled over clips, in decreasing order: {listing}.")
+    signs = pooled["sign_tests"]
+    if signs:
+        sig = [s for s in signs if s["p_holm"] is not None and s["p_holm"] < ALPHA]
+        parts = []
+        for s in sig:
+            better, worse = (s["a"], s["b"]) if s["wins"] > s["losses"] else (s["b"], s["a"])
+            hi, lo = max(s["wins"], s["losses"]), min(s["wins"], s["losses"])
+            parts.append(f"{better} over {worse} ({hi} vs {lo}, {s['undecided']} undecided, "
+                         f"Holm-adjusted {_p_eq(s['p_holm'])})")
+        text = (f"Exact sign tests (undecided votes excluded, Holm-adjusted over {len(signs)} "
+                f"pairs) found {len(sig)} of {len(signs)} pairs different")
+        out.append(text + (": " + "; ".join(parts) + "." if parts else "."))
+    tt = [t for t in pooled["paired_t"] if t["p_holm"] is not None and t["p_holm"] < ALPHA]
+    if pooled["paired_t"]:
+        parts = [f"{t['a']} − {t['b']}: M = {t['mean']:.2f}, SD = {t['sd']:.2f}, "
+                 f"t({t['df']}) = {t['t']:.2f}, Holm {_p_eq(t['p_holm'])}, 95 % CI "
+                 f"[{t['ci_low']:.2f}, {t['ci_high']:.2f}]" for t in tt]
+        out.append("Paired t-tests on each participant's ballots per condition "
+                   f"({len(tt)} of {len(pooled['paired_t'])} pairs significant after Holm)"
+                   + (": " + "; ".join(parts) + "." if parts else "."))
+    scale = [s for s in pooled["scale"] if s["score"] is not None]
+    if scale:
+        scale.sort(key=lambda s: -s["score"])
+        ci = int(round(100 * opts["confidence"]))
+        listed = ", ".join(f"{s['condition']} {s['score']:.2f} [{fmt(s['ci_low'])}, "
+                           f"{fmt(s['ci_high'])}]" for s in scale)
+        origin = f"{opts['anchor']} fixed at 0" if opts["anchor"] else "mean fixed at 0"
+        out.append(f"On the Thurstone Case V scale (JOD, {origin}; {ci} % bootstrap intervals "
+                   f"over participants, {opts['bootstrap']} replicates): {listed}.")
+    cs = pooled.get("consistence")
+    if cs and cs["median_zeta"] is not None:
+        out.append(f"The participants' median coefficient of consistence was "
+                   f"ζ = {cs['median_zeta']:.2f} (mean {cs['mean_zeta']:.2f}; 1 = no circular "
+                   f"triad). The test of consistence could be run for {cs['tested']} of "
+                   f"{cs['participants']} participants and rejected random choice at .05 for "
+                   f"{cs['significant_05']}"
+                   + (f" (with {cs['conditions']} conditions even a perfectly consistent judge "
+                      f"reaches only P = {cs['min_p']:.3f})" if cs.get("min_p", 0) >= 0.05
+                      else "") + ".")
+    return out
+
+
+def _ballot_table(r: dict[str, Any]) -> Table:
+    names = r["conditions"]
+    rows = []
+    for label, s in [*r["clips"].items(), ("pooled", r["pooled"])]:
+        rows.append([label, str(s["votes"])] + [str(s["ballots"][c]) for c in names]
+                    + [str(s["undecided"])])
+    return Table("Table 1. Ballots: times each condition was chosen, whichever side it was on "
+                 "(same-condition pairs count for that condition), and undecided votes.",
+                 ["clip", "votes", *names, "undecided"], rows,
+                 numeric=[False] + [True] * (len(names) + 2))
+
+
+def _sign_table(section: dict[str, Any], caption: str, clip: str | None = None) -> Table:
+    rows = [([clip] if clip else []) + [f"{s['a']} vs {s['b']}", str(s["wins"]),
+            str(s["undecided"]), str(s["losses"]), fmt_p(s["p"]), fmt_p(s["p_holm"]),
+            fmt_p(s["p_split"]), fmt_p(s["p_undecided_as_losses"])]
+            for s in section["sign_tests"]]
+    head = ["pair (a vs b)", "for a", "undecided", "for b", "p", "p Holm", "p split",
+            "p und.=loss"]
+    return Table(caption, (["clip"] if clip else []) + head, rows,
+                 note="Exact two-sided binomial sign test on decisive votes; 'p split' gives "
+                      "half of the undecided votes to each side, 'p und.=loss' counts them "
+                      "against a.", numeric=([False] if clip else []) + [False] + [True] * 7)
+
+
+def _t_table(section: dict[str, Any], caption: str) -> Table:
+    rows = [[f"{t['a']} − {t['b']}", fmt(t["mean"], 3), fmt(t["sd"], 3), fmt(t["sem"], 3),
+             fmt(t["ci_low"], 3), fmt(t["ci_high"], 3), fmt(t["t"], 3), fmt(t["df"], 0),
+             fmt_p(t["p"]), fmt_p(t["p_holm"])] for t in section["paired_t"]]
+    return Table(caption, ["pair", "mean", "SD", "SEM", "95% CI lower", "95% CI upper", "t",
+                           "df", "p (2-tailed)", "p Holm"], rows,
+                 numeric=[False] + [True] * 9)
+
+
+def _agreement_table(r: dict[str, Any]) -> Table:
+    rows = []
+    for label, s in [*r["clips"].items(), ("pooled", r["pooled"])]:
+        a = s["agreement"]
+        m = (f"{a['judges_min']}" if a["judges_min"] == a["judges_max"]
+             else f"{a['judges_min']}-{a['judges_max']}")
+        rows.append([label, m, fmt(a["u"], 3), fmt(a["chi2"]), fmt(a["df"]), fmt_p(a["p"]),
+                     fmt(a["chi2_corrected"]), fmt_p(a["p_corrected"])])
+    rule = r["options"]["undecided"]
+    return Table("Table 4. Coefficient of agreement u (Kendall & Babington Smith 1940) with its "
+                 f"chi-square test; undecided votes: {rule}.",
+                 ["clip", "judgements per pair", "u", "χ²", "df", "p", "χ² corr.",
+                  "p corr."], rows, note="Each presentation is one judgement (a pair shown in "
+                 "both side orders counts twice); same-condition pairs are left out; 'corr.' "
+                 "subtracts 1 from Σ (continuity correction).",
+                 numeric=[False] + [True] * 7)
+
+
+def _scale_table(r: dict[str, Any]) -> Table:
+    ci = int(round(100 * r["options"]["confidence"]))
+    clips = list(r["clips"])
+    rows = []
+    for q, s in enumerate(r["pooled"]["scale"]):
+        per_clip = [fmt(r["clips"][c]["scale"][q]["score"]) for c in clips]
+        rows.append([s["condition"], fmt(s["score"]), fmt(s["ci_low"]), fmt(s["ci_high"]),
+                     *per_clip])
+    return Table(f"Table 6. Thurstone Case V scale (JOD) with {ci} % bootstrap intervals over "
+                 "participants, pooled, and the scale of each clip.",
+                 ["condition", "pooled", f"{ci}% low", f"{ci}% high", *clips], rows,
+                 note=r["pooled"].get("scale_note") or "",
+                 numeric=[False] + [True] * (3 + len(clips)))
+
+
+def _participant_table(r: dict[str, Any]) -> Table:
+    rows = []
+    for pid, p in list(r["participants"].items())[:MAX_LISTED_PARTICIPANTS]:
+        c = p["consistence"]
+        rows.append([pid, str(p["votes"]), str(p["undecided"]), fmt(c["d"]), fmt(c["zeta"]),
+                     fmt_p(c["p"]), c["method"]])
+    more = len(r["participants"]) - len(rows)
+    return Table("Table 5. Coefficient of consistence ζ per participant (circular triads d "
+                 "of the preference tournament pooled over clips; P = P(d <= observed) under "
+                 "random choice).", ["participant", "votes", "undecided", "d", "ζ", "P",
+                                     "test"], rows,
+                 note=(f"{more} more participants are in the JSON output." if more > 0 else "")
+                 + " A tied pair (no majority preference) is resolved both ways and d and P "
+                 "are averaged; with more than 10 tied pairs the test is not run ('incomplete').",
+                 numeric=[False] + [True] * 5 + [False])
+
+
+def build_document(r: dict[str, Any]) -> list[Block]:
+    """Every block of the report, in reading order."""
+    pooled = r["pooled"]
+    doc: list[Block] = [Heading("Results", 1)]
+    source = r["input"]["source"] or "in-memory votes"
+    doc.append(Paragraph(f"Source: {source}. Conditions: {', '.join(r['conditions'])}. "
+                         f"Undecided votes: {r['options']['undecided']}. Skipped bad rows: "
+                         f"{r['input']['skipped_rows']}."))
+    doc += [Paragraph(t) for t in _summary_text(r)]
+    doc.append(Heading("Ballots"))
+    doc.append(Plot("Figure 1. Ballots per condition pooled over clips (hatched: undecided), "
+                    "and each clip's share of votes.", figures.ballots_figure(r)))
+    doc.append(_ballot_table(r))
+    doc.append(Heading("Pairwise preferences"))
+    doc.append(Plot("Figure 2. Votes on each pair of different conditions, pooled over clips: "
+                    "black for the first condition, grey undecided, white for the second "
+                    "(after Le, Ma & Deng 2012, Fig. 9); * Holm-adjusted sign test p < .05.",
+                    figures.preference_bars_figure(pooled)))
+    doc.append(_sign_table(pooled, "Table 2. Sign tests per pair, pooled over clips."))
+    doc.append(Plot("Figure 3. Confusion matrix pooled over clips: rows are the condition on "
+                    "the left panel, columns the one on the right; each cell gives votes "
+                    "left / undecided / right, coloured by the share of decisive votes for the "
+                    "left panel (blue: left preferred).", figures.confusion_figure(pooled)))
+    doc.append(Heading("Per-participant scores"))
+    doc.append(Paragraph("A participant's score for a condition is the number of ballots they "
+                         "gave it" + (" (each undecided vote adds 1/2 to both conditions)"
+                                      if r["options"]["undecided"] == "split" else "")
+                         + ". Conditions are compared by paired t-tests across participants, "
+                         "reported as SPSS reports them, with Holm's adjustment over all pairs."))
+    doc.append(_t_table(pooled, "Table 3. Paired samples test, pooled over clips "
+                        "(mean = a minus b)."))
+    doc.append(Heading("Agreement and consistence"))
+    doc.append(_agreement_table(r))
+    if any(p["consistence"]["zeta"] is not None for p in r["participants"].values()):
+        doc.append(Plot("Figure 4. Coefficients of consistence of the participants.",
+                        figures.consistence_figure(r)))
+    doc.append(_participant_table(r))
+    doc.append(Heading("Scale"))
+    doc.append(Plot("Figure 5. Thurstone Case V scale with bootstrap intervals: pooled (black) "
+                    "and per clip (coloured).", figures.scale_figure(r)))
+    doc.append(_scale_table(r))
+    doc.append(Heading("Per clip"))
+    for clip, section in r["clips"].items():
+        doc.append(_sign_table(section, f"Sign tests, clip {clip}."))
+        doc.append(_t_table(section, f"Paired samples test, clip {clip} (mean = a minus b)."))
+    doc.append(Heading("Method"))
+    for text in METHOD_TEXT:
+        doc.append(Paragraph(text.format(seed=r["options"]["seed"],
+                                         boot=r["options"]["bootstrap"])))
+    return doc

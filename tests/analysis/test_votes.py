@@ -1,0 +1,159 @@
+import io
+
+import pandas as pd
+import pytest
+
+from app.analysis.votes import (
+    CHOICES,
+    OPTIONAL_COLUMNS,
+    REQUIRED_COLUMNS,
+    VOTE_COLUMNS,
+    read_votes,
+    write_votes_csv,
+)
+from app.errors import InputError
+
+GOOD = """participant,clip,left,right,choice
+p1,s2,random,speech_driven,left
+p1,s2,speech_driven,random,Undecided
+p2,s2,random,random,right
+"""
+
+
+def _write(tmp_path, text, name="votes.csv"):
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_schema_is_the_interface():
+    assert REQUIRED_COLUMNS == ("participant", "clip", "left", "right", "choice")
+    assert OPTIONAL_COLUMNS == ("study", "trial", "response_ms", "plays", "presented_at",
+                                "voted_at")
+    assert VOTE_COLUMNS == REQUIRED_COLUMNS + OPTIONAL_COLUMNS
+    assert CHOICES == ("left", "right", "undecided")
+
+
+def test_reads_and_normalises(tmp_path):
+    t = read_votes(_write(tmp_path, GOOD))
+    assert len(t) == 3 and t.skipped == 0 and t.problems == []
+    assert t.frame["choice"].tolist() == ["left", "undecided", "right"]
+    assert list(t.frame.columns) == list(VOTE_COLUMNS)
+    assert t.frame["trial"].isna().all()
+
+
+@pytest.mark.parametrize(("row", "where", "what"), [
+    ("p1,s2,a,b,maybe", ":3: choice:", "unknown choice 'maybe'"),
+    (",s2,a,b,left", ":3: participant:", "missing value"),
+    ("p1,s2,,b,left", ":3: left:", "missing value"),
+    ("p1,s2,a,b", ":3:", "expected 5 fields like the header, got 4"),
+    ("p1,s2,a,b,left,extra", ":3:", "expected 5 fields like the header, got 6"),
+])
+def test_bad_row_is_one_line_with_its_number(tmp_path, row, where, what):
+    path = _write(tmp_path, "participant,clip,left,right,choice\np0,s2,a,b,left\n" + row + "\n")
+    with pytest.raises(InputError) as err:
+        read_votes(path)
+    message = str(err.value)
+    assert "\n" not in message and str(path) + where in message and what in message
+    assert err.value.line == 3
+
+
+@pytest.mark.parametrize(("column", "value", "what"), [
+    ("trial", "1.5", "whole number"), ("trial", "-1", "whole number"),
+    ("plays", "x", "whole number"), ("response_ms", "fast", "a number"),
+    ("voted_at", "yesterday", "ISO 8601"),
+])
+def test_optional_columns_are_typed(tmp_path, column, value, what):
+    path = _write(tmp_path, f"participant,clip,left,right,choice,{column}\np,c,a,b,left,{value}\n")
+    with pytest.raises(InputError, match=what) as err:
+        read_votes(path)
+    assert err.value.field == column and err.value.line == 2
+
+
+@pytest.mark.parametrize(("header", "what"), [
+    ("participant,clip,left,right", "missing choice"),
+    ("participant,clip,left,right,choice,colour", "unknown 'colour'"),
+    ("participant,clip,left,right,choice,clip", "repeated clip"),
+    ("Participant,clip,left,right,choice", "missing participant"),
+])
+def test_header_that_does_not_match(tmp_path, header, what):
+    path = _write(tmp_path, header + "\np,c,a,b,left\n")
+    with pytest.raises(InputError, match=what) as err:
+        read_votes(path, skip_bad_rows=True)  # a header cannot be skipped
+    assert err.value.line == 1
+
+
+def test_skip_bad_rows_counts_every_one(tmp_path):
+    text = GOOD + "p3,s2,a,b,maybe\n,s2,a,b,left\n\np4,s2,a,b,left,1\n"
+    with pytest.raises(InputError, match=r"and 2 more bad rows"):
+        read_votes(_write(tmp_path, text))
+    t = read_votes(_write(tmp_path, text), skip_bad_rows=True)
+    assert len(t) == 3 and t.skipped == 3
+    assert [p.split(":")[1] for p in t.problems] == ["5", "6", "8"]  # blank line 7 is no vote
+
+
+def test_unknown_condition_against_a_given_list(tmp_path):
+    with pytest.raises(InputError, match="unknown condition 'speech_driven'") as err:
+        read_votes(_write(tmp_path, GOOD), conditions=["random"])
+    assert err.value.field == "right" and err.value.line == 2
+
+
+def test_empty_and_missing_files(tmp_path):
+    with pytest.raises(InputError, match="empty file"):
+        read_votes(_write(tmp_path, ""))
+    with pytest.raises(InputError, match="cannot read"):
+        read_votes(tmp_path / "nope.csv")
+    assert len(read_votes(_write(tmp_path, "participant,clip,left,right,choice\n"))) == 0
+
+
+def test_write_then_read_round_trip(tmp_path):
+    rows = [
+        {"participant": "p1", "clip": "s2", "left": "a", "right": "b", "choice": "left",
+         "trial": 1, "response_ms": 1234.5, "plays": 2,
+         "presented_at": "2026-03-02T09:00:00Z", "voted_at": "2026-03-02T09:00:01.2345Z"},
+        {"participant": "p,2", "clip": "s7", "left": "b", "right": "a", "choice": "undecided"},
+    ]
+    path = tmp_path / "out.csv"
+    assert write_votes_csv(rows, path) == 2
+    back = read_votes(path)
+    assert back.frame["participant"].tolist() == ["p1", "p,2"]
+    assert back.frame.loc[0, "response_ms"] == 1234.5 and back.frame.loc[0, "plays"] == 2
+    assert back.frame.loc[0, "voted_at"] == pd.Timestamp("2026-03-02T09:00:01.2345Z")
+    buffer = io.StringIO()
+    write_votes_csv(back, buffer)
+    assert buffer.getvalue() == path.read_text()
+
+
+def test_write_refuses_invalid_votes(tmp_path):
+    with pytest.raises(InputError, match="unknown choice"):
+        write_votes_csv([{"participant": "p", "clip": "c", "left": "a", "right": "b",
+                          "choice": "both"}], tmp_path / "x.csv")
+    with pytest.raises(InputError, match="unknown 'colour'"):
+        write_votes_csv([{"participant": "p", "clip": "c", "left": "a", "right": "b",
+                          "choice": "left", "colour": "red"}], tmp_path / "x.csv")
+
+
+def test_frame_input_with_missing_values():
+    frame = pd.DataFrame({"participant": ["p", None], "clip": ["c", "c"], "left": ["a", "a"],
+                          "right": ["b", "b"], "choice": ["left", "right"]})
+    t = read_votes(frame, skip_bad_rows=True)
+    assert len(t) == 1 and t.skipped == 1 and "participant: missing value" in t.problems[0]
+
+
+def test_plain_and_quoted_files_read_alike(tmp_path):
+    plain = read_votes(_write(tmp_path, GOOD, "plain.csv")).frame
+    quoted = GOOD.replace("p1,s2,random", '"p1",s2,random')
+    exact = read_votes(_write(tmp_path, quoted, "quoted.csv")).frame
+    pd.testing.assert_frame_equal(plain, exact)
+
+
+def test_times_are_written_in_utc_with_seconds(tmp_path):
+    import datetime as dt
+
+    rows = [{"participant": "p", "clip": "c", "left": "a", "right": "b", "choice": "left",
+             "presented_at": dt.datetime(2026, 3, 2, 10, 0, tzinfo=dt.timezone(dt.timedelta(
+                 hours=1))), "voted_at": "2026-03-02T09:00:10.120Z"}]
+    buffer = io.StringIO()
+    write_votes_csv(rows, buffer)
+    assert buffer.getvalue().splitlines()[1].endswith(",2026-03-02T09:00:00Z,"
+                                                      "2026-03-02T09:00:10.12Z")

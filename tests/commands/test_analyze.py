@@ -1,0 +1,60 @@
+import json
+
+from click.testing import CliRunner
+
+from app.cli import main
+
+ROWS = "participant,clip,left,right,choice\n" + "".join(
+    f"p{k},s2,{a},{b},{c}\n" for k in range(5)
+    for a, b, c in [("A", "B", "left"), ("B", "A", "right"), ("A", "C", "left"),
+                    ("C", "B", "undecided"), ("A", "A", "left")])
+
+
+def test_analyze_writes_everything_and_prints_a_summary(tmp_path):
+    (tmp_path / "v.csv").write_text(ROWS)
+    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--json",
+                                    str(tmp_path / "o.json"), "--report", str(tmp_path / "r.html"),
+                                    "--pdf", str(tmp_path / "r.pdf"), "--undecided", "split",
+                                    "--conditions", "C,B,A", "--bootstrap", "50"])
+    assert out.exit_code == 0, out.output
+    data = json.loads((tmp_path / "o.json").read_text())
+    assert data["conditions"] == ["C", "B", "A"] and data["options"]["undecided"] == "split"
+    assert data["pooled"]["ballots"] == {"C": 0, "B": 0, "A": 20}  # 4 per participant
+    assert "skipped bad rows: 0" in out.output and "undecided: split" in out.output
+    assert (tmp_path / "r.pdf").read_bytes().startswith(b"%PDF")
+
+
+def test_bad_row_exits_2_with_one_line(tmp_path):
+    (tmp_path / "v.csv").write_text(ROWS + "p9,s2,A,B,maybe\n")
+    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv")])
+    assert out.exit_code == 2
+    lines = [ln for ln in out.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and ":27: choice: unknown choice 'maybe'" in lines[0]
+    assert "Traceback" not in out.output
+
+
+def test_skip_bad_rows_counts_in_every_output(tmp_path):
+    (tmp_path / "v.csv").write_text(ROWS + "p9,s2,A,B,maybe\n,s2,A,B,left\n")
+    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--skip-bad-rows",
+                                    "--json", str(tmp_path / "o.json"), "--report",
+                                    str(tmp_path / "r.html"), "--bootstrap", "0"])
+    assert out.exit_code == 0, out.output
+    assert "skipped 2 bad rows" in out.output and "skipped bad rows: 2" in out.output
+    assert json.loads((tmp_path / "o.json").read_text())["input"]["skipped_rows"] == 2
+    assert "2 bad rows of the votes file were skipped" in (tmp_path / "r.html").read_text()
+
+
+def test_header_mismatch_and_unknown_condition(tmp_path):
+    (tmp_path / "h.csv").write_text("who,clip,left,right,choice\np,c,A,B,left\n")
+    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "h.csv")])
+    assert out.exit_code == 2 and "h.csv:1: header does not match" in out.output
+    (tmp_path / "v.csv").write_text(ROWS)
+    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--conditions", "A,B"])
+    assert out.exit_code == 2 and "unknown condition 'C'" in out.output
+
+
+def test_pdf_needs_report(tmp_path):
+    (tmp_path / "v.csv").write_text(ROWS)
+    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--pdf",
+                                    str(tmp_path / "r.pdf")])
+    assert out.exit_code == 2 and "--pdf needs --report" in out.output
