@@ -1,0 +1,121 @@
+"""``facepair render``: motion tracks + audio -> side-by-side clips, single-face clips, stills."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from contextlib import contextmanager
+from typing import Any
+
+import click
+
+_track = click.Path(dir_okay=False)
+
+
+def _settings(size: int, mosaic_block: int, face: str | None, **extra: Any):
+    from renderer import RenderSettings
+
+    return RenderSettings(size=size, mosaic_block=mosaic_block, face=face, **extra)
+
+
+@contextmanager
+def _progress_bar(label: str):
+    from tqdm import tqdm
+
+    bar = tqdm(total=0, desc=label, unit="frame", file=sys.stderr,
+               dynamic_ncols=True, leave=True)
+
+    def update(done: int, total: int) -> None:
+        if bar.total != total:
+            bar.total = total
+        bar.update(done - bar.n)
+
+    try:
+        yield update
+    finally:
+        bar.close()
+
+
+def _common(fn: Callable) -> Callable:
+    fn = click.option("--face", type=click.Path(dir_okay=False), default=None,
+                      help="Face JSON file (bring your own face); default: built-in head.")(fn)
+    fn = click.option("--size", type=int, default=368, show_default=True,
+                      help="Pixels per face (square, a multiple of 16).")(fn)
+    fn = click.option("--mosaic-block", type=int, default=24, show_default=True,
+                      help="Mouth mosaic block size in pixels (0: no mosaic).")(fn)
+    return fn
+
+
+def _clip_options(fn: Callable) -> Callable:
+    fn = click.option("--cache-dir", type=click.Path(file_okay=False), default=None,
+                      help="Reuse clips rendered before from this folder (content hash).")(fn)
+    fn = click.option("--fps", type=float, default=None,
+                      help="Output frame rate (default: the track's).")(fn)
+    return fn
+
+
+@click.group()
+def render() -> None:
+    """Render motion tracks as face clips (H.264/AAC MP4) and stills (PNG)."""
+
+
+@render.command("pair")
+@click.option("--left", required=True, type=_track, help="Track of the left face (.fap/.csv).")
+@click.option("--right", required=True, type=_track, help="Track of the right face.")
+@click.option("--audio", required=True, type=click.Path(dir_okay=False), help="Speech audio.")
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output .mp4.")
+@_common
+@_clip_options
+def pair(left: str, right: str, audio: str, out: str, face: str | None, size: int,
+         mosaic_block: int, fps: float | None, cache_dir: str | None) -> None:
+    """Side-by-side clip LEFT | RIGHT over AUDIO, mouths hidden by a mosaic."""
+    from app.stimuli.io import load_track
+    from renderer import render_pair
+
+    settings = _settings(size, mosaic_block, face, fps=fps)
+    tracks = load_track(left), load_track(right)
+    with _progress_bar("render pair") as progress:
+        path = render_pair(*tracks, audio, out, settings=settings, cache_dir=cache_dir,
+                           progress=progress)
+    click.echo(f"{path}: {size * 2}x{size}, {tracks[0].n_frames} frames")
+
+
+@render.command("single")
+@click.option("--track", "track_path", required=True, type=_track, help="Motion track.")
+@click.option("--audio", required=True, type=click.Path(dir_okay=False), help="Speech audio.")
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output .mp4.")
+@_common
+@_clip_options
+def single(track_path: str, audio: str, out: str, face: str | None, size: int,
+           mosaic_block: int, fps: float | None, cache_dir: str | None) -> None:
+    """Single-face clip of TRACK over AUDIO."""
+    from app.stimuli.io import load_track
+    from renderer import render_single
+
+    settings = _settings(size, mosaic_block, face, fps=fps)
+    track = load_track(track_path)
+    with _progress_bar("render single") as progress:
+        path = render_single(track, audio, out, settings=settings, cache_dir=cache_dir,
+                             progress=progress)
+    click.echo(f"{path}: {size}x{size}, {track.n_frames} frames")
+
+
+@render.command("still")
+@click.option("--track", "track_path", required=True, type=_track, help="Motion track.")
+@click.option("--right", "right_path", type=_track, default=None,
+              help="Second track: a side-by-side still (track left, this right).")
+@click.option("--frame", type=int, default=0, show_default=True, help="Frame index.")
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output .png.")
+@click.option("--no-mosaic", is_flag=True, help="Show the mouth.")
+@_common
+def still(track_path: str, right_path: str | None, frame: int, out: str, face: str | None,
+          size: int, mosaic_block: int, no_mosaic: bool) -> None:
+    """PNG still of frame FRAME of TRACK."""
+    from app.stimuli.io import load_track
+    from renderer import render_still
+
+    settings = _settings(size, mosaic_block, face)
+    right = load_track(right_path) if right_path else None
+    path = render_still(load_track(track_path), frame, out, right=right, settings=settings,
+                        mosaic=not no_mosaic)
+    click.echo(str(path))

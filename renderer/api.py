@@ -1,0 +1,167 @@
+"""The renderer's public API: side-by-side clips, single-face clips and PNG stills.
+
+Example
+-------
+>>> import numpy as np
+>>> from app.stimuli.track import MotionTrack
+>>> from renderer import RenderSettings, render_still
+>>> track = MotionTrack.from_channels(30.0, {49: np.linspace(0, 20000, 10)})
+>>> render_still(track, 9, "/tmp/facepair-doctest.png", settings=RenderSettings(size=128))
+PosixPath('/tmp/facepair-doctest.png')
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from app.errors import InputError
+from app.stimuli.track import MotionTrack
+from renderer.cache import cache_key, cached_path, deliver
+from renderer.encode import ClipWriter, check_audio
+from renderer.face import Face
+from renderer.pipeline import align_tracks, render_frames
+
+RENDERER_VERSION = "1.0"
+
+Progress = Callable[[int, int], None]
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """How clips look and are encoded.
+
+    size : pixels per face, square, a multiple of 16 (default 368).
+    mosaic_block : mosaic cell size in pixels (default 24: about 3-4 cells across the lips at
+        368 px, coarse enough to hide lip shape); 0 turns the mosaic off.
+    mosaic_margin : the mouth box grows by this fraction of its larger side on every side.
+    samples : multisample anti-aliasing samples (4; 0 or 1 turns it off).
+    fps : output frame rate; None takes the (first) track's.
+    face : a face JSON file (bring your own face, see docs/renderer.md); None = built-in head.
+    background : RGB in 0..1, a neutral grey by default.
+    crf, preset : libx264 quality (lower crf = better) and speed preset.
+    audio_bitrate : AAC bit rate.
+    """
+
+    size: int = 368
+    mosaic_block: int = 24
+    mosaic_margin: float = 0.15
+    samples: int = 4
+    fps: float | None = None
+    face: str | None = None
+    background: tuple[float, float, float] = (0.55, 0.56, 0.58)
+    crf: int = 20
+    preset: str = "veryfast"
+    audio_bitrate: str = "128k"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.size, int) or self.size < 64 or self.size % 16:
+            raise InputError(f"must be a multiple of 16 and at least 64, got {self.size!r}",
+                             field="size")
+        if not isinstance(self.mosaic_block, int) or self.mosaic_block < 0:
+            raise InputError(f"must be a whole number of pixels >= 0, got {self.mosaic_block!r}",
+                             field="mosaic_block")
+        if self.mosaic_block > self.size // 2:
+            raise InputError(f"must be at most half the face size ({self.size // 2}), got "
+                             f"{self.mosaic_block}", field="mosaic_block")
+        if not 0 <= self.mosaic_margin <= 2:
+            raise InputError(f"must be in 0..2, got {self.mosaic_margin!r}",
+                             field="mosaic_margin")
+        if self.samples not in (0, 1, 2, 4, 8):
+            raise InputError(f"must be 0, 1, 2, 4 or 8, got {self.samples!r}", field="samples")
+        if self.fps is not None and not self.fps > 0:
+            raise InputError(f"must be positive, got {self.fps!r}", field="fps")
+
+
+def load_face(settings: RenderSettings) -> Face:
+    """The face the settings name: a face JSON file, or the built-in head."""
+    if settings.face is None:
+        from renderer.headmodel import builtin_face
+
+        return builtin_face()
+    from renderer.objface import load_face as load_face_file
+
+    return load_face_file(settings.face)
+
+
+def _render_clip(kind: str, tracks: list[MotionTrack], audio_path: str | Path | None,
+                 out_path: str | Path, settings: RenderSettings | None,
+                 cache_dir: str | Path | None, progress: Progress | None) -> Path:
+    settings = settings or RenderSettings()
+    audio = check_audio(audio_path)
+    tracks = align_tracks(tracks, settings.fps)
+    face = load_face(settings)
+    out = Path(out_path)
+    target = out
+    if cache_dir is not None:
+        key = cache_key(kind, tracks, audio, face.content_hash(), settings, RENDERER_VERSION)
+        target = cached_path(cache_dir, key, ".mp4")
+        if target.is_file():
+            if progress:
+                progress(tracks[0].n_frames, tracks[0].n_frames)
+            return deliver(target, out)
+        target.parent.mkdir(parents=True, exist_ok=True)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    n = tracks[0].n_frames
+    partial = target.with_name(target.stem + ".part.mp4")
+    frames = render_frames(tracks, face, size=settings.size, samples=settings.samples,
+                           background=settings.background, mosaic_block=settings.mosaic_block,
+                           mosaic_margin=settings.mosaic_margin)
+    with ClipWriter(partial, settings.size * len(tracks), settings.size, tracks[0].fps, n,
+                    audio, crf=settings.crf, preset=settings.preset,
+                    audio_bitrate=settings.audio_bitrate) as writer:
+        for frame in frames:
+            writer.write(frame.image)
+            if progress:
+                progress(frame.index + 1, n)
+    partial.replace(target)
+    return deliver(target, out) if target != out else out
+
+
+def render_pair(left: MotionTrack, right: MotionTrack, audio_path: str | Path | None,
+                out_path: str | Path, *, settings: RenderSettings | None = None,
+                cache_dir: str | Path | None = None, progress: Progress | None = None) -> Path:
+    """Render ``left`` | ``right`` side by side over ``audio_path`` into an MP4.
+
+    Both faces come from the same timeline, frame for frame; swap the arguments for B|A.
+    The clip has the first track's length and frame rate (``settings.fps`` overrides; the
+    other track is resampled and padded or trimmed to it); the audio is padded or trimmed to
+    the clip. With ``cache_dir`` the clip is looked up by content hash and rendered only once.
+    ``progress(done, total)`` is called after each frame. Returns ``out_path``.
+    """
+    return _render_clip("pair", [left, right], audio_path, out_path, settings, cache_dir,
+                        progress)
+
+
+def render_single(track: MotionTrack, audio_path: str | Path | None, out_path: str | Path, *,
+                  settings: RenderSettings | None = None, cache_dir: str | Path | None = None,
+                  progress: Progress | None = None) -> Path:
+    """Render one face over ``audio_path`` into an MP4 (as :func:`render_pair`)."""
+    return _render_clip("single", [track], audio_path, out_path, settings, cache_dir, progress)
+
+
+def render_still(track: MotionTrack, frame: int, out_path: str | Path, *,
+                 right: MotionTrack | None = None, settings: RenderSettings | None = None,
+                 mosaic: bool = True) -> Path:
+    """Write frame ``frame`` of ``track`` (and of ``right`` beside it, if given) as a PNG.
+
+    ``mosaic=False`` shows the mouth (for previews of the face itself).
+    """
+    import imageio.v3 as iio
+
+    settings = settings or RenderSettings()
+    tracks = align_tracks([track] + ([right] if right is not None else []), settings.fps)
+    n = tracks[0].n_frames
+    if not isinstance(frame, int) or not 0 <= frame < n:
+        raise InputError(f"must be a frame index in 0..{n - 1}, got {frame!r}", field="frame")
+    face = load_face(settings)
+    rendered = next(render_frames(
+        tracks, face, size=settings.size, samples=settings.samples,
+        background=settings.background,
+        mosaic_block=settings.mosaic_block if mosaic else 0,
+        mosaic_margin=settings.mosaic_margin, frames=range(frame, frame + 1)))
+    out = Path(out_path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    iio.imwrite(out, rendered.image.copy())
+    return out

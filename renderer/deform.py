@@ -1,0 +1,252 @@
+"""FAP deformation of a :class:`~renderer.face.Face`: raised-cosine zones, jaw, eyelids, eyes, head.
+
+Follows the MPEG-4 FBA deformation as the open player Xface implements it (project reference
+``mpeg4-fap``): a vertex at distance ``d`` from a FAP's feature point moves by
+``w(d) * value * FAPU`` along the FAP's direction, with the raised-cosine influence
+``w(d) = (1 + cos(pi d / dmax)) / 2`` for ``d < dmax``. Translational FAPs:
+
+* lips, inner (4-13, on 2.x) and outer (51-60, on 8.x), push (16, 17) and chin (18), with the
+  upper- and lower-lip FAPs kept to their own lip (Parke's unconnected lips, thesis sec. 2.1.2);
+* eyebrows 31-36 (raise, ENS, up) and 37/38 (squeeze, ES, towards the midline).
+
+Zones along one lip or brow reach exactly to the neighbouring feature point, so each feature
+point moves by value * FAPU and equal values move the lip or brow uniformly; an inner/outer lip
+pair shares a vertex by proximity (the nearer feature point wins).
+
+Rotations (MPEG-4 directions; AU = 1e-5 rad):
+
+* jaw 3 (open, MNS, down: the chin 2.1 moves down by value * MNS) about the hinge axis, with
+  14 (thrust, forward) and 15 (shift, right) as translations, weighted per vertex;
+* eyelids 19-22 (IRISD): each lid turns about its eye centre so that its margin moves by
+  value * IRISD (top down, bottom up), weighted from margin to root;
+* eyeballs 23/24 (yaw, positive to the face's left) and 25/26 (pitch, positive down);
+* head 48 (pitch, down), 49 (yaw, to the face's left), 50 (roll, to the face's right) about
+  feature point 7.1, blended into the neck by the ``head`` weight.
+
+The head and eye rotations are returned as matrices (applied on the GPU); the rest is done here
+on the vertices, vectorised over the vertices of each zone.
+
+Example
+-------
+>>> import numpy as np
+>>> from renderer.headmodel import builtin_face
+>>> rig = Rig(builtin_face())
+>>> faps = np.zeros(68); faps[31 - 1] = 200.0   # raise the left inner eyebrow
+>>> frame = rig.deform(faps)
+>>> i = rig.face.fp_vertices["4.1"]
+>>> bool(frame.positions[i, 1] > rig.face.vertices[i, 1])
+True
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.stimuli.fap import AU_RADIANS
+from renderer.face import Face
+from renderer.rigweights import derive_weights
+
+UP, DOWN = np.array([0.0, 1.0, 0.0]), np.array([0.0, -1.0, 0.0])
+LEFT, RIGHT, FORWARD = np.array([1.0, 0, 0]), np.array([-1.0, 0, 0]), np.array([0, 0, 1.0])
+
+#: Lip FAPs: fap -> (feature point, direction, FAPU, lip side). Outer FAPs 51-60 = inner + 47.
+_INNER_LIPS: dict[int, tuple[str, np.ndarray, str, str]] = {
+    4: ("2.2", DOWN, "MNS", "upper"), 5: ("2.3", UP, "MNS", "lower"),
+    6: ("2.4", LEFT, "MW", "both"), 7: ("2.5", RIGHT, "MW", "both"),
+    8: ("2.6", DOWN, "MNS", "upper"), 9: ("2.7", DOWN, "MNS", "upper"),
+    10: ("2.8", UP, "MNS", "lower"), 11: ("2.9", UP, "MNS", "lower"),
+    12: ("2.4", UP, "MNS", "both"), 13: ("2.5", UP, "MNS", "both"),
+}
+_OUTER_OF = {"2.2": "8.1", "2.3": "8.2", "2.4": "8.3", "2.5": "8.4", "2.6": "8.5",
+             "2.7": "8.6", "2.8": "8.7", "2.9": "8.8"}
+#: Lip zones whose weights are normalised together (vertical motion of one lip).
+_CHAINS = {"upper": ("2.2", "2.6", "2.7", "2.4", "2.5"),
+           "lower": ("2.3", "2.8", "2.9", "2.4", "2.5")}
+_BROWS = {31: "4.1", 32: "4.2", 33: "4.3", 34: "4.4", 35: "4.5", 36: "4.6"}
+
+#: Every FAP the deformation moves (the groups the stimulus engine produces).
+SUPPORTED_FAPS: tuple[int, ...] = tuple(sorted(
+    [3, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 37, 38, 48, 49, 50]
+    + list(_INNER_LIPS) + [f + 47 for f in _INNER_LIPS] + list(_BROWS)))
+
+
+def raised_cosine(d: np.ndarray, dmax: float) -> np.ndarray:
+    """Xface's influence ``(1 + cos(pi d / dmax)) / 2`` inside ``dmax``, 0 outside."""
+    return np.where(d < dmax, 0.5 * (1.0 + np.cos(np.pi * np.minimum(d / dmax, 1.0))), 0.0)
+
+
+def _chain_weights(v: np.ndarray, points: list[np.ndarray]) -> np.ndarray:
+    """Raised-cosine zones along a chain of feature points (a lip, a brow), (k, n).
+
+    Each zone reaches exactly to the nearest other point of the chain, so a feature point
+    moves by its own FAP alone (weight 1) and, between two points, the two zones sum to one
+    (cos^2 + sin^2): equal values move the chain uniformly.
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    gaps = np.linalg.norm(pts[:, None] - pts[None], axis=2)
+    np.fill_diagonal(gaps, np.inf)
+    reach = np.maximum(gaps.min(axis=1), 1e-6)
+    return np.stack([raised_cosine(np.linalg.norm(v - p, axis=1), r)
+                     for p, r in zip(pts, reach, strict=True)])
+
+
+def rotation(axis: str, angle: float) -> np.ndarray:
+    """3x3 right-handed rotation about ``x``, ``y`` or ``z``."""
+    c, s = np.cos(angle), np.sin(angle)
+    if axis == "x":
+        return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+    if axis == "y":
+        return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def about(rot: np.ndarray, pivot: np.ndarray) -> np.ndarray:
+    """4x4 matrix rotating by ``rot`` about ``pivot``."""
+    m = np.eye(4)
+    m[:3, :3] = rot
+    m[:3, 3] = pivot - rot @ pivot
+    return m
+
+
+@dataclass
+class FaceFrame:
+    """One deformed face: vertex positions/normals before the rigid head and eye rotations."""
+
+    positions: np.ndarray  # float32 (n, 3)
+    normals: np.ndarray  # float32 (n, 3)
+    head: np.ndarray  # 4x4 head rotation about 7.1
+    eye_l: np.ndarray  # 4x4 rotations about the eye centres
+    eye_r: np.ndarray
+
+
+class Rig:
+    """The deformation of one face, precomputed once: zones, weights, pivots."""
+
+    def __init__(self, face: Face) -> None:
+        self.face = face
+        v = face.vertices.astype(np.float64)
+        self.v0 = face.vertices.astype(np.float32)
+        self.n0 = face.normals()
+        self.weights = derive_weights(face)
+        fu = {k[:-1]: val / 1024.0 for k, val in face.fapu.items()}
+        self.fapu = fu
+        fp = face.feature_points
+        eyeball = np.zeros(face.n_vertices, bool)
+        for side in ("l", "r"):
+            eyeball[face.groups[f"eyeball_{side}"]] = True
+        mw0, es0 = face.fapu["MW0"], face.fapu["ES0"]
+
+        columns: dict[int, np.ndarray] = {}  # fap -> (n, 3) displacement per unit FAP value
+        for name, chain in _CHAINS.items():
+            for layer_fps, tag in ((chain, "inner"), (tuple(_OUTER_OF[c] for c in chain),
+                                                      "outer")):
+                norm = _chain_weights(v, [fp[c] for c in layer_fps])
+                norm *= self.weights[f"{name}_lip"] * ~eyeball
+                for fap, (pt, direction, unit, lip) in _INNER_LIPS.items():
+                    if lip not in (name, "both") or pt not in chain or direction[0] != 0:
+                        continue
+                    f = fap if tag == "inner" else fap + 47
+                    w = norm[chain.index(pt)] * self._pair_share(v, pt, tag)
+                    columns[f] = columns.get(f, 0) + w[:, None] * direction * fu[unit]
+        for fap in (6, 7):
+            pt, direction, unit, _ = _INNER_LIPS[fap]
+            for f, p, tag in ((fap, pt, "inner"), (fap + 47, _OUTER_OF[pt], "outer")):
+                w = raised_cosine(np.linalg.norm(v - fp[p], axis=1), 0.5 * mw0) * ~eyeball
+                columns[f] = (w * self._pair_share(v, pt, tag))[:, None] * direction * fu[unit]
+        for fap, pt, lip in ((16, "2.3", "lower"), (17, "2.2", "upper"), (18, "2.10", "lower")):
+            w = raised_cosine(np.linalg.norm(v - fp[pt], axis=1), 0.7 * mw0)
+            w = w * self.weights[f"{lip}_lip"] * ~eyeball
+            columns[fap] = w[:, None] * (UP if fap == 18 else FORWARD) * fu["MNS"]
+        eye_y = (fp["3.5"][1] + fp["3.6"][1]) / 2.0
+        for side, faps in (("l", (31, 33, 35)), ("r", (32, 34, 36))):
+            pts = [_BROWS[f] for f in faps]
+            brow_y = np.mean([fp[p][1] for p in pts])
+            mask = np.clip((v[:, 1] - eye_y) / max(0.5 * (brow_y - eye_y), 1e-9), 0, 1)
+            mask = mask * mask * (3 - 2 * mask) * ~eyeball
+            norm = _chain_weights(v, [fp[p] for p in pts]) * mask
+            for j, f in enumerate(faps):
+                columns[f] = norm[j][:, None] * UP * fu["ENS"]
+            squeeze = raised_cosine(np.linalg.norm(v - fp[pts[0]], axis=1), 0.5 * es0) * mask
+            f = 37 if side == "l" else 38
+            columns[f] = squeeze[:, None] * (RIGHT if side == "l" else LEFT) * fu["ES"]
+
+        self.basis_faps = np.array(sorted(columns))
+        stacked = np.stack([columns[f] for f in self.basis_faps])  # (k, n, 3)
+        self.zone = np.flatnonzero(np.abs(stacked).sum(axis=(0, 2)) > 1e-9)
+        self.basis = stacked[:, self.zone, :].reshape(len(self.basis_faps), -1).astype(np.float32)
+
+        hinge = face.hinge()
+        self.hinge = hinge
+        lever = max(fp["2.1"][2] - hinge[2], 0.3 * float(np.linalg.norm(fp["2.1"] - hinge)))
+        self.jaw_rad_per_unit = fu["MNS"] / lever
+        self.jaw_zone = np.flatnonzero(self.weights["jaw"] > 1e-6)
+        self.jaw_w = self.weights["jaw"][self.jaw_zone]
+        self.lids = []
+        for fap, side, upper in ((19, "l", True), (20, "r", True), (21, "l", False),
+                                 (22, "r", False)):
+            layer = self.weights[f"eyelid_{'upper' if upper else 'lower'}_{side}"]
+            zone = np.flatnonzero(layer > 1e-6)
+            centre = face.eye_centre(side)
+            margin = fp[f"3.{(1 if upper else 3) + (0 if side == 'l' else 1)}"]
+            r = max(float(np.linalg.norm(margin - centre)), 1e-9)
+            sign = 1.0 if upper else -1.0
+            self.lids.append((fap, zone, layer[zone], centre, sign * fu["IRISD"] / r))
+        self.eye_centres = {s: face.eye_centre(s) for s in ("l", "r")}
+        self.pivot = face.pivot()
+
+    def _pair_share(self, v: np.ndarray, inner_pt: str, tag: str) -> np.ndarray:
+        """Share of an inner or outer lip FAP at each vertex: the nearer feature point wins."""
+        fp = self.face.feature_points
+        d_in = np.linalg.norm(v - fp[inner_pt], axis=1)
+        d_out = np.linalg.norm(v - fp[_OUTER_OF[inner_pt]], axis=1)
+        total = np.maximum(d_in + d_out, 1e-9)
+        return d_out / total if tag == "inner" else d_in / total
+
+    def deform(self, faps: np.ndarray) -> FaceFrame:
+        """Deform the neutral face by one frame of FAPs (68 values in FAPU, FAP k at k-1)."""
+        f = np.asarray(faps, dtype=np.float64)
+        pos = self.v0.copy()
+        nrm = self.n0.copy()
+        coeff = f[self.basis_faps - 1].astype(np.float32)
+        active = np.flatnonzero(coeff)
+        if len(active):
+            pos[self.zone] += (coeff[active] @ self.basis[active]).reshape(-1, 3)
+        jaw_open = max(f[2], 0.0) * self.jaw_rad_per_unit
+        shift = np.array([-f[14] * self.fapu["MW"], 0.0, max(f[13], 0.0) * self.fapu["MNS"]])
+        if jaw_open or np.any(shift):
+            self._rotate_x(pos, nrm, self.jaw_zone, self.jaw_w * jaw_open, self.hinge)
+            pos[self.jaw_zone] += (self.jaw_w[:, None] * shift).astype(np.float32)
+        for fap, zone, w, centre, rad_per_unit in self.lids:
+            if f[fap - 1]:
+                self._rotate_x(pos, nrm, zone, w * f[fap - 1] * rad_per_unit, centre)
+        eyes = {}
+        for side, (yaw, pitch) in (("l", (23, 25)), ("r", (24, 26))):
+            rot = rotation("y", f[yaw - 1] * AU_RADIANS) @ rotation("x", f[pitch - 1] * AU_RADIANS)
+            eyes[side] = about(rot, self.eye_centres[side])
+        head = (rotation("y", f[48] * AU_RADIANS) @ rotation("x", f[47] * AU_RADIANS)
+                @ rotation("z", f[49] * AU_RADIANS))
+        return FaceFrame(pos, nrm, about(head, self.pivot), eyes["l"], eyes["r"])
+
+    @staticmethod
+    def _rotate_x(pos: np.ndarray, nrm: np.ndarray, zone: np.ndarray, angle: np.ndarray,
+                  pivot: np.ndarray) -> None:
+        """Rotate ``zone`` vertices about the x-parallel axis through ``pivot``, per-vertex angle
+        (positive moves points in front of the axis down)."""
+        c, s = np.cos(angle), np.sin(angle)
+        y = pos[zone, 1] - pivot[1]
+        z = pos[zone, 2] - pivot[2]
+        pos[zone, 1] = pivot[1] + c * y - s * z
+        pos[zone, 2] = pivot[2] + s * y + c * z
+        ny, nz = nrm[zone, 1].copy(), nrm[zone, 2].copy()
+        nrm[zone, 1] = c * ny - s * nz
+        nrm[zone, 2] = s * ny + c * nz
+
+    def world_points(self, frame: FaceFrame, names: tuple[str, ...]) -> np.ndarray:
+        """Deformed positions of mesh feature points after the head rotation, (k, 3)."""
+        idx = np.array([self.face.fp_vertices[n] for n in names])
+        p = frame.positions[idx].astype(np.float64)
+        ph = p @ frame.head[:3, :3].T + frame.head[:3, 3]
+        w = self.weights["head"][idx][:, None]
+        return p + w * (ph - p)

@@ -1,0 +1,213 @@
+"""Headless OpenGL drawing of deformed faces with moderngl (EGL; Mesa llvmpipe or a GPU).
+
+One :class:`FaceCanvas` draws one or more faces side by side into a single framebuffer and
+reads the frame back once: fixed perspective camera framed on the face's own feature points,
+two lights with Blinn-Phong shading computed in linear light, neutral grey background and
+multisample anti-aliasing (resolved before read-back). The rigid head and eye rotations run in
+the vertex shader (matrices from :mod:`renderer.deform`).
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+
+from app.errors import InputError
+from renderer.deform import FaceFrame, Rig
+
+_VERTEX = """
+#version 330
+uniform mat4 mvp;
+uniform mat4 head;
+uniform mat4 eye_l;
+uniform mat4 eye_r;
+in vec3 in_pos;
+in vec3 in_norm;
+in vec4 in_color;
+in vec2 in_rig;   // x: 0 skin, 1 left eyeball, 2 right eyeball; y: head weight
+out vec3 v_pos;
+out vec3 v_norm;
+out vec4 v_color;
+void main() {
+    vec4 p = vec4(in_pos, 1.0);
+    vec3 n = in_norm;
+    if (in_rig.x > 0.5) {
+        mat4 e = in_rig.x > 1.5 ? eye_r : eye_l;
+        p = e * p;
+        n = mat3(e) * n;
+    }
+    p = mix(p, head * p, in_rig.y);
+    n = normalize(mix(n, mat3(head) * n, in_rig.y));
+    v_pos = p.xyz;
+    v_norm = n;
+    v_color = in_color;
+    gl_Position = mvp * p;
+}
+"""
+
+_FRAGMENT = """
+#version 330
+uniform vec3 camera;
+in vec3 v_pos;
+in vec3 v_norm;
+in vec4 v_color;
+out vec4 f_color;
+const vec3 KEY = normalize(vec3(-0.45, 0.55, 0.85));
+const vec3 FILL = normalize(vec3(0.6, 0.05, 0.6));
+void main() {
+    // lighting in (approximately, gamma 2) linear light; powers by squaring are cheap on
+    // software rasterisers
+    vec3 n = normalize(v_norm);
+    vec3 view = normalize(camera - v_pos);
+    float nv = dot(n, view);
+    if (nv < 0.0) { n = -n; nv = -nv; }
+    vec3 albedo = v_color.rgb * v_color.rgb;
+    float key = max(dot(n, KEY), 0.0);
+    float fill = max(dot(n, FILL), 0.0);
+    float r = 1.0 - nv;
+    float s = max(dot(n, normalize(KEY + view)), 0.0);
+    s *= s; s *= s; s *= s; s *= s; s *= s;
+    vec3 light = albedo * (0.16 + 0.95 * key + 0.35 * fill) + 0.10 * r * r * r
+                 + 0.35 * s * v_color.a;
+    f_color = vec4(sqrt(clamp(light, 0.0, 1.0)), 1.0);
+}
+"""
+
+_CONTEXTS: dict[int, object] = {}
+
+
+class GLUnavailable(InputError):
+    """No OpenGL context could be made; the message says what to install."""
+
+
+def context():
+    """The calling thread's headless moderngl context (created on first use)."""
+    key = threading.get_ident()
+    if key not in _CONTEXTS:
+        try:
+            import moderngl
+
+            _CONTEXTS[key] = moderngl.create_standalone_context(backend="egl")
+        except Exception as exc:  # the backends raise assorted types
+            reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise GLUnavailable(
+                "no OpenGL context could be made (headless EGL): install Mesa's EGL and "
+                "software rasteriser (Debian: apt-get install libegl1 libgl1-mesa-dri) or a "
+                f"GPU driver with EGL; the backend said: {reason}"
+            ) from None
+    return _CONTEXTS[key]
+
+
+def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
+    f = target - eye
+    f = f / np.linalg.norm(f)
+    s = np.cross(f, up)
+    s = s / np.linalg.norm(s)
+    u = np.cross(s, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
+    m[:3, 3] = -m[:3, :3] @ eye
+    return m
+
+
+def perspective(fov_y: float, aspect: float, near: float, far: float) -> np.ndarray:
+    f = 1.0 / np.tan(fov_y / 2.0)
+    m = np.zeros((4, 4))
+    m[0, 0], m[1, 1] = f / aspect, f
+    m[2, 2], m[2, 3] = (far + near) / (near - far), 2 * far * near / (near - far)
+    m[3, 2] = -1.0
+    return m
+
+
+def camera_for(rig: Rig) -> tuple[np.ndarray, np.ndarray]:
+    """Fixed camera framed on the face: (view-projection matrix, camera position).
+
+    Frames head and neck from the feature points: the unit is the eye-to-mouth height L, the
+    view spans 4.4 L vertically, centred 0.4 L below the eyes, from 10.5 L in front.
+    """
+    fp = rig.face.feature_points
+    eyes = (fp["3.5"] + fp["3.6"]) / 2.0
+    mouth = (fp["2.2"] + fp["2.3"]) / 2.0
+    unit = float(eyes[1] - mouth[1])
+    target = np.array([eyes[0], eyes[1] - 0.42 * unit, eyes[2] - unit])
+    eye = target + np.array([0.0, 0.03 * unit, 10.5 * unit])
+    fov = 2.0 * np.arctan(2.2 / 10.5)
+    vp = perspective(fov, 1.0, 8.0 * unit, 14.0 * unit) @ look_at(eye, target,
+                                                                 np.array([0.0, 1.0, 0.0]))
+    return vp, eye
+
+
+def project(vp: np.ndarray, points: np.ndarray, size: int) -> np.ndarray:
+    """Pixel coordinates (x right, y down) of world ``points`` in a ``size`` square view."""
+    h = np.column_stack([points, np.ones(len(points))]) @ vp.T
+    ndc = h[:, :2] / h[:, 3:4]
+    return np.column_stack([(ndc[:, 0] + 1) * size / 2, (1 - ndc[:, 1]) * size / 2])
+
+
+class FaceCanvas:
+    """Draws ``n_faces`` copies of one rigged face side by side and reads the frame back."""
+
+    def __init__(self, rig: Rig, size: int, n_faces: int = 1, samples: int = 4,
+                 background: tuple[float, float, float] = (0.55, 0.56, 0.58)) -> None:
+        self.ctx = ctx = context()
+        self.rig, self.size, self.n_faces = rig, size, n_faces
+        self.background = background
+        self.vp, self.camera = camera_for(rig)
+        face = rig.face
+        self.prog = ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT)
+        self.prog["mvp"].write(self.vp.T.astype("f4").tobytes())
+        self.prog["camera"].value = tuple(self.camera)
+        bone = np.zeros(face.n_vertices, np.float32)
+        bone[face.groups["eyeball_l"]] = 1.0
+        bone[face.groups["eyeball_r"]] = 2.0
+        static = np.column_stack([face.colors, bone, rig.weights["head"]]).astype("f4")
+        self.static = ctx.buffer(static.tobytes())
+        self.index = ctx.buffer(face.triangles.astype("i4").tobytes())
+        nbytes = face.n_vertices * 6 * 4
+        self.dynamic = [ctx.buffer(reserve=nbytes) for _ in range(n_faces)]
+        self.vaos = [ctx.vertex_array(self.prog, [(dyn, "3f 3f", "in_pos", "in_norm"),
+                                                  (self.static, "4f 2f", "in_color", "in_rig")],
+                                      index_buffer=self.index)
+                     for dyn in self.dynamic]
+        # each face is drawn alone into the same square target, so a face's pixels do not
+        # depend on its side (A|B and B|A are exact mirrors of each other)
+        self.samples = samples if samples > 1 else 0
+        self.fbo = ctx.framebuffer(ctx.renderbuffer((size, size), 3, samples=self.samples),
+                                   ctx.depth_renderbuffer((size, size), samples=self.samples))
+        self.resolved = (ctx.framebuffer(ctx.renderbuffer((size, size), 3)) if self.samples
+                         else self.fbo)
+        self.face_buffer = np.empty((size, size, 3), np.uint8)
+        self.buffer = np.empty((size, size * n_faces, 3), np.uint8)
+
+    def draw(self, frames: list[FaceFrame]) -> np.ndarray:
+        """Draw one frame per face (left to right); returns the (H, W, 3) uint8 frame, top row
+        first (a buffer reused by the next draw)."""
+        import moderngl
+
+        ctx = self.ctx
+        size = self.size
+        for k, frame in enumerate(frames):
+            self.fbo.use()
+            ctx.enable(moderngl.DEPTH_TEST)
+            ctx.enable(moderngl.CULL_FACE)
+            ctx.viewport = (0, 0, size, size)
+            self.fbo.clear(*self.background, 1.0)
+            data = np.empty((frame.positions.shape[0], 6), np.float32)
+            data[:, :3], data[:, 3:] = frame.positions, frame.normals
+            self.dynamic[k].write(data.tobytes())
+            self.prog["head"].write(frame.head.T.astype("f4").tobytes())
+            self.prog["eye_l"].write(frame.eye_l.T.astype("f4").tobytes())
+            self.prog["eye_r"].write(frame.eye_r.T.astype("f4").tobytes())
+            self.vaos[k].render(moderngl.TRIANGLES)
+            if self.samples:
+                ctx.copy_framebuffer(self.resolved, self.fbo)
+            self.resolved.read_into(self.face_buffer, components=3)
+            self.buffer[:, k * size:(k + 1) * size] = self.face_buffer[::-1]
+        return self.buffer
+
+    def release(self) -> None:
+        for obj in (*self.vaos, *self.dynamic, self.static, self.index, self.prog, self.fbo):
+            obj.release()
+        if self.resolved is not self.fbo:
+            self.resolved.release()

@@ -1,0 +1,95 @@
+"""The built-in parametric head: mesh, colours, MPEG-4 feature points and FAPU by construction.
+
+In the spirit of Parke's parameterised face (thesis sec. 2.1.2): a polygon mesh whose shape
+comes from a few named parameters (head, jaw, nose, lips, eye sockets as smooth unions in
+:mod:`renderer.sdf`), with the upper and lower lip left unconnected so that opening the jaw
+parts them. The skin is sampled on a ray grid about a point inside the head, dense on the face
+and sparse at the back, so the whole head stays near 16k triangles. Eyeballs (iris, pupil),
+eyelids, mouth cavity with teeth, ears, neck and shoulders are separate parts.
+
+Model units are millimetres; axes as in Xface (+x the face's left, +y up, +z forward).
+
+Example
+-------
+>>> face = builtin_face()
+>>> 8_000 < face.n_triangles < 20_000
+True
+>>> sorted(face.fapu) == ['ENS0', 'ES0', 'IRISD0', 'MNS0', 'MW0']
+True
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from renderer import headparts as hp
+from renderer.face import Face, fapu_from_feature_points
+from renderer.sdf import capsule, ellipsoid, ray_surface, smax, smin
+
+#: Ray origin inside the head: the skin is star-shaped about it.
+CENTRE = np.array([0.0, -5.0, 12.0])
+MOUTH_Y = -58.0  # stomion (lips meet), in the midline
+MOUTH_HALF_WIDTH = 25.0  # x of the lip corners
+EYE_X, EYE_Y, EYE_Z = 31.0, 14.0, 70.0  # eyeball centre (left eye at +x)
+EYE_RADIUS = 12.0
+PIVOT_71 = (0.0, -40.0, -18.0)  # top of the spine: head rotation pivot
+JAW_HINGE = (0.0, -4.0, 10.0)  # temporo-mandibular joint axis (parallel to x)
+N_AZIMUTH, N_ELEVATION = 88, 68
+
+
+def _skin_sdf(p: np.ndarray) -> np.ndarray:
+    """Signed distance of the skin surface (head, face, nose, lips) in millimetres."""
+    x = np.abs(p[:, 0])[:, None]
+    q = np.concatenate([x, p[:, 1:]], axis=1)  # mirror: model the left half only
+    d = ellipsoid(q, (0, 28, -6), (74, 100, 98))  # cranium
+    d = smin(d, ellipsoid(q, (0, -28, 24), (64, 70, 70)), 28)  # mid face
+    d = smin(d, ellipsoid(q, (0, -70, 40), (53, 36, 50)), 22)  # mandible
+    d = smin(d, ellipsoid(q, (0, -95, 72), (21, 14, 18)), 14)  # chin
+    d = smin(d, ellipsoid(q, (46, 2, 50), (18, 13, 22)), 14)  # cheekbone
+    d = smin(d, ellipsoid(q, (30, -32, 62), (22, 22, 24)), 18)  # cheek
+    d = smin(d, ellipsoid(q, (0, 50, 30), (60, 46, 60)), 22)  # forehead
+    d = smin(d, ellipsoid(q, (26, 27, 76), (20, 7, 9)), 8)  # brow ridge
+    d = smax(d, -ellipsoid(q, (EYE_X, EYE_Y, 84), (17, 11, 12)), 6)  # eye socket
+    d = smin(d, ellipsoid(q, (0, -58, 80), (32, 24, 18)), 10)  # muzzle
+    nose = capsule(q, (0, 20, 84), (0, -22, 104), 6.5, 8.5)
+    nose = smin(nose, ellipsoid(q, (0, -25, 105), (10, 9.5, 9.5)), 5)  # tip
+    nose = smin(nose, ellipsoid(q, (13, -31, 93), (8, 7, 8)), 5)  # ala
+    d = smin(d, nose, 6)
+    d = smin(d, ellipsoid(q, (0, -52.5, 93.5), (24, 6.5, 10)), 4)  # upper lip
+    d = smin(d, ellipsoid(q, (0, -64.5, 91.5), (21, 7.5, 10)), 4)  # lower lip
+    # hair volume on the skull
+    return d - 5.0 * hp.hair_mask(p)
+
+
+@lru_cache(maxsize=1)
+def builtin_face() -> Face:
+    """Build (once per process) the built-in head as a :class:`Face`."""
+    parts = [hp.skin_grid(_skin_sdf, CENTRE, ray_surface, N_AZIMUTH, N_ELEVATION,
+                          MOUTH_Y, MOUTH_HALF_WIDTH)]
+    for side, sx in (("l", 1.0), ("r", -1.0)):
+        centre = np.array([sx * EYE_X, EYE_Y, EYE_Z])
+        parts.append(hp.eyeball(centre, EYE_RADIUS, f"eyeball_{side}"))
+        parts.append(hp.eyelid(centre, EYE_RADIUS + 1.0, upper=True, side=side))
+        parts.append(hp.eyelid(centre, EYE_RADIUS + 0.8, upper=False, side=side))
+        parts.append(hp.ear(np.array([sx * 73.0, 2.0, -4.0]), sx))
+    parts.append(hp.mouth_cavity(MOUTH_Y))
+    parts.append(hp.neck_and_shoulders())
+    mesh = hp.merge(parts)
+
+    fp_vertices = {k[3:]: int(v[0]) for k, v in mesh.groups.items() if k.startswith("fp:")}
+    feature_points = {k: mesh.vertices[i].astype(np.float64) for k, i in fp_vertices.items()}
+    feature_points["7.1"] = np.array(PIVOT_71)
+    return Face(
+        vertices=mesh.vertices.astype(np.float32),
+        triangles=mesh.triangles.astype(np.int32),
+        colors=mesh.colors.astype(np.float32),
+        feature_points=feature_points,
+        fp_vertices=fp_vertices,
+        fapu=fapu_from_feature_points(feature_points),
+        groups={k: v for k, v in mesh.groups.items() if k.startswith("eyeball")},
+        weights={k: v.astype(np.float32) for k, v in mesh.layers.items()},
+        jaw_pivot=np.array(JAW_HINGE),
+        name="builtin",
+    )

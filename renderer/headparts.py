@@ -1,0 +1,302 @@
+"""Parts of the built-in head: the skin ray grid, eyeballs, eyelids, ears, mouth, neck.
+
+Each builder returns a :class:`Part`: vertices, triangles, RGB + specular colours, vertex
+groups (``fp:<name>`` marks a feature-point vertex) and per-vertex weight layers for the
+deformation (``head``, ``jaw``, ``upper_lip``, ``lower_lip``, ``eyelid_*``). Parts are merged by
+:func:`merge`. See :mod:`renderer.headmodel` for the numbers that place them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from renderer.sdf import smoothstep
+
+SKIN = np.array([0.80, 0.60, 0.50])
+LIPS = np.array([0.66, 0.34, 0.34])
+HAIR = np.array([0.20, 0.14, 0.10])
+BROW = np.array([0.26, 0.18, 0.13])
+LAYER_DEFAULTS = {"head": 1.0}
+
+
+@dataclass
+class Part:
+    vertices: np.ndarray
+    triangles: np.ndarray
+    colors: np.ndarray
+    groups: dict[str, np.ndarray] = field(default_factory=dict)
+    layers: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+def merge(parts: list[Part]) -> Part:
+    """Concatenate parts, offsetting indices; missing layers get their default (head 1, else 0)."""
+    offsets = np.cumsum([0] + [len(p.vertices) for p in parts])
+    names = sorted({k for p in parts for k in p.layers})
+    layers = {k: np.concatenate([p.layers.get(k, np.full(len(p.vertices),
+                                                         LAYER_DEFAULTS.get(k, 0.0)))
+                                 for p in parts]) for k in names}
+    groups: dict[str, list[np.ndarray]] = {}
+    for off, p in zip(offsets, parts, strict=False):
+        for k, idx in p.groups.items():
+            groups.setdefault(k, []).append(np.asarray(idx) + off)
+    return Part(
+        vertices=np.concatenate([p.vertices for p in parts]),
+        triangles=np.concatenate([p.triangles + off for off, p in zip(offsets, parts,
+                                                                       strict=False)]),
+        colors=np.concatenate([p.colors for p in parts]),
+        groups={k: np.concatenate(v).astype(np.int64) for k, v in groups.items()},
+        layers=layers,
+    )
+
+
+def _grid_triangles(rows: int, cols: int, wrap: bool) -> np.ndarray:
+    """Two triangles per cell of a rows x cols vertex grid (row-major), optionally wrapping."""
+    r, c = np.meshgrid(np.arange(rows - 1), np.arange(cols if wrap else cols - 1), indexing="ij")
+    a = r * cols + c
+    b = r * cols + (c + 1) % cols
+    return np.concatenate([np.stack([a, b, b + cols], -1).reshape(-1, 3),
+                           np.stack([a, b + cols, a + cols], -1).reshape(-1, 3)])
+
+
+def _warp(n: int, lo: float, hi: float, dense_lo: float, dense_hi: float,
+          gain: float, endpoint: bool = True) -> np.ndarray:
+    """``n`` samples of [lo, hi] whose density is ``1 + gain`` inside [dense_lo, dense_hi]."""
+    x = np.linspace(lo, hi, 4001)
+    dens = 1.0 + gain * smoothstep(dense_lo - 8, dense_lo, x) * smoothstep(dense_hi + 8,
+                                                                             dense_hi, x)
+    cdf = np.concatenate([[0.0], np.cumsum((dens[1:] + dens[:-1]) / 2 * np.diff(x))])
+    u = np.linspace(0.0, cdf[-1], n + (0 if endpoint else 1))[: n]
+    return np.interp(u, cdf, x)
+
+
+def hair_mask(p: np.ndarray) -> np.ndarray:
+    """1 where hair grows on the skull (hairline by azimuth about the head's vertical axis)."""
+    az = np.degrees(np.abs(np.arctan2(p[:, 0], p[:, 2] + 5.0)))
+    line = np.interp(az, [0, 30, 50, 72, 85, 110, 140, 180], [76, 70, 52, 30, 40, 5, -40, -48])
+    return smoothstep(line - 4.0, line + 7.0, p[:, 1])
+
+
+def paint_skin(p: np.ndarray, mouth_y: float, half_width: float) -> np.ndarray:
+    """Skin colour with lips, eyebrows, cheeks and hair painted on (RGB + specular)."""
+    x, y, z = np.abs(p[:, 0]), p[:, 1], p[:, 2]
+    col = np.tile(SKIN, (len(p), 1))
+    cheek = np.exp(-(((x - 40) / 18) ** 2 + ((y + 25) / 16) ** 2)) * smoothstep(40, 60, z)
+    col = col + 0.5 * cheek[:, None] * (np.array([0.84, 0.50, 0.45]) - SKIN)
+    # vermilion: upper lip with a cupid's bow, fuller lower lip
+    prof = np.sqrt(np.clip(1 - (x / half_width) ** 2, 0, 1))
+    upper = mouth_y + 8.0 * prof ** 0.7 - 1.6 * np.exp(-((x / 4.0) ** 2)) + 0.6
+    lower = mouth_y - 10.0 * np.sqrt(np.clip(1 - (x / (half_width - 1)) ** 2, 0, 1)) ** 0.8
+    lip = smoothstep(upper + 1.0, upper - 1.0, y) * smoothstep(lower - 1.0, lower + 1.0, y)
+    lip = lip * smoothstep(70, 80, z) * smoothstep(half_width + 0.5, half_width - 2.0, x)
+    col = col + lip[:, None] * (LIPS - col)
+    # eyebrows: an arch from beside the nose bridge to the temple
+    t = (x - 13.0) / 40.0
+    centre = 29.0 + 6.5 * np.sin(np.pi * np.clip(t, 0, 1) * 0.85) - 2.5 * t
+    half = 3.6 * (1 - t) + 1.6 * t
+    brow = (smoothstep(half + 1.8, half - 1.2, np.abs(y - centre)) * smoothstep(-0.05, 0.05, t)
+            * smoothstep(1.05, 0.9, t) * smoothstep(45, 60, z))
+    col = col + 0.92 * brow[:, None] * (BROW - col)
+    col = col + hair_mask(p)[:, None] * (HAIR - col)
+    spec = 0.18 + 0.15 * lip
+    return np.column_stack([col, spec])
+
+
+def skin_grid(sdf: Callable[[np.ndarray], np.ndarray], centre: np.ndarray, solve,
+              n_azimuth: int, n_elevation: int, mouth_y: float, half_width: float) -> Part:
+    """The skin sampled on a ray grid about ``centre``, with the lips cut apart at the mouth.
+
+    Rows are elevations (one row passes exactly through the mouth line), columns azimuths
+    (column ``n_azimuth // 2`` is the midline); both are denser over the face.
+    """
+    az = np.radians(_warp(n_azimuth, -180, 180, -62, 62, 5.0, endpoint=False))
+    az = az - az[n_azimuth // 2]  # exact midline column
+    mouth_el = np.arctan2(mouth_y - centre[1], 97.0 - centre[2])
+    for _ in range(4):  # the mouth row meets the midline exactly at mouth_y
+        d = np.array([[0.0, np.sin(mouth_el), np.cos(mouth_el)]])
+        hit = centre + solve(sdf, centre, d, 260.0)[:, None] * d
+        mouth_el = np.arctan2(mouth_y - centre[1], hit[0, 2] - centre[2])
+    mouth_el = np.degrees(mouth_el)
+    el = _warp(n_elevation, -72, 86, -50, 36, 4.0)
+    m = int(np.argmin(np.abs(el - mouth_el)))
+    el[m] = mouth_el
+    el = np.radians(el)
+    E, A = np.meshgrid(el, az, indexing="ij")
+    dirs = np.stack([np.cos(E) * np.sin(A), np.sin(E), np.cos(E) * np.cos(A)], -1).reshape(-1, 3)
+    t = solve(sdf, centre, dirs, 260.0)
+    verts = centre + t[:, None] * dirs
+    tris = _grid_triangles(n_elevation, n_azimuth, wrap=True)
+    # pole cap
+    pole = len(verts)
+    top = (n_elevation - 1) * n_azimuth + np.arange(n_azimuth)
+    verts = np.vstack([verts, centre + solve(sdf, centre, np.array([[0.0, 1.0, 0.0]]), 260.0)
+                       * np.array([0.0, 1.0, 0.0])])
+    tris = np.vstack([tris, np.column_stack([top, np.roll(top, -1), np.full(n_azimuth, pole)])])
+    # the slit: duplicate the mouth-row vertices between the corners for the lower lip
+    row_m = m * n_azimuth + np.arange(n_azimuth)
+    slit = row_m[np.abs(verts[row_m, 0]) < half_width - 0.8]
+    lower_copy = np.arange(len(verts), len(verts) + len(slit))
+    remap = dict(zip(slit.tolist(), lower_copy.tolist(), strict=True))
+    below = (tris // n_azimuth).min(axis=1) == m - 1  # cells between rows m-1 and m
+    sub = tris[below]
+    tris[below] = np.vectorize(lambda i: remap.get(int(i), int(i)))(sub)
+    verts = np.vstack([verts, verts[slit]])
+    n = len(verts)
+    colors = paint_skin(verts, mouth_y, half_width)
+    colors[np.concatenate([slit, lower_copy]), :3] = [0.32, 0.13, 0.13]
+
+    # jaw weight: lower face follows the jaw; the cheeks beside the corners blend
+    el_v = np.concatenate([E.ravel(), [np.pi / 2], np.full(len(slit), el[m])])
+    az_v = np.concatenate([A.ravel(), [0.0], A.ravel()[slit]])
+    side = smoothstep(half_width - 3, half_width + 10, np.abs(verts[:, 0]))
+    tt = np.clip((el_v - el[m]) / np.radians(12.0), -1, 1)
+    lateral = 0.5 * (1 - np.sin(np.pi / 2 * tt))
+    span = (el_v < el[m]).astype(float)
+    span[lower_copy] = 1.0
+    jaw = ((1 - side) * span + side * lateral) * smoothstep(np.radians(100), np.radians(70),
+                                                            np.abs(az_v))
+    lower_lip = (el_v < el[m]).astype(float)
+    lower_lip[lower_copy] = 1.0
+    upper_lip = 1.0 - lower_lip
+
+    front = np.flatnonzero((verts[:, 2] > 40) & (np.arange(n) < pole))
+    front = front[~np.isin(front, lower_copy)]
+
+    def near(target: tuple[float, float], among: np.ndarray) -> np.ndarray:
+        d = np.hypot(verts[among, 0] - target[0], verts[among, 1] - target[1])
+        return np.array([among[int(np.argmin(d))]])
+
+    upper_row = slit
+    fps: dict[str, np.ndarray] = {}
+    hw2 = half_width * 0.5
+    corner_cols = row_m[np.abs(verts[row_m, 0]) >= half_width - 0.8]
+    for name, sx in (("l", 1.0), ("r", -1.0)):
+        k = {"l": 0, "r": 1}[name]
+        fps[f"2.{4 + k}"] = near((sx * half_width, mouth_y), corner_cols)
+        fps[f"2.{6 + k}"] = near((sx * hw2, mouth_y), upper_row)
+        fps[f"2.{8 + k}"] = near((sx * hw2, mouth_y), lower_copy)
+        fps[f"8.{3 + k}"] = near((sx * (half_width + 3), mouth_y), corner_cols)
+        up_y = mouth_y + 8.0 * (1 - 0.25) ** 0.35
+        fps[f"8.{5 + k}"] = near((sx * hw2, up_y), front)
+        fps[f"8.{7 + k}"] = near((sx * hw2, mouth_y - 8.8), front)
+        brow_pts = ((14.0, 29.5), (31.0, 35.0), (48.0, 31.5))
+        for j, (bx, by) in enumerate(brow_pts):
+            fps[f"4.{1 + 2 * j + k}"] = near((sx * bx, by), front)
+    fps["2.2"] = near((0.0, mouth_y), upper_row)
+    fps["2.3"] = near((0.0, mouth_y), lower_copy)
+    fps["8.1"] = near((0.0, mouth_y + 6.4), front)
+    fps["8.2"] = near((0.0, mouth_y - 10.0), front)
+    fps["2.10"] = near((0.0, -93.0), front)
+    fps["2.1"] = near((0.0, -108.0), front)
+    fps["9.15"] = near((0.0, -37.0), front)
+    fps["9.3"] = front[[int(np.argmax(verts[front, 2]))]]
+    groups = {f"fp:{k}": v for k, v in fps.items()}
+    layers = {"jaw": jaw, "lower_lip": lower_lip, "upper_lip": upper_lip}
+    return Part(verts, tris, colors, groups, layers)
+
+
+def _lathe(polar: np.ndarray, colours: np.ndarray, n_seg: int) -> tuple[np.ndarray, ...]:
+    """Unit sphere rings about +z at the given polar angles (0 = +z pole), per-ring colours."""
+    ang = np.linspace(0, 2 * np.pi, n_seg, endpoint=False)
+    P, A = np.meshgrid(polar, ang, indexing="ij")
+    v = np.stack([np.sin(P) * np.cos(A), np.sin(P) * np.sin(A), np.cos(P)], -1).reshape(-1, 3)
+    c = np.repeat(colours, n_seg, axis=0)
+    return v, _grid_triangles(len(polar), n_seg, wrap=True)[:, ::-1], c
+
+
+def eyeball(centre: np.ndarray, radius: float, name: str) -> Part:
+    """Eyeball with sclera, iris (with a darker limbus) and pupil; the pupil faces +z."""
+    sclera, iris, limbus, pupil = ([0.93, 0.91, 0.87, 0.9], [0.36, 0.27, 0.18, 0.9],
+                                   [0.14, 0.11, 0.09, 0.9], [0.03, 0.03, 0.03, 0.9])
+    spec = [(0.0, pupil), (0.10, pupil), (0.19, pupil), (0.19, iris), (0.33, iris),
+            (0.44, limbus), (0.48, limbus), (0.48, sclera), (0.7, sclera), (1.0, sclera),
+            (1.4, sclera), (1.9, sclera), (2.5, sclera), (3.1, sclera)]
+    polar = np.array([a for a, _ in spec])
+    v, t, c = _lathe(polar, np.array([c for _, c in spec]), 28)
+    verts = centre + radius * v
+    idx = np.arange(len(verts))
+    side = name[-1]
+    return Part(verts, t, c, {name: idx, f"fp:3.{5 if side == 'l' else 6}": idx[[0]]})
+
+
+def eyelid(centre: np.ndarray, radius: float, *, upper: bool, side: str) -> Part:
+    """An eyelid shell over the eyeball: margin arc to a root hidden under the skin."""
+    alpha = np.radians(np.linspace(-78, 78, 19))
+    a_n = alpha / np.radians(78)
+    lateral = a_n * (1.0 if side == "l" else -1.0)  # +1 at the outer corner
+    if upper:
+        margin = np.radians(3 + 20 * (1 - a_n ** 2) + 3 * lateral)
+        root = np.radians(np.full_like(alpha, 64.0))
+    else:
+        margin = np.radians(1 - 19 * (1 - a_n ** 2) + 3 * lateral)
+        root = np.radians(np.full_like(alpha, -58.0))
+    s = np.linspace(0, 1, 9)
+    B = margin[None, :] + s[:, None] * (root - margin)[None, :]
+    A = np.broadcast_to(alpha, B.shape)
+    v = np.stack([np.cos(B) * np.sin(A), np.sin(B), np.cos(B) * np.cos(A)], -1).reshape(-1, 3)
+    verts = centre + radius * v
+    tris = _grid_triangles(len(s), len(alpha), wrap=False)
+    if not upper:  # rows run downwards: keep the outside counter-clockwise
+        tris = tris[:, ::-1]
+    col = np.tile(np.append(SKIN * 0.97, 0.2), (len(verts), 1))
+    margin_col = [0.22, 0.15, 0.12] if upper else [0.62, 0.40, 0.38]
+    col[: len(alpha), :3] = margin_col
+    w = np.repeat(smoothstep(1.0, 0.45, s), len(alpha))
+    name = f"eyelid_{'upper' if upper else 'lower'}_{side}"
+    k = {"l": 0, "r": 1}[side]
+    fp = f"fp:3.{(1 if upper else 3) + k}"
+    return Part(verts, tris, col, {name: np.arange(len(verts)), fp: np.array([len(alpha) // 2])},
+                {name: w})
+
+
+def ellipsoid_mesh(centre, radii, colour, n_rings: int = 12, n_seg: int = 24) -> Part:
+    """A UV ellipsoid with one colour (RGB + specular)."""
+    polar = np.linspace(0, np.pi, n_rings)
+    v, t, _ = _lathe(polar, np.zeros((n_rings, 4)), n_seg)
+    verts = np.asarray(centre) + v[:, [0, 1, 2]] * np.asarray(radii)
+    return Part(verts, t, np.tile(np.asarray(colour, dtype=float), (len(verts), 1)))
+
+
+def ear(pos: np.ndarray, sx: float) -> Part:
+    """A simple ear: a flattened ellipsoid turned slightly forward."""
+    part = ellipsoid_mesh((0, 0, 0), (5.0, 29.0, 16.0), np.append(SKIN * 0.95, 0.15), 8, 14)
+    ang = np.radians(-25.0 * sx)
+    rot = np.array([[np.cos(ang), 0, np.sin(ang)], [0, 1, 0], [-np.sin(ang), 0, np.cos(ang)]])
+    part.vertices = part.vertices @ rot.T + pos
+    return part
+
+
+def mouth_cavity(mouth_y: float) -> Part:
+    """Dark oral cavity behind the lips, with upper teeth and jaw-borne lower teeth."""
+    cav = ellipsoid_mesh((0, mouth_y - 5, 70), (22, 16, 17), (0.20, 0.06, 0.06, 0.05))
+    cav.layers["jaw"] = smoothstep(mouth_y + 2, mouth_y - 8, cav.vertices[:, 1])
+    parts = [cav]
+    for upper in (True, False):
+        ang = np.radians(np.linspace(-62, 62, 15))
+        ys = np.array([mouth_y + 7.5, mouth_y + 0.6]) if upper else np.array(
+            [mouth_y - 0.6, mouth_y - 6.5])
+        rad = 19.5 if upper else 18.5
+        Y, A = np.meshgrid(ys, ang, indexing="ij")
+        v = np.stack([rad * np.sin(A), Y, 68.0 + rad * np.cos(A)], -1).reshape(-1, 3)
+        tooth = Part(v, _grid_triangles(2, len(ang), wrap=False)[:, ::-1],
+                     np.tile([0.90, 0.88, 0.80, 0.4], (len(v), 1)))
+        if not upper:
+            tooth.layers["jaw"] = np.ones(len(v))
+        parts.append(tooth)
+    return merge(parts)
+
+
+def neck_and_shoulders() -> Part:
+    """Neck (blending from still at the base to following the head) and shoulders (still)."""
+    ys = np.linspace(-215, -55, 8)
+    ang = np.linspace(0, 2 * np.pi, 28, endpoint=False)
+    Y, A = np.meshgrid(ys, ang, indexing="ij")
+    v = np.stack([50 * np.sin(A), Y, -6 + 54 * np.cos(A)], -1).reshape(-1, 3)
+    neck = Part(v, _grid_triangles(len(ys), len(ang), wrap=True),
+                np.tile(np.append(SKIN * 0.92, 0.12), (len(v), 1)),
+                layers={"head": smoothstep(-160, -70, v[:, 1])})
+    torso = ellipsoid_mesh((0, -224, -10), (190, 70, 95), (0.27, 0.31, 0.40, 0.05), 10, 24)
+    torso.layers["head"] = np.zeros(len(torso.vertices))
+    return merge([neck, torso])

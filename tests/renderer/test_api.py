@@ -1,0 +1,130 @@
+"""Clips decoded back: frame count and rate, size, audio length, mosaic, order, cache."""
+
+import re
+import subprocess
+
+import imageio_ffmpeg
+import numpy as np
+import pytest
+
+from app.errors import InputError
+from app.stimuli.track import MotionTrack
+from renderer import RenderSettings, render_pair, render_single, render_still
+from renderer.headmodel import builtin_face
+from renderer.pipeline import render_frames
+
+SIZE = 160
+SETTINGS = RenderSettings(size=SIZE, mosaic_block=16)
+
+
+def _tracks(n=45):
+    t = np.arange(n) / 30.0
+    a = MotionTrack.from_channels(30.0, {3: 300 + 300 * np.sin(9 * t), 49: 20000 * np.sin(t)})
+    b = MotionTrack.from_channels(30.0, {3: 250 + 250 * np.sin(6 * t), 31: 100 * t})
+    return a, b
+
+
+def decode(path):
+    """(metadata, frames) of an MP4, decoded with the bundled ffmpeg."""
+    exe = imageio_ffmpeg.get_ffmpeg_exe()
+    info = subprocess.run([exe, "-hide_banner", "-i", str(path)], capture_output=True,
+                          text=True).stderr
+    video = next(line for line in info.splitlines() if "Video:" in line)
+    size = tuple(int(x) for x in re.search(r", (\d+)x(\d+)", video).groups())
+    meta = {"codec": video.split("Video:")[1].split()[0], "size": size,
+            "fps": float(re.search(r"([\d.]+) fps", video).group(1)),
+            "pix_fmt": "yuv420p" if "yuv420p" in video else video}
+    raw = subprocess.run([exe, "-v", "error", "-i", str(path), "-f", "rawvideo", "-pix_fmt",
+                          "rgb24", "-"], capture_output=True, check=True).stdout
+    frames = np.frombuffer(raw, np.uint8).reshape(-1, size[1], size[0], 3)
+    return meta, list(frames)
+
+
+def audio_seconds(path, rate=16000):
+    out = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-v", "error", "-i", str(path),
+                          "-map", "0:a:0", "-f", "s16le", "-ac", "1", "-ar", str(rate), "-"],
+                         capture_output=True, check=True).stdout
+    return len(out) / 2 / rate
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("audio_len", [0.7, 3.0])
+def test_pair_clip_decodes_with_track_length_rate_size_and_audio(tmp_path, tone_wav, audio_len):
+    a, b = _tracks()
+    out = render_pair(a, b, tone_wav(audio_len), tmp_path / "clip.mp4", settings=SETTINGS)
+    meta, frames = decode(out)
+    assert len(frames) == 45
+    assert meta["fps"] == pytest.approx(30.0)
+    assert tuple(meta["size"]) == (2 * SIZE, SIZE)
+    assert meta["codec"].startswith("h264") and meta["pix_fmt"] == "yuv420p"
+    assert audio_seconds(out) == pytest.approx(1.5, abs=0.05)  # padded or trimmed to 1.5 s
+    head = out.read_bytes()[:4096]
+    assert head.find(b"moov") != -1 and head.find(b"moov") < max(head.find(b"mdat"), 4096)
+
+
+@pytest.mark.gl
+def test_mosaic_blocks_survive_encoding_within_codec_tolerance(tmp_path, tone_wav):
+    a, b = _tracks(20)
+    out = render_pair(a, b, tone_wav(1.0), tmp_path / "clip.mp4", settings=SETTINGS)
+    _, frames = decode(out)
+    raw = render_frames([a, b], builtin_face(), size=SIZE, samples=4,
+                        background=SETTINGS.background, mosaic_block=16, mosaic_margin=0.15)
+    for fr, dec in zip(raw, frames, strict=True):
+        for x0, y0, x1, y1 in fr.boxes:
+            for by in range(y0, y1, 16):
+                for bx in range(x0, x1, 16):
+                    inner = dec[by + 3:by + 13, bx + 3:bx + 13].astype(float)
+                    assert inner.std(axis=(0, 1)).max() < 4.0
+                    assert np.abs(inner.mean(axis=(0, 1)) - fr.image[by, bx]).max() < 12
+
+
+@pytest.mark.gl
+def test_swapping_sides_swaps_the_halves(tmp_path):
+    a, b = _tracks(3)
+    ab = render_still(a, 2, tmp_path / "ab.png", right=b, settings=SETTINGS)
+    ba = render_still(b, 2, tmp_path / "ba.png", right=a, settings=SETTINGS)
+    import imageio.v3 as iio
+
+    x, y = iio.imread(ab), iio.imread(ba)
+    assert x.shape == (SIZE, 2 * SIZE, 3)
+    assert np.array_equal(x[:, :SIZE], y[:, SIZE:]) and np.array_equal(x[:, SIZE:], y[:, :SIZE])
+
+
+@pytest.mark.gl
+def test_single_clip_and_still(tmp_path, tone_wav):
+    a, _ = _tracks(10)
+    out = render_single(a, tone_wav(1.0), tmp_path / "one.mp4", settings=SETTINGS)
+    meta, frames = decode(out)
+    assert len(frames) == 10 and tuple(meta["size"]) == (SIZE, SIZE)
+    png = render_still(a, 4, tmp_path / "s.png", settings=SETTINGS, mosaic=False)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.gl
+def test_cache_serves_the_same_render_and_never_a_stale_one(tmp_path, tone_wav):
+    a, b = _tracks(8)
+    audio = tone_wav(1.0)
+    calls = []
+    cache = tmp_path / "cache"
+    first = render_pair(a, b, audio, tmp_path / "1.mp4", settings=SETTINGS, cache_dir=cache,
+                        progress=lambda d, n: calls.append(d))
+    assert len(calls) == 8
+    calls.clear()
+    second = render_pair(a, b, audio, tmp_path / "2.mp4", settings=SETTINGS, cache_dir=cache,
+                         progress=lambda d, n: calls.append(d))
+    assert calls == [8] and second.read_bytes() == first.read_bytes()
+    changed = b.with_channels({31: b[31] + 1.0})
+    render_pair(a, changed, audio, tmp_path / "3.mp4", settings=SETTINGS, cache_dir=cache,
+                progress=lambda d, n: calls.append(d))
+    assert len(calls) == 1 + 8
+    assert len(list(cache.glob("*.mp4"))) == 2
+
+
+def test_bad_settings_and_audio_are_input_errors(tmp_path):
+    with pytest.raises(InputError, match="size: must be a multiple of 16"):
+        RenderSettings(size=100)
+    with pytest.raises(InputError, match="mosaic_block"):
+        RenderSettings(mosaic_block=-1)
+    a, b = _tracks(3)
+    with pytest.raises(InputError, match="audio file not found"):
+        render_pair(a, b, tmp_path / "missing.wav", tmp_path / "x.mp4", settings=SETTINGS)

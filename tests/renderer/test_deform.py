@@ -1,0 +1,116 @@
+"""The rig moves each FAP group in its MPEG-4 direction (no GL needed)."""
+
+import numpy as np
+import pytest
+
+from renderer.deform import SUPPORTED_FAPS, Rig, raised_cosine
+from renderer.headmodel import builtin_face
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return Rig(builtin_face())
+
+
+def _faps(**values):
+    f = np.zeros(68)
+    for k, v in values.items():
+        f[int(k[1:]) - 1] = v
+    return f
+
+
+def _moved(rig, faps, fp):
+    frame = rig.deform(faps)
+    i = rig.face.fp_vertices[fp]
+    return frame.positions[i].astype(float) - rig.face.vertices[i].astype(float)
+
+
+def test_raised_cosine_known_values():
+    d = np.array([0.0, 5.0, 10.0, 20.0])
+    assert np.allclose(raised_cosine(d, 10.0), [1.0, 0.5, 0.0, 0.0])
+
+
+def test_neutral_faps_leave_the_mesh_unchanged(rig):
+    frame = rig.deform(np.zeros(68))
+    assert np.array_equal(frame.positions, rig.face.vertices)
+    assert np.allclose(frame.head, np.eye(4)) and np.allclose(frame.eye_l, np.eye(4))
+
+
+@pytest.mark.parametrize("fap, fp, axis, sign", [
+    (31, "4.1", 1, 1), (32, "4.2", 1, 1), (33, "4.3", 1, 1), (34, "4.4", 1, 1),
+    (35, "4.5", 1, 1), (36, "4.6", 1, 1), (37, "4.1", 0, -1), (38, "4.2", 0, 1),
+    (4, "2.2", 1, -1), (5, "2.3", 1, 1), (6, "2.4", 0, 1), (7, "2.5", 0, -1),
+    (8, "2.6", 1, -1), (9, "2.7", 1, -1), (10, "2.8", 1, 1), (11, "2.9", 1, 1),
+    (12, "2.4", 1, 1), (13, "2.5", 1, 1), (16, "2.3", 2, 1), (17, "2.2", 2, 1),
+    (18, "2.10", 1, 1), (51, "8.1", 1, -1), (52, "8.2", 1, 1), (53, "8.3", 0, 1),
+    (54, "8.4", 0, -1), (55, "8.5", 1, -1), (56, "8.6", 1, -1), (57, "8.7", 1, 1),
+    (58, "8.8", 1, 1), (59, "8.3", 1, 1), (60, "8.4", 1, 1),
+    (3, "2.1", 1, -1), (14, "2.1", 2, 1), (15, "2.1", 0, -1),
+    (19, "3.1", 1, -1), (20, "3.2", 1, -1), (21, "3.3", 1, 1), (22, "3.4", 1, 1),
+])
+def test_translational_faps_move_their_point_the_mpeg4_way(rig, fap, fp, axis, sign):
+    d = _moved(rig, _faps(**{f"f{fap}": 200.0}), fp)
+    assert sign * d[axis] > 0.5, d
+
+
+def test_feature_point_moves_by_value_times_fapu(rig):
+    # 2.2 sits at the centre of its own zone: weight 1, FAPU MNS = MNS0 / 1024
+    d = _moved(rig, _faps(f4=512.0), "2.2")
+    assert d[1] == pytest.approx(-512 * rig.face.fapu["MNS0"] / 1024, rel=0.02)
+
+
+def test_open_jaw_lowers_the_chin_by_value_times_mns(rig):
+    d = _moved(rig, _faps(f3=100.0), "2.1")
+    assert -d[1] == pytest.approx(100 * rig.face.fapu["MNS0"] / 1024, rel=0.1)
+
+
+def test_jaw_parts_the_lips(rig):
+    up = _moved(rig, _faps(f3=400.0), "2.2")
+    low = _moved(rig, _faps(f3=400.0), "2.3")
+    assert abs(up[1]) < 0.05 and low[1] < -3.0
+
+
+def test_full_eyelid_closure_brings_the_upper_lid_to_the_lower(rig):
+    fp = rig.face.feature_points
+    frame = rig.deform(_faps(f19=1024.0))
+    top = frame.positions[rig.face.fp_vertices["3.1"]]
+    assert top[1] == pytest.approx(fp["3.3"][1], abs=1.5)
+
+
+def test_head_rotations_follow_mpeg4(rig):
+    nose = rig.face.feature_points["9.15"]
+
+    def moved(**v):
+        m = rig.deform(_faps(**v)).head
+        return m[:3, :3] @ nose + m[:3, 3] - nose
+
+    assert moved(f49=10000)[0] > 1.0  # yaw: towards the face's own left (+x)
+    assert moved(f48=10000)[1] < -1.0  # pitch: down
+    top = np.array([0.0, 120.0, 0.0])
+    m = rig.deform(_faps(f50=10000)).head
+    assert (m[:3, :3] @ top + m[:3, 3])[0] < top[0] - 1.0  # roll: top to the face's right
+
+
+def test_gaze_rotates_eyeballs_the_mpeg4_way(rig):
+    pupil = rig.face.feature_points["3.5"]
+    m = rig.deform(_faps(f23=20000)).eye_l
+    assert (m[:3, :3] @ pupil + m[:3, 3])[0] > pupil[0] + 1.0  # yaw: left
+    m = rig.deform(_faps(f25=20000)).eye_l
+    assert (m[:3, :3] @ pupil + m[:3, 3])[1] < pupil[1] - 1.0  # pitch: down
+    assert np.allclose(rig.deform(_faps(f23=20000)).eye_r, np.eye(4))
+
+
+def test_every_supported_fap_moves_the_face(rig):
+    neutral = rig.deform(np.zeros(68))
+    for fap in SUPPORTED_FAPS:
+        fr = rig.deform(_faps(**{f"f{fap}": 300.0 if fap < 48 or fap > 50 else 20000.0}))
+        moved = (np.abs(fr.positions - neutral.positions).max() > 0.5
+                 or not np.allclose(fr.head, neutral.head)
+                 or not np.allclose(fr.eye_l, neutral.eye_l)
+                 or not np.allclose(fr.eye_r, neutral.eye_r))
+        assert moved, fap
+
+
+def test_equal_brow_values_raise_the_brow_uniformly(rig):
+    d = [_moved(rig, _faps(f31=100, f33=100, f35=100), p)[1] for p in ("4.1", "4.3", "4.5")]
+    assert np.allclose(d, d[0], rtol=0.05)

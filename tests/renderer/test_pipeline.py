@@ -1,0 +1,103 @@
+"""Pixels of rendered frames: each FAP group moves the face visibly, the MPEG-4 way."""
+
+import numpy as np
+import pytest
+
+from app.stimuli.track import MotionTrack
+from renderer.headmodel import builtin_face
+from renderer.pipeline import align_tracks, render_frames
+
+pytestmark = pytest.mark.gl
+SIZE = 256
+
+
+def _frame(tracks, mosaic_block=0, index=0):
+    gen = render_frames(tracks, builtin_face(), size=SIZE, samples=4,
+                        background=(0.55, 0.56, 0.58), mosaic_block=mosaic_block,
+                        mosaic_margin=0.15, frames=range(index, index + 1))
+    out = next(gen)
+    gen.close()
+    return out.image.copy(), out.boxes
+
+
+def _track(**faps):
+    cols = {int(k[1:]): np.array([float(v)]) for k, v in faps.items()}
+    return MotionTrack.from_channels(30.0, cols) if cols else MotionTrack.zeros(30.0, 1)
+
+
+def _centroid(mask):
+    ys, xs = np.nonzero(mask)
+    return np.array([xs.mean(), ys.mean()])
+
+
+def _dark(img, thresh=60):
+    return img.astype(int).sum(axis=2) < 3 * thresh
+
+
+def test_head_yaw_turns_the_head_to_its_own_left_while_the_other_face_stays(tmp_path):
+    neutral, _ = _frame([_track(), _track()])
+    turned, _ = _frame([_track(), _track(f49=25000)])
+    left_n, left_t = neutral[:, :SIZE], turned[:, :SIZE]
+    assert np.array_equal(left_n, left_t)  # the other face does not move
+    diff = np.abs(turned[:, SIZE:].astype(int) - neutral[:, SIZE:].astype(int)).sum(axis=2)
+    assert (diff > 30).mean() > 0.02
+    # the face's own left is the viewer's right: the face's pixels shift right
+    skin_n = neutral[:, SIZE:, 0].astype(int) - neutral[:, SIZE:, 2] > 40
+    skin_t = turned[:, SIZE:, 0].astype(int) - turned[:, SIZE:, 2] > 40
+    upper = slice(SIZE // 4, SIZE // 2)
+    assert _centroid(skin_t[upper])[0] > _centroid(skin_n[upper])[0] + 2
+
+
+def test_eyebrow_raise_moves_brow_pixels_up():
+    neutral, _ = _frame([_track()])
+    raised, _ = _frame([_track(f31=250, f32=250, f33=250, f34=250, f35=250, f36=250)])
+    band = slice(int(SIZE * 0.2), int(SIZE * 0.42))
+
+    def brow(img):
+        region = img[band]
+        return (region.astype(int).sum(axis=2) < 260) & (region[..., 0] > region[..., 2])
+
+    assert _centroid(brow(raised))[1] < _centroid(brow(neutral))[1] - 1.5
+
+
+def test_gaze_moves_the_pupils():
+    neutral, _ = _frame([_track()])
+    looked, _ = _frame([_track(f23=25000, f24=25000)])
+    eyes = slice(int(SIZE * 0.3), int(SIZE * 0.45))
+    pupils_n, pupils_l = _dark(neutral[eyes], 40), _dark(looked[eyes], 40)
+    assert pupils_n.sum() > 4 and pupils_l.sum() > 4
+    # yaw positive = to the face's left = the viewer's right
+    assert _centroid(pupils_l)[0] > _centroid(pupils_n)[0] + 1.5
+
+
+def test_jaw_opens_the_mouth_before_the_mosaic():
+    neutral, _ = _frame([_track()])
+    opened, _ = _frame([_track(f3=500)])
+    mouth = slice(int(SIZE * 0.55), int(SIZE * 0.8))
+    assert _dark(opened[mouth]).sum() > _dark(neutral[mouth]).sum() + 100
+
+
+def test_mosaic_blocks_are_constant_on_raw_frames():
+    t = np.arange(12) / 30.0
+    a = MotionTrack.from_channels(30.0, {3: 300 + 300 * np.sin(9 * t), 49: 15000 * t})
+    b = MotionTrack.from_channels(30.0, {3: 200 + 200 * np.sin(5 * t)})
+    block = 16
+    gen = render_frames([a, b], builtin_face(), size=SIZE, samples=4,
+                        background=(0.5, 0.5, 0.5), mosaic_block=block, mosaic_margin=0.15)
+    n = 0
+    for fr in gen:
+        assert len(fr.boxes) == 2
+        for x0, y0, x1, y1 in fr.boxes:
+            assert x1 > x0 and y1 > y0
+            cells = fr.image[y0:y1, x0:x1].reshape((y1 - y0) // block, block,
+                                                   (x1 - x0) // block, block, 3)
+            assert (cells == cells[:, :1, :, :1]).all()
+        n += 1
+    assert n == 12
+
+
+def test_align_tracks_brings_the_second_track_to_the_first():
+    a = MotionTrack.zeros(30.0, 30, (3,))
+    b = MotionTrack.zeros(60.0, 40, (3,))
+    out = align_tracks([a, b], None)
+    assert [t.fps for t in out] == [30.0, 30.0] and [t.n_frames for t in out] == [30, 30]
