@@ -1,0 +1,1 @@
+"""API blueprint: JSON endpoints (votes, progress, job status)."""

@@ -1,0 +1,73 @@
+"""JSON endpoints under ``/api/v1``.
+
+``POST /api/v1/votes`` is idempotent: the same ``idempotency_key`` (or a second vote on an
+answered trial) returns the stored vote with status 200 instead of 201. Participants
+authenticate with their token in the body (votes) or the URL (progress); job status needs the
+owning experimenter's login.
+"""
+
+from __future__ import annotations
+
+import sqlalchemy as sa
+from flask import Blueprint, abort, jsonify, request, url_for
+
+from app.enrolment import progress as enrolment_progress
+from app.experimenter.auth import current_user
+from app.extensions import db
+from app.models import Job, Participant
+from app.voting import VoteRejected, record_vote
+
+bp = Blueprint("api", __name__, url_prefix="/api/v1")
+
+
+def _error(message: str, status: int):  # type: ignore[no-untyped-def]
+    return jsonify({"error": message}), status
+
+
+@bp.post("/votes")
+def post_vote():  # type: ignore[no-untyped-def]
+    payload = request.get_json(silent=True)
+    if not isinstance(payload, dict):
+        return _error("expected a JSON object", 400)
+    token = payload.get("token")
+    participant = None
+    if isinstance(token, str):
+        participant = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+    if participant is None:
+        return _error("unknown participant", 403)
+    try:
+        outcome = record_vote(participant, payload)
+    except VoteRejected as exc:
+        db.session.rollback()
+        return _error(exc.message, exc.status)
+    vote = outcome.vote
+    body = {
+        "status": "recorded" if outcome.created else "duplicate",
+        "vote": {"trial_id": vote.trial_id, "choice": vote.choice, "plays": vote.plays,
+                 "response_ms": vote.response_ms},
+        "answered": outcome.answered, "total": outcome.total,
+        "next": url_for("participant.resume", token=participant.token),
+    }
+    db.session.commit()
+    return jsonify(body), 201 if outcome.created else 200
+
+
+@bp.get("/participants/<token>/progress")
+def progress(token: str):  # type: ignore[no-untyped-def]
+    participant = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+    if participant is None:
+        return _error("unknown participant", 404)
+    answered, total = enrolment_progress(participant)
+    return jsonify({"answered": answered, "total": total,
+                    "finished": participant.finished_at is not None})
+
+
+@bp.get("/jobs/<int:job_id>")
+def job_status(job_id: int):  # type: ignore[no-untyped-def]
+    user = current_user()
+    if user is None:
+        return _error("login required", 401)
+    job = db.session.get(Job, job_id)
+    if job is None or job.study.owner_id != user.id:
+        abort(404)
+    return jsonify(job.as_dict())

@@ -1,0 +1,227 @@
+"""Web commands: ``facepair serve``, ``demo``, ``worker``, ``study create``, ``experimenter add``.
+
+The database schema comes from the migrations (``flask --app app db upgrade``); ``demo`` runs
+that upgrade itself on the embedded SQLite default, every other command expects it done.
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import click
+
+from app.errors import InputError
+
+REPO = Path(__file__).resolve().parents[2]
+DEMO_EMAIL = "demo@facepair.local"
+DEMO_PASSWORD = "facepair-demo"
+
+
+def _app(**config: Any):  # type: ignore[no-untyped-def]
+    from app import create_app
+
+    return create_app(config or None)
+
+
+@contextmanager
+def _context(app):  # type: ignore[no-untyped-def]
+    """An application context whose database connections are closed on the way out."""
+    from app.extensions import db
+
+    with app.app_context():
+        try:
+            yield
+        finally:
+            db.session.remove()
+            db.engine.dispose()
+
+
+def _run_jobs(study_id: int, kinds: tuple[str, ...]) -> None:
+    """Run jobs in this process with a progress bar each; a failed job is an error."""
+    from tqdm import tqdm
+
+    from app.extensions import transaction
+    from app.jobs.tasks import run_job
+    from app.models import Job
+
+    for kind in kinds:
+        with transaction() as session:
+            job = Job(study_id=study_id, kind=kind)
+            session.add(job)
+        with tqdm(desc=kind, unit="step", file=None, leave=True) as bar:
+            def echo(done: int, total: int, bar: tqdm = bar) -> None:
+                bar.total = total
+                bar.n = done
+                bar.refresh()
+
+            status = run_job(job.id, echo=echo)
+        from app.extensions import db
+
+        job = db.session.get(Job, job.id)
+        if status != "done":
+            raise click.ClickException(f"{kind} failed: {job.message}")  # type: ignore[union-attr]
+
+
+def _create_study(path: Path, owner_email: str) -> int:
+    import sqlalchemy as sa
+
+    from app.extensions import db
+    from app.models import User
+    from app.studies import create_study
+    from app.trials.studyfile import load_study_file
+
+    owner = db.session.scalar(sa.select(User).where(User.email == owner_email.lower()))
+    if owner is None:
+        raise InputError(f"no experimenter {owner_email!r} (add one with 'facepair "
+                         f"experimenter add')", field="--owner")
+    spec = load_study_file(path)
+    study = create_study(owner, spec, source_toml=path.read_text(encoding="utf-8"))
+    db.session.commit()
+    return study.id
+
+
+def _serve(app, host: str, port: int, workers: int, dev: bool) -> None:  # type: ignore[no-untyped-def]
+    if dev:
+        app.run(host=host, port=port, threaded=True, use_reloader=False)
+        return
+    from gunicorn.app.base import BaseApplication
+
+    class Server(BaseApplication):  # type: ignore[misc]
+        def load_config(self) -> None:
+            self.cfg.set("bind", f"{host}:{port}")
+            self.cfg.set("workers", workers)
+            self.cfg.set("threads", 4)
+            self.cfg.set("worker_class", "gthread")
+            self.cfg.set("accesslog", "-")
+
+        def load(self):  # type: ignore[no-untyped-def]
+            return app
+
+    Server().run()
+
+
+@click.command()
+@click.option("--host", default="127.0.0.1", show_default=True)
+@click.option("--port", default=5000, show_default=True, type=int)
+@click.option("--workers", default=2, show_default=True, type=int, help="gunicorn workers")
+@click.option("--dev", is_flag=True, help="Flask's development server instead of gunicorn.")
+def serve(host: str, port: int, workers: int, dev: bool) -> None:
+    """Serve the web application (gunicorn; the schema must be migrated first)."""
+    _serve(_app(), host, port, workers, dev)
+
+
+@click.command()
+def worker() -> None:
+    """Run an RQ worker for the background jobs (needs REDIS_URL)."""
+    app = _app()
+    url = app.config.get("REDIS_URL")
+    if not url:
+        raise InputError("set REDIS_URL to run a worker (without it jobs run in the web "
+                         "process)", field="REDIS_URL")
+    from redis import Redis
+    from rq import Worker
+
+    with app.app_context():
+        Worker(["facepair"], connection=Redis.from_url(url)).work()
+
+
+@click.group()
+def study() -> None:
+    """Create studies from study files."""
+
+
+@study.command("create")
+@click.argument("study_file", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--owner", required=True, help="E-mail of the owning experimenter.")
+@click.option("--render", is_flag=True, help="Generate the tracks and render the clips now.")
+@click.option("--open", "open_", is_flag=True, help="Open recruitment (implies --render).")
+def create(study_file: Path, owner: str, render: bool, open_: bool) -> None:
+    """Create a study from STUDY_FILE (TOML) for an experimenter."""
+    from flask import url_for
+
+    from app.extensions import db
+    from app.models import Study
+
+    app = _app()
+    with _context(app):
+        study_id = _create_study(study_file, owner)
+        if render or open_:
+            _run_jobs(study_id, ("generate", "render"))
+        if open_:
+            db.session.get(Study, study_id).status = "open"  # type: ignore[union-attr]
+            db.session.commit()
+        slug = db.session.get(Study, study_id).slug  # type: ignore[union-attr]
+        with app.test_request_context():
+            link = url_for("participant.start", slug=slug)
+    click.echo(f"study {study_id} created; participant link: {link}")
+
+
+@click.group()
+def experimenter() -> None:
+    """Manage experimenter accounts."""
+
+
+@experimenter.command("add")
+@click.argument("email")
+@click.password_option(help="At least 8 characters.")
+def add(email: str, password: str) -> None:
+    """Add an experimenter who can log in at /experimenter/login."""
+    from app.experimenter.auth import create_user
+    from app.extensions import db
+
+    app = _app()
+    with _context(app):
+        try:
+            create_user(email, password)
+            db.session.commit()
+        except ValueError as exc:
+            raise InputError(str(exc), field="--password") from None
+    click.echo(f"experimenter {email.lower()} added")
+
+
+@click.command()
+@click.option("--host", default="127.0.0.1", show_default=True)
+@click.option("--port", default=5000, show_default=True, type=int)
+@click.option("--study-file", type=click.Path(dir_okay=False, path_type=Path),
+              default=REPO / "examples" / "study.toml", show_default=True)
+@click.option("--no-serve", is_flag=True, help="Set everything up, print the URLs, exit.")
+def demo(host: str, port: int, study_file: Path, no_serve: bool) -> None:
+    """Migrate the embedded database, create a demo experimenter and a ready, open demo study
+    (tracks generated, clips rendered from the demo speech), then serve it."""
+    import sqlalchemy as sa
+    from flask_migrate import upgrade
+
+    from app.experimenter.auth import create_user
+    from app.extensions import db
+    from app.models import Study, User
+
+    app = _app()
+    with _context(app):
+        upgrade()
+        user = db.session.scalar(sa.select(User).where(User.email == DEMO_EMAIL))
+        if user is None:
+            user = create_user(DEMO_EMAIL, DEMO_PASSWORD)
+            db.session.commit()
+        study = db.session.scalar(sa.select(Study).where(
+            Study.owner_id == user.id, Study.status == "open").order_by(Study.id.desc()))
+        if study is None:
+            click.echo(f"creating the demo study from {study_file} ...", err=True)
+            study_id = _create_study(study_file, DEMO_EMAIL)
+            _run_jobs(study_id, ("generate", "render"))
+            study = db.session.get(Study, study_id)
+            study.status = "open"  # type: ignore[union-attr]
+            db.session.commit()
+        slug, study_id = study.slug, study.id  # type: ignore[union-attr]
+    base = f"http://{host}:{port}"
+    click.echo(f"\n  participant:   {base}/s/{slug}\n"
+               f"  experimenter:  {base}/experimenter/studies/{study_id}\n"
+               f"  login:         {DEMO_EMAIL} / {DEMO_PASSWORD}\n")
+    if not no_serve:
+        _serve(app, host, port, workers=1, dev=False)
+
+
+def register(main: click.Group) -> None:
+    for command in (serve, worker, study, experimenter, demo):
+        main.add_command(command)

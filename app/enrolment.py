@@ -1,0 +1,129 @@
+"""Enrolling a participant: balanced list assignment and a reproducible schedule, one transaction.
+
+The list comes from the assignment table (:class:`~app.models.StudyList`), never from counting
+participant rows: the least-filled list is chosen (``app.trials.assignment.choose_list``) and
+its count raised by a conditional UPDATE that only succeeds if nobody raised it meanwhile; on a
+lost race the counts are read again (bounded retry). The caller commits, so the count, the
+participant and the schedule are stored together or not at all.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+
+import sqlalchemy as sa
+
+from app import design
+from app.extensions import db
+from app.models import Participant, Stimulus, Study, StudyList, Trial, Vote, utcnow
+
+MAX_ATTEMPTS = 20
+
+
+class EnrolmentBusy(RuntimeError):
+    """Too many simultaneous arrivals; the participant should simply retry."""
+
+
+def _take_list(study: Study) -> tuple[StudyList, int]:
+    """Raise the count of the least-filled list; returns it and its arrivals before."""
+    for _ in range(MAX_ATTEMPTS):
+        rows = db.session.execute(
+            sa.select(StudyList.id, StudyList.index, StudyList.n_assigned, StudyList.n_arrived)
+            .where(StudyList.study_id == study.id)).all()
+        counts = {row.index: row.n_assigned for row in rows}
+        index = design.choose_list(study, counts)
+        row = next(r for r in rows if r.index == index)
+        # n_arrived only grows, so this guard cannot be fooled by a release in between.
+        result = db.session.execute(
+            sa.update(StudyList)
+            .where(StudyList.id == row.id, StudyList.n_assigned == row.n_assigned,
+                   StudyList.n_arrived == row.n_arrived)
+            .values(n_assigned=StudyList.n_assigned + 1, n_arrived=StudyList.n_arrived + 1)
+            .execution_options(synchronize_session=False))
+        if result.rowcount == 1:
+            return db.session.get(StudyList, row.id), row.n_arrived  # type: ignore[return-value]
+    raise EnrolmentBusy("too many participants arriving at once; please reload the page")
+
+
+def enrol(study: Study, *, user_agent: str = "", prolific_pid: str | None = None,
+          prolific_study_id: str | None = None,
+          prolific_session_id: str | None = None) -> Participant:
+    """Create a participant with a list, a seed and a schedule (not committed)."""
+    study_list, before = _take_list(study)
+    # (list, arrivals before) is unique per study, so this arrival number is too.
+    number = before * len(study.lists) + study_list.index
+    seed = design.participant_seed(study, number)
+    participant = Participant(
+        study_id=study.id, list_id=study_list.id, number=number, seed=seed,
+        user_agent=user_agent, prolific_pid=prolific_pid, prolific_study_id=prolific_study_id,
+        prolific_session_id=prolific_session_id)
+    db.session.add(participant)
+    db.session.flush()
+    clips = {c.name: c.id for c in study.clips}
+    conditions = {c.name: c.id for c in study.conditions}
+    stimuli = {(s.clip_id, s.left_id, s.right_id): s.id for s in db.session.scalars(
+        sa.select(Stimulus).where(Stimulus.study_id == study.id))}
+    pairs: dict[tuple[int, int], int] = {}
+    for pair in study.pairs:
+        pairs.setdefault((pair.first_id, pair.second_id), pair.id)
+    for pair in study.pairs:
+        pairs.setdefault((pair.second_id, pair.first_id), pair.id)
+    rows = []
+    for item in design.schedule(study, seed=seed, list_index=study_list.index):
+        left, right = conditions[item.left], conditions[item.right]
+        rows.append({
+            "participant_id": participant.id, "position": item.position, "kind": item.kind,
+            "expected": item.expected, "pair_id": pairs.get((left, right)),
+            "stimulus_id": stimuli[(clips[item.clip], left, right)],
+        })
+    db.session.execute(sa.insert(Trial), rows)
+    return participant
+
+
+def next_trial(participant: Participant) -> Trial | None:
+    """The participant's first trial without a vote (where a reload resumes)."""
+    return db.session.scalar(
+        sa.select(Trial)
+        .outerjoin(Vote, Vote.trial_id == Trial.id)
+        .where(Trial.participant_id == participant.id, Trial.kind != "practice",
+               Vote.id.is_(None))
+        .order_by(Trial.position).limit(1))
+
+
+def practice_stimulus(participant: Participant) -> Stimulus | None:
+    """The clip of the practice pair on the instructions page (votes on it are never stored):
+    the schedule's practice trial, else the study's first rendered pair of two conditions."""
+    practice = db.session.scalar(sa.select(Trial).where(
+        Trial.participant_id == participant.id, Trial.kind == "practice").limit(1))
+    if practice is not None:
+        return practice.stimulus
+    study = participant.study
+    return db.session.scalar(
+        sa.select(Stimulus).where(Stimulus.study_id == study.id,
+                                  Stimulus.video_path.is_not(None),
+                                  Stimulus.left_id != Stimulus.right_id)
+        .order_by(Stimulus.id).limit(1))
+
+
+def release_dropped(study: Study, *, after: dt.timedelta) -> int:
+    """Mark unfinished participants idle for longer than ``after`` as dropped and give their
+    list slots back (thesis-style balance over those who actually take part)."""
+    cutoff = utcnow() - after
+    stale = db.session.scalars(sa.select(Participant).where(
+        Participant.study_id == study.id, Participant.finished_at.is_(None),
+        Participant.dropped_at.is_(None), Participant.last_seen_at < cutoff)).all()
+    for participant in stale:
+        participant.dropped_at = utcnow()
+        db.session.execute(sa.update(StudyList).where(StudyList.id == participant.list_id)
+                           .values(n_assigned=StudyList.n_assigned - 1))
+    return len(stale)
+
+
+def progress(participant: Participant) -> tuple[int, int]:
+    """(answered, total) over the participant's real and catch trials (not the practice)."""
+    answered = db.session.scalar(
+        sa.select(sa.func.count(Vote.id)).where(Vote.participant_id == participant.id))
+    total = db.session.scalar(
+        sa.select(sa.func.count(Trial.id)).where(Trial.participant_id == participant.id,
+                                                 Trial.kind != "practice"))
+    return int(answered or 0), int(total or 0)

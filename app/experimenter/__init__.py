@@ -1,0 +1,1 @@
+"""Experimenter blueprint: login, studies, jobs, recruitment, monitor, export, reports."""

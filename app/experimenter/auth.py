@@ -1,0 +1,47 @@
+"""Experimenter login: hashed passwords (werkzeug), the user id in the signed session."""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from typing import Any
+
+import sqlalchemy as sa
+from flask import g, redirect, request, session, url_for
+
+from app.extensions import db
+from app.models import User
+
+
+def current_user() -> User | None:
+    if "user" not in g:
+        user_id = session.get("user_id")
+        g.user = db.session.get(User, user_id) if user_id is not None else None
+    return g.user
+
+
+def login_required(view: Callable[..., Any]) -> Callable[..., Any]:
+    @functools.wraps(view)
+    def wrapped(*args: Any, **kwargs: Any) -> Any:
+        if current_user() is None:
+            return redirect(url_for("experimenter.login", next=request.path))
+        return view(*args, **kwargs)
+
+    return wrapped
+
+
+def authenticate(email: str, password: str) -> User | None:
+    user = db.session.scalar(sa.select(User).where(User.email == email.strip().lower()))
+    if user is None or not user.check_password(password):
+        return None
+    return user
+
+
+def create_user(email: str, password: str) -> User:
+    """A new experimenter (not committed); e-mail addresses are stored lower-case."""
+    if len(password) < 8:
+        raise ValueError("password: at least 8 characters")
+    user = User(email=email.strip().lower())
+    user.set_password(password)
+    db.session.add(user)
+    return user

@@ -1,0 +1,73 @@
+"""Experimenter forms (Flask-WTF: every form carries a CSRF token)."""
+
+from __future__ import annotations
+
+from flask_wtf import FlaskForm
+from flask_wtf.file import FileAllowed, FileField, FileRequired
+from wtforms import (
+    BooleanField,
+    EmailField,
+    IntegerField,
+    MultipleFileField,
+    PasswordField,
+    SelectChoice,
+    SelectField,
+    SelectMultipleField,
+    StringField,
+    SubmitField,
+    TextAreaField,
+)
+from wtforms.validators import URL, DataRequired, NumberRange, Optional
+
+DESIGN_CHOICES = [
+    SelectChoice("all_ordered", "All ordered pairs, same-condition pairs included (thesis)"),
+    SelectChoice("reference", "Every condition against one reference (Le et al. 2012)"),
+    SelectChoice("unordered_counterbalanced", "Unordered pairs, sides counterbalanced"),
+]
+REPLAY_CHOICES = [SelectChoice("unlimited", "Unlimited replays"),
+                  SelectChoice("max_plays", "At most N plays"),
+                  SelectChoice("play_to_end", "Must play to the end before voting")]
+
+
+class LoginForm(FlaskForm):
+    email = EmailField("E-mail", validators=[DataRequired()])
+    password = PasswordField("Password", validators=[DataRequired()])
+    submit = SubmitField("Log in")
+
+
+class ActionForm(FlaskForm):
+    """A bare form for buttons that change state (only the CSRF token)."""
+
+
+class StudyFileForm(FlaskForm):
+    study_file = FileField("Study file (.toml)", validators=[
+        FileRequired(), FileAllowed(["toml"], "a .toml study file")])
+    media = MultipleFileField("Audio and track files it names (.wav, .fap, ...)")
+    submit = SubmitField("Create study from file")
+
+
+class StudyWebForm(FlaskForm):
+    title = StringField("Title", validators=[DataRequired()])
+    question = StringField("Question", validators=[DataRequired()],
+                           default="Which animation looks more natural?")
+    instructions = TextAreaField("Instructions")
+    consent = TextAreaField("Consent text")
+    models = SelectMultipleField("Conditions from models", choices=[])
+    tracks = MultipleFileField("Uploaded tracks, named <condition>__<clip>.fap")
+    audio = MultipleFileField("Clips: audio files (the file name is the clip name)",
+                              validators=[DataRequired()])
+    ground_truth = MultipleFileField("Ground truth: <clip>.fap (optional)")
+    design = SelectField("Pair design", choices=DESIGN_CHOICES, default="all_ordered")
+    reference = StringField("Reference condition (design 'reference')")
+    undecided_allowed = BooleanField("Allow an undecided answer", default=True)
+    undecided_label = StringField("Label of the undecided answer", default="Undecided")
+    replay = SelectField("Replay policy", choices=REPLAY_CHOICES, default="unlimited")
+    max_plays = IntegerField("Maximum plays", validators=[Optional(), NumberRange(min=1)])
+    catch_trials = IntegerField("Catch trials", default=0, validators=[NumberRange(min=0)])
+    target_participants = IntegerField("Target participants", default=20,
+                                       validators=[NumberRange(min=1)])
+    completion_code = StringField("Completion code")
+    redirect_url = StringField("Redirect URL after completion",
+                               validators=[Optional(), URL(require_tld=False)])
+    seed = IntegerField("Seed", default=0, validators=[NumberRange(min=0)])
+    submit = SubmitField("Create study")

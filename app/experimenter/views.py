@@ -1,0 +1,287 @@
+"""Experimenter pages under ``/experimenter``: each experimenter sees only their own studies."""
+
+from __future__ import annotations
+
+import datetime as dt
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import sqlalchemy as sa
+from flask import (
+    Blueprint,
+    Response,
+    abort,
+    current_app,
+    flash,
+    redirect,
+    render_template,
+    request,
+    send_file,
+    session,
+    url_for,
+)
+from werkzeug.utils import secure_filename
+from wtforms import SelectChoice
+
+from app.errors import InputError
+from app.experimenter.auth import authenticate, current_user, login_required
+from app.experimenter.forms import ActionForm, LoginForm, StudyFileForm, StudyWebForm
+from app.extensions import db
+from app.jobs import enqueue
+from app.jobs.tasks import JOB_KINDS
+from app.models import Job, Stimulus, Study
+from app.storage import media_file
+
+bp = Blueprint("experimenter", __name__, url_prefix="/experimenter")
+
+
+@bp.before_request
+def _load_user() -> None:
+    current_user()  # sets g.user for the templates
+
+
+def _own_study(study_id: int) -> Study:
+    """The study if it belongs to the logged-in experimenter; 404 otherwise (no leak)."""
+    study = db.session.get(Study, study_id)
+    user = current_user()
+    if study is None or user is None or study.owner_id != user.id:
+        abort(404)
+    return study
+
+
+def _dropped_after() -> dt.timedelta:
+    return dt.timedelta(minutes=current_app.config["DROPPED_AFTER_MINUTES"])
+
+
+@bp.route("/login", methods=["GET", "POST"])
+def login():  # type: ignore[no-untyped-def]
+    form = LoginForm()
+    if form.validate_on_submit():
+        user = authenticate(form.email.data or "", form.password.data or "")
+        if user is not None:
+            session.clear()
+            session["user_id"] = user.id
+            target = request.args.get("next", "")
+            # Only local paths: an open redirect would hand the session to another site.
+            if not target.startswith("/") or target.startswith("//"):
+                target = url_for(".studies")
+            return redirect(target)
+        flash("Unknown e-mail or wrong password.", "error")
+    return render_template("experimenter/login.html", form=form)
+
+
+@bp.post("/logout")
+def logout():  # type: ignore[no-untyped-def]
+    if ActionForm().validate_on_submit():
+        session.clear()
+    return redirect(url_for(".login"))
+
+
+@bp.get("/")
+@login_required
+def studies():  # type: ignore[no-untyped-def]
+    user = current_user()
+    rows = db.session.scalars(sa.select(Study).where(Study.owner_id == user.id)  # type: ignore[union-attr]
+                              .order_by(Study.created_at.desc())).all()
+    return render_template("experimenter/studies.html", studies=rows, action=ActionForm())
+
+
+def _save_uploads(files: list[Any], folder: Path) -> dict[str, Path]:
+    saved = {}
+    for upload in files:
+        if not upload or not getattr(upload, "filename", ""):
+            continue
+        name = secure_filename(upload.filename)
+        if name:
+            upload.save(folder / name)
+            saved[name] = folder / name
+    return saved
+
+
+def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
+    """The web form as a study-file mapping, validated by the same parser as a TOML file."""
+    audio = _save_uploads(form.audio.data or [], folder)
+    truths = _save_uploads(form.ground_truth.data or [], folder)
+    tracks = _save_uploads(form.tracks.data or [], folder)
+    clips = []
+    for name in audio:
+        clip: dict[str, Any] = {"name": Path(name).stem, "audio": name}
+        truth = next((t for t in truths if Path(t).stem == Path(name).stem), None)
+        if truth:
+            clip["ground_truth"] = truth
+        clips.append(clip)
+    conditions: list[dict[str, Any]] = [{"name": m, "model": m} for m in form.models.data or []]
+    uploaded: dict[str, dict[str, str]] = {}
+    for name in tracks:
+        condition, _, clip_name = Path(name).stem.partition("__")
+        if not clip_name:
+            raise InputError("expected <condition>__<clip>.fap", path=name, field="tracks")
+        uploaded.setdefault(condition, {})[clip_name] = name
+    conditions += [{"name": c, "tracks": t} for c, t in uploaded.items()]
+    data: dict[str, Any] = {
+        "title": form.title.data, "question": form.question.data,
+        "instructions": form.instructions.data or "", "consent": form.consent.data or "",
+        "design": form.design.data, "seed": form.seed.data or 0,
+        "target_participants": form.target_participants.data or 1,
+        "completion_code": form.completion_code.data or "",
+        "undecided": {"allowed": bool(form.undecided_allowed.data),
+                      "label": form.undecided_label.data or "Undecided"},
+        "replay": {"policy": form.replay.data},
+        "catch": {"trials": form.catch_trials.data or 0,
+                  "kind": "identical" if form.undecided_allowed.data else "instructed"},
+        "clips": clips, "conditions": conditions,
+    }
+    if form.replay.data == "max_plays":
+        data["replay"]["max_plays"] = form.max_plays.data or 1
+    if form.reference.data:
+        data["reference"] = form.reference.data.strip()
+    if form.redirect_url.data:
+        data["redirect_url"] = form.redirect_url.data.strip()
+    return data
+
+
+@bp.route("/studies/new", methods=["GET", "POST"])
+@login_required
+def new_study():  # type: ignore[no-untyped-def]
+    from app.studies import create_study
+    from app.trials.studyfile import MODELS, loads_study, parse_study
+
+    file_form = StudyFileForm(prefix="file")
+    web_form = StudyWebForm(prefix="web")
+    web_form.models.choices = [SelectChoice(m) for m in MODELS]
+    study = None
+    try:
+        with tempfile.TemporaryDirectory(prefix="facepair-upload-") as tmp:
+            folder = Path(tmp)
+            if file_form.submit.data and file_form.validate_on_submit():
+                upload = file_form.study_file.data
+                text = upload.read().decode("utf-8", errors="replace")
+                _save_uploads(file_form.media.data or [], folder)
+                spec = loads_study(text, source=secure_filename(upload.filename) or "study.toml",
+                                   base_dir=folder)
+                study = create_study(current_user(), spec, source_toml=text)  # type: ignore[arg-type]
+            elif web_form.submit.data and web_form.validate_on_submit():
+                spec = parse_study(_web_form_mapping(web_form, folder), source="form",
+                                   base_dir=folder)
+                study = create_study(current_user(), spec)  # type: ignore[arg-type]
+    except InputError as exc:
+        db.session.rollback()
+        flash(str(exc), "error")
+        return render_template("experimenter/new_study.html", file_form=file_form,
+                               web_form=web_form), 400
+    if study is not None:
+        db.session.commit()
+        flash("Study created. Generate the tracks, then render the clips.", "ok")
+        return redirect(url_for(".study", study_id=study.id))
+    status = 400 if request.method == "POST" else 200
+    return render_template("experimenter/new_study.html", file_form=file_form,
+                           web_form=web_form), status
+
+
+@bp.get("/studies/<int:study_id>")
+@login_required
+def study(study_id: int):  # type: ignore[no-untyped-def]
+    study = _own_study(study_id)
+    jobs = db.session.scalars(sa.select(Job).where(Job.study_id == study.id)
+                              .order_by(Job.id.desc()).limit(10)).all()
+    stimuli = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id)
+                                 .order_by(Stimulus.id)).all()
+    link = url_for("participant.start", slug=study.slug, _external=True)
+    return render_template("experimenter/study.html", study=study, jobs=jobs, stimuli=stimuli,
+                           link=link, action=ActionForm())
+
+
+@bp.post("/studies/<int:study_id>/jobs/<kind>")
+@login_required
+def start_job(study_id: int, kind: str):  # type: ignore[no-untyped-def]
+    study = _own_study(study_id)
+    if kind not in JOB_KINDS or not ActionForm().validate_on_submit():
+        abort(400)
+    job = Job(study_id=study.id, kind=kind)
+    db.session.add(job)
+    db.session.commit()
+    # After the commit: the worker must find the row.
+    enqueue(current_app._get_current_object(), job.id)  # type: ignore[attr-defined]
+    return redirect(url_for(".study", study_id=study.id))
+
+
+@bp.post("/studies/<int:study_id>/status/<action>")
+@login_required
+def change_status(study_id: int, action: str):  # type: ignore[no-untyped-def]
+    from app.studies import change_status as apply
+
+    study = _own_study(study_id)
+    if not ActionForm().validate_on_submit():
+        abort(400)
+    if action == "open" and any(s.video_path is None for s in db.session.scalars(
+            sa.select(Stimulus).where(Stimulus.study_id == study.id))):
+        flash("Render the clips before opening recruitment.", "error")
+        return redirect(url_for(".study", study_id=study.id))
+    try:
+        apply(study, action)
+    except ValueError as exc:
+        flash(str(exc), "error")
+        return redirect(url_for(".study", study_id=study.id))
+    job = Job(study_id=study.id, kind="report") if action == "close" else None
+    if job is not None:
+        db.session.add(job)
+    db.session.commit()
+    if job is not None:  # the report is regenerated when the study closes
+        enqueue(current_app._get_current_object(), job.id)  # type: ignore[attr-defined]
+    return redirect(url_for(".study", study_id=study.id))
+
+
+@bp.get("/studies/<int:study_id>/monitor")
+@login_required
+def monitor(study_id: int):  # type: ignore[no-untyped-def]
+    from app.enrolment import release_dropped
+    from app.monitor import study_monitor
+
+    study = _own_study(study_id)
+    release_dropped(study, after=_dropped_after())
+    db.session.commit()
+    stats = study_monitor(study, dropped_after=_dropped_after())
+    return render_template("experimenter/monitor.html", study=study, stats=stats)
+
+
+@bp.get("/studies/<int:study_id>/votes.csv")
+@login_required
+def export_votes(study_id: int):  # type: ignore[no-untyped-def]
+    from app.exports import votes_csv
+
+    study = _own_study(study_id)
+    name = secure_filename(study.title) or f"study-{study.id}"
+    return Response(votes_csv(study), mimetype="text/csv",
+                    headers={"Content-Disposition": f'attachment; filename="{name}-votes.csv"'})
+
+
+@bp.get("/studies/<int:study_id>/report/")
+@bp.get("/studies/<int:study_id>/report/<path:name>")
+@login_required
+def report(study_id: int, name: str = "report.html"):  # type: ignore[no-untyped-def]
+    from app.exports import report_path
+
+    study = _own_study(study_id)
+    folder = report_path(study).parent
+    try:
+        path = media_file(study, f"{folder.name}/{name}")
+    except ValueError:
+        abort(404)
+    if not path.is_file():
+        if name != "report.html":
+            abort(404)
+        return render_template("experimenter/no_report.html", study=study,
+                               action=ActionForm()), 404
+    return send_file(path, max_age=0)
+
+
+@bp.get("/studies/<int:study_id>/stimuli/<int:stimulus_id>.mp4")
+@login_required
+def preview(study_id: int, stimulus_id: int):  # type: ignore[no-untyped-def]
+    study = _own_study(study_id)
+    stimulus = db.session.get(Stimulus, stimulus_id)
+    if stimulus is None or stimulus.study_id != study.id or not stimulus.video_path:
+        abort(404)
+    return send_file(media_file(study, stimulus.video_path), mimetype="video/mp4",
+                     conditional=True)

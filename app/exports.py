@@ -1,0 +1,76 @@
+"""Votes in the analysis module's CSV schema, and the analysis report of a study.
+
+The column names come from ``app.analysis.votes.VOTE_COLUMNS`` (one place for the votes
+schema). Practice answers are never stored; catch trials are attention checks and are left
+out of the export and the report (the monitor shows how many were passed).
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import Any
+
+import sqlalchemy as sa
+
+from app.extensions import db
+from app.models import Clip, Condition, Participant, Stimulus, Study, Trial, Vote
+from app.storage import media_dir
+
+
+def _iso(value: Any) -> str:
+    return value.isoformat(timespec="milliseconds") + "Z" if value is not None else ""
+
+
+def vote_rows(study: Study) -> list[dict[str, Any]]:
+    """One dict per stored vote of a real trial, ordered by participant and trial position."""
+    left = sa.orm.aliased(Condition)
+    right = sa.orm.aliased(Condition)
+    query = (
+        sa.select(Vote, Trial.position, Participant.number, Clip.name, left.name, right.name)
+        .join(Trial, Vote.trial_id == Trial.id)
+        .join(Participant, Vote.participant_id == Participant.id)
+        .join(Stimulus, Trial.stimulus_id == Stimulus.id)
+        .join(Clip, Stimulus.clip_id == Clip.id)
+        .join(left, Stimulus.left_id == left.id)
+        .join(right, Stimulus.right_id == right.id)
+        .where(Participant.study_id == study.id, Trial.kind == "trial")
+        .order_by(Participant.number, Trial.position)
+    )
+    rows = []
+    for vote, position, number, clip, left_name, right_name in db.session.execute(query):
+        rows.append({
+            "participant": f"P{number:04d}", "clip": clip, "left": left_name,
+            "right": right_name, "choice": vote.choice, "study": study.title,
+            "trial": position, "response_ms": vote.response_ms, "plays": vote.plays,
+            "presented_at": _iso(vote.presented_at), "voted_at": _iso(vote.voted_at),
+        })
+    return rows
+
+
+def votes_csv(study: Study) -> str:
+    """The study's votes as CSV text (``app.analysis.votes.write_votes_csv``)."""
+    from app.analysis.votes import write_votes_csv
+
+    buffer = io.StringIO()
+    write_votes_csv(vote_rows(study), buffer)
+    return buffer.getvalue()
+
+
+def report_path(study: Study) -> Path:
+    return media_dir(study) / "report" / "report.html"
+
+
+def write_report_files(study: Study) -> Path:
+    """Analyse the votes so far and write the HTML report into the study's media folder."""
+    from app.analysis import analyze
+    from app.analysis.report import write_report
+    from app.analysis.votes import read_votes
+
+    path = report_path(study)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    csv_path = path.parent / "votes.csv"
+    csv_path.write_text(votes_csv(study), encoding="utf-8")
+    results = analyze(read_votes(csv_path), conditions=[c.name for c in study.conditions])
+    write_report(results, path)
+    return path

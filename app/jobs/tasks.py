@@ -1,0 +1,175 @@
+"""The job bodies. Each runs inside an application context and reports progress on its row.
+
+The pure packages are imported inside the functions: the web process never loads the renderer's
+GL stack, and a missing optional part fails the job with one clear message instead of breaking
+the application.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+
+import sqlalchemy as sa
+
+from app.extensions import db, transaction
+from app.models import Clip, Job, Stimulus, Study, Track, utcnow
+from app.storage import media_dir
+
+log = logging.getLogger(__name__)
+
+JOB_KINDS = ("generate", "render", "report")
+
+
+def _progress(job_id: int, *, min_interval: float = 0.5,
+              echo: Callable[[int, int], None] | None = None) -> Callable[[int, int], None]:
+    """A ``progress(done, total)`` callback that writes the job row at most every 0.5 s (and
+    passes every call on to ``echo``, e.g. a CLI progress bar)."""
+    last = [0.0]
+
+    def report(done: int, total: int) -> None:
+        if echo is not None:
+            echo(done, total)
+        now = time.monotonic()
+        if now - last[0] < min_interval and done < total:
+            return
+        last[0] = now
+        with transaction() as session:
+            session.execute(sa.update(Job).where(Job.id == job_id)
+                            .values(done=int(done), total=int(total)))
+
+    return report
+
+
+def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
+    """Motion tracks of every condition on every clip (``app.stimuli.generate``)."""
+    from app.stimuli.generate import generate_conditions
+    from app.stimuli.io import load_track, save_track
+
+    root = media_dir(study)
+    models = [c for c in study.conditions if c.model != "upload"]
+    total = len(study.clips) * len(study.conditions)
+    done = 0
+    progress(done, total)
+    for clip in study.clips:
+        tracks = {}
+        if models:
+            result = generate_conditions(
+                root / clip.audio_path,
+                conditions={c.name: {"model": c.model, **c.params} for c in models},
+                ground_truth=(root / clip.ground_truth_path) if clip.ground_truth_path else None,
+                seed=study.seed,
+            )
+            tracks.update(result.tracks)
+        for condition in study.conditions:
+            rel = f"tracks/{clip.name}/{condition.name}.fap"
+            (root / rel).parent.mkdir(parents=True, exist_ok=True)
+            if condition.model == "upload":
+                source = condition.uploads.get(clip.name)
+                if source is None:
+                    raise ValueError(f"condition {condition.name}: no uploaded track for clip "
+                                     f"{clip.name}")
+                save_track(load_track(root / source), root / rel)
+            else:
+                save_track(tracks[condition.name], root / rel)
+            _upsert_track(condition.id, clip.id, rel)
+            done += 1
+            progress(done, total)
+    db.session.commit()
+    return f"{done} tracks generated"
+
+
+def _upsert_track(condition_id: int, clip_id: int, rel: str) -> None:
+    track = db.session.scalar(sa.select(Track).where(Track.condition_id == condition_id,
+                                                     Track.clip_id == clip_id))
+    if track is None:
+        db.session.add(Track(condition_id=condition_id, clip_id=clip_id, path=rel))
+    else:
+        track.path = rel
+
+
+def render_clips(study: Study, progress: Callable[[int, int], None]) -> str:
+    """Render every stimulus video of the study (``renderer.render_pair``)."""
+    import renderer
+    from app.stimuli.io import load_track
+
+    root = media_dir(study)
+    tracks = {(t.condition_id, t.clip_id): t.path for t in db.session.scalars(
+        sa.select(Track).join(Clip).where(Clip.study_id == study.id))}
+    stimuli = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id)
+                                 .order_by(Stimulus.id)).all()
+    missing = [s for s in stimuli if (s.left_id, s.clip_id) not in tracks
+               or (s.right_id, s.clip_id) not in tracks]
+    if missing:
+        raise ValueError("generate the tracks first: some conditions have no track yet")
+    settings = renderer.RenderSettings(**study.settings.get("render", {}))
+    cache = root / "cache"
+    for i, stim in enumerate(stimuli):
+        progress(i, len(stimuli))
+        rel = f"videos/{stim.clip.name}/{stim.left.name}__{stim.right.name}.mp4"
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        renderer.render_pair(
+            load_track(root / tracks[(stim.left_id, stim.clip_id)]),
+            load_track(root / tracks[(stim.right_id, stim.clip_id)]),
+            root / stim.clip.audio_path, root / rel, settings=settings, cache_dir=cache)
+        stim.video_path = rel
+        db.session.commit()
+    progress(len(stimuli), len(stimuli))
+    if study.status == "draft":
+        study.status = "ready"
+    db.session.commit()
+    return f"{len(stimuli)} clips rendered"
+
+
+def build_report(study: Study, progress: Callable[[int, int], None]) -> str:
+    """The analysis report of the votes so far (``app.analysis``), as HTML."""
+    from app.exports import write_report_files
+
+    progress(0, 1)
+    path = write_report_files(study)
+    study.report_at = utcnow()
+    db.session.commit()
+    progress(1, 1)
+    return f"report written: {path.name}"
+
+
+TASKS: dict[str, Callable[[Study, Callable[[int, int], None]], str]] = {
+    "generate": generate_tracks, "render": render_clips, "report": build_report}
+
+
+def run_job(job_id: int, *, echo: Callable[[int, int], None] | None = None) -> str:
+    """Run job ``job_id``; its row ends ``done`` with a summary or ``failed`` with the error.
+    Returns the final status."""
+    job = db.session.get(Job, job_id)
+    if job is None:
+        log.warning("job %s vanished", job_id)
+        return "failed"
+    job.status = "running"
+    study_id, kind = job.study_id, job.kind
+    db.session.commit()
+    try:
+        study = db.session.get(Study, study_id)
+        message = TASKS[kind](study, _progress(job_id, echo=echo))  # type: ignore[arg-type]
+        status = "done"
+    except Exception as exc:  # noqa: BLE001 - every failure must reach the experimenter
+        db.session.rollback()
+        log.exception("job %s (%s) failed", job_id, kind)
+        message = f"{type(exc).__name__}: {exc}" if not str(exc).startswith(type(exc).__name__) \
+            else str(exc)
+        status = "failed"
+    with transaction() as session:
+        job = session.get(Job, job_id)
+        job.status, job.message, job.finished_at = status, message, utcnow()  # type: ignore[union-attr]
+        if status == "done":
+            job.done = job.total = max(job.total, 1)  # type: ignore[union-attr]
+    return status
+
+
+def run_job_standalone(job_id: int) -> None:
+    """Entry point for the RQ worker: builds the app from the environment."""
+    from app import create_app
+
+    with create_app().app_context():
+        run_job(job_id)
+

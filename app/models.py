@@ -1,0 +1,284 @@
+"""The study design and its results as rows (SQLAlchemy 2 typed models).
+
+A study owns its conditions, clips, pairs, the rendered stimuli (one video per clip and
+left/right order), the balancing lists and the participants; a participant owns a schedule of
+trials and at most one vote per trial. Contended writes are guarded by unique constraints:
+``(participant, trial)`` and the client's idempotency key on :class:`Vote`, the public token on
+:class:`Participant` and the study link on :class:`Study`.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import secrets
+from typing import Any
+
+import sqlalchemy as sa
+from sqlalchemy import orm as so
+from werkzeug.security import check_password_hash, generate_password_hash
+
+from app.extensions import db
+
+
+def utcnow() -> dt.datetime:
+    return dt.datetime.now(dt.UTC).replace(tzinfo=None)
+
+
+def new_token(nbytes: int = 24) -> str:
+    """An unguessable URL-safe token (``nbytes`` random bytes)."""
+    return secrets.token_urlsafe(nbytes)
+
+
+#: Study life cycle: draft -> ready (clips rendered) -> open <-> paused -> closed.
+STUDY_STATES = ("draft", "ready", "open", "paused", "closed")
+JOB_STATES = ("queued", "running", "done", "failed")
+
+
+class User(db.Model):
+    """An experimenter; sees only the studies they own."""
+
+    id: so.Mapped[int] = so.mapped_column(primary_key=True)
+    email: so.Mapped[str] = so.mapped_column(sa.String(200), unique=True)
+    password_hash: so.Mapped[str] = so.mapped_column(sa.String(256))
+    created_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
+
+    def set_password(self, password: str) -> None:
+        self.password_hash = generate_password_hash(password)
+
+    def check_password(self, password: str) -> bool:
+        return check_password_hash(self.password_hash, password)
+
+
+class Study(db.Model):
+    id: so.Mapped[int] = so.mapped_column(primary_key=True)
+    owner_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("user.id"), index=True)
+    #: The public participant link is ``/s/<slug>``: unguessable, so drafts stay private.
+    slug: so.Mapped[str] = so.mapped_column(sa.String(64), unique=True, default=new_token)
+    title: so.Mapped[str] = so.mapped_column(sa.String(200))
+    instructions: so.Mapped[str] = so.mapped_column(sa.Text, default="")
+    question: so.Mapped[str] = so.mapped_column(sa.Text, default="")
+    consent: so.Mapped[str] = so.mapped_column(sa.Text, default="")
+    #: Pair design name from ``app.trials`` (e.g. all ordered pairs, against a reference).
+    design: so.Mapped[str] = so.mapped_column(sa.String(40))
+    reference: so.Mapped[str | None] = so.mapped_column(sa.String(80))
+    allow_undecided: so.Mapped[bool] = so.mapped_column(default=True)
+    undecided_label: so.Mapped[str] = so.mapped_column(sa.String(80), default="Undecided")
+    #: Replay policy (``app.trials.rules``): "unlimited", "max_plays" or "play_to_end".
+    replay: so.Mapped[str] = so.mapped_column(sa.String(20), default="unlimited")
+    max_plays: so.Mapped[int | None]
+    catch_trials: so.Mapped[int] = so.mapped_column(default=0)
+    #: "identical" (same condition both sides, expect undecided) or "instructed".
+    catch_kind: so.Mapped[str] = so.mapped_column(sa.String(20), default="identical")
+    target_participants: so.Mapped[int] = so.mapped_column(default=20)
+    completion_code: so.Mapped[str] = so.mapped_column(sa.String(80), default="")
+    redirect_url: so.Mapped[str] = so.mapped_column(sa.String(500), default="")
+    #: Seed from which every participant's schedule seed is derived (reproducible schedules).
+    seed: so.Mapped[int] = so.mapped_column(sa.BigInteger, default=0)
+    status: so.Mapped[str] = so.mapped_column(sa.String(20), default="draft")
+    #: The study file it was created from (TOML), kept verbatim for the record.
+    source_toml: so.Mapped[str] = so.mapped_column(sa.Text, default="")
+    #: Render settings and anything else the design needs (JSON).
+    settings: so.Mapped[dict[str, Any]] = so.mapped_column(sa.JSON, default=dict)
+    created_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
+    report_at: so.Mapped[dt.datetime | None]
+
+    owner: so.Mapped[User] = so.relationship()
+    conditions: so.Mapped[list[Condition]] = so.relationship(
+        back_populates="study", order_by="Condition.position", cascade="all, delete-orphan")
+    clips: so.Mapped[list[Clip]] = so.relationship(
+        back_populates="study", order_by="Clip.position", cascade="all, delete-orphan")
+    pairs: so.Mapped[list[Pair]] = so.relationship(
+        back_populates="study", order_by="Pair.position", cascade="all, delete-orphan")
+    lists: so.Mapped[list[StudyList]] = so.relationship(
+        back_populates="study", order_by="StudyList.index", cascade="all, delete-orphan")
+
+
+class Condition(db.Model):
+    """One experimental condition: a model with settings, or an uploaded .fap track."""
+
+    __table_args__ = (sa.UniqueConstraint("study_id", "name"),)
+    id: so.Mapped[int] = so.mapped_column(primary_key=True)
+    study_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study.id"), index=True)
+    name: so.Mapped[str] = so.mapped_column(sa.String(80))
+    #: Registry name in ``app.stimuli.conditions`` or "upload" for an uploaded track.
+    model: so.Mapped[str] = so.mapped_column(sa.String(80))
+    params: so.Mapped[dict[str, Any]] = so.mapped_column(sa.JSON, default=dict)
+    #: Uploaded tracks by clip name (relative to the study's media folder).
+    uploads: so.Mapped[dict[str, str]] = so.mapped_column(sa.JSON, default=dict)
+    position: so.Mapped[int] = so.mapped_column(default=0)
+
+    study: so.Mapped[Study] = so.relationship(back_populates="conditions")
+
+
+class Clip(db.Model):
+    """One utterance: its audio and, optionally, captured ground-truth motion."""
+
+    __table_args__ = (sa.UniqueConstraint("study_id", "name"),)
+    id: so.Mapped[int] = so.mapped_column(primary_key=True)
+    study_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study.id"), index=True)
+    name: so.Mapped[str] = so.mapped_column(sa.String(80))
+    #: Paths relative to the study's media folder.
+    audio_path: so.Mapped[str] = so.mapped_column(sa.String(500))
+    ground_truth_path: so.Mapped[str | None] = so.mapped_column(sa.String(500))
+    position: so.Mapped[int] = so.mapped_column(default=0)
+
+    study: so.Mapped[Study] = so.relationship(back_populates="clips")
+
+
+class Track(db.Model):
+    """The generated (or uploaded) motion track of one condition on one clip."""
+
+    __table_args__ = (sa.UniqueConstraint("condition_id", "clip_id"),)
+    id: so.Mapped[int] = so.mapped_column(primary_key=True)
+    condition_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("condition.id"))
+    clip_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("clip.id"), index=True)
+    path: so.Mapped[str] = so.mapped_column(sa.String(500))
+
+    condition: so.Mapped[Condition] = so.relationship()
+    clip: so.Mapped[Clip] = so.relationship()
+
+
+class Pair(db.Model):
+    """A pair of conditions to compare, in the order the design gives it."""
+
+    id: so.Mapped[int] = so.mapped_column(primary_key=True)
+    study_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study.id"), index=True)
+    first_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("condition.id"))
+    second_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("condition.id"))
+    position: so.Mapped[int] = so.mapped_column(default=0)
+
+    study: so.Mapped[Study] = so.relationship(back_populates="pairs")
+    first: so.Mapped[Condition] = so.relationship(foreign_keys=[first_id])
+    second: so.Mapped[Condition] = so.relationship(foreign_keys=[second_id])
+
+    @property
+    def label(self) -> str:
+        return f"{self.first.name} vs {self.second.name}"
+
+
+class Stimulus(db.Model):
+    """A rendered side-by-side video: one clip, one condition on each side."""
+
+    __table_args__ = (sa.UniqueConstraint("clip_id", "left_id", "right_id"),)
+    id: so.Mapped[int] = so.mapped_column(primary_key=True)
+    study_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study.id"), index=True)
+    clip_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("clip.id"))
+    left_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("condition.id"))
+    right_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("condition.id"))
+    #: Relative to the study's media folder; None until rendered.
+    video_path: so.Mapped[str | None] = so.mapped_column(sa.String(500))
+
+    clip: so.Mapped[Clip] = so.relationship()
+    left: so.Mapped[Condition] = so.relationship(foreign_keys=[left_id])
+    right: so.Mapped[Condition] = so.relationship(foreign_keys=[right_id])
+
+
+class StudyList(db.Model):
+    """The assignment table: one row per counterbalancing list with its running count.
+
+    A new participant takes the least-filled list and the count is raised by a conditional
+    UPDATE in the same transaction that creates the participant, never by counting rows.
+    """
+
+    __table_args__ = (sa.UniqueConstraint("study_id", "index"),)
+    id: so.Mapped[int] = so.mapped_column(primary_key=True)
+    study_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study.id"))
+    index: so.Mapped[int]
+    #: Participants holding or having completed this list (dropped ones give it back).
+    n_assigned: so.Mapped[int] = so.mapped_column(default=0)
+    #: Participants ever assigned (never decreases; numbers the arrivals).
+    n_arrived: so.Mapped[int] = so.mapped_column(default=0)
+
+    study: so.Mapped[Study] = so.relationship(back_populates="lists")
+
+
+class Participant(db.Model):
+    __table_args__ = (sa.UniqueConstraint("study_id", "number"),)
+    id: so.Mapped[int] = so.mapped_column(primary_key=True)
+    study_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study.id"), index=True)
+    #: The participant's only credential: in their URL and a cookie.
+    token: so.Mapped[str] = so.mapped_column(sa.String(64), unique=True, default=new_token)
+    list_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study_list.id"))
+    #: Arrival number within the study (from the assignment table, see ``app.enrolment``).
+    number: so.Mapped[int]
+    #: Seed of this participant's schedule (trial order, sides, catch positions).
+    seed: so.Mapped[int] = so.mapped_column(sa.BigInteger)
+    prolific_pid: so.Mapped[str | None] = so.mapped_column(sa.String(64))
+    prolific_study_id: so.Mapped[str | None] = so.mapped_column(sa.String(64))
+    prolific_session_id: so.Mapped[str | None] = so.mapped_column(sa.String(64))
+    user_agent: so.Mapped[str] = so.mapped_column(sa.String(300), default="")
+    consented_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
+    started_at: so.Mapped[dt.datetime | None]
+    finished_at: so.Mapped[dt.datetime | None]
+    last_seen_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
+    #: Set when an unfinished participant timed out and gave their list slot back.
+    dropped_at: so.Mapped[dt.datetime | None]
+
+    study: so.Mapped[Study] = so.relationship()
+    study_list: so.Mapped[StudyList] = so.relationship()
+    trials: so.Mapped[list[Trial]] = so.relationship(
+        back_populates="participant", order_by="Trial.position", cascade="all, delete-orphan")
+
+
+class Trial(db.Model):
+    """One row of a participant's schedule: which video, in which position."""
+
+    __table_args__ = (sa.UniqueConstraint("participant_id", "position"),)
+    id: so.Mapped[int] = so.mapped_column(primary_key=True)
+    participant_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("participant.id"))
+    position: so.Mapped[int]
+    #: The design pair shown (either side order); None for an "identical" catch trial.
+    pair_id: so.Mapped[int | None] = so.mapped_column(sa.ForeignKey("pair.id"))
+    stimulus_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("stimulus.id"))
+    #: "trial" or "catch" (``app.trials.schedule.TRIAL_KINDS``).
+    kind: so.Mapped[str] = so.mapped_column(sa.String(10), default="trial")
+    #: For a catch trial, the answer an attentive participant gives.
+    expected: so.Mapped[str | None] = so.mapped_column(sa.String(10))
+
+    participant: so.Mapped[Participant] = so.relationship(back_populates="trials")
+    pair: so.Mapped[Pair | None] = so.relationship()
+    stimulus: so.Mapped[Stimulus] = so.relationship()
+    vote: so.Mapped[Vote | None] = so.relationship(back_populates="trial", uselist=False)
+
+
+class Vote(db.Model):
+    """A participant's answer to one trial: stored exactly once."""
+
+    __table_args__ = (sa.UniqueConstraint("participant_id", "trial_id"),)
+    id: so.Mapped[int] = so.mapped_column(primary_key=True)
+    participant_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("participant.id"),
+                                                      index=True)
+    trial_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("trial.id"), index=True)
+    #: Chosen by the browser per trial; a retried request carries the same key.
+    idempotency_key: so.Mapped[str] = so.mapped_column(sa.String(64), unique=True)
+    choice: so.Mapped[str] = so.mapped_column(sa.String(10))
+    #: Milliseconds from the start of the first playback to the vote.
+    response_ms: so.Mapped[int | None]
+    plays: so.Mapped[int] = so.mapped_column(default=0)
+    #: Browser clock (ISO 8601) when the clip was shown; the server clock when stored.
+    presented_at: so.Mapped[dt.datetime | None]
+    voted_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
+
+    trial: so.Mapped[Trial] = so.relationship(back_populates="vote")
+    participant: so.Mapped[Participant] = so.relationship()
+
+
+class Job(db.Model):
+    """A background job (generate tracks, render clips, report) and its visible progress."""
+
+    id: so.Mapped[int] = so.mapped_column(primary_key=True)
+    study_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study.id"), index=True)
+    kind: so.Mapped[str] = so.mapped_column(sa.String(20))
+    status: so.Mapped[str] = so.mapped_column(sa.String(20), default="queued")
+    done: so.Mapped[int] = so.mapped_column(default=0)
+    total: so.Mapped[int] = so.mapped_column(default=0)
+    message: so.Mapped[str] = so.mapped_column(sa.Text, default="")
+    created_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
+    finished_at: so.Mapped[dt.datetime | None]
+
+    study: so.Mapped[Study] = so.relationship()
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"id": self.id, "kind": self.kind, "status": self.status, "done": self.done,
+                "total": self.total, "message": self.message,
+                "fraction": (self.done / self.total) if self.total else 0.0}

@@ -1,0 +1,1 @@
+"""Participant blueprint: consent, instructions with a practice pair, trials, completion."""

@@ -1,0 +1,141 @@
+"""Recording a vote exactly once.
+
+A vote is written when it is cast. Retried and double-clicked submissions carry the same
+idempotency key and are answered with the stored vote; the unique constraints on
+``vote.idempotency_key`` and ``vote(participant_id, trial_id)`` settle races between concurrent
+requests (the loser's INSERT fails, it rolls back and reads the winner's row).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+from dataclasses import dataclass
+from typing import Any
+
+import sqlalchemy as sa
+from sqlalchemy.exc import IntegrityError
+
+from app.analysis.votes import CHOICES
+from app.enrolment import progress
+from app.extensions import db
+from app.models import Participant, Trial, Vote, utcnow
+
+
+class VoteRejected(Exception):
+    """The request cannot be a vote of this participant; ``status`` is the HTTP status."""
+
+    def __init__(self, message: str, status: int = 400) -> None:
+        super().__init__(message)
+        self.message = message
+        self.status = status
+
+
+@dataclass(frozen=True)
+class VoteOutcome:
+    vote: Vote
+    #: True when this request stored it; False when it was already stored (a retry).
+    created: bool
+    answered: int
+    total: int
+
+
+def _parse_time(value: Any) -> dt.datetime | None:
+    if value in (None, ""):
+        return None
+    try:
+        stamp = dt.datetime.fromisoformat(str(value).replace("Z", "+00:00"))
+    except ValueError as exc:
+        raise VoteRejected("presented_at: expected an ISO 8601 time") from exc
+    if stamp.tzinfo is not None:
+        stamp = stamp.astimezone(dt.UTC).replace(tzinfo=None)
+    return stamp
+
+
+def _int_field(payload: dict[str, Any], name: str, *, required: bool = False) -> int | None:
+    value = payload.get(name)
+    if value is None:
+        if required:
+            raise VoteRejected(f"{name}: required")
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float) or value < 0:
+        raise VoteRejected(f"{name}: expected a non-negative number")
+    return int(value)
+
+
+def validate(participant: Participant, payload: dict[str, Any]) -> tuple[Trial, dict[str, Any]]:
+    """Check a vote request against the participant's schedule and the study's rules."""
+    study = participant.study
+    if study.status not in ("open", "paused"):
+        raise VoteRejected("this study is closed", 409)
+    trial_id = _int_field(payload, "trial_id", required=True)
+    trial = db.session.get(Trial, trial_id)
+    # Another participant's trial is reported exactly like a missing one: nothing leaks.
+    if trial is None or trial.participant_id != participant.id:
+        raise VoteRejected("no such trial", 404)
+    if trial.kind == "practice":
+        raise VoteRejected("the practice pair is not recorded", 422)
+    choice = payload.get("choice")
+    if choice not in CHOICES or (choice == "undecided" and not study.allow_undecided):
+        allowed = CHOICES if study.allow_undecided else CHOICES[:2]
+        raise VoteRejected(f"choice: expected one of {', '.join(allowed)}")
+    key = payload.get("idempotency_key")
+    if not isinstance(key, str) or not 8 <= len(key) <= 64:
+        raise VoteRejected("idempotency_key: expected a string of 8 to 64 characters")
+    plays = _int_field(payload, "plays", required=True) or 0
+    watched = bool(payload.get("watched_to_end", False))
+    from app.design import may_vote
+
+    reason = may_vote(study, plays=plays, watched_to_end=watched)
+    if reason:
+        raise VoteRejected(reason, 422)
+    fields = {
+        "choice": choice,
+        "idempotency_key": key,
+        "plays": plays,
+        "response_ms": _int_field(payload, "response_ms"),
+        "presented_at": _parse_time(payload.get("presented_at")),
+    }
+    return trial, fields
+
+
+def _existing(participant: Participant, trial: Trial, key: str) -> Vote | None:
+    return db.session.scalar(
+        sa.select(Vote).where(
+            sa.or_(Vote.idempotency_key == key,
+                   sa.and_(Vote.participant_id == participant.id, Vote.trial_id == trial.id))
+        )
+    )
+
+
+def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcome:
+    """Store the vote in ``payload`` once; the caller commits (one unit of work per request).
+
+    Raises :class:`VoteRejected` for a request that is not a valid vote of this participant
+    (another participant's trial, a bad choice, a key reused on another trial).
+    """
+    trial, fields = validate(participant, payload)
+    participant_id, trial_id, key = participant.id, trial.id, fields["idempotency_key"]
+    created = False
+    vote = _existing(participant, trial, key)
+    if vote is None:
+        vote = Vote(participant_id=participant_id, trial_id=trial_id, **fields)
+        db.session.add(vote)
+        try:
+            db.session.flush()
+            created = True
+        except IntegrityError:
+            # A concurrent request with the same key or trial won the race: read its row.
+            db.session.rollback()
+            participant = db.session.get(Participant, participant_id)  # type: ignore[assignment]
+            trial = db.session.get(Trial, trial_id)  # type: ignore[assignment]
+            vote = _existing(participant, trial, key)
+            if vote is None:  # pragma: no cover - the constraint fired, so the row exists
+                raise
+    if vote.trial_id != trial_id or vote.participant_id != participant_id:
+        raise VoteRejected("idempotency_key: already used for another trial", 409)
+    answered, total = progress(participant)
+    now = utcnow()
+    participant.last_seen_at = now
+    if answered >= total and participant.finished_at is None:
+        participant.finished_at = now
+    return VoteOutcome(vote=vote, created=created, answered=answered, total=total)

@@ -1,0 +1,123 @@
+import threading
+
+import sqlalchemy as sa
+
+from app.extensions import db
+from app.models import Participant, Study, Trial, Vote
+
+
+def _join(app, participant, web, **toml):
+    study_id = web.study(**toml)
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    return participant.join(slug)
+
+
+def _votes(app):
+    with app.app_context():
+        return db.session.scalars(sa.select(Vote).order_by(Vote.id)).all()
+
+
+def test_vote_is_idempotent(app, participant, web):
+    _join(app, participant, web)
+    trial = participant.current_trial()
+    first = participant.vote(trial, "left", key="same-key-123")
+    again = participant.vote(trial, "left", key="same-key-123")
+    assert (first.status_code, again.status_code) == (201, 200)
+    assert first.json["status"] == "recorded" and again.json["status"] == "duplicate"
+    # A second vote with another key on an answered trial keeps the first answer.
+    other = participant.vote(trial, "right", key="other-key-456")
+    assert other.status_code == 200 and other.json["vote"]["choice"] == "left"
+    votes = _votes(app)
+    assert [(v.trial_id, v.choice, v.idempotency_key) for v in votes] == [
+        (trial, "left", "same-key-123")]
+    assert votes[0].response_ms == 1234 and votes[0].plays == 1
+    assert votes[0].presented_at.isoformat() == "2026-01-01T10:00:00"
+
+
+def test_concurrent_duplicates_store_one_vote(app, participant, web):
+    token = _join(app, participant, web)
+    trial = participant.current_trial()
+    results = []
+
+    def post():
+        client = app.test_client()
+        response = client.post("/api/v1/votes", json={
+            "token": token, "trial_id": trial, "choice": "right", "plays": 1,
+            "watched_to_end": True, "idempotency_key": "racing-key-1"})
+        results.append(response.status_code)
+
+    threads = [threading.Thread(target=post) for _ in range(6)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert sorted(results) == [200] * 5 + [201]
+    assert len(_votes(app)) == 1
+
+
+def test_key_reused_on_another_trial_is_refused(app, participant, web):
+    token = _join(app, participant, web, design="all_ordered")
+    with app.app_context():
+        trials = db.session.scalars(sa.select(Trial).join(Participant).where(
+            Participant.token == token, Trial.kind == "trial").order_by(Trial.position)).all()
+        ids = [t.id for t in trials]
+    assert participant.vote(ids[0], key="key-abcdefgh").status_code == 201
+    assert participant.vote(ids[1], key="key-abcdefgh").status_code == 409
+
+
+def test_bad_votes_are_refused_with_a_reason(app, participant, web):
+    token = _join(app, participant, web, undecided=False, replay="max_plays", max_plays=2)
+    trial = participant.current_trial()
+    assert participant.vote(trial, "undecided").status_code == 400
+    assert participant.vote(trial, "sideways").status_code == 400
+    assert participant.vote(trial, "left", plays=0).status_code == 422
+    assert participant.vote(trial, "left", plays=3).json["error"].startswith("plays")
+    assert participant.vote(trial, "left", key="short").status_code == 400
+    assert participant.vote(trial, "left", presented_at="yesterday").status_code == 400
+    assert participant.client.post("/api/v1/votes", data="x").status_code == 400
+    bad_token = participant.client.post("/api/v1/votes", json={"token": "nope", "trial_id": 1})
+    assert bad_token.status_code == 403
+    with app.app_context():
+        practice = db.session.scalar(sa.select(Trial.id).join(Participant).where(
+            Participant.token == token, Trial.kind == "practice"))
+    assert participant.vote(practice).status_code == 422
+    assert _votes(app) == []
+    assert participant.vote(trial, "left", plays=2).status_code == 201
+
+
+def test_play_to_end_policy(app, participant, web):
+    _join(app, participant, web, replay="play_to_end")
+    trial = participant.current_trial()
+    assert participant.vote(trial, watched_to_end=False).status_code == 422
+    assert participant.vote(trial, watched_to_end=True).status_code == 201
+
+
+def test_progress_endpoint(app, client, participant, web):
+    token = _join(app, participant, web)
+    start = client.get(f"/api/v1/participants/{token}/progress").json
+    assert start == {"answered": 0, "total": start["total"], "finished": False}
+    while (trial := participant.current_trial()) is not None:
+        participant.vote(trial)
+    end = client.get(f"/api/v1/participants/{token}/progress").json
+    assert end == {"answered": start["total"], "total": start["total"], "finished": True}
+    assert client.get("/api/v1/participants/unknown/progress").status_code == 404
+
+
+def test_job_status_needs_the_owner(app, client, web):
+    from app.models import Job
+
+    study_id = web.study()
+    with app.app_context():
+        job = Job(study_id=study_id, kind="render", done=1, total=4)
+        db.session.add(job)
+        db.session.commit()
+        job_id = job.id
+    assert client.get(f"/api/v1/jobs/{job_id}").status_code == 401
+    web.login(client)
+    body = client.get(f"/api/v1/jobs/{job_id}").json
+    assert body["fraction"] == 0.25 and body["status"] == "queued"
+    web.user("other@example.org")
+    other = app.test_client()
+    web.login(other, "other@example.org")
+    assert other.get(f"/api/v1/jobs/{job_id}").status_code == 404

@@ -1,0 +1,134 @@
+import re
+
+import sqlalchemy as sa
+
+from app.extensions import db
+from app.models import Participant, Study, Trial, Vote
+
+
+def _status(client, url):
+    """GET ``url`` and close the response (file responses hold the file open)."""
+    response = client.get(url)
+    response.close()
+    return response.status_code
+
+
+def _slug(app, study_id):
+    with app.app_context():
+        return db.session.get(Study, study_id).slug
+
+
+def test_whole_study_with_reload_and_resume(app, client, participant, web):
+    slug = _slug(app, web.study())
+    token = participant.join(slug, "PROLIFIC_PID=pp1&STUDY_ID=st1&SESSION_ID=se1")
+    assert client.get(f"/p/{token}/instructions").status_code == 200
+    assert _status(client, f"/p/{token}/practice.mp4") == 200
+    seen = []
+    while (trial_id := participant.current_trial()) is not None:
+        # A reload shows the same unanswered trial.
+        assert participant.current_trial() == trial_id
+        assert _status(client, f"/p/{token}/video/{trial_id}") == 200
+        assert participant.vote(trial_id, "right").status_code == 201
+        seen.append(trial_id)
+    assert len(seen) == len(set(seen)) > 0
+    done = client.get(f"/p/{token}/done")
+    assert b"DONE-123" in done.data and b"https://example.org/complete" in done.data
+    # Reopening the study link resumes (here: the completion page) through the cookie.
+    again = client.get(f"/s/{slug}")
+    assert again.status_code == 302 and again.headers["Location"].endswith(f"/p/{token}")
+    with app.app_context():
+        person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        assert (person.prolific_pid, person.prolific_study_id, person.prolific_session_id) == (
+            "pp1", "st1", "se1")
+        assert person.finished_at is not None
+        votes = db.session.scalars(sa.select(Vote)).all()
+        assert sorted(v.trial_id for v in votes) == sorted(seen)
+        assert {v.choice for v in votes} == {"right"}
+
+
+def test_schedule_is_reproducible_from_the_stored_seed(app, participant, web):
+    from app import design
+
+    slug = _slug(app, web.study(catch=1))
+    token = participant.join(slug)
+    with app.app_context():
+        person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        stored = [(t.position, t.kind, t.stimulus.left.name, t.stimulus.right.name)
+                  for t in person.trials]
+        rebuilt = [(t.position, t.kind, t.left, t.right) for t in design.schedule(
+            person.study, seed=person.seed, list_index=person.study_list.index)]
+        assert stored == rebuilt
+        assert [t.kind for t in person.trials].count("catch") == 1
+        assert person.trials[0].kind == "practice"
+
+
+def test_lists_are_balanced_from_the_assignment_table(app, client, web):
+    from app.models import StudyList
+
+    slug = _slug(app, web.study())
+    tokens = []
+    for _ in range(4):
+        fresh = app.test_client()  # a new browser: no cookie
+        actions = type(web)  # noqa: F841 - keeps the namespace import honest
+        page = fresh.get(f"/s/{slug}")
+        token = re.search(r'name="csrf_token"[^>]*value="([^"]+)"', page.get_data(as_text=True))
+        response = fresh.post(f"/s/{slug}", data={"csrf_token": token.group(1), "agree": "1"})
+        tokens.append(response.headers["Location"].split("/p/")[1].split("/")[0])
+    with app.app_context():
+        lists = db.session.scalars(sa.select(StudyList).order_by(StudyList.index)).all()
+        assert [row.n_assigned for row in lists] == [2, 2]  # unordered design: two side lists
+        people = db.session.scalars(sa.select(Participant)).all()
+        assert sorted(p.number for p in people) == [0, 1, 2, 3]
+        # Each pair is shown in both orders across the two lists.
+        orders = {(p.study_list.index, t.stimulus.left.name) for p in people for t in p.trials
+                  if t.kind == "trial"}
+        assert {o for _, o in orders} == {"none", "random"}
+
+
+def test_consent_needs_csrf_and_an_open_study(app, client, web):
+    slug = _slug(app, web.study())
+    assert client.post(f"/s/{slug}", data={"agree": "1"}).status_code == 400  # no CSRF token
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count(Participant.id))) == 0
+    paused = _slug(app, web.study(status="paused"))
+    assert client.get(f"/s/{paused}").status_code == 503
+    draft = _slug(app, web.study(video=False))
+    assert client.get(f"/s/{draft}").status_code == 404
+    assert client.get("/s/not-a-study").status_code == 404
+
+
+def test_tokens_are_private(app, client, participant, web):
+    slug = _slug(app, web.study())
+    token = participant.join(slug)
+    other = ParticipantLike(app)
+    other_token = other.join(slug)
+    assert token != other_token and len(token) >= 30
+    with app.app_context():
+        theirs = db.session.scalar(sa.select(Trial).join(Participant)
+                                   .where(Participant.token == other_token,
+                                          Trial.kind == "trial"))
+    # My token cannot fetch or answer their trial.
+    assert _status(participant.client, f"/p/{token}/video/{theirs.id}") == 404
+    assert participant.vote(theirs.id).status_code == 404
+    assert participant.client.get("/p/guessed-token/trial").status_code == 404
+
+
+class ParticipantLike:
+    def __init__(self, app):
+        self.client = app.test_client()
+
+    def join(self, slug):
+        page = self.client.get(f"/s/{slug}").get_data(as_text=True)
+        token = re.search(r'name="csrf_token"[^>]*value="([^"]+)"', page).group(1)
+        response = self.client.post(f"/s/{slug}", data={"csrf_token": token, "agree": "1"})
+        return response.headers["Location"].split("/p/")[1].split("/")[0]
+
+
+def test_closed_study_stops_trials(app, client, participant, web):
+    study_id = web.study()
+    token = participant.join(_slug(app, study_id))
+    with app.app_context():
+        db.session.get(Study, study_id).status = "closed"
+        db.session.commit()
+    assert client.get(f"/p/{token}/trial").status_code == 410
+    assert client.get(f"/p/{token}").status_code == 302

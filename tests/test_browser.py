@@ -1,0 +1,252 @@
+"""Browser tests: Debian's chromium driven by Playwright against a live server on a file-backed
+SQLite database. A participant walks through a whole study (keyboard and mouse, a reload, a
+double click, a lost connection); an experimenter creates a study and downloads the votes. The
+stored votes must be exactly the clicked ones. Screenshots go to ``$FACEPAIR_SCREENSHOTS`` (or
+the test's temporary folder)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+from pathlib import Path
+
+import pytest
+import sqlalchemy as sa
+
+from app.extensions import db
+from app.models import Participant, Study, Trial, Vote
+
+pytestmark = pytest.mark.browser
+
+CHROMIUM = Path("/usr/bin/chromium")
+ARGS = ["--no-sandbox", "--disable-dev-shm-usage", "--disable-background-networking",
+        "--autoplay-policy=no-user-gesture-required"]
+PHONE = {"width": 390, "height": 844}
+DESKTOP = {"width": 1280, "height": 860}
+
+
+@pytest.fixture
+def browser():
+    if not CHROMIUM.exists():
+        pytest.skip("Debian's chromium is not installed (make test installs it)")
+    from playwright.sync_api import sync_playwright
+
+    manager = sync_playwright().start()
+    try:
+        browser = manager.chromium.launch(executable_path=str(CHROMIUM), headless=True,
+                                          args=ARGS)
+        try:
+            yield browser
+        finally:
+            browser.close()
+    finally:
+        manager.stop()
+
+
+@pytest.fixture
+def shots(tmp_path) -> Path:
+    folder = Path(os.environ.get("FACEPAIR_SCREENSHOTS", tmp_path / "shots"))
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def _trial_id(page) -> int:
+    return int(page.locator(".player").get_attribute("data-trial-id"))
+
+
+def _ready_to_vote(page) -> None:
+    """Wait for the preload, play the clip (Space), wait until voting is allowed."""
+    page.wait_for_selector(".play:not([disabled])", timeout=20000)
+    page.keyboard.press("Space")
+    page.wait_for_selector(".vote:not([disabled])", timeout=20000)
+
+
+def test_participant_walks_through_a_whole_study(live_server, browser, shots):
+    study_id = live_server.study(design="all_ordered", replay="play_to_end", catch=1)
+    with live_server.app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    context = browser.new_context(viewport=DESKTOP)
+    page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    clicked: dict[int, str] = {}
+    try:
+        page.goto(f"{live_server.url}/s/{slug}?PROLIFIC_PID=pp-9&STUDY_ID=st-9&SESSION_ID=se-9")
+        page.screenshot(path=shots / "participant-consent.png")
+        page.keyboard.press("Enter")  # the agree button has the focus
+        page.wait_for_url("**/instructions")
+        # The practice pair, keyboard only; its answer is not stored.
+        _ready_to_vote(page)
+        page.keyboard.press("1")
+        page.wait_for_selector("text=Practice answer: left")
+        page.screenshot(path=shots / "participant-instructions.png", full_page=True)
+        page.click("#start")
+        step = 0
+        while "/trial" in page.url:
+            page.wait_for_selector(".player[data-trial-id]")
+            trial = _trial_id(page)
+            if step == 1:
+                # Reload in the middle: the same trial comes back.
+                page.reload()
+                assert _trial_id(page) == trial
+            _ready_to_vote(page)
+            if step == 0:
+                page.screenshot(path=shots / "participant-trial-desktop.png")
+            choice = ("left", "right", "undecided")[step % 3]
+            if step == 2:
+                page.dblclick(f'.vote[data-choice="{choice}"]')  # a double click
+            elif step == 3:
+                # The connection drops: the page keeps the vote, says so, and sends it later.
+                context.set_offline(True)
+                page.keyboard.press("2")
+                choice = "right"
+                page.wait_for_selector(".status-offline", timeout=10000)
+                assert "kept on this page" in page.inner_text(".status")
+                page.screenshot(path=shots / "participant-offline.png")
+                context.set_offline(False)
+            elif step % 2:
+                page.keyboard.press({"left": "ArrowLeft", "right": "ArrowRight",
+                                     "undecided": "ArrowDown"}[choice])
+            else:
+                page.click(f'.vote[data-choice="{choice}"]')
+            clicked[trial] = choice
+            page.wait_for_function(f"!document.querySelector('.player[data-trial-id=\"{trial}\"]')",
+                                   timeout=60000)
+            page.wait_for_load_state()
+            step += 1
+        page.wait_for_url("**/done")
+        assert page.inner_text("#completion-code") == "DONE-123"
+        assert page.get_attribute("#redirect", "href").startswith("https://example.org/complete")
+        page.screenshot(path=shots / "participant-done.png")
+    finally:
+        context.close()
+    assert errors == []
+    with live_server.app.app_context():
+        votes = db.session.scalars(sa.select(Vote)).all()
+        assert {v.trial_id: v.choice for v in votes} == clicked
+        assert len(votes) == len(clicked) == 5  # 4 ordered pairs + 1 catch trial
+        assert all(v.plays >= 1 and v.response_ms is not None and v.response_ms >= 0
+                   for v in votes)
+        person = db.session.scalar(sa.select(Participant))
+        assert person.prolific_pid == "pp-9" and person.finished_at is not None
+
+
+def test_trial_page_on_a_phone(live_server, browser, shots):
+    study_id = live_server.study(design="all_ordered")
+    with live_server.app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    context = browser.new_context(viewport=PHONE, is_mobile=True, has_touch=True)
+    page = context.new_page()
+    try:
+        page.goto(f"{live_server.url}/s/{slug}")
+        page.tap("text=I agree")
+        page.tap("#start")
+        page.wait_for_selector(".play:not([disabled])", timeout=20000)
+        page.tap(".play")
+        page.wait_for_selector(".vote:not([disabled])", timeout=20000)
+        page.screenshot(path=shots / "participant-trial-phone.png", full_page=True)
+        # Nothing wider than the screen; every answer button is a comfortable touch target.
+        assert page.evaluate("document.documentElement.scrollWidth") <= PHONE["width"]
+        for box in (page.locator(".vote").nth(i).bounding_box() for i in range(3)):
+            assert box["height"] >= 44 and box["x"] >= 0 and box["x"] + box["width"] <= 390
+        trial = _trial_id(page)
+        page.tap('.vote[data-choice="right"]')
+        page.wait_for_function(f"!document.querySelector('.player[data-trial-id=\"{trial}\"]')")
+    finally:
+        context.close()
+    with live_server.app.app_context():
+        assert [(v.trial_id, v.choice) for v in db.session.scalars(sa.select(Vote))] == [
+            (trial, "right")]
+
+
+def test_experimenter_creates_a_study_and_downloads_votes(live_server, browser, shots,
+                                                          tmp_path, monkeypatch, tiny_video):
+    from app.jobs import tasks
+
+    def fake_generate(study, progress):
+        progress(1, 1)
+        return "tracks: stub"
+
+    def fake_render(study, progress):
+        import shutil
+
+        from app.models import Stimulus
+        from app.storage import media_dir
+
+        rows = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id)).all()
+        for i, stimulus in enumerate(rows):
+            progress(i, len(rows))
+            stimulus.video_path = f"videos/{stimulus.id}.mp4"
+            (media_dir(study) / "videos").mkdir(exist_ok=True)
+            shutil.copyfile(tiny_video, media_dir(study) / stimulus.video_path)
+        study.status = "ready"
+        db.session.commit()
+        return f"{len(rows)} clips rendered (stub)"
+
+    # The real pipeline is tested in its own packages; here only the web's wiring.
+    monkeypatch.setitem(tasks.TASKS, "generate", fake_generate)
+    monkeypatch.setitem(tasks.TASKS, "render", fake_render)
+    live_server.user()
+    toml = tmp_path / "study.toml"
+    toml.write_text(live_server.toml(design="unordered_counterbalanced"))
+    wav = live_server.write_wav(tmp_path / "s1.wav")
+    context = browser.new_context(viewport=DESKTOP, accept_downloads=True)
+    page = context.new_page()
+    try:
+        page.goto(f"{live_server.url}/experimenter/")
+        page.fill("input[name=email]", "exp@example.org")
+        page.fill("input[name=password]", "correct horse")
+        page.click("input[type=submit]")
+        page.click("text=New study")
+        page.set_input_files("input[name=file-study_file]", str(toml))
+        page.set_input_files("input[name=file-media]", str(wav))
+        page.click("input[name=file-submit]")
+        page.wait_for_selector("text=Study created")
+        page.click("text=1. Generate tracks")
+        page.wait_for_selector(".job-done")
+        page.click("text=2. Render clips")
+        page.wait_for_selector("text=2 of 2 clips rendered")
+        page.click("text=Open recruitment")
+        page.wait_for_selector(".badge-open")
+        page.screenshot(path=shots / "experimenter-study.png", full_page=True)
+        link = page.inner_text("#participant-link")
+
+        # Two participants take part in their own browsers.
+        clicked = []
+        for choice in ("left", "right"):
+            other = browser.new_context(viewport=DESKTOP)
+            person = other.new_page()
+            try:
+                person.goto(link)
+                person.click("text=I agree")
+                person.click("#start")
+                while "/trial" in person.url:
+                    _ready_to_vote(person)
+                    trial = _trial_id(person)
+                    person.click(f'.vote[data-choice="{choice}"]')
+                    clicked.append(choice)
+                    person.wait_for_function(
+                        f"!document.querySelector('.player[data-trial-id=\"{trial}\"]')")
+                    person.wait_for_load_state()
+            finally:
+                other.close()
+
+        page.click("text=Live monitor")
+        assert page.inner_text("#stat-finished") == "2"
+        page.screenshot(path=shots / "experimenter-monitor.png", full_page=True)
+        page.go_back()
+        with page.expect_download() as download:
+            page.click("#export-votes")
+        text = Path(download.value.path()).read_text()
+    finally:
+        context.close()
+    rows = list(csv.DictReader(io.StringIO(text)))
+    assert sorted(r["choice"] for r in rows) == sorted(clicked)
+    with live_server.app.app_context():
+        stored = db.session.execute(
+            sa.select(Participant.number, Trial.position, Vote.choice)
+            .join(Trial, Vote.trial_id == Trial.id)
+            .join(Participant, Vote.participant_id == Participant.id)).all()
+    assert sorted((f"P{n:04d}", str(p), c) for n, p, c in stored) == sorted(
+        (r["participant"], r["trial"], r["choice"]) for r in rows)

@@ -1,0 +1,30 @@
+import subprocess
+import sys
+
+from app import create_app
+
+
+def test_config_mapping_wins(tmp_path):
+    app = create_app({"TESTING": True, "SQLALCHEMY_DATABASE_URI": f"sqlite:///{tmp_path}/x.db"})
+    assert app.testing and app.config["SQLALCHEMY_DATABASE_URI"].endswith("x.db")
+
+
+def test_default_database_is_sqlite_in_instance_folder(monkeypatch):
+    monkeypatch.delenv("DATABASE_URL", raising=False)
+    app = create_app()
+    assert app.config["SQLALCHEMY_DATABASE_URI"].startswith("sqlite:///")
+    assert app.instance_path in app.config["SQLALCHEMY_DATABASE_URI"]
+
+
+def test_database_url_from_environment(monkeypatch):
+    monkeypatch.setenv("DATABASE_URL", "postgresql+psycopg://postgres@127.0.0.1/test")
+    assert create_app().config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql+psycopg")
+
+
+def test_pure_packages_never_load_flask():
+    code = (
+        "import sys, app.stimuli.io, app.stimuli.features, app.errors\n"
+        "bad = [m for m in ('flask', 'flask_sqlalchemy', 'moderngl') if m in sys.modules]\n"
+        "assert not bad, bad\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
