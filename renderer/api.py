@@ -12,6 +12,7 @@ PosixPath('/tmp/facepair-doctest.png')
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,7 +24,7 @@ from renderer.encode import ClipWriter, check_audio
 from renderer.face import Face
 from renderer.pipeline import align_tracks, render_frames
 
-RENDERER_VERSION = "1.0"
+RENDERER_VERSION = "1.1"
 
 Progress = Callable[[int, int], None]
 
@@ -42,6 +43,9 @@ class RenderSettings:
     background : RGB in 0..1, a neutral grey by default.
     crf, preset : libx264 quality (lower crf = better) and speed preset.
     audio_bitrate : AAC bit rate.
+    workers : processes drawing frames for clips of 240 frames or more (0 = one per CPU core;
+        1 = draw in this process). Does not change the output, so it is not part of the cache
+        key.
     """
 
     size: int = 368
@@ -54,6 +58,7 @@ class RenderSettings:
     crf: int = 20
     preset: str = "veryfast"
     audio_bitrate: str = "128k"
+    workers: int = 0
 
     def __post_init__(self) -> None:
         if not isinstance(self.size, int) or self.size < 64 or self.size % 16:
@@ -70,6 +75,9 @@ class RenderSettings:
                              field="mosaic_margin")
         if self.samples not in (0, 1, 2, 4, 8):
             raise InputError(f"must be 0, 1, 2, 4 or 8, got {self.samples!r}", field="samples")
+        if not isinstance(self.workers, int) or self.workers < 0:
+            raise InputError(f"must be a whole number >= 0, got {self.workers!r}",
+                             field="workers")
         if self.fps is not None and not self.fps > 0:
             raise InputError(f"must be positive, got {self.fps!r}", field="fps")
 
@@ -107,7 +115,8 @@ def _render_clip(kind: str, tracks: list[MotionTrack], audio_path: str | Path | 
     partial = target.with_name(target.stem + ".part.mp4")
     frames = render_frames(tracks, face, size=settings.size, samples=settings.samples,
                            background=settings.background, mosaic_block=settings.mosaic_block,
-                           mosaic_margin=settings.mosaic_margin)
+                           mosaic_margin=settings.mosaic_margin,
+                           workers=settings.workers or os.cpu_count() or 1)
     with ClipWriter(partial, settings.size * len(tracks), settings.size, tracks[0].fps, n,
                     audio, crf=settings.crf, preset=settings.preset,
                     audio_bitrate=settings.audio_bitrate) as writer:

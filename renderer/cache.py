@@ -40,7 +40,7 @@ def file_digest(path: str | Path | None) -> str:
 def cache_key(kind: str, tracks: list[MotionTrack], audio_path: str | Path | None,
               face_hash: str, settings: Any, version: str) -> str:
     """The cache key of one clip (hex)."""
-    settings_dict = {k: v for k, v in asdict(settings).items() if k != "face"}
+    settings_dict = {k: v for k, v in asdict(settings).items() if k not in ("face", "workers")}
     payload = {
         "kind": kind,
         "version": version,

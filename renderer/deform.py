@@ -23,8 +23,10 @@ Rotations (MPEG-4 directions; AU = 1e-5 rad):
 * head 48 (pitch, down), 49 (yaw, to the face's left), 50 (roll, to the face's right) about
   feature point 7.1, blended into the neck by the ``head`` weight.
 
-The head and eye rotations are returned as matrices (applied on the GPU); the rest is done here
-on the vertices, vectorised over the vertices of each zone.
+The head and eye rotations are returned as matrices; :meth:`Rig.posed` applies them, with the
+rest of the deformation, on the vertices (vectorised numpy; about a millisecond a face), so the
+GL side draws final world-space vertices with no per-face uniforms (on a software rasteriser a
+uniform change between the two faces of a frame costs more than the whole pose).
 
 Example
 -------
@@ -194,7 +196,9 @@ class Rig:
             sign = 1.0 if upper else -1.0
             self.lids.append((fap, zone, layer[zone], centre, sign * fu["IRISD"] / r))
         self.eye_centres = {s: face.eye_centre(s) for s in ("l", "r")}
+        self.eye_vertices = {s: np.asarray(face.groups[f"eyeball_{s}"]) for s in ("l", "r")}
         self.pivot = face.pivot()
+        self.head_w = self.weights["head"].astype(np.float32)[:, None]
 
     def _pair_share(self, v: np.ndarray, inner_pt: str, tag: str) -> np.ndarray:
         """Share of an inner or outer lip FAP at each vertex: the nearer feature point wins."""
@@ -242,6 +246,30 @@ class Rig:
         ny, nz = nrm[zone, 1].copy(), nrm[zone, 2].copy()
         nrm[zone, 1] = c * ny - s * nz
         nrm[zone, 2] = s * ny + c * nz
+
+    def posed(self, frame: FaceFrame, out: np.ndarray | None = None) -> np.ndarray:
+        """World-space vertices of ``frame``: (n, 6) float32, positions then unit normals.
+
+        The eyeballs turn about their centres, then the head turns about 7.1, blended per
+        vertex by the ``head`` weight (1 on the head, fading to 0 down the neck).
+        """
+        n = self.face.n_vertices
+        out = np.empty((n, 6), np.float32) if out is None else out
+        pos, nrm = out[:, :3], out[:, 3:]
+        pos[:], nrm[:] = frame.positions, frame.normals
+        for side, m in (("l", frame.eye_l), ("r", frame.eye_r)):
+            idx = self.eye_vertices[side]
+            rot = m[:3, :3].astype(np.float32)
+            pos[idx] = pos[idx] @ rot.T + m[:3, 3].astype(np.float32)
+            nrm[idx] = nrm[idx] @ rot.T
+        rot = frame.head[:3, :3].astype(np.float32)
+        moved = pos @ rot.T
+        moved += frame.head[:3, 3].astype(np.float32)
+        pos += self.head_w * (moved - pos)
+        turned = nrm @ rot.T
+        nrm += self.head_w * (turned - nrm)
+        nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-12)
+        return out
 
     def world_points(self, frame: FaceFrame, names: tuple[str, ...]) -> np.ndarray:
         """Deformed positions of mesh feature points after the head rotation, (k, 3)."""

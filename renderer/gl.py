@@ -1,10 +1,12 @@
-"""Headless OpenGL drawing of deformed faces with moderngl (EGL; Mesa llvmpipe or a GPU).
+"""Headless OpenGL drawing of posed faces with moderngl (EGL; Mesa llvmpipe or a GPU).
 
-One :class:`FaceCanvas` draws one or more faces side by side into a single framebuffer and
-reads the frame back once: fixed perspective camera framed on the face's own feature points,
-two lights with Blinn-Phong shading computed in linear light, neutral grey background and
-multisample anti-aliasing (resolved before read-back). The rigid head and eye rotations run in
-the vertex shader (matrices from :mod:`renderer.deform`).
+One :class:`FaceCanvas` draws one or more faces side by side and returns one frame: fixed
+perspective camera framed on the face's own feature points, two lights with Blinn-Phong shading
+computed in linear light, neutral grey background and multisample anti-aliasing (resolved before
+read-back). Vertices arrive posed in world space (:meth:`renderer.deform.Rig.posed`), so nothing
+but vertex data changes between draws: on Mesa's llvmpipe a uniform change between the faces of
+a frame costs more than drawing them. Each face is drawn alone into one square target, so its
+pixels do not depend on its side (A|B and B|A are exact mirrors of each other).
 """
 
 from __future__ import annotations
@@ -19,30 +21,17 @@ from renderer.deform import FaceFrame, Rig
 _VERTEX = """
 #version 330
 uniform mat4 mvp;
-uniform mat4 head;
-uniform mat4 eye_l;
-uniform mat4 eye_r;
 in vec3 in_pos;
 in vec3 in_norm;
 in vec4 in_color;
-in vec2 in_rig;   // x: 0 skin, 1 left eyeball, 2 right eyeball; y: head weight
 out vec3 v_pos;
 out vec3 v_norm;
 out vec4 v_color;
 void main() {
-    vec4 p = vec4(in_pos, 1.0);
-    vec3 n = in_norm;
-    if (in_rig.x > 0.5) {
-        mat4 e = in_rig.x > 1.5 ? eye_r : eye_l;
-        p = e * p;
-        n = mat3(e) * n;
-    }
-    p = mix(p, head * p, in_rig.y);
-    n = normalize(mix(n, mat3(head) * n, in_rig.y));
-    v_pos = p.xyz;
-    v_norm = n;
+    v_pos = in_pos;
+    v_norm = in_norm;
     v_color = in_color;
-    gl_Position = mvp * p;
+    gl_Position = mvp * vec4(in_pos, 1.0);
 }
 """
 
@@ -146,10 +135,15 @@ def project(vp: np.ndarray, points: np.ndarray, size: int) -> np.ndarray:
 
 
 class FaceCanvas:
-    """Draws ``n_faces`` copies of one rigged face side by side and reads the frame back."""
+    """Draws ``n_faces`` copies of one rigged face side by side and reads the frame back.
+
+    ``samples``: multisample anti-aliasing (0 or 1 turns it off).
+    """
 
     def __init__(self, rig: Rig, size: int, n_faces: int = 1, samples: int = 4,
                  background: tuple[float, float, float] = (0.55, 0.56, 0.58)) -> None:
+        import moderngl
+
         self.ctx = ctx = context()
         self.rig, self.size, self.n_faces = rig, size, n_faces
         self.background = background
@@ -158,20 +152,14 @@ class FaceCanvas:
         self.prog = ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT)
         self.prog["mvp"].write(self.vp.T.astype("f4").tobytes())
         self.prog["camera"].value = tuple(self.camera)
-        bone = np.zeros(face.n_vertices, np.float32)
-        bone[face.groups["eyeball_l"]] = 1.0
-        bone[face.groups["eyeball_r"]] = 2.0
-        static = np.column_stack([face.colors, bone, rig.weights["head"]]).astype("f4")
-        self.static = ctx.buffer(static.tobytes())
+        self.static = ctx.buffer(face.colors.astype("f4").tobytes())
         self.index = ctx.buffer(face.triangles.astype("i4").tobytes())
-        nbytes = face.n_vertices * 6 * 4
-        self.dynamic = [ctx.buffer(reserve=nbytes) for _ in range(n_faces)]
+        self.dynamic = [ctx.buffer(reserve=face.n_vertices * 6 * 4) for _ in range(n_faces)]
         self.vaos = [ctx.vertex_array(self.prog, [(dyn, "3f 3f", "in_pos", "in_norm"),
-                                                  (self.static, "4f 2f", "in_color", "in_rig")],
+                                                  (self.static, "4f", "in_color")],
                                       index_buffer=self.index)
                      for dyn in self.dynamic]
-        # each face is drawn alone into the same square target, so a face's pixels do not
-        # depend on its side (A|B and B|A are exact mirrors of each other)
+        self._vertices = np.empty((face.n_vertices, 6), np.float32)
         self.samples = samples if samples > 1 else 0
         self.fbo = ctx.framebuffer(ctx.renderbuffer((size, size), 3, samples=self.samples),
                                    ctx.depth_renderbuffer((size, size), samples=self.samples))
@@ -179,27 +167,20 @@ class FaceCanvas:
                          else self.fbo)
         self.face_buffer = np.empty((size, size, 3), np.uint8)
         self.buffer = np.empty((size, size * n_faces, 3), np.uint8)
+        self._modes = moderngl.DEPTH_TEST | moderngl.CULL_FACE, moderngl.TRIANGLES
 
     def draw(self, frames: list[FaceFrame]) -> np.ndarray:
         """Draw one frame per face (left to right); returns the (H, W, 3) uint8 frame, top row
         first (a buffer reused by the next draw)."""
-        import moderngl
-
-        ctx = self.ctx
-        size = self.size
+        ctx, size = self.ctx, self.size
+        flags, triangles = self._modes
         for k, frame in enumerate(frames):
+            self.dynamic[k].write(self.rig.posed(frame, self._vertices))
             self.fbo.use()
-            ctx.enable(moderngl.DEPTH_TEST)
-            ctx.enable(moderngl.CULL_FACE)
+            ctx.enable(flags)
             ctx.viewport = (0, 0, size, size)
             self.fbo.clear(*self.background, 1.0)
-            data = np.empty((frame.positions.shape[0], 6), np.float32)
-            data[:, :3], data[:, 3:] = frame.positions, frame.normals
-            self.dynamic[k].write(data.tobytes())
-            self.prog["head"].write(frame.head.T.astype("f4").tobytes())
-            self.prog["eye_l"].write(frame.eye_l.T.astype("f4").tobytes())
-            self.prog["eye_r"].write(frame.eye_r.T.astype("f4").tobytes())
-            self.vaos[k].render(moderngl.TRIANGLES)
+            self.vaos[k].render(triangles)
             if self.samples:
                 ctx.copy_framebuffer(self.resolved, self.fbo)
             self.resolved.read_into(self.face_buffer, components=3)
@@ -207,7 +188,10 @@ class FaceCanvas:
         return self.buffer
 
     def release(self) -> None:
-        for obj in (*self.vaos, *self.dynamic, self.static, self.index, self.prog, self.fbo):
+        for obj in (*self.vaos, *self.dynamic, self.static, self.index, self.prog):
             obj.release()
-        if self.resolved is not self.fbo:
-            self.resolved.release()
+        for fbo in {id(self.fbo): self.fbo, id(self.resolved): self.resolved}.values():
+            for attachment in (*fbo.color_attachments, fbo.depth_attachment):
+                if attachment is not None:
+                    attachment.release()
+            fbo.release()

@@ -2,13 +2,22 @@
 
 Both faces of a pair are drawn from the same frame index of the same timeline into one
 framebuffer, so they are frame-exact by construction; the side order is the order of the tracks.
+
+With ``workers`` > 1 and enough frames, the frames are drawn by that many worker processes (each
+with its own headless GL context; spawned, never forked, as GL state does not survive a fork) in
+chunks of consecutive frames, a bounded number of chunks ahead, and yielded in order. On a CPU
+rasteriser one process cannot keep two cores busy (Mesa's vertex stage runs on the submitting
+thread), so this is what lets rendering and encoding share the machine.
 """
 
 from __future__ import annotations
 
+import multiprocessing
+from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
@@ -51,30 +60,99 @@ def align_tracks(tracks: list[MotionTrack], fps: float | None) -> list[MotionTra
     return [t if t.n_frames == n else t.fit_length(n) for t in out]
 
 
-def render_frames(tracks: list[MotionTrack], face: Face, *, size: int, samples: int,
-                  background: tuple[float, float, float], mosaic_block: int | None,
-                  mosaic_margin: float, frames: range | None = None) -> Iterator[RenderedFrame]:
+#: Fewer frames than this are drawn in-process: starting a worker costs about a second.
+PARALLEL_MIN_FRAMES = 240
+CHUNK_FRAMES = 6
+
+
+class _Drawer:
+    """Draws frames of fixed tracks: deform, GL draw, mouth mosaic."""
+
+    def __init__(self, dense: list[np.ndarray], face: Face, size: int, samples: int,
+                 background: tuple[float, float, float], mosaic_block: int | None,
+                 mosaic_margin: float) -> None:
+        self.rig = rig_for(face)
+        self.dense, self.size = dense, size
+        self.mosaic_block, self.mosaic_margin = mosaic_block, mosaic_margin
+        self.canvas = FaceCanvas(self.rig, size, len(dense), samples=samples,
+                                 background=background)
+
+    def draw(self, i: int) -> RenderedFrame:
+        rig, size = self.rig, self.size
+        deformed = [rig.deform(d[i]) for d in self.dense]
+        image = self.canvas.draw(deformed)
+        boxes = []
+        if self.mosaic_block:
+            for k, frame in enumerate(deformed):
+                pts = project(self.canvas.vp, rig.world_points(frame, MOUTH_FEATURE_POINTS), size)
+                x0, y0, x1, y1 = mouth_box(pts, size, size, block=self.mosaic_block,
+                                           margin=self.mosaic_margin)
+                box = (x0 + k * size, y0, x1 + k * size, y1)
+                pixelate(image, box, self.mosaic_block)
+                boxes.append(box)
+        return RenderedFrame(i, image, boxes)
+
+    def release(self) -> None:
+        self.canvas.release()
+
+
+_WORKER: dict[str, Any] = {}
+
+
+def _worker_start(args: tuple) -> None:
+    _WORKER["drawer"] = _Drawer(*args)
+
+
+def _worker_draw(indices: list[int]) -> list[tuple[int, bytes, list]]:
+    drawer = _WORKER["drawer"]
+    out = []
+    for i in indices:
+        frame = drawer.draw(i)
+        out.append((i, frame.image.tobytes(), frame.boxes))
+    return out
+
+
+def render_frames(tracks: list[MotionTrack], face: Face, *, size: int, samples: int = 4,
+                  background: tuple[float, float, float] = (0.55, 0.56, 0.58),
+                  mosaic_block: int | None = 24, mosaic_margin: float = 0.15,
+                  frames: range | None = None, workers: int = 1) -> Iterator[RenderedFrame]:
     """Yield the side-by-side frames of ``tracks`` (one face per track, left to right).
 
     ``mosaic_block`` None or 0 leaves the mouth visible. ``frames`` picks frame indices
     (default: all). The tracks must share frame rate and length (see :func:`align_tracks`).
+    ``workers`` > 1 draws in that many processes when there are at least
+    :data:`PARALLEL_MIN_FRAMES` frames; the frames are the same either way.
     """
-    rig = rig_for(face)
     dense = [t.dense() for t in tracks]
-    canvas = FaceCanvas(rig, size, len(tracks), samples=samples, background=background)
+    indices = list(frames if frames is not None else range(tracks[0].n_frames))
+    args = (dense, face, size, samples, background, mosaic_block, mosaic_margin)
+    if workers > 1 and len(indices) >= PARALLEL_MIN_FRAMES:
+        yield from _render_parallel(args, indices, workers, (size, size * len(tracks), 3))
+        return
+    drawer = _Drawer(*args)
     try:
-        for i in frames if frames is not None else range(tracks[0].n_frames):
-            deformed = [rig.deform(d[i]) for d in dense]
-            image = canvas.draw(deformed)
-            boxes = []
-            if mosaic_block:
-                for k, frame in enumerate(deformed):
-                    pts = project(canvas.vp, rig.world_points(frame, MOUTH_FEATURE_POINTS), size)
-                    x0, y0, x1, y1 = mouth_box(pts, size, size, block=mosaic_block,
-                                               margin=mosaic_margin)
-                    box = (x0 + k * size, y0, x1 + k * size, y1)
-                    pixelate(image, box, mosaic_block)
-                    boxes.append(box)
-            yield RenderedFrame(i, image, boxes)
+        for i in indices:
+            yield drawer.draw(i)
     finally:
-        canvas.release()
+        drawer.release()
+
+
+def _render_parallel(args: tuple, indices: list[int], workers: int,
+                     shape: tuple[int, int, int]) -> Iterator[RenderedFrame]:
+    chunks = [indices[k:k + CHUNK_FRAMES] for k in range(0, len(indices), CHUNK_FRAMES)]
+    ctx = multiprocessing.get_context("spawn")
+    with ctx.Pool(workers, initializer=_worker_start, initargs=(args,)) as pool:
+        pending: deque = deque()
+        todo = iter(chunks)
+        for chunk in todo:
+            pending.append(pool.apply_async(_worker_draw, (chunk,)))
+            if len(pending) >= 2 * workers:
+                break
+        while pending:
+            done = pending.popleft().get()
+            nxt = next(todo, None)
+            if nxt is not None:
+                pending.append(pool.apply_async(_worker_draw, (nxt,)))
+            for i, data, boxes in done:
+                image = np.frombuffer(data, np.uint8).reshape(shape)
+                yield RenderedFrame(i, image, boxes)

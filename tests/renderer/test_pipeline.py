@@ -101,3 +101,23 @@ def test_align_tracks_brings_the_second_track_to_the_first():
     b = MotionTrack.zeros(60.0, 40, (3,))
     out = align_tracks([a, b], None)
     assert [t.fps for t in out] == [30.0, 30.0] and [t.n_frames for t in out] == [30, 30]
+
+
+def test_worker_processes_draw_the_same_frames_in_order(monkeypatch):
+    import renderer.pipeline as pipeline
+
+    monkeypatch.setattr(pipeline, "PARALLEL_MIN_FRAMES", 1)
+    monkeypatch.setattr(pipeline, "CHUNK_FRAMES", 2)
+    n = 9
+    t = np.arange(n) / 30.0
+    a = MotionTrack.from_channels(30.0, {49: 20000 * np.sin(4 * t), 3: 300 * t})
+    b = MotionTrack.from_channels(30.0, {48: 15000 * np.sin(3 * t)})
+    kwargs = dict(size=64, samples=4, mosaic_block=8, mosaic_margin=0.15)
+    serial = [(f.index, f.image.copy(), f.boxes)
+              for f in render_frames([a, b], builtin_face(), **kwargs)]
+    parallel = [(f.index, f.image.copy(), f.boxes)
+                for f in render_frames([a, b], builtin_face(), workers=2, **kwargs)]
+    assert [i for i, _, _ in parallel] == list(range(n))
+    for (i, img, boxes), (j, img2, boxes2) in zip(serial, parallel, strict=True):
+        assert i == j and boxes == boxes2 and np.array_equal(img, img2)
+    assert not np.array_equal(serial[0][1], serial[-1][1])  # the frames do differ

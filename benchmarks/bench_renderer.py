@@ -1,0 +1,94 @@
+"""Benchmark: a 60 s side-by-side clip at the default size (368 px per face) with audio.
+
+Generates two conditions' tracks (speech-driven and Perlin prosody) for 60 s of synthetic speech,
+then renders and encodes the pair clip with :func:`renderer.render_pair` (GL rendering in this
+process, H.264 + AAC encoding in ffmpeg's, overlapped) and prints frames per second and the
+ratio to real time (target: at least 4x faster than real time on a 2-core CPU machine). Then the
+parts alone: deformation, drawing (GL + read-back), mosaic, and encoding of the same frames.
+
+    python benchmarks/bench_renderer.py [--seconds 60] [--size 368] [--repeat 2]
+                                        [--samples 4] [--workers 0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from synthetic import write_speech  # benchmarks/synthetic.py, beside this script
+
+from app.stimuli.generate import generate_conditions
+from renderer import RenderSettings, render_pair
+from renderer.encode import ClipWriter
+from renderer.headmodel import builtin_face
+from renderer.pipeline import align_tracks, render_frames, rig_for
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=60.0)
+    parser.add_argument("--size", type=int, default=368)
+    parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument("--samples", type=int, default=RenderSettings.samples)
+    parser.add_argument("--workers", type=int, default=RenderSettings.workers)
+    args = parser.parse_args()
+    settings = RenderSettings(size=args.size, samples=args.samples, workers=args.workers)
+    with tempfile.TemporaryDirectory() as d:
+        wav = write_speech(Path(d) / "speech.wav", args.seconds)
+        result = generate_conditions(wav, conditions=("speech_driven", "random"))
+        left, right = align_tracks([result.tracks["speech_driven"], result.tracks["random"]],
+                                   None)
+        n, fps = left.n_frames, left.fps
+        clip_seconds = n / fps
+        times = []
+        for r in range(args.repeat):
+            start = time.perf_counter()
+            render_pair(left, right, wav, Path(d) / f"pair{r}.mp4", settings=settings)
+            times.append(time.perf_counter() - start)
+        best, median = min(times), float(np.median(times))
+        size_mb = (Path(d) / "pair0.mp4").stat().st_size / 1e6
+        print(f"samples {settings.samples}, workers {settings.workers or 'auto'}: "
+              f"pair clip {clip_seconds:.0f} s, {n} frames at {fps:g} fps, "
+              f"{2 * args.size}x{args.size}, with audio ({size_mb:.1f} MB): "
+              f"best {best:.2f} s = {n / best:.0f} fps = {clip_seconds / best:.1f}x real time; "
+              f"median {median:.2f} s = {clip_seconds / median:.1f}x real time (target >= 4x)")
+
+        # the parts alone, on the first 600 frames
+        k = min(n, 600)
+        face = builtin_face()
+        rig = rig_for(face)
+        dense = [left.dense(), right.dense()]
+        start = time.perf_counter()
+        for i in range(k):
+            rig.deform(dense[0][i])
+            rig.deform(dense[1][i])
+        deform = (time.perf_counter() - start) / k
+        frames = []
+        start = time.perf_counter()
+        for frame in render_frames([left, right], face, size=args.size, mosaic_block=0,
+                                   samples=settings.samples, frames=range(k)):
+            frames.append(frame.image.copy())
+        draw = (time.perf_counter() - start) / k - deform
+        from renderer.mosaic import pixelate
+
+        image = frames[0].copy()
+        start = time.perf_counter()
+        for _ in range(k):
+            pixelate(image, (96, 216, 264, 312), settings.mosaic_block)
+            pixelate(image, (96 + args.size, 216, 264 + args.size, 312), settings.mosaic_block)
+        mosaic = (time.perf_counter() - start) / k
+        start = time.perf_counter()
+        with ClipWriter(Path(d) / "enc.mp4", 2 * args.size, args.size, fps, k, wav) as writer:
+            for image in frames:
+                writer.write(image)
+        encode = (time.perf_counter() - start) / k
+        print(f"parts per pair frame: deform {deform * 1e3:.2f} ms, draw + read-back "
+              f"{draw * 1e3:.2f} ms, mosaic {mosaic * 1e3:.2f} ms, encode alone "
+              f"{encode * 1e3:.2f} ms ({1 / encode:.0f} fps)")
+
+
+if __name__ == "__main__":
+    main()
