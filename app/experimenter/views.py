@@ -159,11 +159,11 @@ def new_study():  # type: ignore[no-untyped-def]
                 text = upload.read().decode("utf-8", errors="replace")
                 _save_uploads(file_form.media.data or [], folder)
                 spec = loads_study(text, source=secure_filename(upload.filename) or "study.toml",
-                                   base_dir=folder)
+                                   base_dir=folder, confine=True)
                 study = create_study(current_user(), spec, source_toml=text)  # type: ignore[arg-type]
             elif web_form.submit.data and web_form.validate_on_submit():
                 spec = parse_study(_web_form_mapping(web_form, folder), source="form",
-                                   base_dir=folder)
+                                   base_dir=folder, confine=True)
                 study = create_study(current_user(), spec)  # type: ignore[arg-type]
     except InputError as exc:
         db.session.rollback()

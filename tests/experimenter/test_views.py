@@ -105,6 +105,25 @@ def test_bad_study_file_gives_one_clear_line(app, client, web, tmp_path):
     assert "study.toml: design: expected one of" in response.get_data(as_text=True)
 
 
+def test_uploaded_study_file_cannot_reach_outside_its_upload(app, client, web, tmp_path):
+    # A study file on the server names its own media; an uploaded one must not read the
+    # server's files (here a WAV that exists, outside the upload folder).
+    outside = web.write_wav(tmp_path / "outside.wav")
+    web.user()
+    web.login(client)
+    page = client.get("/experimenter/studies/new").get_data(as_text=True)
+    token = re.search(r'name="file-csrf_token" type="hidden" value="([^"]+)"', page).group(1)
+    text = web.toml().replace('audio = "s1.wav"', f'audio = "{outside}"')
+    response = client.post("/experimenter/studies/new", content_type="multipart/form-data", data={
+        "file-csrf_token": token, "file-submit": "1",
+        "file-study_file": (io.BytesIO(text.encode()), "study.toml"),
+    })
+    assert response.status_code == 400
+    assert "study.toml" in response.get_data(as_text=True)
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count()).select_from(Study)) == 0
+
+
 def test_create_study_from_web_form(app, client, web, tmp_path):
     web.user()
     web.login(client)
