@@ -68,17 +68,23 @@ def test_each_experimenter_sees_only_their_studies(app, client, web):
     assert _post(client, f"/experimenter/studies/{theirs}/status/close").status_code == 404
 
 
-def test_create_study_from_uploaded_file(app, client, web, tmp_path):
+def _upload_study(client, web, text: str, media=()):
+    """Log in and post ``text`` as an uploaded study file with ``media`` (paths) beside it."""
     web.user()
     web.login(client)
     page = client.get("/experimenter/studies/new").get_data(as_text=True)
     token = re.search(r'name="file-csrf_token" type="hidden" value="([^"]+)"', page).group(1)
+    data = {"file-csrf_token": token, "file-submit": "1",
+            "file-study_file": (io.BytesIO(text.encode()), "study.toml")}
+    if media:
+        data["file-media"] = [(path.open("rb"), path.name) for path in media]
+    return client.post("/experimenter/studies/new", content_type="multipart/form-data",
+                       data=data)
+
+
+def test_create_study_from_uploaded_file(app, client, web, tmp_path):
     wav = web.write_wav(tmp_path / "s1.wav")
-    response = client.post("/experimenter/studies/new", content_type="multipart/form-data", data={
-        "file-csrf_token": token, "file-submit": "1",
-        "file-study_file": (io.BytesIO(web.toml(design="all_ordered").encode()), "study.toml"),
-        "file-media": [(wav.open("rb"), "s1.wav")],
-    })
+    response = _upload_study(client, web, web.toml(design="all_ordered"), [wav])
     assert response.status_code == 302, response.get_data(as_text=True)
     study_id = int(response.headers["Location"].rsplit("/", 1)[1])
     with app.app_context():
@@ -92,15 +98,7 @@ def test_create_study_from_uploaded_file(app, client, web, tmp_path):
 
 def test_bad_study_file_gives_one_clear_line(app, client, web, tmp_path):
     wav = web.write_wav(tmp_path / "s1.wav")
-    web.user()
-    web.login(client)
-    page = client.get("/experimenter/studies/new").get_data(as_text=True)
-    token = re.search(r'name="file-csrf_token" type="hidden" value="([^"]+)"', page).group(1)
-    response = client.post("/experimenter/studies/new", content_type="multipart/form-data", data={
-        "file-csrf_token": token, "file-submit": "1",
-        "file-study_file": (io.BytesIO(web.toml(design="zigzag").encode()), "study.toml"),
-        "file-media": [(wav.open("rb"), "s1.wav")],
-    })
+    response = _upload_study(client, web, web.toml(design="zigzag"), [wav])
     assert response.status_code == 400
     assert "study.toml: design: expected one of" in response.get_data(as_text=True)
 
@@ -109,15 +107,8 @@ def test_uploaded_study_file_cannot_reach_outside_its_upload(app, client, web, t
     # A study file on the server names its own media; an uploaded one must not read the
     # server's files (here a WAV that exists, outside the upload folder).
     outside = web.write_wav(tmp_path / "outside.wav")
-    web.user()
-    web.login(client)
-    page = client.get("/experimenter/studies/new").get_data(as_text=True)
-    token = re.search(r'name="file-csrf_token" type="hidden" value="([^"]+)"', page).group(1)
     text = web.toml().replace('audio = "s1.wav"', f'audio = "{outside}"')
-    response = client.post("/experimenter/studies/new", content_type="multipart/form-data", data={
-        "file-csrf_token": token, "file-submit": "1",
-        "file-study_file": (io.BytesIO(text.encode()), "study.toml"),
-    })
+    response = _upload_study(client, web, text)
     assert response.status_code == 400
     assert "study.toml" in response.get_data(as_text=True)
     with app.app_context():
