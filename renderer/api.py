@@ -24,7 +24,7 @@ from renderer.encode import ClipWriter, check_audio
 from renderer.face import Face
 from renderer.pipeline import align_tracks, render_frames
 
-RENDERER_VERSION = "1.1"
+RENDERER_VERSION = "1.2"
 
 Progress = Callable[[int, int], None]
 

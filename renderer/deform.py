@@ -94,6 +94,9 @@ def _chain_weights(v: np.ndarray, points: list[np.ndarray]) -> np.ndarray:
                      for p, r in zip(pts, reach, strict=True)])
 
 
+_IDENTITY = np.eye(4)
+
+
 def rotation(axis: str, angle: float) -> np.ndarray:
     """3x3 right-handed rotation about ``x``, ``y`` or ``z``."""
     c, s = np.cos(angle), np.sin(angle)
@@ -198,7 +201,10 @@ class Rig:
         self.eye_centres = {s: face.eye_centre(s) for s in ("l", "r")}
         self.eye_vertices = {s: np.asarray(face.groups[f"eyeball_{s}"]) for s in ("l", "r")}
         self.pivot = face.pivot()
-        self.head_w = self.weights["head"].astype(np.float32)[:, None]
+        head_w = self.weights["head"].astype(np.float32)
+        self._still = np.flatnonzero(head_w <= 0.0)
+        self._blend = np.flatnonzero((head_w > 0.0) & (head_w < 1.0))
+        self._blend_w = head_w[self._blend][:, None]
 
     def _pair_share(self, v: np.ndarray, inner_pt: str, tag: str) -> np.ndarray:
         """Share of an inner or outer lip FAP at each vertex: the nearer feature point wins."""
@@ -247,29 +253,36 @@ class Rig:
         nrm[zone, 1] = c * ny - s * nz
         nrm[zone, 2] = s * ny + c * nz
 
-    def posed(self, frame: FaceFrame, out: np.ndarray | None = None) -> np.ndarray:
-        """World-space vertices of ``frame``: (n, 6) float32, positions then unit normals.
+    def posed(self, frame: FaceFrame) -> tuple[np.ndarray, np.ndarray]:
+        """World-space ``(positions, unit normals)`` of ``frame``, two contiguous float32 (n, 3).
 
         The eyeballs turn about their centres, then the head turns about 7.1, blended per
-        vertex by the ``head`` weight (1 on the head, fading to 0 down the neck).
+        vertex by the ``head`` weight (1 on the head, fading to 0 down the neck). Only the
+        blended vertices need their normals renormalised: rotations keep unit length.
         """
-        n = self.face.n_vertices
-        out = np.empty((n, 6), np.float32) if out is None else out
-        pos, nrm = out[:, :3], out[:, 3:]
-        pos[:], nrm[:] = frame.positions, frame.normals
-        for side, m in (("l", frame.eye_l), ("r", frame.eye_r)):
-            idx = self.eye_vertices[side]
-            rot = m[:3, :3].astype(np.float32)
-            pos[idx] = pos[idx] @ rot.T + m[:3, 3].astype(np.float32)
-            nrm[idx] = nrm[idx] @ rot.T
+        pos, nrm = frame.positions, frame.normals
+        if self._eyes_turned(frame):
+            pos, nrm = pos.copy(), nrm.copy()
+            for side, m in (("l", frame.eye_l), ("r", frame.eye_r)):
+                idx = self.eye_vertices[side]
+                rot = m[:3, :3].astype(np.float32)
+                pos[idx] = pos[idx] @ rot.T + m[:3, 3].astype(np.float32)
+                nrm[idx] = nrm[idx] @ rot.T
         rot = frame.head[:3, :3].astype(np.float32)
         moved = pos @ rot.T
         moved += frame.head[:3, 3].astype(np.float32)
-        pos += self.head_w * (moved - pos)
         turned = nrm @ rot.T
-        nrm += self.head_w * (turned - nrm)
-        nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-12)
-        return out
+        still, blend, w = self._still, self._blend, self._blend_w
+        moved[still], turned[still] = pos[still], nrm[still]
+        moved[blend] = pos[blend] + w * (moved[blend] - pos[blend])
+        t = nrm[blend] + w * (turned[blend] - nrm[blend])
+        turned[blend] = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-12)
+        return moved, turned
+
+    @staticmethod
+    def _eyes_turned(frame: FaceFrame) -> bool:
+        return not (np.array_equal(frame.eye_l, _IDENTITY)
+                    and np.array_equal(frame.eye_r, _IDENTITY))
 
     def world_points(self, frame: FaceFrame, names: tuple[str, ...]) -> np.ndarray:
         """Deformed positions of mesh feature points after the head rotation, (k, 3)."""

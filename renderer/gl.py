@@ -21,45 +21,39 @@ from renderer.deform import FaceFrame, Rig
 _VERTEX = """
 #version 330
 uniform mat4 mvp;
+uniform vec3 camera;
 in vec3 in_pos;
 in vec3 in_norm;
 in vec4 in_color;
-out vec3 v_pos;
-out vec3 v_norm;
-out vec4 v_color;
-void main() {
-    v_pos = in_pos;
-    v_norm = in_norm;
-    v_color = in_color;
-    gl_Position = mvp * vec4(in_pos, 1.0);
-}
-"""
-
-_FRAGMENT = """
-#version 330
-uniform vec3 camera;
-in vec3 v_pos;
-in vec3 v_norm;
-in vec4 v_color;
-out vec4 f_color;
+out vec3 v_color;
 const vec3 KEY = normalize(vec3(-0.45, 0.55, 0.85));
 const vec3 FILL = normalize(vec3(0.6, 0.05, 0.6));
 void main() {
-    // lighting in (approximately, gamma 2) linear light; powers by squaring are cheap on
-    // software rasterisers
-    vec3 n = normalize(v_norm);
-    vec3 view = normalize(camera - v_pos);
+    // Blinn-Phong per vertex (the mesh is finer than 4 px where it shows), in approximately
+    // (gamma 2) linear light; powers by squaring are cheap on software rasterisers
+    vec3 n = in_norm;
+    vec3 view = normalize(camera - in_pos);
     float nv = dot(n, view);
     if (nv < 0.0) { n = -n; nv = -nv; }
-    vec3 albedo = v_color.rgb * v_color.rgb;
+    vec3 albedo = in_color.rgb * in_color.rgb;
     float key = max(dot(n, KEY), 0.0);
     float fill = max(dot(n, FILL), 0.0);
     float r = 1.0 - nv;
     float s = max(dot(n, normalize(KEY + view)), 0.0);
     s *= s; s *= s; s *= s; s *= s; s *= s;
     vec3 light = albedo * (0.16 + 0.95 * key + 0.35 * fill) + 0.10 * r * r * r
-                 + 0.35 * s * v_color.a;
-    f_color = vec4(sqrt(clamp(light, 0.0, 1.0)), 1.0);
+                 + 0.35 * s * in_color.a;
+    v_color = sqrt(clamp(light, 0.0, 1.0));
+    gl_Position = mvp * vec4(in_pos, 1.0);
+}
+"""
+
+_FRAGMENT = """
+#version 330
+in vec3 v_color;
+out vec4 f_color;
+void main() {
+    f_color = vec4(v_color, 1.0);
 }
 """
 
@@ -154,12 +148,12 @@ class FaceCanvas:
         self.prog["camera"].value = tuple(self.camera)
         self.static = ctx.buffer(face.colors.astype("f4").tobytes())
         self.index = ctx.buffer(face.triangles.astype("i4").tobytes())
-        self.dynamic = [ctx.buffer(reserve=face.n_vertices * 6 * 4) for _ in range(n_faces)]
-        self.vaos = [ctx.vertex_array(self.prog, [(dyn, "3f 3f", "in_pos", "in_norm"),
+        self.dynamic = [(ctx.buffer(reserve=face.n_vertices * 3 * 4),
+                         ctx.buffer(reserve=face.n_vertices * 3 * 4)) for _ in range(n_faces)]
+        self.vaos = [ctx.vertex_array(self.prog, [(pos, "3f", "in_pos"), (nrm, "3f", "in_norm"),
                                                   (self.static, "4f", "in_color")],
                                       index_buffer=self.index)
-                     for dyn in self.dynamic]
-        self._vertices = np.empty((face.n_vertices, 6), np.float32)
+                     for pos, nrm in self.dynamic]
         self.samples = samples if samples > 1 else 0
         self.fbo = ctx.framebuffer(ctx.renderbuffer((size, size), 3, samples=self.samples),
                                    ctx.depth_renderbuffer((size, size), samples=self.samples))
@@ -175,7 +169,9 @@ class FaceCanvas:
         ctx, size = self.ctx, self.size
         flags, triangles = self._modes
         for k, frame in enumerate(frames):
-            self.dynamic[k].write(self.rig.posed(frame, self._vertices))
+            positions, normals = self.rig.posed(frame)
+            self.dynamic[k][0].write(positions)
+            self.dynamic[k][1].write(normals)
             self.fbo.use()
             ctx.enable(flags)
             ctx.viewport = (0, 0, size, size)
@@ -188,7 +184,8 @@ class FaceCanvas:
         return self.buffer
 
     def release(self) -> None:
-        for obj in (*self.vaos, *self.dynamic, self.static, self.index, self.prog):
+        buffers = [b for pair in self.dynamic for b in pair]
+        for obj in (*self.vaos, *buffers, self.static, self.index, self.prog):
             obj.release()
         for fbo in {id(self.fbo): self.fbo, id(self.resolved): self.resolved}.values():
             for attachment in (*fbo.color_attachments, fbo.depth_attachment):

@@ -53,9 +53,9 @@ def pixelate(image: np.ndarray, box: tuple[int, int, int, int], block: int) -> n
     x0, y0, x1, y1 = box
     if x1 <= x0 or y1 <= y0:
         return image
-    region = image[y0:y1, x0:x1]
     ny, nx = (y1 - y0) // block, (x1 - x0) // block
-    cells = region.reshape(ny, block, nx, block, 3).astype(np.uint32)
-    mean = (cells.sum(axis=(1, 3)) + block * block // 2) // (block * block)
-    region[:] = np.repeat(np.repeat(mean.astype(np.uint8), block, 0), block, 1)
+    cells = image[y0:y1, x0:x1].reshape(ny, block, nx, block, 3)  # a view into ``image``
+    total = cells.sum(axis=1, dtype=np.uint32).sum(axis=2)
+    mean = (total + block * block // 2) // (block * block)
+    cells[:] = mean.astype(np.uint8)[:, None, :, None, :]
     return image

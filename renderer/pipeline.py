@@ -13,6 +13,7 @@ thread), so this is what lets rendering and encoding share the machine.
 from __future__ import annotations
 
 import multiprocessing
+import os
 from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -100,6 +101,9 @@ _WORKER: dict[str, Any] = {}
 
 
 def _worker_start(args: tuple) -> None:
+    # llvmpipe's rasteriser threads only add switching when every core already runs a worker;
+    # read when the GL context is made, so set before it
+    os.environ.setdefault("LP_NUM_THREADS", "0")
     _WORKER["drawer"] = _Drawer(*args)
 
 

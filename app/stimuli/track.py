@@ -22,7 +22,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import interpolate, signal
 
 from app.stimuli.fap import N_FAPS, check_fap
 
@@ -183,6 +182,8 @@ class MotionTrack:
         if not np.isfinite(fps) or fps <= 0:
             raise ValueError(f"fps must be a positive number, got {fps!r}")
         n_new = round(self.n_frames * fps / self.fps) if n_frames is None else int(n_frames)
+        from scipy import interpolate, signal  # here: importing scipy costs about a second
+
         src = self.values
         if self.n_frames == 0 or not self.channels:
             return self.replace(fps=fps, values=np.zeros((n_new, len(self.channels))))
