@@ -108,7 +108,7 @@ def test_worker_processes_draw_the_same_frames_in_order(monkeypatch):
 
     monkeypatch.setattr(pipeline, "PARALLEL_MIN_FRAMES", 1)
     monkeypatch.setattr(pipeline, "CHUNK_FRAMES", 2)
-    n = 9
+    n = 25  # the shared ring holds (2 * workers + 1) chunks = 10 frames: slots are reused
     t = np.arange(n) / 30.0
     a = MotionTrack.from_channels(30.0, {49: 20000 * np.sin(4 * t), 3: 300 * t})
     b = MotionTrack.from_channels(30.0, {48: 15000 * np.sin(3 * t)})
