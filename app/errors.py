@@ -38,4 +38,5 @@ class InputError(ValueError):
             where = f"line {self.line}: "
         if self.field is not None:
             where += f"{self.field}: "
-        return where + self.message
+        # names taken from the input (keys, file names) may hold line breaks: keep one line
+        return (where + self.message).replace("\r", "\\r").replace("\n", "\\n")
