@@ -45,6 +45,11 @@ FAPU_NAMES: tuple[str, ...] = ("ES0", "IRISD0", "ENS0", "MNS0", "MW0")
 #: Vertex groups every face must define.
 REQUIRED_GROUPS: tuple[str, ...] = ("eyeball_l", "eyeball_r")
 
+#: Optional vertex groups: ``hidden_outline`` marks vertices whose outline never shows (inside
+#: the head, under the skin); edges between two of them are not anti-aliased
+#: (:mod:`renderer.edges`).
+OPTIONAL_GROUPS: tuple[str, ...] = ("hidden_outline",)
+
 #: Optional per-vertex weight layers (0..1) a face may supply instead of the derived defaults.
 WEIGHT_LAYERS: tuple[str, ...] = (
     "head", "jaw", "upper_lip", "lower_lip",
@@ -65,7 +70,8 @@ class Face:
     fp_vertices : name -> vertex index for feature points that sit on the mesh (the mouth
         box follows these vertices as they deform).
     fapu : ``ES0, IRISD0, ENS0, MNS0, MW0`` in model units (not yet divided by 1024).
-    groups : name -> int vertex indices (``eyeball_l``, ``eyeball_r``, ...).
+    groups : name -> int vertex indices (``eyeball_l``, ``eyeball_r``, optional
+        ``hidden_outline``).
     weights : optional per-vertex weight layers (see :data:`WEIGHT_LAYERS`).
     jaw_pivot : (3,) point on the jaw hinge axis (the axis is parallel to x).
     name : label for logs and cache keys.

@@ -17,6 +17,7 @@ import numpy as np
 
 from app.errors import InputError
 from renderer.deform import FaceFrame, Rig
+from renderer.edges import edge_table, overdraw_edges
 
 _VERTEX = """
 #version 330
@@ -31,10 +32,11 @@ const vec3 FILL = normalize(vec3(0.6, 0.05, 0.6));
 void main() {
     // Blinn-Phong per vertex (the mesh is finer than 4 px where it shows), in approximately
     // (gamma 2) linear light; powers by squaring are cheap on software rasterisers
+    // a vertex on a silhouette may face slightly away: it keeps its normal (back faces are
+    // culled, so nothing is lit from behind), with the rim term at its grazing maximum
     vec3 n = in_norm;
     vec3 view = normalize(camera - in_pos);
-    float nv = dot(n, view);
-    if (nv < 0.0) { n = -n; nv = -nv; }
+    float nv = max(dot(n, view), 0.0);
     vec3 albedo = in_color.rgb * in_color.rgb;
     float key = max(dot(n, KEY), 0.0);
     float fill = max(dot(n, FILL), 0.0);
@@ -56,6 +58,61 @@ void main() {
     f_color = vec4(v_color, 1.0);
 }
 """
+
+#: Discontinuity edge overdraw (see :mod:`renderer.edges`): each input triangle is an edge
+#: (a, b) plus the vertex opposite it in its front-facing triangle; out comes a strip reaching
+#: one pixel footprint outside the edge and half a footprint inside, 0.5 px past each end.
+_EDGE_GEOMETRY = """
+#version 330
+layout(triangles) in;
+layout(triangle_strip, max_vertices = 4) out;
+uniform vec2 half_size;
+in vec3 v_color[];
+out vec3 g_color;
+noperspective out float g_dist;
+void emit(vec4 clip, vec2 offset, float dist, vec3 color) {
+    gl_Position = vec4(clip.xy + offset / half_size * clip.w, clip.zw);
+    g_color = color;
+    g_dist = dist;
+    EmitVertex();
+}
+void main() {
+    vec4 a = gl_in[0].gl_Position, b = gl_in[1].gl_Position, o = gl_in[2].gl_Position;
+    if (a.w <= 0.0 || b.w <= 0.0 || o.w <= 0.0) return;
+    vec2 pa = a.xy / a.w * half_size, pb = b.xy / b.w * half_size;
+    vec2 po = o.xy / o.w * half_size;
+    vec2 along = pb - pa;
+    float len = length(along);
+    if (len < 1e-4) return;
+    along /= len;
+    vec2 outside = vec2(-along.y, along.x);
+    if (dot(po - pa, outside) > 0.0) outside = -outside;
+    // a pixel's footprint across the edge: 1 px for an axis-aligned edge, sqrt 2 at 45 degrees
+    float k = abs(outside.x) + abs(outside.y);
+    vec2 reach_out = k * outside, reach_in = -0.5 * k * outside, ext = 0.5 * along;
+    emit(a, reach_out - ext, 1.0, v_color[0]);
+    emit(a, reach_in - ext, -0.5, v_color[0]);
+    emit(b, reach_out + ext, 1.0, v_color[1]);
+    emit(b, reach_in + ext, -0.5, v_color[1]);
+    EndPrimitive();
+}
+"""
+
+#: Coverage of a box pixel by a one-pixel-wide line centred half a pixel outside the edge
+#: (Sander et al.'s anti-aliased line): 1 - distance, in pixel footprints across the edge.
+#: The surface grows by half a pixel; in exchange the ramp spans a whole pixel.
+_EDGE_FRAGMENT = """
+#version 330
+in vec3 g_color;
+noperspective in float g_dist;
+out vec4 f_color;
+void main() {
+    f_color = vec4(g_color, clamp(1.0 - g_dist, 0.0, 1.0));
+}
+"""
+
+#: Anti-aliasing modes (see :class:`FaceCanvas`).
+ANTIALIAS_MODES: tuple[str, ...] = ("edges", "msaa", "none")
 
 _CONTEXTS: dict[int, object] = {}
 
@@ -131,61 +188,106 @@ def project(vp: np.ndarray, points: np.ndarray, size: int) -> np.ndarray:
 class FaceCanvas:
     """Draws ``n_faces`` copies of one rigged face side by side and reads the frame back.
 
-    ``samples``: multisample anti-aliasing (0 or 1 turns it off).
+    ``antialias``: ``"edges"`` (discontinuity edge overdraw, :mod:`renderer.edges`; the
+    default, cheap on a CPU rasteriser), ``"msaa"`` (``samples``-fold multisampling, the
+    better choice on a GPU) or ``"none"``.
     """
 
-    def __init__(self, rig: Rig, size: int, n_faces: int = 1, samples: int = 4,
+    def __init__(self, rig: Rig, size: int, n_faces: int = 1, *, antialias: str = "edges",
+                 samples: int = 4,
                  background: tuple[float, float, float] = (0.55, 0.56, 0.58)) -> None:
         import moderngl
 
+        if antialias not in ANTIALIAS_MODES:
+            raise InputError(f"must be one of {', '.join(ANTIALIAS_MODES)}, got {antialias!r}",
+                             field="antialias")
         self.ctx = ctx = context()
         self.rig, self.size, self.n_faces = rig, size, n_faces
         self.background = background
         self.vp, self.camera = camera_for(rig)
         face = rig.face
         self.prog = ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT)
-        self.prog["mvp"].write(self.vp.T.astype("f4").tobytes())
-        self.prog["camera"].value = tuple(self.camera)
         self.static = ctx.buffer(face.colors.astype("f4").tobytes())
         self.index = ctx.buffer(face.triangles.astype("i4").tobytes())
         self.dynamic = [(ctx.buffer(reserve=face.n_vertices * 3 * 4),
                          ctx.buffer(reserve=face.n_vertices * 3 * 4)) for _ in range(n_faces)]
-        self.vaos = [ctx.vertex_array(self.prog, [(pos, "3f", "in_pos"), (nrm, "3f", "in_norm"),
-                                                  (self.static, "4f", "in_color")],
-                                      index_buffer=self.index)
+        self.vaos = [self._vertex_array(self.prog, pos, nrm, self.index)
                      for pos, nrm in self.dynamic]
-        self.samples = samples if samples > 1 else 0
+        self.edges = None
+        if antialias == "edges":
+            hidden = np.zeros(face.n_vertices, bool)
+            hidden[face.groups.get("hidden_outline", [])] = True
+            self.edges = edge_table(face.triangles, hidden)
+            self.triangles = np.asfortranarray(face.triangles, dtype=np.intp)
+            self.edge_prog = ctx.program(vertex_shader=_VERTEX, geometry_shader=_EDGE_GEOMETRY,
+                                         fragment_shader=_EDGE_FRAGMENT)
+            self.edge_prog["half_size"].value = (size / 2.0, size / 2.0)
+            self.edge_index = ctx.buffer(reserve=max(len(self.edges.a), 1) * 3 * 4)
+            self.edge_vaos = [self._vertex_array(self.edge_prog, pos, nrm, self.edge_index)
+                              for pos, nrm in self.dynamic]
+            # clip-space x, y, w of world points: rows 0, 1 and 3 of the view-projection
+            self._xyw = self.vp[[0, 1, 3]].T.astype(np.float32)
+        for prog in (self.prog, *([self.edge_prog] if self.edges is not None else [])):
+            prog["mvp"].write(self.vp.T.astype("f4").tobytes())
+            prog["camera"].value = tuple(self.camera)
+        self.samples = samples if antialias == "msaa" and samples > 1 else 0
         self.fbo = ctx.framebuffer(ctx.renderbuffer((size, size), 3, samples=self.samples),
                                    ctx.depth_renderbuffer((size, size), samples=self.samples))
         self.resolved = (ctx.framebuffer(ctx.renderbuffer((size, size), 3)) if self.samples
                          else self.fbo)
         self.face_buffer = np.empty((size, size, 3), np.uint8)
         self.buffer = np.empty((size, size * n_faces, 3), np.uint8)
-        self._modes = moderngl.DEPTH_TEST | moderngl.CULL_FACE, moderngl.TRIANGLES
+        self._modes = (moderngl.DEPTH_TEST | moderngl.CULL_FACE,
+                       moderngl.DEPTH_TEST | moderngl.BLEND, moderngl.TRIANGLES)
+        self.last_edges = [0] * n_faces  # edges overdrawn per face in the last draw
 
-    def draw(self, frames: list[FaceFrame]) -> np.ndarray:
-        """Draw one frame per face (left to right); returns the (H, W, 3) uint8 frame, top row
-        first (a buffer reused by the next draw)."""
+    def _vertex_array(self, prog, pos, nrm, index):
+        return self.ctx.vertex_array(prog, [(pos, "3f", "in_pos"), (nrm, "3f", "in_norm"),
+                                            (self.static, "4f", "in_color")],
+                                     index_buffer=index)
+
+    def draw(self, frames: list[FaceFrame], out: np.ndarray | None = None) -> np.ndarray:
+        """Draw one frame per face (left to right) into ``out`` (default: a buffer reused by the
+        next draw); returns the (H, W, 3) uint8 frame, top row first."""
         ctx, size = self.ctx, self.size
-        flags, triangles = self._modes
+        solid, blended, triangles = self._modes
+        out = self.buffer if out is None else out
         for k, frame in enumerate(frames):
             positions, normals = self.rig.posed(frame)
             self.dynamic[k][0].write(positions)
             self.dynamic[k][1].write(normals)
             self.fbo.use()
-            ctx.enable(flags)
+            ctx.enable_only(solid)
             ctx.viewport = (0, 0, size, size)
             self.fbo.clear(*self.background, 1.0)
             self.vaos[k].render(triangles)
+            if self.edges is not None:
+                self._overdraw_edges(k, positions)
             if self.samples:
                 ctx.copy_framebuffer(self.resolved, self.fbo)
             self.resolved.read_into(self.face_buffer, components=3)
-            self.buffer[:, k * size:(k + 1) * size] = self.face_buffer[::-1]
-        return self.buffer
+            out[:, k * size:(k + 1) * size] = self.face_buffer[::-1]
+        return out
+
+    def _overdraw_edges(self, k: int, positions: np.ndarray) -> None:
+        solid, blended, triangles = self._modes
+        xyw = positions @ self._xyw[:3] + self._xyw[3]
+        edges = overdraw_edges(self.edges, self.triangles, xyw)
+        self.last_edges[k] = len(edges)
+        if not len(edges):
+            return
+        self.edge_index.write(edges)
+        self.ctx.enable_only(blended)
+        self.fbo.depth_mask = False
+        self.edge_vaos[k].render(triangles, vertices=3 * len(edges))
+        self.fbo.depth_mask = True
 
     def release(self) -> None:
         buffers = [b for pair in self.dynamic for b in pair]
-        for obj in (*self.vaos, *buffers, self.static, self.index, self.prog):
+        objs = [*self.vaos, *buffers, self.static, self.index, self.prog]
+        if self.edges is not None:
+            objs += [*self.edge_vaos, self.edge_index, self.edge_prog]
+        for obj in objs:
             obj.release()
         for fbo in {id(self.fbo): self.fbo, id(self.resolved): self.resolved}.values():
             for attachment in (*fbo.color_attachments, fbo.depth_attachment):

@@ -36,7 +36,7 @@ EYE_X, EYE_Y, EYE_Z = 31.0, 14.0, 70.0  # eyeball centre (left eye at +x)
 EYE_RADIUS = 12.0
 PIVOT_71 = (0.0, -40.0, -18.0)  # top of the spine: head rotation pivot
 JAW_HINGE = (0.0, -4.0, 10.0)  # temporo-mandibular joint axis (parallel to x)
-N_AZIMUTH, N_ELEVATION = 88, 68
+N_AZIMUTH, N_ELEVATION = 64, 52
 
 
 def _skin_sdf(p: np.ndarray) -> np.ndarray:
@@ -88,7 +88,8 @@ def builtin_face() -> Face:
         feature_points=feature_points,
         fp_vertices=fp_vertices,
         fapu=fapu_from_feature_points(feature_points),
-        groups={k: v for k, v in mesh.groups.items() if k.startswith("eyeball")},
+        groups={k: v for k, v in mesh.groups.items()
+                if k.startswith("eyeball") or k == "hidden_outline"},
         weights={k: v.astype(np.float32) for k, v in mesh.layers.items()},
         jaw_pivot=np.array(JAW_HINGE),
         name="builtin",

@@ -209,16 +209,17 @@ def _lathe(polar: np.ndarray, colours: np.ndarray, n_seg: int) -> tuple[np.ndarr
 def eyeball(centre: np.ndarray, radius: float, name: str) -> Part:
     """Eyeball with sclera, iris (with a darker limbus) and pupil; the pupil faces +z."""
     sclera, iris, limbus, pupil = ([0.93, 0.91, 0.87, 0.9], [0.36, 0.27, 0.18, 0.9],
-                                   [0.14, 0.11, 0.09, 0.9], [0.03, 0.03, 0.03, 0.9])
+                                   [0.14, 0.11, 0.09, 0.9], [0.03, 0.03, 0.03, 0.2])
     spec = [(0.0, pupil), (0.10, pupil), (0.19, pupil), (0.19, iris), (0.33, iris),
             (0.44, limbus), (0.48, limbus), (0.48, sclera), (0.7, sclera), (1.0, sclera),
-            (1.4, sclera), (1.9, sclera), (2.5, sclera), (3.1, sclera)]
+            (1.4, sclera), (1.9, sclera)]  # the back, always inside the head, is left open
     polar = np.array([a for a, _ in spec])
     v, t, c = _lathe(polar, np.array([c for _, c in spec]), 28)
     verts = centre + radius * v
     idx = np.arange(len(verts))
     side = name[-1]
-    return Part(verts, t, c, {name: idx, f"fp:3.{5 if side == 'l' else 6}": idx[[0]]})
+    return Part(verts, t, c, {name: idx, f"fp:3.{5 if side == 'l' else 6}": idx[[0]],
+                              "hidden_outline": idx})
 
 
 def eyelid(centre: np.ndarray, radius: float, *, upper: bool, side: str) -> Part:
@@ -247,8 +248,9 @@ def eyelid(centre: np.ndarray, radius: float, *, upper: bool, side: str) -> Part
     name = f"eyelid_{'upper' if upper else 'lower'}_{side}"
     k = {"l": 0, "r": 1}[side]
     fp = f"fp:3.{(1 if upper else 3) + k}"
-    return Part(verts, tris, col, {name: np.arange(len(verts)), fp: np.array([len(alpha) // 2])},
-                {name: w})
+    groups = {name: np.arange(len(verts)), fp: np.array([len(alpha) // 2]),
+              "hidden_outline": np.arange(len(alpha), len(verts))}  # all but the margin
+    return Part(verts, tris, col, groups, {name: w})
 
 
 def ellipsoid_mesh(centre, radii, colour, n_rings: int = 12, n_seg: int = 24) -> Part:
@@ -285,7 +287,9 @@ def mouth_cavity(mouth_y: float) -> Part:
         if not upper:
             tooth.layers["jaw"] = np.ones(len(v))
         parts.append(tooth)
-    return merge(parts)
+    mouth = merge(parts)
+    mouth.groups["hidden_outline"] = np.arange(len(mouth.vertices))  # behind the lips
+    return mouth
 
 
 def neck_and_shoulders() -> Part:

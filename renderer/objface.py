@@ -31,6 +31,7 @@ from app.errors import InputError
 from renderer.face import (
     FAPU_NAMES,
     MOUTH_FEATURE_POINTS,
+    OPTIONAL_GROUPS,
     REQUIRED_FEATURE_POINTS,
     REQUIRED_GROUPS,
     WEIGHT_LAYERS,
@@ -187,6 +188,9 @@ def load_face(json_path: str | Path) -> Face:
         if name not in groups_in:
             raise InputError("missing group", path=path, field=f"groups.{name}")
         groups[name] = _vertex_list(groups_in[name], n, path, f"groups.{name}")
+    for name in OPTIONAL_GROUPS:
+        if name in groups_in:
+            groups[name] = _vertex_list(groups_in[name], n, path, f"groups.{name}")
 
     fapu = fapu_from_feature_points(feature_points)
     given = spec.get("fapu", {})

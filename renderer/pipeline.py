@@ -70,19 +70,19 @@ CHUNK_FRAMES = 6
 class _Drawer:
     """Draws frames of fixed tracks: deform, GL draw, mouth mosaic."""
 
-    def __init__(self, dense: list[np.ndarray], face: Face, size: int, samples: int,
-                 background: tuple[float, float, float], mosaic_block: int | None,
-                 mosaic_margin: float) -> None:
+    def __init__(self, dense: list[np.ndarray], face: Face, size: int, antialias: str,
+                 samples: int, background: tuple[float, float, float],
+                 mosaic_block: int | None, mosaic_margin: float) -> None:
         self.rig = rig_for(face)
         self.dense, self.size = dense, size
         self.mosaic_block, self.mosaic_margin = mosaic_block, mosaic_margin
-        self.canvas = FaceCanvas(self.rig, size, len(dense), samples=samples,
-                                 background=background)
+        self.canvas = FaceCanvas(self.rig, size, len(dense), antialias=antialias,
+                                 samples=samples, background=background)
 
-    def draw(self, i: int) -> RenderedFrame:
+    def draw(self, i: int, out: np.ndarray | None = None) -> RenderedFrame:
         rig, size = self.rig, self.size
         deformed = [rig.deform(d[i]) for d in self.dense]
-        image = self.canvas.draw(deformed)
+        image = self.canvas.draw(deformed, out)
         boxes = []
         if self.mosaic_block:
             for k, frame in enumerate(deformed):
@@ -115,26 +115,27 @@ def _worker_draw(jobs: list[tuple[int, int]]) -> list[tuple[int, int, list]]:
     drawer, ring = _WORKER["drawer"], _WORKER["ring"]
     out = []
     for i, slot in jobs:
-        frame = drawer.draw(i)
-        ring[slot] = frame.image
+        frame = drawer.draw(i, ring[slot])
         out.append((i, slot, frame.boxes))
     return out
 
 
-def render_frames(tracks: list[MotionTrack], face: Face, *, size: int, samples: int = 4,
+def render_frames(tracks: list[MotionTrack], face: Face, *, size: int,
+                  antialias: str = "edges", samples: int = 4,
                   background: tuple[float, float, float] = (0.55, 0.56, 0.58),
                   mosaic_block: int | None = 24, mosaic_margin: float = 0.15,
                   frames: range | None = None, workers: int = 1) -> Iterator[RenderedFrame]:
     """Yield the side-by-side frames of ``tracks`` (one face per track, left to right).
 
-    ``mosaic_block`` None or 0 leaves the mouth visible. ``frames`` picks frame indices
+    ``antialias`` and ``samples``: see :class:`renderer.gl.FaceCanvas`. ``mosaic_block`` None
+    or 0 leaves the mouth visible. ``frames`` picks frame indices
     (default: all). The tracks must share frame rate and length (see :func:`align_tracks`).
     ``workers`` > 1 draws in that many processes when there are at least
     :data:`PARALLEL_MIN_FRAMES` frames; the frames are the same either way.
     """
     dense = [t.dense() for t in tracks]
     indices = list(frames if frames is not None else range(tracks[0].n_frames))
-    args = (dense, face, size, samples, background, mosaic_block, mosaic_margin)
+    args = (dense, face, size, antialias, samples, background, mosaic_block, mosaic_margin)
     if workers > 1 and len(indices) >= PARALLEL_MIN_FRAMES:
         yield from _render_parallel(args, indices, workers, (size, size * len(tracks), 3))
         return

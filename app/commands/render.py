@@ -45,7 +45,11 @@ def _common(fn: Callable) -> Callable:
                       help="Mouth mosaic block size in pixels (0: no mosaic).")(fn)
     fn = click.option("--samples", type=click.Choice(["0", "2", "4", "8"]), default="4",
                       show_default=True,
-                      help="Multisample anti-aliasing (0: off, about 1.7x faster on a CPU).")(fn)
+                      help="Multisample anti-aliasing samples for --antialias msaa.")(fn)
+    fn = click.option("--antialias", type=click.Choice(["edges", "msaa", "none"]),
+                      default="edges", show_default=True,
+                      help="edges: silhouette edge overdraw (fast on a CPU); msaa: "
+                           "multisampling (for a GPU); none.")(fn)
     return fn
 
 
@@ -72,14 +76,14 @@ def render() -> None:
 @_common
 @_clip_options
 def pair(left: str, right: str, audio: str, out: str, face: str | None, size: int,
-         mosaic_block: int, samples: str, fps: float | None, cache_dir: str | None,
-         workers: int) -> None:
+         mosaic_block: int, antialias: str, samples: str, fps: float | None,
+         cache_dir: str | None, workers: int) -> None:
     """Side-by-side clip LEFT | RIGHT over AUDIO, mouths hidden by a mosaic."""
     from app.stimuli.io import load_track
     from renderer import render_pair
 
-    settings = _settings(size, mosaic_block, face, samples=int(samples), fps=fps,
-                         workers=workers)
+    settings = _settings(size, mosaic_block, face, antialias=antialias, samples=int(samples),
+                         fps=fps, workers=workers)
     tracks = load_track(left), load_track(right)
     with _progress_bar("render pair") as progress:
         path = render_pair(*tracks, audio, out, settings=settings, cache_dir=cache_dir,
@@ -94,14 +98,14 @@ def pair(left: str, right: str, audio: str, out: str, face: str | None, size: in
 @_common
 @_clip_options
 def single(track_path: str, audio: str, out: str, face: str | None, size: int,
-           mosaic_block: int, samples: str, fps: float | None, cache_dir: str | None,
-         workers: int) -> None:
+           mosaic_block: int, antialias: str, samples: str, fps: float | None,
+           cache_dir: str | None, workers: int) -> None:
     """Single-face clip of TRACK over AUDIO."""
     from app.stimuli.io import load_track
     from renderer import render_single
 
-    settings = _settings(size, mosaic_block, face, samples=int(samples), fps=fps,
-                         workers=workers)
+    settings = _settings(size, mosaic_block, face, antialias=antialias, samples=int(samples),
+                         fps=fps, workers=workers)
     track = load_track(track_path)
     with _progress_bar("render single") as progress:
         path = render_single(track, audio, out, settings=settings, cache_dir=cache_dir,
@@ -118,12 +122,12 @@ def single(track_path: str, audio: str, out: str, face: str | None, size: int,
 @click.option("--no-mosaic", is_flag=True, help="Show the mouth.")
 @_common
 def still(track_path: str, right_path: str | None, frame: int, out: str, face: str | None,
-          size: int, mosaic_block: int, samples: str, no_mosaic: bool) -> None:
+          size: int, mosaic_block: int, antialias: str, samples: str, no_mosaic: bool) -> None:
     """PNG still of frame FRAME of TRACK."""
     from app.stimuli.io import load_track
     from renderer import render_still
 
-    settings = _settings(size, mosaic_block, face, samples=int(samples))
+    settings = _settings(size, mosaic_block, face, antialias=antialias, samples=int(samples))
     right = load_track(right_path) if right_path else None
     path = render_still(load_track(track_path), frame, out, right=right, settings=settings,
                         mosaic=not no_mosaic)

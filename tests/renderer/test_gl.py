@@ -45,3 +45,46 @@ def test_canvas_draws_faces_on_a_neutral_background():
     assert np.array_equal(img[:, :128], img[:, 128:])
     centre = img[40:90, 40:90].astype(int)
     assert (np.abs(centre - 128).sum(axis=2) > 30).mean() > 0.8  # the face covers the middle
+
+
+def _outline_frames(rig, mode, frames, size=160):
+    canvas = gl.FaceCanvas(rig, size, 1, antialias=mode, background=(0.5, 0.5, 0.5))
+    try:
+        images = [canvas.draw([f]).astype(int) for f in frames]
+        return images, canvas.last_edges[0]
+    finally:
+        canvas.release()
+
+
+@pytest.mark.gl
+def test_edge_overdraw_stops_the_outline_popping_and_stays_on_it():
+    from scipy import ndimage
+
+    rig = Rig(builtin_face())
+    frames = []
+    for k in range(12):  # the head turns by 0.0004 rad a frame: the outline creeps sub-pixel
+        faps = np.zeros(68)
+        faps[49 - 1] = 15000.0 + 40.0 * k
+        frames.append(rig.deform(faps))
+    plain, _ = _outline_frames(rig, "none", frames)
+    smooth, n_edges = _outline_frames(rig, "edges", frames)
+    assert n_edges > 50
+    background = np.abs(plain[0] - 128).max(axis=2) <= 2
+    square = np.ones((3, 3), bool)
+    outline = (ndimage.binary_dilation(background, square, iterations=2)
+               & ndimage.binary_dilation(~background, square, iterations=2))
+
+    def worst_jump(images):
+        return max(np.abs(a - b).max(axis=2)[outline].max()
+                   for a, b in zip(images, images[1:], strict=False))
+
+    # aliased, outline pixels flip between face and background; overdrawn, they fade
+    assert worst_jump(plain) > 35
+    assert worst_jump(smooth) < 0.6 * worst_jump(plain)
+    # nothing spills more than two pixels beyond the aliased outline (surfaces just outside
+    # the frame may reach into its border) and no face pixel turns into background
+    near = ndimage.binary_dilation(~background, square, iterations=2)
+    near[[0, -1]] = True
+    near[:, [0, -1]] = True
+    assert np.array_equal(smooth[0][~near], plain[0][~near])
+    assert not (np.abs(smooth[0] - 128).max(axis=2) <= 2)[~background].any()

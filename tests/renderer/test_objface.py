@@ -26,6 +26,7 @@ def test_round_trip_keeps_mesh_points_fapu_and_rig(exported):
     for k in ref.fapu:
         assert face.fapu[k] == pytest.approx(ref.fapu[k])
     assert face.fp_vertices == ref.fp_vertices
+    assert np.array_equal(face.groups["hidden_outline"], ref.groups["hidden_outline"])
     faps = np.zeros(68)
     faps[2] = 300.0  # open the jaw: the exported weights part the lips as before
     a, b = Rig(face).deform(faps), Rig(ref).deform(faps)
@@ -62,6 +63,13 @@ def test_out_of_range_vertex_and_missing_group(exported, tmp_path):
     del spec["groups"]["eyeball_r"]
     with pytest.raises(InputError, match=r"groups.eyeball_r: missing group"):
         load_face(_write(tmp_path, spec))
+    spec = _spec(exported)
+    spec["groups"]["hidden_outline"] = [0, -1]
+    with pytest.raises(InputError, match=r"groups.hidden_outline: vertex index out of range"):
+        load_face(_write(tmp_path, spec))
+    spec = _spec(exported)
+    del spec["groups"]["hidden_outline"]  # optional: without it every outline is overdrawn
+    assert "hidden_outline" not in load_face(_write(tmp_path, spec)).groups
 
 
 def test_mouth_points_must_be_vertices_and_fapu_positive(exported, tmp_path):
