@@ -27,6 +27,7 @@ Example
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -46,6 +47,18 @@ class EdgeTable:
     t1: np.ndarray
     o0: np.ndarray
     o1: np.ndarray
+
+    @cached_property
+    def rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """int32 ``(a, b, o0)`` and ``(a, b, o1)`` rows, ready to upload."""
+        return (np.column_stack([self.a, self.b, self.o0]).astype(np.int32),
+                np.column_stack([self.a, self.b, self.o1]).astype(np.int32))
+
+    @cached_property
+    def second(self) -> tuple[np.ndarray, np.ndarray]:
+        """Edges with a second triangle, and those triangles."""
+        paired = np.flatnonzero(self.t1 >= 0)
+        return paired, self.t1[paired]
 
 
 def edge_table(triangles: np.ndarray, hidden: np.ndarray | None = None) -> EdgeTable:
@@ -108,10 +121,8 @@ def overdraw_edges(table: EdgeTable, triangles: np.ndarray, xyw: np.ndarray) -> 
     """
     front = front_facing(triangles, xyw)
     f0 = front[table.t0]
-    f1 = np.where(table.t1 >= 0, front[np.maximum(table.t1, 0)], False)
-    use0, use1 = f0 & ~f1, f1 & ~f0
-    out = np.empty((int(use0.sum() + use1.sum()), 3), np.int32)
-    k = int(use0.sum())
-    out[:k, 0], out[:k, 1], out[:k, 2] = table.a[use0], table.b[use0], table.o0[use0]
-    out[k:, 0], out[k:, 1], out[k:, 2] = table.a[use1], table.b[use1], table.o1[use1]
-    return out
+    f1 = np.zeros_like(f0)
+    paired, t1 = table.second
+    f1[paired] = front[t1]
+    rows0, rows1 = table.rows
+    return np.concatenate([rows0[f0 & ~f1], rows1[f1 & ~f0]])

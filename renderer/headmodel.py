@@ -4,7 +4,8 @@ In the spirit of Parke's parameterised face (thesis sec. 2.1.2): a polygon mesh 
 comes from a few named parameters (head, jaw, nose, lips, eye sockets as smooth unions in
 :mod:`renderer.sdf`), with the upper and lower lip left unconnected so that opening the jaw
 parts them. The skin is sampled on a ray grid about a point inside the head, dense on the face
-and sparse at the back, so the whole head stays near 16k triangles. Eyeballs (iris, pupil),
+and sparse at the back, so the whole head stays near 11k triangles (the cost of a frame on a
+software rasteriser grows with the count). Eyeballs (iris, pupil),
 eyelids, mouth cavity with teeth, ears, neck and shoulders are separate parts.
 
 Model units are millimetres; axes as in Xface (+x the face's left, +y up, +z forward).
@@ -12,7 +13,7 @@ Model units are millimetres; axes as in Xface (+x the face's left, +y up, +z for
 Example
 -------
 >>> face = builtin_face()
->>> 8_000 < face.n_triangles < 20_000
+>>> 8_000 < face.n_triangles < 14_000
 True
 >>> sorted(face.fapu) == ['ENS0', 'ES0', 'IRISD0', 'MNS0', 'MW0']
 True

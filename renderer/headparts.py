@@ -214,7 +214,7 @@ def eyeball(centre: np.ndarray, radius: float, name: str) -> Part:
             (0.44, limbus), (0.48, limbus), (0.48, sclera), (0.7, sclera), (1.0, sclera),
             (1.4, sclera), (1.9, sclera)]  # the back, always inside the head, is left open
     polar = np.array([a for a, _ in spec])
-    v, t, c = _lathe(polar, np.array([c for _, c in spec]), 28)
+    v, t, c = _lathe(polar, np.array([c for _, c in spec]), 20)
     verts = centre + radius * v
     idx = np.arange(len(verts))
     side = name[-1]
@@ -233,7 +233,7 @@ def eyelid(centre: np.ndarray, radius: float, *, upper: bool, side: str) -> Part
     else:
         margin = np.radians(1 - 19 * (1 - a_n ** 2) + 3 * lateral)
         root = np.radians(np.full_like(alpha, -58.0))
-    s = np.linspace(0, 1, 9)
+    s = np.linspace(0, 1, 5)
     B = margin[None, :] + s[:, None] * (root - margin)[None, :]
     A = np.broadcast_to(alpha, B.shape)
     v = np.stack([np.cos(B) * np.sin(A), np.sin(B), np.cos(B) * np.cos(A)], -1).reshape(-1, 3)
@@ -272,7 +272,7 @@ def ear(pos: np.ndarray, sx: float) -> Part:
 
 def mouth_cavity(mouth_y: float) -> Part:
     """Dark oral cavity behind the lips, with upper teeth and jaw-borne lower teeth."""
-    cav = ellipsoid_mesh((0, mouth_y - 5, 70), (22, 16, 17), (0.20, 0.06, 0.06, 0.05))
+    cav = ellipsoid_mesh((0, mouth_y - 5, 70), (22, 16, 17), (0.20, 0.06, 0.06, 0.05), 8, 16)
     cav.layers["jaw"] = smoothstep(mouth_y + 2, mouth_y - 8, cav.vertices[:, 1])
     parts = [cav]
     for upper in (True, False):
