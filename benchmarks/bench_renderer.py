@@ -1,18 +1,20 @@
 """Benchmark: a 60 s side-by-side clip at the default size (368 px per face) with audio.
 
 Generates two conditions' tracks (speech-driven and Perlin prosody) for 60 s of synthetic speech,
-then renders and encodes the pair clip with :func:`renderer.render_pair` (GL rendering in this
-process, H.264 + AAC encoding in ffmpeg's, overlapped) and prints frames per second and the
-ratio to real time (target: at least 4x faster than real time on a 2-core CPU machine). Then the
-parts alone: deformation, drawing (GL + read-back), mosaic, and encoding of the same frames.
+then renders and encodes the pair clip with :func:`renderer.render_pair` (GL drawing in worker
+processes, H.264 + AAC encoding in ffmpeg's, overlapped) and prints frames per second, the
+ratio to real time (target: at least 4x faster than real time on a 2-core CPU machine) and the
+CPU time per frame of this process and its children. Then the parts alone, in this process:
+deformation, drawing (GL + read-back), mosaic, and encoding of the same frames.
 
     python benchmarks/bench_renderer.py [--seconds 60] [--size 368] [--repeat 2]
-                                        [--samples 4] [--workers 0]
+                                        [--antialias edges] [--samples 4] [--workers 0]
 """
 
 from __future__ import annotations
 
 import argparse
+import resource
 import tempfile
 import time
 from pathlib import Path
@@ -27,15 +29,25 @@ from renderer.headmodel import builtin_face
 from renderer.pipeline import align_tracks, render_frames, rig_for
 
 
+def _cpu_seconds() -> tuple[float, float]:
+    """User + system CPU seconds of this process and of its finished children."""
+    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(
+        resource.RUSAGE_CHILDREN)
+    return me.ru_utime + me.ru_stime, kids.ru_utime + kids.ru_stime
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--size", type=int, default=368)
     parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument("--antialias", choices=("edges", "msaa", "none"),
+                        default=RenderSettings.antialias)
     parser.add_argument("--samples", type=int, default=RenderSettings.samples)
     parser.add_argument("--workers", type=int, default=RenderSettings.workers)
     args = parser.parse_args()
-    settings = RenderSettings(size=args.size, samples=args.samples, workers=args.workers)
+    settings = RenderSettings(size=args.size, antialias=args.antialias, samples=args.samples,
+                              workers=args.workers)
     with tempfile.TemporaryDirectory() as d:
         wav = write_speech(Path(d) / "speech.wav", args.seconds)
         result = generate_conditions(wav, conditions=("speech_driven", "random"))
@@ -43,18 +55,24 @@ def main() -> None:
                                    None)
         n, fps = left.n_frames, left.fps
         clip_seconds = n / fps
-        times = []
+        times, cpu = [], []
         for r in range(args.repeat):
+            before = _cpu_seconds()
             start = time.perf_counter()
             render_pair(left, right, wav, Path(d) / f"pair{r}.mp4", settings=settings)
             times.append(time.perf_counter() - start)
+            cpu.append([b - a for a, b in zip(before, _cpu_seconds(), strict=True)])
         best, median = min(times), float(np.median(times))
+        own, children = (1e3 * float(np.median(c)) / n for c in zip(*cpu, strict=True))
         size_mb = (Path(d) / "pair0.mp4").stat().st_size / 1e6
-        print(f"samples {settings.samples}, workers {settings.workers or 'auto'}: "
+        aa = settings.antialias + (f" x{settings.samples}" if settings.antialias == "msaa" else "")
+        print(f"antialias {aa}, workers {settings.workers or 'auto'}, x264 {settings.preset}: "
               f"pair clip {clip_seconds:.0f} s, {n} frames at {fps:g} fps, "
               f"{2 * args.size}x{args.size}, with audio ({size_mb:.1f} MB): "
               f"best {best:.2f} s = {n / best:.0f} fps = {clip_seconds / best:.1f}x real time; "
               f"median {median:.2f} s = {clip_seconds / median:.1f}x real time (target >= 4x)")
+        print(f"CPU per pair frame: {own + children:.1f} ms ({own:.1f} this process, "
+              f"{children:.1f} workers + ffmpeg)")
 
         # the parts alone, on the first 600 frames
         k = min(n, 600)
@@ -69,7 +87,8 @@ def main() -> None:
         frames = []
         start = time.perf_counter()
         for frame in render_frames([left, right], face, size=args.size, mosaic_block=0,
-                                   samples=settings.samples, frames=range(k)):
+                                   antialias=settings.antialias, samples=settings.samples,
+                                   frames=range(k)):
             frames.append(frame.image.copy())
         draw = (time.perf_counter() - start) / k - deform
         from renderer.mosaic import pixelate
@@ -81,7 +100,9 @@ def main() -> None:
             pixelate(image, (96 + args.size, 216, 264 + args.size, 312), settings.mosaic_block)
         mosaic = (time.perf_counter() - start) / k
         start = time.perf_counter()
-        with ClipWriter(Path(d) / "enc.mp4", 2 * args.size, args.size, fps, k, wav) as writer:
+        with ClipWriter(Path(d) / "enc.mp4", 2 * args.size, args.size, fps, k, wav,
+                        crf=settings.crf, preset=settings.preset,
+                        threads=settings.encode_threads) as writer:
             for image in frames:
                 writer.write(image)
         encode = (time.perf_counter() - start) / k

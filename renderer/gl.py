@@ -2,11 +2,12 @@
 
 One :class:`FaceCanvas` draws one or more faces side by side and returns one frame: fixed
 perspective camera framed on the face's own feature points, two lights with Blinn-Phong shading
-computed in linear light, neutral grey background and multisample anti-aliasing (resolved before
-read-back). Vertices arrive posed in world space (:meth:`renderer.deform.Rig.posed`), so nothing
-but vertex data changes between draws: on Mesa's llvmpipe a uniform change between the faces of
-a frame costs more than drawing them. Each face is drawn alone into one square target, so its
-pixels do not depend on its side (A|B and B|A are exact mirrors of each other).
+computed per vertex in linear light, neutral grey background, and anti-aliasing by discontinuity
+edge overdraw (:mod:`renderer.edges`; the default) or by multisampling. Vertices arrive posed in
+world space (:meth:`renderer.deform.Rig.posed`), so nothing but vertex data changes between
+draws: on Mesa's llvmpipe a uniform change between the faces of a frame costs more than drawing
+them. Each face is drawn alone into one square target, so its pixels do not depend on its side
+(A|B and B|A are exact mirrors of each other).
 """
 
 from __future__ import annotations
