@@ -18,7 +18,7 @@ import numpy as np
 
 from app.errors import InputError
 from renderer.deform import FaceFrame, Rig
-from renderer.edges import edge_table, overdraw_edges
+from renderer.edges import EdgeTable, edge_table, overdraw_edges
 
 _VERTEX = """
 #version 330
@@ -263,17 +263,17 @@ class FaceCanvas:
             self.fbo.clear(*self.background, 1.0)
             self.vaos[k].render(triangles)
             if self.edges is not None:
-                self._overdraw_edges(k, positions)
+                self._overdraw_edges(k, positions, self.edges)
             if self.samples:
                 ctx.copy_framebuffer(self.resolved, self.fbo)
             self.resolved.read_into(self.face_buffer, components=3)
             out[:, k * size:(k + 1) * size] = self.face_buffer[::-1]
         return out
 
-    def _overdraw_edges(self, k: int, positions: np.ndarray) -> None:
+    def _overdraw_edges(self, k: int, positions: np.ndarray, table: EdgeTable) -> None:
         solid, blended, triangles = self._modes
         xyw = positions @ self._xyw[:3] + self._xyw[3]
-        edges = overdraw_edges(self.edges, self.triangles, xyw)
+        edges = overdraw_edges(table, self.triangles, xyw)
         self.last_edges[k] = len(edges)
         if not len(edges):
             return

@@ -257,7 +257,7 @@ def write_face(face: Face, json_path: str | Path) -> Path:
              for (x, y, z), (r, g, b) in zip(face.vertices, face.colors[:, :3], strict=True)]
     lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in face.triangles]
     obj.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    spec = {
+    spec: dict[str, Any] = {
         "format": FORMAT,
         "mesh": obj.name,
         "name": face.name,

@@ -32,8 +32,8 @@ def derive_weights(face: Face) -> dict[str, np.ndarray]:
     fp, fapu = face.feature_points, face.fapu
     n = face.n_vertices
     eyeball = np.zeros(n, bool)
-    for side in ("l", "r"):
-        eyeball[face.groups[f"eyeball_{side}"]] = True
+    for eye in ("l", "r"):
+        eyeball[face.groups[f"eyeball_{eye}"]] = True
     lip_y = (fp["2.2"][1] + fp["2.3"][1]) / 2.0
     out: dict[str, np.ndarray] = {
         "head": np.ones(n),
