@@ -147,7 +147,8 @@ def render_frames(tracks: list[MotionTrack], face: Face, *, size: int,
         drawer.release()
 
 
-#: Upper bound of the shared frame ring (bytes); Docker's default /dev/shm is 64 MiB.
+#: Upper bound of the shared frame ring (bytes; at least two frames); Docker's default /dev/shm
+#: is 64 MiB.
 RING_BYTES = 32 * 2**20
 
 
@@ -155,15 +156,21 @@ def _render_parallel(args: tuple, indices: list[int], workers: int,
                      shape: tuple[int, int, int]) -> Iterator[RenderedFrame]:
     """Frames drawn by ``workers`` processes, yielded in order.
 
-    Frames come back through a shared-memory ring rather than pickled through a pipe (three
-    copies of every frame fewer in this process). At most ``2 * workers`` chunks are in flight
-    beyond the one being yielded, so a ring of ``2 * workers + 1`` chunks never overwrites a
-    frame before the consumer has moved past it.
+    Frames come back through a shared-memory ring rather than pickled through a pipe (two
+    copies of every frame fewer in this process). At most ``ahead`` chunks are in flight beyond
+    the one being yielded, so a ring of ``ahead + 1`` chunks never overwrites a frame before
+    the consumer has moved past it. ``ahead`` is ``2 * workers`` unless the ring would outgrow
+    :data:`RING_BYTES` (then fewer chunks, and at most that many workers). Each frame is copied
+    out of the ring into one reused array, so a frame kept past the generator's end is stale,
+    as on the in-process path, but never points into freed shared memory.
     """
     frame_bytes = int(np.prod(shape))
     chunk = max(1, min(CHUNK_FRAMES, RING_BYTES // ((2 * workers + 1) * frame_bytes)))
-    n_slots = (2 * workers + 1) * chunk
+    ahead = max(1, min(2 * workers, RING_BYTES // (chunk * frame_bytes) - 1))
+    workers = min(workers, ahead)
+    n_slots = (ahead + 1) * chunk
     ring_shape = (n_slots, *shape)
+    image = np.empty(shape, np.uint8)
     shm = shared_memory.SharedMemory(create=True, size=n_slots * frame_bytes)
     try:
         ring = np.ndarray(ring_shape, np.uint8, buffer=shm.buf)
@@ -176,7 +183,7 @@ def _render_parallel(args: tuple, indices: list[int], workers: int,
             todo = iter(chunks)
             for job in todo:
                 pending.append(pool.apply_async(_worker_draw, (job,)))
-                if len(pending) >= 2 * workers:
+                if len(pending) >= ahead:
                     break
             while pending:
                 done = pending.popleft().get()
@@ -184,7 +191,8 @@ def _render_parallel(args: tuple, indices: list[int], workers: int,
                 if nxt is not None:
                     pending.append(pool.apply_async(_worker_draw, (nxt,)))
                 for i, slot, boxes in done:
-                    yield RenderedFrame(i, ring[slot], boxes)
+                    np.copyto(image, ring[slot])
+                    yield RenderedFrame(i, image, boxes)
         del ring
     finally:
         shm.close()

@@ -122,3 +122,34 @@ def test_worker_processes_draw_the_same_frames_in_order(monkeypatch):
     for (i, img, boxes), (j, img2, boxes2) in zip(serial, parallel, strict=True):
         assert i == j and boxes == boxes2 and np.array_equal(img, img2)
     assert not np.array_equal(serial[0][1], serial[-1][1])  # the frames do differ
+
+
+def _shared_segments():
+    from pathlib import Path
+
+    shm = Path("/dev/shm")
+    return {p.name for p in shm.glob("psm_*")}  # SharedMemory's names
+
+
+def test_worker_frames_outlive_the_ring_and_nothing_is_left_behind(monkeypatch):
+    import renderer.pipeline as pipeline
+
+    monkeypatch.setattr(pipeline, "PARALLEL_MIN_FRAMES", 1)
+    frame_bytes = 64 * 128 * 3
+    monkeypatch.setattr(pipeline, "RING_BYTES", 3 * frame_bytes)  # 3 frames: 1 chunk ahead
+    n = 7
+    t = np.arange(n) / 30.0
+    a = MotionTrack.from_channels(30.0, {49: 20000 * np.sin(4 * t)})
+    b = MotionTrack.from_channels(30.0, {48: 15000 * np.sin(3 * t)})
+    kwargs = dict(size=64, mosaic_block=8, mosaic_margin=0.15)
+    serial = [f.image.copy() for f in render_frames([a, b], builtin_face(), **kwargs)]
+    before = _shared_segments()
+    kept = list(render_frames([a, b], builtin_face(), workers=2, **kwargs))
+    # the ring is gone; the frames kept are readable (the last one, as on the serial path)
+    assert [f.index for f in kept] == list(range(n))
+    assert np.array_equal(kept[-1].image, serial[-1])
+    gen = render_frames([a, b], builtin_face(), workers=2, **kwargs)
+    first = next(gen)
+    gen.close()  # stopped early
+    assert np.array_equal(first.image, serial[0])
+    assert _shared_segments() <= before
