@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 from app.errors import InputError
 from app.stimuli.track import MotionTrack
@@ -68,6 +69,20 @@ class RenderSettings:
     encode_threads: int = 1
     workers: int = 0
 
+    def output_fields(self) -> dict[str, Any]:
+        """The settings that change the clip's bytes (the cache key's share).
+
+        ``face`` is hashed from its content instead, ``workers`` does not change the output,
+        ``samples`` counts only for multisampling, and one-per-core encoder threads are keyed
+        by this machine's core count (x264's output depends on its thread count).
+        """
+        fields = {k: v for k, v in asdict(self).items() if k not in ("face", "workers")}
+        if self.antialias != "msaa":
+            del fields["samples"]
+        if self.encode_threads == 0:
+            fields["encode_threads"] = f"auto:{os.cpu_count()}"
+        return fields
+
     def __post_init__(self) -> None:
         if not isinstance(self.size, int) or self.size < 64 or self.size % 16:
             raise InputError(f"must be a multiple of 16 and at least 64, got {self.size!r}",
@@ -86,10 +101,10 @@ class RenderSettings:
                              f"{self.antialias!r}", field="antialias")
         if self.samples not in (0, 1, 2, 4, 8):
             raise InputError(f"must be 0, 1, 2, 4 or 8, got {self.samples!r}", field="samples")
-        if not isinstance(self.workers, int) or self.workers < 0:
+        if type(self.workers) is not int or self.workers < 0:
             raise InputError(f"must be a whole number >= 0, got {self.workers!r}",
                              field="workers")
-        if not isinstance(self.encode_threads, int) or self.encode_threads < 0:
+        if type(self.encode_threads) is not int or self.encode_threads < 0:
             raise InputError(f"must be a whole number >= 0, got {self.encode_threads!r}",
                              field="encode_threads")
         if self.fps is not None and not self.fps > 0:

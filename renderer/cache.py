@@ -11,7 +11,6 @@ from __future__ import annotations
 import hashlib
 import json
 import shutil
-from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -39,8 +38,9 @@ def file_digest(path: str | Path | None) -> str:
 
 def cache_key(kind: str, tracks: list[MotionTrack], audio_path: str | Path | None,
               face_hash: str, settings: Any, version: str) -> str:
-    """The cache key of one clip (hex)."""
-    settings_dict = {k: v for k, v in asdict(settings).items() if k not in ("face", "workers")}
+    """The cache key of one clip (hex); ``settings`` gives the fields that change the output
+    through ``output_fields()`` (see :class:`renderer.api.RenderSettings`)."""
+    settings_dict = settings.output_fields()
     payload = {
         "kind": kind,
         "version": version,

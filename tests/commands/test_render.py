@@ -1,3 +1,4 @@
+import imageio.v3 as iio
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -32,6 +33,16 @@ def test_render_pair_single_and_still(tmp_path, fap_files, tone_wav):
     res = runner.invoke(main, ["render", "still", "--track", str(a), "--frame", "5",
                                "--out", str(tmp_path / "s.png"), "--size", "96"])
     assert res.exit_code == 0 and (tmp_path / "s.png").is_file()
+    stills = {}
+    for mode in ("edges", "msaa", "none"):  # --antialias reaches the renderer
+        out = tmp_path / f"{mode}.png"
+        res = runner.invoke(main, ["render", "still", "--track", str(a), "--frame", "5",
+                                   "--out", str(out), "--size", "96", "--antialias", mode])
+        assert res.exit_code == 0, res.output
+        stills[mode] = iio.imread(out)
+    assert np.array_equal(stills["edges"], iio.imread(tmp_path / "s.png"))  # the default
+    assert not np.array_equal(stills["edges"], stills["none"])
+    assert not np.array_equal(stills["msaa"], stills["none"])
 
 
 def test_bad_input_is_one_line_and_exit_2(tmp_path, fap_files):

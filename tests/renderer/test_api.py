@@ -125,6 +125,10 @@ def test_bad_settings_and_audio_are_input_errors(tmp_path):
         RenderSettings(size=100)
     with pytest.raises(InputError, match="mosaic_block"):
         RenderSettings(mosaic_block=-1)
+    with pytest.raises(InputError, match="antialias: must be one of edges, msaa, none"):
+        RenderSettings(antialias="fxaa")
+    with pytest.raises(InputError, match="encode_threads: must be a whole number"):
+        RenderSettings(encode_threads=True)
     a, b = _tracks(3)
     with pytest.raises(InputError, match="audio file not found"):
         render_pair(a, b, tmp_path / "missing.wav", tmp_path / "x.mp4", settings=SETTINGS)

@@ -20,6 +20,13 @@ def test_key_changes_with_every_input(tmp_path):
     assert base != _key([b, a], wav)  # side order matters
     assert base != _key([a.with_channels({3: np.arange(5.0) + 1e-9}), b], wav)
     assert base != _key([a, b], wav, settings=RenderSettings(mosaic_block=32))
+    assert base != _key([a, b], wav, settings=RenderSettings(antialias="msaa"))
+    assert base != _key([a, b], wav, settings=RenderSettings(encode_threads=0))
+    # what does not change the clip does not change the key
+    assert base == _key([a, b], wav, settings=RenderSettings(workers=3))
+    assert base == _key([a, b], wav, settings=RenderSettings(samples=8))  # not multisampling
+    assert (_key([a, b], wav, settings=RenderSettings(antialias="msaa", samples=2))
+            != _key([a, b], wav, settings=RenderSettings(antialias="msaa", samples=8)))
     assert base != _key([a, b], wav, face="g")
     assert base != _key([a, b], wav, version="2")
     wav.write_bytes(b"RIFF0001")

@@ -124,7 +124,10 @@ def test_posed_turns_the_head_about_7_1_and_the_eyes_about_their_centres():
     faps[49 - 1] = 20000.0  # head yaw 0.2 rad
     faps[23 - 1] = 10000.0  # left eyeball yaw 0.1 rad
     frame = rig.deform(faps)
+    before = frame.positions.copy(), frame.normals.copy()
     pos, nrm = rig.posed(frame)
+    # the frame itself is left as it was (it may be posed again)
+    assert np.array_equal(frame.positions, before[0]) and np.array_equal(frame.normals, before[1])
     w = rig.weights["head"]
     head, shoulders = int(np.argmax(w)), int(np.argmin(w))
     assert w[head] == 1.0 and w[shoulders] == 0.0
@@ -138,3 +141,9 @@ def test_posed_turns_the_head_about_7_1_and_the_eyes_about_their_centres():
     np.testing.assert_allclose(pos[eye], rotation("y", 0.2) @ (on_eye - pivot) + pivot,
                                atol=1e-3)
     np.testing.assert_allclose(np.linalg.norm(nrm, axis=1), 1.0, atol=1e-5)
+    # down the neck the turn fades in with the head weight
+    neck = int(np.argmin(np.abs(w - 0.5)))
+    assert 0.2 < w[neck] < 0.8
+    turned = rotation("y", 0.2) @ (rig.v0[neck] - pivot) + pivot
+    np.testing.assert_allclose(pos[neck], rig.v0[neck] + w[neck] * (turned - rig.v0[neck]),
+                               atol=1e-3)

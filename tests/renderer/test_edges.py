@@ -50,7 +50,7 @@ def test_octahedron_seen_from_the_front_has_its_equator_as_silhouette():
 
 
 def test_turned_octahedron_outline_follows_the_view():
-    # a quarter turn about y: +x comes to the front, the outline passes through +-y and +-z
+    # a quarter turn about y: -x comes to the front, the outline passes through +-y and +-z
     c, s = 0.0, 1.0
     rot = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
     v = OCTA_V @ rot.T

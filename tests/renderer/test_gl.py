@@ -32,9 +32,11 @@ def test_projection_puts_the_face_in_the_middle():
 
 
 @pytest.mark.gl
-def test_canvas_draws_faces_on_a_neutral_background():
+@pytest.mark.parametrize("antialias", gl.ANTIALIAS_MODES)
+def test_canvas_draws_faces_on_a_neutral_background(antialias):
     rig = Rig(builtin_face())
-    canvas = gl.FaceCanvas(rig, 128, 2, samples=4, background=(0.5, 0.5, 0.5))
+    canvas = gl.FaceCanvas(rig, 128, 2, antialias=antialias, samples=4,
+                           background=(0.5, 0.5, 0.5))
     try:
         frame = rig.deform(np.zeros(68))
         img = canvas.draw([frame, frame]).copy()
@@ -81,6 +83,8 @@ def test_edge_overdraw_stops_the_outline_popping_and_stays_on_it():
     # aliased, outline pixels flip between face and background; overdrawn, they fade
     assert worst_jump(plain) > 35
     assert worst_jump(smooth) < 0.6 * worst_jump(plain)
+    multisampled, _ = _outline_frames(rig, "msaa", frames)  # the GPU choice does too
+    assert worst_jump(multisampled) < 0.8 * worst_jump(plain)
     # nothing spills more than two pixels beyond the aliased outline (surfaces just outside
     # the frame may reach into its border) and no face pixel turns into background
     near = ndimage.binary_dilation(~background, square, iterations=2)
