@@ -62,11 +62,15 @@ def _grid_triangles(rows: int, cols: int, wrap: bool) -> np.ndarray:
 
 
 def _warp(n: int, lo: float, hi: float, dense_lo: float, dense_hi: float,
-          gain: float, endpoint: bool = True) -> np.ndarray:
-    """``n`` samples of [lo, hi] whose density is ``1 + gain`` inside [dense_lo, dense_hi]."""
+          gain: float, endpoint: bool = True,
+          bands: tuple[tuple[float, float, float], ...] = ()) -> np.ndarray:
+    """``n`` samples of [lo, hi] whose density is ``1 + gain`` inside [dense_lo, dense_hi],
+    plus ``g`` more inside each ``(a, b, g)`` of ``bands``."""
     x = np.linspace(lo, hi, 4001)
     dens = 1.0 + gain * smoothstep(dense_lo - 8, dense_lo, x) * smoothstep(dense_hi + 8,
                                                                              dense_hi, x)
+    for a, b, g in bands:
+        dens = dens + g * smoothstep(a - 4, a, x) * smoothstep(b + 4, b, x)
     cdf = np.concatenate([[0.0], np.cumsum((dens[1:] + dens[:-1]) / 2 * np.diff(x))])
     u = np.linspace(0.0, cdf[-1], n + (0 if endpoint else 1))[: n]
     return np.interp(u, cdf, x)
@@ -119,7 +123,8 @@ def skin_grid(sdf: Callable[[np.ndarray], np.ndarray], centre: np.ndarray, solve
         hit = centre + solve(sdf, centre, d, 260.0)[:, None] * d
         mouth_el = np.arctan2(mouth_y - centre[1], hit[0, 2] - centre[2])
     mouth_el = np.degrees(mouth_el)
-    el = _warp(n_elevation, -72, 86, -50, 36, 4.0)
+    # the brows (painted per vertex) get twice the rows of the rest of the face
+    el = _warp(n_elevation, -72, 86, -50, 36, 4.0, bands=((18.0, 34.0, 4.0),))
     m = int(np.argmin(np.abs(el - mouth_el)))
     el[m] = mouth_el
     el = np.radians(el)
