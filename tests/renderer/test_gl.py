@@ -83,8 +83,13 @@ def test_edge_overdraw_stops_the_outline_popping_and_stays_on_it():
     # aliased, outline pixels flip between face and background; overdrawn, they fade
     assert worst_jump(plain) > 35
     assert worst_jump(smooth) < 0.6 * worst_jump(plain)
-    multisampled, _ = _outline_frames(rig, "msaa", frames)  # the GPU choice does too
-    assert worst_jump(multisampled) < 0.8 * worst_jump(plain)
+    # multisampling (the GPU choice) blends both sides of the outline, the overdraw the outside
+    multisampled, _ = _outline_frames(rig, "msaa", frames)
+    outside = background & ndimage.binary_dilation(~background, square)
+    inside = ~background & ndimage.binary_dilation(background, square)
+    for images, lo_out, lo_in in ((multisampled, 0.15, 0.15), (smooth, 0.5, 0.0)):
+        changed = np.abs(images[0] - plain[0]).max(axis=2) > 3
+        assert changed[outside].mean() > lo_out and changed[inside].mean() >= lo_in
     # nothing spills more than two pixels beyond the aliased outline (surfaces just outside
     # the frame may reach into its border) and no face pixel turns into background
     near = ndimage.binary_dilation(~background, square, iterations=2)
