@@ -25,6 +25,7 @@ from synthetic import write_speech  # benchmarks/synthetic.py, beside this scrip
 from app.stimuli.generate import generate_conditions
 from renderer import RenderSettings, render_pair
 from renderer.encode import ClipWriter
+from renderer.gl import ANTIALIAS_MODES
 from renderer.headmodel import builtin_face
 from renderer.pipeline import align_tracks, render_frames, rig_for
 
@@ -41,7 +42,7 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--size", type=int, default=368)
     parser.add_argument("--repeat", type=int, default=2)
-    parser.add_argument("--antialias", choices=("edges", "msaa", "none"),
+    parser.add_argument("--antialias", choices=ANTIALIAS_MODES,
                         default=RenderSettings.antialias)
     parser.add_argument("--samples", type=int, default=RenderSettings.samples)
     parser.add_argument("--workers", type=int, default=RenderSettings.workers)
@@ -86,9 +87,8 @@ def main() -> None:
         deform = (time.perf_counter() - start) / k
         frames = []
         start = time.perf_counter()
-        for frame in render_frames([left, right], face, size=args.size, mosaic_block=0,
-                                   antialias=settings.antialias, samples=settings.samples,
-                                   frames=range(k)):
+        drawing = {**settings.drawing(), "mosaic_block": 0}
+        for frame in render_frames([left, right], face, **drawing, frames=range(k)):
             frames.append(frame.image.copy())
         draw = (time.perf_counter() - start) / k - deform
         from renderer.mosaic import pixelate

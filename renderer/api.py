@@ -23,7 +23,7 @@ from app.stimuli.track import MotionTrack
 from renderer.cache import cache_key, cached_path, deliver
 from renderer.encode import ClipWriter, check_audio
 from renderer.face import Face
-from renderer.gl import ANTIALIAS_MODES
+from renderer.gl import check_antialias
 from renderer.pipeline import align_tracks, render_frames
 
 RENDERER_VERSION = "1.3"
@@ -69,6 +69,12 @@ class RenderSettings:
     encode_threads: int = 1
     workers: int = 0
 
+    def drawing(self) -> dict[str, Any]:
+        """The keyword arguments of :func:`renderer.pipeline.render_frames` these settings give."""
+        return {"size": self.size, "antialias": self.antialias, "samples": self.samples,
+                "background": self.background, "mosaic_block": self.mosaic_block,
+                "mosaic_margin": self.mosaic_margin}
+
     def output_fields(self) -> dict[str, Any]:
         """The settings that change the clip's bytes (the cache key's share).
 
@@ -96,9 +102,7 @@ class RenderSettings:
         if not 0 <= self.mosaic_margin <= 2:
             raise InputError(f"must be in 0..2, got {self.mosaic_margin!r}",
                              field="mosaic_margin")
-        if self.antialias not in ANTIALIAS_MODES:
-            raise InputError(f"must be one of {', '.join(ANTIALIAS_MODES)}, got "
-                             f"{self.antialias!r}", field="antialias")
+        check_antialias(self.antialias)
         if self.samples not in (0, 1, 2, 4, 8):
             raise InputError(f"must be 0, 1, 2, 4 or 8, got {self.samples!r}", field="samples")
         if type(self.workers) is not int or self.workers < 0:
@@ -142,10 +146,7 @@ def _render_clip(kind: str, tracks: list[MotionTrack], audio_path: str | Path | 
     out.parent.mkdir(parents=True, exist_ok=True)
     n = tracks[0].n_frames
     partial = target.with_name(target.stem + ".part.mp4")
-    frames = render_frames(tracks, face, size=settings.size, antialias=settings.antialias,
-                           samples=settings.samples,
-                           background=settings.background, mosaic_block=settings.mosaic_block,
-                           mosaic_margin=settings.mosaic_margin,
+    frames = render_frames(tracks, face, **settings.drawing(),
                            workers=settings.workers or os.cpu_count() or 1)
     with ClipWriter(partial, settings.size * len(tracks), settings.size, tracks[0].fps, n,
                     audio, crf=settings.crf, preset=settings.preset,
@@ -196,12 +197,10 @@ def render_still(track: MotionTrack, frame: int, out_path: str | Path, *,
     if not isinstance(frame, int) or not 0 <= frame < n:
         raise InputError(f"must be a frame index in 0..{n - 1}, got {frame!r}", field="frame")
     face = load_face(settings)
-    rendered = next(render_frames(
-        tracks, face, size=settings.size, antialias=settings.antialias,
-                           samples=settings.samples,
-        background=settings.background,
-        mosaic_block=settings.mosaic_block if mosaic else 0,
-        mosaic_margin=settings.mosaic_margin, frames=range(frame, frame + 1)))
+    drawing = settings.drawing()
+    if not mosaic:
+        drawing["mosaic_block"] = 0
+    rendered = next(render_frames(tracks, face, **drawing, frames=range(frame, frame + 1)))
     out = Path(out_path)
     out.parent.mkdir(parents=True, exist_ok=True)
     iio.imwrite(out, rendered.image.copy())

@@ -115,6 +115,13 @@ void main() {
 #: Anti-aliasing modes (see :class:`FaceCanvas`).
 ANTIALIAS_MODES: tuple[str, ...] = ("edges", "msaa", "none")
 
+
+def check_antialias(mode: str) -> None:
+    """An InputError naming the ``antialias`` field unless ``mode`` is one of the modes."""
+    if mode not in ANTIALIAS_MODES:
+        raise InputError(f"must be one of {', '.join(ANTIALIAS_MODES)}, got {mode!r}",
+                         field="antialias")
+
 _CONTEXTS: dict[int, object] = {}
 
 
@@ -199,9 +206,7 @@ class FaceCanvas:
                  background: tuple[float, float, float] = (0.55, 0.56, 0.58)) -> None:
         import moderngl
 
-        if antialias not in ANTIALIAS_MODES:
-            raise InputError(f"must be one of {', '.join(ANTIALIAS_MODES)}, got {antialias!r}",
-                             field="antialias")
+        check_antialias(antialias)
         self.ctx = ctx = context()
         self.rig, self.size, self.n_faces = rig, size, n_faces
         self.background = background
@@ -215,6 +220,7 @@ class FaceCanvas:
         self.vaos = [self._vertex_array(self.prog, pos, nrm, self.index)
                      for pos, nrm in self.dynamic]
         self.edges = None
+        programs = [self.prog]
         if antialias == "edges":
             hidden = np.zeros(face.n_vertices, bool)
             hidden[face.groups.get("hidden_outline", [])] = True
@@ -223,12 +229,13 @@ class FaceCanvas:
             self.edge_prog = ctx.program(vertex_shader=_VERTEX, geometry_shader=_EDGE_GEOMETRY,
                                          fragment_shader=_EDGE_FRAGMENT)
             self.edge_prog["half_size"].value = (size / 2.0, size / 2.0)
+            programs.append(self.edge_prog)
             self.edge_index = ctx.buffer(reserve=max(len(self.edges.a), 1) * 3 * 4)
             self.edge_vaos = [self._vertex_array(self.edge_prog, pos, nrm, self.edge_index)
                               for pos, nrm in self.dynamic]
             # clip-space x, y, w of world points: rows 0, 1 and 3 of the view-projection
             self._xyw = self.vp[[0, 1, 3]].T.astype(np.float32)
-        for prog in (self.prog, *([self.edge_prog] if self.edges is not None else [])):
+        for prog in programs:
             prog["mvp"].write(self.vp.T.astype("f4").tobytes())
             prog["camera"].value = tuple(self.camera)
         self.samples = samples if antialias == "msaa" and samples > 1 else 0

@@ -26,7 +26,7 @@ from functools import lru_cache
 import numpy as np
 
 from renderer import headparts as hp
-from renderer.face import Face, fapu_from_feature_points
+from renderer.face import OPTIONAL_GROUPS, REQUIRED_GROUPS, Face, fapu_from_feature_points
 from renderer.sdf import capsule, ellipsoid, ray_surface, smax, smin
 
 #: Ray origin inside the head: the skin is star-shaped about it.
@@ -89,8 +89,7 @@ def builtin_face() -> Face:
         feature_points=feature_points,
         fp_vertices=fp_vertices,
         fapu=fapu_from_feature_points(feature_points),
-        groups={k: v for k, v in mesh.groups.items()
-                if k.startswith("eyeball") or k == "hidden_outline"},
+        groups={k: v for k, v in mesh.groups.items() if k in REQUIRED_GROUPS + OPTIONAL_GROUPS},
         weights={k: v.astype(np.float32) for k, v in mesh.layers.items()},
         jaw_pivot=np.array(JAW_HINGE),
         name="builtin",

@@ -183,14 +183,11 @@ def load_face(json_path: str | Path) -> Face:
     if not isinstance(groups_in, dict):
         raise InputError("missing: vertex groups eyeball_l and eyeball_r", path=path,
                          field="groups")
-    groups = {}
-    for name in REQUIRED_GROUPS:
-        if name not in groups_in:
-            raise InputError("missing group", path=path, field=f"groups.{name}")
-        groups[name] = _vertex_list(groups_in[name], n, path, f"groups.{name}")
-    for name in OPTIONAL_GROUPS:
-        if name in groups_in:
-            groups[name] = _vertex_list(groups_in[name], n, path, f"groups.{name}")
+    missing = [name for name in REQUIRED_GROUPS if name not in groups_in]
+    if missing:
+        raise InputError("missing group", path=path, field=f"groups.{missing[0]}")
+    groups = {name: _vertex_list(groups_in[name], n, path, f"groups.{name}")
+              for name in REQUIRED_GROUPS + OPTIONAL_GROUPS if name in groups_in}
 
     fapu = fapu_from_feature_points(feature_points)
     given = spec.get("fapu", {})
