@@ -131,20 +131,19 @@ def _check_wav_header(path: Path) -> None:
             f"{channels} channel(s); expected 8/16/24/32-bit PCM or 32/64-bit float", path=path)
 
 
-def extract_features(audio_path: str | Path, fps: float = 30.0, *, pitch_floor: float = 75.0,
-                     pitch_ceiling: float = 600.0, max_duration: float = MAX_DURATION_S
-                     ) -> SpeechFeatures:
+def extract_features(audio_path: str | Path, fps: float = 30.0, *,
+                     pitch_floor: float | None = None, pitch_ceiling: float | None = None,
+                     max_duration: float = MAX_DURATION_S) -> SpeechFeatures:
     """F0 (Hz, 0 unvoiced), intensity (dB) and conditioned F0 per video frame of an audio file.
 
     Praat's autocorrelation pitch and intensity run with time step = the frame period ``1/fps``
     and are read at the frame times ``i / fps`` for ``i < round(duration * fps)`` (thesis sec.
-    4.3.4.1). ``pitch_floor``/``pitch_ceiling`` are per speaker (e.g. 75-300 Hz for a male
-    voice, 100-600 Hz for a female one); the intensity window follows Praat's convention of
-    3.2 periods of the pitch floor.
+    4.3.4.1). ``pitch_floor``/``pitch_ceiling`` are the speaker's F0 range (e.g. 75-300 Hz for
+    a male voice); one left ``None`` is estimated from the recording in two passes
+    (:func:`speaker_pitch_range`). Octave jumps are then removed (:func:`remove_octave_jumps`).
+    The intensity window follows Praat's convention of 3.2 periods of the pitch floor.
     """
-    if not (0 < pitch_floor < pitch_ceiling):
-        raise InputError(f"need 0 < pitch floor < pitch ceiling, got {pitch_floor:g} and "
-                         f"{pitch_ceiling:g}", field="pitch_floor")
+    _check_range(pitch_floor, pitch_ceiling)
     if not np.isfinite(fps) or fps <= 0:
         raise InputError(f"fps must be positive, got {fps!r}", field="fps")
     sound, n_channels = load_sound(audio_path, max_duration=max_duration)
@@ -155,19 +154,110 @@ def extract_features(audio_path: str | Path, fps: float = 30.0, *, pitch_floor: 
 
 
 def features_from_samples(samples: np.ndarray, sample_rate: float, fps: float = 30.0, *,
-                          pitch_floor: float = 75.0, pitch_ceiling: float = 600.0
+                          pitch_floor: float | None = None, pitch_ceiling: float | None = None
                           ) -> SpeechFeatures:
     """Like :func:`extract_features`, from mono samples already in memory (tests, streams)."""
+    _check_range(pitch_floor, pitch_ceiling)
     sound = parselmouth.Sound(np.asarray(samples, dtype=np.float64), float(sample_rate))
     return _features(sound, fps, pitch_floor, pitch_ceiling)
 
 
-def _features(sound: parselmouth.Sound, fps: float, floor: float, ceiling: float
-              ) -> SpeechFeatures:
+#: First-pass F0 range of the two-pass estimate (De Looze & Hirst 2008), Hz.
+FIRST_PASS_RANGE = (60.0, 750.0)
+#: Second-pass range from the first pass's quartiles: floor = 0.75 x q25, ceiling = 1.5 x q75.
+FLOOR_FACTOR, CEILING_FACTOR = 0.75, 1.5
+#: Fewest voiced first-pass frames to trust the quartiles; fewer keeps the first-pass range.
+MIN_VOICED_FOR_RANGE = 10
+#: A voiced frame further than this (octaves) from the median of its neighbourhood is an error.
+OCTAVE_JUMP = 0.6
+#: Neighbourhood of that median, seconds (centred; voiced frames only).
+OCTAVE_WINDOW_S = 0.3
+
+
+def _check_range(floor: float | None, ceiling: float | None) -> None:
+    for name, value in (("pitch_floor", floor), ("pitch_ceiling", ceiling)):
+        if value is not None and not (np.isfinite(value) and value > 0):
+            raise InputError(f"{name} must be a positive number of Hz, got {value!r}",
+                             field=name)
+    if floor is not None and ceiling is not None and not floor < ceiling:
+        raise InputError(f"need pitch floor < pitch ceiling, got {floor:g} and {ceiling:g}",
+                         field="pitch_floor")
+
+
+def speaker_pitch_range(first_pass_f0: np.ndarray, floor: float | None = None,
+                        ceiling: float | None = None) -> tuple[float, float, str]:
+    """The speaker's F0 floor and ceiling: given values kept, missing ones from the quartiles.
+
+    Two-pass rule of De Looze & Hirst (2008), widely used with Praat: a first pass over
+    :data:`FIRST_PASS_RANGE`, then ``floor = 0.75 * q25`` and ``ceiling = 1.5 * q75`` of its
+    voiced F0. With fewer than :data:`MIN_VOICED_FOR_RANGE` voiced frames the first-pass range
+    stands. Returns ``(floor, ceiling, how)``.
+
+    >>> speaker_pitch_range(np.r_[np.zeros(5), np.linspace(100, 140, 41)])
+    (82.5, 195.0, 'two-pass estimate (De Looze & Hirst 2008)')
+    """
+    voiced = np.asarray(first_pass_f0, dtype=np.float64)
+    voiced = voiced[voiced > 0]
+    if floor is not None and ceiling is not None:
+        return float(floor), float(ceiling), "given"
+    if len(voiced) < MIN_VOICED_FOR_RANGE:
+        lo, hi = FIRST_PASS_RANGE
+        how = "first-pass range (too little voicing to estimate the speaker's)"
+    else:
+        q25, q75 = np.percentile(voiced, [25, 75])
+        lo, hi = FLOOR_FACTOR * q25, CEILING_FACTOR * q75
+        how = "two-pass estimate (De Looze & Hirst 2008)"
+    lo = float(floor) if floor is not None else float(lo)
+    hi = float(ceiling) if ceiling is not None else float(hi)
+    if hi <= lo:  # a given bound beyond the estimate of the other: keep an octave between them
+        hi, lo = (2 * lo, lo) if floor is not None else (hi, hi / 2)
+    return round(lo, 3), round(hi, 3), how
+
+
+def remove_octave_jumps(f0: np.ndarray, fps: float, max_octaves: float = OCTAVE_JUMP,
+                        window_s: float = OCTAVE_WINDOW_S) -> tuple[np.ndarray, int]:
+    """Unvoice frames whose F0 jumps by about an octave from their neighbourhood.
+
+    Autocorrelation pitch trackers halve or double F0 on a few frames (e.g. a 371 Hz frame in
+    a 126 Hz male voice). A voiced frame whose F0 is more than ``max_octaves`` octaves from the
+    median of the voiced frames within ``window_s / 2`` on either side is set to 0 (unvoiced),
+    so eq. 35's spline bridges it. A genuine pitch accent rises over 100-200 ms and stays
+    within about half an octave of that median. Returns the cleaned F0 and the frames removed.
+
+    >>> remove_octave_jumps(np.array([120, 122, 250, 121, 119, 0, 118.0]), 30.0)[0].tolist()
+    [120.0, 122.0, 0.0, 121.0, 119.0, 0.0, 118.0]
+    """
+    f0 = np.asarray(f0, dtype=np.float64).copy()
+    idx = np.flatnonzero(f0 > 0)
+    if len(idx) < 3:
+        return f0, 0
+    half = max(int(round(window_s * fps / 2)), 1)
+    log_f0 = np.log2(f0[idx])
+    # neighbours of voiced frame i: voiced frames whose index lies within +-half frames
+    lo = np.searchsorted(idx, idx - half, side="left")
+    hi = np.searchsorted(idx, idx + half, side="right")
+    medians = np.array([np.median(log_f0[a:b]) for a, b in zip(lo, hi, strict=True)])
+    bad = idx[np.abs(log_f0 - medians) > max_octaves]
+    f0[bad] = 0.0
+    return f0, int(len(bad))
+
+
+def _pitch(sound: parselmouth.Sound, fps: float, floor: float, ceiling: float,
+           t: np.ndarray) -> np.ndarray:
+    pitch = sound.to_pitch_ac(time_step=1.0 / fps, pitch_floor=floor, pitch_ceiling=ceiling)
+    return _read_f0(pitch.xs(), pitch.selected_array["frequency"], t)
+
+
+def _features(sound: parselmouth.Sound, fps: float, floor: float | None,
+              ceiling: float | None) -> SpeechFeatures:
     n = round(sound.duration * fps)
     t = np.arange(n) / fps
-    pitch = sound.to_pitch_ac(time_step=1.0 / fps, pitch_floor=floor, pitch_ceiling=ceiling)
-    f0 = _read_f0(pitch.xs(), pitch.selected_array["frequency"], t)
+    first = None
+    if floor is None or ceiling is None:
+        first = _pitch(sound, fps, *FIRST_PASS_RANGE, t)
+    floor, ceiling, how = speaker_pitch_range(first if first is not None else np.zeros(0),
+                                              floor, ceiling)
+    f0, n_jumps = remove_octave_jumps(_pitch(sound, fps, floor, ceiling, t), fps)
     inten = sound.to_intensity(minimum_pitch=floor, time_step=1.0 / fps)
     db = np.maximum(inten.values[0], INTENSITY_FLOOR_DB)
     if len(db) >= 2:
@@ -175,7 +265,8 @@ def _features(sound: parselmouth.Sound, fps: float, floor: float, ceiling: float
     else:  # shorter than one intensity window: one value for the whole sound
         intensity = np.full(n, float(db[0]) if len(db) else INTENSITY_FLOOR_DB)
     meta = dict(sample_rate=float(sound.sampling_frequency), duration=float(sound.duration),
-                pitch_floor=floor, pitch_ceiling=ceiling)
+                pitch_floor=floor, pitch_ceiling=ceiling, pitch_range=how,
+                octave_jumps_removed=n_jumps)
     return SpeechFeatures(float(fps), f0, intensity, condition_f0(f0), meta)
 
 

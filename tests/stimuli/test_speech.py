@@ -12,7 +12,9 @@ from app.stimuli.speech import (
     load_audio,
     loudness_sones,
     mean_filter,
+    remove_octave_jumps,
     smooth_1s,
+    speaker_pitch_range,
 )
 from tests.conftest import harmonic_glide, write_wav
 
@@ -147,9 +149,49 @@ def test_twelve_bit_in_sixteen_bit_container_is_accepted(tmp_path):
 def test_bad_parameters():
     with pytest.raises(InputError, match="pitch floor"):
         extract_features("x.wav", pitch_floor=300, pitch_ceiling=100)
+    with pytest.raises(InputError, match="pitch_ceiling"):
+        extract_features("x.wav", pitch_ceiling=-5)
 
 
 def test_demo_speech_is_real_speech(demo_wav):
     feats = extract_features(demo_wav, pitch_ceiling=300)
     assert feats.n_frames == 120 and 0.3 < feats.voiced.mean() < 0.9
     assert 80 < np.median(feats.f0[feats.voiced]) < 200
+
+
+def test_speaker_pitch_range_from_known_quartiles():
+    f0 = np.r_[np.zeros(20), np.linspace(100.0, 140.0, 41)]  # q25 = 110, q75 = 130
+    assert speaker_pitch_range(f0) == (82.5, 195.0, "two-pass estimate (De Looze & Hirst 2008)")
+    assert speaker_pitch_range(f0, floor=70.0)[:2] == (70.0, 195.0)
+    assert speaker_pitch_range(f0, 60.0, 300.0) == (60.0, 300.0, "given")
+    lo, hi, how = speaker_pitch_range(np.full(5, 120.0))  # too little voicing
+    assert (lo, hi) == (60.0, 750.0) and "first-pass" in how
+
+
+def test_two_pass_range_brackets_a_known_voice():
+    x, _ = harmonic_glide(110.0, 150.0, 2.0)
+    feats = features_from_samples(x, 16000, fps=30)
+    q25, q75 = np.percentile(feats.f0[feats.voiced], [25, 75])
+    assert feats.metadata["pitch_range"].startswith("two-pass")
+    assert abs(feats.metadata["pitch_floor"] - 0.75 * q25) < 3
+    assert abs(feats.metadata["pitch_ceiling"] - 1.5 * q75) < 5
+
+
+def test_octave_jumps_are_unvoiced_and_accents_kept():
+    fps = 30.0
+    f0 = np.full(60, 126.0)
+    f0[20:26] = [140.0, 160.0, 180.0, 200.0, 190.0, 170.0]  # a genuine accent, 0.2 s rise
+    f0[40] = 371.0  # the demo speaker's octave error
+    f0[50] = 63.0  # and a halving
+    clean, removed = remove_octave_jumps(f0, fps)
+    assert removed == 2 and clean[40] == 0 and clean[50] == 0
+    np.testing.assert_array_equal(clean[20:26], f0[20:26])
+    cond = condition_f0(clean)
+    assert cond.max() == 200.0  # the spline bridges the errors: no 371 Hz raise trigger
+
+
+def test_demo_speaker_has_no_octave_error_left(demo_wav):
+    feats = extract_features(demo_wav)
+    voiced = feats.f0[feats.voiced]
+    assert voiced.max() < 2 * np.median(voiced)  # the 371 Hz frame of a 126 Hz voice is gone
+    assert 80 < feats.metadata["pitch_floor"] < 100 < 180 < feats.metadata["pitch_ceiling"]
