@@ -98,12 +98,22 @@ class ArxModel:
             out += padded[start - d: start - d + n] @ self.b[j].T
         return out
 
-    def simulate(self, u: np.ndarray, *, noise: np.ndarray | None = None) -> np.ndarray:
+    def simulate(self, u: np.ndarray, *, noise: np.ndarray | None = None,
+                 from_rest: bool = False) -> np.ndarray:
         """Run the model free from inputs ``u`` (n, n_in); returns outputs (n, n_out).
 
         Outputs before the first frame are ``y_rest``; ``noise`` (n, n_out) is added to the
-        equation (to simulate a system with equation error).
+        equation (to simulate a system with equation error). With ``from_rest`` the result is
+        the motion caused by the input's changes since the first frame: by linearity, the
+        response to ``u - u[0]`` from a zero state (no intercept), which stays exactly 0 while
+        the input holds its first value, so a model never swings in the silence before speech.
         """
+        if from_rest and len(u):
+            u = _as_2d(u)
+            u = u - u[:1]
+            rest = ArxModel(self.a, self.b, np.zeros(self.n_out), self.nk,
+                            np.zeros(self.n_out))
+            return rest.simulate(u, noise=noise)
         drive = self.exogenous(u)
         if noise is not None:
             drive = drive + noise

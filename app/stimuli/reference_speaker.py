@@ -18,9 +18,11 @@ prosody literature summarised in thesis sec. 2.3 and 4.3 and Le, Ma & Deng (2012
   standardised intensity, conditioned F0 and their 1-s means - the ARX-like structure a learner
   can recover; slow posture drift (Ornstein-Uhlenbeck, time constants 4-8 s); a yaw turn at
   each talk onset; small AR(1) jitter.
-- **Eyebrows** (FAP 31-36, ENS): a raise at accents of strength >= 1 (rise 100 ms, hold 250 ms
-  + 100 ms per unit strength, fall 200 ms), inner ``brow_ens`` x strength, middle 0.8x,
-  outer 0.5x; left = right.
+- **Eyebrows** (FAP 31-34, ENS): a raise at accents of strength >= 1 (rise 100 ms, hold 250 ms
+  + 100 ms per unit strength, fall 200 ms), inner ``brow_ens`` x strength (20 to 50 units),
+  middle 0.8x; left = right; the outer eyebrows stay neutral, as the thesis captured none.
+  Amplitudes in the range of the thesis' captured speakers (Table 2: inner eyebrow sd 11.8
+  and 12.8, mean 5.5 and 6.6 for S2 and S7).
 - **Gaze** (FAP 23-26, AU): fixations changing by saccades (2 frames), log-normal fixation
   times (median 1.2 s talking, 2.5 s silent); while talking the speaker looks away (yaw sd 6
   deg, pitch 2 deg down, sd 3 deg), while silent near the listener (sd 1.5 deg); eyes
@@ -64,7 +66,7 @@ _DEG = np.pi / 180 / 1e-5  # AU per degree
 
 
 def synthesize_reference(features: SpeechFeatures, *, seed: int = 0, nod_au: float = 2500.0,
-                         brow_ens: float = 90.0, talk_fraction: float = 0.35) -> MotionTrack:
+                         brow_ens: float = 20.0, talk_fraction: float = 0.35) -> MotionTrack:
     """The synthetic reference speaker's motion for ``features`` (see the module docstring)."""
     n, fps = features.n_frames, features.fps
     rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(6)]
@@ -186,7 +188,7 @@ def _eyebrows(n: int, fps: float, accents: np.ndarray, strength: np.ndarray,
         start = max(int(k) - rise // 2, 0)
         seg = shape[: n - start]
         inner[start:start + len(seg)] = np.maximum(inner[start:start + len(seg)], seg)
-    ratio = {31: 1.0, 32: 1.0, 33: 0.8, 34: 0.8, 35: 0.5, 36: 0.5}
+    ratio = {31: 1.0, 32: 1.0, 33: 0.8, 34: 0.8, 35: 0.0, 36: 0.0}
     assert tuple(ratio) == EYEBROW_RAISE
     return {c: r * inner for c, r in ratio.items()}, [int(k) for k in chosen]
 

@@ -22,7 +22,7 @@ def test_mean_and_std_match_the_reference_to_1e_9():
     given = tracks()
     out, factors = normalize_tracks(given)
     ref = given["ground_truth"]
-    for c in (48, 49, 31):
+    for c in (48, 49):
         np.testing.assert_allclose(out["random"][c].mean(), ref[c].mean(), rtol=0, atol=1e-9)
         np.testing.assert_allclose(out["random"][c].std(), ref[c].std(), rtol=1e-9, atol=0)
         f = factors["random"][str(c)]
@@ -30,6 +30,17 @@ def test_mean_and_std_match_the_reference_to_1e_9():
                                    out["random"][c], rtol=1e-12, atol=1e-9)
     assert out["ground_truth"] is ref
     np.testing.assert_array_equal(out["random"][3], given["random"][3])  # not a prosody FAP
+    # thesis sec. 5.3 scaled the head only: eyebrows keep each condition's own amplitudes
+    np.testing.assert_array_equal(out["random"][31], given["random"][31])
+    assert "31" not in factors["random"]
+
+
+def test_eyebrows_are_normalised_only_when_asked():
+    given = tracks()
+    out, factors = normalize_tracks(given, channels=(48, 49, 50, 31))
+    np.testing.assert_allclose(out["random"][31].std(), given["ground_truth"][31].std(),
+                               rtol=1e-9)
+    assert "scale" in factors["random"]["31"]
 
 
 def test_constant_channels_and_missing_reference_channels_are_reported():

@@ -15,8 +15,15 @@ Choices where the text leaves room (documented in ``docs/stimuli.md``):
 - Its size is ``gain * F0peak + offset`` (clipped at 0), ``F0peak`` the highest conditioned F0
   during the minimum hold: one size per raise, so a raise is a held pose, as in the thesis
   figures, and a higher accent gives a higher raise.
-- Release: frames ``r, r+1, r+2`` ramp down (3/4, 1/2, 1/4 of the size); frame ``r+3`` is
-  neutral.
+- Size in FAP units (ENS): :func:`raise_size`, ``gain * F0peak + offset`` with the defaults
+  chosen so that the raises lie in the thesis' range (Table 8: SPEECH_DRIVEN inner eyebrows
+  mean 10-15, sd 17-22, which a held pose present about 30 % of the time reproduces with
+  raises of 38-47 units): 35 units at the threshold, 0.2 units per Hz above it, capped at
+  :data:`MAX_RAISE` so that a pitch error can never fold the brow.
+- Onset and release: the raise ramps up over ``onset_frames`` (default 3: 1/4, 1/2, 3/4 of the
+  size on frames ``k, k+1, k+2``) and down over the thesis' three frames (3/4, 1/2, 1/4 on
+  ``r, r+1, r+2``; frame ``r+3`` neutral). The thesis states only the release; a one-frame
+  jump of 40 units reads as a twitch, so the onset gets the same three frames.
 - A new crossing during a raise extends it (the minimum hold restarts there); a crossing during
   the release ramp starts a new raise.
 
@@ -26,6 +33,8 @@ Example
 >>> inten = np.r_[np.full(20, 60.0), np.full(5, 30.0)]
 >>> eyebrow_raise_events(f0, inten, 30.0)
 [(5, 20)]
+>>> raise_size(np.array([207.0, 257.0]), 207.0).tolist()
+[35.0, 45.0]
 """
 
 from __future__ import annotations
@@ -39,6 +48,27 @@ F0_THRESHOLD_HZ = 207.0
 INTENSITY_THRESHOLD_DB = 45.0
 MIN_HOLD_S = 0.3
 RELEASE_FRAMES = 3
+ONSET_FRAMES = 3
+#: Raise size at the F0 threshold (FAP units, ENS) and its growth per Hz of F0 peak above it.
+RAISE_AT_THRESHOLD = 35.0
+RAISE_GAIN = 0.2
+#: Largest raise, FAP units: about twice the thesis' typical raise.
+MAX_RAISE = 80.0
+#: A raise held longer than this (seconds) is reported: the intensity threshold may not suit.
+LONG_HOLD_S = 4.0
+
+
+def raise_size(f0_peak: np.ndarray, f0_threshold: float, *, gain: float = RAISE_GAIN,
+               offset: float | None = None, max_raise: float = MAX_RAISE) -> np.ndarray:
+    """Thesis sec. 4.3.4.1: "a scaled version of the fundamental frequency signal, with an
+    appropriate offset", in ENS units: ``clip(gain * F0peak + offset, 0, max_raise)``.
+
+    ``offset`` defaults to ``RAISE_AT_THRESHOLD - gain * f0_threshold``, so a raise whose peak
+    just reaches the threshold is :data:`RAISE_AT_THRESHOLD` units whatever the speaker's F0.
+    """
+    if offset is None:
+        offset = RAISE_AT_THRESHOLD - gain * f0_threshold
+    return np.clip(gain * np.asarray(f0_peak, dtype=np.float64) + offset, 0.0, max_raise)
 
 
 def rising_crossings(f0_conditioned: np.ndarray, threshold: float) -> np.ndarray:
@@ -80,12 +110,32 @@ def eyebrow_raise_sizes(f0_conditioned: np.ndarray, events: list[tuple[int, int]
 
 
 def eyebrow_contour(n_frames: int, events: list[tuple[int, int]], sizes: np.ndarray,
-                    release_frames: int = RELEASE_FRAMES) -> np.ndarray:
-    """Per-frame displacement: each raise held at its size, then a linear release ramp."""
+                    release_frames: int = RELEASE_FRAMES, onset_frames: int = 0) -> np.ndarray:
+    """Per-frame displacement: each raise ramps up over ``onset_frames``, is held at its size,
+    then ramps down over ``release_frames`` (linear ramps, see the module docstring)."""
     out = np.zeros(n_frames)
-    ramp = 1.0 - np.arange(1, release_frames + 1) / (release_frames + 1)
+    down = 1.0 - np.arange(1, release_frames + 1) / (release_frames + 1)
+    up = np.arange(1, onset_frames + 1) / (onset_frames + 1)
     for (start, release), size in zip(events, sizes, strict=True):
         out[start:release] = size
+        rise = min(onset_frames, release - start)
+        out[start:start + rise] = size * up[:rise]
         end = min(release + release_frames, n_frames)
-        out[release:end] = size * ramp[: end - release]
+        out[release:end] = np.maximum(out[release:end], size * down[: end - release])
     return out
+
+
+def hold_warnings(events: list[tuple[int, int]], fps: float, f0_threshold: float,
+                  f0_max: float, long_hold_s: float = LONG_HOLD_S) -> list[str]:
+    """What a researcher should check: no raise at all, or raises held unusually long."""
+    if not events:
+        return [f"no eyebrow raise: conditioned F0 never rises across {f0_threshold:g} Hz "
+                f"(its maximum is {f0_max:.0f} Hz); set the F0 threshold for this speaker "
+                "or use 'auto'"]
+    long = [(s, r) for s, r in events if (r - s) / fps > long_hold_s]
+    if not long:
+        return []
+    spans = ", ".join(f"{s / fps:.1f}-{r / fps:.1f} s" for s, r in long)
+    return [f"eyebrow raise held longer than {long_hold_s:g} s ({spans}): intensity never "
+            "fell below the release threshold; lower-level pauses or a higher threshold "
+            "would end it"]

@@ -19,6 +19,7 @@ truth; regenerate it with ``facepair stimuli fit-head-model`` (see ``docs/stimul
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -38,7 +39,41 @@ DEFAULT_MODEL_PATH = (Path(__file__).resolve().parents[3] / "data" / "models"
                       / "head_arx_default.json")
 FORMAT = "facepair-head-arx"
 _STABLE = 0.995
-_RIDGES = (1e-4, 1e-3, 1e-2, 1e-1, 1.0)
+_RIDGES = (1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0)
+#: How generation standardises the speech inputs (see :meth:`HeadPoseArx.generate`).
+INPUT_NORMS = ("recording", "model")
+
+
+def free_run_error(model: ArxModel, y: np.ndarray, z: np.ndarray) -> float:
+    """Mean over angles of the free-run error of the centred motion, in units of each angle's
+    sd: ``rms((sim - mean sim) - (y - mean y)) / sd(y)``, with ``sim`` run from rest as in
+    generation (0: perfect; 1: no better than holding the mean)."""
+    sim = model.simulate(z, from_rest=True)
+    dev = (sim - sim.mean(axis=0)) - (y - y.mean(axis=0))
+    sd = np.where(y.std(axis=0) > 0, y.std(axis=0), 1.0)
+    return float(np.mean(np.sqrt(np.mean(dev**2, axis=0)) / sd))
+
+
+def _select_ridge(y: np.ndarray, z: np.ndarray, order: dict[str, int], ridge: float
+                  ) -> tuple[ArxModel | None, float]:
+    """The stable fit (spectral radius < 0.995) with the smallest :func:`free_run_error` over
+    ``ridge`` and the larger ridges of :data:`_RIDGES`.
+
+    The thesis fits by least squares on the one-step equation error; on a short recording
+    such a fit can be stable and still free-run far from the data (a near-integrating AR part
+    turns a speech onset into a slow drift of several degrees), so the ridge is chosen by the
+    error of the motion the model will actually generate.
+    """
+    best: tuple[ArxModel | None, float] = (None, float("inf"))
+    for r in (ridge, *[r for r in _RIDGES if r > ridge]):
+        model = fit_arx(y, z, ridge=r, **order)
+        if model.spectral_radius() >= _STABLE:
+            continue
+        err = free_run_error(model, y, z)
+        if err < best[1]:
+            model.info["ridge_selected"] = r
+            best = (model, err)
+    return best
 
 
 def head_inputs(features: SpeechFeatures) -> np.ndarray:
@@ -72,38 +107,58 @@ class HeadPoseArx:
             raise ValueError(f"ground truth has {len(y)} frames, features {len(u)}")
         z = (u - mean) / std
         try:
-            model = fit_arx(y, z, na=na, nb=nb, nk=nk, ridge=ridge)
-            for r in (ridge, *[r for r in _RIDGES if r > ridge]):
-                if r != ridge:
-                    model = fit_arx(y, z, na=na, nb=nb, nk=nk, ridge=r)
-                if model.spectral_radius() < _STABLE:
-                    break
+            model, err = _select_ridge(y, z, dict(na=na, nb=nb, nk=nk), ridge)
         except ValueError as exc:
             raise InputError(f"cannot fit the head model: {exc}", field="ground_truth") from None
         note = ""
-        if model.spectral_radius() >= _STABLE:
-            model.a[:] = 0.0  # no stable dynamics found: keep the static input response
+        if model is None:  # no stable dynamics found: keep the static input response
+            model = fit_arx(y, z, na=na, nb=nb, nk=nk, ridge=ridge)
+            model.a[:] = 0.0
             note = "AR part dropped: no ridge gave a stable model"
         sim = model.simulate(z)
         model.info.update(spectral_radius=model.spectral_radius(), note=note,
-                          free_run_rmse=np.sqrt(np.mean((sim - y) ** 2, axis=0)).tolist())
+                          free_run_rmse=np.sqrt(np.mean((sim - y) ** 2, axis=0)).tolist(),
+                          free_run_error=err)
         prov = {"fitted_on": "ground truth", "audio": features.metadata.get("audio", ""),
                 "ground_truth_source": ground_truth.source, "frames": len(y)}
         return cls(model, mean, std, float(features.fps), HEAD, prov)
 
-    def generate(self, features: SpeechFeatures) -> dict[int, np.ndarray]:
-        """Free-running head angles for ``features`` ({fap: column})."""
+    def generate(self, features: SpeechFeatures, *, input_norm: str = "recording",
+                 mean: Mapping[int, float] | None = None) -> dict[int, np.ndarray]:
+        """Free-running head angles for ``features`` ({fap: column}).
+
+        The head starts at rest and moves only with the speech's changes from the first frame
+        (:meth:`ArxModel.simulate` ``from_rest``), so it does not swing in the silence before
+        speech. ``input_norm``:
+        ``"recording"`` standardises the inputs with this recording's own means and standard
+        deviations (a voice louder or higher than the training voice then drives the head as
+        much, not with a constant offset), ``"model"`` with the training ones. Each angle is
+        then shifted to ``mean[fap]`` (default 0, the neutral pose): the model contributes the
+        motion, never a per-speaker posture.
+        """
+        if input_norm not in INPUT_NORMS:
+            raise InputError(f"input_norm must be one of {', '.join(INPUT_NORMS)}, got "
+                             f"{input_norm!r}", field="input_norm")
         u = head_inputs(features)
         n = features.n_frames
+        if n == 0:
+            return {c: np.zeros(0) for c in self.outputs}
         if features.fps != self.fps:  # the lags are in frames: run at the model's own rate
             m = round(n * self.fps / features.fps)
             t_model, t_feat = np.arange(m) / self.fps, np.arange(n) / features.fps
             u = np.column_stack([np.interp(t_model, t_feat, col) for col in u.T])
-        y = self.arx.simulate((u - self.input_mean) / self.input_std)
+        if input_norm == "recording":
+            mu, sd = u.mean(axis=0), u.std(axis=0)
+            sd = np.where(sd > 0, sd, 1.0)
+        else:
+            mu, sd = self.input_mean, self.input_std
+        y = self.arx.simulate((u - mu) / sd, from_rest=True)
         if features.fps != self.fps:
             track = MotionTrack(self.fps, y, self.outputs).resample(features.fps, n)
             y = track.values
-        return {c: y[:, j].copy() for j, c in enumerate(self.outputs)}
+        target = mean or {}
+        return {c: y[:, j] - y[:, j].mean() + float(target.get(c, 0.0))
+                for j, c in enumerate(self.outputs)}
 
     # -- persistence --------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:

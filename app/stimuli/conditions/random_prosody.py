@@ -6,11 +6,16 @@ as the thesis' eyebrow FAPs) with negative values set to zero ("negative values 
 neglected"); each head angle gets its own frame offset, so the three angles are uncorrelated.
 The seed of the generator is the ``seed`` given to :meth:`RandomCondition.generate`.
 
-Amplitudes: :meth:`RandomCondition.fit` takes a reference track (the ground truth) and matches
-each head angle's mean and standard deviation to it, and each eyebrow channel's standard
-deviation (a scale only, which keeps the eyebrows non-negative); without a reference the
-defaults below apply. Lattice rates: the first octave at 0.2 Hz for the head and 0.4 Hz for the
-eyebrows, so the sixth octave (x 32) stays under the 15 Hz Nyquist rate of 30 fps video.
+Amplitudes (thesis sec. 5.2, experiment 1): by default RANDOM keeps its own amplitudes, the
+Perlin constants below, taken from Table 8's RANDOM rows (the mean of S2 and S7): head sd
+pitch 3590, yaw 4350, roll 3050 AU (about 2.1, 2.5 and 1.7 degrees) around the neutral pose,
+eyebrow sd 12.5 ENS after the negative values are dropped. That is the condition whose larger
+head motion made viewers prefer it to the ground truth in experiment 1. ``match_amplitudes=True``
+(or the study-wide normalisation of sec. 5.3, :mod:`app.stimuli.normalize`) instead takes each
+head angle's mean and sd, and each eyebrow channel's sd, from the ground truth. Lattice rates:
+the first octave at 0.2 Hz for the head and 0.4 Hz for the eyebrows, so the sixth octave
+(x 32) stays under the 15 Hz Nyquist rate of 30 fps video. The eyebrows driven are those of
+the thesis, FAP 31-34 (inner = middle); the outer eyebrows stay neutral.
 """
 
 from __future__ import annotations
@@ -21,14 +26,16 @@ import numpy as np
 
 from app.stimuli.conditions.base import Condition
 from app.stimuli.conditions.ground_truth import align_to_features
-from app.stimuli.fap import EYEBROW_RAISE, HEAD
+from app.stimuli.fap import HEAD
 from app.stimuli.features import SpeechFeatures
 from app.stimuli.perlin import frame_noise
 from app.stimuli.track import MotionTrack
 
-#: Default standard deviations without a reference: head in AU (1 deg = 1745 AU), eyebrows ENS.
-DEFAULT_STD = {48: 2500.0, 49: 3500.0, 50: 1500.0, 31: 30.0, 32: 30.0, 33: 24.0, 34: 24.0,
-               35: 15.0, 36: 15.0}
+#: Perlin amplitude constants (Table 8, RANDOM, mean of S2 and S7): standard deviations of the
+#: head angles in AU (1 deg = 1745 AU) and of the clipped eyebrow trajectory in ENS.
+DEFAULT_STD = {48: 3590.0, 49: 4350.0, 50: 3050.0, 31: 12.5, 32: 12.5, 33: 12.5, 34: 12.5}
+#: The eyebrow FAPs RANDOM drives (thesis sec. 4.3.1: inner and middle eyebrows).
+BROW_CHANNELS: tuple[int, ...] = (31, 32, 33, 34)
 #: Frame offsets of the head angles (thesis: "each head inclination ... a different
 #: frameOffset"); far apart relative to the lattice spacing, so the trajectories are unrelated.
 HEAD_OFFSETS = {48: 0, 49: 104_729, 50: 209_459}
@@ -42,8 +49,8 @@ class RandomCondition(Condition):
 
     def __init__(self, *, octaves: int = 6, persistence: float = 0.8,
                  head_frequency: float = 0.2, eyebrow_frequency: float = 0.4,
-                 eyes: str = "ground_truth") -> None:
-        super().__init__(eyes=eyes)
+                 match_amplitudes: bool = False) -> None:
+        self.match_amplitudes = bool(match_amplitudes)
         self.octaves, self.persistence = int(octaves), float(persistence)
         self.head_frequency, self.eyebrow_frequency = float(head_frequency), float(
             eyebrow_frequency)
@@ -53,11 +60,11 @@ class RandomCondition(Condition):
 
     def fit(self, features: SpeechFeatures, ground_truth: MotionTrack | None
             ) -> RandomCondition:
-        """Match amplitudes to a reference track's per-channel statistics."""
-        if ground_truth is None:
+        """With ``match_amplitudes``, take amplitudes from a reference track's statistics."""
+        if ground_truth is None or not self.match_amplitudes:
             return self
         ref = align_to_features(ground_truth, features)
-        for c in (*HEAD, *EYEBROW_RAISE):
+        for c in (*HEAD, *BROW_CHANNELS):
             if c in ref.channels:
                 self.target[c] = (float(ref[c].mean()), float(ref[c].std()))
         self.matched_to = ground_truth.source or "reference track"
@@ -79,19 +86,19 @@ class RandomCondition(Condition):
             cols[c] = (mean or 0.0) + std * z
         brow = np.maximum(self._noise(n, fps, self.eyebrow_frequency, EYEBROW_OFFSET, seed), 0)
         brow_sd = brow.std() if n else 0.0
-        for c in EYEBROW_RAISE:
+        for c in BROW_CHANNELS:
             scale = self.target[c][1] / brow_sd if brow_sd > 0 else 0.0
             cols[c] = brow * scale
         meta = dict(track.metadata, seed=seed,
                     amplitudes="matched to " + self.matched_to if self.matched_to
-                    else "defaults (no reference track)")
+                    else "Perlin constants (thesis Table 8)")
         return track.with_channels(cols).replace(metadata=meta)
 
     def describe(self) -> dict[str, Any]:
-        return {"eyes": self.eyes, "octaves": self.octaves, "persistence": self.persistence,
+        return {"octaves": self.octaves, "persistence": self.persistence,
                 "head_frequency_hz": self.head_frequency,
                 "eyebrow_frequency_hz": self.eyebrow_frequency,
-                "amplitudes": self.matched_to or "defaults",
+                "amplitudes": self.matched_to or "Perlin constants (Table 8)",
                 "target_mean_std": {c: list(v) for c, v in self.target.items()}}
 
 

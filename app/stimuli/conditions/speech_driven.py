@@ -1,17 +1,28 @@
 """SPEECH_DRIVEN (thesis sec. 4.3.4): eyebrows by rule, head by an ARX model, from speech alone.
 
-- Eyebrows (FAP 31-36): :mod:`app.stimuli.conditions.eyebrow_rule`. Raise sizes are
-  ``gain * F0peak + offset`` per channel; by default one gain for all with the middle and outer
-  eyebrows at 0.8 and 0.5 of the inner ones; :meth:`SpeechDrivenCondition.fit` fits gain and
-  offset per channel by least squares on the ground-truth eyebrows during the rule's raises.
+- Eyebrows (FAP 31-34): :mod:`app.stimuli.conditions.eyebrow_rule`. As in the thesis, the
+  inner and middle eyebrows carry the same raise (Table 8 shows equal columns) and the outer
+  eyebrows (35, 36), whose markers the thesis removed, stay neutral. Raise sizes follow
+  :func:`~app.stimuli.conditions.eyebrow_rule.raise_size` (``gain * F0peak + offset``, in the
+  thesis' range). ``fit_eyebrows=True`` instead fits gain and offset per channel by least
+  squares on the ground-truth eyebrows during the rule's raises.
 - Head (FAP 48-50): :mod:`app.stimuli.conditions.head_arx`, fitted on ground truth by
-  :meth:`fit`, else read from ``model_path``, else the shipped default model (fitted on the
-  demo data) - the track's metadata and the summary say which.
+  :meth:`fit`, else read from ``model_path``, else the shipped default model. Generation starts
+  at rest and the head's mean is the ground truth's (or neutral without one): the model gives
+  the motion, never a per-speaker posture. The track's metadata and the summary say which
+  model was used.
 
-The F0 and intensity thresholds take a number or ``"auto"``: the thesis' 207 Hz and 45 dB suit
-its speakers and recording gain; ``"auto"`` picks the 75th percentile of the speaker's voiced
-conditioned F0 and the level 35 % of the way from the noise floor (10th percentile of
-intensity) to the speech level (90th percentile).
+Thresholds take a number or ``"auto"`` (the default):
+
+- F0: the thesis' 207 Hz suits its speakers; ``"auto"`` is the 75th percentile of the
+  speaker's voiced F0 (after the two-pass pitch range and octave-jump removal of
+  :mod:`app.stimuli.speech`), so a raise marks the upper quarter of that speaker's pitch.
+  ``f0_threshold=207`` reproduces the thesis exactly.
+- Intensity (the release): the thesis' 45 dB is an absolute level of its recordings, whose
+  gain it does not give. Praat reads conversational speech recorded at a normal gain at about
+  60-70 dB, which puts 45 dB about 20 dB below the speech; ``"auto"`` is therefore
+  :data:`RELEASE_BELOW_SPEECH_DB` below the median intensity of the voiced frames, so the rule
+  behaves the same at any recording gain.
 """
 
 from __future__ import annotations
@@ -24,39 +35,46 @@ import numpy as np
 from app.errors import InputError
 from app.stimuli.conditions.base import Condition
 from app.stimuli.conditions.eyebrow_rule import (
-    F0_THRESHOLD_HZ,
-    INTENSITY_THRESHOLD_DB,
     MIN_HOLD_S,
+    ONSET_FRAMES,
+    RAISE_GAIN,
     RELEASE_FRAMES,
     eyebrow_contour,
     eyebrow_raise_events,
     eyebrow_raise_sizes,
+    hold_warnings,
+    raise_size,
 )
 from app.stimuli.conditions.ground_truth import align_to_features
 from app.stimuli.conditions.head_arx import DEFAULT_MODEL_PATH, HeadPoseArx
-from app.stimuli.fap import EYEBROW_RAISE, HEAD
+from app.stimuli.fap import HEAD
 from app.stimuli.features import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
-#: Default eyebrow raise per channel relative to the inner eyebrows (31, 32).
-BROW_RATIO = {31: 1.0, 32: 1.0, 33: 0.8, 34: 0.8, 35: 0.5, 36: 0.5}
+#: The eyebrow FAPs the rule drives, all with the same raise (thesis sec. 4.3.1, Table 8).
+BROW_CHANNELS: tuple[int, ...] = (31, 32, 33, 34)
+#: ``"auto"`` release threshold: this many dB below the median intensity of voiced frames.
+RELEASE_BELOW_SPEECH_DB = 20.0
+#: ``"auto"`` F0 threshold: this percentile of the speaker's voiced F0.
+AUTO_F0_PERCENTILE = 75.0
 
 
 def resolve_threshold(value: float | str, kind: str, features: SpeechFeatures) -> float:
     """A number, or ``"auto"`` adapted to this recording (see the module docstring)."""
-    if isinstance(value, str):
-        if value.strip().lower() != "auto":
-            try:
-                return float(value)
-            except ValueError:
-                raise InputError(f"expected a number or 'auto', got {value!r}",
-                                 field=f"{kind}_threshold") from None
-        if kind == "f0":
-            voiced = features.f0_conditioned[features.voiced]
-            return float(np.percentile(voiced, 75)) if len(voiced) else F0_THRESHOLD_HZ
-        floor, level = np.percentile(features.intensity, [10, 90])
-        return float(floor + 0.35 * (level - floor))
-    return float(value)
+    if not isinstance(value, str):
+        return float(value)
+    if value.strip().lower() != "auto":
+        try:
+            return float(value)
+        except ValueError:
+            raise InputError(f"expected a number or 'auto', got {value!r}",
+                             field=f"{kind}_threshold") from None
+    voiced = features.voiced
+    if kind == "f0":
+        f0 = features.f0[voiced]
+        return float(np.percentile(f0, AUTO_F0_PERCENTILE)) if len(f0) else float("inf")
+    level = features.intensity[voiced] if voiced.any() else features.intensity
+    return float(np.median(level)) - RELEASE_BELOW_SPEECH_DB if len(level) else 0.0
 
 
 class SpeechDrivenCondition(Condition):
@@ -64,25 +82,30 @@ class SpeechDrivenCondition(Condition):
 
     name = "speech_driven"
 
-    def __init__(self, *, f0_threshold: float | str = F0_THRESHOLD_HZ,
-                 intensity_threshold: float | str = INTENSITY_THRESHOLD_DB,
+    def __init__(self, *, f0_threshold: float | str = "auto",
+                 intensity_threshold: float | str = "auto",
                  min_hold_s: float = MIN_HOLD_S, release_frames: int = RELEASE_FRAMES,
-                 eyebrow_gain: float = 0.5, eyebrow_offset: float = 0.0,
+                 onset_frames: int = ONSET_FRAMES, eyebrow_gain: float = RAISE_GAIN,
+                 eyebrow_offset: float | None = None, fit_eyebrows: bool = False,
                  na: int = 4, nb: int = 4, nk: int = 1, ridge: float = 0.0,
-                 model_path: str | Path | None = None, eyes: str = "ground_truth") -> None:
-        super().__init__(eyes=eyes)
-        if min_hold_s < 0 or release_frames < 0 or na < 0 or nb < 1 or nk < 0:
-            raise InputError("min_hold_s, release_frames, na, nk must be >= 0 and nb >= 1",
-                             field="speech_driven")
+                 input_norm: str = "recording", model_path: str | Path | None = None) -> None:
+        if (min_hold_s < 0 or release_frames < 0 or onset_frames < 0 or na < 0 or nb < 1
+                or nk < 0):
+            raise InputError("min_hold_s, release_frames, onset_frames, na, nk must be >= 0 "
+                             "and nb >= 1", field="speech_driven")
         self.f0_threshold, self.intensity_threshold = f0_threshold, intensity_threshold
         self.min_hold_s, self.release_frames = float(min_hold_s), int(release_frames)
-        self.brow_gain = {c: eyebrow_gain * r for c, r in BROW_RATIO.items()}
-        self.brow_offset = {c: eyebrow_offset * r for c, r in BROW_RATIO.items()}
+        self.onset_frames = int(onset_frames)
+        self.brow_gain: dict[int, float] = {c: float(eyebrow_gain) for c in BROW_CHANNELS}
+        self.brow_offset: dict[int, float | None] = {c: eyebrow_offset for c in BROW_CHANNELS}
+        self.fit_eyebrows = bool(fit_eyebrows)
         self.brows_fitted = False
         self.order = dict(na=int(na), nb=int(nb), nk=int(nk), ridge=float(ridge))
+        self.input_norm = input_norm
         self.model_path = model_path
         self.head: HeadPoseArx | None = None
         self.head_note = ""
+        self.head_mean: dict[int, float] = {}
 
     # -- eyebrows ------------------------------------------------------------------------------
     def _events(self, features: SpeechFeatures) -> tuple[list[tuple[int, int]], float, float]:
@@ -98,17 +121,22 @@ class SpeechDrivenCondition(Condition):
         events, f0_thr, db_thr = self._events(features)
         peaks = eyebrow_raise_sizes(features.f0_conditioned, events, features.fps,
                                     self.min_hold_s)
-        cols = {}
-        for c in EYEBROW_RAISE:
-            sizes = np.maximum(self.brow_gain[c] * peaks + self.brow_offset[c], 0.0)
-            cols[c] = eyebrow_contour(features.n_frames, events, sizes, self.release_frames)
-        info = {"f0_threshold_hz": f0_thr, "intensity_threshold_db": db_thr,
-                "raises": [[s, r] for s, r in events], "n_raises": len(events)}
-        if not events:
-            top = float(features.f0_conditioned.max()) if features.n_frames else 0.0
-            info["warning"] = (f"no eyebrow raise: conditioned F0 never rises across "
-                               f"{f0_thr:g} Hz (its maximum is {top:.0f} Hz); set the F0 "
-                               "threshold for this speaker or use 'auto'")
+        cols, sizes = {}, {}
+        for c in BROW_CHANNELS:
+            sizes[c] = raise_size(peaks, f0_thr, gain=self.brow_gain[c],
+                                  offset=self.brow_offset[c])
+            cols[c] = eyebrow_contour(features.n_frames, events, sizes[c],
+                                      self.release_frames, self.onset_frames)
+        top = float(features.f0_conditioned.max()) if features.n_frames else 0.0
+        warnings = hold_warnings(events, features.fps, f0_thr, top)
+        info: dict[str, Any] = {
+            "f0_threshold_hz": f0_thr, "intensity_threshold_db": db_thr,
+            "raises": [[s, r] for s, r in events], "n_raises": len(events),
+            "raise_sizes": sizes[BROW_CHANNELS[0]].tolist(),
+            "held_fraction": float(np.mean(cols[BROW_CHANNELS[0]] > 0))
+            if features.n_frames else 0.0}
+        if warnings:
+            info["warning"] = "; ".join(warnings)
         return cols, info
 
     def _fit_brows(self, features: SpeechFeatures, gt: MotionTrack) -> None:
@@ -117,11 +145,12 @@ class SpeechDrivenCondition(Condition):
             return
         peaks = eyebrow_raise_sizes(features.f0_conditioned, events, features.fps,
                                     self.min_hold_s)
-        frames = np.concatenate([np.arange(s, r) for s, r in events])
-        peak_of_frame = np.concatenate([np.full(r - s, p) for (s, r), p in zip(events, peaks,
+        held = [(min(s + self.onset_frames, r), r) for s, r in events]  # past the onset ramp
+        frames = np.concatenate([np.arange(s, r) for s, r in held])
+        peak_of_frame = np.concatenate([np.full(r - s, p) for (s, r), p in zip(held, peaks,
                                                                                strict=True)])
         distinct = len(np.unique(np.round(peaks, 6))) >= 2
-        for c in EYEBROW_RAISE:
+        for c in BROW_CHANNELS:
             if c not in gt.channels:
                 continue
             y = gt[c][frames]
@@ -136,14 +165,18 @@ class SpeechDrivenCondition(Condition):
     # -- the condition interface ---------------------------------------------------------------
     def fit(self, features: SpeechFeatures, ground_truth: MotionTrack | None
             ) -> SpeechDrivenCondition:
-        """Fit the head ARX model and the eyebrow gains on the ground truth (if it has them)."""
+        """Fit the head ARX model on the ground truth (and, with ``fit_eyebrows``, the eyebrow
+        gains); the ground truth's head mean becomes the generated head's mean."""
         if ground_truth is None:
             return self
         gt = align_to_features(ground_truth, features)
-        if any(c in gt.channels and np.std(gt[c]) > 0 for c in HEAD):
+        self.head_mean = {c: float(gt[c].mean()) for c in HEAD if c in gt.channels}
+        if self.model_path is None and any(c in gt.channels and np.std(gt[c]) > 0
+                                           for c in HEAD):
             self.head = HeadPoseArx.fit(features, gt, **self.order)
             self.head_note = "head ARX model fitted on the ground truth of this recording"
-        self._fit_brows(features, gt)
+        if self.fit_eyebrows:
+            self._fit_brows(features, gt)
         return self
 
     def _head_model(self) -> HeadPoseArx:
@@ -160,17 +193,21 @@ class SpeechDrivenCondition(Condition):
                  ground_truth: MotionTrack | None = None) -> MotionTrack:
         track = self.base_track(features, ground_truth)
         brows, brow_info = self.eyebrows(features)
-        head = self._head_model().generate(features)
-        meta = dict(track.metadata, eyebrows=brow_info, head_model=self.head_note)
+        head = self._head_model().generate(features, input_norm=self.input_norm,
+                                           mean=self.head_mean)
+        meta = dict(track.metadata, eyebrows=brow_info, head_model=self.head_note,
+                    head_mean="ground truth" if self.head_mean else "neutral")
         return track.with_channels({**brows, **head}).replace(metadata=meta)
 
     def describe(self) -> dict[str, Any]:
         d: dict[str, Any] = {
-            "eyes": self.eyes, "f0_threshold": self.f0_threshold,
+            "f0_threshold": self.f0_threshold,
             "intensity_threshold": self.intensity_threshold, "min_hold_s": self.min_hold_s,
-            "release_frames": self.release_frames, "eyebrow_gain": self.brow_gain,
+            "onset_frames": self.onset_frames, "release_frames": self.release_frames,
+            "eyebrow_channels": list(BROW_CHANNELS), "eyebrow_gain": self.brow_gain,
             "eyebrow_offset": self.brow_offset, "eyebrows_fitted": self.brows_fitted,
-            "arx_order": self.order, "head_model": self.head_note,
+            "arx_order": self.order, "input_norm": self.input_norm,
+            "head_model": self.head_note,
         }
         if self.head is not None:
             d["head_model_info"] = {**self.head.provenance, **self.head.arx.info}

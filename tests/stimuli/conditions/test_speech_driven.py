@@ -15,18 +15,35 @@ def known_features():
     return SpeechFeatures(30.0, f0, intensity, f0.copy())
 
 
+THESIS = {"f0_threshold": 207, "intensity_threshold": 45}
+
+
 def test_rule_eyebrows_and_default_head_model_without_ground_truth():
     feats = known_features()
-    cond = make_condition("speech_driven")
+    cond = make_condition("speech_driven", **THESIS)
     track = cond.generate(feats)
     assert track.name == "SPEECH_DRIVEN"
     info = track.metadata["eyebrows"]
     assert info["raises"] == [[10, 30], [60, 80], [100, 109]]
-    np.testing.assert_allclose(track[31][10:30], 0.5 * feats.f0_conditioned[18])
-    np.testing.assert_allclose(track[33][60:80], 0.8 * 0.5 * 230)
+    size = 35 + 0.2 * (feats.f0_conditioned[18] - 207)  # 35 units at 207 Hz, 0.2 per Hz
+    np.testing.assert_allclose(track[31][13:30], size)
+    np.testing.assert_allclose(track[31][10:13], size * np.array([0.25, 0.5, 0.75]))
+    np.testing.assert_allclose(track[31][30:34], size * np.array([0.75, 0.5, 0.25, 0]))
+    np.testing.assert_allclose(track[33][63:80], 35 + 0.2 * 23)
+    for c in (32, 33, 34):  # inner = middle, left = right (Table 8's equal columns)
+        np.testing.assert_array_equal(track[c], track[31])
+    assert np.all(track[35] == 0) and np.all(track[36] == 0)  # no outer-eyebrow markers
     assert "default head model" in track.metadata["head_model"]
     assert DEFAULT_MODEL_PATH.name in cond.describe()["head_model"]
     assert np.isfinite(track[48]).all() and track[48].std() > 0
+
+
+def test_raise_sizes_stay_in_the_thesis_range_even_for_pitch_errors():
+    f0 = np.full(60, 120.0)
+    f0[10:20] = 520.0  # an octave error of a 260 Hz voice: the raise is capped
+    feats = SpeechFeatures(30.0, f0, np.full(60, 70.0), f0.copy())
+    track = make_condition("speech_driven", f0_threshold=207).generate(feats)
+    assert track[31].max() == 80.0
 
 
 def test_no_raise_warns():
@@ -36,12 +53,36 @@ def test_no_raise_warns():
     assert "never rises across 400 Hz" in track.metadata["eyebrows"]["warning"]
 
 
+def test_a_long_hold_warns():
+    f0 = np.full(300, 120.0)
+    f0[10:20] = 250.0
+    feats = SpeechFeatures(30.0, f0, np.full(300, 70.0), f0.copy())  # never quiet: 9.7 s hold
+    track = make_condition("speech_driven", **THESIS).generate(feats)
+    assert track.metadata["eyebrows"]["raises"] == [[10, 300]]
+    assert "held longer than 4 s (0.3-10.0 s)" in track.metadata["eyebrows"]["warning"]
+
+
 def test_auto_thresholds():
     feats = known_features()
-    assert resolve_threshold("auto", "f0", feats) == np.percentile(feats.f0_conditioned, 75)
+    assert resolve_threshold("auto", "f0", feats) == np.percentile(feats.f0, 75)
+    assert resolve_threshold("auto", "intensity", feats) == np.median(feats.intensity) - 20
     assert resolve_threshold("210", "f0", feats) == 210.0
     with pytest.raises(InputError, match="number or 'auto'"):
         resolve_threshold("high", "f0", feats)
+
+
+def test_auto_release_does_not_depend_on_recording_gain():
+    """The same speech recorded 20 dB louder raises and releases the brows on the same frames;
+    the thesis' absolute 45 dB would not."""
+    f0, intensity = known_contours()
+    quiet = SpeechFeatures(30.0, f0, intensity, f0.copy())
+    loud = SpeechFeatures(30.0, f0, intensity + 20.0, f0.copy())
+    auto = [make_condition("speech_driven", f0_threshold=207).generate(f)
+            .metadata["eyebrows"]["raises"] for f in (quiet, loud)]
+    assert auto[0] == auto[1]
+    fixed = [make_condition("speech_driven", **THESIS).generate(f)
+             .metadata["eyebrows"]["raises"] for f in (quiet, loud)]
+    assert fixed[0] != fixed[1]
 
 
 def phrase_features(seconds=120.0, fps=30.0):
@@ -72,8 +113,42 @@ def test_fitted_on_reference_speaker_learns_speech_structure():
 
 def test_eyebrow_gains_fitted_from_ground_truth():
     feats = known_features()
-    gt = make_condition("speech_driven", eyebrow_gain=0.3, eyebrow_offset=10).generate(feats)
-    cond = make_condition("speech_driven").fit(feats, gt)
+    gt = make_condition("speech_driven", eyebrow_gain=0.2, eyebrow_offset=5,
+                        **THESIS).generate(feats)
+    cond = make_condition("speech_driven", fit_eyebrows=True, **THESIS).fit(feats, gt)
     assert cond.brows_fitted
-    np.testing.assert_allclose(cond.brow_gain[31], 0.3, atol=1e-9)
-    np.testing.assert_allclose(cond.brow_offset[33], 8.0, atol=1e-9)
+    np.testing.assert_allclose(cond.brow_gain[31], 0.2, atol=1e-9)
+    np.testing.assert_allclose(cond.brow_offset[33], 5.0, atol=1e-9)
+    assert not make_condition("speech_driven", **THESIS).fit(feats, gt).brows_fitted
+
+
+def voice_features(gain_db=0.0, f0_scale=1.0, seconds=20.0, fps=30.0):
+    """1 s of silence, then phrases: a voice unlike the default model's training voice."""
+    feats = phrase_features(seconds, fps)
+    lead = round(fps)
+    inten = feats.intensity.copy() + gain_db
+    inten[:lead] = 38.0 + gain_db
+    f0 = feats.f0 * f0_scale
+    f0[:lead] = 0.0
+    f0c = feats.f0_conditioned * f0_scale
+    f0c[:lead] = f0c[lead]
+    return SpeechFeatures(fps, f0, inten, f0c)
+
+
+def test_default_head_model_puts_no_offset_on_another_voice_and_rests_in_silence():
+    for gain_db, f0_scale in ((0.0, 1.0), (15.0, 1.8), (-10.0, 0.6)):
+        feats = voice_features(gain_db, f0_scale)
+        track = make_condition("speech_driven").generate(feats)
+        for c in (48, 49, 50):
+            assert abs(track[c].mean()) < 1e-6  # neutral: no per-speaker posture
+            # still until the 1-s input smoothing first sees the speech (half a window ahead)
+            assert np.ptp(track[c][: 30 - 16]) < 1e-6
+            assert 0 < track[c].std() < 3 * 1745  # moving, by less than 3 degrees sd
+
+
+def test_head_mean_is_the_ground_truths():
+    feats = phrase_features(30)
+    gt = synthesize_reference(feats, seed=3)
+    track = make_condition("speech_driven").fit(feats, gt).generate(feats)
+    for c in (48, 49, 50):
+        np.testing.assert_allclose(track[c].mean(), gt[c].mean(), atol=1e-6)
