@@ -27,6 +27,7 @@ import numpy as np
 from app.errors import InputError
 from app.stimuli.conditions import DISPLAY_NAMES, condition_class, make_condition
 from app.stimuli.conditions.ground_truth import align_to_features
+from app.stimuli.eyes import DEFAULT_EYES, check_eyes, eye_channels
 from app.stimuli.features import SpeechFeatures
 from app.stimuli.io import load_track, save_track
 from app.stimuli.measures import measure_track
@@ -46,41 +47,81 @@ class GenerationResult:
     summary: dict[str, Any] = field(default_factory=dict)
 
 
-def parse_conditions(conditions: str | Iterable[str]) -> list[str]:
-    """``"none,random"`` or a list -> validated, de-duplicated names in the given order."""
-    names = conditions.split(",") if isinstance(conditions, str) else list(conditions)
-    names = [n.strip() for n in names if n.strip()]
-    if not names:
+#: One condition of a generation: the registry model and its parameters.
+ConditionRequest = tuple[str, dict[str, Any]]
+
+
+def parse_conditions(conditions: str | Iterable[str] | Mapping[str, Any]
+                     ) -> dict[str, ConditionRequest]:
+    """Conditions as ``name -> (model, params)``, validated, in the given order.
+
+    Accepts ``"none,random"``, a list of names (each name is its model), or a mapping from
+    name to a model name, to its parameters, or to ``{"model": model, **params}`` (a study
+    file's ``[[conditions]]``, where a condition called ``calm`` may use the model ``random``).
+    """
+    if isinstance(conditions, Mapping):
+        items = list(conditions.items())
+    else:
+        names = conditions.split(",") if isinstance(conditions, str) else list(conditions)
+        items = [(n.strip(), None) for n in names if n.strip()]
+    if not items:
         raise InputError("no conditions given", field="conditions")
-    for n in names:
-        condition_class(n)  # unknown or unavailable: one clear line now, not halfway through
-    return list(dict.fromkeys(names))
+    out: dict[str, ConditionRequest] = {}
+    for name, spec in items:
+        if isinstance(spec, str):
+            model, params = spec, {}
+        elif isinstance(spec, Mapping):
+            params = dict(spec)
+            model = str(params.pop("model", None) or name)
+        elif spec is None:
+            model, params = name, {}
+        elif isinstance(spec, tuple) and len(spec) == 2 and isinstance(spec[1], Mapping):
+            model, params = str(spec[0]), dict(spec[1])  # already parsed
+        else:
+            raise InputError(f"condition {name!r}: expected a model name or a table of "
+                             "settings", field="conditions")
+        condition_class(model)  # unknown or unavailable: one clear line now, not halfway
+        out.setdefault(name, (model, params))
+    return out
 
 
 def generate_conditions(
-    audio_path: str | Path, *, conditions: str | Iterable[str] = DEFAULT_CONDITIONS,
+    audio_path: str | Path, *,
+    conditions: str | Iterable[str] | Mapping[str, Any] = DEFAULT_CONDITIONS,
     ground_truth: str | Path | MotionTrack | None = None, fps: float = 30.0, seed: int = 0,
-    normalize: bool = False, model_path: str | Path | None = None,
-    progress: Callable[[int, int], None] | None = None, pitch_floor: float = 75.0,
-    pitch_ceiling: float = 600.0,
+    normalize: bool = False, eyes: str = DEFAULT_EYES,
+    models: Mapping[str, str | Path] | None = None,
+    progress: Callable[[int, int], None] | None = None, pitch_floor: float | None = None,
+    pitch_ceiling: float | None = None,
     condition_params: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> GenerationResult:
     """Generate the tracks of ``conditions`` for one recording.
 
-    ``ground_truth`` is a track or a .fap/.csv path (``None``: the conditions that need it
-    refuse, the others do without). ``model_path`` is a fitted head model for the conditions
-    that take one (``speech_driven``), used instead of fitting. ``condition_params`` gives
-    extra parameters per condition name. ``progress(done, total)`` is called after each step.
+    ``conditions`` maps each condition name to its model and parameters (see
+    :func:`parse_conditions`); ``condition_params`` adds parameters by name. ``ground_truth``
+    is a track or a .fap/.csv path (``None``: the conditions that need it refuse, the others
+    do without). ``models`` gives a fitted model file per condition name, used instead of
+    fitting. ``eyes`` sets gaze and eyelids for every condition alike
+    (:mod:`app.stimuli.eyes`). ``normalize`` scales and offsets every condition's head angles
+    to the ground truth's mean and sd (thesis sec. 5.3). ``pitch_floor``/``pitch_ceiling``:
+    the speaker's F0 range, estimated from the recording where ``None``.
+    ``progress(done, total)`` is called after each step.
     """
-    names = parse_conditions(conditions)
-    if ground_truth is None and "ground_truth" in names:
+    requests = parse_conditions(conditions)
+    check_eyes(eyes)
+    if ground_truth is None and any(m == "ground_truth" for m, _ in requests.values()):
         raise InputError("the ground_truth condition needs --ground-truth FILE",
                          field="conditions")
     if normalize and ground_truth is None:
         raise InputError("--normalize needs a reference: give --ground-truth",
                          field="normalize")
-    params = {k: dict(v) for k, v in (condition_params or {}).items()}
-    total = len(names) + 2 + int(normalize)
+    if eyes == "ground_truth" and ground_truth is None:
+        raise InputError("eyes = 'ground_truth' needs --ground-truth FILE", field="eyes")
+    for name in models or {}:
+        if name not in requests:
+            raise InputError(f"a model is given for {name!r}, which is not among the "
+                             f"conditions ({', '.join(requests)})", field="model")
+    total = len(requests) + 3 + int(normalize)
     done = 0
 
     def step() -> None:
@@ -97,32 +138,37 @@ def generate_conditions(
 
     tracks: dict[str, MotionTrack] = {}
     described: dict[str, Any] = {}
-    for name in names:
-        kw = dict(params.get(name, {}))
-        if model_path is not None and "model_path" in inspect.signature(
-                condition_class(name)).parameters:
-            kw.setdefault("model_path", str(model_path))
-        cond = make_condition(name, **kw)
+    for name, (model, params) in requests.items():
+        kw = {**params, **dict((condition_params or {}).get(name, {}))}
+        if models and name in models:
+            if "model_path" not in inspect.signature(condition_class(model)).parameters:
+                raise InputError(f"condition {name!r} ({model}) takes no model file",
+                                 field="model")
+            kw["model_path"] = str(models[name])
+        cond = make_condition(model, **kw)
         if gt_track is not None:
             cond.fit(features, gt_track)
         track = cond.generate(features, seed=seed, ground_truth=gt_track)
-        track.metadata.update(seed=seed, audio=str(audio_path))
+        track.metadata.update(seed=seed, audio=str(audio_path), model=model)
         tracks[name] = track
-        described[name] = cond.describe() if hasattr(cond, "describe") else {}
+        described[name] = {"model": model, **cond.describe()}
         step()
+
+    eye_cols = eye_channels(eyes, features, gt_aligned, seed=seed)
+    tracks = {name: t.with_channels(eye_cols).replace(metadata={**t.metadata, "eyes": eyes})
+              for name, t in tracks.items()}
+    step()
 
     factors = None
     if normalize:
-        if "ground_truth" in tracks:
-            reference: str | MotionTrack = "ground_truth"
-        else:
-            assert gt_aligned is not None  # checked on entry
-            reference = gt_aligned
-        tracks, factors = normalize_tracks(tracks, reference)
+        assert gt_aligned is not None  # checked on entry
+        reference = gt_aligned.with_channels(eye_cols)
+        gt_names = [n for n, (m, _) in requests.items() if m == "ground_truth"]
+        tracks, factors = normalize_tracks(tracks, gt_names[0] if gt_names else reference)
         step()
 
     summary = _summary(audio_path, features, gt_track, gt_aligned, tracks, described, factors,
-                       seed)
+                       seed, eyes)
     step()
     return GenerationResult(tracks, features, _jsonable(summary))
 
@@ -150,8 +196,8 @@ def _speech_summary(features: SpeechFeatures) -> dict[str, Any]:
 
 def _summary(audio_path: str | Path, features: SpeechFeatures, gt: MotionTrack | None,
              gt_aligned: MotionTrack | None, tracks: dict[str, MotionTrack],
-             described: dict[str, Any], factors: dict[str, Any] | None, seed: int
-             ) -> dict[str, Any]:
+             described: dict[str, Any], factors: dict[str, Any] | None, seed: int,
+             eyes: str) -> dict[str, Any]:
     from app import __version__
 
     notes: list[str] = []
@@ -171,7 +217,8 @@ def _summary(audio_path: str | Path, features: SpeechFeatures, gt: MotionTrack |
             "parameters": described.get(name, {}),
             "measures": measure_track(track, features, gt_aligned),
         }
-        for key in ("head_model", "eyebrows", "amplitudes", "carried_from_ground_truth"):
+        for key in ("model", "head_model", "head_mean", "eyebrows", "amplitudes",
+                    "carried_from_ground_truth", "eyes"):
             if key in track.metadata:
                 entry[key] = track.metadata[key]
         if track.metadata.get("head_model"):
@@ -181,7 +228,7 @@ def _summary(audio_path: str | Path, features: SpeechFeatures, gt: MotionTrack |
             notes.append(f"{name}: {warning}")
         conds[name] = entry
     return {"generator": f"facepair {__version__}", "audio": str(audio_path), "seed": seed,
-            "speech": _speech_summary(features), "ground_truth": gt_info,
+            "speech": _speech_summary(features), "ground_truth": gt_info, "eyes": eyes,
             "normalized": factors is not None, "normalization": factors,
             "conditions": conds, "notes": notes}
 

@@ -1,9 +1,13 @@
 import json
 
+import numpy as np
+import pytest
 from click.testing import CliRunner
 
 from app.cli import main
+from app.errors import InputError
 from app.stimuli.generate import generate_conditions
+from app.stimuli.io import load_track
 
 
 def test_demo_generates_four_conditions(repo_root, tmp_path):
@@ -29,3 +33,84 @@ def test_cli_writes_tracks_summary_and_plot(repo_root, tmp_path):
     bad = CliRunner().invoke(main, ["stimuli", "generate", "--audio", str(demo / "speech.wav"),
                                     "--out", str(out), "--normalize"])
     assert bad.exit_code == 2 and "needs a reference" in bad.output
+
+
+def demo_args(repo_root):
+    demo = repo_root / "data" / "demo"
+    return demo / "speech.wav", demo / "ground_truth.fap"
+
+
+def test_a_condition_named_unlike_its_model_keeps_its_settings(repo_root):
+    """A study file's ``name = "calm"``, ``model = "random"`` with settings reaches the model."""
+    audio, gt = demo_args(repo_root)
+    result = generate_conditions(audio, conditions={
+        "calm": {"model": "random", "octaves": 1, "persistence": 0.5},
+        "lively": {"model": "random"}, "none": {}}, ground_truth=gt, seed=3)
+    assert list(result.tracks) == ["calm", "lively", "none"]
+    params = result.summary["conditions"]["calm"]["parameters"]
+    assert params["model"] == "random" and params["octaves"] == 1
+    assert result.summary["conditions"]["lively"]["parameters"]["octaves"] == 6
+    assert not result.tracks["calm"].equals(result.tracks["lively"])
+
+
+def test_unknown_model_and_misplaced_model_file_are_one_line_errors(repo_root, tmp_path):
+    audio, _ = demo_args(repo_root)
+    with pytest.raises(InputError, match="unknown condition 'brownian'"):
+        generate_conditions(audio, conditions={"calm": {"model": "brownian"}})
+    with pytest.raises(InputError, match="'random' \\(random\\) takes no model file"):
+        generate_conditions(audio, conditions="random", models={"random": tmp_path / "m"})
+    with pytest.raises(InputError, match="not among the conditions"):
+        generate_conditions(audio, conditions="none", models={"speech_driven": "m.json"})
+
+
+def test_model_files_go_to_their_own_condition(repo_root, tmp_path):
+    audio, gt = demo_args(repo_root)
+    from app.stimuli.conditions.head_arx import DEFAULT_MODEL_PATH
+
+    model = tmp_path / "head.json"
+    model.write_bytes(DEFAULT_MODEL_PATH.read_bytes())
+    result = generate_conditions(audio, conditions="speech_driven,none", ground_truth=gt,
+                                 models={"speech_driven": model})
+    assert "read from head.json" in result.summary["conditions"]["speech_driven"]["head_model"]
+
+
+@pytest.mark.parametrize("eyes", ["still", "ground_truth", "generated"])
+def test_eyes_are_the_same_in_every_condition(repo_root, eyes):
+    audio, gt = demo_args(repo_root)
+    result = generate_conditions(audio, conditions="none,random,speech_driven,ground_truth",
+                                 ground_truth=gt, eyes=eyes, seed=2)
+    tracks = list(result.tracks.values())
+    for c in range(19, 27):
+        for t in tracks[1:]:
+            np.testing.assert_array_equal(t[c], tracks[0][c])
+    moving = np.ptp(tracks[0].values[:, [tracks[0].channels.index(c) for c in (19, 23)]])
+    assert (moving == 0) == (eyes == "still")
+    if eyes == "ground_truth":
+        truth = load_track(gt)
+        np.testing.assert_allclose(tracks[0][23], truth[23][:120])
+    assert result.summary["eyes"] == eyes
+
+
+def test_generated_eyes_replace_the_live_models_own_in_every_condition(repo_root):
+    audio, gt = demo_args(repo_root)
+    result = generate_conditions(audio, conditions="live_gmm,none", eyes="still",
+                                 ground_truth=gt)
+    assert np.all(result.tracks["live_gmm"][23] == 0)  # no eye confound with NO_PROSODY
+    assert result.tracks["live_gmm"][48].std() > 0
+
+
+def test_normalize_scales_every_conditions_head_and_reports_the_factors(repo_root):
+    """Thesis sec. 5.3: head angles to the ground truth's mean and sd, eyebrows untouched."""
+    audio, gt = demo_args(repo_root)
+    plain = generate_conditions(audio, ground_truth=gt, seed=1)
+    norm = generate_conditions(audio, ground_truth=gt, seed=1, normalize=True)
+    ref = norm.tracks["ground_truth"]
+    for name in ("random", "speech_driven"):
+        for c in (48, 49, 50):
+            np.testing.assert_allclose(norm.tracks[name][c].std(), ref[c].std(), rtol=1e-9)
+            np.testing.assert_allclose(norm.tracks[name][c].mean(), ref[c].mean(), atol=1e-6)
+        np.testing.assert_array_equal(norm.tracks[name][31], plain.tracks[name][31])
+        factors = norm.summary["normalization"][name]
+        assert set(factors) == {"48", "49", "50"} and factors["49"]["scale"] > 0
+    # experiment 1 (no normalisation): RANDOM keeps the Perlin amplitudes of Table 8
+    assert plain.tracks["random"][49].std() > plain.tracks["ground_truth"][49].std()

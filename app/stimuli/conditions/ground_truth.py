@@ -38,8 +38,7 @@ class GroundTruthCondition(Condition):
 
     name = "ground_truth"
 
-    def __init__(self, *, offset: float = 0.0, eyes: str = "ground_truth") -> None:
-        super().__init__(eyes=eyes)
+    def __init__(self, *, offset: float = 0.0) -> None:
         self.offset = float(offset)
 
     def generate(self, features: SpeechFeatures, *, seed: int = 0,
@@ -50,13 +49,10 @@ class GroundTruthCondition(Condition):
         from app.stimuli.conditions import DISPLAY_NAMES
 
         gt = align_to_features(ground_truth, features, self.offset)
-        if self.eyes == "neutral":
-            gt = gt.with_channels({c: np.zeros(gt.n_frames) for c in gt.channels
-                                   if 19 <= c <= 26})
         meta = dict(gt.metadata, condition=self.name, offset_s=self.offset,
                     source_fps=ground_truth.fps, source_frames=ground_truth.n_frames)
         return gt.replace(name=DISPLAY_NAMES[self.name], source=ground_truth.source or
                           "ground truth", metadata=meta)
 
     def describe(self) -> dict[str, Any]:
-        return {"eyes": self.eyes, "offset_s": self.offset}
+        return {"offset_s": self.offset}

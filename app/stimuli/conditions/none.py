@@ -1,7 +1,7 @@
 """NO_PROSODY (thesis sec. 4.3.1): head and eyebrow FAPs set to zero.
 
-Jaw and lips (and, by default, gaze and eyelids) come from the ground truth when there is one;
-``eyes="neutral"`` zeroes gaze and eyelids as well.
+Jaw and lips come from the ground truth when there is one; gaze and eyelids follow the study's
+``eyes`` setting, as in every condition.
 """
 
 from __future__ import annotations

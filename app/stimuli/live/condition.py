@@ -45,7 +45,6 @@ class LiveGmmCondition(Condition):
 
     def __init__(self, *, model_path: str | Path | None = None, n_components: int = 10,
                  train_seed: int = 0) -> None:
-        super().__init__(eyes="neutral")  # the eyes are the model's own, never carried
         self.model_path = Path(model_path) if model_path is not None else None
         self.n_components = n_components
         self.train_seed = train_seed
