@@ -340,3 +340,23 @@ def test_well_formed_files_of_either_dialect_keep_every_masked_low_level_fap(
     for fap, frames in expected.items():
         for index, value in frames.items():
             assert t[fap][index] == value
+
+
+def test_cli_convert_writes_either_dialect(tmp_path):
+    from click.testing import CliRunner
+
+    from app.cli import main
+
+    source = tmp_path / "lips.fap"
+    source.write_text(GRETA_LIPS)
+    runner = CliRunner()
+    for flags, length in (([], 68), (["--greta"], 69)):
+        target = tmp_path / f"out{length}.fap"
+        r = runner.invoke(main, ["stimuli", "convert", str(source), str(target), *flags])
+        assert r.exit_code == 0, r.output
+        masks = [line for line in target.read_text().splitlines() if not line.startswith("#")]
+        assert len(masks[1].split()) == length
+        assert read_fap(target).equals(read_fap(source))
+    r = runner.invoke(main, ["stimuli", "convert", str(source), str(tmp_path / "o.csv"),
+                             "--greta"])
+    assert r.exit_code == 2 and "Greta's dialect is a .fap format, not .csv" in r.output
