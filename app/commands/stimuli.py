@@ -12,19 +12,28 @@ def stimuli() -> None:
     """Generate and inspect the motion tracks of experimental conditions."""
 
 
+_greta_option = click.option(
+    "--greta", is_flag=True,
+    help="Write .fap files in Greta's dialect (69-value masks) instead of Xface's (68).")
+
+
 @stimuli.command("convert")
 @click.argument("source", type=click.Path(dir_okay=False))
 @click.argument("target", type=click.Path(dir_okay=False))
 @click.option("--fps", type=float, default=None,
               help="Frame rate of a CSV source without a '# fps=' line; or resample to it.")
-def convert(source: str, target: str, fps: float | None) -> None:
-    """Convert a motion track between .fap and .csv (by extension), optionally resampling."""
+@_greta_option
+def convert(source: str, target: str, fps: float | None, greta: bool) -> None:
+    """Convert a motion track between .fap and .csv (by extension), optionally resampling.
+
+    A .fap source may be in either dialect (Xface or Greta); its mask length tells which.
+    """
     from app.stimuli.io import load_track, save_track
 
     track = load_track(source, fps=fps if source.lower().endswith(".csv") else None)
     if fps is not None and fps != track.fps:
         track = track.resample(fps)
-    save_track(track, target)
+    save_track(track, target, greta=greta)
     click.echo(f"{target}: {track.n_frames} frames at {track.fps:g} fps, "
                f"FAPs {', '.join(map(str, track.channels)) or 'none'}")
 
@@ -131,11 +140,12 @@ def fit_head_model(audio: str, ground_truth: str, out: str, ridge: float, label:
                    ".npz for live_gmm), used instead of fitting; repeat per condition.")
 @click.option("--plot/--no-plot", default=True, show_default=True,
               help="Also draw summary.png.")
+@_greta_option
 @_speech_options
 def generate(audio: str, ground_truth: str | None, conditions: str | None, out_dir: str,
              normalize: bool, eyes: str, seed: int, f0_threshold: str,
-             intensity_threshold: str, models: tuple[str, ...], plot: bool, fps: float,
-             pitch_floor: float | None, pitch_ceiling: float | None) -> None:
+             intensity_threshold: str, models: tuple[str, ...], plot: bool, greta: bool,
+             fps: float, pitch_floor: float | None, pitch_ceiling: float | None) -> None:
     """Generate the motion track of each condition for a recording, with objective measures.
 
     Demo: facepair stimuli generate --audio data/demo/speech.wav
@@ -175,7 +185,7 @@ def generate(audio: str, ground_truth: str | None, conditions: str | None, out_d
             pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling,
             condition_params={n: sd_params for n, (m, _) in requests.items()
                               if m == "speech_driven"})
-        written = write_outputs(result, out_dir, plot=plot)
+        written = write_outputs(result, out_dir, plot=plot, greta=greta)
     finally:
         for bar in bars:
             bar.close()

@@ -7,7 +7,8 @@ FAPs 19-26 once per clip and writes the same columns into every condition's trac
 
 - ``still``: open eyes looking ahead, no blinks (all eye FAPs 0). The default, as Le et al.
   kept the eyes out of their head-motion comparisons.
-- ``ground_truth``: the captured gaze and eyelids, aligned to the audio.
+- ``ground_truth``: the captured gaze and eyelids, aligned to the audio (the eye FAPs the
+  capture has; those it lacks stay neutral).
 - ``generated``: gaze and eyelids from the live model of Le et al. (:mod:`app.stimuli.live`,
   NDCCA gaze and log-normal blinks), generated once from the speech with the study's seed.
 
@@ -50,7 +51,8 @@ def eye_channels(mode: str, features: SpeechFeatures, ground_truth: MotionTrack 
                  ) -> dict[int, np.ndarray]:
     """FAPs 19-26 for every condition of one clip under the study's ``eyes`` setting.
 
-    ``ground_truth`` must already be aligned to ``features`` for ``"ground_truth"``; for
+    ``ground_truth`` must already be aligned to ``features`` for ``"ground_truth"``, which
+    returns only the eye channels it has; for
     ``"generated"`` the live model at ``live_model_path`` (default: the shipped one) is used.
     """
     check_eyes(mode)
@@ -60,8 +62,8 @@ def eye_channels(mode: str, features: SpeechFeatures, ground_truth: MotionTrack 
     if mode == "ground_truth":
         if ground_truth is None:
             raise InputError("eyes = 'ground_truth' needs a ground-truth track", field="eyes")
-        return {c: (ground_truth[c].copy() if c in ground_truth.channels else np.zeros(n))
-                for c in EYE_CHANNELS}
+        # only the eye channels the capture has: a track passes through unchanged
+        return {c: ground_truth[c].copy() for c in EYE_CHANNELS if c in ground_truth.channels}
     from app.stimuli.live.condition import LiveGmmCondition
 
     live = LiveGmmCondition(model_path=live_model_path).generate(features, seed=seed)

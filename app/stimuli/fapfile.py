@@ -1,58 +1,127 @@
-"""Read and write MPEG-4 FAP stream files (.fap), the text format Greta and Xface play.
+"""Read and write MPEG-4 FAP stream files (.fap) in the two dialects Xface and Greta play.
 
-Format (see ``docs/formats.md``)::
+Format (``docs/stimuli.md``, "The .fap format"; ISO/IEC 14496-2 for the FAPs)::
 
     # comment lines start with '#'
     2.1 <name, may contain spaces> <fps> <number of frames>
-    <mask: 68 values of 0/1, FAP 1..68>          (Greta writes 69: a leading null FAP 0)
-    <frame index> <one integer per FAP whose mask bit is 1, in FAP order>
+    <mask: 68 (Xface, MPEG-4) or 69 (Greta) values of 0/1>
+    <frame index> <the values of the masked positions, in mask order>
     ...                                           (a mask line and a value line per frame)
+
+The mask's length says the dialect, and the dialect says how to count values:
+
+========================  ================================  ====================================
+mask position             Xface / MPEG-4, 68 values         Greta, 69 values
+========================  ================================  ====================================
+1                         FAP 1 viseme: 4 values            FAP 1 viseme: 1 value
+2                         FAP 2 expression: 6 values        FAP 2 expression: 1 value
+3 .. 68                   FAP 3 .. 68: 1 value each         FAP 3 .. 68: 1 value each
+69                        (none)                            an extra entry, not a FAP: 1 value
+========================  ================================  ====================================
+
+Greta's FAP list has a null entry before FAP 1, which its writer skips, and one entry after
+FAP 68, which it writes; so position i is FAP i in both dialects. The MPEG-4 widths of FAP 1
+(select1, select2, blend, def) and FAP 2 (select1, intensity1, select2, intensity2, init_face,
+def) hold in Xface's reader, while Greta writes one integer for every masked position.
 
 Reading rules, chosen so that a file never yields a silently wrong track:
 
-* The header's first token is the version, its last two the fps and the frame count; what lies
-  between is the name.
-* A 69-value mask is Greta's: its first value is the null FAP 0. If that bit is 1 the value line
-  carries one extra leading value, which is dropped.
-* FAP 1 (viseme) and FAP 2 (expression) are high-level parameters carrying 4 and 6 values in a
-  frame (ISO/IEC 14496-2); they are read past and not kept.
+* The header's first token is the version, its last two the fps and the frame count (at most
+  :data:`MAX_FRAMES`); what lies between is the name.
+* The first mask line sets the dialect; every mask line of the file must have its length.
+* FAP 1 and FAP 2 are high-level parameters, not motion: their values are read past, as is
+  Greta's extra entry. Values are integers in the 32-bit range.
+* Files that facepair wrote in Greta style before this layout was known (first comment line
+  exactly :data:`_WRITER_LINE`, 69-value masks) put a null FAP 0 first and FAP i at position
+  i + 1, with the MPEG-4 widths; they are read that way, so they read back unchanged.
 * Frames are placed by their index. Indices must increase. Frames missing from the sequence,
   and a channel masked off in some frames, are linearly interpolated from its neighbours;
   frames before the first index hold the first frame. A file whose last index is below the
   header's frame count - 1 is truncated and refused.
 * Any malformed line raises :class:`app.errors.InputError` naming the file, the line number and
-  what was expected.
+  what was expected (for a value line, what each dialect would have expected).
 
 Example
 -------
 >>> import io
->>> text = "2.1 demo 25 2\\n" + " ".join(["0"] * 47 + ["1"] + ["0"] * 20) + "\\n0 100\\n"
->>> text += " ".join(["0"] * 47 + ["1"] + ["0"] * 20) + "\\n1 200\\n"
+>>> mask = ["0"] * 68
+>>> mask[47] = "1"                                       # position 48: head_pitch
+>>> text = "2.1 demo 25 2\\n" + " ".join(mask) + "\\n0 100\\n" + " ".join(mask) + "\\n1 200\\n"
 >>> track = read_fap(io.StringIO(text))
 >>> track.fps, track.channels, track[48].tolist()
 (25.0, (48,), [100.0, 200.0])
+>>> greta = "2.1 g 25 1\\n" + " ".join(["1"] + mask[1:] + ["0"]) + "\\n0 7 100\\n"
+>>> read_fap(io.StringIO(greta))[48].tolist()     # FAP 1 masked: one value in Greta's dialect
+[100.0]
 """
 
 from __future__ import annotations
 
 import io
+from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import IO
 
 import numpy as np
 
 from app.errors import InputError
-from app.stimuli.fap import N_FAPS
+from app.stimuli.fap import FAPS, N_FAPS
 from app.stimuli.track import MotionTrack
 
-#: Values a frame carries for the high-level FAPs (viseme: select1, select2, blend, def;
-#: expression: select1, intensity1, select2, intensity2, init_face, def).
+#: Values a frame carries for the high-level FAPs in MPEG-4 and Xface (viseme: select1,
+#: select2, blend, def; expression: select1, intensity1, select2, intensity2, init_face, def).
 _HIGH_LEVEL_WIDTH = {1: 4, 2: 6}
+#: Largest frame count a header may give: over 2 hours at 120 Hz; a bound on memory.
+MAX_FRAMES = 1_000_000
+#: FAP values are 32-bit integers in both players.
+_INT32 = 2**31 - 1
 _META_KEYS = ("source", "speaker")
+#: First line of every file facepair writes; alone, it also marks the early Greta-style files.
+_WRITER_LINE = "MPEG-4 FAP stream written by facepair"
+_GRETA_WRITER_LINE = _WRITER_LINE + " in Greta's layout: FAP 1..68, then one extra entry"
+
+
+@dataclass(frozen=True)
+class _Dialect:
+    """How one dialect lays out a mask: the FAP at each position (0: none) and value widths."""
+
+    name: str
+    faps: tuple[int, ...]
+    high_level_widths: bool  # True: MPEG-4's 4 and 6 values for FAP 1 and 2
+
+    def width(self, fap: int) -> int:
+        return _HIGH_LEVEL_WIDTH.get(fap, 1) if self.high_level_widths else 1
+
+
+_XFACE = _Dialect("68-value mask: Xface/MPEG-4, 4 values for FAP 1, 6 for FAP 2",
+                  tuple(range(1, N_FAPS + 1)), True)
+_GRETA = _Dialect("69-value mask: Greta, one value per masked position",
+                  (*range(1, N_FAPS + 1), 0), False)
+_EARLY_FACEPAIR_GRETA = _Dialect(
+    "69-value mask of an early facepair file: null FAP 0, then FAP 1..68, MPEG-4 widths",
+    (0, *range(1, N_FAPS + 1)), True)
+
+
+@lru_cache(maxsize=256)
+def _layout(dialect: _Dialect, bits: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, int]:
+    """For a mask: the kept FAP columns (0-based), their places on the value line, the width.
+
+    Places count from 1 (place 0 is the frame index). Kept are the low-level FAPs 3..68.
+    """
+    columns, places, place = [], [], 1
+    for fap, bit in zip(dialect.faps, bits, strict=True):
+        if not bit:
+            continue
+        if fap and fap not in _HIGH_LEVEL_WIDTH:
+            columns.append(fap - 1)
+            places.append(place)
+        place += dialect.width(fap)
+    return np.array(columns, dtype=np.intp), np.array(places, dtype=np.intp), place - 1
 
 
 def _lines(f: IO[str]):
-    """Yield (line number, stripped text) for non-blank, non-comment lines; collect comments."""
+    """Yield (line number, stripped text) for the non-blank lines."""
     for number, raw in enumerate(f, start=1):
         text = raw.strip()
         if text:
@@ -60,9 +129,10 @@ def _lines(f: IO[str]):
 
 
 def read_fap(source: str | Path | IO[str]) -> MotionTrack:
-    """Read a .fap file into a :class:`MotionTrack` (values in FAPU, channels = union of masks).
+    """Read a .fap file of either dialect into a :class:`MotionTrack` (values in FAPU).
 
-    Raises :class:`InputError` for a malformed file: header, mask, values, truncation.
+    The channels are the union of the low-level FAPs masked in any frame. Raises
+    :class:`InputError` for a malformed file: header, mask, values, truncation.
     """
     if isinstance(source, (str, Path)):
         path = str(source)
@@ -80,113 +150,140 @@ def _ints(tokens: list[str], path: str, line: int, what: str) -> list[int]:
     out = []
     for k, tok in enumerate(tokens, start=1):
         try:
-            out.append(int(tok))
+            value = int(tok)
         except ValueError:
             raise InputError(
-                f"{what}: value {k} is {tok!r}, expected an integer", path=path, line=line
+                f"{what}: value {k} is {tok[:40]!r}, expected an integer", path=path, line=line
             ) from None
+        if abs(value) > _INT32:
+            raise InputError(f"{what}: value {k} is outside the 32-bit integer range",
+                             path=path, line=line)
+        out.append(value)
     return out
+
+
+def _header(text: str, path: str, line: int) -> tuple[str, float, int]:
+    """Name, fps and frame count from the header line ``2.1 <name> <fps> <nframes>``."""
+    tokens = text.split()
+    if len(tokens) < 3:
+        raise InputError(
+            f"header {text[:60]!r}: expected '2.1 <name> <fps> <nframes>'", path=path, line=line
+        )
+    try:
+        fps = float(tokens[-2])
+    except ValueError:
+        raise InputError(f"header: fps is {tokens[-2][:40]!r}, expected a number", path=path,
+                         line=line) from None
+    if not np.isfinite(fps) or fps <= 0:
+        raise InputError(f"header: fps is {tokens[-2][:40]}, expected a number > 0",
+                         path=path, line=line)
+    try:
+        n_frames = int(tokens[-1])
+    except ValueError:
+        raise InputError(f"header: frame count is {tokens[-1][:40]!r}, expected an integer",
+                         path=path, line=line) from None
+    if not 0 <= n_frames <= MAX_FRAMES:
+        raise InputError(f"header: frame count is {n_frames}, expected 0..{MAX_FRAMES}",
+                         path=path, line=line)
+    return " ".join(tokens[1:-2]), fps, n_frames
+
+
+def _dialect_of(mask: list[int], early_facepair: bool, path: str, line: int) -> _Dialect:
+    if len(mask) == N_FAPS:
+        return _XFACE
+    if len(mask) == N_FAPS + 1:
+        return _EARLY_FACEPAIR_GRETA if early_facepair else _GRETA
+    raise InputError(
+        f"mask line: expected 68 (Xface) or 69 (Greta) values of 0/1, got {len(mask)}",
+        path=path, line=line,
+    )
+
+
+def _count_error(dialect: _Dialect, bits: tuple[int, ...], got: int, path: str,
+                 line: int) -> InputError:
+    """The one line for a value line of the wrong length: what each dialect expects."""
+    masked = [fap for fap, bit in zip(dialect.faps, bits, strict=True) if bit]
+    if dialect.high_level_widths:
+        other = f"Greta, one value each, would expect {len(masked)}"
+    else:
+        mpeg4 = sum(_HIGH_LEVEL_WIDTH.get(fap, 1) for fap in masked)
+        other = f"Xface/MPEG-4, 4 for FAP 1 and 6 for FAP 2, would expect {mpeg4}"
+    return InputError(
+        f"value line: expected the frame index and {_layout(dialect, bits)[2]} values for the "
+        f"{len(masked)} masked positions ({dialect.name}; {other}), got {got} numbers",
+        path=path, line=line,
+    )
 
 
 def _parse(f: IO[str], path: str) -> MotionTrack:
     meta: dict[str, str] = {}
     lines = []
+    first_comment: str | None = None
     for number, text in _lines(f):
         if text.startswith("#"):
-            key, _, value = text[1:].strip().partition(":")
+            comment = text[1:].strip()
+            if first_comment is None:
+                first_comment = comment
+            key, _, value = comment.partition(":")
             if key.strip() in _META_KEYS and value.strip():
                 meta[key.strip()] = value.strip()
             continue
         lines.append((number, text))
     if not lines:
         raise InputError("empty file: expected a header '2.1 <name> <fps> <nframes>'", path=path)
-
     number, header = lines[0]
-    tokens = header.split()
-    if len(tokens) < 3:
-        raise InputError(
-            f"header {header!r}: expected '2.1 <name> <fps> <nframes>'", path=path, line=number
-        )
-    try:
-        fps = float(tokens[-2])
-    except ValueError:
-        raise InputError(f"header: fps is {tokens[-2]!r}, expected a number", path=path,
-                         line=number) from None
-    if not np.isfinite(fps) or fps <= 0:
-        raise InputError(f"header: fps is {tokens[-2]}, expected a number > 0", path=path,
-                         line=number)
-    try:
-        n_frames = int(tokens[-1])
-    except ValueError:
-        raise InputError(f"header: frame count is {tokens[-1]!r}, expected an integer",
-                         path=path, line=number) from None
-    if n_frames < 0:
-        raise InputError(f"header: frame count is {n_frames}, expected >= 0", path=path,
-                         line=number)
-    name = " ".join(tokens[1:-2])
+    name, fps, n_frames = _header(header, path, number)
 
     body = lines[1:]
     if len(body) % 2:
-        last_line = body[-1][0]
         raise InputError(
             "truncated: a mask line without its value line at the end of the file",
-            path=path, line=last_line,
+            path=path, line=body[-1][0],
         )
-    values = np.full((n_frames, N_FAPS), np.nan)
-    present = np.zeros(N_FAPS, dtype=bool)
+    dialect: _Dialect | None = None
+    frames: list[tuple[int, np.ndarray, np.ndarray]] = []
     last_index = -1
     for k in range(0, len(body), 2):
         mask_no, mask_text = body[k]
         value_no, value_text = body[k + 1]
         mask = _ints(mask_text.split(), path, mask_no, "mask line")
-        if len(mask) not in (N_FAPS, N_FAPS + 1):
+        if dialect is None:
+            dialect = _dialect_of(mask, first_comment == _WRITER_LINE, path, mask_no)
+        elif len(mask) != len(dialect.faps):
             raise InputError(
-                f"mask line: expected 68 (Xface) or 69 (Greta) values of 0/1, got {len(mask)}",
-                path=path, line=mask_no,
+                f"mask line: {len(mask)} values after {len(dialect.faps)}-value masks; "
+                "a file holds one dialect (68: Xface, 69: Greta)", path=path, line=mask_no,
             )
         if any(m not in (0, 1) for m in mask):
             raise InputError("mask line: expected only 0 and 1", path=path, line=mask_no)
-        null_fap = mask[0] if len(mask) == N_FAPS + 1 else 0
-        bits = mask[-N_FAPS:]
-        width = null_fap + sum(_HIGH_LEVEL_WIDTH.get(i + 1, 1) for i, b in enumerate(bits) if b)
+        bits = tuple(mask)
+        columns, places, width = _layout(dialect, bits)
         vals = _ints(value_text.split(), path, value_no, "value line")
         if len(vals) != width + 1:
-            raise InputError(
-                f"value line: expected the frame index and {width} values for the "
-                f"{sum(bits)} masked FAPs, got {len(vals)} numbers",
-                path=path, line=value_no,
-            )
+            raise _count_error(dialect, bits, len(vals), path, value_no)
         index = vals[0]
-        if index <= last_index:
-            raise InputError(
-                f"frame index {index} after {last_index}: indices must increase",
-                path=path, line=value_no,
-            )
+        if index < 0 or index <= last_index:
+            after = f" after {last_index}" if last_index >= 0 else ""
+            raise InputError(f"frame index {index}{after}: indices must start at >= 0 and "
+                             "increase", path=path, line=value_no)
         if index >= n_frames:
             raise InputError(
                 f"frame index {index} outside 0..{n_frames - 1} (header says {n_frames} frames)",
                 path=path, line=value_no,
             )
         last_index = index
-        pos = 1 + null_fap
-        for i, bit in enumerate(bits):
-            if not bit:
-                continue
-            fap = i + 1
-            if fap in _HIGH_LEVEL_WIDTH:
-                pos += _HIGH_LEVEL_WIDTH[fap]
-                continue
-            values[index, i] = vals[pos]
-            present[i] = True
-            pos += 1
+        frames.append((index, columns, np.asarray(vals, dtype=np.float64)[places]))
     if last_index < n_frames - 1:
-        where = body[-1][0] if body else number
         raise InputError(
             f"truncated: header says {n_frames} frames, the last frame index is {last_index}",
-            path=path, line=where,
+            path=path, line=body[-1][0] if body else number,
         )
-    channels = tuple(int(i) + 1 for i in np.flatnonzero(present))
-    kept = values[:, present]
+    present = np.unique(np.concatenate([np.empty(0, np.intp)]
+                                       + [columns for _, columns, _ in frames]))
+    kept = np.full((n_frames, len(present)), np.nan)
+    for index, columns, row in frames:
+        kept[index, np.searchsorted(present, columns)] = row
+    channels = tuple(int(i) + 1 for i in present)
     _fill_gaps(kept)
     return MotionTrack(fps, kept, channels, name=name, source=meta.get("source", path),
                        speaker=meta.get("speaker", ""))
@@ -205,12 +302,24 @@ def _fill_gaps(values: np.ndarray) -> None:
 def write_fap(track: MotionTrack, target: str | Path | IO[str], *, greta: bool = False) -> None:
     """Write ``track`` as a .fap file; values are rounded to integers (the format's type).
 
-    ``greta=True`` writes 69-value masks (a leading 0 for the null FAP), as Greta does; the
-    default 68-value masks are what Xface reads. Source and speaker go into comment lines, which
-    :func:`read_fap` reads back.
+    The default writes 68-value masks, what Xface (and MPEG-4) read. ``greta=True`` writes what
+    Greta writes: 69-value masks, FAP i at position i and one trailing extra entry (left 0),
+    one integer per masked FAP. Source and speaker go into comment lines, which
+    :func:`read_fap` reads back. A track holding FAP 1 or 2 (high-level, not motion; the reader
+    reads past them) or a value beyond the 32-bit range is refused with an :class:`InputError`.
     """
+    high = [c for c in track.channels if c in _HIGH_LEVEL_WIDTH]
+    if high:
+        raise InputError(
+            f"FAP {high[0]} ({FAPS[high[0]].name}) is a high-level parameter, not motion: "
+            "a .fap file written by facepair holds FAPs 3..68 only", field="channels")
+    ints = np.rint(track.values)
+    if ints.size and not np.all(np.abs(ints) <= _INT32):
+        raise InputError("a value is outside the 32-bit integer range of .fap files",
+                         field="values")
+    ints = ints.astype(np.int64)
     out = io.StringIO()
-    out.write("# MPEG-4 FAP stream written by facepair\n")
+    out.write(f"# {_GRETA_WRITER_LINE if greta else _WRITER_LINE}\n")
     for key in _META_KEYS:
         value = " ".join(str(getattr(track, key)).split())
         if value:
@@ -218,13 +327,10 @@ def write_fap(track: MotionTrack, target: str | Path | IO[str], *, greta: bool =
     fps = int(track.fps) if float(track.fps).is_integer() else repr(track.fps)
     name = " ".join(track.name.split()) or "facepair"
     out.write(f"2.1 {name} {fps} {track.n_frames}\n")
-    bits = ["0"] * N_FAPS
+    bits = ["0"] * len((_GRETA if greta else _XFACE).faps)
     for c in track.channels:
         bits[c - 1] = "1"
-    if greta:
-        bits = ["0", *bits]
     mask = " ".join(bits) + "\n"
-    ints = np.rint(track.values).astype(np.int64)
     for i in range(track.n_frames):
         out.write(mask)
         out.write(" ".join([str(i), *map(str, ints[i].tolist())]) + "\n")

@@ -250,9 +250,12 @@ def _jsonable(x: Any) -> Any:
     return x
 
 
-def write_outputs(result: GenerationResult, out_dir: str | Path, *, plot: bool = True
-                  ) -> list[Path]:
-    """Write ``<condition>.fap`` per condition, ``summary.json`` and (``plot``) ``summary.png``."""
+def write_outputs(result: GenerationResult, out_dir: str | Path, *, plot: bool = True,
+                  greta: bool = False) -> list[Path]:
+    """Write ``<condition>.fap`` per condition, ``summary.json`` and (``plot``) ``summary.png``.
+
+    The tracks are in Xface's .fap dialect, or Greta's with ``greta``.
+    """
     out = Path(out_dir)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -261,7 +264,7 @@ def write_outputs(result: GenerationResult, out_dir: str | Path, *, plot: bool =
     written = []
     for name, track in result.tracks.items():
         path = out / f"{name}.fap"
-        save_track(track, path)
+        save_track(track, path, greta=greta)
         written.append(path)
     summary_path = out / "summary.json"
     summary_path.write_text(json.dumps(result.summary, indent=1) + "\n", encoding="utf-8")

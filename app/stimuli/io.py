@@ -20,11 +20,17 @@ def load_track(path: str | Path, fps: float | None = None) -> MotionTrack:
     raise InputError(f"unknown motion track type {suffix!r}: expected .fap or .csv", path=path)
 
 
-def save_track(track: MotionTrack, path: str | Path) -> None:
-    """Write a motion track as ``.fap`` or ``.csv`` by the path's extension."""
+def save_track(track: MotionTrack, path: str | Path, *, greta: bool = False) -> None:
+    """Write a motion track as ``.fap`` or ``.csv`` by the path's extension.
+
+    ``greta``: a ``.fap`` in Greta's dialect instead of Xface's (:func:`write_fap`).
+    """
     suffix = Path(path).suffix.lower()
     if suffix == ".fap":
-        write_fap(track, path)
+        write_fap(track, path, greta=greta)
+    elif greta:
+        raise InputError(f"Greta's dialect is a .fap format, not {suffix or 'no extension'}",
+                         path=path)
     elif suffix == ".csv":
         write_track_csv(track, path)
     else:

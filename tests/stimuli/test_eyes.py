@@ -18,13 +18,13 @@ def test_still_eyes_are_neutral():
     assert sorted(cols) == list(EYE_CHANNELS) and all(np.all(v == 0) for v in cols.values())
 
 
-def test_ground_truth_eyes_are_copied_and_missing_channels_neutral():
+def test_ground_truth_eyes_are_copied_as_captured():
     n = 90
     gt = MotionTrack.from_channels(30.0, {19: np.arange(n) * 1.0, 23: np.full(n, 500.0)})
     cols = eye_channels("ground_truth", feats(n), gt)
     np.testing.assert_array_equal(cols[19], gt[19])
     np.testing.assert_array_equal(cols[23], gt[23])
-    assert np.all(cols[25] == 0)
+    assert sorted(cols) == [19, 23]  # the capture's own eye channels, no invented ones
     with pytest.raises(InputError, match="needs a ground-truth track"):
         eye_channels("ground_truth", feats(n))
 

@@ -1,20 +1,24 @@
 import io
 import subprocess
 import sys
+import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from app.errors import InputError
 from app.stimuli.fapfile import read_fap, write_fap
 from app.stimuli.track import MotionTrack
 
 
-def mask(faps, n=68):
+def mask(positions, n=68):
+    """A mask line of ``n`` values with 1 at the given positions (counted from 1)."""
     bits = ["0"] * n
-    off = n - 68
-    for f in faps:
-        bits[f - 1 + off] = "1"
+    for p in positions:
+        bits[p - 1] = "1"
     return " ".join(bits)
 
 
@@ -31,19 +35,145 @@ def test_round_trip_is_exact(tmp_path):
     assert (tmp_path / "u.fap").read_text() == path.read_text()
 
 
-def test_greta_69_value_masks_are_read(tmp_path):
-    track = MotionTrack(30, np.array([[1.0, -2.0], [3.0, 4.0]]), (3, 50))
-    buf = io.StringIO()
-    write_fap(track, buf, greta=True)
-    lines = buf.getvalue().splitlines()
-    assert len(lines[-2].split()) == 69
-    assert read_fap(io.StringIO(buf.getvalue())).equals(track)
+# -- Greta's dialect: 69-value masks, FAP i at position i, one value per masked position --------
+
+# One frame in Greta's layout: positions 3-13, 16-17, 41-42 and 51-63 masked, 28 values. The
+# inner-lip FAPs 4-13 are mirrored by the outer-lip FAPs 51-60 (same signs, pairs equal), which
+# holds only if position i is FAP i.
+GRETA_LIPS = (
+    "2.1 lips take.fap 25 1\n"
+    # positions 1-10    11-20               21-30               31-40
+    "0 0 1 1 1 1 1 1 1 1 1 1 1 0 0 1 1 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 "
+    # 41-50             51-60               61-69
+    "1 1 0 0 0 0 0 0 0 0 1 1 1 1 1 1 1 1 1 1 1 1 1 0 0 0 0 0 0 \n"
+    "0 80 -43 -362 52 52 -43 -43 -362 -362 11 11 -5 -8 30 30 "
+    "-34 -120 52 52 -34 -34 -120 -120 9 9 4 4 1 \n"
+)
 
 
-def test_greta_null_fap_value_is_dropped():
-    text = f"2.1 g 30 1\n{'1 ' + mask([48])}\n0 999 120\n"
+def test_greta_lip_pattern_lines_up_fap_i_with_position_i():
+    t = read_fap(io.StringIO(GRETA_LIPS))
+    assert t.channels == (*range(3, 14), 16, 17, 41, 42, *range(51, 64))
+    assert t.n_frames == 1 and t.fps == 25 and t.name == "lips take.fap"
+    assert (t[3][0], t[4][0], t[5][0], t[51][0], t[52][0]) == (80, -43, -362, -34, -120)
+    for inner in range(4, 14):
+        outer = inner + 47
+        assert np.sign(t[inner][0]) == np.sign(t[outer][0]), (inner, outer)
+    for left, right in [(6, 7), (8, 9), (10, 11), (12, 13), (53, 54), (55, 56), (57, 58)]:
+        assert t[left][0] == t[right][0]
+    assert t[6][0] == t[53][0] == 52
+    assert (t[16][0], t[17][0], t[41][0], t[63][0]) == (-5, -8, 30, 1)
+
+
+# Greta writes one integer for a masked viseme (position 1): here 3, then head_pitch -250.
+GRETA_VISEME = (
+    "2.1 hello.fap 25 1\n"
+    "1 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 "
+    "0 0 0 0 0 0 0 1 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 \n"
+    "0 3 -250 \n"
+)
+
+
+def test_greta_masked_viseme_carries_one_value_and_is_read_past():
+    t = read_fap(io.StringIO(GRETA_VISEME))
+    assert t.channels == (48,) and t[48].tolist() == [-250.0]
+    only_viseme = "2.1 w.fap 25 1\n" + mask([1], 69) + " \n0 0 \n"
+    t = read_fap(io.StringIO(only_viseme))
+    assert t.channels == () and t.n_frames == 1
+
+
+def test_greta_expression_and_trailing_extra_carry_one_value_each():
+    text = f"2.1 g 30 2\n{mask([2, 50, 69], 69)}\n0 5 -900 1\n{mask([50], 69)}\n1 -700\n"
     t = read_fap(io.StringIO(text))
-    assert t.channels == (48,) and t[48].tolist() == [120.0]
+    assert t.channels == (50,) and t[50].tolist() == [-900.0, -700.0]
+
+
+def test_greta_writer_writes_greta_layout_and_reads_back(tmp_path):
+    track = MotionTrack(30, np.array([[1.0, -2.0, 3.0], [4.0, 5.0, -6.0]]), (3, 50, 68),
+                        source="capture")
+    path = tmp_path / "g.fap"
+    write_fap(track, path, greta=True)
+    lines = [line for line in path.read_text().splitlines() if not line.startswith("#")]
+    assert lines[1] == mask([3, 50, 68], 69)  # FAP i at position i, trailing extra 0
+    assert lines[2] == "0 1 -2 3" and lines[4] == "1 4 5 -6"
+    back = read_fap(path)
+    assert back.equals(track) and back.source == "capture"
+    write_fap(back, tmp_path / "h.fap", greta=True)
+    assert (tmp_path / "h.fap").read_text() == path.read_text()
+
+
+def test_early_facepair_greta_files_read_back_unchanged():
+    # written by facepair's Greta option before Greta's layout was known: a null FAP 0 first,
+    # then FAP 1..68 (FAP 3 at position 4, FAP 48 at 49, FAP 68 at 69)
+    text = (
+        "# MPEG-4 FAP stream written by facepair\n# source: capture\n# speaker: s1\n"
+        "2.1 old take 25 2\n"
+        "0 0 0 1 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 "
+        "0 0 0 0 0 0 0 0 1 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 1\n"
+        "0 120 -300 7\n"
+        "0 0 0 1 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 "
+        "0 0 0 0 0 0 0 0 1 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 1\n"
+        "1 140 -250 9\n"
+    )
+    t = read_fap(io.StringIO(text))
+    assert t.channels == (3, 48, 68)
+    np.testing.assert_array_equal(t.values, [[120, -300, 7], [140, -250, 9]])
+    assert (t.name, t.source, t.speaker) == ("old take", "capture", "s1")
+
+
+# -- Xface's dialect: 68-value masks, MPEG-4 widths for FAP 1 and 2 ------------------------------
+
+XFACE_WIDTH = {1: 4, 2: 6}
+
+
+def xface_stream_read(text):
+    """Frames as a reader in Xface's manner sees them: {index: {FAP: value}}, or None.
+
+    After the header line the file is one stream of numbers: 68 mask values, the frame index,
+    then 4 values for a masked FAP 1, 6 for FAP 2 and 1 for the others.
+    """
+    lines = [line for line in text.splitlines() if line.strip() and not line.startswith("#")]
+    tokens = iter(" ".join(lines[1:]).split())
+    frames = {}
+    try:
+        for _ in range(int(lines[0].split()[-1])):
+            bits = [int(next(tokens)) for _ in range(68)]
+            index = int(next(tokens))
+            row = {}
+            for fap, bit in enumerate(bits, start=1):
+                if bit:
+                    values = [int(next(tokens)) for _ in range(XFACE_WIDTH.get(fap, 1))]
+                    if fap not in XFACE_WIDTH:
+                        row[fap] = values[0]
+            frames[index] = row
+    except (StopIteration, ValueError):
+        return None
+    return frames
+
+
+def test_default_output_is_xface_and_greta_output_is_not():
+    track = MotionTrack(30, np.array([[10.0, 20.0, 30.0], [11.0, 21.0, 31.0]]), (3, 48, 68))
+    expected = {0: {3: 10, 48: 20, 68: 30}, 1: {3: 11, 48: 21, 68: 31}}
+    default, greta = io.StringIO(), io.StringIO()
+    write_fap(track, default)
+    write_fap(track, greta, greta=True)
+    assert xface_stream_read(default.getvalue()) == expected
+    assert xface_stream_read(greta.getvalue()) != expected  # 69 mask values desynchronise it
+    assert read_fap(io.StringIO(greta.getvalue())).equals(track)
+
+
+def test_xface_masked_viseme_carries_four_values():
+    text = f"2.1 v 30 1\n{mask([1, 48])}\n0 12 13 50 1 -400\n"
+    t = read_fap(io.StringIO(text))
+    assert t.channels == (48,) and t[48].tolist() == [-400.0]
+    assert xface_stream_read(text) == {0: {48: -400}}
+
+
+def test_xface_masked_expression_carries_six_values():
+    text = f"2.1 e 30 1\n{mask([2, 3])}\n0 1 40 2 60 0 1 250\n"
+    t = read_fap(io.StringIO(text))
+    assert t.channels == (3,) and t[3].tolist() == [250.0]
+    assert xface_stream_read(text) == {0: {3: 250}}
 
 
 def test_high_level_faps_are_read_past():
@@ -80,7 +210,25 @@ CASES = {
     "mask not binary": (f"2.1 x 25 1\n{mask([48]).replace('1', '2')}\n0 1\n", 2,
                         "expected only 0 and 1"),
     "wrong value count": (f"2.1 x 25 1\n{mask([48, 49])}\n0 1\n", 3,
-                          "expected the frame index and 2 values for the 2 masked FAPs, got 2"),
+                          "expected the frame index and 2 values for the 2 masked positions"),
+    "Greta count in an Xface file": (
+        f"2.1 x 25 1\n{mask([1, 48])}\n0 3 -250\n", 3,
+        "expected the frame index and 5 values for the 2 masked positions (68-value mask: "
+        "Xface/MPEG-4, 4 values for FAP 1, 6 for FAP 2; Greta, one value each, would expect "
+        "2), got 3 numbers"),
+    "MPEG-4 count in a Greta file": (
+        f"2.1 x 25 1\n{mask([1, 2, 48], 69)}\n0 1 2 3 4 5 6 7 8 9 10 11 12\n", 3,
+        "expected the frame index and 3 values for the 3 masked positions (69-value mask: "
+        "Greta, one value per masked position; Xface/MPEG-4, 4 for FAP 1 and 6 for FAP 2, "
+        "would expect 11), got 13 numbers"),
+    "two dialects": (f"2.1 x 25 2\n{mask([48])}\n0 1\n{mask([48], 69)}\n1 2\n", 4,
+                     "69 values after 68-value masks; a file holds one dialect"),
+    "value beyond 32 bits": (f"2.1 x 25 1\n{mask([48])}\n0 4294967296\n", 3,
+                             "value 2 is outside the 32-bit integer range"),
+    "frame count beyond limit": ("2.1 x 25 99999999999\n", 1,
+                                 "frame count is 99999999999, expected 0..1000000"),
+    "negative index": (f"2.1 x 25 1\n{mask([48])}\n-1 5\n", 3,
+                       "frame index -1: indices must start at >= 0"),
     "non-number": (f"2.1 x 25 1\n{mask([48])}\n0 1.5\n", 3,
                    "value 2 is '1.5', expected an integer"),
     "truncated pair": (f"2.1 x 25 2\n{mask([48])}\n0 1\n{mask([48])}\n", 4,
@@ -89,7 +237,7 @@ CASES = {
                          "truncated: header says 3 frames, the last frame index is 0"),
     "index outside": (f"2.1 x 25 1\n{mask([48])}\n5 1\n", 3, "frame index 5 outside 0..0"),
     "index backwards": (f"2.1 x 25 3\n{mask([48])}\n1 1\n{mask([48])}\n0 1\n", 5,
-                        "indices must increase"),
+                        "frame index 0 after 1: indices must start at >= 0 and increase"),
 }
 
 
@@ -124,3 +272,91 @@ def test_cli_gives_exit_2_and_one_line(tmp_path):
     assert proc.stderr.strip().count("\n") == 0
     assert f"{path}:3: value line: value 2 is 'oops', expected an integer" in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+# -- any input: a track or the one-line input error, never another exception ----------------------
+
+def _read_or_input_error(read, *args):
+    try:
+        return read(*args)
+    except InputError as err:
+        assert "\n" not in str(err) and str(err).strip()
+        return None
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.text())
+def test_any_text_gives_a_track_or_one_line(text):
+    _read_or_input_error(read_fap, io.StringIO(text))
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.binary())
+def test_any_bytes_give_a_track_or_one_line(data):
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "any.fap"
+        path.write_bytes(data)
+        _read_or_input_error(read_fap, path)
+
+
+frame_lines = st.tuples(
+    st.sampled_from([67, 68, 69, 70]),
+    st.sets(st.integers(1, 70), max_size=8),
+    st.lists(st.integers(-(2**33), 2**33), max_size=14),
+)
+
+
+@settings(max_examples=200, deadline=None)
+@given(n_frames=st.integers(0, 4), frames=st.lists(frame_lines, max_size=4),
+       indices=st.lists(st.integers(-1, 5), max_size=4))
+def test_near_miss_files_give_a_track_or_one_line(n_frames, frames, indices):
+    lines = [f"2.1 fuzz 30 {n_frames}"]
+    for k, (length, positions, values) in enumerate(frames):
+        lines.append(mask([p for p in positions if p <= length], length))
+        index = indices[k] if k < len(indices) else k
+        lines.append(" ".join(map(str, [index, *values])))
+    _read_or_input_error(read_fap, io.StringIO("\n".join(lines) + "\n"))
+
+
+@settings(max_examples=150, deadline=None)
+@given(greta=st.booleans(), n_frames=st.integers(1, 5), data=st.data())
+def test_well_formed_files_of_either_dialect_keep_every_masked_low_level_fap(
+        greta, n_frames, data):
+    length = 69 if greta else 68
+    lines, expected = [f"2.1 ok 25 {n_frames}"], {}
+    for index in range(n_frames):
+        positions = data.draw(st.sets(st.integers(1, length), max_size=10))
+        values = []
+        for p in sorted(positions):
+            width = 1 if greta else XFACE_WIDTH.get(p, 1)
+            drawn = data.draw(st.lists(st.integers(-5000, 5000), min_size=width,
+                                       max_size=width))
+            values += drawn
+            if 3 <= p <= 68:
+                expected.setdefault(p, {})[index] = drawn[0]
+        lines += [mask(positions, length), " ".join(map(str, [index, *values]))]
+    t = read_fap(io.StringIO("\n".join(lines) + "\n"))
+    assert t.channels == tuple(sorted(expected))
+    for fap, frames in expected.items():
+        for index, value in frames.items():
+            assert t[fap][index] == value
+
+
+def test_cli_convert_writes_either_dialect(tmp_path):
+    from click.testing import CliRunner
+
+    from app.cli import main
+
+    source = tmp_path / "lips.fap"
+    source.write_text(GRETA_LIPS)
+    runner = CliRunner()
+    for flags, length in (([], 68), (["--greta"], 69)):
+        target = tmp_path / f"out{length}.fap"
+        r = runner.invoke(main, ["stimuli", "convert", str(source), str(target), *flags])
+        assert r.exit_code == 0, r.output
+        masks = [line for line in target.read_text().splitlines() if not line.startswith("#")]
+        assert len(masks[1].split()) == length
+        assert read_fap(target).equals(read_fap(source))
+    r = runner.invoke(main, ["stimuli", "convert", str(source), str(tmp_path / "o.csv"),
+                             "--greta"])
+    assert r.exit_code == 2 and "Greta's dialect is a .fap format, not .csv" in r.output

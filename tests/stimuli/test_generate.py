@@ -6,6 +6,7 @@ from click.testing import CliRunner
 
 from app.cli import main
 from app.errors import InputError
+from app.stimuli.fapfile import read_fap
 from app.stimuli.generate import generate_conditions
 from app.stimuli.io import load_track
 
@@ -88,6 +89,7 @@ def test_eyes_are_the_same_in_every_condition(repo_root, eyes):
     if eyes == "ground_truth":
         truth = load_track(gt)
         np.testing.assert_allclose(tracks[0][23], truth[23][:120])
+        assert set(tracks[0].channels) >= {19, 20, 21, 22, 23, 24, 25, 26}
     assert result.summary["eyes"] == eyes
 
 
@@ -114,3 +116,43 @@ def test_normalize_scales_every_conditions_head_and_reports_the_factors(repo_roo
         assert set(factors) == {"48", "49", "50"} and factors["49"]["scale"] > 0
     # experiment 1 (no normalisation): RANDOM keeps the Perlin amplitudes of Table 8
     assert plain.tracks["random"][49].std() > plain.tracks["ground_truth"][49].std()
+
+
+def _greta_ground_truth(path, n_frames=120, fps=30, seed=3):
+    """Write a .fap as Greta writes it; return {FAP: values} of the low-level FAPs in it.
+
+    69-value masks: FAP i at position i, then one extra entry; one integer per masked
+    position, the viseme (position 1) and the extra (position 69) included.
+    """
+    positions = (1, 3, 4, 19, 48, 49, 50, 51, 68, 69)
+    rng = np.random.default_rng(seed)
+    values = rng.integers(-3000, 3000, (n_frames, len(positions)))
+    bits = ["1" if p in positions else "0" for p in range(1, 70)]
+    lines = [f"2.1 {path.name} {fps} {n_frames}"]
+    for i in range(n_frames):
+        lines += [" ".join(bits) + " ", " ".join(map(str, [i, *values[i]])) + " "]
+    path.write_text("\n".join(lines) + "\n")
+    return {p: values[:, k] for k, p in enumerate(positions) if 3 <= p <= 68}
+
+
+@pytest.mark.parametrize("greta", [False, True])
+def test_greta_ground_truth_passes_through_unchanged(repo_root, tmp_path, greta):
+    gt_path = tmp_path / "greta_gt.fap"
+    expected = _greta_ground_truth(gt_path)
+    out = tmp_path / "out"
+    args = ["stimuli", "generate", "--audio", str(repo_root / "data" / "demo" / "speech.wav"),
+            "--ground-truth", str(gt_path), "--conditions", "ground_truth", "--out", str(out),
+            "--no-plot", "--eyes", "ground_truth"] + (["--greta"] if greta else [])
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 0, r.output
+    written = out / "ground_truth.fap"
+    track = read_fap(written)
+    assert track.n_frames == 120 and track.fps == 30
+    assert track.channels == tuple(expected)
+    for fap, values in expected.items():
+        np.testing.assert_array_equal(track[fap], values)
+    body = [line.split() for line in written.read_text().splitlines()
+            if not line.startswith("#")][1:]
+    # the same positions masked, less the viseme and Greta's extra entry; 69 values with --greta
+    bits = ["1" if p in expected else "0" for p in range(1, 70 if greta else 69)]
+    assert body[::2] == [bits] * 120
