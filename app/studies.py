@@ -33,7 +33,8 @@ def _copy(study: Study, source: Path, rel: str) -> str:
 def create_study(owner: User, spec: StudySpec, *, source_toml: str = "",
                  render: dict[str, Any] | None = None) -> Study:
     """Rows for ``spec`` (study, conditions, clips, pairs, lists, stimuli); media copied into
-    the study's folder. Not committed: the caller's unit of work decides."""
+    the study's folder. ``render`` overrides the study file's ``[render]`` settings. Not
+    committed: the caller's unit of work decides."""
     study = Study(
         owner_id=owner.id, title=spec.title, question=spec.question,
         instructions=spec.instructions, consent=spec.consent, design=spec.design,
@@ -47,7 +48,9 @@ def create_study(owner: User, spec: StudySpec, *, source_toml: str = "",
             "practice": [spec.practice.left, spec.practice.right] if spec.practice else None,
             "practice_clip": spec.practice_clip,
             "block_by_clip": spec.block_by_clip,
-            "render": dict(render or {}),
+            "eyes": spec.eyes,
+            "normalize": spec.normalize,
+            "render": {**spec.render, **(render or {})},
         },
     )
     db.session.add(study)

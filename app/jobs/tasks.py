@@ -60,6 +60,8 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
                 conditions={c.name: {"model": c.model, **c.params} for c in models},
                 ground_truth=(root / clip.ground_truth_path) if clip.ground_truth_path else None,
                 seed=study.seed,
+                eyes=study.settings.get("eyes", "still"),
+                normalize=bool(study.settings.get("normalize", False)),
             )
             tracks.update(result.tracks)
         for condition in study.conditions:

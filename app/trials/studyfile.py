@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any, Final
 
 from app.errors import InputError
+from app.stimuli.eyes import DEFAULT_EYES, EYE_MODES
 from app.trials.design import PAIR_DESIGNS, Pair
 from app.trials.fields import MISSING, FieldReader, describe
 from app.trials.rules import REPLAY_KINDS, ReplayPolicy
@@ -104,6 +105,21 @@ def parse_study(
     return reader.study(data)
 
 
+#: ``[render]`` keys a study file may set (``renderer.RenderSettings`` fields, which the render
+#: job validates in full) and their types; the web layer never imports the renderer.
+RENDER_KEYS: Final[dict[str, tuple[tuple[type, ...], str]]] = {
+    "size": ((int,), "an integer (pixels per face, a multiple of 16)"),
+    "mosaic_block": ((int,), "an integer (pixels; 0 = no mosaic)"),
+    "mosaic_margin": ((int, float), "a number"),
+    "antialias": ((str,), "a string"),
+    "samples": ((int,), "an integer"),
+    "fps": ((int, float), "a number"),
+    "crf": ((int,), "an integer"),
+    "preset": ((str,), "a string"),
+}
+#: ``renderer.gl.ANTIALIAS_MODES``, repeated so that reading a study file imports no GL.
+ANTIALIAS_MODES: Final = ("edges", "msaa", "none")
+
 _TOP_KEYS: Final = (
     "title",
     "question",
@@ -116,6 +132,9 @@ _TOP_KEYS: Final = (
     "completion_code",
     "redirect_url",
     "block_by_clip",
+    "eyes",
+    "normalize",
+    "render",
     "practice",
     "practice_clip",
     "undecided",
@@ -166,6 +185,7 @@ class _StudyReader(FieldReader):
             )
         clips = self.clips(top)
         conditions = self.conditions(top, clips)
+        eyes, normalize, render = self.stimulus_settings(top, clips)
         names = [c.name for c in conditions]
         if design == "reference":
             if reference is None:
@@ -199,6 +219,9 @@ class _StudyReader(FieldReader):
             practice=practice,
             practice_clip=practice_clip,
             block_by_clip=bool(block_by_clip),
+            eyes=eyes,
+            normalize=normalize,
+            render=render,
         )
         main = len(replace(spec, catch_trials=0, practice=None).schedule(seed=0, list_index=0))
         if catch_trials > main:
@@ -208,6 +231,29 @@ class _StudyReader(FieldReader):
                 f"{main} trials of a participant (at most one each)",
             )
         return spec
+
+    def stimulus_settings(
+        self, top: Mapping[str, Any], clips: tuple[ClipSpec, ...]
+    ) -> tuple[str, bool, dict[str, Any]]:
+        """``eyes`` and ``normalize`` (the same for every condition) and the ``[render]`` table."""
+        eyes = self.choice(top, "eyes", "eyes", EYE_MODES, DEFAULT_EYES)
+        normalize = bool(
+            self.get(top, "normalize", "normalize", (bool,), "true or false", False)
+        )
+        for key, wanted in (("eyes", eyes == "ground_truth"), ("normalize", normalize)):
+            lacking = [c.name for c in clips if c.ground_truth is None]
+            if wanted and lacking:
+                raise self.error(
+                    key, f"needs a ground_truth for every clip; missing for {', '.join(lacking)}"
+                )
+        table = self.table(top.get("render", {}), "render", tuple(RENDER_KEYS))
+        render: dict[str, Any] = {}
+        for key, (types, expected) in RENDER_KEYS.items():
+            if key in table:
+                render[key] = self.get(table, key, f"render.{key}", types, expected)
+        if "antialias" in render:
+            self.choice(render, "antialias", "render.antialias", ANTIALIAS_MODES)
+        return eyes, normalize, render
 
     def replay(self, top: Mapping[str, Any]) -> ReplayPolicy:
         replay = self.table(top.get("replay", {}), "replay", ("policy", "max_plays"))

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Final
 
+from app.stimuli.eyes import DEFAULT_EYES
 from app.trials.design import Pair, build_pairs
 from app.trials.fields import key_text
 from app.trials.rules import ReplayPolicy
@@ -89,6 +90,9 @@ class StudySpec:
     practice: Pair | None = None
     practice_clip: str | None = None
     block_by_clip: bool = True
+    eyes: str = DEFAULT_EYES
+    normalize: bool = False
+    render: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def condition_names(self) -> list[str]:
@@ -159,6 +163,10 @@ class StudySpec:
         if self.redirect_url is not None:
             out["redirect_url"] = self.redirect_url
         out["block_by_clip"] = self.block_by_clip
+        out["eyes"] = self.eyes
+        out["normalize"] = self.normalize
+        if self.render:
+            out["render"] = dict(self.render)
         out["practice"] = (
             False if self.practice is None else [self.practice.left, self.practice.right]
         )
