@@ -268,3 +268,82 @@ def train_live(audio: tuple[str, ...], ground_truth: tuple[str, ...], reference:
     click.echo(f"{out}: {s['takes']} take(s), {s['frames']} frames at {s['fps']:g} fps, "
                f"{s['eyelids']['blinks']} blinks, gaze "
                f"{'on' if s['gaze_enabled'] else 'off (no gaze in the ground truth)'}")
+
+
+@stimuli.command("evaluate")
+@click.option("--audio", "audio", multiple=True, type=click.Path(dir_okay=False),
+              help="A test recording; repeat for several (with --ground-truth in the same order).")
+@click.option("--ground-truth", "ground_truth", multiple=True, type=click.Path(dir_okay=False),
+              help="The captured motion of each --audio.")
+@click.option("--train-audio", multiple=True, type=click.Path(dir_okay=False),
+              help="A training recording (never measured); repeat for several.")
+@click.option("--train-ground-truth", multiple=True, type=click.Path(dir_okay=False),
+              help="The captured motion of each --train-audio.")
+@click.option("--split", type=float, default=None,
+              help="Without --train-*: train on this leading fraction of each recording and "
+                   "test on the rest (e.g. 0.5).")
+@click.option("--conditions", default="none,random,speech_driven,ground_truth",
+              show_default=True, help="Comma-separated condition names.")
+@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
+              help="Folder for evaluation.json and evaluation.png; a summary.json there gains "
+                   "an 'evaluation' section.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@_speech_options
+def evaluate(audio: tuple[str, ...], ground_truth: tuple[str, ...],
+             train_audio: tuple[str, ...], train_ground_truth: tuple[str, ...],
+             split: float | None, conditions: str, out_dir: str, seed: int, fps: float,
+             pitch_floor: float | None, pitch_ceiling: float | None) -> None:
+    """Measure every condition on held-out speech: coupling with F0 and intensity, correlation
+    with the held-out ground truth, kinematics and jitter, against null baselines."""
+    import json
+    import sys
+
+    from tqdm import tqdm
+
+    from app.errors import InputError
+    from app.stimuli.evaluate import evaluate_conditions, load_takes, plot_evaluation, split_take
+    from app.stimuli.generate import _jsonable
+
+    for given, truths, flag in ((audio, ground_truth, "--ground-truth"),
+                                (train_audio, train_ground_truth, "--train-ground-truth")):
+        if len(given) != len(truths):
+            raise InputError(f"give one {flag} per recording ({len(given)} audio, "
+                             f"{len(truths)} ground truth)", field=flag)
+    if not audio:
+        raise InputError("give at least one --audio with its --ground-truth", field="--audio")
+    if bool(train_audio) == (split is not None):
+        raise InputError("give either --train-audio/--train-ground-truth or --split",
+                         field="--split")
+    opts = dict(fps=fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling)
+    test = load_takes(list(zip(audio, ground_truth, strict=True)), **opts)
+    if split is not None:
+        halves = [split_take(take, split) for take in test]
+        train, test = [h[0] for h in halves], [h[1] for h in halves]
+    else:
+        train = load_takes(list(zip(train_audio, train_ground_truth, strict=True)), **opts)
+    with tqdm(total=len(conditions.split(",")) + 2, desc="evaluate", unit="step",
+              file=sys.stderr, disable=None) as bar:
+        report = _jsonable(evaluate_conditions(
+            train, test, conditions=conditions, seed=seed,
+            progress=lambda done, total: bar.update(done - bar.n)))
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "evaluation.json").write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
+    plot_evaluation(report, out / "evaluation.png")
+    summary = out / "summary.json"
+    if summary.is_file():
+        data = json.loads(summary.read_text(encoding="utf-8"))
+        data["evaluation"] = report
+        summary.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+    click.echo(f"trained on {report['train']['frames']} frames, tested on "
+               f"{report['test']['frames']}; wrote {out / 'evaluation.json'} and "
+               f"{out / 'evaluation.png'}")
+    for name, row in report["conditions"].items():
+        head, yaw = row["coupling"]["head"]["mean"], row["channels"]["49"]
+        click.echo(f"  {name:14s} head-speech CCA {_fmt(head)}  yaw r(truth) "
+                   f"{_fmt(yaw['r_truth']['mean'])}  yaw sd {_fmt(yaw['sd']['mean'], 0)} AU  "
+                   f">4 Hz {_fmt(yaw['power_above_4hz']['mean'])}")
+
+
+def _fmt(x: float | None, digits: int = 2) -> str:
+    return "  -  " if x is None else f"{x:.{digits}f}"
