@@ -45,6 +45,7 @@ def test_minimal_study_gets_the_documented_defaults(
     assert spec.practice == Pair("none", "ground_truth") and spec.practice_clip is None
     assert spec.block_by_clip and spec.redirect_url is None
     assert len(spec.pairs()) == 9 and spec.n_lists() == 2
+    assert (spec.eyes, spec.normalize, dict(spec.render)) == ("still", False, {})
     trials = spec.schedule(seed=1, list_index=1)
     assert len(trials) == 1 + 18 and trials[0].kind == "practice"
 
@@ -116,6 +117,7 @@ def set_path(data: dict[str, Any], dotted: str, value: Any) -> None:
 
 
 DELETE = object()
+TWO_MODELS = [{"name": "none"}, {"name": "random"}]
 BAD_FIELDS: list[tuple[dict[str, Any], str]] = [
     ({"title": DELETE}, "title: missing (required)"),
     ({"title": "  "}, "title: must not be empty"),
@@ -247,6 +249,20 @@ BAD_FIELDS: list[tuple[dict[str, Any], str]] = [
     ({"clips.0.audio": "media/x.txt"}, "clips[0].audio: expected a .wav or .flac or"),
     ({"clips.0.ground_truth": "media/s2.wav"}, "clips[0].ground_truth: expected a .fap or .csv"),
     ({"clips.0.ground_truth": ""}, "clips[0].ground_truth: must not be empty"),
+    ({"eyes": "closed"}, "eyes: expected one of still, ground_truth, generated, got 'closed'"),
+    ({"normalize": "yes"}, "normalize: expected true or false, got 'yes'"),
+    (
+        {"normalize": True, "clips.0.ground_truth": DELETE, "conditions": TWO_MODELS},
+        "normalize: needs a ground_truth for every clip; missing for s2",
+    ),
+    (
+        {"eyes": "ground_truth", "clips.0.ground_truth": DELETE, "conditions": TWO_MODELS},
+        "eyes: needs a ground_truth for every clip; missing for s2",
+    ),
+    ({"render": {"size": "big"}}, "render.size: expected an integer"),
+    ({"render": {"colour": 1}}, "render.colour: unknown key (expected one of size,"),
+    ({"render": {"antialias": "fxaa"}}, "render.antialias: expected one of edges, msaa, none"),
+    ({"render": 3}, "render: expected a table, got 3"),
     (
         {"clips.0.speaker": "x"},
         "clips[0].speaker: unknown key (expected one of name, audio, ground_truth)",
@@ -394,3 +410,16 @@ def test_settings_are_checked_against_the_installed_registry(
     assert error_of(data, study_dir).startswith(
         "study.toml: conditions[1].settings: model 'random' takes "
     )
+
+
+def test_stimulus_settings_are_read_and_round_trip(
+    make_study_data: StudyData, study_dir: Path
+) -> None:
+    data = make_study_data()
+    data.update(eyes="generated", normalize=True, render={"size": 256, "antialias": "msaa"})
+    data["clips"][0]["ground_truth"] = data["clips"][1]["ground_truth"]
+    spec = parse_study(data, source="study.toml", base_dir=study_dir)
+    assert (spec.eyes, spec.normalize) == ("generated", True)
+    assert dict(spec.render) == {"size": 256, "antialias": "msaa"}
+    again = parse_study(spec.to_dict(), source="study.toml", base_dir=study_dir)
+    assert (again.eyes, again.normalize, dict(again.render)) == ("generated", True, spec.render)
