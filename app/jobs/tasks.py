@@ -51,6 +51,7 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
     models = [c for c in study.conditions if c.model != "upload"]
     total = len(study.clips) * len(study.conditions)
     done = 0
+    notes: list[str] = []
     progress(done, total)
     for clip in study.clips:
         tracks = {}
@@ -64,6 +65,8 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
                 normalize=bool(study.settings.get("normalize", False)),
             )
             tracks.update(result.tracks)
+            notes += [f"clip {clip.name}: {n}" for n in result.summary["notes"]
+                      if n.startswith("ground truth imported")]
         for condition in study.conditions:
             rel = f"tracks/{clip.name}/{condition.name}.fap"
             (root / rel).parent.mkdir(parents=True, exist_ok=True)
@@ -79,7 +82,7 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
             done += 1
             progress(done, total)
     db.session.commit()
-    return f"{done} tracks generated"
+    return "; ".join([f"{done} tracks generated", *notes])
 
 
 def _upsert_track(condition_id: int, clip_id: int, rel: str) -> None:

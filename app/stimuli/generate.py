@@ -209,6 +209,10 @@ def _summary(audio_path: str | Path, features: SpeechFeatures, gt: MotionTrack |
         if synthetic:
             notes.append("the ground truth is SYNTHETIC (facepair's reference speaker), "
                          "not captured motion")
+        capture = gt.metadata.get("capture")
+        if capture:
+            gt_info["capture"] = capture
+            notes.append(capture_note(gt.source, capture))
     conds: dict[str, Any] = {}
     for name, track in tracks.items():
         entry: dict[str, Any] = {
@@ -231,6 +235,17 @@ def _summary(audio_path: str | Path, features: SpeechFeatures, gt: MotionTrack |
             "speech": _speech_summary(features), "ground_truth": gt_info, "eyes": eyes,
             "normalized": factors is not None, "normalization": factors,
             "conditions": conds, "notes": notes}
+
+
+def capture_note(source: str, capture: Mapping[str, Any]) -> str:
+    """One line on an imported ground truth: lost samples, filled frames, FAPs left out."""
+    note = (f"ground truth imported from {source}: {capture['samples']} samples at "
+            f"{capture['capture_fps']:g} fps, {capture['invalid_samples']} lost, "
+            f"{capture['filled_frames']} frames filled by interpolation")
+    missing = sorted({f for faps in capture.get("missing", {}).values() for f in faps})
+    if missing:
+        note += f"; FAPs {', '.join(map(str, missing))} absent from the file"
+    return note
 
 
 def _jsonable(x: Any) -> Any:

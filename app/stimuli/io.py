@@ -10,12 +10,25 @@ from app.stimuli.track import MotionTrack
 from app.stimuli.trackcsv import read_track_csv, write_track_csv
 
 
+#: Frame rate a tracker's file is resampled to when no rate is asked for.
+IMPORT_FPS = 30.0
+
+
 def load_track(path: str | Path, fps: float | None = None) -> MotionTrack:
-    """Read a ``.fap`` or ``.csv`` motion track (``fps`` for a CSV without a ``# fps=`` line)."""
+    """Read a ``.fap`` or ``.csv`` motion track (``fps`` for a CSV without a ``# fps=`` line).
+
+    A ``.csv`` written by a tracker (OpenFace 2.0, Live Link Face; :mod:`app.stimuli.capture`)
+    is recognised by its header and imported at ``fps`` (default 30).
+    """
     suffix = Path(path).suffix.lower()
     if suffix == ".fap":
         return read_fap(path)
     if suffix == ".csv":
+        from app.stimuli.capture import import_track, sniff_csv
+
+        kind = sniff_csv(path)
+        if kind is not None:
+            return import_track(path, kind, fps or IMPORT_FPS)
         return read_track_csv(path, fps=fps)
     raise InputError(f"unknown motion track type {suffix!r}: expected .fap or .csv", path=path)
 

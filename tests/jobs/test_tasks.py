@@ -58,3 +58,29 @@ def test_named_conditions_keep_their_model_settings_and_render_settings(app, tmp
         "calm": {"model": "random", "octaves": 1, "persistence": 0.5}}).tracks["calm"]
     np.testing.assert_allclose(calm[48], direct[48], atol=1.0)  # .fap stores integers
     assert not np.allclose(calm[48], lively[48])
+
+
+def test_a_trackers_ground_truth_is_converted_and_its_gaps_reported(app, tmp_path):
+    from app.jobs.tasks import generate_tracks
+    from tests.stimuli.capture.files import write_openface
+
+    write_tone_wav(tmp_path / "s1.wav", seconds=1.0)
+    t = np.arange(30) / 30.0
+    success = np.ones(30, int)
+    success[10:13] = 0
+    write_openface(tmp_path / "openface.csv", t, {"pose_Ry": 0.1 * np.sin(t)}, success=success)
+    text = TOML.format().replace('audio = "s1.wav"', 'audio = "s1.wav"\nground_truth = '
+                                                      '"openface.csv"')
+    text = text.replace('name = "lively"\nmodel = "random"', 'name = "truth"\nmodel = '
+                                                               '"ground_truth"')
+    spec = loads_study(text, base_dir=tmp_path)
+    with app.app_context():
+        study = create_study(create_test_user(), spec)
+        db.session.commit()
+        message = generate_tracks(db.session.get(Study, study.id), lambda done, total: None)
+        truth = next(t for t in db.session.scalars(sa.select(Track))
+                     if t.condition.name == "truth")
+        track = load_track(media_dir(study) / truth.path)
+    assert "clip s1: ground truth imported from OpenFace 2.0 CSV ground_truth.csv" in message
+    assert "3 lost, 3 frames filled by interpolation" in message
+    np.testing.assert_allclose(track[49], -0.1 * np.sin(np.arange(30) / 30.0) / 1e-5, atol=60)

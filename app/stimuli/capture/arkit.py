@@ -1,0 +1,233 @@
+"""ARKit blendshape CSV, as Live Link Face writes it, to and from FAP tracks.
+
+Layout (one take exported from Epic's Live Link Face app): a header ``Timecode,
+BlendShapeCount,`` then the 52 ARKit blendshapes in the app's order (:data:`BLENDSHAPES`,
+``EyeBlinkLeft`` ... ``TongueOut``, coefficients 0-1) and 9 rotations ``HeadYaw, HeadPitch,
+HeadRoll, LeftEyeYaw, LeftEyePitch, LeftEyeRoll, RightEyeYaw, RightEyePitch, RightEyeRoll``
+(radians, the values the app also streams); ``BlendShapeCount`` is 61. ``Timecode`` is
+``HH:MM:SS:FF.sss``: frame ``FF`` of the app's frame rate (60 by default, 30 on request); the
+digits after the point are ignored (:func:`parse_timecode`). Columns are found by name, case-insensitively, so files from other
+ARKit recorders with the same names read too.
+
+The mapping (:func:`arkit_mapping`), one table with its source:
+
+| FAP | from | why |
+|---|---|---|
+| 48 head pitch (+ down) | ``+HeadPitch`` | ARKit's face frame: x to the face's left, y up, z out of the face; about +x the forward vector turns down |
+| 49 head yaw (+ to the face's left) | ``+HeadYaw`` | about +y the forward vector turns to +x, the face's left |
+| 50 head roll (+ to the right shoulder) | ``+HeadRoll`` | about +z the face's left side rises |
+| 23 / 24 eyeball yaw | ``+LeftEyeYaw`` / ``+RightEyeYaw`` | as the head |
+| 25 / 26 eyeball pitch | ``+LeftEyePitch`` / ``+RightEyePitch`` | as the head |
+| 31 / 32 inner eyebrows | ``100 * (BrowInnerUp - BrowDownLeft/Right)`` | |
+| 33 / 34 middle eyebrows | ``100 * ((BrowInnerUp + BrowOuterUpLeft/Right) / 2 - BrowDownLeft/Right)`` | |
+| 35 / 36 outer eyebrows | ``100 * (BrowOuterUpLeft/Right - BrowDownLeft/Right)`` | |
+| 19, 21 / 20, 22 eyelids | ``EyeBlinkLeft`` / ``EyeBlinkRight`` x 1024 IRISD, 0.8 upper, 0.2 lower | a blink coefficient of 1 is a closed eye |
+| 3 open jaw | ``800 * JawOpen`` | |
+
+"Left" is the face's own left in both ARKit and MPEG-4. The signs follow from ARKit's
+documented face coordinate frame; the app's exported angles have not been checked here
+against a recorded nod and turn, so check once with your own take (a nod down must give a
+positive FAP 48 in ``facepair capture import``) and flip an axis with ``flip``. The
+blendshape scales are a calibration (a brow raise of 0.4 gives the thesis' 40 units).
+
+:func:`write_arkit_csv` writes the inverse of this table (the eyebrows' middle values, which
+it cannot carry, are dropped), so facepair's tracks play on ARKit rigs and MetaHumans.
+"""
+
+from __future__ import annotations
+
+import csv
+import re
+from collections.abc import Iterable
+from pathlib import Path
+
+import numpy as np
+
+from app.errors import InputError
+from app.stimuli.capture.mapping import IRISD_CLOSED, LID_SHARE, FapMapping
+from app.stimuli.capture.timeline import MAX_GAP_S, to_track
+from app.stimuli.fap import AU_RADIANS
+from app.stimuli.track import MotionTrack
+
+#: The 52 ARKit blendshapes in Live Link Face's column order.
+BLENDSHAPES: tuple[str, ...] = (
+    "EyeBlinkLeft", "EyeLookDownLeft", "EyeLookInLeft", "EyeLookOutLeft", "EyeLookUpLeft",
+    "EyeSquintLeft", "EyeWideLeft", "EyeBlinkRight", "EyeLookDownRight", "EyeLookInRight",
+    "EyeLookOutRight", "EyeLookUpRight", "EyeSquintRight", "EyeWideRight", "JawForward",
+    "JawRight", "JawLeft", "JawOpen", "MouthClose", "MouthFunnel", "MouthPucker", "MouthRight",
+    "MouthLeft", "MouthSmileLeft", "MouthSmileRight", "MouthFrownLeft", "MouthFrownRight",
+    "MouthDimpleLeft", "MouthDimpleRight", "MouthStretchLeft", "MouthStretchRight",
+    "MouthRollLower", "MouthRollUpper", "MouthShrugLower", "MouthShrugUpper", "MouthPressLeft",
+    "MouthPressRight", "MouthLowerDownLeft", "MouthLowerDownRight", "MouthUpperUpLeft",
+    "MouthUpperUpRight", "BrowDownLeft", "BrowDownRight", "BrowInnerUp", "BrowOuterUpLeft",
+    "BrowOuterUpRight", "CheekPuff", "CheekSquintLeft", "CheekSquintRight", "NoseSneerLeft",
+    "NoseSneerRight", "TongueOut")
+ROTATIONS: tuple[str, ...] = ("HeadYaw", "HeadPitch", "HeadRoll", "LeftEyeYaw",
+                              "LeftEyePitch", "LeftEyeRoll", "RightEyeYaw", "RightEyePitch",
+                              "RightEyeRoll")
+HEADER: tuple[str, ...] = ("Timecode", "BlendShapeCount", *BLENDSHAPES, *ROTATIONS)
+APP_RATES = (24.0, 25.0, 30.0, 48.0, 50.0, 60.0)
+BROW, JAW = 100.0, 800.0
+_TIMECODE = re.compile(r"^(\d+):(\d{1,2}):(\d{1,2}):(\d{1,3})(?:\.(\d+))?$")
+
+
+def arkit_mapping(brow: float = BROW, jaw: float = JAW, flip: Iterable[str] = ()
+                  ) -> FapMapping:
+    """The table of the module docstring; ``flip`` names rotation columns whose sign to turn
+    (e.g. ``("HeadPitch",)``)."""
+    flipped = {name.lower() for name in flip}
+
+    def angle(name: str) -> tuple[str, float]:
+        return name, -1.0 if name.lower() in flipped else 1.0
+
+    def brows(side: str) -> dict[int, dict[str, float]]:
+        down, outer = f"BrowDown{side}", f"BrowOuterUp{side}"
+        i, m, o = (31, 33, 35) if side == "Left" else (32, 34, 36)
+        return {i: {"BrowInnerUp": brow, down: -brow},
+                m: {"BrowInnerUp": brow / 2, outer: brow / 2, down: -brow},
+                o: {outer: brow, down: -brow}}
+
+    return FapMapping(
+        angles={48: angle("HeadPitch"), 49: angle("HeadYaw"), 50: angle("HeadRoll"),
+                23: angle("LeftEyeYaw"), 24: angle("RightEyeYaw"),
+                25: angle("LeftEyePitch"), 26: angle("RightEyePitch")},
+        sums={**brows("Left"), **brows("Right"), 3: {"JawOpen": jaw}},
+        lids={19: ("EyeBlinkLeft", 1.0), 21: ("EyeBlinkLeft", 1.0),
+              20: ("EyeBlinkRight", 1.0), 22: ("EyeBlinkRight", 1.0)})
+
+
+ARKIT_MAP = arkit_mapping()
+
+
+def is_arkit(header: list[str]) -> bool:
+    """True for a Live Link Face header (``Timecode, BlendShapeCount, ...``)."""
+    return [h.lower() for h in header[:2]] == ["timecode", "blendshapecount"]
+
+
+def parse_timecode(text: str, app_fps: float) -> float:
+    """``HH:MM:SS:FF.sss`` -> seconds of frame ``FF`` of ``app_fps``.
+
+    The digits after the point are not used: exports of different app versions fill them
+    differently (``01.001``, ``02.002`` ... in some, sub-frame fractions in others), and a frame
+    is placed by its number alone.
+
+    >>> parse_timecode("00:00:01:30.507", 60.0)
+    1.5
+    """
+    m = _TIMECODE.match(text.strip())
+    if not m:
+        raise ValueError(f"expected a timecode HH:MM:SS:FF(.sss), got {text[:40]!r}")
+    h, mi, s, ff = (int(g) for g in m.groups()[:4])
+    return h * 3600 + mi * 60 + s + ff / app_fps
+
+
+def read_arkit_csv(path: str | Path, fps: float = 30.0, *, app_fps: float | None = None,
+                   max_gap_s: float = MAX_GAP_S, mapping: FapMapping = ARKIT_MAP
+                   ) -> MotionTrack:
+    """A Live Link Face CSV as a FAP track at ``fps`` (timecode to time, then resampled).
+
+    ``app_fps`` is the app's frame rate behind the timecodes; by default the smallest of
+    24/25/30/48/50/60 above every frame number in the file (60 for a take under a second).
+    """
+    p = Path(path)
+    header, stamps, data, rows = _read_rows(p)
+    names = {h.lower(): i for i, h in enumerate(header)}
+    if app_fps is None:
+        top = max(int(_TIMECODE.match(s).group(4)) for s in stamps)  # type: ignore[union-attr]
+        app_fps = next((r for r in APP_RATES if r > top), 60.0)
+    times = np.array([parse_timecode(s, app_fps) for s in stamps])
+
+    def column(name: str) -> np.ndarray:
+        return data[:, names[name.lower()]]
+
+    available = {h for h in (*BLENDSHAPES, *ROTATIONS) if h.lower() in names}
+    faps = mapping.apply(column, available)
+    if not faps:
+        raise InputError("no blendshape or rotation column to import", path=p, line=1)
+    track, report = to_track(times - times[0], faps, np.ones(len(times), bool), fps=fps,
+                             path=str(p), max_gap_s=max_gap_s, rows=rows, name=p.stem,
+                             source=f"ARKit blendshape CSV {p.name}")
+    report.update(app_fps=app_fps, missing=mapping.needs(available))
+    return mapping.limit(track).replace(metadata={**track.metadata, "capture": report})
+
+
+def _read_rows(path: Path) -> tuple[list[str], list[str], np.ndarray, np.ndarray]:
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as f:
+            reader = csv.reader(f, skipinitialspace=True)
+            header = [h.strip() for h in next(reader, [])]
+            if not is_arkit(header):
+                raise InputError("not a Live Link Face CSV: the header must start "
+                                 "'Timecode,BlendShapeCount'", path=path, line=1)
+            stamps, values, rows = [], [], []
+            for record in reader:
+                if not record or all(not v.strip() for v in record):
+                    continue
+                line = reader.line_num
+                if len(record) != len(header):
+                    raise InputError(f"{len(record)} values for {len(header)} columns",
+                                     path=path, line=line)
+                if not _TIMECODE.match(record[0].strip()):
+                    raise InputError(f"column Timecode: expected HH:MM:SS:FF(.sss), got "
+                                     f"{record[0][:40]!r}", path=path, line=line)
+                row = []
+                for name, text in zip(header[1:], record[1:], strict=True):
+                    try:
+                        row.append(float(text))
+                    except ValueError:
+                        raise InputError(f"column {name}: not a number: {text[:40]!r}",
+                                         path=path, line=line) from None
+                stamps.append(record[0].strip())
+                values.append([np.nan] + row)
+                rows.append(line)
+    except FileNotFoundError:
+        raise InputError("no such file", path=path) from None
+    except UnicodeDecodeError:
+        raise InputError("not a text CSV file (not UTF-8)", path=path) from None
+    except csv.Error as exc:
+        raise InputError(f"not a readable CSV: {exc}", path=path) from None
+    if not values:
+        raise InputError("no data rows", path=path)
+    return header, stamps, np.array(values, dtype=np.float64), np.array(rows)
+
+
+def write_arkit_csv(track: MotionTrack, path: str | Path, *, app_fps: float | None = None
+                    ) -> None:
+    """Write ``track`` in Live Link Face's layout: the inverse of :func:`arkit_mapping`.
+
+    Timecodes count frames of ``app_fps`` (default: the track's rate). Blendshapes are
+    clipped to 0-1; FAPs the table does not cover are not written.
+    """
+    rate = float(app_fps or track.fps)
+    n = track.n_frames
+    g = track.get
+    cols: dict[str, np.ndarray] = {name: np.zeros(n) for name in (*BLENDSHAPES, *ROTATIONS)}
+    for fap, name in ((48, "HeadPitch"), (49, "HeadYaw"), (50, "HeadRoll"),
+                      (23, "LeftEyeYaw"), (24, "RightEyeYaw"), (25, "LeftEyePitch"),
+                      (26, "RightEyePitch")):
+        cols[name] = g(fap) * AU_RADIANS
+    inner_up = []
+    for side, i, o in (("Left", 31, 35), ("Right", 32, 36)):
+        down = np.clip(-np.minimum(g(i), g(o)), 0, None) / BROW
+        cols[f"BrowDown{side}"] = down
+        cols[f"BrowOuterUp{side}"] = g(o) / BROW + down
+        inner_up.append(g(i) / BROW + down)
+    cols["BrowInnerUp"] = (inner_up[0] + inner_up[1]) / 2  # one shape for both sides
+    cols["EyeBlinkLeft"] = g(19) / (LID_SHARE[19] * IRISD_CLOSED)
+    cols["EyeBlinkRight"] = g(20) / (LID_SHARE[20] * IRISD_CLOSED)
+    cols["JawOpen"] = g(3) / JAW
+    for name in BLENDSHAPES:
+        cols[name] = np.clip(cols[name], 0.0, 1.0)
+    with Path(path).open("w", newline="", encoding="utf-8") as f:
+        out = csv.writer(f, lineterminator="\n")
+        out.writerow(HEADER)
+        for k in range(n):
+            t = k / track.fps
+            frames = t * rate
+            whole = int(np.floor(frames + 1e-9))
+            secs, ff = divmod(whole, int(round(rate)))
+            h, rem = divmod(secs, 3600)
+            mi, s = divmod(rem, 60)
+            stamp = f"{h:02d}:{mi:02d}:{s:02d}:{ff:02d}.{round((frames - whole) * 1000):03d}"
+            out.writerow([stamp, len(BLENDSHAPES) + len(ROTATIONS),
+                          *(f"{cols[name][k]:.6f}" for name in (*BLENDSHAPES, *ROTATIONS))])

@@ -1,0 +1,141 @@
+"""OpenFace 2.0 FeatureExtraction CSV -> FAP track (head, gaze, eyebrows, eyelids, jaw).
+
+The file (``RecorderCSV`` in OpenFace 2.x) starts ``frame, face_id, timestamp, confidence,
+success`` and then, as the tracker was asked, ``gaze_0_x ... gaze_angle_x, gaze_angle_y``, eye
+landmarks, ``pose_Tx ... pose_Rx, pose_Ry, pose_Rz``, face landmarks, model parameters,
+``AU01_r ... AU45_r`` and ``AU01_c ... AU45_c``; names after the first are written with a
+leading space (", "), values the same way. ``timestamp`` is in seconds, ``success`` is 0/1,
+angles are radians, AU intensities run 0-5.
+
+The mapping (:func:`openface_mapping`, :data:`OPENFACE_MAP`), one table with its source:
+
+| FAP | from | why |
+|---|---|---|
+| 48 head pitch (+ down) | ``+pose_Rx`` | OpenFace's camera frame is x right, y down, z away from the camera; a rotation about +x turns the face's forward vector down (users report head up = negative ``pose_Rx``) |
+| 49 head yaw (+ to the face's left) | ``-pose_Ry`` | about +y the forward vector turns to the image's left, the face's right (users report: turning to one's right = positive ``pose_Ry``) |
+| 50 head roll (+ to the right shoulder) | ``-pose_Rz`` | about +z the top of the head moves to the image's right, the face's left shoulder |
+| 23, 24 eyeball yaw (+ left) | ``+gaze_angle_x`` | OpenFace: left to right runs from positive to negative |
+| 25, 26 eyeball pitch (+ down) | ``+gaze_angle_y`` | OpenFace: up to down runs from negative to positive |
+| 31, 32 inner eyebrows | ``25 * (AU01_r - AU04_r)`` | inner brow raiser, brow lowerer |
+| 33, 34 middle eyebrows | ``25 * ((AU01_r + AU02_r) / 2 - AU04_r)`` | between inner and outer |
+| 35, 36 outer eyebrows | ``25 * (AU02_r - AU04_r)`` | outer brow raiser |
+| 19, 20 upper eyelids | ``0.8 * 1024 * min(AU45_r / 3, 1)`` | blink; lids meet at 1024 IRISD, 0.8 of it on the upper lid |
+| 21, 22 lower eyelids | ``0.2 * 1024 * min(AU45_r / 3, 1)`` | |
+| 3 open jaw | ``120 * AU26_r`` | jaw drop |
+
+Angles become AU (1e-5 rad). The AU scales are a calibration, not a measurement: 25 ENS units
+per AU intensity puts a typical raise (intensity 1.5-2) at the 38-50 units the thesis' raises
+imply (docs/stimuli.md); an AU45 of 3 is taken as fully closed. Every scale is a parameter
+(:func:`openface_mapping`). Frames with ``success = 0`` or ``confidence`` under :data:`MIN_CONFIDENCE` are
+gaps, filled linearly up to :data:`~app.stimuli.capture.timeline.MAX_GAP_S`.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from app.errors import InputError
+from app.stimuli.capture.mapping import FapMapping
+from app.stimuli.capture.timeline import MAX_GAP_S, to_track
+from app.stimuli.track import MotionTrack
+
+REQUIRED = ("frame", "timestamp", "confidence", "success")
+#: Frames whose landmark confidence is lower are treated as lost.
+MIN_CONFIDENCE = 0.75
+
+
+def openface_mapping(brow: float = 25.0, jaw: float = 120.0, blink_closed: float = 3.0
+                     ) -> FapMapping:
+    """The table of the module docstring with its scales (FAPU per AU intensity)."""
+    inner = {"AU01_r": brow, "AU04_r": -brow}
+    middle = {"AU01_r": brow / 2, "AU02_r": brow / 2, "AU04_r": -brow}
+    outer = {"AU02_r": brow, "AU04_r": -brow}
+    return FapMapping(
+        angles={48: ("pose_Rx", 1.0), 49: ("pose_Ry", -1.0), 50: ("pose_Rz", -1.0),
+                23: ("gaze_angle_x", 1.0), 24: ("gaze_angle_x", 1.0),
+                25: ("gaze_angle_y", 1.0), 26: ("gaze_angle_y", 1.0)},
+        sums={31: inner, 32: inner, 33: middle, 34: middle, 35: outer, 36: outer,
+              3: {"AU26_r": jaw}},
+        lids={c: ("AU45_r", blink_closed) for c in (19, 20, 21, 22)})
+
+
+OPENFACE_MAP = openface_mapping()
+
+
+def is_openface(header: list[str]) -> bool:
+    """True for an OpenFace FeatureExtraction header (names stripped of spaces)."""
+    return header[:2] == ["frame", "face_id"] and "success" in header
+
+
+def read_openface(path: str | Path, fps: float = 30.0, *, min_confidence: float =
+                  MIN_CONFIDENCE, max_gap_s: float = MAX_GAP_S,
+                  mapping: FapMapping = OPENFACE_MAP) -> MotionTrack:
+    """Read an OpenFace 2.0 CSV as a FAP track at ``fps`` (see the module docstring).
+
+    The track's ``metadata["capture"]`` reports dropped frames, filled gaps and the FAPs
+    left out for want of columns (``missing``). Bad input: one :class:`InputError` naming the
+    file, row and column.
+    """
+    header, data, rows = _read_table(Path(path))
+    col = {name: i for i, name in enumerate(header)}
+
+    def column(name: str) -> np.ndarray:
+        return data[:, col[name]]
+
+    faps = mapping.apply(column, set(col))
+    if not faps:
+        raise InputError("no pose_R*, gaze_angle_* or AU*_r columns to import (run "
+                         "FeatureExtraction with -pose -gaze -aus)", path=path)
+    valid = (column("success") > 0.5) & (column("confidence") >= min_confidence)
+    track, report = to_track(column("timestamp"), faps, valid, fps=fps, path=str(path),
+                             max_gap_s=max_gap_s, rows=rows, name=Path(path).stem,
+                             source=f"OpenFace 2.0 CSV {Path(path).name}")
+    report["missing"] = mapping.needs(set(col))
+    return mapping.limit(track).replace(metadata={**track.metadata, "capture": report})
+
+
+def _read_table(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """Header names (spaces stripped), the numbers (rows x columns) and each row's line."""
+    try:
+        with path.open(newline="", encoding="utf-8") as f:
+            reader = csv.reader(f, skipinitialspace=True)
+            header = [h.strip() for h in next(reader, [])]
+            missing = [h for h in REQUIRED if h not in header]
+            if missing:
+                raise InputError(f"not an OpenFace FeatureExtraction CSV: no "
+                                 f"{', '.join(missing)} column", path=path, line=1)
+            values, rows = [], []
+            for record in reader:
+                if not record or all(not v.strip() for v in record):
+                    continue
+                line = reader.line_num
+                if len(record) != len(header):
+                    raise InputError(f"{len(record)} values for {len(header)} columns",
+                                     path=path, line=line)
+                try:
+                    values.append([float(v) for v in record])
+                except ValueError:
+                    bad = next(i for i, v in enumerate(record) if not _is_number(v))
+                    raise InputError(f"column {header[bad]}: not a number: "
+                                     f"{record[bad][:40]!r}", path=path, line=line) from None
+                rows.append(line)
+    except FileNotFoundError:
+        raise InputError("no such file", path=path) from None
+    except UnicodeDecodeError:
+        raise InputError("not a text CSV file (not UTF-8)", path=path) from None
+    except csv.Error as exc:
+        raise InputError(f"not a readable CSV: {exc}", path=path) from None
+    if not values:
+        raise InputError("no data rows", path=path)
+    return header, np.array(values, dtype=np.float64), np.array(rows)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True

@@ -1,0 +1,71 @@
+"""Tracker files written in each tool's exact layout, with known motion, for the tests."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+AU_REG = ("AU01", "AU02", "AU04", "AU05", "AU06", "AU07", "AU09", "AU10", "AU12", "AU14",
+          "AU15", "AU17", "AU20", "AU23", "AU25", "AU26", "AU45")
+AU_CLASS = AU_REG[:-1] + ("AU28", "AU45")
+
+
+def openface_header(eye_landmarks: int = 56) -> list[str]:
+    """OpenFace 2.x RecorderCSV header for FeatureExtraction -pose -gaze -aus."""
+    names = ["frame", "face_id", "timestamp", "confidence", "success",
+             "gaze_0_x", "gaze_0_y", "gaze_0_z", "gaze_1_x", "gaze_1_y", "gaze_1_z",
+             "gaze_angle_x", "gaze_angle_y"]
+    for axis in ("x", "y", "X", "Y", "Z"):
+        names += [f"eye_lmk_{axis}_{i}" for i in range(eye_landmarks)]
+    names += ["pose_Tx", "pose_Ty", "pose_Tz", "pose_Rx", "pose_Ry", "pose_Rz"]
+    names += [f"{au}_r" for au in AU_REG] + [f"{au}_c" for au in AU_CLASS]
+    return names
+
+
+def write_openface(path: Path, times: np.ndarray, values: dict[str, np.ndarray], *,
+                   success: np.ndarray | None = None, confidence: np.ndarray | None = None,
+                   eye_landmarks: int = 56) -> Path:
+    """One row per entry of ``times``; columns in ``values`` take those numbers, others 0.
+    Numbers are printed with OpenFace's precisions, separated by ", "."""
+    header = openface_header(eye_landmarks)
+    n = len(times)
+    success = np.ones(n, int) if success is None else success
+    confidence = np.full(n, 0.98) if confidence is None else confidence
+    lines = [", ".join(header)]
+    for k in range(n):
+        row = [f"{k + 1}", "0", f"{times[k]:.3f}", f"{confidence[k]:.2f}", f"{success[k]:d}"]
+        for name in header[5:]:
+            v = float(values[name][k]) if name in values else 0.0
+            if name.startswith(("gaze_0", "gaze_1")):
+                row.append(f"{v:.6f}")
+            elif name.startswith(("gaze_angle", "pose_R")):
+                row.append(f"{v:.3f}")
+            elif name.endswith("_r"):
+                row.append(f"{v:.2f}")
+            else:
+                row.append(f"{v:.1f}")
+        lines.append(", ".join(row))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def write_live_link(path: Path, n: int, values: dict[str, np.ndarray], *, app_fps: int = 60,
+                    drop: tuple[int, ...] = ()) -> Path:
+    """A Live Link Face export: Timecode HH:MM:SS:FF.sss at ``app_fps``, BlendShapeCount 61,
+    the 52 blendshapes and 9 rotations with 8 decimals; frames in ``drop`` missing."""
+    from app.stimuli.capture.arkit import HEADER
+
+    lines = [",".join(HEADER)]
+    start = 14 * 3600 + 3 * 60 + 52  # takes carry the time of day
+    for k in range(n):
+        if k in drop:
+            continue
+        secs, ff = divmod(k, app_fps)
+        s = start + secs
+        stamp = f"{s // 3600:02d}:{s // 60 % 60:02d}:{s % 60:02d}:{ff:02d}.{(k * 7) % 1000:03d}"
+        row = [stamp, "61"] + [f"{float(values[h][k]) if h in values else 0.0:.8f}"
+                               for h in HEADER[2:]]
+        lines.append(",".join(row))
+    path.write_text("\n".join(lines) + "\n")
+    return path

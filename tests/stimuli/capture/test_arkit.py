@@ -1,0 +1,113 @@
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from app.cli import main
+from app.errors import InputError
+from app.stimuli.capture import sniff_csv
+from app.stimuli.capture.arkit import (
+    HEADER,
+    arkit_mapping,
+    parse_timecode,
+    read_arkit_csv,
+    write_arkit_csv,
+)
+from tests.stimuli.capture.files import write_live_link
+
+
+def take(n=240, app_fps=60):
+    t = np.arange(n) / app_fps
+    return t, {
+        "HeadPitch": 0.08 * np.sin(2 * np.pi * 0.5 * t),
+        "HeadYaw": 0.2 * np.sin(2 * np.pi * 0.25 * t),
+        "HeadRoll": np.full(n, -0.03),
+        "LeftEyeYaw": np.full(n, 0.1), "RightEyeYaw": np.full(n, 0.1),
+        "LeftEyePitch": np.full(n, 0.05), "RightEyePitch": np.full(n, 0.05),
+        "BrowInnerUp": np.where((t % 2) < 1, 0.4, 0.0),
+        "BrowOuterUpLeft": np.full(n, 0.2), "BrowOuterUpRight": np.full(n, 0.1),
+        "BrowDownLeft": np.zeros(n), "BrowDownRight": np.zeros(n),
+        "EyeBlinkLeft": np.where((t % 2) > 1.8, 1.0, 0.0),
+        "EyeBlinkRight": np.where((t % 2) > 1.8, 1.0, 0.0),
+        "JawOpen": np.full(n, 0.25),
+    }
+
+
+def test_timecodes():
+    assert parse_timecode("14:03:52:28.207", 60) == pytest.approx(
+        14 * 3600 + 3 * 60 + 52 + 28 / 60)
+    with pytest.raises(ValueError, match="expected a timecode"):
+        parse_timecode("14:03:52", 60)
+
+
+def test_a_live_link_take_maps_to_faps(tmp_path):
+    t, v = take()
+    path = write_live_link(tmp_path / "take.csv", 240, v)
+    assert sniff_csv(path) == "arkit"
+    track = read_arkit_csv(path, 30.0)
+    report = track.metadata["capture"]
+    assert report["app_fps"] == 60 and report["capture_fps"] == 60
+    assert track.n_frames == 120  # 4 s at 30 fps
+    truth = 0.2 * np.sin(2 * np.pi * 0.25 * track.times) / 1e-5  # radians -> AU
+    np.testing.assert_allclose(track[49][2:-2], truth[2:-2], atol=30)
+    np.testing.assert_allclose(track[50], -3000.0, atol=1)
+    np.testing.assert_allclose(track[23], 10000.0, atol=1)
+    raised = track[31][track[31] > 20]
+    assert np.median(raised) == pytest.approx(40.0, abs=0.5)  # a 0.4 inner raise: 40 units
+    assert track[35].min() == pytest.approx(20.0, abs=1) and track[36].min() == pytest.approx(
+        10.0, abs=1)
+    assert track[19].max() == pytest.approx(0.8 * 1024, rel=0.01)
+    np.testing.assert_allclose(track[3], 200.0, atol=1e-6)
+
+
+def test_dropped_frames_are_filled_and_flip_turns_an_axis(tmp_path):
+    t, v = take()
+    path = write_live_link(tmp_path / "take.csv", 240, v, drop=(50, 51, 52))
+    track = read_arkit_csv(path, 30.0)
+    assert track.metadata["capture"]["filled_frames"] == 3
+    flipped = read_arkit_csv(path, 30.0, mapping=arkit_mapping(flip=["headpitch"]))
+    np.testing.assert_allclose(flipped[48], -track[48])
+    np.testing.assert_allclose(flipped[49], track[49])
+
+
+def test_round_trip_through_the_writer(tmp_path):
+    t, v = take(app_fps=30, n=120)
+    first = read_arkit_csv(write_live_link(tmp_path / "a.csv", 120, v, app_fps=30), 30.0)
+    write_arkit_csv(first, tmp_path / "b.csv")
+    assert (tmp_path / "b.csv").read_text().splitlines()[0] == ",".join(HEADER)
+    again = read_arkit_csv(tmp_path / "b.csv", 30.0)
+    assert again.channels == first.channels
+    for c in first.channels:
+        # six decimals of radians are 0.1 AU; of blendshapes, 1e-4 FAP units
+        np.testing.assert_allclose(again[c], first[c], atol=0.1, err_msg=str(c))
+
+
+def test_malformed_rows_name_row_and_column(tmp_path):
+    t, v = take(n=30)
+    path = write_live_link(tmp_path / "take.csv", 30, v)
+    lines = path.read_text().splitlines()
+    cells = lines[5].split(",")
+    cells[HEADER.index("JawOpen")] = "open"
+    lines[5] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError, match=r"take.csv:6: column JawOpen: not a number: 'open'"):
+        read_arkit_csv(path)
+    lines[5] = "yesterday," + ",".join(cells[1:])
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError, match=r"take.csv:6: column Timecode: expected HH:MM:SS:FF"):
+        read_arkit_csv(path)
+
+
+def test_cli_import_and_export(tmp_path):
+    t, v = take()
+    src = write_live_link(tmp_path / "take.csv", 240, v, drop=(10,))
+    r = CliRunner().invoke(main, ["capture", "import", str(src), "--out",
+                                  str(tmp_path / "gt.fap"), "--flip", "HeadPitch"])
+    assert r.exit_code == 0, r.output
+    assert "120 frames at 30 fps from 239 samples at 60 fps" in r.output
+    assert "1 frames filled by interpolation" in r.output
+    r = CliRunner().invoke(main, ["capture", "export", str(tmp_path / "gt.fap"), "--out",
+                                  str(tmp_path / "back.csv")])
+    assert r.exit_code == 0 and sniff_csv(tmp_path / "back.csv") == "arkit"
+    bad = CliRunner().invoke(main, ["capture", "import", str(src), "--out",
+                                    str(tmp_path / "x.fap"), "--flip", "Nose"])
+    assert bad.exit_code == 2 and "--flip takes ARKit rotation columns" in bad.output

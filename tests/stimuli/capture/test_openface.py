@@ -1,0 +1,147 @@
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from app.cli import main
+from app.errors import InputError
+from app.stimuli.capture import sniff_csv
+from app.stimuli.capture.openface import read_openface
+from app.stimuli.io import load_track
+from tests.stimuli.capture.files import openface_header, write_openface
+
+FPS = 30.0
+
+
+def known_motion(n=300, drop=()):
+    """Known head, gaze, brow and blink signals at 30 fps; ``drop`` frames are missing."""
+    t = np.arange(n) / FPS
+    keep = np.setdiff1d(np.arange(n), drop)
+    values = {
+        "pose_Rx": 0.10 * np.sin(2 * np.pi * 0.5 * t),       # nod: +/- 5.7 deg
+        "pose_Ry": 0.20 * np.sin(2 * np.pi * 0.25 * t),      # turn
+        "pose_Rz": 0.05 * np.cos(2 * np.pi * 0.3 * t),
+        "gaze_angle_x": 0.15 * np.sin(2 * np.pi * 0.4 * t),
+        "gaze_angle_y": -0.05 * np.ones(n),
+        "AU01_r": 2.0 * (np.sin(2 * np.pi * 0.2 * t) > 0),
+        "AU02_r": np.full(n, 1.0), "AU04_r": np.zeros(n),
+        "AU45_r": np.where((t % 3) < 0.2, 4.0, 0.0),
+        "AU26_r": np.full(n, 0.5),
+    }
+    return t, keep, values
+
+
+def test_known_signals_map_to_faps_with_their_signs_and_units(tmp_path):
+    t, keep, v = known_motion()
+    path = write_openface(tmp_path / "of.csv", t, v)
+    assert sniff_csv(path) == "openface"
+    track = read_openface(path, FPS)
+    assert track.n_frames == 300 and track.fps == FPS
+    # radians -> AU (1e-5 rad), OpenFace printed 3 decimals: 100 AU resolution
+    np.testing.assert_allclose(track[48], np.round(v["pose_Rx"], 3) / 1e-5, atol=1e-6)
+    np.testing.assert_allclose(track[49], -np.round(v["pose_Ry"], 3) / 1e-5, atol=1e-6)
+    np.testing.assert_allclose(track[50], -np.round(v["pose_Rz"], 3) / 1e-5, atol=1e-6)
+    np.testing.assert_allclose(track[23], track[24])
+    np.testing.assert_allclose(track[25], -0.05 / 1e-5)  # looking up: negative pitch (down +)
+    np.testing.assert_allclose(track[31], 25 * v["AU01_r"])
+    np.testing.assert_allclose(track[33], 25 * (v["AU01_r"] + 1.0) / 2)
+    np.testing.assert_allclose(track[35], 25.0)
+    assert track[19].max() == pytest.approx(0.8 * 1024) and track[21].max() == pytest.approx(
+        0.2 * 1024)
+    assert track[3].mean() == pytest.approx(60.0)
+    assert track.metadata["capture"]["missing"] == {}
+
+
+def test_lost_frames_are_filled_and_reported(tmp_path):
+    t, keep, v = known_motion(drop=(40, 41, 150))  # 3 dropped frames
+    success = np.ones(len(keep), int)
+    success[100:105] = 0  # tracker lost the face for 5 frames
+    conf = np.full(len(keep), 0.98)
+    conf[200] = 0.3
+    path = write_openface(tmp_path / "of.csv", t[keep], {k: c[keep] for k, c in v.items()},
+                          success=success, confidence=conf)
+    track = read_openface(path, FPS)
+    report = track.metadata["capture"]
+    assert report["invalid_samples"] == 6 and report["filled_frames"] == 9
+    assert track.n_frames == 300
+    # outside the gaps the nod is the file's; inside, a straight line between its ends
+    truth = v["pose_Rx"] / 1e-5
+    filled = np.r_[40, 41, 150, np.arange(100, 105) + 2, 200 + 3]
+    outside = np.setdiff1d(np.arange(300), filled)
+    np.testing.assert_allclose(track[48][outside], truth[outside], atol=60)
+    np.testing.assert_allclose(track[48][filled], truth[filled], atol=600)
+
+
+def test_a_gap_too_long_to_fill_names_its_rows(tmp_path):
+    t, keep, v = known_motion()
+    success = np.ones(300, int)
+    success[60:90] = 0  # 1 s without a face
+    path = write_openface(tmp_path / "of.csv", t, v, success=success)
+    with pytest.raises(InputError, match=r"of.csv: no usable frame for 1\.00 s between rows "
+                                         r"61 and 92"):
+        read_openface(path, FPS)
+
+
+def test_29_97_fps_capture_is_placed_by_time_stamps(tmp_path):
+    n = 600
+    t = np.arange(n) / 29.97
+    v = {"pose_Ry": 0.2 * np.sin(2 * np.pi * 0.25 * t)}
+    track = read_openface(write_openface(tmp_path / "of.csv", t, v), FPS)
+    assert track.metadata["capture"]["capture_fps"] == 29.97
+    assert track.n_frames == 601  # 600 frames at 29.97 fps last 20.02 s
+    truth = -0.2 * np.sin(2 * np.pi * 0.25 * track.times) / 1e-5
+    np.testing.assert_allclose(track[49][:-1], truth[:-1], atol=150)
+
+
+def test_missing_columns_are_reported_and_bad_rows_named(tmp_path):
+    header = ["frame", "face_id", "timestamp", "confidence", "success", "pose_Tx", "pose_Ty",
+              "pose_Tz", "pose_Rx", "pose_Ry", "pose_Rz"]
+    rows = [f"{k + 1}, 0, {k / 30:.3f}, 0.98, 1, 0.0, 0.0, 500.0, 0.010, 0.000, 0.000"
+            for k in range(30)]
+    path = tmp_path / "pose_only.csv"
+    path.write_text("\n".join([", ".join(header), *rows]) + "\n")
+    track = read_openface(path, FPS)
+    assert track.channels == (48, 49, 50)
+    assert track.metadata["capture"]["missing"]["AU45_r"] == [19, 20, 21, 22]
+    rows[4] = rows[4].replace("0.010", "abc")
+    path.write_text("\n".join([", ".join(header), *rows]) + "\n")
+    with pytest.raises(InputError, match=r"pose_only.csv:6: column pose_Rx: not a number"):
+        read_openface(path, FPS)
+    rows[4] = "5, 0, 0.133, 0.98"
+    path.write_text("\n".join([", ".join(header), *rows]) + "\n")
+    with pytest.raises(InputError, match=r":6: 4 values for 11 columns"):
+        read_openface(path, FPS)
+
+
+def test_cli_import_and_ground_truth_detection(tmp_path, repo_root):
+    t, _, v = known_motion(n=150)
+    src = write_openface(tmp_path / "take.csv", t, v)
+    r = CliRunner().invoke(main, ["capture", "import", str(src), "--out",
+                                  str(tmp_path / "gt.fap")])
+    assert r.exit_code == 0, r.output
+    assert "150 frames at 30 fps from 150 samples at 30 fps" in r.output
+    assert "FAPs 3, 19, 20, 21, 22, 23, 24, 25, 26, 31" in r.output
+    assert load_track(tmp_path / "gt.fap").n_frames == 150
+    assert load_track(src).channels == read_openface(src, FPS).channels  # by header
+    out = tmp_path / "out"
+    r = CliRunner().invoke(main, ["stimuli", "generate", "--audio",
+                                  str(repo_root / "data" / "demo" / "speech.wav"),
+                                  "--ground-truth", str(src), "--out", str(out), "--no-plot",
+                                  "--conditions", "ground_truth"])
+    assert r.exit_code == 0, r.output
+    assert load_track(out / "ground_truth.fap").n_frames == 120
+    bad = CliRunner().invoke(main, ["capture", "import", str(repo_root / "README.md"),
+                                    "--out", str(tmp_path / "x.fap")])
+    assert bad.exit_code == 2 and "not an OpenFace or Live Link Face CSV" in bad.output
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(st.text(alphabet="0123456789.,- abcn\n", max_size=40), max_size=12))
+def test_junk_rows_are_one_input_error_never_a_crash(tmp_path, rows):
+    path = tmp_path / "junk.csv"
+    path.write_text(", ".join(openface_header(0)) + "\n" + "\n".join(rows))
+    try:
+        read_openface(path, FPS)
+    except InputError as exc:
+        assert "\n" not in str(exc)
