@@ -9,7 +9,6 @@ from app.stimuli.fapfile import read_fap, write_fap
 from app.stimuli.track import MotionTrack
 from app.stimuli.trackcsv import read_track_csv, write_track_csv
 
-
 #: Frame rate a tracker's file is resampled to when no rate is asked for.
 IMPORT_FPS = 30.0
 

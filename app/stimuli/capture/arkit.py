@@ -6,23 +6,14 @@ BlendShapeCount,`` then the 52 ARKit blendshapes in the app's order (:data:`BLEN
 HeadRoll, LeftEyeYaw, LeftEyePitch, LeftEyeRoll, RightEyeYaw, RightEyePitch, RightEyeRoll``
 (radians, the values the app also streams); ``BlendShapeCount`` is 61. ``Timecode`` is
 ``HH:MM:SS:FF.sss``: frame ``FF`` of the app's frame rate (60 by default, 30 on request); the
-digits after the point are ignored (:func:`parse_timecode`). Columns are found by name, case-insensitively, so files from other
-ARKit recorders with the same names read too.
+digits after the point are ignored (:func:`parse_timecode`). Columns are found by name,
+case-insensitively, so files from other ARKit recorders with the same names read too.
 
-The mapping (:func:`arkit_mapping`), one table with its source:
-
-| FAP | from | why |
-|---|---|---|
-| 48 head pitch (+ down) | ``+HeadPitch`` | ARKit's face frame: x to the face's left, y up, z out of the face; about +x the forward vector turns down |
-| 49 head yaw (+ to the face's left) | ``+HeadYaw`` | about +y the forward vector turns to +x, the face's left |
-| 50 head roll (+ to the right shoulder) | ``+HeadRoll`` | about +z the face's left side rises |
-| 23 / 24 eyeball yaw | ``+LeftEyeYaw`` / ``+RightEyeYaw`` | as the head |
-| 25 / 26 eyeball pitch | ``+LeftEyePitch`` / ``+RightEyePitch`` | as the head |
-| 31 / 32 inner eyebrows | ``100 * (BrowInnerUp - BrowDownLeft/Right)`` | |
-| 33 / 34 middle eyebrows | ``100 * ((BrowInnerUp + BrowOuterUpLeft/Right) / 2 - BrowDownLeft/Right)`` | |
-| 35 / 36 outer eyebrows | ``100 * (BrowOuterUpLeft/Right - BrowDownLeft/Right)`` | |
-| 19, 21 / 20, 22 eyelids | ``EyeBlinkLeft`` / ``EyeBlinkRight`` x 1024 IRISD, 0.8 upper, 0.2 lower | a blink coefficient of 1 is a closed eye |
-| 3 open jaw | ``800 * JawOpen`` | |
+The mapping is :func:`arkit_mapping`; docs/capture.md tabulates it with the source of each
+sign: ARKit's face frame is x to the face's left, y up, z out of the face, so FAP 48-50 =
+``+HeadPitch``, ``+HeadYaw``, ``+HeadRoll``; gaze FAP 23-26 from the eye rotations; eyebrows
+FAP 31-36 from ``BrowInnerUp``, ``BrowOuterUp*`` and ``BrowDown*`` (100 units per 1.0);
+eyelids FAP 19-22 from ``EyeBlink*``; jaw FAP 3 = ``800 * JawOpen``.
 
 "Left" is the face's own left in both ARKit and MPEG-4. The signs follow from ARKit's
 documented face coordinate frame; the app's exported angles have not been checked here

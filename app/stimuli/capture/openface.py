@@ -7,27 +7,19 @@ landmarks, ``pose_Tx ... pose_Rx, pose_Ry, pose_Rz``, face landmarks, model para
 leading space (", "), values the same way. ``timestamp`` is in seconds, ``success`` is 0/1,
 angles are radians, AU intensities run 0-5.
 
-The mapping (:func:`openface_mapping`, :data:`OPENFACE_MAP`), one table with its source:
-
-| FAP | from | why |
-|---|---|---|
-| 48 head pitch (+ down) | ``+pose_Rx`` | OpenFace's camera frame is x right, y down, z away from the camera; a rotation about +x turns the face's forward vector down (users report head up = negative ``pose_Rx``) |
-| 49 head yaw (+ to the face's left) | ``-pose_Ry`` | about +y the forward vector turns to the image's left, the face's right (users report: turning to one's right = positive ``pose_Ry``) |
-| 50 head roll (+ to the right shoulder) | ``-pose_Rz`` | about +z the top of the head moves to the image's right, the face's left shoulder |
-| 23, 24 eyeball yaw (+ left) | ``+gaze_angle_x`` | OpenFace: left to right runs from positive to negative |
-| 25, 26 eyeball pitch (+ down) | ``+gaze_angle_y`` | OpenFace: up to down runs from negative to positive |
-| 31, 32 inner eyebrows | ``25 * (AU01_r - AU04_r)`` | inner brow raiser, brow lowerer |
-| 33, 34 middle eyebrows | ``25 * ((AU01_r + AU02_r) / 2 - AU04_r)`` | between inner and outer |
-| 35, 36 outer eyebrows | ``25 * (AU02_r - AU04_r)`` | outer brow raiser |
-| 19, 20 upper eyelids | ``0.8 * 1024 * min(AU45_r / 3, 1)`` | blink; lids meet at 1024 IRISD, 0.8 of it on the upper lid |
-| 21, 22 lower eyelids | ``0.2 * 1024 * min(AU45_r / 3, 1)`` | |
-| 3 open jaw | ``120 * AU26_r`` | jaw drop |
+The mapping is :func:`openface_mapping`; docs/capture.md tabulates it with the source of each
+sign: OpenFace's camera frame is x right, y down, z away from the camera, so FAP 48 (head
+pitch, + down) = ``+pose_Rx``, FAP 49 (yaw, + to the face's left) = ``-pose_Ry``, FAP 50 (roll)
+= ``-pose_Rz``; gaze FAP 23-26 = ``+gaze_angle_x`` / ``+gaze_angle_y``; eyebrows FAP 31-36 from
+AU01 (inner raiser), AU02 (outer raiser) and AU04 (lowerer); eyelids FAP 19-22 from AU45
+(blink); jaw FAP 3 from AU26.
 
 Angles become AU (1e-5 rad). The AU scales are a calibration, not a measurement: 25 ENS units
 per AU intensity puts a typical raise (intensity 1.5-2) at the 38-50 units the thesis' raises
 imply (docs/stimuli.md); an AU45 of 3 is taken as fully closed. Every scale is a parameter
-(:func:`openface_mapping`). Frames with ``success = 0`` or ``confidence`` under :data:`MIN_CONFIDENCE` are
-gaps, filled linearly up to :data:`~app.stimuli.capture.timeline.MAX_GAP_S`.
+(:func:`openface_mapping`). Frames with ``success = 0`` or ``confidence`` under
+:data:`MIN_CONFIDENCE` are gaps, filled linearly up to
+:data:`~app.stimuli.capture.timeline.MAX_GAP_S`.
 """
 
 from __future__ import annotations

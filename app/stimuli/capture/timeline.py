@@ -44,7 +44,7 @@ def to_track(times: np.ndarray, columns: Mapping[int, np.ndarray], valid: np.nda
     columns = dict(sorted(columns.items()))
     t = np.asarray(times, dtype=np.float64)
     ok = np.asarray(valid, dtype=bool) & np.isfinite(t)
-    for c, col in columns.items():
+    for col in columns.values():
         ok &= np.isfinite(np.asarray(col, dtype=np.float64))
     if ok.sum() < 2:
         raise InputError(f"fewer than 2 usable frames ({int(ok.sum())} of {len(t)})", path=path)
@@ -98,7 +98,8 @@ def capture_rate(times: np.ndarray) -> float:
 
     The mean of the steps one frame long (within half a median step of it) numbers the
     frames; the period is then the slope of a least-squares line through (frame number,
-    time), which averages the stamps' rounding away; a rate within 0.2 % of a standard one (29.97, 30, 60 ...) is taken as the nearest.
+    time), which averages the stamps' rounding away; a rate within 0.2 % of a standard one
+    (29.97, 30, 60 ...) is taken as the nearest.
 
     >>> round(capture_rate(np.round(np.arange(100) / 30.0, 3)), 6)
     30.0

@@ -136,7 +136,8 @@ def test_cli_import_and_ground_truth_detection(tmp_path, repo_root):
     assert bad.exit_code == 2 and "not an OpenFace or Live Link Face CSV" in bad.output
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=150, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.lists(st.text(alphabet="0123456789.,- abcn\n", max_size=40), max_size=12))
 def test_junk_rows_are_one_input_error_never_a_crash(tmp_path, rows):
     path = tmp_path / "junk.csv"
