@@ -140,8 +140,8 @@ class HeldOutSplit:
     test: list[tuple[SpeechFeatures, MotionTrack]]
 
 
-def held_out_split(sound: parselmouth.Sound, *, train_takes: int = 3, test_takes: int = 2,
-                   seconds: float = 80.0, fps: float = 30.0) -> HeldOutSplit:
+def held_out_split(sound: parselmouth.Sound, *, train_takes: int = 3, test_takes: int = 4,
+                   seconds: float = 120.0, fps: float = 30.0) -> HeldOutSplit:
     """The standard split on one recording: training takes ``0 .. train_takes-1`` in
     :data:`~app.stimuli.live.corpus.TRAIN_VOICES` with reference-speaker seeds equal to the take
     number; test takes in :data:`~app.stimuli.live.corpus.TEST_VOICES` with take and speaker

@@ -30,10 +30,10 @@ change of the training poses, and takes 17 gradient steps (the paper's mean iter
 of the 17 steps is a Metropolis-adjusted Langevin step (a gradient step plus Gaussian noise,
 accepted with the Metropolis-Hastings probability), so the pose is a draw from the
 distribution ``exp(J)`` of eq. 3 near the previous pose instead of its mode. The maximum has
-about 40 % of the ground truth's head motion on held-out speech, since the part of the motion
-that speech does not predict is averaged away; the draw keeps it (75-110 %), with no more
-power above 4 Hz than the ground truth. Proposals have per-axis variance
-``proposal x sigma^2``; the cost per frame stays fixed.
+about 40 % of the ground truth's head sd on held-out speech, since the part of the motion that
+speech does not predict is averaged away; the draw keeps it (98-113 %), with no more power
+above 4 Hz than the ground truth. Proposals have per-axis variance ``proposal x sigma^2``
+(:data:`DEFAULT_PROPOSAL`); the cost per frame stays fixed.
 """
 
 from __future__ import annotations
@@ -55,7 +55,7 @@ MIN_UNVOICED = 150
 #: acceleration): the paper's plain product.
 DEFAULT_WEIGHTS = (1.0, 1.0, 1.0, 1.0, 1.0)
 #: Default variance of the Langevin proposals, in units of eq. 5's sigma^2.
-DEFAULT_PROPOSAL = 0.1
+DEFAULT_PROPOSAL = 0.05
 
 
 def kinematic_features(angles: np.ndarray, fps: float) -> np.ndarray:

@@ -45,6 +45,9 @@ _X = TypeVar("_X", float, np.ndarray)
 LOUDNESS_FLOOR_DB = 0.0
 #: The talking threshold sits this many dB below the median loudness of voiced training frames.
 TALK_MARGIN_DB = 20.0
+#: Standardised inputs are clipped to this many sd: the mixtures know nothing beyond, and a
+#: wild reading (a clipped microphone, a glitch) must not throw the head or the eyes.
+Z_LIMIT = 6.0
 #: Width of the contour smoothing filter in frames (Le, Ma & Deng 2012 sec. 4).
 SMOOTH_FRAMES = 3
 
@@ -134,12 +137,13 @@ class SpeechScale:
                    float(loud.std()) if loud.std() > 1e-6 else 1.0, ref - TALK_MARGIN_DB)
 
     def pitch_z(self, pitch_st: _X) -> _X:
-        """Standardised pitch from semitones; NaN where unvoiced."""
-        return (pitch_st - self.pitch_mean) / self.pitch_std
+        """Standardised pitch from semitones, within +/- :data:`Z_LIMIT`; NaN where
+        unvoiced."""
+        return np.clip((pitch_st - self.pitch_mean) / self.pitch_std, -Z_LIMIT, Z_LIMIT)
 
     def loud_z(self, loud_db: _X) -> _X:
-        """Standardised loudness from floored dB."""
-        return (loud_db - self.loud_mean) / self.loud_std
+        """Standardised loudness from floored dB, within +/- :data:`Z_LIMIT`."""
+        return np.clip((loud_db - self.loud_mean) / self.loud_std, -Z_LIMIT, Z_LIMIT)
 
     def to_array(self) -> np.ndarray:
         return np.array([self.pitch_mean, self.pitch_std, self.loud_mean, self.loud_std,

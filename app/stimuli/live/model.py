@@ -266,11 +266,14 @@ def load_model(path: str | Path) -> LiveModel:
             or min(shape) <= 0:
         raise InputError("settings out of range (fps, n_iter, proposal, lambdas, blink shape)",
                          path=path, field="meta")
-    if np.any(a["head_kin_std"] <= 0) or np.any(a["head_step_std"] <= 0) \
-            or np.any(a["eyelid_blink"][:, 1] <= 0) \
-            or np.any(a["gaze_fixation_intervals"][:, 1] <= 0) \
-            or np.any(a["gaze_fixation_offsets"][:, 2:] < 0):
-        raise InputError("standard deviations must be positive", path=path)
+    for name, sd in (("head_kin_std", a["head_kin_std"]), ("head_step_std", a["head_step_std"]),
+                     ("eyelid_blink", a["eyelid_blink"][:, 1]),
+                     ("gaze_fixation_intervals", a["gaze_fixation_intervals"][:, 1])):
+        if np.any(sd <= 0):
+            raise InputError("standard deviations must be positive", path=path, field=name)
+    if np.any(a["gaze_fixation_offsets"][:, 2:] < 0):
+        raise InputError("standard deviations must not be negative", path=path,
+                         field="gaze_fixation_offsets")
     head = HeadModel(_mixtures(a, "head_voiced", path), _mixtures(a, "head_unvoiced", path),
                      a["head_kin_mean"], a["head_kin_std"], a["head_step_std"],
                      a["head_weights"], n_iter, proposal)

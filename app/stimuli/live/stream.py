@@ -68,13 +68,14 @@ class LiveGenerator:
 
     def step(self, f0: float, intensity: float) -> np.ndarray:
         """The next frame, FAP values for :data:`OUTPUT_CHANNELS`, from this frame's F0 (Hz,
-        0 or NaN when unvoiced) and intensity (dB)."""
+        0 or NaN when unvoiced) and intensity (dB; NaN or infinite reads as the floor)."""
         m = self.model
         scale = m.scale
         # Speech input (sec. 4): semitones and floored dB, smoothed over 3 frames (causal).
-        loud_db = intensity if intensity == intensity else LOUDNESS_FLOOR_DB
+        # Not a number or infinite: no reading (the floor, unvoiced).
+        loud_db = intensity if math.isfinite(intensity) else LOUDNESS_FLOOR_DB
         loud_db = self._smooth_loud.step(max(loud_db, LOUDNESS_FLOOR_DB))
-        pitch_st = 12.0 * math.log2(f0 / 100.0) if f0 == f0 and f0 > 0 else math.nan
+        pitch_st = 12.0 * math.log2(f0 / 100.0) if math.isfinite(f0) and f0 > 0 else math.nan
         pitch_st = self._smooth_pitch.step(pitch_st)
         lz, pz = scale.loud_z(loud_db), scale.pitch_z(pitch_st)
         # Head (sec. 5): eq. 5 start, Langevin steps on eq. 4.
