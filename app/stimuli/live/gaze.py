@@ -184,9 +184,10 @@ def fit_fixation_model(gaze: np.ndarray, predicted: np.ndarray, talking: np.ndar
     # A fixation runs from a take start or a saccade (plus two frames of movement) to the
     # next; its offset is its mean residual, its mode that of its first frame.
     bounds = np.unique(np.concatenate([onsets, list(starts), [len(residual)]]))
+    saccades = set(onsets.tolist())
     means, modes = [], []
     for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-        first = a + 2 if a in set(onsets.tolist()) else a
+        first = a + 2 if a in saccades else a
         if b - first >= 2:
             means.append(residual[first:b].mean(axis=0))
             modes.append(bool(talking[a]))
