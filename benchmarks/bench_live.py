@@ -54,7 +54,7 @@ def main() -> None:
     intensity = np.tile(feats.intensity, reps)[: args.frames]
     print(f"model: {args.model or DEFAULT_MODEL_PATH.relative_to(ROOT)} "
           f"({model.head.voiced.lam00.shape[1]} components x 5 GMMs, "
-          f"{model.head.n_iter} ascent steps), fps {model.fps:g}, one core (#{args.core}), "
+          f"{model.head.n_iter} Langevin steps), fps {model.fps:g}, one core (#{args.core}), "
           f"numpy {np.__version__}")
 
     gen = LiveGenerator(model, seed=0)

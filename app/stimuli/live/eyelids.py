@@ -7,9 +7,15 @@ IRISD): ``top_share`` of the closure on the upper lids (19, 20), the rest on the
 
 Gaze-evoked motion (sec. 7.2-7.3, eq. 17-18): ``b_t = Cb x_t`` with ``Cb >= 0`` found by
 non-negative least squares (``scipy.optimize.nnls``) on the ground truth's non-blink frames.
-``x_t = (gaze up, gaze yaw, 1)`` in degrees: the pitch axis is turned so that the expected
-coupling (the lid rises with the gaze) is non-negative, as eq. 17's constraint requires; the
-constant column is the neutral openness, which eq. 17 leaves implicit.
+``x_t = (gaze up, |gaze yaw|, 1)`` in degrees. Eq. 17-18 read literally (``b = Cb e`` over the
+signed gaze angles, ``Cb >= 0``) would open the lids when the eyes turn one way and close them
+when they turn the other, and tie the lids to the FAP sign convention of the pitch axis. The
+paper's own reading (sec. 7.2, after Evinger et al.: the lid moves with the gaze and "its
+magnitude often increases in accordance with the amplitude of the eye gaze") fixes both: the
+upper lid follows vertical gaze (looking up opens, looking down lowers the lid: the pitch axis
+is turned so that this coupling is the non-negative one), and horizontal gaze acts through its
+amplitude ``|yaw|`` only, the same to the left and to the right. The constant column is the
+neutral openness, which eq. 17 leaves implicit.
 
 Involuntary blinks (sec. 7.1, eq. 16, 19): inter-blink intervals ``L`` with ``ln L ~ N(mu,
 sigma^2)``, one (mu, sigma) for the talking mode and one for listening, fitted by maximum
@@ -71,15 +77,19 @@ def blink_onsets(closure: np.ndarray) -> np.ndarray:
     return np.flatnonzero(shut & ~np.concatenate([[False], shut[:-1]]))
 
 
-def fit_blink_params(onsets: np.ndarray, talking: np.ndarray, fps: float,
-                     starts: Sequence[int] = (0,)) -> tuple[np.ndarray, list[str], list[int]]:
-    """Maximum-likelihood log-normal (mu, sigma) per mode from blink onset frames.
+def fit_interval_params(onsets: np.ndarray, talking: np.ndarray, fps: float,
+                        starts: Sequence[int] = (0,), defaults: np.ndarray | None = None
+                        ) -> tuple[np.ndarray, list[str], list[int]]:
+    """Maximum-likelihood log-normal (mu, sigma) per mode from event onset frames (blinks
+    here, saccades in :mod:`app.stimuli.live.gaze`); ``defaults`` (2, 2) for a mode with too
+    few intervals (blinks: :func:`default_blink_params`).
 
     An interval belongs to the mode of the frame where it starts; intervals spanning two takes
     (``starts``: their first frames) are not intervals. Returns the (2, 2) parameters
     (talking, listening), where each came from ("fitted" or "default") and interval counts.
     """
-    params = default_blink_params()
+    params = (default_blink_params() if defaults is None
+              else np.array(defaults, dtype=np.float64))
     sources, counts = ["default", "default"], [0, 0]
     onsets = np.asarray(onsets, dtype=int)
     if len(onsets) > 1:
@@ -100,14 +110,14 @@ def fit_blink_params(onsets: np.ndarray, talking: np.ndarray, fps: float,
 class EyelidModel:
     """Gaze-evoked lid coefficients and blink parameters."""
 
-    cb: np.ndarray  # (3,) eq. 17 coefficients over (gaze up, gaze yaw, 1)
+    cb: np.ndarray  # (3,) eq. 17 coefficients over (gaze up, |gaze yaw|, 1)
     blink: np.ndarray  # (2, 2) (mu, sigma) of ln(interval / s), rows (talking, listening)
     top_share: float = 0.8
     shape: tuple[float, float, float] = BLINK_SHAPE
 
     def openness(self, gaze: np.ndarray) -> float:
         """Eq. 18 for one frame's gaze (yaw, pitch-down) in degrees, clipped to [0, 1.5]."""
-        b = self.cb[0] * -gaze[1] + self.cb[1] * gaze[0] + self.cb[2]
+        b = self.cb[0] * -gaze[1] + self.cb[1] * abs(gaze[0]) + self.cb[2]
         return float(min(max(b, 0.0), 1.5))
 
     def faps(self, openness: float, closure_fraction: float) -> np.ndarray:
@@ -133,50 +143,64 @@ def fit_eyelid_model(gaze: np.ndarray, lids: np.ndarray | None, talking: np.ndar
     None: defaults); ``starts``: first frames of concatenated takes. Returns the model and a
     JSON-able summary."""
     if lids is None or not np.any(lids):
-        params, sources, counts = fit_blink_params(np.array([], int), talking, fps)
+        params, sources, counts = fit_interval_params(np.array([], int), talking, fps)
         model = EyelidModel(np.array([0.0, 0.0, 1.0]), params)
         return model, {"blink_source": sources, "intervals": counts, "blinks": 0}
     closure, share = closure_from_faps(lids)
     onsets = np.concatenate([blink_onsets(closure[a:b]) + a for a, b in
                              zip(starts, list(starts[1:]) + [len(closure)], strict=True)])
-    params, sources, counts = fit_blink_params(onsets, talking, fps, starts)
+    params, sources, counts = fit_interval_params(onsets, talking, fps, starts)
     # Frames inside or near a blink do not show gaze-evoked motion: leave them out of eq. 17.
     keep = np.ones(len(closure), bool)
     before, after = int(np.ceil(0.1 * fps)), int(np.ceil(sum(BLINK_SHAPE) * fps))
     for onset in onsets:
         keep[max(0, onset - before):onset + after] = False
-    x = np.column_stack([-gaze[:, 1], gaze[:, 0], np.ones(len(gaze))])[keep]
+    x = np.column_stack([-gaze[:, 1], np.abs(gaze[:, 0]), np.ones(len(gaze))])[keep]
     cb = nnls(x, 1.0 - closure[keep])[0] if keep.sum() >= 3 else np.array([0.0, 0.0, 1.0])
     model = EyelidModel(cb, params, share)
     return model, {"blink_source": sources, "intervals": counts, "blinks": int(len(onsets))}
 
 
 @dataclass
-class BlinkClock:
-    """Streaming blink generator: schedules onsets from the log-normal of the current mode and
-    gives the closure fraction at each frame time. State only; no look-ahead."""
+class IntervalClock:
+    """Streaming onsets of events with log-normal intervals whose (mu, sigma) depend on the
+    mode (eq. 19): when an event starts, the next interval is drawn from the mode of that
+    moment; the first onset is a uniform fraction of a first interval. No look-ahead."""
 
-    params: np.ndarray
+    params: np.ndarray  # (2, 2) (mu, sigma) of ln(interval / s), rows (talking, listening)
     rng: np.random.Generator
-    shape: tuple[float, float, float] = BLINK_SHAPE
     next_onset: float | None = None
-    active: list[float] = field(default_factory=list)
     log: list[tuple[float, bool, float]] = field(default_factory=list)  # (onset, talking, gap)
 
     def _interval(self, talking: bool) -> float:
         mu, sigma = self.params[0 if talking else 1]
         return float(np.exp(mu + sigma * self.rng.standard_normal()))  # eq. 19
 
-    def step(self, time: float, talking: bool) -> float:
-        """Closure fraction at ``time`` (seconds), given the current mode."""
+    def onsets(self, time: float, talking: bool) -> list[float]:
+        """Onsets (seconds) up to ``time`` that earlier calls did not return."""
         if self.next_onset is None:
             self.next_onset = time + self.rng.uniform() * self._interval(talking)
+        new = []
         while time >= self.next_onset:
             onset = self.next_onset
             gap = self._interval(talking)
-            self.active.append(onset)
+            new.append(onset)
             self.log.append((onset, talking, gap))
             self.next_onset = onset + gap
+        return new
+
+
+@dataclass
+class BlinkClock(IntervalClock):
+    """Streaming blink generator: blink onsets from :class:`IntervalClock`, and the closure
+    fraction at each frame time."""
+
+    shape: tuple[float, float, float] = BLINK_SHAPE
+    active: list[float] = field(default_factory=list)
+
+    def step(self, time: float, talking: bool) -> float:
+        """Closure fraction at ``time`` (seconds), given the current mode."""
+        self.active += self.onsets(time, talking)
         total = sum(self.shape)
         self.active = [o for o in self.active if time - o < total]
         if not self.active:

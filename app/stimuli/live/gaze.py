@@ -16,17 +16,35 @@ linear least squares on the training frames:
 Synthesis per frame (eq. 13-15): ``e^_t = Ce U' phi(h_t)``, smoothed
 ``e^_t = lambda1 e^_t + lambda2 A* e^_{t-1}`` (0.7 and 0.3; ``e^_{t-1}`` is the previous smoothed
 value, zero before the first frame), and ``e_t = V*' e^_t`` (de-standardised).
+
+*Departure (measured, docs/live.md): fixations.* Eq. 13-15 give the gaze that head and loudness
+predict, a conditional mean. Where most of the gaze is not predicted by them (gaze shifts
+between fixation targets), that mean barely moves: on held-out speech of the reference speaker
+the NDCCA gaze has an sd of 0.2-0.3 deg against the ground truth's 3-5 deg. The unpredicted
+part is therefore generated as the paper generates blinks (sec. 7.1, eq. 16, 19): saccades at
+log-normal intervals per talking/listening mode, each moving the eyes to a new fixation
+offset drawn from the mode's normal distribution; the offset is added to the NDCCA gaze.
+Training detects the ground truth's saccades (gaze speed through :data:`SACCADE_DEG_S`), fits
+the fixation intervals by maximum likelihood and takes the mean and sd of the fixations'
+mean residual (ground truth minus NDCCA gaze) per mode.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from app.stimuli.live.eyelids import IntervalClock, fit_interval_params
+
 #: Eq. 14's weights, as set in the paper.
 LAMBDA1, LAMBDA2 = 0.7, 0.3
+#: Gaze speed (deg/s) above which a frame belongs to a saccade.
+SACCADE_DEG_S = 30.0
+#: Fixation intervals for a mode with too few saccades: (mu, sigma) of ln(seconds), rows
+#: (talking, listening): medians 1.2 s and 2.5 s (documented choice).
+DEFAULT_FIXATION = np.array([[np.log(1.2), 0.5], [np.log(2.5), 0.5]])
 
 
 def kernel(h: np.ndarray) -> np.ndarray:
@@ -133,3 +151,71 @@ def fit_gaze_model(h: np.ndarray, e: np.ndarray, starts: Sequence[int] = (0,)) -
     follows[list(starts)] = False  # frame t has a predecessor in its own take
     a_t = np.linalg.lstsq(e_hat[np.flatnonzero(follows) - 1], e_hat[follows], rcond=None)[0]
     return GazeModel(h_mean, h_std, phi_mean, phi_std, u, ce_t, a_t, v_star, e_mean, e_std, corr)
+
+
+def saccade_onsets(gaze: np.ndarray, fps: float, starts: Sequence[int] = (0,)) -> np.ndarray:
+    """Frames where the gaze (n, 2) speed rises through :data:`SACCADE_DEG_S` (never at the
+    first frame of a take: a speed needs the previous frame of the same take)."""
+    gaze = np.asarray(gaze, dtype=np.float64)
+    fast = np.zeros(len(gaze), bool)
+    fast[1:] = np.linalg.norm(np.diff(gaze, axis=0), axis=1) * fps > SACCADE_DEG_S
+    fast[list(starts)] = False
+    return np.flatnonzero(fast & ~np.concatenate([[False], fast[:-1]]))
+
+
+@dataclass(frozen=True)
+class FixationModel:
+    """Saccade intervals and fixation offsets per mode (see the module docstring)."""
+
+    intervals: np.ndarray  # (2, 2) (mu, sigma) of ln(fixation / s), rows talking, listening
+    offsets: np.ndarray  # (2, 4) mean yaw, mean pitch, sd yaw, sd pitch (deg), rows as above
+
+
+def fit_fixation_model(gaze: np.ndarray, predicted: np.ndarray, talking: np.ndarray,
+                       fps: float, starts: Sequence[int] = (0,)
+                       ) -> tuple[FixationModel, dict]:
+    """Fit the fixation model to ground-truth gaze and the NDCCA gaze ``predicted`` for the
+    same frames (both (n, 2), degrees); returns it and a JSON-able summary."""
+    residual = np.asarray(gaze, dtype=np.float64) - predicted
+    talking = np.asarray(talking, dtype=bool)
+    onsets = saccade_onsets(gaze, fps, starts)
+    params, sources, counts = fit_interval_params(onsets, talking, fps, starts,
+                                                  DEFAULT_FIXATION)
+    # A fixation runs from a take start or a saccade (plus two frames of movement) to the
+    # next; its offset is its mean residual, its mode that of its first frame.
+    bounds = np.unique(np.concatenate([onsets, list(starts), [len(residual)]]))
+    saccades = set(onsets.tolist())
+    means, modes = [], []
+    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+        first = a + 2 if a in saccades else a
+        if b - first >= 2:
+            means.append(residual[first:b].mean(axis=0))
+            modes.append(bool(talking[a]))
+    means_a, modes_a = np.array(means).reshape(-1, 2), np.array(modes, bool)
+    offsets = np.zeros((2, 4))
+    for i, sel in enumerate((modes_a, ~modes_a)):
+        use = means_a[sel] if sel.sum() >= 2 else means_a
+        if len(use) >= 2:
+            offsets[i] = np.r_[use.mean(axis=0), use.std(axis=0)]
+    return (FixationModel(params, offsets),
+            {"saccades": int(len(onsets)), "interval_source": sources, "intervals": counts})
+
+
+@dataclass
+class FixationClock(IntervalClock):
+    """Streaming fixation offsets: a new offset from the mode's normal at each saccade."""
+
+    offsets: np.ndarray = field(default_factory=lambda: np.zeros((2, 4)))
+    current: np.ndarray | None = None
+
+    def _draw(self, talking: bool) -> np.ndarray:
+        row = self.offsets[0 if talking else 1]
+        return row[:2] + row[2:] * self.rng.standard_normal(2)
+
+    def step(self, time: float, talking: bool) -> np.ndarray:
+        """The fixation offset (yaw, pitch; degrees) at ``time`` in the current mode."""
+        if self.current is None:
+            self.current = self._draw(talking)
+        for _ in self.onsets(time, talking):
+            self.current = self._draw(talking)
+        return self.current

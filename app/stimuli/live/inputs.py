@@ -8,6 +8,12 @@ loudness ``l_t`` (sec. 4, "Speech feature extraction"). Here:
   see :mod:`app.stimuli.live.head`);
 - loudness is the intensity in dB re 2e-5 Pa floored at :data:`LOUDNESS_FLOOR_DB` (digital
   silence comes out of Praat near -300 dB, which would dominate any standardisation);
+- both contours are smoothed by the paper's 3-frame (0.125 s at its 24 fps) contour filter
+  (sec. 4, "we apply a contour smoothing filter with a window size of 3 frames"), here a
+  causal moving average over the current and the two previous frames
+  (:func:`smooth_contour`, :class:`ContourSmoother`), so that a live stream can apply it: the
+  paper's generator reads only past and current speech (sec. 5.2). Unvoiced frames stay
+  unvoiced; a voiced frame averages the voiced frames of its window;
 - both are standardised with the training data's mean and standard deviation
   (:class:`SpeechScale`);
 - the blink model's *mode* (sec. 7.1: talking or listening) is decided from loudness alone:
@@ -21,18 +27,29 @@ Example
 12.0
 >>> scale.threshold_db
 45.0
+>>> smooth_contour(np.array([0.0, 0.0, 30.0, 30.0, 30.0])).tolist()
+[0.0, 0.0, 10.0, 20.0, 30.0]
 """
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
+
+_X = TypeVar("_X", float, np.ndarray)
 
 #: Loudness below this (dB re 2e-5 Pa) is treated as this: quieter than any room.
 LOUDNESS_FLOOR_DB = 0.0
 #: The talking threshold sits this many dB below the median loudness of voiced training frames.
 TALK_MARGIN_DB = 20.0
+#: Standardised inputs are clipped to this many sd: the mixtures know nothing beyond, and a
+#: wild reading (a clipped microphone, a glitch) must not throw the head or the eyes.
+Z_LIMIT = 6.0
+#: Width of the contour smoothing filter in frames (Le, Ma & Deng 2012 sec. 4).
+SMOOTH_FRAMES = 3
 
 
 def semitones(f0: np.ndarray) -> np.ndarray:
@@ -50,6 +67,48 @@ def loudness(intensity_db: np.ndarray) -> np.ndarray:
     return np.maximum(x, LOUDNESS_FLOOR_DB)
 
 
+def smooth_contour(x: np.ndarray, width: int = SMOOTH_FRAMES) -> np.ndarray:
+    """Causal moving average of a contour: each frame the mean of the finite values among it
+    and the ``width - 1`` frames before it; NaN (unvoiced) frames stay NaN.
+
+    The sums are taken in the order :class:`ContourSmoother` takes them, so a stream gives
+    bit-identical values.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    finite = np.isfinite(x)
+    total = np.where(finite, x, 0.0)
+    count = finite.astype(np.float64)
+    for lag in range(1, max(int(width), 1)):
+        total[lag:] = total[lag:] + np.where(finite[:-lag], x[:-lag], 0.0)
+        count[lag:] += finite[:-lag]
+    out = np.full(x.shape, np.nan)
+    out[finite] = total[finite] / count[finite]
+    return out
+
+
+class ContourSmoother:
+    """Streaming form of :func:`smooth_contour`: feed one frame, get its smoothed value."""
+
+    def __init__(self, width: int = SMOOTH_FRAMES) -> None:
+        self._past: deque[float] = deque(maxlen=max(int(width), 1) - 1)
+
+    def step(self, x: float) -> float:
+        finite = x == x
+        total, count = (x, 1.0) if finite else (0.0, 0.0)
+        for v in reversed(self._past):
+            if v == v:
+                total, count = total + v, count + 1.0
+        if self._past.maxlen:
+            self._past.append(x)
+        return total / count if finite else float("nan")
+
+
+def smoothed_inputs(f0: np.ndarray, intensity_db: np.ndarray, width: int = SMOOTH_FRAMES
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Pitch (semitones, NaN unvoiced) and loudness (dB) of one take, smoothed causally."""
+    return smooth_contour(semitones(f0), width), smooth_contour(loudness(intensity_db), width)
+
+
 @dataclass(frozen=True)
 class SpeechScale:
     """Standardisation of pitch (semitones) and loudness (dB), and the talking threshold."""
@@ -63,23 +122,28 @@ class SpeechScale:
     @classmethod
     def fit(cls, f0: np.ndarray, intensity_db: np.ndarray) -> SpeechScale:
         """Scale from training frames: pitch over voiced frames, loudness over all frames."""
-        st = semitones(f0)
-        st = st[np.isfinite(st)]
-        loud = loudness(intensity_db)
-        voiced = np.asarray(f0) > 0
+        return cls.fit_contours(semitones(f0), loudness(intensity_db))
+
+    @classmethod
+    def fit_contours(cls, pitch_st: np.ndarray, loud_db: np.ndarray) -> SpeechScale:
+        """:meth:`fit` from pitch in semitones (NaN unvoiced) and floored loudness in dB."""
+        voiced = np.isfinite(pitch_st)
+        st = np.asarray(pitch_st)[voiced]
+        loud = np.asarray(loud_db, dtype=np.float64)
         pitch_mean = float(st.mean()) if st.size else 0.0
         pitch_std = float(st.std()) if st.size > 1 else 1.0
         ref = float(np.median(loud[voiced])) if voiced.any() else float(np.median(loud))
         return cls(pitch_mean, pitch_std if pitch_std > 1e-6 else 1.0, float(loud.mean()),
                    float(loud.std()) if loud.std() > 1e-6 else 1.0, ref - TALK_MARGIN_DB)
 
-    def pitch_z(self, f0: np.ndarray) -> np.ndarray:
-        """Standardised pitch; NaN where unvoiced."""
-        return (semitones(f0) - self.pitch_mean) / self.pitch_std
+    def pitch_z(self, pitch_st: _X) -> _X:
+        """Standardised pitch from semitones, within +/- :data:`Z_LIMIT`; NaN where
+        unvoiced."""
+        return np.clip((pitch_st - self.pitch_mean) / self.pitch_std, -Z_LIMIT, Z_LIMIT)
 
-    def loud_z(self, intensity_db: np.ndarray) -> np.ndarray:
-        """Standardised loudness."""
-        return (loudness(intensity_db) - self.loud_mean) / self.loud_std
+    def loud_z(self, loud_db: _X) -> _X:
+        """Standardised loudness from floored dB, within +/- :data:`Z_LIMIT`."""
+        return np.clip((loud_db - self.loud_mean) / self.loud_std, -Z_LIMIT, Z_LIMIT)
 
     def to_array(self) -> np.ndarray:
         return np.array([self.pitch_mean, self.pitch_std, self.loud_mean, self.loud_std,

@@ -24,14 +24,14 @@ from app.errors import InputError
 from app.stimuli.fap import AU_RADIANS, EYELIDS, GAZE, HEAD_PITCH, HEAD_ROLL, HEAD_YAW
 from app.stimuli.features import SpeechFeatures
 from app.stimuli.live.eyelids import EyelidModel, fit_eyelid_model
-from app.stimuli.live.gaze import GazeModel, fit_gaze_model
+from app.stimuli.live.gaze import FixationModel, GazeModel, fit_fixation_model, fit_gaze_model
 from app.stimuli.live.head import HeadModel, fit_head_model
-from app.stimuli.live.inputs import SpeechScale, talking_mode
+from app.stimuli.live.inputs import SpeechScale, smoothed_inputs, talking_mode
 from app.stimuli.live.mixture import Mixture, MixtureBank
 from app.stimuli.track import MotionTrack
 
 FORMAT = "facepair-live-gmm"
-VERSION = 1
+VERSION = 2
 #: Degrees per MPEG-4 angle unit.
 DEG_PER_AU = AU_RADIANS * 180.0 / np.pi
 _MIX = ("weights", "means", "covariances")
@@ -46,6 +46,7 @@ class LiveModel:
     head: HeadModel
     gaze: GazeModel
     eyelids: EyelidModel
+    fixations: FixationModel
     summary: dict[str, Any] = field(default_factory=dict)
     talk_window_s: float = 0.5
 
@@ -65,11 +66,13 @@ def gaze_angles(track: MotionTrack) -> np.ndarray:
 def train_live_model(features: SpeechFeatures | Sequence[SpeechFeatures],
                      ground_truth: MotionTrack | Sequence[MotionTrack], *,
                      n_components: int = 10, seed: int = 0, n_iter: int = 17,
+                     head_weights: Sequence[float] | None = None,
                      progress: Callable[[], None] | None = None) -> LiveModel:
     """Fit the live model to speech features and a ground-truth track, or to several takes
     (lists of the same length, concatenated for fitting; nothing temporal spans two takes).
     Each ground truth is resampled to its features' frame rate and length. ``progress`` is
-    called once per fitted part (12 calls).
+    called once per fitted part (12 calls). ``head_weights``: the exponents of eq. 4's five
+    likelihoods (default :data:`app.stimuli.live.head.DEFAULT_WEIGHTS`).
 
     Raises :class:`InputError` if the ground truth has no head motion or too few frames.
     """
@@ -94,22 +97,27 @@ def train_live_model(features: SpeechFeatures | Sequence[SpeechFeatures],
     if n < 100:
         raise InputError(f"{n} frames is too little to train on (need at least 100)",
                          path=truths[0].name or None)
-    f0 = np.concatenate([f.f0 for f in feats])
-    intensity = np.concatenate([f.intensity for f in feats])
-    scale = SpeechScale.fit(f0, intensity)
-    pz, lz = scale.pitch_z(f0), scale.loud_z(intensity)
+    contours = [smoothed_inputs(f.f0, f.intensity) for f in feats]  # per take: causal
+    pitch_st = np.concatenate([p for p, _ in contours])
+    loud_db = np.concatenate([lo for _, lo in contours])
+    scale = SpeechScale.fit_contours(pitch_st, loud_db)
+    pz, lz = scale.pitch_z(pitch_st), scale.loud_z(loud_db)
     angles = np.concatenate([head_angles(gt) for gt in gts])
     if not np.any(angles.std(axis=0) > 1e-9):
         raise InputError("the ground truth's head does not move (FAPs 48-50 constant)",
                          path=truths[0].name or None, field="channels")
     head = fit_head_model(angles, pz, lz, fps, starts=starts, n_components=n_components,
-                          seed=seed, n_iter=n_iter, progress=progress)
+                          seed=seed, n_iter=n_iter, weights=head_weights,
+                          progress=progress)
     gaze_gt = np.concatenate([gaze_angles(gt) for gt in gts])
-    gaze = fit_gaze_model(np.column_stack([angles, lz]), gaze_gt, starts)
+    h = np.column_stack([angles, lz])
+    gaze = fit_gaze_model(h, gaze_gt, starts)
+    talking = np.concatenate([talking_mode(lo, scale.threshold_db, fps) for _, lo in contours])
+    ends = starts[1:] + [n]
+    predicted = np.concatenate([gaze.run(h[a:b]) for a, b in zip(starts, ends, strict=True)])
+    fixations, fix_summary = fit_fixation_model(gaze_gt, predicted, talking, fps, starts)
     if progress:
         progress()
-    talking = np.concatenate([talking_mode(f.intensity, scale.threshold_db, fps)
-                              for f in feats])
     has_lids = any(c in gt.channels for gt in gts for c in EYELIDS)
     lids = np.concatenate([gt.dense()[:, [c - 1 for c in EYELIDS]] for gt in gts]) \
         if has_lids else None
@@ -119,7 +127,7 @@ def train_live_model(features: SpeechFeatures | Sequence[SpeechFeatures],
     summary = {
         "frames": n, "fps": fps, "duration_s": n / fps, "takes": len(feats),
         "channels": sorted({c for gt in gts for c in gt.channels}),
-        "voiced_frames": int((f0 > 0).sum()), "talking_frames": int(talking.sum()),
+        "voiced_frames": int(np.isfinite(pitch_st).sum()), "talking_frames": int(talking.sum()),
         "ground_truth": [{"name": gt.name, "source": gt.source, "speaker": gt.speaker,
                           "seed": gt.metadata.get("seed")} for gt in gts],
         "audio": sorted({str(f.metadata.get("audio", "")) for f in feats}),
@@ -128,8 +136,9 @@ def train_live_model(features: SpeechFeatures | Sequence[SpeechFeatures],
         "gaze_enabled": gaze.enabled,
         "gaze_canonical_correlations": [float(c) for c in gaze.correlations],
         "eyelids": lid_summary,
+        "fixations": fix_summary,
     }
-    return LiveModel(fps, scale, head, gaze, eyelids, summary)
+    return LiveModel(fps, scale, head, gaze, eyelids, fixations, summary)
 
 
 # -- file format ---------------------------------------------------------------------------------
@@ -151,11 +160,13 @@ def save_model(model: LiveModel, path: str | Path) -> Path:
     for name in ("h_mean", "h_std", "phi_mean", "phi_std", "u", "ce_t", "a_t", "v_star",
                  "e_mean", "e_std", "correlations"):
         arrays[f"gaze_{name}"] = np.asarray(getattr(g, name))
-    arrays.update(eyelid_cb=model.eyelids.cb, eyelid_blink=model.eyelids.blink)
+    arrays.update(eyelid_cb=model.eyelids.cb, eyelid_blink=model.eyelids.blink,
+                  gaze_fixation_intervals=model.fixations.intervals,
+                  gaze_fixation_offsets=model.fixations.offsets)
     meta = {
         "format": FORMAT, "version": VERSION, "fps": model.fps,
-        "head": {"n_iter": h.n_iter, "kinematic_order": ["yaw", "pitch", "roll", "velocity",
-                                                         "acceleration"]},
+        "head": {"n_iter": h.n_iter, "proposal": h.proposal,
+                 "kinematic_order": ["yaw", "pitch", "roll", "velocity", "acceleration"]},
         "gaze": {"lambdas": list(g.lambdas), "enabled": g.enabled},
         "eyelids": {"top_share": model.eyelids.top_share, "shape_s": list(model.eyelids.shape)},
         "talk_window_s": model.talk_window_s,
@@ -177,6 +188,7 @@ _SHAPES: dict[str, tuple[int | None, ...]] = {
     "gaze_u": (4, 2), "gaze_ce_t": (2, 2), "gaze_a_t": (2, 2), "gaze_v_star": (2, 2),
     "gaze_e_mean": (2,), "gaze_e_std": (2,), "gaze_correlations": (2,),
     "eyelid_cb": (3,), "eyelid_blink": (2, 2),
+    "gaze_fixation_intervals": (2, 2), "gaze_fixation_offsets": (2, 4),
 }
 
 
@@ -241,6 +253,7 @@ def load_model(path: str | Path) -> LiveModel:
     try:
         fps = float(meta["fps"])
         n_iter = int(meta["head"]["n_iter"])
+        proposal = float(meta["head"]["proposal"])
         lambdas = tuple(float(x) for x in meta["gaze"]["lambdas"])
         gaze_on = bool(meta["gaze"]["enabled"])
         top_share = float(meta["eyelids"]["top_share"])
@@ -249,20 +262,27 @@ def load_model(path: str | Path) -> LiveModel:
         summary = dict(meta.get("training", {}))
     except (KeyError, TypeError, ValueError) as exc:
         raise InputError(f"bad or missing setting {exc}", path=path, field="meta") from None
-    if fps <= 0 or n_iter < 0 or len(lambdas) != 2 or len(shape) != 3 or min(shape) <= 0:
-        raise InputError("settings out of range (fps, n_iter, lambdas, blink shape)",
+    if fps <= 0 or n_iter < 0 or not proposal > 0 or len(lambdas) != 2 or len(shape) != 3 \
+            or min(shape) <= 0:
+        raise InputError("settings out of range (fps, n_iter, proposal, lambdas, blink shape)",
                          path=path, field="meta")
-    if np.any(a["head_kin_std"] <= 0) or np.any(a["head_step_std"] <= 0) \
-            or np.any(a["eyelid_blink"][:, 1] <= 0):
-        raise InputError("standard deviations must be positive", path=path)
+    for name, sd in (("head_kin_std", a["head_kin_std"]), ("head_step_std", a["head_step_std"]),
+                     ("eyelid_blink", a["eyelid_blink"][:, 1]),
+                     ("gaze_fixation_intervals", a["gaze_fixation_intervals"][:, 1])):
+        if np.any(sd <= 0):
+            raise InputError("standard deviations must be positive", path=path, field=name)
+    if np.any(a["gaze_fixation_offsets"][:, 2:] < 0):
+        raise InputError("standard deviations must not be negative", path=path,
+                         field="gaze_fixation_offsets")
     head = HeadModel(_mixtures(a, "head_voiced", path), _mixtures(a, "head_unvoiced", path),
                      a["head_kin_mean"], a["head_kin_std"], a["head_step_std"],
-                     a["head_weights"], n_iter)
+                     a["head_weights"], n_iter, proposal)
     gaze = GazeModel(a["gaze_h_mean"], a["gaze_h_std"], a["gaze_phi_mean"], a["gaze_phi_std"],
                      a["gaze_u"], a["gaze_ce_t"], a["gaze_a_t"], a["gaze_v_star"],
                      a["gaze_e_mean"], a["gaze_e_std"], a["gaze_correlations"],
                      (lambdas[0], lambdas[1]), gaze_on)
     eyelids = EyelidModel(a["eyelid_cb"], a["eyelid_blink"], top_share,
                           (shape[0], shape[1], shape[2]))
+    fixations = FixationModel(a["gaze_fixation_intervals"], a["gaze_fixation_offsets"])
     return LiveModel(fps, SpeechScale.from_array(a["speech_scale"]), head, gaze, eyelids,
-                     summary, window)
+                     fixations, summary, window)

@@ -7,8 +7,9 @@ current and past input is read. The offline path (:meth:`LiveGenerator.run`,
 :func:`generate_track`) is a loop over :meth:`LiveGenerator.step`, so streaming and offline
 generation give identical frames for the same seed.
 
-Randomness: one ``numpy`` generator per module, spawned from ``SeedSequence(seed)``: the head's
-start noise (eq. 5) and the blink intervals (eq. 19) are drawn in frame order.
+Randomness: one ``numpy`` generator per random process, spawned from ``SeedSequence(seed)``:
+the head's start noise (eq. 5) and Langevin steps, the blink intervals (eq. 19) and the
+fixations are drawn in frame order.
 
 Example
 -------
@@ -19,13 +20,16 @@ Example
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from app.stimuli.fap import EYELIDS, GAZE, HEAD
 from app.stimuli.features import SpeechFeatures
 from app.stimuli.live.audio import AudioFrameStream
 from app.stimuli.live.eyelids import BlinkClock
-from app.stimuli.live.inputs import LOUDNESS_FLOOR_DB
+from app.stimuli.live.gaze import FixationClock
+from app.stimuli.live.inputs import LOUDNESS_FLOOR_DB, ContourSmoother
 from app.stimuli.live.model import DEG_PER_AU, LiveModel
 from app.stimuli.track import MotionTrack
 
@@ -39,18 +43,21 @@ class LiveGenerator:
     def __init__(self, model: LiveModel, *, fps: float | None = None, seed: int = 0) -> None:
         self.model = model
         self.fps = float(fps or model.fps)
-        head_seq, blink_seq = np.random.SeedSequence(seed).spawn(2)
+        head_seq, blink_seq, fix_seq = np.random.SeedSequence(seed).spawn(3)
         self._rng = np.random.default_rng(head_seq)
         self._blinks = BlinkClock(model.eyelids.blink, np.random.default_rng(blink_seq),
-                                  model.eyelids.shape)
+                                  shape=model.eyelids.shape)
+        self._fixations = FixationClock(model.fixations.intervals,
+                                        np.random.default_rng(fix_seq),
+                                        offsets=model.fixations.offsets)
         rest = model.head.kin_mean[:3].copy()
         self._prev1, self._prev2 = rest.copy(), rest.copy()
-        self._eta = 1.0
         self._noise = model.head.step_std / self.fps
         self._gaze_hat = np.zeros(model.gaze.r)
         self._coupling = model.gaze.coupling()
         self._window = max(1, int(round(model.talk_window_s * self.fps)))
         self._last_loud = -(10**9)
+        self._smooth_pitch, self._smooth_loud = ContourSmoother(), ContourSmoother()
         self.frame = 0
         self._audio: AudioFrameStream | None = None
 
@@ -61,30 +68,32 @@ class LiveGenerator:
 
     def step(self, f0: float, intensity: float) -> np.ndarray:
         """The next frame, FAP values for :data:`OUTPUT_CHANNELS`, from this frame's F0 (Hz,
-        0 or NaN when unvoiced) and intensity (dB)."""
+        0 or NaN when unvoiced) and intensity (dB; NaN or infinite reads as the floor)."""
         m = self.model
         scale = m.scale
-        loud_db = intensity if intensity == intensity else LOUDNESS_FLOOR_DB
-        loud_db = max(loud_db, LOUDNESS_FLOOR_DB)
-        lz = (loud_db - scale.loud_mean) / scale.loud_std
-        if f0 == f0 and f0 > 0:
-            pz = (12.0 * np.log2(f0 / 100.0) - scale.pitch_mean) / scale.pitch_std
-        else:
-            pz = np.nan
-        # Head (sec. 5): eq. 5 start, eq. 4 ascent.
+        # Speech input (sec. 4): semitones and floored dB, smoothed over 3 frames (causal).
+        # Not a number or infinite: no reading (the floor, unvoiced).
+        loud_db = intensity if math.isfinite(intensity) else LOUDNESS_FLOOR_DB
+        loud_db = self._smooth_loud.step(max(loud_db, LOUDNESS_FLOOR_DB))
+        pitch_st = 12.0 * math.log2(f0 / 100.0) if math.isfinite(f0) and f0 > 0 else math.nan
+        pitch_st = self._smooth_pitch.step(pitch_st)
+        lz, pz = scale.loud_z(loud_db), scale.pitch_z(pitch_st)
+        # Head (sec. 5): eq. 5 start, Langevin steps on eq. 4.
         coeffs = m.head.frame_coefficients(pz, lz)
         start = self._prev1 + self._noise * self._rng.standard_normal(3)
-        pose, self._eta = m.head.ascend(start, self._prev1, self._prev2, self.fps, coeffs,
-                                        self._eta)
+        pose = m.head.sample(start, self._prev1, self._prev2, self.fps, coeffs, self._rng)
         self._prev2, self._prev1 = self._prev1, pose
-        # Gaze (sec. 6): eq. 13-15 on (pose, loudness).
-        h = np.array([pose[0], pose[1], pose[2], lz])
-        gaze, self._gaze_hat = m.gaze.step(h, self._gaze_hat, self._coupling)
-        # Eyelids (sec. 7): mode from loudness, blink clock, eq. 18.
+        # Mode (sec. 7.1) from loudness: drives the fixations and the blinks.
         if loud_db >= scale.threshold_db:
             self._last_loud = self.frame
         talking = self.frame - self._last_loud < self._window
-        closure = self._blinks.step(self.frame / self.fps, talking)
+        time = self.frame / self.fps
+        # Gaze (sec. 6): eq. 13-15 on (pose, loudness), plus the fixation offset.
+        h = np.array([pose[0], pose[1], pose[2], lz])
+        gaze, self._gaze_hat = m.gaze.step(h, self._gaze_hat, self._coupling)
+        gaze = gaze + self._fixations.step(time, talking)
+        # Eyelids (sec. 7): blink clock, eq. 18.
+        closure = self._blinks.step(time, talking)
         lids = m.eyelids.faps(m.eyelids.openness(gaze), closure)
         self.frame += 1
         out = np.empty(len(OUTPUT_CHANNELS))

@@ -14,8 +14,8 @@ from app.stimuli.live.eyelids import (
     blink_onsets,
     closure_from_faps,
     default_blink_params,
-    fit_blink_params,
     fit_eyelid_model,
+    fit_interval_params,
 )
 
 
@@ -34,7 +34,7 @@ def test_nnls_recovers_a_known_non_negative_coupling():
     rng = np.random.default_rng(0)
     n = 2000
     gaze = np.column_stack([rng.normal(0, 5, n), rng.normal(0, 4, n)])  # yaw, pitch-down
-    openness = 0.85 + 0.015 * -gaze[:, 1] + 0.004 * gaze[:, 0]
+    openness = 0.85 + 0.015 * -gaze[:, 1] + 0.004 * np.abs(gaze[:, 0])
     closure = 1 - openness
     lids = np.column_stack([0.7 * closure, 0.7 * closure, 0.3 * closure, 0.3 * closure]) * 1024
     model, summary = fit_eyelid_model(gaze, lids, np.ones(n, bool), 30.0)
@@ -43,6 +43,31 @@ def test_nnls_recovers_a_known_non_negative_coupling():
     assert summary["blinks"] == 0 and summary["blink_source"] == ["default", "default"]
     back, _ = closure_from_faps(model.faps(model.openness(gaze[0]), 0.0)[None])
     assert back[0] == pytest.approx(closure[0])
+
+
+def test_lids_follow_gaze_pitch_and_are_symmetric_in_yaw():
+    # Eq. 18 with a fitted coupling: looking down (positive FAP pitch) lowers the upper lid,
+    # looking up raises it; looking 10 deg left or right does the same to the lids.
+    model = EyelidModel(np.array([0.02, 0.003, 0.85]), default_blink_params(), 0.8)
+    ahead = model.faps(model.openness(np.array([0.0, 0.0])), 0.0)
+    down = model.faps(model.openness(np.array([0.0, 10.0])), 0.0)
+    up = model.faps(model.openness(np.array([0.0, -10.0])), 0.0)
+    assert down[0] == pytest.approx(ahead[0] + 0.2 * 0.8 * 1024)  # upper lid 19 lower
+    assert up[0] == pytest.approx(ahead[0] - 0.2 * 0.8 * 1024)
+    for pitch in (-8.0, 0.0, 6.0):
+        left = model.openness(np.array([10.0, pitch]))
+        right = model.openness(np.array([-10.0, pitch]))
+        assert left == right == pytest.approx(0.85 - 0.02 * pitch + 0.03)
+
+
+def test_a_one_sided_yaw_coupling_is_not_learned_as_open_one_way_close_the_other():
+    # Lids that open with |yaw| are recovered; a signed yaw coupling has no |yaw| part.
+    rng = np.random.default_rng(4)
+    gaze = np.column_stack([rng.normal(0, 6, 1000), np.zeros(1000)])
+    lids = np.column_stack([1 - (0.8 + 0.01 * gaze[:, 0])] * 2 + [np.zeros(1000)] * 2) * 1024
+    model, _ = fit_eyelid_model(gaze, lids, np.ones(1000, bool), 30.0)
+    assert model.cb[1] == pytest.approx(0.0, abs=1e-3)
+    assert model.openness(np.array([8.0, 0.0])) == model.openness(np.array([-8.0, 0.0]))
 
 
 def test_wrong_sign_coupling_is_clipped_to_zero():
@@ -60,7 +85,7 @@ def test_blink_parameters_recovered_from_onsets():
     gaps = np.exp(rng.normal(0.8, 0.3, 400))
     onsets = np.round(np.concatenate([[0.5], 0.5 + np.cumsum(gaps)]) * fps).astype(int)
     talking = np.ones(onsets[-1] + 1, bool)
-    params, sources, counts = fit_blink_params(onsets, talking, fps)
+    params, sources, counts = fit_interval_params(onsets, talking, fps)
     assert sources == ["fitted", "default"] and counts == [400, 0]
     assert params[0, 0] == pytest.approx(0.8, abs=0.04)
     assert params[0, 1] == pytest.approx(0.3, abs=0.03)

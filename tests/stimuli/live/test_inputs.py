@@ -1,10 +1,20 @@
-"""Speech input scaling and the causal talking/listening mode."""
+"""Speech input: the 3-frame contour smoothing, scaling and the causal talking mode."""
 
 from __future__ import annotations
 
 import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
 
-from app.stimuli.live.inputs import SpeechScale, loudness, semitones, talking_mode
+from app.stimuli.live.inputs import (
+    ContourSmoother,
+    SpeechScale,
+    loudness,
+    semitones,
+    smooth_contour,
+    smoothed_inputs,
+    talking_mode,
+)
 
 
 def test_semitones_and_unvoiced():
@@ -23,7 +33,7 @@ def test_scale_from_training_frames():
     assert scale.pitch_mean == 6.0 and scale.pitch_std == 6.0
     assert scale.loud_mean == 40.0  # -300 dB counted as 0 dB
     assert scale.threshold_db == 45.0  # median voiced loudness 65 dB - 20 dB
-    np.testing.assert_allclose(scale.pitch_z(f0)[:2], [-1.0, 1.0])
+    np.testing.assert_allclose(scale.pitch_z(semitones(f0))[:2], [-1.0, 1.0])
     assert SpeechScale.from_array(scale.to_array()) == scale
 
 
@@ -31,3 +41,32 @@ def test_talking_mode_holds_for_the_window_after_loud_frames():
     loud = np.array([0, 60, 0, 0, 0, 0, 60, 0, 0], dtype=float)
     mode = talking_mode(loud, 50.0, fps=10.0, window_s=0.3)
     assert mode.tolist() == [False, True, True, True, False, False, True, True, True]
+
+
+def test_smoothing_a_step_gives_the_three_frame_ramp():
+    step = np.r_[np.zeros(4), np.full(4, 30.0)]
+    np.testing.assert_allclose(smooth_contour(step), [0, 0, 0, 0, 10, 20, 30, 30])
+
+
+def test_smoothing_is_causal_and_skips_unvoiced_frames():
+    st_ = np.array([3.0, np.nan, 6.0, 9.0, np.nan, np.nan, np.nan, 12.0])
+    out = smooth_contour(st_)
+    np.testing.assert_allclose(out[[0, 2, 3, 7]], [3.0, 4.5, 7.5, 12.0])
+    assert np.isnan(out[[1, 4, 5, 6]]).all()  # unvoiced stays unvoiced
+    changed = st_.copy()
+    changed[5:] = 40.0
+    np.testing.assert_array_equal(smooth_contour(changed)[:5], out[:5])
+
+
+def test_smoothed_inputs_floor_loudness_and_convert_pitch():
+    pitch, loud = smoothed_inputs(np.array([100.0, 200.0, 0.0]), np.array([-300.0, 30.0, 60.0]))
+    np.testing.assert_allclose(pitch[:2], [0.0, 6.0])
+    np.testing.assert_allclose(loud, [0.0, 15.0, 30.0])
+
+
+@given(st.lists(st.one_of(st.none(), st.floats(-50, 50)), max_size=40))
+def test_streaming_smoother_equals_the_vectorised_filter_bit_for_bit(values):
+    x = np.array([np.nan if v is None else v for v in values], dtype=np.float64)
+    smoother = ContourSmoother()
+    streamed = np.array([smoother.step(float(v)) for v in x])
+    np.testing.assert_array_equal(streamed, smooth_contour(x))

@@ -43,6 +43,12 @@ def _rewrite(src, dst, change):
     np.savez(dst, **arrays)
 
 
+def _with_meta(arrays, **changes) -> np.ndarray:
+    meta = json.loads(arrays["meta"].tobytes().decode())
+    meta.update(changes)
+    return np.frombuffer(json.dumps(meta).encode(), np.uint8)
+
+
 def _one_line_error(path) -> str:
     with pytest.raises(InputError) as info:
         load_model(path)
@@ -80,6 +86,16 @@ def test_mismatched_files_name_the_field(live_model, tmp_path):
         "format": (lambda a: a.update(meta=np.frombuffer(b'{"format": "x"}', np.uint8)),
                    "meta.format"),
         "json": (lambda a: a.update(meta=np.frombuffer(b"{not json", np.uint8)), "meta"),
+        "fixation sd": (lambda a: a.update(gaze_fixation_offsets=-a["gaze_fixation_offsets"]
+                                           - 1.0), "gaze_fixation_offsets"),
+        "interval sd": (lambda a: a.update(gaze_fixation_intervals=np.zeros((2, 2))),
+                        "gaze_fixation_intervals"),
+        "step sd": (lambda a: a.update(head_step_std=np.zeros(3)), "head_step_std"),
+        "version 1": (lambda a: a.update(meta=np.frombuffer(json.dumps(
+            {"format": "facepair-live-gmm", "version": 1}).encode(), np.uint8)),
+            "version 1, this program reads version 2"),
+        "proposal": (lambda a: a.update(meta=_with_meta(a, head={"n_iter": 17,
+                                                                 "proposal": -1.0})), "meta"),
     }
     for name, (change, field) in cases.items():
         bad = tmp_path / f"{name}.npz"

@@ -3,12 +3,18 @@ log-normals per mode; head motion beats the random condition on held-out referen
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import stats
 
 from app.stimuli.features import SpeechFeatures
+from app.stimuli.live.condition import DEFAULT_MODEL_PATH
 from app.stimuli.live.eyelids import BLINK_SHAPE, blink_onsets, closure_from_faps
+from app.stimuli.live.model import load_model
 from app.stimuli.live.stream import OUTPUT_CHANNELS, LiveGenerator, generate_track
 
 
@@ -42,6 +48,23 @@ def test_same_seed_same_frames_other_seed_other_frames(live_model, speech):
     assert a.equals(generate_track(live_model, speech, seed=5))
     assert not np.allclose(a[48], generate_track(live_model, speech, seed=6)[48])
     assert np.all(np.isfinite(a.values))
+
+
+@functools.cache
+def _default_model():
+    return load_model(DEFAULT_MODEL_PATH)
+
+
+_readings = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.just(0.0))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(_readings, _readings), min_size=1, max_size=12))
+def test_any_feature_values_give_finite_frames(frames):
+    # NaN, infinite, negative, huge: no exception, and every FAP value is a number.
+    gen = LiveGenerator(_default_model(), seed=0)
+    for f0, intensity in frames:
+        assert np.all(np.isfinite(gen.step(f0, intensity)))
 
 
 def test_audio_blocks_of_any_size_give_the_same_frames(live_model):

@@ -1,0 +1,156 @@
+"""Held-out evaluation of the live generator against a ground truth's motion statistics.
+
+Le, Ma & Deng 2012 judge their generator by paired comparisons with the captured motion (sec.
+8.1); before any study, the generated motion should at least move like the ground truth. This
+module measures, on speech the model was not trained on, per channel:
+
+- the standard deviation of the generated motion and its ratio to the ground truth's (head
+  pitch, yaw, roll and gaze yaw, pitch; degrees);
+- the share of the variance above 4 Hz (:func:`high_frequency_fraction`): jitter that a head
+  or a fixating eye does not have;
+- the Pearson correlation with the ground truth (the speech-driven part it can recover);
+- the blink rate (blinks per minute, onsets of the lid closure through 50 %).
+
+:func:`held_out_split` makes the explicit split: training takes in the training voices of
+:mod:`app.stimuli.live.corpus` with the reference speaker's motion of some seeds, test takes in
+the test voices with other seeds; :func:`evaluate_held_out` generates on the test takes only.
+
+Example
+-------
+>>> import numpy as np
+>>> t = np.arange(300) / 30.0
+>>> round(high_frequency_fraction(np.sin(2 * np.pi * t) + np.sin(2 * np.pi * 6 * t), 30.0), 3)
+0.5
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import parselmouth
+
+from app.stimuli.features import SpeechFeatures
+from app.stimuli.live.corpus import TEST_VOICES, TRAIN_VOICES, speech_take
+from app.stimuli.live.eyelids import blink_onsets, closure_from_faps
+from app.stimuli.live.model import LiveModel, gaze_angles, head_angles
+from app.stimuli.live.stream import generate_track
+from app.stimuli.reference_speaker import synthesize_reference
+from app.stimuli.track import MotionTrack
+
+#: Channels measured, in the order of :attr:`HeldOutFigures.sd` etc.
+CHANNELS = ("head pitch", "head yaw", "head roll", "gaze yaw", "gaze pitch")
+#: Frequency above which motion counts as jitter (Hz).
+JITTER_HZ = 4.0
+
+
+def high_frequency_fraction(x: np.ndarray, fps: float, cutoff_hz: float = JITTER_HZ) -> float:
+    """Share of the variance of ``x`` (a signal sampled at ``fps``) above ``cutoff_hz``: the
+    periodogram of the mean-removed signal summed above the cutoff over its sum above 0 Hz
+    (0 for a constant signal)."""
+    x = np.asarray(x, dtype=np.float64)
+    power = np.abs(np.fft.rfft(x - x.mean())) ** 2
+    freqs = np.fft.rfftfreq(len(x), 1.0 / fps)
+    total = power[freqs > 0].sum()
+    return float(power[freqs > cutoff_hz].sum() / total) if total > 0 else 0.0
+
+
+def blink_rate(track: MotionTrack) -> float:
+    """Blinks per minute in ``track``'s eyelids (FAPs 19-22): onsets of closure through 50 %."""
+    closure, _ = closure_from_faps(track.dense()[:, [18, 19, 20, 21]])
+    return 60.0 * len(blink_onsets(closure)) / track.duration if track.n_frames else 0.0
+
+
+def motion_channels(track: MotionTrack) -> np.ndarray:
+    """(n, 5) head pitch, yaw, roll and gaze yaw, pitch in degrees (see :data:`CHANNELS`)."""
+    yaw, pitch, roll = head_angles(track).T
+    return np.column_stack([pitch, yaw, roll, gaze_angles(track)])
+
+
+@dataclass(frozen=True)
+class HeldOutFigures:
+    """Figures per channel of :data:`CHANNELS` (means over test takes and generation seeds)."""
+
+    sd: np.ndarray  # generated sd, degrees
+    sd_truth: np.ndarray  # ground truth sd, degrees
+    jitter: np.ndarray  # generated share of variance above JITTER_HZ
+    jitter_truth: np.ndarray
+    correlation: np.ndarray  # Pearson r, generated vs ground truth
+    blinks_per_min: float
+    blinks_per_min_truth: float
+
+    @property
+    def sd_ratio(self) -> np.ndarray:
+        return self.sd / np.where(self.sd_truth > 0, self.sd_truth, np.nan)
+
+    def table(self) -> str:
+        """The figures as a plain-text table."""
+        rows = [f"{'channel':<11} {'sd':>6} {'truth':>6} {'ratio':>6} {'>4Hz':>6} "
+                f"{'truth':>6} {'r':>6}"]
+        for i, name in enumerate(CHANNELS):
+            rows.append(f"{name:<11} {self.sd[i]:6.2f} {self.sd_truth[i]:6.2f} "
+                        f"{self.sd_ratio[i]:6.2f} {self.jitter[i]:6.3f} "
+                        f"{self.jitter_truth[i]:6.3f} {self.correlation[i]:6.2f}")
+        rows.append(f"blinks/min  {self.blinks_per_min:6.1f} {self.blinks_per_min_truth:6.1f}")
+        return "\n".join(rows)
+
+
+def _corr(a: np.ndarray, b: np.ndarray) -> float:
+    if a.std() == 0 or b.std() == 0:
+        return 0.0
+    return float(np.corrcoef(a, b)[0, 1])
+
+
+def compare_motion(generated: MotionTrack, truth: MotionTrack) -> HeldOutFigures:
+    """Figures of one generated track against the ground truth of the same speech."""
+    n = min(generated.n_frames, truth.n_frames)
+    g, t = motion_channels(generated)[:n], motion_channels(truth)[:n]
+    fps = generated.fps
+    return HeldOutFigures(
+        g.std(axis=0), t.std(axis=0),
+        np.array([high_frequency_fraction(g[:, i], fps) for i in range(5)]),
+        np.array([high_frequency_fraction(t[:, i], fps) for i in range(5)]),
+        np.array([_corr(g[:, i], t[:, i]) for i in range(5)]),
+        blink_rate(generated), blink_rate(truth))
+
+
+def mean_figures(figures: Sequence[HeldOutFigures]) -> HeldOutFigures:
+    """Average of several comparisons (each take and seed weighs the same)."""
+    def avg(name: str) -> np.ndarray:
+        return np.mean([getattr(f, name) for f in figures], axis=0)
+
+    return HeldOutFigures(avg("sd"), avg("sd_truth"), avg("jitter"), avg("jitter_truth"),
+                          avg("correlation"), float(avg("blinks_per_min")),
+                          float(avg("blinks_per_min_truth")))
+
+
+def evaluate_held_out(model: LiveModel, takes: Sequence[tuple[SpeechFeatures, MotionTrack]],
+                      seeds: Sequence[int] = (0, 1)) -> HeldOutFigures:
+    """Generate on every test take with every seed and compare with its ground truth."""
+    return mean_figures([compare_motion(generate_track(model, feats, seed=s), truth)
+                         for feats, truth in takes for s in seeds])
+
+
+@dataclass(frozen=True)
+class HeldOutSplit:
+    """Training and test takes, (features, ground truth) each; no take is in both."""
+
+    train: list[tuple[SpeechFeatures, MotionTrack]]
+    test: list[tuple[SpeechFeatures, MotionTrack]]
+
+
+def held_out_split(sound: parselmouth.Sound, *, train_takes: int = 3, test_takes: int = 4,
+                   seconds: float = 120.0, fps: float = 30.0) -> HeldOutSplit:
+    """The standard split on one recording: training takes ``0 .. train_takes-1`` in
+    :data:`~app.stimuli.live.corpus.TRAIN_VOICES` with reference-speaker seeds equal to the take
+    number; test takes in :data:`~app.stimuli.live.corpus.TEST_VOICES` with take and speaker
+    seeds from 100 on. Every take is ``seconds`` long."""
+    def takes(voices: tuple, first: int, count: int) -> list:
+        out = []
+        for i in range(first, first + count):
+            feats = speech_take(sound, voices, seconds, seed=i, fps=fps)
+            out.append((feats, synthesize_reference(feats, seed=i)))
+        return out
+
+    return HeldOutSplit(takes(TRAIN_VOICES, 0, train_takes), takes(TEST_VOICES, 100, test_takes))
