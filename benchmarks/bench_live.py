@@ -3,7 +3,7 @@
 Runs the streaming generator of ``app.stimuli.live`` with the shipped default model over the
 demo speech's features (tiled to ``--frames`` frames) one frame at a time and prints the
 latency distribution of ``LiveGenerator.step``; then the same from audio, one frame's block of
-samples at a time (``push_audio``: causal pitch/intensity + the step). Targets (issue 3):
+samples at a time (``push_audio``: causal pitch/intensity + the step). Targets:
 median <= 1 ms, 99th percentile <= 3 ms per frame.
 
     PYTHONPATH=$PWD python benchmarks/bench_live.py [--frames 6000] [--model PATH]

@@ -1,6 +1,6 @@
 """Vote rules: when a clip may be (re)played, when a vote may be cast, which choices exist.
 
-Replay policies (issue 6): ``unlimited`` follows Le, Ma & Deng 2012, sec. 8.1 ("they can view
+Replay policies: ``unlimited`` follows Le, Ma & Deng 2012, sec. 8.1 ("they can view
 the clips for unlimited times before made their decisions"); ``max_plays`` caps the number of
 plays; ``play_to_end`` requires the clip to have played through once before a vote, so no vote
 is cast on a half-seen animation (the thesis, sec. 5.1, played both animations "in synchrony"
