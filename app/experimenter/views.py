@@ -27,10 +27,11 @@ from wtforms import SelectChoice
 from app.errors import InputError
 from app.experimenter.auth import authenticate, current_user, login_required
 from app.experimenter.forms import ActionForm, LoginForm, StudyFileForm, StudyWebForm
-from app.extensions import db
+from app.extensions import db, limiter
 from app.jobs import enqueue
 from app.jobs.tasks import JOB_KINDS
 from app.models import Job, Stimulus, Study
+from app.security import REPORT_CONTENT_SECURITY_POLICY, safe_next
 from app.storage import media_file
 
 bp = Blueprint("experimenter", __name__, url_prefix="/experimenter")
@@ -54,7 +55,32 @@ def _dropped_after() -> dt.timedelta:
     return dt.timedelta(minutes=current_app.config["DROPPED_AFTER_MINUTES"])
 
 
+def _account_limits() -> str:
+    return current_app.config["LOGIN_LIMIT_PER_ACCOUNT"]
+
+
+def _address_limits() -> str:
+    return current_app.config["LOGIN_LIMIT_PER_ADDRESS"]
+
+
+def _login_account() -> str:
+    return "account:" + request.form.get("email", "").strip().lower()[:200]
+
+
+def _login_address() -> str:
+    return "address:" + (request.remote_addr or "unknown")
+
+
+def _login_failed(response: Response) -> bool:
+    # Only failed attempts count: a successful login redirects.
+    return response.status_code != 302
+
+
 @bp.route("/login", methods=["GET", "POST"])
+@limiter.limit(_account_limits, key_func=_login_account, methods=["POST"],
+               deduct_when=_login_failed, scope="login-account")
+@limiter.limit(_address_limits, key_func=_login_address, methods=["POST"],
+               deduct_when=_login_failed, scope="login-address")
 def login():  # type: ignore[no-untyped-def]
     form = LoginForm()
     if form.validate_on_submit():
@@ -62,11 +88,8 @@ def login():  # type: ignore[no-untyped-def]
         if user is not None:
             session.clear()
             session["user_id"] = user.id
-            target = request.args.get("next", "")
-            # Only local paths: an open redirect would hand the session to another site.
-            if not target.startswith("/") or target.startswith("//"):
-                target = url_for(".studies")
-            return redirect(target)
+            # Only paths on this site: an open redirect would hand the login to another site.
+            return redirect(safe_next(request.args.get("next"), url_for(".studies")))
         flash("Unknown e-mail or wrong password.", "error")
     return render_template("experimenter/login.html", form=form)
 
@@ -273,7 +296,9 @@ def report(study_id: int, name: str = "report.html"):  # type: ignore[no-untyped
             abort(404)
         return render_template("experimenter/no_report.html", study=study,
                                action=ActionForm()), 404
-    return send_file(path, max_age=0)
+    response = send_file(path, max_age=0)
+    response.headers["Content-Security-Policy"] = REPORT_CONTENT_SECURITY_POLICY
+    return response
 
 
 @bp.get("/studies/<int:study_id>/stimuli/<int:stimulus_id>.mp4")

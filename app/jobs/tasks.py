@@ -170,6 +170,7 @@ def run_job_standalone(job_id: int) -> None:
     """Entry point for the RQ worker: builds the app from the environment."""
     from app import create_app
 
-    with create_app().app_context():
+    # A job signs no session: it needs no deployment key.
+    with create_app({"REQUIRE_SECRET_KEY": False}).app_context():
         run_job(job_id)
 

@@ -54,12 +54,45 @@ def test_study_create_errors_are_one_line(app, monkeypatch, tmp_path, web):
     assert "Traceback" not in result.output
 
 
-def test_demo_sets_up_a_ready_study(app, monkeypatch, tmp_path, web):
-    """The demo's wiring, with generation and rendering stubbed (the pipeline is tested on its
-    own); the study file is the repository's example."""
+def test_serve_refuses_to_start_without_a_real_key(monkeypatch, tmp_path):
+    from app.commands import web as commands
+
+    started = []
+    monkeypatch.setattr(commands, "_serve", lambda *args: started.append(args))
+    monkeypatch.setenv("FACEPAIR_INSTANCE", str(tmp_path))
+    for key in (None, "dev-only-change-me"):
+        if key is None:
+            monkeypatch.delenv("SECRET_KEY", raising=False)
+        else:
+            monkeypatch.setenv("SECRET_KEY", key)
+        result = CliRunner().invoke(main, ["serve"])
+        assert result.exit_code == 2 and started == []
+        assert result.output.startswith("facepair: error: SECRET_KEY: ")
+        assert result.output.count("\n") == 1 and "Traceback" not in result.output
+    monkeypatch.setenv("SECRET_KEY", "a-long-random-deployment-key")
+    assert CliRunner().invoke(main, ["serve"]).exit_code == 0 and len(started) == 1
+
+
+def test_demo_refuses_any_other_database(app, monkeypatch, tmp_path):
+    """The demo writes a publicly known login: never into a database named by DATABASE_URL."""
+    monkeypatch.setenv("FACEPAIR_INSTANCE", str(tmp_path / "instance"))
+    _env(monkeypatch, app)
+    result = CliRunner().invoke(main, ["demo", "--no-serve"])
+    assert result.exit_code == 2 and "DATABASE_URL: the demo runs only on" in result.output
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count(User.id))) == 0
+
+
+def test_demo_sets_up_a_ready_study(monkeypatch, tmp_path, web):
+    """The demo's wiring on its embedded SQLite file, with generation and rendering stubbed
+    (the pipeline is tested on its own); the study file is the repository's example."""
+    from app import create_app
     from app.jobs import tasks
 
-    _env(monkeypatch, app)
+    instance = tmp_path / "instance"
+    monkeypatch.setenv("FACEPAIR_INSTANCE", str(instance))
+    for name in ("DATABASE_URL", "SECRET_KEY", "MEDIA_ROOT"):
+        monkeypatch.delenv(name, raising=False)
 
     def fake_generate(study, progress):
         progress(1, 1)
@@ -84,6 +117,10 @@ def test_demo_sets_up_a_ready_study(app, monkeypatch, tmp_path, web):
     assert result.exit_code == 0, result.output
     assert "participant:   http://127.0.0.1:5077/s/" in result.output
     assert "login:         demo@facepair.local / facepair-demo" in result.output
+    key = (instance / "secret_key").read_text().strip()
+    assert len(key) >= 32 and (instance / "secret_key").stat().st_mode & 0o077 == 0
+    app = create_app({"TESTING": True})
+    assert app.config["SQLALCHEMY_DATABASE_URI"].endswith("instance/facepair.sqlite")
     with app.app_context():
         user = db.session.scalar(sa.select(User).where(User.email == "demo@facepair.local"))
         assert user.check_password("facepair-demo")
@@ -92,5 +129,7 @@ def test_demo_sets_up_a_ready_study(app, monkeypatch, tmp_path, web):
     # Running it again reuses the open demo study.
     again = CliRunner().invoke(main, ["demo", "--no-serve", "--study-file", str(path)])
     assert again.exit_code == 0 and study.slug in again.output
+    assert (instance / "secret_key").read_text().strip() == key
     with app.app_context():
         assert db.session.scalar(sa.select(sa.func.count(Study.id))) == 1
+        db.engine.dispose()
