@@ -1,10 +1,15 @@
-"""Wiring of the web layer: models, blueprints, per-request unit of work, SQLite pragmas."""
+"""Wiring of the web layer: models, blueprints, per-request unit of work, SQLite pragmas, and
+bounded input (``app.limits``): a value no column can hold is a 400 naming the field, an
+identifier in a URL that no row can have is a 404, never a database error."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
 import sqlalchemy as sa
+from flask import abort, render_template
+
+from app.errors import InputError
 
 if TYPE_CHECKING:
     from flask import Flask
@@ -19,8 +24,30 @@ def _sqlite_pragmas(dbapi_connection, _record) -> None:  # type: ignore[no-untyp
     cursor.close()
 
 
+def _identifier_fits(value: object) -> bool:
+    from app.limits import INT32, text_problem
+
+    if isinstance(value, int):
+        return INT32[0] <= value <= INT32[1]
+    return not isinstance(value, str) or text_problem(value, 500) is None
+
+
+def _bad_input(exc: InputError):  # type: ignore[no-untyped-def]
+    from flask import jsonify, request
+
+    from app.extensions import db
+
+    db.session.rollback()
+    if request.blueprint == "api" or request.accept_mimetypes.best == "application/json":
+        return jsonify({"error": str(exc)}), 400
+    return render_template("error.html", message=str(exc), status=400), 400
+
+
 def init_web(app: Flask) -> None:
-    from app import models  # noqa: F401  (the models register on db.metadata)
+    from app import (
+        limits,
+        models,  # noqa: F401  (the models register on db.metadata)
+    )
     from app.api.views import bp as api_bp
     from app.experimenter.views import bp as experimenter_bp
     from app.extensions import csrf, db
@@ -32,6 +59,15 @@ def init_web(app: Flask) -> None:
     # The JSON API authenticates participants by the token in the request body, not a cookie,
     # so a cross-site form cannot forge a vote; experimenter endpoints there are GET only.
     csrf.exempt(api_bp)
+
+    limits.install(db.session)
+    app.register_error_handler(InputError, _bad_input)
+
+    @app.url_value_preprocessor
+    def _identifiers_must_fit(_endpoint: str | None, values: dict | None) -> None:
+        # Tokens, slugs and ids in URLs name rows: one no column can hold names nothing.
+        if values and not all(_identifier_fits(v) for v in values.values()):
+            abort(404)
 
     if app.config["SQLALCHEMY_DATABASE_URI"].startswith("sqlite"):
         with app.app_context():

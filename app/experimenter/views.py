@@ -174,6 +174,7 @@ def new_study():  # type: ignore[no-untyped-def]
     web_form = StudyWebForm(prefix="web")
     web_form.models.choices = [SelectChoice(m) for m in MODELS]
     study = None
+    source = "form"
     try:
         with tempfile.TemporaryDirectory(prefix="facepair-upload-") as tmp:
             folder = Path(tmp)
@@ -181,8 +182,8 @@ def new_study():  # type: ignore[no-untyped-def]
                 upload = file_form.study_file.data
                 text = upload.read().decode("utf-8", errors="replace")
                 _save_uploads(file_form.media.data or [], folder)
-                spec = loads_study(text, source=secure_filename(upload.filename) or "study.toml",
-                                   base_dir=folder, confine=True)
+                source = secure_filename(upload.filename) or "study.toml"
+                spec = loads_study(text, source=source, base_dir=folder, confine=True)
                 study = create_study(current_user(), spec, source_toml=text)  # type: ignore[arg-type]
             elif web_form.submit.data and web_form.validate_on_submit():
                 spec = parse_study(_web_form_mapping(web_form, folder), source="form",
@@ -190,7 +191,9 @@ def new_study():  # type: ignore[no-untyped-def]
                 study = create_study(current_user(), spec)  # type: ignore[arg-type]
     except InputError as exc:
         db.session.rollback()
-        flash(str(exc), "error")
+        # A value the columns cannot hold is found when the rows are written: name the file.
+        flash(str(exc if exc.path else InputError(exc.message, path=source, field=exc.field)),
+              "error")
         return render_template("experimenter/new_study.html", file_form=file_form,
                                web_form=web_form), 400
     if study is not None:
