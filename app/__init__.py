@@ -56,6 +56,8 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
         # Minutes without activity after which an unfinished participant counts as dropped.
         DROPPED_AFTER_MINUTES=30,
         MAX_CONTENT_LENGTH=200 * 1024 * 1024,
+        # Seconds a client is asked to wait (Retry-After) while the database is unreachable.
+        RETRY_AFTER_SECONDS=5,
     )
     app.config.from_pyfile("config.py", silent=True)
     if os.environ.get("DATABASE_URL"):

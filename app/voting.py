@@ -25,10 +25,12 @@ from app.models import Participant, Trial, Vote, utcnow
 class VoteRejected(Exception):
     """The request cannot be a vote of this participant; ``status`` is the HTTP status."""
 
-    def __init__(self, message: str, status: int = 400) -> None:
+    def __init__(self, message: str, status: int = 400, *, closed: bool = False) -> None:
         super().__init__(message)
         self.message = message
         self.status = status
+        #: Refused for good: the study takes no more answers (the browser stops resending).
+        self.closed = closed
 
 
 @dataclass(frozen=True)
@@ -76,7 +78,7 @@ def validate(participant: Participant, payload: dict[str, Any]) -> tuple[Trial, 
     """Check a vote request against the participant's schedule and the study's rules."""
     study = participant.study
     if study.status not in ("open", "paused"):
-        raise VoteRejected("this study is closed", 409)
+        raise VoteRejected("this study is closed", 409, closed=True)
     trial_id = _int_field(payload, "trial_id", Trial.id, required=True)
     trial = db.session.get(Trial, trial_id)
     # Another participant's trial is reported exactly like a missing one: nothing leaks.

@@ -33,14 +33,44 @@ def _identifier_fits(value: object) -> bool:
 
 
 def _bad_input(exc: InputError):  # type: ignore[no-untyped-def]
-    from flask import jsonify, request
+    from flask import jsonify
 
     from app.extensions import db
 
     db.session.rollback()
-    if request.blueprint == "api" or request.accept_mimetypes.best == "application/json":
+    if _wants_json():
         return jsonify({"error": str(exc)}), 400
     return render_template("error.html", message=str(exc), status=400), 400
+
+
+def _wants_json() -> bool:
+    from flask import request
+
+    return request.blueprint == "api" or request.accept_mimetypes.best == "application/json"
+
+
+def _database_unavailable(exc: Exception):  # type: ignore[no-untyped-def]
+    """The database cannot be reached (or is restarting): 503 with Retry-After, so the
+    participant's browser keeps the vote and sends it again, instead of a 500."""
+    from flask import current_app, jsonify
+
+    from app.extensions import db
+
+    current_app.logger.warning("database unavailable: %s", str(exc).splitlines()[0])
+    try:
+        db.session.rollback()
+    except sa.exc.SQLAlchemyError:
+        pass  # the connection is already gone; the session is removed at teardown
+    message = "the database is unavailable for a moment; please try again"
+    seconds = str(current_app.config["RETRY_AFTER_SECONDS"])
+    if _wants_json():
+        response = jsonify({"error": message})
+    else:
+        response = current_app.make_response(
+            render_template("error.html", message=message, status=503))
+    response.status_code = 503
+    response.headers["Retry-After"] = seconds
+    return response
 
 
 def init_web(app: Flask) -> None:
@@ -62,6 +92,9 @@ def init_web(app: Flask) -> None:
 
     limits.install(db.session)
     app.register_error_handler(InputError, _bad_input)
+    # Connection refused, a server restarting, a pool that cannot hand out a connection.
+    for error in (sa.exc.OperationalError, sa.exc.InterfaceError, sa.exc.TimeoutError):
+        app.register_error_handler(error, _database_unavailable)
 
     @app.url_value_preprocessor
     def _identifiers_must_fit(_endpoint: str | None, values: dict | None) -> None:

@@ -57,6 +57,8 @@ def post_vote():  # type: ignore[no-untyped-def]
         outcome = record_vote(participant, payload)
     except VoteRejected as exc:
         db.session.rollback()
+        if exc.closed:
+            return jsonify({"error": exc.message, "closed": True}), exc.status
         return _error(exc.message, exc.status)
     vote = outcome.vote
     body = {

@@ -32,7 +32,7 @@ from app.jobs import enqueue
 from app.jobs.tasks import JOB_KINDS
 from app.models import Job, Stimulus, Study
 from app.security import REPORT_CONTENT_SECURITY_POLICY, safe_next
-from app.storage import media_file
+from app.storage import disk_full, disk_full_message, media_file
 
 bp = Blueprint("experimenter", __name__, url_prefix="/experimenter")
 
@@ -189,6 +189,13 @@ def new_study():  # type: ignore[no-untyped-def]
                 spec = parse_study(_web_form_mapping(web_form, folder), source="form",
                                    base_dir=folder, confine=True)
                 study = create_study(current_user(), spec)  # type: ignore[arg-type]
+    except OSError as exc:
+        if not disk_full(exc):
+            raise
+        db.session.rollback()
+        flash(disk_full_message(exc), "error")
+        return render_template("experimenter/new_study.html", file_form=file_form,
+                               web_form=web_form), 507
     except InputError as exc:
         db.session.rollback()
         # A value the columns cannot hold is found when the rows are written: name the file.

@@ -15,7 +15,7 @@ import sqlalchemy as sa
 
 from app.extensions import db, transaction
 from app.models import Clip, Job, Stimulus, Study, Track, utcnow
-from app.storage import media_dir
+from app.storage import disk_full, disk_full_message, media_dir
 
 log = logging.getLogger(__name__)
 
@@ -134,6 +134,14 @@ def build_report(study: Study, progress: Callable[[int, int], None]) -> str:
     return f"report written: {path.name}"
 
 
+def failure_message(exc: BaseException) -> str:
+    """What the experimenter reads on a failed job's row."""
+    if disk_full(exc):
+        return disk_full_message(exc)  # type: ignore[arg-type]
+    text = str(exc)
+    return text if text.startswith(type(exc).__name__) else f"{type(exc).__name__}: {text}"
+
+
 TASKS: dict[str, Callable[[Study, Callable[[int, int], None]], str]] = {
     "generate": generate_tracks, "render": render_clips, "report": build_report}
 
@@ -155,8 +163,7 @@ def run_job(job_id: int, *, echo: Callable[[int, int], None] | None = None) -> s
     except Exception as exc:  # noqa: BLE001 - every failure must reach the experimenter
         db.session.rollback()
         log.exception("job %s (%s) failed", job_id, kind)
-        message = f"{type(exc).__name__}: {exc}" if not str(exc).startswith(type(exc).__name__) \
-            else str(exc)
+        message = failure_message(exc)
         status = "failed"
     with transaction() as session:
         job = session.get(Job, job_id)

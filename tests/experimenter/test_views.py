@@ -301,3 +301,65 @@ def test_render_before_generate_fails_visibly(app, client, web, fake_renderer):
         job = db.session.scalar(sa.select(Job).where(Job.study_id == study_id))
         assert job.status == "failed" and "generate the tracks first" in job.message
     assert _post(client, f"/experimenter/studies/{study_id}/jobs/bogus").status_code == 400
+
+
+def test_disk_full_on_upload_is_507_and_leaves_nothing(app, client, web, tmp_path, monkeypatch):
+    import errno
+    import shutil
+
+    from app import studies
+
+    copied = []
+    copyfile = shutil.copyfile
+
+    def copy_until_full(source, target):
+        if copied:
+            raise OSError(errno.ENOSPC, "No space left on device", str(target))
+        copied.append(copyfile(source, target))
+
+    monkeypatch.setattr(studies.shutil, "copyfile", copy_until_full)
+    wav = web.write_wav(tmp_path / "s1.wav")
+    track = tmp_path / "t.fap"
+    from app.stimuli.fapfile import write_fap
+    from app.stimuli.track import MotionTrack
+
+    write_fap(MotionTrack.zeros(30.0, 15, channels=(48,)), track)
+    text = web.toml().replace('[[clips]]', '[[conditions]]\nname = "up"\n'
+                              'tracks = { s1 = "t.fap" }\n\n[[clips]]')
+    web.user()
+    web.login(client)
+    page = client.get("/experimenter/studies/new").get_data(as_text=True)
+    token = re.search(r'name="file-csrf_token" type="hidden" value="([^"]+)"', page).group(1)
+    response = client.post("/experimenter/studies/new", content_type="multipart/form-data", data={
+        "file-csrf_token": token, "file-submit": "1",
+        "file-study_file": (io.BytesIO(text.encode()), "study.toml"),
+        "file-media": [(io.BytesIO(p.read_bytes()), p.name) for p in (wav, track)]})
+    assert response.status_code == 507
+    assert "disk is full writing s1.fap" in response.get_data(as_text=True)
+    assert copied  # the first file was written, then the disk filled up
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count()).select_from(Study)) == 0
+    from pathlib import Path
+
+    assert not list(Path(app.config["MEDIA_ROOT"]).glob("study-*"))
+
+
+def test_disk_full_in_a_job_is_its_error(app, web, monkeypatch):
+    import errno
+
+    from app.jobs import tasks
+    from app.jobs.tasks import run_job
+
+    def full(study, progress):
+        raise OSError(errno.ENOSPC, "No space left on device", "/srv/media/videos/a.mp4")
+
+    monkeypatch.setitem(tasks.TASKS, "render", full)
+    study_id = web.study(video=False)
+    with app.app_context():
+        job = Job(study_id=study_id, kind="render")
+        db.session.add(job)
+        db.session.commit()
+        assert run_job(job.id) == "failed"
+        db.session.refresh(job)
+        assert job.message == ("the server's disk is full writing a.mp4; free some space and "
+                               "try again")
