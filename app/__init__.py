@@ -51,8 +51,11 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
         SQLALCHEMY_ENGINE_OPTIONS={"pool_pre_ping": True},
         MEDIA_ROOT=os.path.join(app.instance_path, "media"),
         REDIS_URL=None,
-        # "thread": a local worker thread; "inline": run at once (tests); RQ if REDIS_URL is set.
-        JOB_RUNNER="thread",
+        # "process": a spawned local process; "inline": run at once (tests); RQ if REDIS_URL
+        # is set (app.jobs).
+        JOB_RUNNER="process",
+        # A running job silent this long (its process died) is swept as failed.
+        JOB_STALE_AFTER_SECONDS=900,
         # Minutes without activity after which an unfinished participant counts as dropped.
         DROPPED_AFTER_MINUTES=30,
         MAX_CONTENT_LENGTH=200 * 1024 * 1024,

@@ -280,6 +280,9 @@ class Job(db.Model):
     message: so.Mapped[str] = so.mapped_column(sa.Text, default="")
     created_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
     finished_at: so.Mapped[dt.datetime | None]
+    #: Last sign of life from the process running it (start and every progress report); a
+    #: running job silent for longer than JOB_STALE_AFTER_SECONDS is swept as failed.
+    heartbeat_at: so.Mapped[dt.datetime | None]
 
     study: so.Mapped[Study] = so.relationship()
 

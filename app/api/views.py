@@ -90,4 +90,9 @@ def job_status(job_id: int):  # type: ignore[no-untyped-def]
     job = db.session.get(Job, job_id)
     if job is None or job.study.owner_id != user.id:
         abort(404)
+    if job.status in ("queued", "running"):
+        from app.jobs.tasks import sweep_study_jobs
+
+        sweep_study_jobs(job.study_id)
+        db.session.refresh(job)
     return jsonify(job.as_dict())

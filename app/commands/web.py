@@ -87,6 +87,32 @@ def _run_jobs(study_id: int, kinds: tuple[str, ...]) -> None:
             raise click.ClickException(f"{kind} failed: {job.message}")  # type: ignore[union-attr]
 
 
+def _jobs_child(study_id: int, kinds: tuple[str, ...], config: dict[str, Any]) -> None:
+    app = _app(**config)
+    try:
+        with _context(app):
+            _run_jobs(study_id, kinds)
+    except click.ClickException as exc:
+        click.echo(f"facepair: error: {exc.message}", err=True)
+        raise SystemExit(1) from None
+
+
+def _run_jobs_apart(app, study_id: int, kinds: tuple[str, ...]) -> None:  # type: ignore[no-untyped-def]
+    """:func:`_run_jobs` in a spawned process: a process that is about to serve (and fork
+    gunicorn workers) must never hold a GL context, or the forked workers hang in it."""
+    import multiprocessing
+
+    config = {"REQUIRE_SECRET_KEY": False, "SQLALCHEMY_DATABASE_URI":
+              app.config["SQLALCHEMY_DATABASE_URI"], "MEDIA_ROOT": app.config["MEDIA_ROOT"]}
+    process = multiprocessing.get_context("spawn").Process(
+        target=_jobs_child, args=(study_id, kinds, config), name="facepair-demo-jobs")
+    process.start()
+    process.join()
+    if process.exitcode != 0:
+        raise click.ClickException(f"{' and '.join(kinds)} of study {study_id} failed "
+                                   f"(exit code {process.exitcode})")
+
+
 def _create_study(path: Path, owner_email: str) -> int:
     import sqlalchemy as sa
 
@@ -232,7 +258,7 @@ def demo(host: str, port: int, study_file: Path, no_serve: bool) -> None:
         if study is None:
             click.echo(f"creating the demo study from {study_file} ...", err=True)
             study_id = _create_study(study_file, DEMO_EMAIL)
-            _run_jobs(study_id, ("generate", "render"))
+            _run_jobs_apart(app, study_id, ("generate", "render"))
             study = db.session.get(Study, study_id)
             study.status = "open"  # type: ignore[union-attr]
             db.session.commit()

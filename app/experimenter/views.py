@@ -29,7 +29,7 @@ from app.experimenter.auth import authenticate, current_user, login_required
 from app.experimenter.forms import ActionForm, LoginForm, StudyFileForm, StudyWebForm
 from app.extensions import db, limiter
 from app.jobs import enqueue
-from app.jobs.tasks import JOB_KINDS
+from app.jobs.tasks import JOB_KINDS, sweep_study_jobs
 from app.models import Job, Stimulus, Study
 from app.security import REPORT_CONTENT_SECURITY_POLICY, safe_next
 from app.storage import disk_full, disk_full_message, media_file
@@ -212,10 +212,29 @@ def new_study():  # type: ignore[no-untyped-def]
                            web_form=web_form), status
 
 
+def _start(study: Study, kind: str) -> None:
+    """A new job row, committed, then handed to the runner; if the runner cannot take it the
+    row goes again (no orphan row) and the experimenter reads why."""
+    from app.jobs import EnqueueError
+
+    job = Job(study_id=study.id, kind=kind)
+    db.session.add(job)
+    db.session.commit()
+    try:
+        # After the commit: the worker must find the row.
+        enqueue(current_app._get_current_object(), job.id)  # type: ignore[attr-defined]
+    except EnqueueError as exc:
+        db.session.delete(job)
+        db.session.commit()
+        flash(f"The {kind} job could not be started: {exc}. Nothing was queued; try again "
+              "once the job queue is back.", "error")
+
+
 @bp.get("/studies/<int:study_id>")
 @login_required
 def study(study_id: int):  # type: ignore[no-untyped-def]
     study = _own_study(study_id)
+    sweep_study_jobs(study.id)  # so the page never shows a dead job running
     jobs = db.session.scalars(sa.select(Job).where(Job.study_id == study.id)
                               .order_by(Job.id.desc()).limit(10)).all()
     stimuli = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id)
@@ -231,11 +250,22 @@ def start_job(study_id: int, kind: str):  # type: ignore[no-untyped-def]
     study = _own_study(study_id)
     if kind not in JOB_KINDS or not ActionForm().validate_on_submit():
         abort(400)
-    job = Job(study_id=study.id, kind=kind)
-    db.session.add(job)
-    db.session.commit()
-    # After the commit: the worker must find the row.
-    enqueue(current_app._get_current_object(), job.id)  # type: ignore[attr-defined]
+    _start(study, kind)
+    return redirect(url_for(".study", study_id=study.id))
+
+
+@bp.post("/studies/<int:study_id>/jobs/<int:job_id>/retry")
+@login_required
+def retry_job(study_id: int, job_id: int):  # type: ignore[no-untyped-def]
+    """Run a failed job again; a render resumes from the clips already rendered."""
+    study = _own_study(study_id)
+    job = db.session.get(Job, job_id)
+    if job is None or job.study_id != study.id or not ActionForm().validate_on_submit():
+        abort(404)
+    if job.status != "failed":
+        flash(f"Only a failed job can be retried (this one is {job.status}).", "error")
+    else:
+        _start(study, job.kind)
     return redirect(url_for(".study", study_id=study.id))
 
 
@@ -256,12 +286,9 @@ def change_status(study_id: int, action: str):  # type: ignore[no-untyped-def]
     except ValueError as exc:
         flash(str(exc), "error")
         return redirect(url_for(".study", study_id=study.id))
-    job = Job(study_id=study.id, kind="report") if action == "close" else None
-    if job is not None:
-        db.session.add(job)
     db.session.commit()
-    if job is not None:  # the report is regenerated when the study closes
-        enqueue(current_app._get_current_object(), job.id)  # type: ignore[attr-defined]
+    if action == "close":  # the report is regenerated when the study closes
+        _start(study, "report")
     return redirect(url_for(".study", study_id=study.id))
 
 

@@ -1,11 +1,14 @@
 import shutil
 
+import click
+import pytest
 import sqlalchemy as sa
 from click.testing import CliRunner
+from flask_migrate import upgrade
 
 from app.cli import main
 from app.extensions import db
-from app.models import Stimulus, Study, User
+from app.models import Job, Stimulus, Study, User
 
 
 def _env(monkeypatch, app):
@@ -111,12 +114,23 @@ def test_demo_sets_up_a_ready_study(monkeypatch, tmp_path, web):
 
     monkeypatch.setitem(tasks.TASKS, "generate", fake_generate)
     monkeypatch.setitem(tasks.TASKS, "render", fake_render)
+    from app.commands import web as commands
+
+    apart = []
+
+    def run_here(app, study_id, kinds):
+        # The stubs above live in this process; the real thing spawns a fresh one.
+        apart.append(kinds)
+        commands._run_jobs(study_id, kinds)
+
+    monkeypatch.setattr(commands, "_run_jobs_apart", run_here)
     path = _study_file(tmp_path, web, design="all_ordered")
     result = CliRunner().invoke(main, ["demo", "--no-serve", "--port", "5077",
                                        "--study-file", str(path)])
     assert result.exit_code == 0, result.output
     assert "participant:   http://127.0.0.1:5077/s/" in result.output
     assert "login:         demo@facepair.local / facepair-demo" in result.output
+    assert apart == [("generate", "render")]  # never rendered in the serving process
     key = (instance / "secret_key").read_text().strip()
     assert len(key) >= 32 and (instance / "secret_key").stat().st_mode & 0o077 == 0
     app = create_app({"TESTING": True})
@@ -132,4 +146,31 @@ def test_demo_sets_up_a_ready_study(monkeypatch, tmp_path, web):
     assert (instance / "secret_key").read_text().strip() == key
     with app.app_context():
         assert db.session.scalar(sa.select(sa.func.count(Study.id))) == 1
+        db.engine.dispose()
+
+
+def test_demo_jobs_run_in_a_spawned_process(monkeypatch, tmp_path, web):
+    """The demo's jobs run apart from the process that will serve: a failing job there is
+    reported from the child (here: render before the tracks exist)."""
+    from app import create_app
+    from app.commands.web import _run_jobs_apart
+    from app.experimenter.auth import create_user
+    from app.studies import create_study
+    from app.trials.studyfile import load_study_file
+
+    monkeypatch.setenv("FACEPAIR_INSTANCE", str(tmp_path / "instance"))
+    for name in ("DATABASE_URL", "SECRET_KEY", "MEDIA_ROOT"):
+        monkeypatch.delenv(name, raising=False)
+    app = create_app({"TESTING": True})
+    with app.app_context():
+        upgrade()
+        user = create_user("demo-test@example.org", "long enough pw")
+        db.session.flush()
+        study = create_study(user, load_study_file(_study_file(tmp_path, web)))
+        db.session.commit()
+        with pytest.raises(click.ClickException, match="render of study"):
+            _run_jobs_apart(app, study.id, ("render",))
+        job = db.session.scalar(sa.select(Job))
+        assert job.status == "failed" and "generate the tracks first" in job.message
+        db.session.remove()
         db.engine.dispose()
