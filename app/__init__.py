@@ -17,39 +17,60 @@ if TYPE_CHECKING:
 __version__ = "0.1.0"
 
 
+def embedded_database_uri(instance_path: str) -> str:
+    """The default database: SQLite in the instance folder (the only one ``demo`` accepts)."""
+    return "sqlite:///" + os.path.join(instance_path, "facepair.sqlite")
+
+
 def create_app(config: Mapping[str, Any] | None = None) -> Flask:
     """Application factory: defaults -> instance ``config.py`` -> ``FACEPAIR_*``/env -> ``config``.
 
-    With no configuration the database is SQLite in the instance folder.
+    With no configuration the database is SQLite in the instance folder
+    (``FACEPAIR_INSTANCE`` moves that folder). Outside tests a real ``SECRET_KEY`` is required:
+    without one the factory raises :class:`app.errors.InputError` naming the setting.
     """
     from flask import Flask
 
     from app.extensions import init_extensions
+    from app.security import init_security
     from app.web import init_web
 
     app = Flask(__name__, instance_relative_config=True, static_folder="../static",
-                static_url_path="/static")
+                static_url_path="/static", instance_path=os.environ.get("FACEPAIR_INSTANCE"))
     os.makedirs(app.instance_path, exist_ok=True)
     app.config.from_mapping(
-        SECRET_KEY="dev-only-change-me",
-        SQLALCHEMY_DATABASE_URI="sqlite:///" + os.path.join(app.instance_path, "facepair.sqlite"),
+        # None: refused outside tests (app.security.check_secret_key).
+        SECRET_KEY=None,
+        REQUIRE_SECRET_KEY=True,
+        # Reverse proxies in front of the app whose X-Forwarded-* headers are trusted.
+        TRUST_PROXY=0,
+        # Failed logins allowed per account and per client address (Flask-Limiter syntax).
+        LOGIN_LIMIT_PER_ACCOUNT="5 per minute; 30 per hour",
+        LOGIN_LIMIT_PER_ADDRESS="20 per minute; 200 per hour",
+        SQLALCHEMY_DATABASE_URI=embedded_database_uri(app.instance_path),
         SQLALCHEMY_ENGINE_OPTIONS={"pool_pre_ping": True},
         MEDIA_ROOT=os.path.join(app.instance_path, "media"),
         REDIS_URL=None,
-        # "thread": a local worker thread; "inline": run at once (tests); RQ if REDIS_URL is set.
-        JOB_RUNNER="thread",
+        # "process": a spawned local process; "inline": run at once (tests); RQ if REDIS_URL
+        # is set (app.jobs).
+        JOB_RUNNER="process",
+        # A running job silent this long (its process died) is swept as failed.
+        JOB_STALE_AFTER_SECONDS=900,
         # Minutes without activity after which an unfinished participant counts as dropped.
         DROPPED_AFTER_MINUTES=30,
         MAX_CONTENT_LENGTH=200 * 1024 * 1024,
+        # Seconds a client is asked to wait (Retry-After) while the database is unreachable.
+        RETRY_AFTER_SECONDS=5,
     )
     app.config.from_pyfile("config.py", silent=True)
     if os.environ.get("DATABASE_URL"):
         app.config["SQLALCHEMY_DATABASE_URI"] = os.environ["DATABASE_URL"]
-    for key in ("SECRET_KEY", "REDIS_URL", "MEDIA_ROOT"):
+    for key in ("SECRET_KEY", "REDIS_URL", "MEDIA_ROOT", "TRUST_PROXY"):
         if os.environ.get(key):
             app.config[key] = os.environ[key]
     if config:
         app.config.update(config)
+    init_security(app)
     init_extensions(app)
     init_web(app)
     return app

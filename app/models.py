@@ -62,11 +62,12 @@ class Study(db.Model):
     design: so.Mapped[str] = so.mapped_column(sa.String(40))
     reference: so.Mapped[str | None] = so.mapped_column(sa.String(80))
     allow_undecided: so.Mapped[bool] = so.mapped_column(default=True)
-    undecided_label: so.Mapped[str] = so.mapped_column(sa.String(80), default="Undecided")
+    undecided_label: so.Mapped[str] = so.mapped_column(sa.String(80), default="Undecided",
+                                                       info={"field": "undecided.label"})
     #: Replay policy (``app.trials.rules``): "unlimited", "max_plays" or "play_to_end".
     replay: so.Mapped[str] = so.mapped_column(sa.String(20), default="unlimited")
-    max_plays: so.Mapped[int | None]
-    catch_trials: so.Mapped[int] = so.mapped_column(default=0)
+    max_plays: so.Mapped[int | None] = so.mapped_column(info={"field": "replay.max_plays"})
+    catch_trials: so.Mapped[int] = so.mapped_column(default=0, info={"field": "catch.trials"})
     #: "identical" (same condition both sides, expect undecided) or "instructed".
     catch_kind: so.Mapped[str] = so.mapped_column(sa.String(20), default="identical")
     target_participants: so.Mapped[int] = so.mapped_column(default=20)
@@ -99,10 +100,11 @@ class Condition(db.Model):
     __table_args__ = (sa.UniqueConstraint("study_id", "name"),)
     id: so.Mapped[int] = so.mapped_column(primary_key=True)
     study_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study.id"), index=True)
-    name: so.Mapped[str] = so.mapped_column(sa.String(80))
+    name: so.Mapped[str] = so.mapped_column(sa.String(80), info={"field": "conditions.name"})
     #: Registry name in ``app.stimuli.conditions`` or "upload" for an uploaded track.
-    model: so.Mapped[str] = so.mapped_column(sa.String(80))
-    params: so.Mapped[dict[str, Any]] = so.mapped_column(sa.JSON, default=dict)
+    model: so.Mapped[str] = so.mapped_column(sa.String(80), info={"field": "conditions.model"})
+    params: so.Mapped[dict[str, Any]] = so.mapped_column(sa.JSON, default=dict,
+                                                         info={"field": "conditions.settings"})
     #: Uploaded tracks by clip name (relative to the study's media folder).
     uploads: so.Mapped[dict[str, str]] = so.mapped_column(sa.JSON, default=dict)
     position: so.Mapped[int] = so.mapped_column(default=0)
@@ -116,7 +118,7 @@ class Clip(db.Model):
     __table_args__ = (sa.UniqueConstraint("study_id", "name"),)
     id: so.Mapped[int] = so.mapped_column(primary_key=True)
     study_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study.id"), index=True)
-    name: so.Mapped[str] = so.mapped_column(sa.String(80))
+    name: so.Mapped[str] = so.mapped_column(sa.String(80), info={"field": "clips.name"})
     #: Paths relative to the study's media folder.
     audio_path: so.Mapped[str] = so.mapped_column(sa.String(500))
     ground_truth_path: so.Mapped[str | None] = so.mapped_column(sa.String(500))
@@ -203,9 +205,12 @@ class Participant(db.Model):
     number: so.Mapped[int]
     #: Seed of this participant's schedule (trial order, sides, catch positions).
     seed: so.Mapped[int] = so.mapped_column(sa.BigInteger)
-    prolific_pid: so.Mapped[str | None] = so.mapped_column(sa.String(64))
-    prolific_study_id: so.Mapped[str | None] = so.mapped_column(sa.String(64))
-    prolific_session_id: so.Mapped[str | None] = so.mapped_column(sa.String(64))
+    prolific_pid: so.Mapped[str | None] = so.mapped_column(sa.String(64),
+                                                           info={"field": "PROLIFIC_PID"})
+    prolific_study_id: so.Mapped[str | None] = so.mapped_column(sa.String(64),
+                                                                info={"field": "STUDY_ID"})
+    prolific_session_id: so.Mapped[str | None] = so.mapped_column(sa.String(64),
+                                                                  info={"field": "SESSION_ID"})
     user_agent: so.Mapped[str] = so.mapped_column(sa.String(300), default="")
     consented_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
     started_at: so.Mapped[dt.datetime | None]
@@ -275,6 +280,9 @@ class Job(db.Model):
     message: so.Mapped[str] = so.mapped_column(sa.Text, default="")
     created_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
     finished_at: so.Mapped[dt.datetime | None]
+    #: Last sign of life from the process running it (start and every progress report); a
+    #: running job silent for longer than JOB_STALE_AFTER_SECONDS is swept as failed.
+    heartbeat_at: so.Mapped[dt.datetime | None]
 
     study: so.Mapped[Study] = so.relationship()
 

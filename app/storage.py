@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 from pathlib import Path
 
 from flask import current_app
@@ -22,3 +23,13 @@ def media_file(study: Study, rel: str) -> Path:
     if root not in path.parents:
         raise ValueError(f"{rel}: outside the study's media folder")
     return path
+
+
+def disk_full(exc: BaseException) -> bool:
+    """Whether ``exc`` says the disk (or the account's quota) is full."""
+    return isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT)
+
+
+def disk_full_message(exc: OSError) -> str:
+    where = f" writing {Path(exc.filename).name}" if exc.filename else ""
+    return f"the server's disk is full{where}; free some space and try again"

@@ -55,6 +55,19 @@ def create_study(owner: User, spec: StudySpec, *, source_toml: str = "",
     )
     db.session.add(study)
     db.session.flush()
+    try:
+        _media_rows(study, spec)
+        _design_rows(study, spec)
+    except BaseException:
+        # Nothing half-written stays behind (a full disk, a value no column holds): the
+        # caller rolls the rows back, the files go here.
+        shutil.rmtree(media_dir(study), ignore_errors=True)
+        raise
+    return study
+
+
+def _media_rows(study: Study, spec: StudySpec) -> None:
+    """Clips and conditions, their audio and tracks copied into the study's folder."""
     for position, clip in enumerate(spec.clips):
         audio = _copy(study, clip.audio, f"clips/{clip.name}/audio{clip.audio.suffix.lower()}")
         truth = None
@@ -71,6 +84,10 @@ def create_study(owner: User, spec: StudySpec, *, source_toml: str = "",
                                           params=dict(cond.settings), uploads=uploads,
                                           position=position))
     db.session.flush()
+
+
+def _design_rows(study: Study, spec: StudySpec) -> None:
+    """Pairs, balancing lists and the stimuli to render."""
     by_name = {c.name: c for c in study.conditions}
     for position, pair in enumerate(spec.pairs()):
         study.pairs.append(Pair(first=by_name[pair.left], second=by_name[pair.right],
@@ -83,7 +100,6 @@ def create_study(owner: User, spec: StudySpec, *, source_toml: str = "",
         db.session.add(Stimulus(study_id=study.id, clip_id=clips[clip].id,
                                 left_id=by_name[left].id, right_id=by_name[right].id))
     db.session.flush()
-    return study
 
 
 def change_status(study: Study, action: str) -> str:

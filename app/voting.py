@@ -15,6 +15,7 @@ from typing import Any
 import sqlalchemy as sa
 from sqlalchemy.exc import IntegrityError
 
+from app import limits
 from app.analysis.votes import CHOICES
 from app.enrolment import progress
 from app.extensions import db
@@ -24,10 +25,12 @@ from app.models import Participant, Trial, Vote, utcnow
 class VoteRejected(Exception):
     """The request cannot be a vote of this participant; ``status`` is the HTTP status."""
 
-    def __init__(self, message: str, status: int = 400) -> None:
+    def __init__(self, message: str, status: int = 400, *, closed: bool = False) -> None:
         super().__init__(message)
         self.message = message
         self.status = status
+        #: Refused for good: the study takes no more answers (the browser stops resending).
+        self.closed = closed
 
 
 @dataclass(frozen=True)
@@ -40,34 +43,43 @@ class VoteOutcome:
 
 
 def _parse_time(value: Any) -> dt.datetime | None:
-    if value in (None, ""):
+    if value is None or value == "":
         return None
     try:
-        stamp = dt.datetime.fromisoformat(str(value).replace("Z", "+00:00"))
-    except ValueError as exc:
+        if not isinstance(value, str) or len(value) > 40:
+            raise ValueError(value)
+        stamp = dt.datetime.fromisoformat(value.replace("Z", "+00:00"))
+        if stamp.tzinfo is not None:
+            stamp = stamp.astimezone(dt.UTC).replace(tzinfo=None)
+    except (ValueError, OverflowError) as exc:  # overflow: a time zone beyond year 1 or 9999
         raise VoteRejected("presented_at: expected an ISO 8601 time") from exc
-    if stamp.tzinfo is not None:
-        stamp = stamp.astimezone(dt.UTC).replace(tzinfo=None)
     return stamp
 
 
-def _int_field(payload: dict[str, Any], name: str, *, required: bool = False) -> int | None:
+def _int_field(payload: dict[str, Any], name: str, column: Any, *,
+               required: bool = False) -> int | None:
+    """A non-negative whole number that fits ``column`` (JSON may spell it 3.0)."""
     value = payload.get(name)
     if value is None:
         if required:
             raise VoteRejected(f"{name}: required")
         return None
-    if isinstance(value, bool) or not isinstance(value, int | float) or value < 0:
-        raise VoteRejected(f"{name}: expected a non-negative number")
-    return int(value)
+    if isinstance(value, float) and value.is_integer():  # never NaN or infinity
+        value = int(value)
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise VoteRejected(f"{name}: expected a non-negative whole number")
+    found = limits.problem(limits.column_of(column), value)
+    if found:
+        raise VoteRejected(f"{name}: {found}")
+    return value
 
 
 def validate(participant: Participant, payload: dict[str, Any]) -> tuple[Trial, dict[str, Any]]:
     """Check a vote request against the participant's schedule and the study's rules."""
     study = participant.study
     if study.status not in ("open", "paused"):
-        raise VoteRejected("this study is closed", 409)
-    trial_id = _int_field(payload, "trial_id", required=True)
+        raise VoteRejected("this study is closed", 409, closed=True)
+    trial_id = _int_field(payload, "trial_id", Trial.id, required=True)
     trial = db.session.get(Trial, trial_id)
     # Another participant's trial is reported exactly like a missing one: nothing leaks.
     if trial is None or trial.participant_id != participant.id:
@@ -79,9 +91,11 @@ def validate(participant: Participant, payload: dict[str, Any]) -> tuple[Trial, 
         allowed = CHOICES if study.allow_undecided else CHOICES[:2]
         raise VoteRejected(f"choice: expected one of {', '.join(allowed)}")
     key = payload.get("idempotency_key")
-    if not isinstance(key, str) or not 8 <= len(key) <= 64:
-        raise VoteRejected("idempotency_key: expected a string of 8 to 64 characters")
-    plays = _int_field(payload, "plays", required=True) or 0
+    longest = limits.column_of(Vote.idempotency_key).type.length
+    if (not isinstance(key, str) or not 8 <= len(key) <= longest
+            or not limits.fits(Vote.idempotency_key, key)):
+        raise VoteRejected(f"idempotency_key: expected text of 8 to {longest} characters")
+    plays = _int_field(payload, "plays", Vote.plays, required=True) or 0
     watched = bool(payload.get("watched_to_end", False))
     from app.design import may_vote
 
@@ -92,7 +106,7 @@ def validate(participant: Participant, payload: dict[str, Any]) -> tuple[Trial, 
         "choice": choice,
         "idempotency_key": key,
         "plays": plays,
-        "response_ms": _int_field(payload, "response_ms"),
+        "response_ms": _int_field(payload, "response_ms", Vote.response_ms),
         "presented_at": _parse_time(payload.get("presented_at")),
     }
     return trial, fields

@@ -1,10 +1,15 @@
-"""Wiring of the web layer: models, blueprints, per-request unit of work, SQLite pragmas."""
+"""Wiring of the web layer: models, blueprints, per-request unit of work, SQLite pragmas, and
+bounded input (``app.limits``): a value no column can hold is a 400 naming the field, an
+identifier in a URL that no row can have is a 404, never a database error."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
 import sqlalchemy as sa
+from flask import abort, render_template
+
+from app.errors import InputError
 
 if TYPE_CHECKING:
     from flask import Flask
@@ -19,8 +24,60 @@ def _sqlite_pragmas(dbapi_connection, _record) -> None:  # type: ignore[no-untyp
     cursor.close()
 
 
+def _identifier_fits(value: object) -> bool:
+    from app.limits import INT32, text_problem
+
+    if isinstance(value, int):
+        return INT32[0] <= value <= INT32[1]
+    return not isinstance(value, str) or text_problem(value, 500) is None
+
+
+def _bad_input(exc: InputError):  # type: ignore[no-untyped-def]
+    from flask import jsonify
+
+    from app.extensions import db
+
+    db.session.rollback()
+    if _wants_json():
+        return jsonify({"error": str(exc)}), 400
+    return render_template("error.html", message=str(exc), status=400), 400
+
+
+def _wants_json() -> bool:
+    from flask import request
+
+    return request.blueprint == "api" or request.accept_mimetypes.best == "application/json"
+
+
+def _database_unavailable(exc: Exception):  # type: ignore[no-untyped-def]
+    """The database cannot be reached (or is restarting): 503 with Retry-After, so the
+    participant's browser keeps the vote and sends it again, instead of a 500."""
+    from flask import current_app, jsonify
+
+    from app.extensions import db
+
+    current_app.logger.warning("database unavailable: %s", str(exc).splitlines()[0])
+    try:
+        db.session.rollback()
+    except sa.exc.SQLAlchemyError:
+        pass  # the connection is already gone; the session is removed at teardown
+    message = "the database is unavailable for a moment; please try again"
+    seconds = str(current_app.config["RETRY_AFTER_SECONDS"])
+    if _wants_json():
+        response = jsonify({"error": message})
+    else:
+        response = current_app.make_response(
+            render_template("error.html", message=message, status=503))
+    response.status_code = 503
+    response.headers["Retry-After"] = seconds
+    return response
+
+
 def init_web(app: Flask) -> None:
-    from app import models  # noqa: F401  (the models register on db.metadata)
+    from app import (
+        limits,
+        models,  # noqa: F401  (the models register on db.metadata)
+    )
     from app.api.views import bp as api_bp
     from app.experimenter.views import bp as experimenter_bp
     from app.extensions import csrf, db
@@ -32,6 +89,18 @@ def init_web(app: Flask) -> None:
     # The JSON API authenticates participants by the token in the request body, not a cookie,
     # so a cross-site form cannot forge a vote; experimenter endpoints there are GET only.
     csrf.exempt(api_bp)
+
+    limits.install(db.session)
+    app.register_error_handler(InputError, _bad_input)
+    # Connection refused, a server restarting, a pool that cannot hand out a connection.
+    for error in (sa.exc.OperationalError, sa.exc.InterfaceError, sa.exc.TimeoutError):
+        app.register_error_handler(error, _database_unavailable)
+
+    @app.url_value_preprocessor
+    def _identifiers_must_fit(_endpoint: str | None, values: dict | None) -> None:
+        # Tokens, slugs and ids in URLs name rows: one no column can hold names nothing.
+        if values and not all(_identifier_fits(v) for v in values.values()):
+            abort(404)
 
     if app.config["SQLALCHEMY_DATABASE_URI"].startswith("sqlite"):
         with app.app_context():

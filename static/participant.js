@@ -32,6 +32,26 @@
     try { return JSON.parse(window.localStorage.getItem(name) || "null"); } catch (e) { return null; }
   }
 
+  // What the server's answer to a vote means: stored ("saved"), refused for good because the
+  // study closed ("closed"), refused for another reason ("refused"), or worth sending again
+  // ("retry": only 5xx, e.g. 503 while the database is unreachable). A 4xx is never resent.
+  function voteAction(status, body) {
+    if (status >= 200 && status < 300) return "saved";
+    if (status >= 500) return "retry";
+    if (body && body.closed) return "closed";
+    return "refused";
+  }
+
+  // Milliseconds before resend number `attempt`: the server's Retry-After (seconds) if it
+  // gave one, else exponential back-off; never more than 30 s.
+  function retryWait(attempt, retryAfter) {
+    var seconds = parseInt(retryAfter, 10);
+    if (seconds >= 0) return Math.min(30000, 1000 * Math.max(1, seconds));
+    return Math.min(30000, 1000 * Math.pow(2, attempt - 1));
+  }
+
+  window.facepairVotes = { action: voteAction, wait: retryWait };
+
   function Player(root) {
     var d = root.dataset;
     var self = this;
@@ -144,6 +164,19 @@
       status.className = "status" + (kind ? " status-" + kind : "");
     }
 
+    function retryLater(payload, retryAfter) {
+      state.attempt += 1;
+      var wait = retryWait(state.attempt, retryAfter);
+      say("No connection to the server. Your answer (" + payload.choice + ") is kept on " +
+          "this page and will be sent automatically; please keep this page open. " +
+          "Retrying in " + Math.round(wait / 1000) + " s…", "offline");
+      var timer = window.setTimeout(function () { send(payload); }, wait);
+      window.addEventListener("online", function () {
+        window.clearTimeout(timer);
+        send(payload);
+      }, { once: true });
+    }
+
     function send(payload) {
       var request = fetch(d.voteUrl, {
         method: "POST",
@@ -153,32 +186,25 @@
         cache: "no-store"
       });
       request.then(function (response) {
-        if (response.ok || response.status === 409) {
+        return response.json().catch(function () { return {}; }).then(function (body) {
+          var action = voteAction(response.status, body);
+          if (action === "retry") return retryLater(payload, response.headers.get("Retry-After"));
           store(pendingName, null);
-          say("Saved.", "ok");
-          window.location.assign(d.nextUrl);
-          return;
-        }
-        if (response.status >= 500) throw new Error("server " + response.status);
-        return response.json().then(function (body) {
-          // A refused vote (e.g. policy): give the answer back to the participant.
-          store(pendingName, null);
-          state.voted = false;
-          say("Your answer was not accepted: " + (body.error || response.status), "error");
-          update();
+          if (action === "saved") {
+            say("Saved.", "ok");
+            window.location.assign(d.nextUrl);
+          } else if (action === "closed") {
+            // Final: the study stopped taking answers. Nothing is resent.
+            say("This study has closed, so this answer could not be recorded. Thank you " +
+                "for taking part.", "error");
+          } else {
+            // Refused for a reason the participant can act on (e.g. the replay policy).
+            state.voted = false;
+            say("Your answer was not accepted: " + (body.error || response.status), "error");
+            update();
+          }
         });
-      }).catch(function () {
-        state.attempt += 1;
-        var wait = Math.min(30000, 1000 * Math.pow(2, state.attempt - 1));
-        say("No connection to the server. Your answer (" + payload.choice + ") is kept on " +
-            "this page and will be sent automatically; please keep this page open. " +
-            "Retrying in " + Math.round(wait / 1000) + " s…", "offline");
-        var timer = window.setTimeout(function () { send(payload); }, wait);
-        window.addEventListener("online", function () {
-          window.clearTimeout(timer);
-          send(payload);
-        }, { once: true });
-      });
+      }, function () { retryLater(payload, null); });
     }
 
     self.vote = function (choice) {

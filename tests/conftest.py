@@ -228,6 +228,21 @@ def postgres_url():
 
 
 @pytest.fixture(scope="session")
+def redis_url():
+    """The local Redis (database 15, flushed before use), or skip."""
+    ensure_services()
+    from redis import Redis
+    from redis.exceptions import RedisError
+
+    url = f"redis://127.0.0.1:{REDIS_PORT}/15"
+    try:
+        Redis.from_url(url, socket_connect_timeout=1).flushdb()
+    except RedisError as exc:
+        pytest.skip(f"Redis is not reachable on port {REDIS_PORT}: {exc}")
+    return url
+
+
+@pytest.fixture(scope="session")
 def sqlite_url(tmp_path_factory):
     return f"sqlite:///{tmp_path_factory.mktemp('sqlite') / 'facepair.sqlite'}"
 

@@ -55,6 +55,13 @@ def _trial_id(page) -> int:
     return int(page.locator(".player").get_attribute("data-trial-id"))
 
 
+def _gone(page, trial: int, timeout: float = 30000) -> None:
+    """Wait until the trial's player has left the page (a selector wait: the pages' CSP
+    forbids the eval a wait_for_function string needs)."""
+    page.wait_for_selector(f'.player[data-trial-id="{trial}"]', state="detached",
+                           timeout=timeout)
+
+
 def _ready_to_vote(page) -> None:
     """Wait for the preload, play the clip (Space), wait until voting is allowed."""
     page.wait_for_selector(".play:not([disabled])", timeout=20000)
@@ -111,8 +118,7 @@ def test_participant_walks_through_a_whole_study(live_server, browser, shots):
             else:
                 page.click(f'.vote[data-choice="{choice}"]')
             clicked[trial] = choice
-            page.wait_for_function(f"!document.querySelector('.player[data-trial-id=\"{trial}\"]')",
-                                   timeout=60000)
+            _gone(page, trial, timeout=60000)
             page.wait_for_load_state()
             step += 1
         page.wait_for_url("**/done")
@@ -152,7 +158,7 @@ def test_trial_page_on_a_phone(live_server, browser, shots):
             assert box["height"] >= 44 and box["x"] >= 0 and box["x"] + box["width"] <= 390
         trial = _trial_id(page)
         page.tap('.vote[data-choice="right"]')
-        page.wait_for_function(f"!document.querySelector('.player[data-trial-id=\"{trial}\"]')")
+        _gone(page, trial)
     finally:
         context.close()
     with live_server.app.app_context():
@@ -226,8 +232,7 @@ def test_experimenter_creates_a_study_and_downloads_votes(live_server, browser, 
                     trial = _trial_id(person)
                     person.click(f'.vote[data-choice="{choice}"]')
                     clicked.append(choice)
-                    person.wait_for_function(
-                        f"!document.querySelector('.player[data-trial-id=\"{trial}\"]')")
+                    _gone(person, trial)
                     person.wait_for_load_state()
             finally:
                 other.close()

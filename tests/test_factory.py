@@ -9,15 +9,18 @@ def test_config_mapping_wins(tmp_path):
     assert app.testing and app.config["SQLALCHEMY_DATABASE_URI"].endswith("x.db")
 
 
-def test_default_database_is_sqlite_in_instance_folder(monkeypatch):
+def test_default_database_is_sqlite_in_instance_folder(monkeypatch, tmp_path):
     monkeypatch.delenv("DATABASE_URL", raising=False)
-    app = create_app()
+    monkeypatch.setenv("FACEPAIR_INSTANCE", str(tmp_path / "instance"))
+    app = create_app({"TESTING": True})
+    assert app.instance_path == str(tmp_path / "instance")
     assert app.config["SQLALCHEMY_DATABASE_URI"].startswith("sqlite:///")
     assert app.instance_path in app.config["SQLALCHEMY_DATABASE_URI"]
 
 
 def test_database_url_from_environment(monkeypatch):
     monkeypatch.setenv("DATABASE_URL", "postgresql+psycopg://postgres@127.0.0.1/test")
+    monkeypatch.setenv("SECRET_KEY", "a-long-random-deployment-key")
     assert create_app().config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql+psycopg")
 
 

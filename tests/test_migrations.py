@@ -37,7 +37,7 @@ def _tables(engine) -> set[str]:
 
 
 def test_upgrade_downgrade_upgrade(empty_database, tmp_path):
-    app = create_app({"SQLALCHEMY_DATABASE_URI": empty_database,
+    app = create_app({"SQLALCHEMY_DATABASE_URI": empty_database, "TESTING": True,
                       "MEDIA_ROOT": str(tmp_path / "media")})
     with app.app_context():
         assert _tables(db.engine) == set()
@@ -55,6 +55,7 @@ def test_upgrade_downgrade_upgrade(empty_database, tmp_path):
 
 def test_the_app_never_creates_tables(tmp_path):
     app = create_app({"SQLALCHEMY_DATABASE_URI": f"sqlite:///{tmp_path / 'fresh.sqlite'}",
+                      "TESTING": True,
                       "MEDIA_ROOT": str(tmp_path / "media")})
     with app.app_context():
         assert app.test_client().get("/healthz").status_code == 200  # a request creates nothing

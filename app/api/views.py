@@ -8,30 +8,48 @@ owning experimenter's login.
 
 from __future__ import annotations
 
+from typing import Any
+
 import sqlalchemy as sa
 from flask import Blueprint, abort, jsonify, request, url_for
 
 from app.enrolment import progress as enrolment_progress
 from app.experimenter.auth import current_user
 from app.extensions import db
+from app.limits import fits
 from app.models import Job, Participant
 from app.voting import VoteRejected, record_vote
 
 bp = Blueprint("api", __name__, url_prefix="/api/v1")
 
 
+#: A vote is a few hundred bytes; anything much larger is not one.
+MAX_BODY = 64 * 1024
+
+
 def _error(message: str, status: int):  # type: ignore[no-untyped-def]
     return jsonify({"error": message}), status
 
 
+def _json_object() -> dict[str, Any] | str:
+    """The request's JSON object, or why there is none (one line naming the problem)."""
+    if (request.content_length or 0) > MAX_BODY:
+        return f"body: larger than {MAX_BODY // 1024} KB"
+    try:
+        payload = request.get_json(silent=True)
+    except RecursionError:
+        return "body: JSON nested too deeply"
+    return payload if isinstance(payload, dict) else "body: expected a JSON object"
+
+
 @bp.post("/votes")
 def post_vote():  # type: ignore[no-untyped-def]
-    payload = request.get_json(silent=True)
-    if not isinstance(payload, dict):
-        return _error("expected a JSON object", 400)
+    payload = _json_object()
+    if isinstance(payload, str):
+        return _error(payload, 400)
     token = payload.get("token")
     participant = None
-    if isinstance(token, str):
+    if isinstance(token, str) and fits(Participant.token, token):
         participant = db.session.scalar(sa.select(Participant).where(Participant.token == token))
     if participant is None:
         return _error("unknown participant", 403)
@@ -39,6 +57,8 @@ def post_vote():  # type: ignore[no-untyped-def]
         outcome = record_vote(participant, payload)
     except VoteRejected as exc:
         db.session.rollback()
+        if exc.closed:
+            return jsonify({"error": exc.message, "closed": True}), exc.status
         return _error(exc.message, exc.status)
     vote = outcome.vote
     body = {
@@ -70,4 +90,9 @@ def job_status(job_id: int):  # type: ignore[no-untyped-def]
     job = db.session.get(Job, job_id)
     if job is None or job.study.owner_id != user.id:
         abort(404)
+    if job.status in ("queued", "running"):
+        from app.jobs.tasks import sweep_study_jobs
+
+        sweep_study_jobs(job.study_id)
+        db.session.refresh(job)
     return jsonify(job.as_dict())

@@ -25,6 +25,29 @@ def _app(**config: Any):  # type: ignore[no-untyped-def]
     return create_app(config or None)
 
 
+def _offline_app():  # type: ignore[no-untyped-def]
+    """The app for commands that answer no web request: no session is ever signed, so no
+    deployment key is needed."""
+    return _app(REQUIRE_SECRET_KEY=False)
+
+
+def _demo_app():  # type: ignore[no-untyped-def]
+    """The demo's app: only on its embedded SQLite file (it writes a publicly known login), with
+    ``SECRET_KEY`` from the environment or a random key kept in the instance folder."""
+    import os
+
+    from app import embedded_database_uri
+    from app.security import stored_secret_key
+
+    probe = _offline_app()
+    if probe.config["SQLALCHEMY_DATABASE_URI"] != embedded_database_uri(probe.instance_path):
+        raise InputError("the demo runs only on its embedded SQLite file (it creates the "
+                         "public demo login); unset DATABASE_URL", field="DATABASE_URL")
+    if os.environ.get("SECRET_KEY"):
+        return _app()
+    return _app(SECRET_KEY=stored_secret_key(Path(probe.instance_path)))
+
+
 @contextmanager
 def _context(app):  # type: ignore[no-untyped-def]
     """An application context whose database connections are closed on the way out."""
@@ -62,6 +85,32 @@ def _run_jobs(study_id: int, kinds: tuple[str, ...]) -> None:
         job = db.session.get(Job, job.id)
         if status != "done":
             raise click.ClickException(f"{kind} failed: {job.message}")  # type: ignore[union-attr]
+
+
+def _jobs_child(study_id: int, kinds: tuple[str, ...], config: dict[str, Any]) -> None:
+    app = _app(**config)
+    try:
+        with _context(app):
+            _run_jobs(study_id, kinds)
+    except click.ClickException as exc:
+        click.echo(f"facepair: error: {exc.message}", err=True)
+        raise SystemExit(1) from None
+
+
+def _run_jobs_apart(app, study_id: int, kinds: tuple[str, ...]) -> None:  # type: ignore[no-untyped-def]
+    """:func:`_run_jobs` in a spawned process: a process that is about to serve (and fork
+    gunicorn workers) must never hold a GL context, or the forked workers hang in it."""
+    import multiprocessing
+
+    config = {"REQUIRE_SECRET_KEY": False, "SQLALCHEMY_DATABASE_URI":
+              app.config["SQLALCHEMY_DATABASE_URI"], "MEDIA_ROOT": app.config["MEDIA_ROOT"]}
+    process = multiprocessing.get_context("spawn").Process(
+        target=_jobs_child, args=(study_id, kinds, config), name="facepair-demo-jobs")
+    process.start()
+    process.join()
+    if process.exitcode != 0:
+        raise click.ClickException(f"{' and '.join(kinds)} of study {study_id} failed "
+                                   f"(exit code {process.exitcode})")
 
 
 def _create_study(path: Path, owner_email: str) -> int:
@@ -115,7 +164,7 @@ def serve(host: str, port: int, workers: int, dev: bool) -> None:
 @click.command()
 def worker() -> None:
     """Run an RQ worker for the background jobs (needs REDIS_URL)."""
-    app = _app()
+    app = _offline_app()
     url = app.config.get("REDIS_URL")
     if not url:
         raise InputError("set REDIS_URL to run a worker (without it jobs run in the web "
@@ -144,7 +193,7 @@ def create(study_file: Path, owner: str, render: bool, open_: bool) -> None:
     from app.extensions import db
     from app.models import Study
 
-    app = _app()
+    app = _offline_app()
     with _context(app):
         study_id = _create_study(study_file, owner)
         if render or open_:
@@ -171,7 +220,7 @@ def add(email: str, password: str) -> None:
     from app.experimenter.auth import create_user
     from app.extensions import db
 
-    app = _app()
+    app = _offline_app()
     with _context(app):
         try:
             create_user(email, password)
@@ -197,7 +246,7 @@ def demo(host: str, port: int, study_file: Path, no_serve: bool) -> None:
     from app.extensions import db
     from app.models import Study, User
 
-    app = _app()
+    app = _demo_app()
     with _context(app):
         upgrade()
         user = db.session.scalar(sa.select(User).where(User.email == DEMO_EMAIL))
@@ -209,7 +258,7 @@ def demo(host: str, port: int, study_file: Path, no_serve: bool) -> None:
         if study is None:
             click.echo(f"creating the demo study from {study_file} ...", err=True)
             study_id = _create_study(study_file, DEMO_EMAIL)
-            _run_jobs(study_id, ("generate", "render"))
+            _run_jobs_apart(app, study_id, ("generate", "render"))
             study = db.session.get(Study, study_id)
             study.status = "open"  # type: ignore[union-attr]
             db.session.commit()

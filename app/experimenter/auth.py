@@ -10,6 +10,7 @@ import sqlalchemy as sa
 from flask import g, redirect, request, session, url_for
 
 from app.extensions import db
+from app.limits import fits
 from app.models import User
 
 
@@ -31,7 +32,10 @@ def login_required(view: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def authenticate(email: str, password: str) -> User | None:
-    user = db.session.scalar(sa.select(User).where(User.email == email.strip().lower()))
+    email = email.strip().lower()
+    if not fits(User.email, email):
+        return None  # no account can have it
+    user = db.session.scalar(sa.select(User).where(User.email == email))
     if user is None or not user.check_password(password):
         return None
     return user

@@ -27,11 +27,12 @@ from wtforms import SelectChoice
 from app.errors import InputError
 from app.experimenter.auth import authenticate, current_user, login_required
 from app.experimenter.forms import ActionForm, LoginForm, StudyFileForm, StudyWebForm
-from app.extensions import db
+from app.extensions import db, limiter
 from app.jobs import enqueue
-from app.jobs.tasks import JOB_KINDS
+from app.jobs.tasks import JOB_KINDS, sweep_study_jobs
 from app.models import Job, Stimulus, Study
-from app.storage import media_file
+from app.security import REPORT_CONTENT_SECURITY_POLICY, safe_next
+from app.storage import disk_full, disk_full_message, media_file
 
 bp = Blueprint("experimenter", __name__, url_prefix="/experimenter")
 
@@ -54,7 +55,32 @@ def _dropped_after() -> dt.timedelta:
     return dt.timedelta(minutes=current_app.config["DROPPED_AFTER_MINUTES"])
 
 
+def _account_limits() -> str:
+    return current_app.config["LOGIN_LIMIT_PER_ACCOUNT"]
+
+
+def _address_limits() -> str:
+    return current_app.config["LOGIN_LIMIT_PER_ADDRESS"]
+
+
+def _login_account() -> str:
+    return "account:" + request.form.get("email", "").strip().lower()[:200]
+
+
+def _login_address() -> str:
+    return "address:" + (request.remote_addr or "unknown")
+
+
+def _login_failed(response: Response) -> bool:
+    # Only failed attempts count: a successful login redirects.
+    return response.status_code != 302
+
+
 @bp.route("/login", methods=["GET", "POST"])
+@limiter.limit(_account_limits, key_func=_login_account, methods=["POST"],
+               deduct_when=_login_failed, scope="login-account")
+@limiter.limit(_address_limits, key_func=_login_address, methods=["POST"],
+               deduct_when=_login_failed, scope="login-address")
 def login():  # type: ignore[no-untyped-def]
     form = LoginForm()
     if form.validate_on_submit():
@@ -62,11 +88,8 @@ def login():  # type: ignore[no-untyped-def]
         if user is not None:
             session.clear()
             session["user_id"] = user.id
-            target = request.args.get("next", "")
-            # Only local paths: an open redirect would hand the session to another site.
-            if not target.startswith("/") or target.startswith("//"):
-                target = url_for(".studies")
-            return redirect(target)
+            # Only paths on this site: an open redirect would hand the login to another site.
+            return redirect(safe_next(request.args.get("next"), url_for(".studies")))
         flash("Unknown e-mail or wrong password.", "error")
     return render_template("experimenter/login.html", form=form)
 
@@ -151,6 +174,7 @@ def new_study():  # type: ignore[no-untyped-def]
     web_form = StudyWebForm(prefix="web")
     web_form.models.choices = [SelectChoice(m) for m in MODELS]
     study = None
+    source = "form"
     try:
         with tempfile.TemporaryDirectory(prefix="facepair-upload-") as tmp:
             folder = Path(tmp)
@@ -158,16 +182,25 @@ def new_study():  # type: ignore[no-untyped-def]
                 upload = file_form.study_file.data
                 text = upload.read().decode("utf-8", errors="replace")
                 _save_uploads(file_form.media.data or [], folder)
-                spec = loads_study(text, source=secure_filename(upload.filename) or "study.toml",
-                                   base_dir=folder, confine=True)
+                source = secure_filename(upload.filename) or "study.toml"
+                spec = loads_study(text, source=source, base_dir=folder, confine=True)
                 study = create_study(current_user(), spec, source_toml=text)  # type: ignore[arg-type]
             elif web_form.submit.data and web_form.validate_on_submit():
                 spec = parse_study(_web_form_mapping(web_form, folder), source="form",
                                    base_dir=folder, confine=True)
                 study = create_study(current_user(), spec)  # type: ignore[arg-type]
+    except OSError as exc:
+        if not disk_full(exc):
+            raise
+        db.session.rollback()
+        flash(disk_full_message(exc), "error")
+        return render_template("experimenter/new_study.html", file_form=file_form,
+                               web_form=web_form), 507
     except InputError as exc:
         db.session.rollback()
-        flash(str(exc), "error")
+        # A value the columns cannot hold is found when the rows are written: name the file.
+        flash(str(exc if exc.path else InputError(exc.message, path=source, field=exc.field)),
+              "error")
         return render_template("experimenter/new_study.html", file_form=file_form,
                                web_form=web_form), 400
     if study is not None:
@@ -179,10 +212,29 @@ def new_study():  # type: ignore[no-untyped-def]
                            web_form=web_form), status
 
 
+def _start(study: Study, kind: str) -> None:
+    """A new job row, committed, then handed to the runner; if the runner cannot take it the
+    row goes again (no orphan row) and the experimenter reads why."""
+    from app.jobs import EnqueueError
+
+    job = Job(study_id=study.id, kind=kind)
+    db.session.add(job)
+    db.session.commit()
+    try:
+        # After the commit: the worker must find the row.
+        enqueue(current_app._get_current_object(), job.id)  # type: ignore[attr-defined]
+    except EnqueueError as exc:
+        db.session.delete(job)
+        db.session.commit()
+        flash(f"The {kind} job could not be started: {exc}. Nothing was queued; try again "
+              "once the job queue is back.", "error")
+
+
 @bp.get("/studies/<int:study_id>")
 @login_required
 def study(study_id: int):  # type: ignore[no-untyped-def]
     study = _own_study(study_id)
+    sweep_study_jobs(study.id)  # so the page never shows a dead job running
     jobs = db.session.scalars(sa.select(Job).where(Job.study_id == study.id)
                               .order_by(Job.id.desc()).limit(10)).all()
     stimuli = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id)
@@ -198,11 +250,22 @@ def start_job(study_id: int, kind: str):  # type: ignore[no-untyped-def]
     study = _own_study(study_id)
     if kind not in JOB_KINDS or not ActionForm().validate_on_submit():
         abort(400)
-    job = Job(study_id=study.id, kind=kind)
-    db.session.add(job)
-    db.session.commit()
-    # After the commit: the worker must find the row.
-    enqueue(current_app._get_current_object(), job.id)  # type: ignore[attr-defined]
+    _start(study, kind)
+    return redirect(url_for(".study", study_id=study.id))
+
+
+@bp.post("/studies/<int:study_id>/jobs/<int:job_id>/retry")
+@login_required
+def retry_job(study_id: int, job_id: int):  # type: ignore[no-untyped-def]
+    """Run a failed job again; a render resumes from the clips already rendered."""
+    study = _own_study(study_id)
+    job = db.session.get(Job, job_id)
+    if job is None or job.study_id != study.id or not ActionForm().validate_on_submit():
+        abort(404)
+    if job.status != "failed":
+        flash(f"Only a failed job can be retried (this one is {job.status}).", "error")
+    else:
+        _start(study, job.kind)
     return redirect(url_for(".study", study_id=study.id))
 
 
@@ -223,12 +286,9 @@ def change_status(study_id: int, action: str):  # type: ignore[no-untyped-def]
     except ValueError as exc:
         flash(str(exc), "error")
         return redirect(url_for(".study", study_id=study.id))
-    job = Job(study_id=study.id, kind="report") if action == "close" else None
-    if job is not None:
-        db.session.add(job)
     db.session.commit()
-    if job is not None:  # the report is regenerated when the study closes
-        enqueue(current_app._get_current_object(), job.id)  # type: ignore[attr-defined]
+    if action == "close":  # the report is regenerated when the study closes
+        _start(study, "report")
     return redirect(url_for(".study", study_id=study.id))
 
 
@@ -273,7 +333,9 @@ def report(study_id: int, name: str = "report.html"):  # type: ignore[no-untyped
             abort(404)
         return render_template("experimenter/no_report.html", study=study,
                                action=ActionForm()), 404
-    return send_file(path, max_age=0)
+    response = send_file(path, max_age=0)
+    response.headers["Content-Security-Policy"] = REPORT_CONTENT_SECURITY_POLICY
+    return response
 
 
 @bp.get("/studies/<int:study_id>/stimuli/<int:stimulus_id>.mp4")

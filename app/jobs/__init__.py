@@ -1,50 +1,110 @@
 """Background jobs: generating tracks, rendering clips, regenerating reports.
 
 A :class:`~app.models.Job` row records what runs and how far it got; :func:`enqueue` hands its
-id to RQ when ``REDIS_URL`` is set, to a local worker thread otherwise (``JOB_RUNNER="inline"``
-runs it at once, for tests). Always enqueue after the commit that created the row.
+id to a runner, always after the commit that created the row:
+
+* RQ when ``REDIS_URL`` is set: a separate ``facepair worker`` process picks it up; the RQ job
+  id is :func:`rq_job_id` and a failure callback marks the row failed with the reason;
+* otherwise a *spawned* local process (``JOB_RUNNER="process"``, the default): never a thread
+  or a fork of the web process, because a forked child inherits the parent's GL context and
+  hangs in it, and a render thread would stall the process answering participants;
+* ``JOB_RUNNER="inline"`` runs it at once in this process (tests).
+
+Rows whose runner died are found by :func:`app.jobs.tasks.sweep_stale` and can be retried.
 """
 
 from __future__ import annotations
 
+import functools
+import multiprocessing
 import threading
-from concurrent.futures import Future, ThreadPoolExecutor
-from typing import TYPE_CHECKING
+from concurrent.futures import Future, ProcessPoolExecutor
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from flask import Flask
 
-_local: ThreadPoolExecutor | None = None
+QUEUE = "facepair"
+#: Longest a job may run in RQ before it is stopped (a study's whole render).
+JOB_TIMEOUT = 6 * 3600
+#: Configuration a spawned job process needs to build its own application.
+CHILD_CONFIG = ("SQLALCHEMY_DATABASE_URI", "SQLALCHEMY_ENGINE_OPTIONS", "MEDIA_ROOT", "TESTING")
+
+_local: ProcessPoolExecutor | None = None
 _lock = threading.Lock()
 
 
-def _local_executor() -> ThreadPoolExecutor:
+class EnqueueError(RuntimeError):
+    """The job could not be handed to its runner (e.g. Redis unreachable)."""
+
+
+def rq_job_id(job_id: int) -> str:
+    """The RQ job id of row ``job_id`` (so the sweeper can ask RQ about it)."""
+    return f"facepair-job-{job_id}"
+
+
+def _process_executor() -> ProcessPoolExecutor:
     global _local
     with _lock:
-        if _local is None:
-            # One worker: jobs of a study run in the order they were asked for.
-            _local = ThreadPoolExecutor(max_workers=1, thread_name_prefix="facepair-job")
+        if _local is None or getattr(_local, "_broken", False):
+            # One worker: jobs of a study run in the order they were asked for. "spawn": a
+            # fresh interpreter, never a fork holding the web process's state.
+            _local = ProcessPoolExecutor(max_workers=1,
+                                         mp_context=multiprocessing.get_context("spawn"))
         return _local
 
 
-def _run_in_app(app: Flask, job_id: int) -> None:
+def run_in_child(job_id: int, config: dict[str, Any]) -> str:
+    """Entry point of a spawned job process: its own application, then the job."""
+    from app import create_app
+    from app.extensions import db
     from app.jobs.tasks import run_job
 
+    app = create_app({**config, "REQUIRE_SECRET_KEY": False, "JOB_RUNNER": "inline"})
     with app.app_context():
-        run_job(job_id)
+        try:
+            return run_job(job_id)
+        finally:
+            db.session.remove()
+            db.engine.dispose()
 
 
-def enqueue(app: Flask, job_id: int) -> Future[None] | None:
-    """Start job ``job_id`` (already committed) on the configured runner."""
-    runner = app.config.get("JOB_RUNNER", "thread")
+def _when_finished(app: Flask, job_id: int, future: Future[str]) -> None:
+    """Failure callback of the local runner: a process that died marks its row failed."""
+    exc = future.exception()
+    if exc is None:
+        return
+    from app.jobs.tasks import mark_failed
+
+    with app.app_context():
+        mark_failed(job_id, f"the process running it stopped ({type(exc).__name__}: {exc})")
+
+
+def enqueue(app: Flask, job_id: int) -> Future[str] | None:
+    """Start job ``job_id`` (already committed) on the configured runner; raises
+    :class:`EnqueueError` when the runner cannot take it."""
+    runner = app.config.get("JOB_RUNNER", "process")
     if app.config.get("REDIS_URL") and runner != "inline":
         from redis import Redis
-        from rq import Queue
+        from redis.exceptions import RedisError
+        from rq import Callback, Queue
 
-        queue = Queue("facepair", connection=Redis.from_url(app.config["REDIS_URL"]))
-        queue.enqueue("app.jobs.tasks.run_job_standalone", job_id, job_timeout=6 * 3600)
+        connection = Redis.from_url(app.config["REDIS_URL"], socket_connect_timeout=5,
+                                    socket_timeout=10)
+        try:
+            Queue(QUEUE, connection=connection).enqueue(
+                "app.jobs.tasks.run_job_standalone", job_id, job_id=rq_job_id(job_id),
+                job_timeout=JOB_TIMEOUT, on_failure=Callback("app.jobs.tasks.rq_failed"))
+        except RedisError as exc:
+            raise EnqueueError(f"the job queue (REDIS_URL) is unreachable: {exc}") from None
         return None
     if runner == "inline":
-        _run_in_app(app, job_id)
+        from app.jobs.tasks import run_job
+
+        with app.app_context():
+            run_job(job_id)
         return None
-    return _local_executor().submit(_run_in_app, app, job_id)
+    config = {key: app.config[key] for key in CHILD_CONFIG if key in app.config}
+    future = _process_executor().submit(run_in_child, job_id, config)
+    future.add_done_callback(functools.partial(_when_finished, app, job_id))
+    return future

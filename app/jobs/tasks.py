@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 
 import sqlalchemy as sa
 
 from app.extensions import db, transaction
 from app.models import Clip, Job, Stimulus, Study, Track, utcnow
-from app.storage import media_dir
+from app.storage import disk_full, disk_full_message, media_dir
 
 log = logging.getLogger(__name__)
 
@@ -37,7 +38,7 @@ def _progress(job_id: int, *, min_interval: float = 0.5,
         last[0] = now
         with transaction() as session:
             session.execute(sa.update(Job).where(Job.id == job_id)
-                            .values(done=int(done), total=int(total)))
+                            .values(done=int(done), total=int(total), heartbeat_at=utcnow()))
 
     return report
 
@@ -110,8 +111,12 @@ def render_clips(study: Study, progress: Callable[[int, int], None]) -> str:
         raise ValueError("generate the tracks first: some conditions have no track yet")
     settings = renderer.RenderSettings(**study.settings.get("render", {}))
     cache = root / "cache"
+    # A retried job resumes: clips rendered before (their file in place) are kept.
+    kept = sum(bool(s.video_path) and (root / s.video_path).is_file() for s in stimuli)
     for i, stim in enumerate(stimuli):
         progress(i, len(stimuli))
+        if stim.video_path and (root / stim.video_path).is_file():
+            continue
         rel = f"videos/{stim.clip.name}/{stim.left.name}__{stim.right.name}.mp4"
         (root / rel).parent.mkdir(parents=True, exist_ok=True)
         renderer.render_pair(
@@ -124,7 +129,7 @@ def render_clips(study: Study, progress: Callable[[int, int], None]) -> str:
     if study.status == "draft":
         study.status = "ready"
     db.session.commit()
-    return f"{len(stimuli)} clips rendered"
+    return f"{len(stimuli)} clips rendered" + (f" ({kept} kept from before)" if kept else "")
 
 
 def build_report(study: Study, progress: Callable[[int, int], None]) -> str:
@@ -139,6 +144,14 @@ def build_report(study: Study, progress: Callable[[int, int], None]) -> str:
     return f"report written: {path.name}"
 
 
+def failure_message(exc: BaseException) -> str:
+    """What the experimenter reads on a failed job's row."""
+    if disk_full(exc):
+        return disk_full_message(exc)  # type: ignore[arg-type]
+    text = str(exc)
+    return text if text.startswith(type(exc).__name__) else f"{type(exc).__name__}: {text}"
+
+
 TASKS: dict[str, Callable[[Study, Callable[[int, int], None]], str]] = {
     "generate": generate_tracks, "render": render_clips, "report": build_report}
 
@@ -150,7 +163,7 @@ def run_job(job_id: int, *, echo: Callable[[int, int], None] | None = None) -> s
     if job is None:
         log.warning("job %s vanished", job_id)
         return "failed"
-    job.status = "running"
+    job.status, job.heartbeat_at = "running", utcnow()
     study_id, kind = job.study_id, job.kind
     db.session.commit()
     try:
@@ -160,8 +173,7 @@ def run_job(job_id: int, *, echo: Callable[[int, int], None] | None = None) -> s
     except Exception as exc:  # noqa: BLE001 - every failure must reach the experimenter
         db.session.rollback()
         log.exception("job %s (%s) failed", job_id, kind)
-        message = f"{type(exc).__name__}: {exc}" if not str(exc).startswith(type(exc).__name__) \
-            else str(exc)
+        message = failure_message(exc)
         status = "failed"
     with transaction() as session:
         job = session.get(Job, job_id)
@@ -171,10 +183,94 @@ def run_job(job_id: int, *, echo: Callable[[int, int], None] | None = None) -> s
     return status
 
 
-def run_job_standalone(job_id: int) -> None:
-    """Entry point for the RQ worker: builds the app from the environment."""
+@contextmanager
+def _standalone_context() -> Iterator[None]:
+    """An application built from the environment, its connections closed on the way out."""
     from app import create_app
 
-    with create_app().app_context():
+    # A job signs no session: it needs no deployment key.
+    with create_app({"REQUIRE_SECRET_KEY": False}).app_context():
+        try:
+            yield
+        finally:
+            db.session.remove()
+            db.engine.dispose()
+
+
+def run_job_standalone(job_id: int) -> None:
+    """Entry point for the RQ worker: builds the app from the environment."""
+    with _standalone_context():
         run_job(job_id)
 
+
+def mark_failed(job_id: int, reason: str) -> bool:
+    """Mark an unfinished job failed with ``reason``; False if it had already finished."""
+    with transaction() as session:
+        result = session.execute(
+            sa.update(Job).where(Job.id == job_id, Job.status.in_(("queued", "running")))
+            .values(status="failed", message=reason, finished_at=utcnow()))
+    return result.rowcount == 1
+
+
+def rq_failed(job, connection, exc_type, exc_value, traceback) -> None:  # type: ignore[no-untyped-def]
+    """RQ's failure callback (an exception, a timeout, a killed work horse): the row says why."""
+    reason = failure_message(exc_value) if exc_value is not None else "failed in the worker"
+    with _standalone_context():
+        mark_failed(int(job.args[0]), reason)
+
+
+def _rq_states(app_redis_url: str, ids: list[int]) -> dict[int, str | None]:
+    """RQ's status of each job (None: RQ no longer knows it)."""
+    from redis import Redis
+    from rq.exceptions import NoSuchJobError
+    from rq.job import Job as RQJob
+
+    from app.jobs import rq_job_id
+
+    connection = Redis.from_url(app_redis_url, socket_connect_timeout=2, socket_timeout=5)
+    states: dict[int, str | None] = {}
+    for job_id in ids:
+        try:
+            states[job_id] = RQJob.fetch(rq_job_id(job_id), connection=connection).get_status()
+        except NoSuchJobError:
+            states[job_id] = None
+    return states
+
+
+def sweep_stale(study_id: int, *, stale_after: float, redis_url: str | None = None) -> int:
+    """Mark failed the study's unfinished jobs whose runner is gone: RQ no longer has them or
+    reports them failed, or (any runner) running without a sign of life for ``stale_after``
+    seconds. Returns how many rows were swept. A Redis outage sweeps nothing through RQ."""
+    import datetime as dt
+
+    from redis.exceptions import RedisError
+
+    rows = db.session.execute(sa.select(Job.id, Job.status, Job.heartbeat_at).where(
+        Job.study_id == study_id, Job.status.in_(("queued", "running")))).all()
+    cutoff = utcnow() - dt.timedelta(seconds=stale_after)
+    reasons: dict[int, str] = {}
+    for job_id, status, heartbeat in rows:
+        if status == "running" and (heartbeat is None or heartbeat < cutoff):
+            reasons[job_id] = (f"no sign of life for over {stale_after:.0f} s: the process "
+                               "running it stopped; retry it")
+    if redis_url and rows:
+        try:
+            states = _rq_states(redis_url, [r.id for r in rows if r.id not in reasons])
+        except RedisError:
+            states = {}
+        for job_id, state in states.items():
+            if state is None or state in ("failed", "stopped", "canceled"):
+                reasons[job_id] = (f"the job queue {'lost it' if state is None else state}: "
+                                   "its worker stopped; retry it")
+    return sum(mark_failed(job_id, reason) for job_id, reason in reasons.items())
+
+
+
+def sweep_study_jobs(study_id: int) -> int:
+    """:func:`sweep_stale` with the application's settings, committed."""
+    from flask import current_app
+
+    swept = sweep_stale(study_id, stale_after=current_app.config["JOB_STALE_AFTER_SECONDS"],
+                        redis_url=current_app.config.get("REDIS_URL"))
+    db.session.commit()
+    return swept

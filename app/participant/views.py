@@ -21,8 +21,10 @@ from flask import (
 from flask_wtf import FlaskForm
 from wtforms import HiddenField, SubmitField
 
+from app import limits
 from app.enrolment import enrol, next_trial, practice_stimulus, progress
 from app.extensions import db
+from app.limits import fits
 from app.models import Participant, Study, Trial, utcnow
 from app.storage import media_file
 
@@ -62,7 +64,7 @@ def _participant(token: str) -> Participant:
 def start(slug: str):  # type: ignore[no-untyped-def]
     study = _study(slug)
     token = request.cookies.get(_cookie_name(study))
-    if token:
+    if token and fits(Participant.token, token):
         known = db.session.scalar(sa.select(Participant).where(
             Participant.token == token, Participant.study_id == study.id))
         if known is not None:
@@ -73,7 +75,8 @@ def start(slug: str):  # type: ignore[no-untyped-def]
     if form.validate_on_submit():
         ids = {column: (getattr(form, field).data or None) for field, column
                in PROLIFIC_FIELDS.items()}
-        participant = enrol(study, user_agent=request.user_agent.string[:300], **ids)
+        agent = limits.printable(request.user_agent.string)[:300]
+        participant = enrol(study, user_agent=agent, **ids)
         db.session.commit()
         response = make_response(redirect(url_for(".instructions", token=participant.token)))
         response.set_cookie(_cookie_name(study), participant.token, max_age=COOKIE_DAYS * 86400,

@@ -87,6 +87,8 @@ def loads_study(
         raise InputError(
             f"invalid TOML: {message}", path=source, line=int(found.group(1)) if found else None
         ) from None
+    except RecursionError:  # tomllib recurses once per level of nested arrays and tables
+        raise InputError("invalid TOML: arrays or tables nested too deeply", path=source) from None
     return parse_study(
         data, source=source, base_dir=base_dir, check_files=check_files, confine=confine
     )

@@ -1,5 +1,6 @@
 import threading
 
+import pytest
 import sqlalchemy as sa
 
 from app.extensions import db
@@ -121,3 +122,33 @@ def test_job_status_needs_the_owner(app, client, web):
     other = app.test_client()
     web.login(other, "other@example.org")
     assert other.get(f"/api/v1/jobs/{job_id}").status_code == 404
+
+
+def test_a_vote_on_a_closed_study_says_so_for_good(app, participant, web):
+    token = _join(app, participant, web)
+    trial = participant.current_trial()
+    with app.app_context():
+        db.session.scalar(sa.select(Participant).where(Participant.token == token)) \
+            .study.status = "closed"
+        db.session.commit()
+    response = participant.vote(trial)
+    assert response.status_code == 409
+    assert response.json == {"error": "this study is closed", "closed": True}
+    assert _votes(app) == []
+
+
+@pytest.mark.parametrize("url", ["sqlite:////nonexistent-folder/facepair.sqlite",
+                                 "postgresql+psycopg://postgres@127.0.0.1:9/nowhere"])
+def test_database_unreachable_is_503_with_retry_after(tmp_path, url):
+    from app import create_app
+
+    app = create_app({"TESTING": True, "SQLALCHEMY_DATABASE_URI": url,
+                      "MEDIA_ROOT": str(tmp_path), "RETRY_AFTER_SECONDS": 7})
+    client = app.test_client()
+    vote = client.post("/api/v1/votes", json={"token": "t" * 32, "trial_id": 1})
+    assert vote.status_code == 503 and vote.headers["Retry-After"] == "7"
+    assert vote.json["error"].startswith("the database is unavailable")
+    page = client.get("/p/some-token/trial")
+    assert page.status_code == 503 and page.headers["Retry-After"] == "7"
+    assert "Please try again in a moment" in page.get_data(as_text=True)
+    assert client.get("/healthz").status_code == 503

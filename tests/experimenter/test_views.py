@@ -265,20 +265,24 @@ def fake_renderer(monkeypatch, tiny_video):
     return calls
 
 
-def test_render_job_fills_every_stimulus(app, client, web, fake_renderer):
+def _generated_tracks(study: Study) -> None:
+    """A zero track of every condition on the study's first clip, as 'generate' leaves them."""
     from app.stimuli.fapfile import write_fap
     from app.stimuli.track import MotionTrack
     from app.storage import media_dir
 
+    for condition in study.conditions:
+        rel = f"tracks/s1/{condition.name}.fap"
+        (media_dir(study) / "tracks/s1").mkdir(parents=True, exist_ok=True)
+        write_fap(MotionTrack.zeros(30.0, 15, channels=(48,)), media_dir(study) / rel)
+        db.session.add(Track(condition_id=condition.id, clip_id=study.clips[0].id, path=rel))
+
+
+def test_render_job_fills_every_stimulus(app, client, web, fake_renderer):
     study_id = web.study(video=False)
     web.login(client)
     with app.app_context():
-        study = db.session.get(Study, study_id)
-        for condition in study.conditions:
-            rel = f"tracks/s1/{condition.name}.fap"
-            (media_dir(study) / "tracks/s1").mkdir(parents=True, exist_ok=True)
-            write_fap(MotionTrack.zeros(30.0, 15, channels=(48,)), media_dir(study) / rel)
-            db.session.add(Track(condition_id=condition.id, clip_id=study.clips[0].id, path=rel))
+        _generated_tracks(db.session.get(Study, study_id))
         db.session.commit()
     response = _post(client, f"/experimenter/studies/{study_id}/jobs/render")
     assert response.status_code == 302
@@ -301,3 +305,112 @@ def test_render_before_generate_fails_visibly(app, client, web, fake_renderer):
         job = db.session.scalar(sa.select(Job).where(Job.study_id == study_id))
         assert job.status == "failed" and "generate the tracks first" in job.message
     assert _post(client, f"/experimenter/studies/{study_id}/jobs/bogus").status_code == 400
+
+
+def test_disk_full_on_upload_is_507_and_leaves_nothing(app, client, web, tmp_path, monkeypatch):
+    import errno
+    import shutil
+
+    from app import studies
+
+    copied = []
+    copyfile = shutil.copyfile
+
+    def copy_until_full(source, target):
+        if copied:
+            raise OSError(errno.ENOSPC, "No space left on device", str(target))
+        copied.append(copyfile(source, target))
+
+    monkeypatch.setattr(studies.shutil, "copyfile", copy_until_full)
+    wav = web.write_wav(tmp_path / "s1.wav")
+    track = tmp_path / "t.fap"
+    from app.stimuli.fapfile import write_fap
+    from app.stimuli.track import MotionTrack
+
+    write_fap(MotionTrack.zeros(30.0, 15, channels=(48,)), track)
+    text = web.toml().replace('[[clips]]', '[[conditions]]\nname = "up"\n'
+                              'tracks = { s1 = "t.fap" }\n\n[[clips]]')
+    web.user()
+    web.login(client)
+    page = client.get("/experimenter/studies/new").get_data(as_text=True)
+    token = re.search(r'name="file-csrf_token" type="hidden" value="([^"]+)"', page).group(1)
+    response = client.post("/experimenter/studies/new", content_type="multipart/form-data", data={
+        "file-csrf_token": token, "file-submit": "1",
+        "file-study_file": (io.BytesIO(text.encode()), "study.toml"),
+        "file-media": [(io.BytesIO(p.read_bytes()), p.name) for p in (wav, track)]})
+    assert response.status_code == 507
+    assert "disk is full writing s1.fap" in response.get_data(as_text=True)
+    assert copied  # the first file was written, then the disk filled up
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count()).select_from(Study)) == 0
+    from pathlib import Path
+
+    assert not list(Path(app.config["MEDIA_ROOT"]).glob("study-*"))
+
+
+def test_disk_full_in_a_job_is_its_error(app, web, monkeypatch):
+    import errno
+
+    from app.jobs import tasks
+    from app.jobs.tasks import run_job
+
+    def full(study, progress):
+        raise OSError(errno.ENOSPC, "No space left on device", "/srv/media/videos/a.mp4")
+
+    monkeypatch.setitem(tasks.TASKS, "render", full)
+    study_id = web.study(video=False)
+    with app.app_context():
+        job = Job(study_id=study_id, kind="render")
+        db.session.add(job)
+        db.session.commit()
+        assert run_job(job.id) == "failed"
+        db.session.refresh(job)
+        assert job.message == ("the server's disk is full writing a.mp4; free some space and "
+                               "try again")
+
+
+def test_retry_resumes_from_the_clips_already_rendered(app, client, web, fake_renderer):
+    from app.storage import media_dir
+
+    study_id = web.study(video=False, design="all_ordered")
+    web.login(client)
+    with app.app_context():
+        study = db.session.get(Study, study_id)
+        _generated_tracks(study)
+        # A render killed half way: two clips in place, the row failed.
+        stimuli = db.session.scalars(sa.select(Stimulus).where(
+            Stimulus.study_id == study_id).order_by(Stimulus.id)).all()
+        for stimulus in stimuli[:2]:
+            stimulus.video_path = f"videos/kept-{stimulus.id}.mp4"
+            (media_dir(study) / "videos").mkdir(exist_ok=True)
+            (media_dir(study) / stimulus.video_path).write_bytes(b"rendered before")
+        failed = Job(study_id=study_id, kind="render", status="failed", done=2, total=4,
+                     message="the process running it stopped")
+        db.session.add(failed)
+        db.session.commit()
+        failed_id, n_stimuli = failed.id, len(stimuli)
+    page = client.get(f"/experimenter/studies/{study_id}").get_data(as_text=True)
+    assert f"/jobs/{failed_id}/retry" in page
+    assert _post(client, f"/experimenter/studies/{study_id}/jobs/{failed_id}/retry"
+                 ).status_code == 302
+    assert len(fake_renderer) == n_stimuli - 2  # only the missing clips were rendered
+    with app.app_context():
+        retried = db.session.scalar(sa.select(Job).where(Job.id != failed_id))
+        assert (retried.kind, retried.status) == ("render", "done")
+        assert retried.message == f"{n_stimuli} clips rendered (2 kept from before)"
+    # Only a failed job can be retried.
+    _post(client, f"/experimenter/studies/{study_id}/jobs/{retried.id}/retry")
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count(Job.id))) == 2
+
+
+def test_enqueue_error_leaves_no_orphan_row(app, client, web):
+    study_id = web.study(video=False)
+    app.config.update(REDIS_URL="redis://127.0.0.1:9/0", JOB_RUNNER="process")
+    web.login(client)
+    response = _post(client, f"/experimenter/studies/{study_id}/jobs/generate")
+    assert response.status_code == 302
+    page = client.get(response.headers["Location"]).get_data(as_text=True)
+    assert "The generate job could not be started" in page and "unreachable" in page
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count(Job.id))) == 0

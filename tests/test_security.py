@@ -1,0 +1,136 @@
+"""Secrets, session cookies, proxies, security headers, safe redirects and login limits."""
+
+import re
+
+import pytest
+
+from app import create_app
+from app.errors import InputError
+from app.security import safe_next
+
+
+def _bare(tmp_path, **config):
+    return create_app({"SQLALCHEMY_DATABASE_URI": f"sqlite:///{tmp_path}/x.db", **config})
+
+
+@pytest.mark.parametrize("key", [None, "", "dev-only-change-me", "short-key"])
+def test_no_real_secret_key_is_refused_outside_tests(tmp_path, monkeypatch, key):
+    monkeypatch.delenv("SECRET_KEY", raising=False)
+    with pytest.raises(InputError) as caught:
+        _bare(tmp_path, SECRET_KEY=key)
+    assert str(caught.value).startswith("SECRET_KEY: ") and "\n" not in str(caught.value)
+
+
+def test_a_real_secret_key_is_accepted(tmp_path, monkeypatch):
+    monkeypatch.setenv("SECRET_KEY", "f" * 64)
+    assert _bare(tmp_path).secret_key == "f" * 64
+
+
+@pytest.mark.parametrize("target", [
+    "/%09/evil.example/path", "/\t/evil.example/path", "//evil.example", "/\\evil.example",
+    "\\\\evil.example", " //evil.example", "/\r\n/evil.example", "https://evil.example/",
+    "javascript:alert(1)", "/\x00/evil.example", "evil.example", "///evil.example",
+])
+def test_safe_next_keeps_only_paths_on_this_site(target):
+    from urllib.parse import unquote
+
+    for value in (target, unquote(target)):
+        result = safe_next(value, "/home")
+        assert result == "/home" or (result.startswith("/") and not result.startswith("//")
+                                     and "evil.example" not in result.split("/")[1])
+
+
+def test_safe_next_keeps_a_local_path():
+    assert safe_next("/experimenter/studies/4?x=1", "/") == "/experimenter/studies/4?x=1"
+
+
+@pytest.mark.parametrize("query", ["/%09/evil.example/path", "/%5C/evil.example",
+                                   "%20//evil.example", "/%0D%0A/evil.example"])
+def test_login_never_redirects_off_site(client, web, query):
+    web.user()
+    token = web.csrf(client, "/experimenter/login")
+    response = client.post(f"/experimenter/login?next={query}", data={
+        "csrf_token": token, "email": "exp@example.org", "password": "correct horse"})
+    assert response.status_code == 302
+    location = response.headers["Location"]
+    assert location.startswith("/") and not location.startswith("//"), location
+
+
+def _session_cookie(response) -> str:
+    cookies = [c for c in response.headers.getlist("Set-Cookie") if c.startswith("session=")]
+    assert cookies, response.headers
+    return cookies[-1]
+
+
+def test_session_cookie_flags_over_http(client, web):
+    web.user()
+    cookie = _session_cookie(web.login(client))
+    assert "HttpOnly" in cookie and "SameSite=Lax" in cookie and "Secure" not in cookie
+
+
+def test_session_cookie_is_secure_over_https(app, web):
+    web.user()
+    client = app.test_client()
+    page = client.get("/experimenter/login", base_url="https://study.example")
+    token = re.search(r'name="csrf_token"[^>]*value="([^"]+)"', page.get_data(as_text=True))
+    # Flask-WTF checks the Referer of a form posted over HTTPS.
+    response = client.post("/experimenter/login", base_url="https://study.example",
+                           headers={"Referer": "https://study.example/experimenter/login"},
+                           data={
+        "csrf_token": token.group(1), "email": "exp@example.org", "password": "correct horse"})
+    assert response.status_code == 302
+    assert "Secure" in _session_cookie(response)
+    assert "max-age=" in response.headers["Strict-Transport-Security"]
+
+
+@pytest.mark.parametrize("trusted", [0, 1])
+def test_https_behind_a_trusted_proxy(app, trusted):
+    proxied = create_app({"TESTING": True, "SECRET_KEY": "k" * 32, "TRUST_PROXY": trusted,
+                          "SQLALCHEMY_DATABASE_URI": app.config["SQLALCHEMY_DATABASE_URI"]})
+    client = proxied.test_client()
+    response = client.get("/experimenter/login", headers={"X-Forwarded-Proto": "https"})
+    cookie = _session_cookie(response)  # the CSRF token lives in the session
+    assert ("Secure" in cookie) == bool(trusted)
+    assert ("Strict-Transport-Security" in response.headers) == bool(trusted)
+
+
+@pytest.mark.parametrize("path", ["/experimenter/login", "/healthz", "/s/nothing-here",
+                                  "/static/participant.js", "/api/v1/participants/x/progress"])
+def test_security_headers_on_every_response(client, path):
+    response = client.get(path)
+    response.close()  # a static file's handle
+    headers = response.headers
+    csp = headers["Content-Security-Policy"]
+    directives = dict((d.strip().split(" ", 1) + [""])[:2] for d in csp.split(";"))
+    assert "'unsafe-inline'" not in directives["script-src"]
+    assert directives["frame-ancestors"] == "'none'" and headers["X-Frame-Options"] == "DENY"
+    assert headers["X-Content-Type-Options"] == "nosniff"
+    assert headers["Referrer-Policy"] == "same-origin"
+    assert "Strict-Transport-Security" not in headers
+
+
+def test_login_attempts_are_limited_per_account(app, web):
+    web.user()
+    client = app.test_client()
+    codes = [web.login(client, password=f"wrong {i}").status_code for i in range(40)]
+    assert codes[:5] == [200] * 5 and set(codes[5:]) == {429}
+    # The right password is refused too while the account is locked ...
+    assert web.login(client).status_code == 429
+    # ... but another account from another address is unaffected.
+    web.user("other@example.org")
+    other = app.test_client()
+    other.environ_base["REMOTE_ADDR"] = "10.1.2.3"
+    assert web.login(other, "other@example.org").status_code == 302
+
+
+def test_login_attempts_are_limited_per_address(app, web):
+    web.user()
+    client = app.test_client()
+    codes = [web.login(client, f"nobody{i}@example.org").status_code for i in range(25)]
+    assert codes[:20] == [200] * 20 and set(codes[20:]) == {429}
+
+
+def test_successful_logins_do_not_count(app, web):
+    web.user()
+    client = app.test_client()
+    assert {web.login(client).status_code for _ in range(8)} == {302}
