@@ -72,7 +72,7 @@ def test_split_is_explicit_and_disjoint(split):
 def test_held_out_motion_moves_like_the_reference_speaker(split):
     # Trained on three takes, generated on four others (other voices, other motion seeds).
     model = train_live_model([f for f, _ in split.train], [t for _, t in split.train])
-    fig = evaluate_held_out(model, split.test, seeds=(0,))
+    fig = evaluate_held_out(model, split.test, seeds=(0, 1))  # one seed alone varies by 0.2
     head = slice(0, 3)
     # Measured (docs/live.md, two seeds): head sd 0.98-1.13 of the truth's, power above 4 Hz
     # 0.004-0.019 against 0.003-0.020; gaze sd 2.6 and 4.0 deg against 2.8 and 4.8.
