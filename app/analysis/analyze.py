@@ -19,6 +19,7 @@ import pandas as pd
 from app.analysis.agreement import coefficient_of_agreement
 from app.analysis.consistence import consistence_p, consistence_row, consistence_table
 from app.analysis.counts import UNDECIDED_TREATMENTS, VoteCounts, ballots, count_votes
+from app.analysis.participant_level import one_judgement_per_participant, participant_level_tests
 from app.analysis.scaling import JOD_SIGMA, bootstrap_scale, connected
 from app.analysis.signtest import sign_test_p
 from app.analysis.ttest import holm, paired_t_many
@@ -103,6 +104,9 @@ def _section(t: np.ndarray, names: Sequence[str], *, undecided: str, bootstrap: 
         "sign_tests": signs,
         "scale": scale_rows,
         "scale_note": note,
+        "participant_level": participant_level_tests(t, names, bootstrap=bootstrap, seed=seed,
+                                                     confidence=confidence),
+        "one_per_participant": one_judgement_per_participant(t, names),
     }
 
 
