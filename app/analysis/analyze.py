@@ -17,24 +17,16 @@ import numpy as np
 import pandas as pd
 
 from app.analysis.agreement import coefficient_of_agreement
+from app.analysis.btd import btd_summary
 from app.analysis.consistence import consistence_p, consistence_row, consistence_table
 from app.analysis.counts import UNDECIDED_TREATMENTS, VoteCounts, ballots, count_votes
+from app.analysis.numbers import json_number as _num
 from app.analysis.participant_level import one_judgement_per_participant, participant_level_tests
 from app.analysis.scaling import JOD_SIGMA, bootstrap_scale, connected
 from app.analysis.signtest import sign_test_p
 from app.analysis.ttest import holm, paired_t_many
 from app.analysis.votes import VotesTable, read_votes
 from app.errors import InputError
-
-
-def _num(x: Any) -> Any:
-    """A JSON-ready number: Python int/float, NaN and infinities as None."""
-    if x is None:
-        return None
-    if isinstance(x, np.integer | int) and not isinstance(x, bool):
-        return int(x)
-    x = float(x)
-    return x if np.isfinite(x) else None
 
 
 def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -107,6 +99,7 @@ def _section(t: np.ndarray, names: Sequence[str], *, undecided: str, bootstrap: 
         "participant_level": participant_level_tests(t, names, bootstrap=bootstrap, seed=seed,
                                                      confidence=confidence),
         "one_per_participant": one_judgement_per_participant(t, names),
+        "btd": btd_summary(t, names, bootstrap=bootstrap, seed=seed, confidence=confidence),
     }
 
 

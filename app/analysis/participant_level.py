@@ -32,17 +32,13 @@ from numpy.typing import ArrayLike
 from scipy import stats
 
 from app.analysis.agreement import coefficient_of_agreement
+from app.analysis.numbers import json_number as _num
 from app.analysis.scaling import bootstrap_weights, canonical_participant_order
 from app.analysis.signtest import sign_test_p
 from app.analysis.ttest import holm
 
 ONE_PER_PARTICIPANT_RULE = ("one judgement per participant and pair: the majority of that "
                             "participant's votes on the pair, a tie counting 1/2 to each side")
-
-
-def _num(x: Any) -> float | None:
-    x = float(x)
-    return x if np.isfinite(x) else None
 
 
 def pair_counts(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
