@@ -58,3 +58,23 @@ def test_pdf_needs_report(tmp_path):
     out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--pdf",
                                     str(tmp_path / "r.pdf")])
     assert out.exit_code == 2 and "--pdf needs --report" in out.output
+
+
+def test_exclude_rules_list_who_was_left_out(tmp_path):
+    (tmp_path / "v.csv").write_text(ROWS + "".join(
+        f"p9,s2,{a},{b},left\n" for a, b in [("A", "B"), ("B", "A"), ("C", "A"), ("B", "C")]))
+    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--exclude",
+                                    "side_p<0.2", "--json", str(tmp_path / "o.json"),
+                                    "--bootstrap", "0"])
+    assert out.exit_code == 0, out.output
+    data = json.loads((tmp_path / "o.json").read_text())
+    assert list(data["quality"]["excluded"]) == ["p9"] and "p9" not in data["participants"]
+    assert "excluded by side_p<0.2: p9" in out.output
+
+
+def test_bad_exclude_rule_exits_2_with_one_line(tmp_path):
+    (tmp_path / "v.csv").write_text(ROWS)
+    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--exclude", "speed<1"])
+    assert out.exit_code == 2
+    lines = [ln for ln in out.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "exclude: unknown field 'speed'" in lines[0]
