@@ -88,7 +88,8 @@ def _terms(beta: np.ndarray, cells: np.ndarray, x: np.ndarray, penalty: bool = T
     mean_x = np.einsum("bco,cok->bck", p, x)
     second = (total[..., None] * p).reshape(len(beta), -1) @ np.einsum(
         "cok,col->cokl", x, x).reshape(n_cells * n_out, k * k)
-    hess = second.reshape(-1, k, k) - np.einsum("bc,bck,bcl->bkl", total, mean_x, mean_x)
+    weighted = np.swapaxes(total[..., None] * mean_x, 1, 2)
+    hess = second.reshape(-1, k, k) - weighted @ mean_x
     if penalty:
         n = k - 1 - int(n_out == 3)
         s = beta[:, :n].sum(axis=1)
@@ -178,17 +179,19 @@ def fit_btd(counts: np.ndarray) -> BTDFit:
     return BTDFit(theta, gamma, nu, log_likelihood(counts, theta, gamma, nu), votes, True)
 
 
-def fit_btd_many(counts: np.ndarray, *, max_iter: int = 60) -> tuple[np.ndarray, np.ndarray]:
+def fit_btd_many(counts: np.ndarray, *, max_iter: int = 60,
+                 start: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Fit every (n, n, 3) array of ``counts`` (B, n, n, 3) at once by damped Newton steps.
 
     Returns (beta (B, k), converged (B,)); beta = theta_1..theta_n, log g[, log nu] where the
-    ties term is present when any array holds an undecided vote off the diagonal.
+    ties term is present when any array holds an undecided vote off the diagonal. ``start``
+    (k,) is where every fit begins (default 0); a nearby start saves iterations.
     """
     counts = np.asarray(counts, dtype=float)
     ties, x = _setup(counts)
     cells = _cells(counts, ties)
     b, k = counts.shape[0], x.shape[-1]
-    beta = np.zeros((b, k))
+    beta = np.zeros((b, k)) if start is None or len(start) != k else np.tile(start, (b, 1))
     nll, grad, hess = _terms(beta, cells, x)
     done = np.zeros(b, dtype=bool)
     ridge = 1e-10 * np.eye(k)
@@ -199,7 +202,8 @@ def fit_btd_many(counts: np.ndarray, *, max_iter: int = 60) -> tuple[np.ndarray,
         for _half in range(30):
             trial = beta + scale[:, None] * step
             new = _terms(trial, cells, x)
-            worse = ~(new[0] <= nll + 1e-12) & ~done
+            # rounding of sums over many votes: a step is worse only beyond its precision
+            worse = ~(new[0] <= nll + 1e-10 * np.maximum(1.0, np.abs(nll))) & ~done
             if not worse.any():
                 break
             scale = np.where(worse, scale / 2.0, scale)
@@ -235,8 +239,10 @@ def leave_one_out_loglik(per_participant: np.ndarray) -> np.ndarray:
     """Each participant's log-likelihood under the model fitted to everyone else (pwcmp's
     outlier analysis, with this model in place of Case V); NaN where that fit has no maximum."""
     p = per_participant.shape[0]
-    rest = per_participant.sum(axis=0)[None] - per_participant
-    beta, ok = fit_btd_many(rest)
+    total = per_participant.sum(axis=0)
+    rest = total[None] - per_participant
+    whole, whole_ok = fit_btd_many(total[None])
+    beta, ok = fit_btd_many(rest, start=whole[0] if whole_ok[0] else None)
     ties, x = _setup(rest)
     nll, _, _ = _terms(beta, _cells(per_participant, ties), x, penalty=False)
     own = per_participant[..., ~np.eye(per_participant.shape[-2], dtype=bool), 2].sum(axis=-1)

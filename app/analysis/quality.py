@@ -132,12 +132,13 @@ def participant_quality(counts: VoteCounts, frame: pd.DataFrame) -> dict[str, di
     outlier = _outlier_distance(leave_one_out_loglik(t))
     times = pd.to_numeric(frame["response_ms"], errors="coerce").astype(float)
     median_ms = times.groupby(frame["participant"]).median()
+    side_p = sign_test_p(left, right)
     out = {}
     for q, pid in enumerate(counts.participants):
         out[pid] = {
             "votes": int(left[q] + right[q] + und[q]),
             "side_left": json_number(left[q] / decided[q]) if decided[q] else None,
-            "side_p": json_number(sign_test_p(left[q], right[q])) if decided[q] else None,
+            "side_p": json_number(side_p[q]) if decided[q] else None,
             "undecided": json_number(und[q] / (decided[q] + und[q])),
             "tau": json_number(tau[q]),
             "catch": json_number(same[q, :, 2].sum() / same_votes[q]) if same_votes[q] else None,
