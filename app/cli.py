@@ -32,11 +32,12 @@ def main() -> None:
 
 
 def _register() -> None:
-    from app.commands import analyze, render, stimuli, web
+    from app.commands import analyze, plan, render, stimuli, web
 
     main.add_command(stimuli.stimuli)
     main.add_command(render.render)
     main.add_command(analyze.analyze)
+    main.add_command(plan.plan)
     web.register(main)
 
 

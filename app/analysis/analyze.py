@@ -20,7 +20,7 @@ from app.analysis.agreement import coefficient_of_agreement
 from app.analysis.btd import btd_summary
 from app.analysis.consistence import consistence_p, consistence_row, consistence_table
 from app.analysis.counts import UNDECIDED_TREATMENTS, VoteCounts, ballots, count_votes
-from app.analysis.numbers import json_number as _num
+from app.analysis.json_values import json_number as _num
 from app.analysis.participant_level import one_judgement_per_participant, participant_level_tests
 from app.analysis.quality import (
     QUALITY_FIELDS,

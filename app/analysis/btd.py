@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 from scipy import optimize
 
-from app.analysis.numbers import json_number
+from app.analysis.json_values import json_number
 from app.analysis.scaling import bootstrap_weights, canonical_participant_order, connected
 from app.analysis.signtest import sign_test_p
 

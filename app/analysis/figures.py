@@ -210,3 +210,26 @@ def _p(p: float | None) -> str:
     if p < 0.001:
         return "< .001"
     return f"{p:.3f}".lstrip("0") if p < 1 else "1"
+
+
+def power_figure(plan: dict[str, Any], test: str = "wilcoxon") -> Figure:
+    """Power of one planned test against participants, one line per pair; 80 % and alpha."""
+    levels = plan["levels"]
+    x = [lv["participants"] for lv in levels]
+    fig = _figure(6.4, 3.6)
+    ax = fig.subplots()
+    for q, pair in enumerate(levels[0]["power"][test]):
+        ax.plot(x, [lv["power"][test][pair] for lv in levels], "o-", color=_colour(q),
+                label=pair, markersize=4)
+    ax.axhline(0.8, color="#555555", linewidth=0.8, linestyle="--")
+    ax.axhline(plan["alpha"], color="#999999", linewidth=0.6, linestyle=":")
+    ax.set_ylim(0, 1.02)
+    ax.set_xlabel("participants")
+    ax.set_ylabel(f"power (Holm-adjusted p < {plan['alpha']:g})")
+    title = {"wilcoxon": "Participant-level Wilcoxon signed-rank test",
+             "sign_per_participant": "Sign test, one judgement per participant",
+             "sign_pooled": "Pooled sign test"}.get(test, test)
+    ax.set_title(f"{title}; {plan['simulations']} simulated studies per point", fontsize=10)
+    ax.spines[["top", "right"]].set_visible(False)
+    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5), frameon=False)
+    return fig

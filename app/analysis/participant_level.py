@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike
 from scipy import stats
 
 from app.analysis.agreement import coefficient_of_agreement
-from app.analysis.numbers import json_number as _num
+from app.analysis.json_values import json_number as _num
 from app.analysis.scaling import bootstrap_weights, canonical_participant_order
 from app.analysis.signtest import sign_test_p
 from app.analysis.ttest import holm

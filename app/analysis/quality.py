@@ -35,7 +35,7 @@ import pandas as pd
 
 from app.analysis.btd import fit_btd, leave_one_out_loglik
 from app.analysis.counts import VoteCounts
-from app.analysis.numbers import json_number
+from app.analysis.json_values import json_number
 from app.analysis.signtest import sign_test_p
 from app.errors import InputError
 
