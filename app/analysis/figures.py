@@ -233,3 +233,38 @@ def power_figure(plan: dict[str, Any], test: str = "wilcoxon") -> Figure:
     ax.spines[["top", "right"]].set_visible(False)
     ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5), frameon=False)
     return fig
+
+
+def btd_figure(results: dict[str, Any]) -> Figure:
+    """One panel per clip and pooled: model scores in JOD with their intervals (filled) and
+    the Thurstone Case V scale (open circles) for comparison."""
+    names = results["conditions"]
+    sections = [*results["clips"].items(), ("pooled", results["pooled"])]
+    cols = min(3, len(sections))
+    rows = -(-len(sections) // cols)
+    fig = _figure(7.2, 0.6 + rows * (0.75 + 0.32 * len(names)))
+    axes = np.atleast_1d(fig.subplots(rows, cols, sharex=True, squeeze=False)).ravel()
+    y = np.arange(len(names), dtype=float)[::-1]
+    for ax, (label, section) in zip(axes, sections, strict=False):
+        model = section["btd"]
+        jod = np.array([np.nan if model["jod"][c] is None else model["jod"][c] for c in names])
+        ci = np.array([[np.nan if v is None else v for v in model["jod_ci"][c]] for c in names])
+        thurstone = np.array([np.nan if s["score"] is None else s["score"]
+                              for s in section["scale"]])
+        span = ~np.isnan(ci).any(axis=1)
+        ax.hlines(y[span], ci[span, 0], ci[span, 1], color=BLACK, linewidth=1.4)
+        ax.plot(jod, y, "o", color=BLACK, markersize=5, label="Bradley-Terry-Davidson")
+        ax.plot(thurstone, y, "o", markerfacecolor="none", markeredgecolor=_colour(1),
+                markersize=6, label="Thurstone Case V")
+        ax.axvline(0.0, color="#999999", linewidth=0.6)
+        ax.set_yticks(y, names, fontsize=7)
+        ax.set_title(label + ("" if model["note"] is None else " (no fit)"), fontsize=9)
+        ax.tick_params(axis="x", labelsize=7)
+        ax.spines[["top", "right"]].set_visible(False)
+    for ax in axes[len(sections):]:
+        ax.set_axis_off()
+    for ax in axes[(rows - 1) * cols:len(sections)]:
+        ax.set_xlabel("score (JOD)", fontsize=8)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, loc="outside lower center", ncol=2, frameon=False)
+    return fig
