@@ -242,7 +242,11 @@ def btd_figure(results: dict[str, Any]) -> Figure:
     sections = [*results["clips"].items(), ("pooled", results["pooled"])]
     cols = min(3, len(sections))
     rows = -(-len(sections) // cols)
-    fig = _figure(7.2, 0.6 + rows * (0.75 + 0.32 * len(names)))
+    height = 0.7 + rows * (0.75 + 0.32 * len(names))
+    # A fixed grid: constrained layout costs more than the drawing for a dozen panels.
+    fig = Figure(figsize=(7.2, height), dpi=100)
+    fig.subplots_adjust(left=0.16, right=0.98, wspace=0.75, hspace=0.55, top=1 - 0.3 / height,
+                        bottom=0.75 / height)
     axes = np.atleast_1d(fig.subplots(rows, cols, sharex=True, squeeze=False)).ravel()
     y = np.arange(len(names), dtype=float)[::-1]
     for ax, (label, section) in zip(axes, sections, strict=False):
@@ -266,5 +270,5 @@ def btd_figure(results: dict[str, Any]) -> Figure:
     for ax in axes[(rows - 1) * cols:len(sections)]:
         ax.set_xlabel("score (JOD)", fontsize=8)
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, fontsize=7, loc="outside lower center", ncol=2, frameon=False)
+    fig.legend(handles, labels, fontsize=7, loc="lower center", ncol=2, frameon=False)
     return fig
