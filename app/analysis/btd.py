@@ -217,7 +217,7 @@ def fit_btd_many(counts: np.ndarray, *, max_iter: int = 60,
 
 
 def bootstrap_btd(per_participant: np.ndarray, weights: np.ndarray, confidence: float
-                  ) -> tuple[np.ndarray, np.ndarray, int]:
+                  ) -> tuple[np.ndarray, int]:
     """Percentile intervals (k, 2) of (theta..., g, nu) and the replicates that converged.
 
     ``per_participant`` is (P, n, n, 3); ``weights`` (B, P) from

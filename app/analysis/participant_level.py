@@ -136,7 +136,8 @@ def participant_level_tests(t: np.ndarray, names: Sequence[str], *, bootstrap: i
         judged = col[~np.isnan(col)]
         if judged.size == 0:
             continue
-        row: dict[str, Any] = {"a": names[a], "b": names[b], "n_participants": int(judged.size),
+        row: dict[str, Any] = {"a": names[int(a)], "b": names[int(b)],
+                               "n_participants": int(judged.size),
                                "median_d": _num(np.median(judged)), "W": None, "p": None}
         if np.any(judged != 0):
             res = stats.wilcoxon(judged, zero_method="wilcox", alternative="two-sided")
@@ -174,7 +175,7 @@ def one_judgement_per_participant(t: np.ndarray, names: Sequence[str]) -> dict[s
         win, loss, tie = int(for_a[:, q].sum()), int(for_b[:, q].sum()), int(tied[:, q].sum())
         if win + loss + tie == 0:
             continue
-        signs.append({"a": names[x], "b": names[y], "participants_for_a": win,
+        signs.append({"a": names[int(x)], "b": names[int(y)], "participants_for_a": win,
                       "participants_for_b": loss, "participants_tied": tie,
                       "p": _num(sign_test_p(win, loss, tie)),
                       "p_split": _num(sign_test_p(win, loss, tie, undecided_rule="split"))})

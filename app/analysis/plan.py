@@ -173,6 +173,7 @@ def plan_study(plan: StudyPlan, participants: Sequence[int], *, simulations: int
         power = _powers(counts, alpha)
         beta, ok = fit_btd_many(counts.sum(axis=1))
         jod = beta[ok, : len(names)] * JOD_PER_LOG_WORTH
+        widths: dict[str, float | None]
         if ok.sum() >= 10:
             low, high = np.percentile(jod, [tail, 100.0 - tail], axis=0)
             widths = {c: float(w) for c, w in zip(names, high - low, strict=True)}
