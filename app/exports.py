@@ -71,6 +71,8 @@ def write_report_files(study: Study) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     csv_path = path.parent / "votes.csv"
     csv_path.write_text(votes_csv(study), encoding="utf-8")
-    results = analyze(read_votes(csv_path), conditions=[c.name for c in study.conditions])
+    # exclusion rules as `facepair analyze --exclude` reads them (app.analysis.quality)
+    results = analyze(read_votes(csv_path), conditions=[c.name for c in study.conditions],
+                      exclude=study.settings.get("exclude"))
     write_report(results, path)
     return path

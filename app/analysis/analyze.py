@@ -17,23 +17,22 @@ import numpy as np
 import pandas as pd
 
 from app.analysis.agreement import coefficient_of_agreement
+from app.analysis.btd import btd_summary
 from app.analysis.consistence import consistence_p, consistence_row, consistence_table
 from app.analysis.counts import UNDECIDED_TREATMENTS, VoteCounts, ballots, count_votes
+from app.analysis.json_values import json_number as _num
+from app.analysis.participant_level import one_judgement_per_participant, participant_level_tests
+from app.analysis.quality import (
+    QUALITY_FIELDS,
+    excluded_participants,
+    parse_rules,
+    participant_quality,
+)
 from app.analysis.scaling import JOD_SIGMA, bootstrap_scale, connected
 from app.analysis.signtest import sign_test_p
 from app.analysis.ttest import holm, paired_t_many
 from app.analysis.votes import VotesTable, read_votes
 from app.errors import InputError
-
-
-def _num(x: Any) -> Any:
-    """A JSON-ready number: Python int/float, NaN and infinities as None."""
-    if x is None:
-        return None
-    if isinstance(x, np.integer | int) and not isinstance(x, bool):
-        return int(x)
-    x = float(x)
-    return x if np.isfinite(x) else None
 
 
 def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -103,6 +102,10 @@ def _section(t: np.ndarray, names: Sequence[str], *, undecided: str, bootstrap: 
         "sign_tests": signs,
         "scale": scale_rows,
         "scale_note": note,
+        "participant_level": participant_level_tests(t, names, bootstrap=bootstrap, seed=seed,
+                                                     confidence=confidence),
+        "one_per_participant": one_judgement_per_participant(t, names),
+        "btd": btd_summary(t, names, bootstrap=bootstrap, seed=seed, confidence=confidence),
     }
 
 
@@ -165,13 +168,17 @@ def _consistence_summary(participants: dict[str, Any], n: int) -> dict[str, Any]
 def analyze(votes: VotesTable | pd.DataFrame | str | Path, *,
             conditions: Sequence[str] | None = None, undecided: str = "exclude",
             skip_bad_rows: bool = False, bootstrap: int = 1000, seed: int = 0,
-            confidence: float = 0.95, anchor: str | None = None) -> dict[str, Any]:
-    """Every statistic of issue 5 for a votes table (or a votes CSV path / frame).
+            confidence: float = 0.95, anchor: str | None = None,
+            exclude: str | Sequence[str] | None = None) -> dict[str, Any]:
+    """Every statistic for a votes table (or a votes CSV path / frame).
 
     ``undecided`` is "exclude" (default: undecided votes count in ballots' undecided column
     only) or "split" (half a judgement to each side in scores, u and the scale; sign tests
-    always report both). ``bootstrap`` replicates with ``seed`` give the scale's intervals;
-    ``anchor`` fixes that condition at 0 instead of the mean.
+    always report both). ``bootstrap`` replicates with ``seed`` give the intervals of the
+    scale, the model and the effect sizes; ``anchor`` fixes that condition at 0 on the Case V
+    scale instead of the mean. ``exclude`` holds participant-quality rules such as
+    ``"catch<1.0,side_p<0.001"`` (:mod:`app.analysis.quality`); participants matching one are
+    left out of every statistic and listed under ``quality.excluded``.
     """
     if undecided not in UNDECIDED_TREATMENTS:
         raise InputError(f"must be one of {', '.join(UNDECIDED_TREATMENTS)}, got {undecided!r}",
@@ -182,8 +189,19 @@ def analyze(votes: VotesTable | pd.DataFrame | str | Path, *,
         votes, skip_bad_rows=skip_bad_rows, conditions=conditions)
     if len(table) == 0:
         raise InputError("no valid votes to analyse", path=table.source)
+    rules = parse_rules(exclude)
     counts = count_votes(table, conditions)
     names = counts.conditions
+    quality = participant_quality(counts, table.frame)
+    excluded = excluded_participants(quality, rules)
+    if excluded:
+        kept = ~table.frame["participant"].isin(list(excluded))
+        if not kept.any():
+            raise InputError(f"the rules {', '.join(map(str, rules))} exclude every participant",
+                             field="exclude")
+        table = VotesTable(table.frame[kept].reset_index(drop=True), table.skipped,
+                           table.problems, table.source)
+        counts = count_votes(table, names)
     anchor_idx = None
     if anchor is not None:
         if anchor not in names:
@@ -200,12 +218,14 @@ def analyze(votes: VotesTable | pd.DataFrame | str | Path, *,
         "conditions": list(names),
         "input": {"source": table.source, "votes": len(table), "skipped_rows": table.skipped,
                   "problems": list(table.problems), "participants": len(counts.participants),
-                  "clips": list(counts.clips)},
+                  "clips": list(counts.clips), "excluded_participants": len(excluded)},
         "options": {"undecided": undecided, "bootstrap": bootstrap, "seed": seed,
                     "confidence": confidence, "anchor": anchor,
                     "scale": "Thurstone Case V, least squares, JOD units",
-                    "jod_sigma": JOD_SIGMA},
+                    "jod_sigma": JOD_SIGMA, "exclude": [str(r) for r in rules]},
         "clips": clips,
         "pooled": pooled,
         "participants": participants,
+        "quality": {"rules": [str(r) for r in rules], "excluded": excluded,
+                    "fields": dict(QUALITY_FIELDS), "participants": quality},
     }

@@ -285,12 +285,17 @@ def build_document(r: dict[str, Any]) -> list[Block]:
     doc.append(Plot("Figure 5. Thurstone Case V scale with bootstrap intervals: pooled (black) "
                     "and per clip (coloured).", figures.scale_figure(r)))
     doc.append(_scale_table(r))
+    from app.analysis.inference_document import inference_blocks
+
+    doc += inference_blocks(r)
     doc.append(Heading("Per clip"))
     for clip, section in r["clips"].items():
         doc.append(_sign_table(section, f"Sign tests, clip {clip}."))
         doc.append(_t_table(section, f"Paired samples test, clip {clip} (mean = a minus b)."))
     doc.append(Heading("Method"))
-    for text in METHOD_TEXT:
+    from app.analysis.inference_document import METHOD_TEXT as MODEL_TEXT
+
+    for text in (*METHOD_TEXT, *MODEL_TEXT):
         doc.append(Paragraph(text.format(seed=r["options"]["seed"],
                                          boot=r["options"]["bootstrap"])))
     return doc

@@ -210,3 +210,65 @@ def _p(p: float | None) -> str:
     if p < 0.001:
         return "< .001"
     return f"{p:.3f}".lstrip("0") if p < 1 else "1"
+
+
+def power_figure(plan: dict[str, Any], test: str = "wilcoxon") -> Figure:
+    """Power of one planned test against participants, one line per pair; 80 % and alpha."""
+    levels = plan["levels"]
+    x = [lv["participants"] for lv in levels]
+    fig = _figure(6.4, 3.6)
+    ax = fig.subplots()
+    for q, pair in enumerate(levels[0]["power"][test]):
+        ax.plot(x, [lv["power"][test][pair] for lv in levels], "o-", color=_colour(q),
+                label=pair, markersize=4)
+    ax.axhline(0.8, color="#555555", linewidth=0.8, linestyle="--")
+    ax.axhline(plan["alpha"], color="#999999", linewidth=0.6, linestyle=":")
+    ax.set_ylim(0, 1.02)
+    ax.set_xlabel("participants")
+    ax.set_ylabel(f"power (Holm-adjusted p < {plan['alpha']:g})")
+    title = {"wilcoxon": "Participant-level Wilcoxon signed-rank test",
+             "sign_per_participant": "Sign test, one judgement per participant",
+             "sign_pooled": "Pooled sign test"}.get(test, test)
+    ax.set_title(f"{title}; {plan['simulations']} simulated studies per point", fontsize=10)
+    ax.spines[["top", "right"]].set_visible(False)
+    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5), frameon=False)
+    return fig
+
+
+def btd_figure(results: dict[str, Any]) -> Figure:
+    """One panel per clip and pooled: model scores in JOD with their intervals (filled) and
+    the Thurstone Case V scale (open circles) for comparison."""
+    names = results["conditions"]
+    sections = [*results["clips"].items(), ("pooled", results["pooled"])]
+    cols = min(3, len(sections))
+    rows = -(-len(sections) // cols)
+    height = 0.7 + rows * (0.75 + 0.32 * len(names))
+    # A fixed grid: constrained layout costs more than the drawing for a dozen panels.
+    fig = Figure(figsize=(7.2, height), dpi=100)
+    fig.subplots_adjust(left=0.16, right=0.98, wspace=0.75, hspace=0.55, top=1 - 0.3 / height,
+                        bottom=0.75 / height)
+    axes = np.atleast_1d(fig.subplots(rows, cols, sharex=True, squeeze=False)).ravel()
+    y = np.arange(len(names), dtype=float)[::-1]
+    for ax, (label, section) in zip(axes, sections, strict=False):
+        model = section["btd"]
+        jod = np.array([np.nan if model["jod"][c] is None else model["jod"][c] for c in names])
+        ci = np.array([[np.nan if v is None else v for v in model["jod_ci"][c]] for c in names])
+        thurstone = np.array([np.nan if s["score"] is None else s["score"]
+                              for s in section["scale"]])
+        span = ~np.isnan(ci).any(axis=1)
+        ax.hlines(y[span], ci[span, 0], ci[span, 1], color=BLACK, linewidth=1.4)
+        ax.plot(jod, y, "o", color=BLACK, markersize=5, label="Bradley-Terry-Davidson")
+        ax.plot(thurstone, y, "o", markerfacecolor="none", markeredgecolor=_colour(1),
+                markersize=6, label="Thurstone Case V")
+        ax.axvline(0.0, color="#999999", linewidth=0.6)
+        ax.set_yticks(y, names, fontsize=7)
+        ax.set_title(label + ("" if model["note"] is None else " (no fit)"), fontsize=9)
+        ax.tick_params(axis="x", labelsize=7)
+        ax.spines[["top", "right"]].set_visible(False)
+    for ax in axes[len(sections):]:
+        ax.set_axis_off()
+    for ax in axes[(rows - 1) * cols:len(sections)]:
+        ax.set_xlabel("score (JOD)", fontsize=8)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, loc="lower center", ncol=2, frameon=False)
+    return fig

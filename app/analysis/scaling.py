@@ -83,6 +83,21 @@ def canonical_participant_order(per_participant: np.ndarray) -> np.ndarray:
     return np.lexsort(flat.T[::-1])
 
 
+def bootstrap_weights(n_part: int, replicates: int, seed: int) -> np.ndarray:
+    """(replicates, n_part) counts: how often each participant is drawn in each resample.
+
+    A resample of participants with replacement is a weight vector, so a statistic that is a
+    sum over participants is recomputed for all replicates at once as ``weights @ data``.
+
+    >>> bootstrap_weights(5, 3, seed=0).sum(axis=1).tolist()
+    [5, 5, 5]
+    """
+    rng = np.random.default_rng(seed)
+    draws = rng.integers(0, n_part, size=(replicates, n_part))
+    flat_draws = (np.arange(replicates)[:, None] * n_part + draws).ravel()
+    return np.bincount(flat_draws, minlength=replicates * n_part).reshape(replicates, n_part)
+
+
 def bootstrap_scale(per_participant: np.ndarray, *, replicates: int = 1000, seed: int = 0,
                     confidence: float = 0.95, anchor: int | None = None,
                     sigma: float = JOD_SIGMA) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -99,10 +114,7 @@ def bootstrap_scale(per_participant: np.ndarray, *, replicates: int = 1000, seed
         nan = np.full(k, np.nan)
         return scale, nan, nan
     data = data[canonical_participant_order(data)]
-    rng = np.random.default_rng(seed)
-    draws = rng.integers(0, n_part, size=(replicates, n_part))
-    flat_draws = (np.arange(replicates)[:, None] * n_part + draws).ravel()
-    weights = np.bincount(flat_draws, minlength=replicates * n_part).reshape(replicates, n_part)
+    weights = bootstrap_weights(n_part, replicates, seed)
     boot = (weights @ data.reshape(n_part, -1)).reshape(replicates, k, k)
     values = thurstone_case_v(boot, anchor=anchor, sigma=sigma)
     ok = ~np.isnan(values).any(axis=1)

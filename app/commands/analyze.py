@@ -31,6 +31,14 @@ def _summary(results: dict[str, Any]) -> str:
     sig = [s for s in pooled["sign_tests"] if s["p_holm"] is not None and s["p_holm"] < 0.05]
     lines.append(f"sign tests: {len(sig)} of {len(pooled['sign_tests'])} pairs differ "
                  "(Holm p < .05)")
+    wil = [w for w in pooled["participant_level"] if w["p_holm"] is not None
+           and w["p_holm"] < 0.05]
+    lines.append(f"participant-level Wilcoxon tests: {len(wil)} of "
+                 f"{len(pooled['participant_level'])} pairs differ (Holm p < .05)")
+    excluded = results["quality"]["excluded"]
+    if results["quality"]["rules"]:
+        lines.append(f"excluded by {', '.join(results['quality']['rules'])}: "
+                     + (", ".join(excluded) if excluded else "nobody"))
     return "\n".join(lines)
 
 
@@ -52,9 +60,12 @@ def _summary(results: dict[str, Any]) -> str:
               help="Bootstrap replicates for the scale's intervals (0: none).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Bootstrap seed.")
 @click.option("--anchor", default=None, help="Fix this condition at 0 on the scale.")
+@click.option("--exclude", default=None, metavar="RULES",
+              help="Leave out participants matching any rule, e.g. 'catch<1.0,side_p<0.001' "
+                   "(fields: side_left, side_p, undecided, tau, catch, median_ms, outlier).")
 def analyze(votes: str, json_path: str | None, html_path: str | None, pdf_path: str | None,
             undecided: str, skip_bad_rows: bool, conditions: str | None, bootstrap: int,
-            seed: int, anchor: str | None) -> None:
+            seed: int, anchor: str | None, exclude: str | None) -> None:
     """Analyse the votes of a paired-comparison study (CSV) and report the results."""
     from tqdm import tqdm
 
@@ -74,7 +85,8 @@ def analyze(votes: str, json_path: str | None, html_path: str | None, pdf_path: 
             click.echo(f"facepair: skipped {table.skipped} bad rows; first: "
                        f"{table.problems[0]}", err=True)
         results = run_analysis(table, conditions=names, undecided=undecided,
-                               bootstrap=bootstrap, seed=seed, anchor=anchor)
+                               bootstrap=bootstrap, seed=seed, anchor=anchor,
+                               exclude=exclude)
         bar.update()
         if json_path is not None:
             Path(json_path).write_text(json.dumps(results, indent=1, allow_nan=False) + "\n",

@@ -16,7 +16,7 @@ def test_document_order_and_tables():
     assert headings[:3] == ["Results", "Ballots", "Pairwise preferences"]
     tables = [b for b in blocks if isinstance(b, Table)]
     assert all(len(row) == len(t.header) for t in tables for row in t.rows)
-    assert sum(isinstance(b, Plot) for b in blocks) == 5
+    assert sum(isinstance(b, Plot) for b in blocks) == 6
 
 
 def test_any_small_study_builds_a_document():

@@ -22,7 +22,7 @@ def test_html_is_self_contained_and_complete(tmp_path, results):
     text = html_path.read_text(encoding="utf-8")
     assert "<script" not in text and not re.search(r'(src|href)="(?!data:)', text)
     images = re.findall(r'src="data:image/png;base64,([^"]+)"', text)
-    assert len(images) == 5
+    assert len(images) == 6
     assert all(base64.b64decode(i).startswith(b"\x89PNG") for i in images)
     for heading in ("Ballots", "Pairwise preferences", "Per-participant scores",
                     "Agreement and consistence", "Scale", "Method"):
@@ -71,3 +71,19 @@ def test_degenerate_studies_still_report(tmp_path, rows, note):
     write_report(r, tmp_path / "r.html", tmp_path / "r.pdf")
     text = (tmp_path / "r.html").read_text(encoding="utf-8")
     assert "<h2>Scale</h2>" in text and (tmp_path / "r.pdf").stat().st_size > 1000
+
+
+def test_reviewer_sections_say_which_to_cite(tmp_path):
+    votes = simulate_votes(TRUE_SCALE, **EXAMPLE)
+    r = analyze(votes, conditions=list(TRUE_SCALE), bootstrap=100, exclude="outlier>1.0")
+    write_report(r, tmp_path / "r.html")
+    text = (tmp_path / "r.html").read_text(encoding="utf-8")
+    for heading in ("Participant-level inference",
+                    "Bradley-Terry-Davidson model with ties and side", "Participant quality"):
+        assert f"<h2>{heading}</h2>" in text
+    assert "Which is which" in text and "Cite the participant-level tests" in text
+    assert "Table 7. Participant-level Wilcoxon" in text and "Table 9. Bradley-Terry" in text
+    excluded = r["quality"]["excluded"]
+    assert excluded and all(f"{pid}: outlier&gt;1" in text for pid in excluded)
+    one = r["pooled"]["one_per_participant"]["agreement"]
+    assert f"u = {one['u']:.3f}" in text

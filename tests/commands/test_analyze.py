@@ -58,3 +58,45 @@ def test_pdf_needs_report(tmp_path):
     out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--pdf",
                                     str(tmp_path / "r.pdf")])
     assert out.exit_code == 2 and "--pdf needs --report" in out.output
+
+
+def test_exclude_rules_list_who_was_left_out(tmp_path):
+    (tmp_path / "v.csv").write_text(ROWS + "".join(
+        f"p9,s2,{a},{b},left\n" for a, b in [("A", "B"), ("B", "A"), ("C", "A"), ("B", "C")]))
+    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--exclude",
+                                    "side_p<0.2", "--json", str(tmp_path / "o.json"),
+                                    "--bootstrap", "0"])
+    assert out.exit_code == 0, out.output
+    data = json.loads((tmp_path / "o.json").read_text())
+    assert list(data["quality"]["excluded"]) == ["p9"] and "p9" not in data["participants"]
+    assert "excluded by side_p<0.2: p9" in out.output
+
+
+def test_bad_exclude_rule_exits_2_with_one_line(tmp_path):
+    (tmp_path / "v.csv").write_text(ROWS)
+    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--exclude", "speed<1"])
+    assert out.exit_code == 2
+    lines = [ln for ln in out.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "exclude: unknown field 'speed'" in lines[0]
+
+
+def test_plan_prints_power_and_writes_json_and_plot(tmp_path):
+    out = CliRunner().invoke(main, ["plan", "--effects", "a=0,b=0.5,c=1", "--participants",
+                                    "8-16:8", "--simulations", "100", "--json",
+                                    str(tmp_path / "p.json"), "--plot", str(tmp_path / "p.png")])
+    assert out.exit_code == 0, out.output
+    data = json.loads((tmp_path / "p.json").read_text())
+    assert [lv["participants"] for lv in data["levels"]] == [8, 16]
+    assert "16 participants: power" in out.output and "a vs c" in out.output
+    assert (tmp_path / "p.png").read_bytes().startswith(b"\x89PNG")
+    pilot = CliRunner().invoke(main, ["plan", "--pilot", "data/examples/votes.csv",
+                                      "--participants", "14", "--simulations", "50"])
+    assert pilot.exit_code == 0, pilot.output and "data/examples/votes.csv" in pilot.output
+
+
+def test_plan_bad_input_exits_2_with_one_line():
+    for args in (["--effects", "a=0,b"], ["--effects", "a=0,b=1", "--participants", "x"],
+                 ["--effects", "a=0,b=1", "--pilot", "data/examples/votes.csv"]):
+        out = CliRunner().invoke(main, ["plan", *args])
+        lines = [ln for ln in out.output.splitlines() if ln.strip()]
+        assert out.exit_code == 2 and len(lines) == 1 and "Traceback" not in out.output

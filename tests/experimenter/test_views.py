@@ -206,6 +206,22 @@ def test_monitor_export_and_report(app, client, participant, web):
     report.close()
 
 
+def test_report_applies_the_studys_exclusion_rules(app, participant, web):
+    from app.exports import write_report_files
+
+    study_id = web.study(design="all_ordered")
+    slug = _slug(app, study_id)
+    _finish(app, participant, slug, "left")
+    _finish(app, participant, slug, "right")
+    with app.app_context():
+        study = db.session.get(Study, study_id)
+        study.settings = {**study.settings, "exclude": "side_left>0.9"}
+        db.session.commit()
+        text = write_report_files(study).read_text(encoding="utf-8")
+    assert "Exclusion rules side_left&gt;0.9 were applied" in text
+    assert "P0000: side_left&gt;0.9 (side_left = 1)" in text
+
+
 def _tmp_csv(text):
     import tempfile
     from pathlib import Path
