@@ -193,3 +193,32 @@ def write_marker_clip(track: MotionTrack, path: str | Path, size: int,
         for grey in marker_frames(track, size, face, look, hidden):
             writer.write(np.repeat(grey[:, :, None], 3, axis=2))
     return Path(path)
+
+
+def calibration_motion(fps: float = 30.0, seconds: float = 4.0) -> MotionTrack:
+    """A neutral face nodding to +/-17 degrees, then turning to +/-8 degrees (the thesis'
+    calibration angles, sec. 3.2.2): the known motion for calibrating the capture."""
+    t = np.arange(int(round(seconds * fps))) / fps
+    half = seconds / 2.0
+    nod = np.where(t < half, np.radians(17.0) * np.sin(2 * np.pi * t / half), 0.0)
+    turn = np.where(t >= half, np.radians(8.0) * np.sin(2 * np.pi * (t - half) / half), 0.0)
+    return MotionTrack.from_channels(fps, {48: nod / 1e-5, 49: turn / 1e-5},
+                                     source="marker calibration motion")
+
+
+def known_motion(fps: float = 30.0, seconds: float = 4.0) -> MotionTrack:
+    """Head pitch, yaw and roll within the thesis' ranges (12, 6 and 8 degrees) at unrelated
+    rates, and two eyebrow raises (inner 40, middle 30 ENS units, raised-cosine ramps of
+    0.25 s), all from a neutral first half second: the closed-loop test's known motion."""
+    t = np.arange(int(round(seconds * fps))) / fps
+    ramp = np.clip((t - 0.5) / 0.5, 0.0, 1.0)
+    angles = {48: (12.0, 0.45, 0.0), 49: (6.0, 0.31, 0.7), 50: (8.0, 0.53, 1.9)}
+    cols = {f: np.radians(a) * np.sin(2 * np.pi * hz * (t - 0.5) + ph) * ramp / 1e-5
+            for f, (a, hz, ph) in angles.items()}
+    raise_ = np.zeros_like(t)
+    for start, hold in ((1.0, 0.5), (2.4, 0.8)):
+        up = np.clip((t - start) / 0.25, 0, 1) - np.clip((t - start - 0.25 - hold) / 0.25, 0, 1)
+        raise_ += 0.5 - 0.5 * np.cos(np.pi * up)
+    for f, amplitude in ((31, 40.0), (32, 40.0), (33, 30.0), (34, 30.0)):
+        cols[f] = amplitude * raise_
+    return MotionTrack.from_channels(fps, cols, source="marker test motion")

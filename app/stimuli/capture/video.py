@@ -29,25 +29,32 @@ from app.errors import InputError
 _PTS = re.compile(rb"\bn:\s*(\d+)\s+pts:\s*-?\d+\s+pts_time:\s*(-?[\d.]+)")
 
 
+_VIDEO = re.compile(r"Stream #\S+.*?Video: .*?[ ,](\d{1,5})x(\d{1,5})(?![\dA-Fa-fx])")
+_FPS = re.compile(r"(\d+(?:\.\d+)?) (?:fps|tbr)")
+_DURATION = re.compile(r"Duration: (\d+):(\d+):(\d+(?:\.\d+)?)")
+
+
 def video_info(path: str | Path) -> dict[str, Any]:
-    """``size`` (width, height), ``fps`` and ``n_frames`` (an estimate) of a video file."""
+    """``size`` (width, height), ``fps`` and ``n_frames`` (an estimate) from ffmpeg's header."""
     import imageio_ffmpeg
 
     p = Path(path)
     if not p.is_file():
         raise InputError("video file not found", path=p)
-    try:
-        reader = imageio_ffmpeg.read_frames(str(p))
-        meta = next(reader)
-        reader.close()
-    except (OSError, RuntimeError, StopIteration) as exc:
-        first = str(exc).strip().splitlines()
-        raise InputError(f"not a video ffmpeg can read ({first[-1] if first else exc})",
-                         path=p) from None
-    fps = float(meta.get("fps") or 0.0)
-    duration = float(meta.get("duration") or 0.0)
-    return {"size": tuple(meta["size"]), "fps": fps,
-            "n_frames": int(round(duration * fps)) if fps and duration else 0}
+    probe = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-nostdin",
+                            "-i", str(p)], capture_output=True, text=True, errors="replace")
+    video = _VIDEO.search(probe.stderr)
+    if video is None:
+        lines = probe.stderr.strip().splitlines()
+        reason = lines[-1] if lines else "no video stream"
+        raise InputError(f"not a video ffmpeg can read ({reason})", path=p)
+    fps = _FPS.search(probe.stderr[video.start():])
+    rate = float(fps.group(1)) if fps else 0.0
+    duration = _DURATION.search(probe.stderr)
+    seconds = (3600 * int(duration.group(1)) + 60 * int(duration.group(2))
+               + float(duration.group(3))) if duration else 0.0
+    return {"size": (int(video.group(1)), int(video.group(2))), "fps": rate,
+            "n_frames": int(round(seconds * rate))}
 
 
 def read_grey_frames(path: str | Path, info: dict[str, Any] | None = None
@@ -97,6 +104,8 @@ def read_grey_frames(path: str | Path, info: dict[str, Any] | None = None
         proc.kill()
         proc.wait()
         thread.join()
+        proc.stdout.close()
+        proc.stderr.close()
     if k == 0:
         tail = b"".join(log[-3:]).decode(errors="replace").strip().splitlines()
         raise InputError(f"no frames decoded ({tail[-1] if tail else 'empty video'})",
