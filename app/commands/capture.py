@@ -1,4 +1,4 @@
-"""``facepair capture``: motion captured by trackers -> FAP tracks (ground truth)."""
+"""``facepair capture``: motion captured by trackers or markers -> FAP tracks (ground truth)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,19 @@ import click
 
 @click.group()
 def capture() -> None:
-    """Turn captured motion (OpenFace 2.0, Live Link Face) into FAP tracks."""
+    """Turn captured motion (OpenFace 2.0, Live Link Face, marker videos) into FAP tracks."""
+
+
+def _save(track, out: str, samples: str) -> dict:
+    """Write ``track`` and print what it holds; returns its capture report."""
+    from app.stimuli.io import save_track
+
+    save_track(track, out)
+    report = track.metadata["capture"]
+    click.echo(f"{out}: {track.n_frames} frames at {track.fps:g} fps from {report['samples']} "
+               f"{samples} at {report['capture_fps']:g} fps; FAPs "
+               f"{', '.join(map(str, track.channels))}")
+    return report
 
 
 @capture.command("import")
@@ -32,7 +44,6 @@ def import_(source: str, kind: str, out: str, fps: float, max_gap: float,
     from app.stimuli.capture import sniff_csv
     from app.stimuli.capture.arkit import ROTATIONS, arkit_mapping, read_arkit_csv
     from app.stimuli.capture.openface import read_openface
-    from app.stimuli.io import save_track
 
     if kind == "auto":
         kind = sniff_csv(source) or ""
@@ -47,11 +58,7 @@ def import_(source: str, kind: str, out: str, fps: float, max_gap: float,
         track = read_openface(source, fps, min_confidence=min_confidence, max_gap_s=max_gap)
     else:
         track = read_arkit_csv(source, fps, max_gap_s=max_gap, mapping=arkit_mapping(flip=flip))
-    save_track(track, out)
-    report = track.metadata["capture"]
-    click.echo(f"{out}: {track.n_frames} frames at {fps:g} fps from {report['samples']} "
-               f"samples at {report['capture_fps']:g} fps; FAPs "
-               f"{', '.join(map(str, track.channels))}")
+    report = _save(track, out, "samples")
     if report["invalid_samples"] or report["filled_frames"]:
         spans = ", ".join(f"{a:.2f}-{b:.2f} s" for a, b in report["gaps"][:5])
         click.echo(f"  {report['invalid_samples']} lost samples; {report['filled_frames']} "
@@ -73,3 +80,107 @@ def export(track_path: str, out: str) -> None:
     track = load_track(track_path)
     write_arkit_csv(track, out)
     click.echo(f"{out}: {track.n_frames} frames of 52 ARKit blendshapes and 9 rotations")
+
+
+def _constants(constants_path: str | None, fapu: str | None, squash: bool):
+    """Marker constants from a JSON file, the subject's FAPU and the squashing switch."""
+    from dataclasses import replace
+
+    from app.errors import InputError
+    from app.stimuli.capture.marker_faps import MarkerConstants
+
+    c = MarkerConstants.from_json(constants_path) if constants_path else MarkerConstants()
+    if fapu:
+        values = dict(c.fapu_mm)
+        for item in fapu.split(","):
+            key, _, value = item.partition("=")
+            try:
+                number = float(value)
+            except ValueError:
+                number = float("nan")
+            if key.strip() not in values or not number > 0 or number == float("inf"):
+                raise InputError(f"expected ENS0=mm,MNS0=mm,MW0=mm with positive numbers, got "
+                                 f"{item!r}", field="--fapu")
+            values[key.strip()] = number
+        c = replace(c, fapu_mm=values)
+    return c if squash else replace(c, squash=False)
+
+
+def _marker_options(fn):
+    for option in reversed([
+        click.option("--constants", "constants_path", type=click.Path(dir_okay=False),
+                     help="JSON of marker constants (kp, ky, apexes, ...; see docs/capture.md)"
+                     ", e.g. written by `capture calibrate`."),
+        click.option("--fapu", metavar="ENS0=MM,MNS0=MM,MW0=MM",
+                     help="The subject's FAPU in mm, measured in the neutral pose."),
+        click.option("--threshold", type=click.FloatRange(1, 255), default=128.0,
+                     show_default=True, help="Segmentation threshold (grey level)."),
+        click.option("--weights", type=click.Choice(["grey", "binary"]), default="grey",
+                     show_default=True, help="Centre-of-gravity weights."),
+        click.option("--max-gap", type=click.FloatRange(0, None), default=0.5,
+                     show_default=True,
+                     help="Longest time a marker may be lost (recovered by interpolation)."),
+    ]):
+        fn = option(fn)
+    return fn
+
+
+def _label(video: str, threshold: float, weights: str, max_gap: float):
+    from app.commands.render import _progress_bar
+    from app.stimuli.capture.markers import label_frames
+    from app.stimuli.capture.video import read_grey_frames, video_info
+
+    info = video_info(video)
+    with _progress_bar("markers") as progress:
+        return label_frames(read_grey_frames(video, info), threshold=threshold,
+                            weights=weights, max_gap_s=max_gap, path=video,
+                            progress=lambda k: progress(k, max(info["n_frames"], k)))
+
+
+@capture.command("markers")
+@click.argument("video", type=click.Path(dir_okay=False))
+@click.option("--out", required=True, type=click.Path(dir_okay=False),
+              help="Track to write (.fap or .csv).")
+@click.option("--fps", type=click.FloatRange(1, 1000), default=30.0, show_default=True,
+              help="Frame rate of the written track.")
+@click.option("--no-squash", is_flag=True,
+              help="Skip the thesis' Gaussian squashing: FAPs as measured.")
+@_marker_options
+def markers(video: str, out: str, fps: float, no_squash: bool, constants_path: str | None,
+            fapu: str | None, threshold: float, weights: str, max_gap: float) -> None:
+    """Capture FAPs from an IR video of the thesis' 17 markers (head frame, brows, lips)."""
+    from pathlib import Path
+
+    from app.stimuli.capture.markers import tracks_to_faps
+
+    c = _constants(constants_path, fapu, not no_squash)
+    tracks = _label(video, threshold, weights, max_gap)
+    track = tracks_to_faps(tracks, fps=fps, constants=c, max_gap_s=max_gap, path=video,
+                           name=Path(video).stem)
+    report = _save(track, out, "video frames")
+    if report["filled_frames"] or report["duplicates"]:
+        click.echo(f"  {report['filled_frames']} dropped frames filled, "
+                   f"{report['duplicates']} duplicated frames dropped")
+    for name, a, b in report["marker_gaps"]:
+        click.echo(f"  marker {name} lost in frames {a}-{b}: recovered by interpolation")
+
+
+@capture.command("calibrate")
+@click.argument("video", type=click.Path(dir_okay=False))
+@click.option("--truth", required=True, type=click.Path(dir_okay=False),
+              help="The head's known motion (.fap or .csv): FAPs 48 (pitch) and 49 (yaw).")
+@click.option("--out", required=True, type=click.Path(dir_okay=False),
+              help="JSON of constants to write (for `capture markers --constants`).")
+@_marker_options
+def calibrate(video: str, truth: str, out: str, constants_path: str | None, fapu: str | None,
+              threshold: float, weights: str, max_gap: float) -> None:
+    """Measure kp, ky and the eyebrows' pitch coupling on a neutral face of known pose."""
+    from app.stimuli.capture.calibration import calibrate as fit
+    from app.stimuli.io import load_track
+
+    known = load_track(truth)
+    c = fit(_label(video, threshold, weights, max_gap), known,
+            _constants(constants_path, fapu, True))
+    c.to_json(out)
+    click.echo(f"{out}: kp {c.kp:.4f} (thesis 0.15), ky {c.ky:.4f} (thesis 0.05), eyebrow "
+               f"pitch coupling {c.brow_pitch_inner:.1f} / {c.brow_pitch_middle:.1f} ENS/rad")

@@ -1,4 +1,5 @@
-"""Ground truth from capture: trackers' files (OpenFace 2.0, ARKit / Live Link Face) to FAPs.
+"""Ground truth from capture: trackers' files (OpenFace 2.0, ARKit / Live Link Face) to FAPs,
+and the thesis' own marker pipeline from IR video (:mod:`~app.stimuli.capture.markers`).
 
 :func:`sniff_csv` tells a tracker's CSV from facepair's own track CSV by its header, so every
 place that reads a ground truth (``stimuli generate --ground-truth``, study files, the web

@@ -1,4 +1,4 @@
-"""Tracker files written in each tool's exact layout, with known motion, for the tests."""
+"""Tracker files in each tool's exact layout, and marker videos, with known motion, for tests."""
 
 from __future__ import annotations
 
@@ -69,3 +69,17 @@ def write_live_link(path: Path, n: int, values: dict[str, np.ndarray], *, app_fp
         lines.append(",".join(row))
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+def drop_video_frames(src, dst, frames):
+    """Re-encode the video ``src`` without ``frames``, keeping every other frame's time stamp
+    (a capture card that dropped them)."""
+    import subprocess
+
+    import imageio_ffmpeg
+
+    keep = "*".join(f"not(eq(n\\,{k}))" for k in frames)
+    subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-loglevel", "error", "-i", str(src),
+                    "-vf", f"select='{keep}'", "-fps_mode", "passthrough", "-c:v", "libx264",
+                    "-crf", "12", "-pix_fmt", "yuv420p", str(dst)], check=True)
+    return dst
