@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from app import design
+from app.analysis.quality import parse_rules
 from app.extensions import db
 from app.models import Clip, Condition, Pair, Stimulus, Study, StudyList, User
 from app.storage import media_dir
@@ -33,8 +34,10 @@ def _copy(study: Study, source: Path, rel: str) -> str:
 def create_study(owner: User, spec: StudySpec, *, source_toml: str = "",
                  render: dict[str, Any] | None = None) -> Study:
     """Rows for ``spec`` (study, conditions, clips, pairs, lists, stimuli); media copied into
-    the study's folder. ``render`` overrides the study file's ``[render]`` settings. Not
-    committed: the caller's unit of work decides."""
+    the study's folder. ``render`` overrides the study file's ``[render]`` settings. The
+    study file's ``exclude`` rules are checked here (:func:`app.analysis.quality.parse_rules`).
+    Not committed: the caller's unit of work decides."""
+    parse_rules(spec.exclude)  # a bad rule: one line naming the field, before any row exists
     study = Study(
         owner_id=owner.id, title=spec.title, question=spec.question,
         instructions=spec.instructions, consent=spec.consent, design=spec.design,
@@ -51,6 +54,7 @@ def create_study(owner: User, spec: StudySpec, *, source_toml: str = "",
             "eyes": spec.eyes,
             "normalize": spec.normalize,
             "render": {**spec.render, **(render or {})},
+            "exclude": spec.exclude or None,
         },
     )
     db.session.add(study)

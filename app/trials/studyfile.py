@@ -137,6 +137,7 @@ _TOP_KEYS: Final = (
     "eyes",
     "normalize",
     "render",
+    "exclude",
     "practice",
     "practice_clip",
     "undecided",
@@ -188,6 +189,7 @@ class _StudyReader(FieldReader):
         clips = self.clips(top)
         conditions = self.conditions(top, clips)
         eyes, normalize, render = self.stimulus_settings(top, clips)
+        exclude = self.text(top, "exclude", "exclude", "")
         names = [c.name for c in conditions]
         if design == "reference":
             if reference is None:
@@ -224,6 +226,7 @@ class _StudyReader(FieldReader):
             eyes=eyes,
             normalize=normalize,
             render=render,
+            exclude=exclude,
         )
         main = len(replace(spec, catch_trials=0, practice=None).schedule(seed=0, list_index=0))
         if catch_trials > main:

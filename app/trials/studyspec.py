@@ -93,6 +93,7 @@ class StudySpec:
     eyes: str = DEFAULT_EYES
     normalize: bool = False
     render: Mapping[str, Any] = field(default_factory=dict)
+    exclude: str = ""
 
     @property
     def condition_names(self) -> list[str]:
@@ -167,6 +168,8 @@ class StudySpec:
         out["normalize"] = self.normalize
         if self.render:
             out["render"] = dict(self.render)
+        if self.exclude:
+            out["exclude"] = self.exclude
         out["practice"] = (
             False if self.practice is None else [self.practice.left, self.practice.right]
         )

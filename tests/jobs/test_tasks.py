@@ -160,3 +160,4 @@ def test_run_job_keeps_a_heartbeat(app, web, monkeypatch):
     with app.app_context():
         assert tasks.run_job(job_id) == "done"
     assert beats[0] is not None and all(b is not None for b in beats)
+
