@@ -6,8 +6,8 @@ or ``undecided`` (Le, Ma & Deng 2012, sec. 8.1: participants "were allowed to le
 choices"). The web app exports through :func:`write_votes_csv`; the analysis reads through
 :func:`read_votes`; both validate with the same rules, so a file one writes the other reads.
 
-CSV layout: a header naming the columns (any order; all required ones present, no unknown
-ones), then one row per vote. Line numbers in messages count the header as line 1.
+CSV layout: a header naming the columns (any order; all required ones present; columns the
+format does not know are ignored on reading and refused on writing), then one row per vote. Line numbers in messages count the header as line 1.
 
 >>> [c.name for c in COLUMN_SPECS if c.required]
 ['participant', 'clip', 'left', 'right', 'choice']
@@ -137,11 +137,13 @@ def _read_rows(path: Path) -> tuple[list[str], list[list[str]], list[int], list[
     return [h.strip() for h in header], rows, lines, count_errors
 
 
-def _check_header(columns: Sequence[str], path: str | None) -> None:
+def _check_header(columns: Sequence[str], path: str | None, *, writing: bool = False) -> None:
+    """Required columns present, none repeated; unknown ones are an error when writing only
+    (a reader ignores them, so exports from other tools and newer versions still read)."""
     seen = [str(c) for c in columns]
-    dup = sorted({c for c in seen if seen.count(c) > 1})
+    dup = sorted({c for c in seen if seen.count(c) > 1 and (writing or c in _SPEC)})
     missing = [c for c in REQUIRED_COLUMNS if c not in seen]
-    unknown = [c for c in seen if c not in _SPEC]
+    unknown = [c for c in seen if c not in _SPEC] if writing else []
     if dup or missing or unknown:
         parts = []
         if missing:
@@ -234,6 +236,7 @@ def read_votes(source: str | Path | pd.DataFrame, *, skip_bad_rows: bool = False
             _check_header(header, path)
             raw = pd.DataFrame(rows, columns=header, dtype=object) if rows else pd.DataFrame(
                 {h: pd.Series([], dtype=object) for h in header})
+    raw = raw.loc[:, [c for c in raw.columns if c in _SPEC]]  # extra columns are ignored
     frame, problems = _validate(raw.reset_index(drop=True))
     line_arr = np.abs(np.asarray(lines, dtype=np.int64))
     messages = {int(pos): InputError(m, path=path, line=int(line_arr[pos]), field=f)
@@ -297,6 +300,7 @@ def write_votes_csv(rows: Iterable[Mapping[str, Any]] | pd.DataFrame | VotesTabl
         frame = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(list(rows))
         if frame.empty and not len(frame.columns):
             frame = pd.DataFrame(columns=list(REQUIRED_COLUMNS))
+        _check_header(list(frame.columns), None, writing=True)
         frame = read_votes(frame).frame
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")

@@ -72,7 +72,6 @@ def test_optional_columns_are_typed(tmp_path, column, value, what):
 
 @pytest.mark.parametrize(("header", "what"), [
     ("participant,clip,left,right", "missing choice"),
-    ("participant,clip,left,right,choice,colour", "unknown 'colour'"),
     ("participant,clip,left,right,choice,clip", "repeated clip"),
     ("Participant,clip,left,right,choice", "missing participant"),
 ])
@@ -122,6 +121,13 @@ def test_write_then_read_round_trip(tmp_path):
     buffer = io.StringIO()
     write_votes_csv(back, buffer)
     assert buffer.getvalue() == path.read_text()
+
+
+def test_extra_columns_are_ignored_on_reading(tmp_path):
+    path = _write(tmp_path, "participant,clip,left,right,choice,watched_ms,colour\n"
+                            "p,c,a,b,left,3000,red\n")
+    table = read_votes(path)
+    assert len(table.frame) == 1 and "colour" not in table.frame.columns
 
 
 def test_write_refuses_invalid_votes(tmp_path):
