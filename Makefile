@@ -1,11 +1,15 @@
 # facepair: the two commands a newcomer needs.
-#   make demo   set up .venv and run the demo (the embedded default: SQLite, local files)
+#   make demo   set up .venv and run the demo (the embedded default: SQLite, local files);
+#               make demo PORT=8080 HOST=0.0.0.0 to serve elsewhere
 #   make test   set up .venv and the Debian packages the tests need, then run every test
 SHELL := /bin/bash
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
-STAMP := $(VENV)/.installed-stamp
+STAMP_RUN := $(VENV)/.installed-runtime
+STAMP := $(VENV)/.installed-test
+PORT ?= 5000
+HOST ?= 127.0.0.1
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # Debian packages: EGL/Mesa for headless rendering, chromium + driver for browser tests.
 DEBS_TEST := chromium chromium-driver libegl1 libgl1-mesa-dri libegl-mesa0
@@ -15,9 +19,14 @@ DEBS_DEMO := libegl1 libgl1-mesa-dri libegl-mesa0
 
 venv: $(STAMP)
 
-$(STAMP): pyproject.toml
+# The demo needs the runtime dependencies only; the tests add pytest, playwright, ruff, mypy.
+$(STAMP_RUN): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e .
+	@touch $(STAMP_RUN)
+
+$(STAMP): $(STAMP_RUN) pyproject.toml
 	$(PY) -m pip install -q -e '.[test]'
 	@touch $(STAMP)
 
@@ -39,8 +48,8 @@ debs-demo:
 test: $(STAMP) debs-test
 	$(PY) -m pytest
 
-demo: $(STAMP) debs-demo
-	$(VENV)/bin/facepair demo
+demo: $(STAMP_RUN) debs-demo
+	$(VENV)/bin/facepair demo --host $(HOST) --port $(PORT)
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check app renderer tests benchmarks
