@@ -50,6 +50,7 @@ def create_study(owner: User, spec: StudySpec, *, source_toml: str = "",
             "block_by_clip": spec.block_by_clip,
             "eyes": spec.eyes,
             "normalize": spec.normalize,
+            "rejoin": spec.rejoin,
             "render": {**spec.render, **(render or {})},
         },
     )

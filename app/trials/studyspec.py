@@ -93,6 +93,7 @@ class StudySpec:
     eyes: str = DEFAULT_EYES
     normalize: bool = False
     render: Mapping[str, Any] = field(default_factory=dict)
+    rejoin: str = "resume"
 
     @property
     def condition_names(self) -> list[str]:
@@ -165,6 +166,7 @@ class StudySpec:
         out["block_by_clip"] = self.block_by_clip
         out["eyes"] = self.eyes
         out["normalize"] = self.normalize
+        out["rejoin"] = self.rejoin
         if self.render:
             out["render"] = dict(self.render)
         out["practice"] = (
