@@ -160,3 +160,39 @@ def test_run_job_keeps_a_heartbeat(app, web, monkeypatch):
     with app.app_context():
         assert tasks.run_job(job_id) == "done"
     assert beats[0] is not None and all(b is not None for b in beats)
+
+
+def test_a_clip_longer_than_the_stale_timeout_keeps_its_job_alive(app, web, monkeypatch):
+    """The renderer's per-frame progress renews the heartbeat inside one clip."""
+    import time
+
+    import renderer
+    from app.jobs import tasks
+    from app.models import Clip, Condition
+
+    app.config["JOB_STALE_AFTER_SECONDS"] = 1.0
+    study_id = web.study(video=False)
+    with app.app_context():
+        clip = db.session.scalar(sa.select(Clip).where(Clip.study_id == study_id))
+        for condition in db.session.scalars(sa.select(Condition)
+                                            .where(Condition.study_id == study_id)):
+            db.session.add(Track(condition_id=condition.id, clip_id=clip.id, path="x.fap"))
+        db.session.commit()
+    swept = []
+
+    def slow_clip(left, right, audio, out, *, settings, cache_dir, progress=None):
+        for frame in range(15):  # 1.5 s for one clip: past the 1 s timeout
+            time.sleep(0.1)
+            if progress is not None:
+                progress(frame, 15)
+        swept.append(tasks.sweep_stale(study_id, stale_after=1.0))
+        out.write_bytes(b"video")
+        return out
+
+    monkeypatch.setattr(renderer, "render_pair", slow_clip)
+    monkeypatch.setattr("app.stimuli.io.load_track", lambda path: None)
+    job_id = _job(app, study_id)
+    with app.app_context():
+        assert tasks.run_job(job_id) == "done"
+    assert swept and not any(swept)
+    assert _row(app, job_id)[0] == "done"
