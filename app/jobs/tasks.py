@@ -9,12 +9,14 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
 import sqlalchemy as sa
+from sqlalchemy.exc import SQLAlchemyError
 
 from app.extensions import db, transaction
 from app.models import Clip, Job, Stimulus, Study, Track, utcnow
@@ -43,10 +45,17 @@ def _progress(job_id: int, *, min_interval: float = 0.5, beat_every: float = 30.
         wait = beat_every if values == state["written"] else min_interval
         if now - state["written_at"] < wait and done < total:
             return
-        state["written_at"], state["written"] = now, values
-        with transaction() as session:
-            session.execute(sa.update(Job).where(Job.id == job_id)
-                            .values(done=values[0], total=values[1], heartbeat_at=utcnow()))
+        state["written_at"] = now
+        try:
+            with transaction() as session:
+                session.execute(sa.update(Job).where(Job.id == job_id)
+                                .values(done=values[0], total=values[1], heartbeat_at=utcnow()))
+        except SQLAlchemyError:
+            # The database is briefly away (a restart): the work goes on, the next report
+            # writes the row. Only an outage longer than the stale timeout fails the job.
+            log.warning("job %s: progress not recorded (database unreachable)", job_id)
+            return
+        state["written"] = values
 
     return report
 
@@ -246,8 +255,23 @@ def rq_failed(job, connection, exc_type, exc_value, traceback) -> None:  # type:
         mark_failed(int(job.args[0]), reason)
 
 
-def _rq_states(app_redis_url: str, ids: list[int]) -> dict[int, str | None]:
-    """RQ's status of each job (None: RQ no longer knows it)."""
+def rq_horse_killed(job, retpid, ret_val, rusage) -> None:  # type: ignore[no-untyped-def]
+    """The RQ worker's handler for a work horse that died (SIGKILL, out of memory): RQ calls
+    no failure callback then, so the row is marked here, at once, with the signal."""
+    import os
+
+    how = (f"killed by signal {os.WTERMSIG(ret_val)}" if ret_val and os.WIFSIGNALED(ret_val)
+           else f"exited with status {ret_val}")
+    try:
+        mark_failed(int(job.args[0]), f"the process running it was {how}; retry it")
+    finally:  # the worker forks the next work horse: it must hold no database connection
+        db.session.remove()
+        db.engine.dispose()
+
+
+def _rq_states(app_redis_url: str, ids: list[int]) -> dict[int, tuple[str, str] | None]:
+    """RQ's status of each job and, for a failed one, the last line of its error (None: RQ no
+    longer knows it)."""
     from redis import Redis
     from rq.exceptions import NoSuchJobError
     from rq.job import Job as RQJob
@@ -255,12 +279,20 @@ def _rq_states(app_redis_url: str, ids: list[int]) -> dict[int, str | None]:
     from app.jobs import rq_job_id
 
     connection = Redis.from_url(app_redis_url, socket_connect_timeout=2, socket_timeout=5)
-    states: dict[int, str | None] = {}
+    states: dict[int, tuple[str, str] | None] = {}
     for job_id in ids:
         try:
-            states[job_id] = RQJob.fetch(rq_job_id(job_id), connection=connection).get_status()
+            rq_job = RQJob.fetch(rq_job_id(job_id), connection=connection)
         except NoSuchJobError:
             states[job_id] = None
+            continue
+        state = rq_job.get_status()
+        result = rq_job.latest_result() if state == "failed" else None
+        # the exception's own line ("module.Error: text"), not SQL or links printed after it
+        error = [line for line in ((result.exc_string if result else None) or "").splitlines()
+                 if re.match(r"[A-Za-z_][\w.]*: ", line)]
+        # RQ's JobStatus is a str enum: its value is the word
+        states[job_id] = (str(getattr(state, "value", state)), error[-1][:200] if error else "")
     return states
 
 
@@ -293,10 +325,12 @@ def sweep_stale(study_id: int, *, stale_after: float, redis_url: str | None = No
             states = _rq_states(redis_url, [r.id for r in rows if r.id not in reasons])
         except RedisError:
             states = {}
-        for job_id, state in states.items():
-            if state is None or state in ("failed", "stopped", "canceled"):
-                reasons[job_id] = (f"the job queue {'lost it' if state is None else state}: "
-                                   "its worker stopped; retry it")
+        for job_id, known in states.items():
+            if known is None:
+                reasons[job_id] = "the job queue lost it: its worker stopped; retry it"
+            elif known[0] in ("failed", "stopped", "canceled"):
+                why = f" ({known[1]})" if known[1] else ""
+                reasons[job_id] = f"the job queue reports it {known[0]}{why}; retry it"
     return sum(mark_failed(job_id, reason) for job_id, reason in reasons.items())
 
 

@@ -130,6 +130,30 @@ def test_job_the_queue_lost_is_swept(app, client, web, redis_url):
     assert status == "failed" and message.startswith("the job queue lost it")
 
 
+def test_a_job_rq_reports_failed_is_swept_with_its_error(app, client, web, redis_url):
+    """The failure callback could not write the row (the database was away): the sweeper
+    names RQ's error instead."""
+    from redis import Redis
+    from rq import Queue, SimpleWorker
+
+    from app.jobs import QUEUE, rq_job_id
+
+    app.config["REDIS_URL"] = redis_url
+    study_id = web.study(video=False)
+    job_id = _job(app, study_id, status="running", heartbeat_at=utcnow())
+    connection = Redis.from_url(redis_url)
+    queue = Queue(QUEUE, connection=connection)
+    queue.enqueue("builtins.int", "not a number", job_id=rq_job_id(job_id))
+    SimpleWorker([queue], connection=connection).work(burst=True)
+    connection.close()
+    web.login(client)
+    client.get(f"/experimenter/studies/{study_id}")
+    status, message = _row(app, job_id)
+    assert status == "failed"
+    assert message == ("the job queue reports it failed (ValueError: invalid literal for int() "
+                       "with base 10: 'not a number'); retry it")
+
+
 def test_rq_failure_callback_marks_the_row(app, web, monkeypatch):
     from app.jobs import tasks
 
