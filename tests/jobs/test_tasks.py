@@ -220,3 +220,27 @@ def test_a_clip_longer_than_the_stale_timeout_keeps_its_job_alive(app, web, monk
         assert tasks.run_job(job_id) == "done"
     assert swept and not any(swept)
     assert _row(app, job_id)[0] == "done"
+
+
+def test_a_progress_report_the_database_cannot_take_is_skipped(app, web, monkeypatch):
+    """A database restart during a render loses a progress report, not the job."""
+    from contextlib import contextmanager
+
+    from sqlalchemy.exc import OperationalError
+
+    from app.jobs import tasks
+
+    @contextmanager
+    def away():
+        raise OperationalError("UPDATE job", {}, Exception("connection refused"))
+        yield  # pragma: no cover
+
+    job_id = _job(app, web.study(video=False), status="running")
+    with app.app_context():
+        report = tasks._progress(job_id, min_interval=0.0)
+        monkeypatch.setattr(tasks, "transaction", away)
+        report(1, 4)  # no exception: the work goes on
+        monkeypatch.undo()
+        report(2, 4)
+        job = db.session.get(Job, job_id)
+        assert (job.done, job.total) == (2, 4) and job.heartbeat_at is not None
