@@ -172,3 +172,29 @@ def test_a_deletion_removes_the_report_computed_with_their_votes(app, client, we
     path.write_text("<html></html>")
     _delete(client, web, study_id, PID)
     assert not path.parent.exists()
+
+
+def test_the_personal_data_routes_never_answer_5xx(app, web):
+    from hypothesis import HealthCheck
+
+    study_id = web.study()
+    _join(app, _slug(app, study_id), PID)
+    client = app.test_client()
+    web.login(client)
+    page = f"/experimenter/studies/{study_id}"
+    token = web.csrf(client, page)
+    text = st.text(st.characters(blacklist_categories=("Cs",)), max_size=300)
+
+    @settings(max_examples=300, deadline=None, database=None,
+              suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+    @given(who=st.one_of(text, st.just(PID), st.from_regex(r"[Pp]0*\d{1,12}", fullmatch=True)),
+           ids=text)
+    def hostile(who, ids):
+        deleted = client.post(f"{page}/participants/delete",
+                              data={"csrf_token": token, "participant": who})
+        assert deleted.status_code == 302, deleted.get_data(as_text=True)
+        export = client.get(f"{page}/participants.csv", query_string={"ids": ids})
+        assert export.status_code == 200
+
+    hostile()
+    assert _counts(app, study_id)[0] == 1  # never confirmed, so nothing was deleted
