@@ -18,6 +18,9 @@ from app.extensions import db
 from app.models import Participant, Stimulus, Study, StudyList, Trial, Vote, utcnow
 
 MAX_ATTEMPTS = 20
+#: What a dropped participant reads when the study's ``rejoin`` policy refuses their return.
+SESSION_ENDED = ("your session ended after a long pause, and your place was given to another "
+                 "participant; thank you for your time")
 
 
 class EnrolmentBusy(RuntimeError):
@@ -46,9 +49,15 @@ def _take_list(study: Study) -> tuple[StudyList, int]:
 
 
 def enrol(study: Study, *, user_agent: str = "", prolific_pid: str | None = None,
-          prolific_study_id: str | None = None,
-          prolific_session_id: str | None = None) -> Participant:
-    """Create a participant with a list, a seed and a schedule (not committed)."""
+          prolific_study_id: str | None = None, prolific_session_id: str | None = None,
+          dropped_after: dt.timedelta | None = None) -> Participant:
+    """Create a participant with a list, a seed and a schedule (not committed).
+
+    With ``dropped_after``, participants idle longer than that give their slots back first
+    (:func:`release_dropped`), so the new arrival is balanced over those still taking part.
+    """
+    if dropped_after is not None:
+        release_dropped(study, after=dropped_after)
     study_list, before = _take_list(study)
     # (list, arrivals before) is unique per study, so this arrival number is too.
     number = before * len(study.lists) + study_list.index
@@ -107,16 +116,77 @@ def practice_stimulus(participant: Participant) -> Stimulus | None:
 
 def release_dropped(study: Study, *, after: dt.timedelta) -> int:
     """Mark unfinished participants idle for longer than ``after`` as dropped and give their
-    list slots back (thesis-style balance over those who actually take part)."""
+    list slots back (thesis-style balance over those who actually take part).
+
+    Each release is a conditional UPDATE that re-checks idleness on the row as it stands, so a
+    participant whose vote lands at the same moment is never both active and released, and
+    two releases never give one slot back twice.
+    """
     cutoff = utcnow() - after
-    stale = db.session.scalars(sa.select(Participant).where(
+    stale = db.session.execute(sa.select(Participant.id, Participant.list_id).where(
         Participant.study_id == study.id, Participant.finished_at.is_(None),
         Participant.dropped_at.is_(None), Participant.last_seen_at < cutoff)).all()
-    for participant in stale:
-        participant.dropped_at = utcnow()
-        db.session.execute(sa.update(StudyList).where(StudyList.id == participant.list_id)
-                           .values(n_assigned=StudyList.n_assigned - 1))
-    return len(stale)
+    released = 0
+    for participant_id, list_id in stale:
+        result = db.session.execute(
+            sa.update(Participant)
+            .where(Participant.id == participant_id, Participant.finished_at.is_(None),
+                   Participant.dropped_at.is_(None), Participant.last_seen_at < cutoff)
+            .values(dropped_at=utcnow()).execution_options(synchronize_session=False))
+        if result.rowcount == 1:
+            move_slot(list_id, -1)
+            released += 1
+    if released:
+        db.session.expire_all()
+    return released
+
+
+def move_slot(list_id: int, change: int) -> None:
+    """Raise (+1, a participant takes a slot) or lower (-1, gives it back) a list's count."""
+    db.session.execute(sa.update(StudyList).where(StudyList.id == list_id)
+                       .values(n_assigned=StudyList.n_assigned + change)
+                       .execution_options(synchronize_session=False))
+
+
+def dropped_after() -> dt.timedelta:
+    """The deployment's idle time after which an unfinished participant counts as dropped."""
+    from flask import current_app
+
+    return dt.timedelta(minutes=current_app.config["DROPPED_AFTER_MINUTES"])
+
+
+def rejoin_policy(study: Study) -> str:
+    """What a dropped participant meets on coming back: the study file's ``rejoin``."""
+    return str((study.settings or {}).get("rejoin", "resume"))
+
+
+def touch(participant: Participant) -> bool:
+    """A sign of life from ``participant``: last seen now. A participant released as dropped
+    takes their list slot back, unless the study's ``rejoin`` policy is ``refuse``: then
+    nothing changes and the answer is False (their session has ended).
+
+    Both steps are conditional UPDATEs on the participant row, so a release and a return
+    racing each other leave the row and the list count agreeing: a participant holds a slot
+    exactly when ``dropped_at`` is empty. Not committed: the caller's unit of work decides.
+    """
+    now = utcnow()
+    present = db.session.execute(
+        sa.update(Participant)
+        .where(Participant.id == participant.id, Participant.dropped_at.is_(None))
+        .values(last_seen_at=now).execution_options(synchronize_session=False))
+    if present.rowcount == 0:
+        if rejoin_policy(participant.study) == "refuse":
+            db.session.refresh(participant)
+            return False
+        returned = db.session.execute(
+            sa.update(Participant)
+            .where(Participant.id == participant.id, Participant.dropped_at.is_not(None))
+            .values(last_seen_at=now, dropped_at=None)
+            .execution_options(synchronize_session=False))
+        if returned.rowcount == 1:
+            move_slot(participant.list_id, +1)
+    db.session.refresh(participant)
+    return True
 
 
 def progress(participant: Participant) -> tuple[int, int]:

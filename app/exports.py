@@ -22,6 +22,11 @@ def _iso(value: Any) -> str:
     return value.isoformat(timespec="milliseconds") + "Z" if value is not None else ""
 
 
+def participant_label(number: int) -> str:
+    """How exports name a participant (``P0007``): the arrival number, nothing personal."""
+    return f"P{number:04d}"
+
+
 def vote_rows(study: Study) -> list[dict[str, Any]]:
     """One dict per stored vote of a real trial, ordered by participant and trial position."""
     left = sa.orm.aliased(Condition)
@@ -40,7 +45,7 @@ def vote_rows(study: Study) -> list[dict[str, Any]]:
     rows = []
     for vote, position, number, clip, left_name, right_name in db.session.execute(query):
         rows.append({
-            "participant": f"P{number:04d}", "clip": clip, "left": left_name,
+            "participant": participant_label(number), "clip": clip, "left": left_name,
             "right": right_name, "choice": vote.choice, "study": study.title,
             "trial": position, "response_ms": vote.response_ms, "plays": vote.plays,
             "presented_at": _iso(vote.presented_at), "voted_at": _iso(vote.voted_at),

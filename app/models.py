@@ -82,6 +82,9 @@ class Study(db.Model):
     settings: so.Mapped[dict[str, Any]] = so.mapped_column(sa.JSON, default=dict)
     created_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
     report_at: so.Mapped[dt.datetime | None]
+    #: Secret of the pseudonymised Prolific IDs in this study's exports (``app.privacy``).
+    pseudonym_key: so.Mapped[str] = so.mapped_column(
+        sa.String(64), default=lambda: new_token(32))
 
     owner: so.Mapped[User] = so.relationship()
     conditions: so.Mapped[list[Condition]] = so.relationship(

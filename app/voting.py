@@ -17,7 +17,7 @@ from sqlalchemy.exc import IntegrityError
 
 from app import limits
 from app.analysis.votes import CHOICES
-from app.enrolment import progress
+from app.enrolment import SESSION_ENDED, progress, touch
 from app.extensions import db
 from app.models import Participant, Trial, Vote, utcnow
 
@@ -128,6 +128,8 @@ def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcom
     (another participant's trial, a bad choice, a key reused on another trial).
     """
     trial, fields = validate(participant, payload)
+    if not touch(participant):
+        raise VoteRejected(SESSION_ENDED, 409, closed=True)
     participant_id, trial_id, key = participant.id, trial.id, fields["idempotency_key"]
     created = False
     vote = _existing(participant, trial, key)
@@ -148,8 +150,6 @@ def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcom
     if vote.trial_id != trial_id or vote.participant_id != participant_id:
         raise VoteRejected("idempotency_key: already used for another trial", 409)
     answered, total = progress(participant)
-    now = utcnow()
-    participant.last_seen_at = now
     if answered >= total and participant.finished_at is None:
-        participant.finished_at = now
+        participant.finished_at = utcnow()
     return VoteOutcome(vote=vote, created=created, answered=answered, total=total)

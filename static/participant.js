@@ -194,9 +194,10 @@
             say("Saved.", "ok");
             window.location.assign(d.nextUrl);
           } else if (action === "closed") {
-            // Final: the study stopped taking answers. Nothing is resent.
-            say("This study has closed, so this answer could not be recorded. Thank you " +
-                "for taking part.", "error");
+            // Final: the study (or this participant's session) stopped taking answers.
+            // Nothing is resent; the server's reason is shown.
+            say("This answer could not be recorded: " + (body.error || "this study is closed") +
+                ". Thank you for taking part.", "error");
           } else {
             // Refused for a reason the participant can act on (e.g. the replay policy).
             state.voted = false;

@@ -172,8 +172,11 @@ def worker() -> None:
     from redis import Redis
     from rq import Worker
 
+    from app.jobs.tasks import rq_horse_killed
+
     with app.app_context():
-        Worker(["facepair"], connection=Redis.from_url(url)).work()
+        Worker(["facepair"], connection=Redis.from_url(url),
+               work_horse_killed_handler=rq_horse_killed).work()
 
 
 @click.group()

@@ -17,7 +17,7 @@ from wtforms import (
     SubmitField,
     TextAreaField,
 )
-from wtforms.validators import URL, DataRequired, NumberRange, Optional
+from wtforms.validators import URL, DataRequired, Length, NumberRange, Optional
 
 DESIGN_CHOICES = [
     SelectChoice("all_ordered", "All ordered pairs, same-condition pairs included (thesis)"),
@@ -37,6 +37,14 @@ class LoginForm(FlaskForm):
 
 class ActionForm(FlaskForm):
     """A bare form for buttons that change state (only the CSRF token)."""
+
+
+class DeleteParticipantForm(FlaskForm):
+    participant = StringField("Participant: P0007, a Prolific ID or its pseudonym",
+                              validators=[DataRequired(), Length(max=200)])
+    confirm = BooleanField("Delete this participant's votes and records for good",
+                           validators=[DataRequired()])
+    submit = SubmitField("Delete participant's data")
 
 
 class StudyFileForm(FlaskForm):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import datetime as dt
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -26,7 +25,13 @@ from wtforms import SelectChoice
 
 from app.errors import InputError
 from app.experimenter.auth import authenticate, current_user, login_required
-from app.experimenter.forms import ActionForm, LoginForm, StudyFileForm, StudyWebForm
+from app.experimenter.forms import (
+    ActionForm,
+    DeleteParticipantForm,
+    LoginForm,
+    StudyFileForm,
+    StudyWebForm,
+)
 from app.extensions import db, limiter
 from app.jobs import enqueue
 from app.jobs.tasks import JOB_KINDS, sweep_study_jobs
@@ -49,10 +54,6 @@ def _own_study(study_id: int) -> Study:
     if study is None or user is None or study.owner_id != user.id:
         abort(404)
     return study
-
-
-def _dropped_after() -> dt.timedelta:
-    return dt.timedelta(minutes=current_app.config["DROPPED_AFTER_MINUTES"])
 
 
 def _account_limits() -> str:
@@ -241,7 +242,7 @@ def study(study_id: int):  # type: ignore[no-untyped-def]
                                  .order_by(Stimulus.id)).all()
     link = url_for("participant.start", slug=study.slug, _external=True)
     return render_template("experimenter/study.html", study=study, jobs=jobs, stimuli=stimuli,
-                           link=link, action=ActionForm())
+                           link=link, action=ActionForm(), forget=DeleteParticipantForm())
 
 
 @bp.post("/studies/<int:study_id>/jobs/<kind>")
@@ -295,13 +296,13 @@ def change_status(study_id: int, action: str):  # type: ignore[no-untyped-def]
 @bp.get("/studies/<int:study_id>/monitor")
 @login_required
 def monitor(study_id: int):  # type: ignore[no-untyped-def]
-    from app.enrolment import release_dropped
+    from app.enrolment import dropped_after, release_dropped
     from app.monitor import study_monitor
 
     study = _own_study(study_id)
-    release_dropped(study, after=_dropped_after())
+    release_dropped(study, after=dropped_after())
     db.session.commit()
-    stats = study_monitor(study, dropped_after=_dropped_after())
+    stats = study_monitor(study, dropped_after=dropped_after())
     return render_template("experimenter/monitor.html", study=study, stats=stats)
 
 
@@ -314,6 +315,46 @@ def export_votes(study_id: int):  # type: ignore[no-untyped-def]
     name = secure_filename(study.title) or f"study-{study.id}"
     return Response(votes_csv(study), mimetype="text/csv",
                     headers={"Content-Disposition": f'attachment; filename="{name}-votes.csv"'})
+
+
+@bp.get("/studies/<int:study_id>/participants.csv")
+@login_required
+def export_participants(study_id: int):  # type: ignore[no-untyped-def]
+    """Participants with pseudonymised Prolific IDs; ``?ids=raw`` for the real ones (payment)."""
+    from app.privacy import participants_csv
+
+    study = _own_study(study_id)
+    raw = request.args.get("ids") == "raw"
+    name = (secure_filename(study.title) or f"study-{study.id}") + (
+        "-participants-prolific-ids" if raw else "-participants")
+    return Response(participants_csv(study, raw_ids=raw), mimetype="text/csv",
+                    headers={"Content-Disposition": f'attachment; filename="{name}.csv"',
+                             "Cache-Control": "no-store"})
+
+
+@bp.post("/studies/<int:study_id>/participants/delete")
+@login_required
+def delete_participant(study_id: int):  # type: ignore[no-untyped-def]
+    """Delete one participant's data on their request (the monitor and exports follow)."""
+    from app.privacy import delete_participants
+
+    study = _own_study(study_id)
+    form = DeleteParticipantForm()
+    if not form.validate_on_submit():
+        problems = "; ".join(f"{name}: {errors[0]}" for name, errors in form.errors.items())
+        flash(f"Nothing deleted ({problems}).", "error")
+        return redirect(url_for(".study", study_id=study.id))
+    deleted = delete_participants(study, form.participant.data or "")
+    if not deleted.labels:
+        flash("Nothing deleted: no participant of this study has that label, Prolific ID or "
+              "pseudonym.", "error")
+        return redirect(url_for(".study", study_id=study.id))
+    db.session.commit()
+    flash(f"Deleted {', '.join(deleted.labels)}: {deleted.votes} votes, their schedule and "
+          "their Prolific IDs.", "ok")
+    if study.status == "closed":  # the old report counted their votes
+        _start(study, "report")
+    return redirect(url_for(".study", study_id=study.id))
 
 
 @bp.get("/studies/<int:study_id>/report/")

@@ -10,14 +10,19 @@ id to a runner, always after the commit that created the row:
   hangs in it, and a render thread would stall the process answering participants;
 * ``JOB_RUNNER="inline"`` runs it at once in this process (tests).
 
-Rows whose runner died are found by :func:`app.jobs.tasks.sweep_stale` and can be retried.
+Rows whose runner died are found by :func:`app.jobs.tasks.sweep_stale` and can be retried. A
+row waiting in a local runner's queue is kept alive by the web process holding it (a heartbeat
+thread, :func:`beat_held`): if that process is restarted its queue is gone, the beats stop and
+the sweeper fails the row instead of leaving it queued forever.
 """
 
 from __future__ import annotations
 
 import functools
+import logging
 import multiprocessing
 import threading
+import time
 from concurrent.futures import Future, ProcessPoolExecutor
 from typing import TYPE_CHECKING, Any
 
@@ -32,6 +37,10 @@ CHILD_CONFIG = ("SQLALCHEMY_DATABASE_URI", "SQLALCHEMY_ENGINE_OPTIONS", "MEDIA_R
 
 _local: ProcessPoolExecutor | None = None
 _lock = threading.Lock()
+#: Rows this process handed to its local runner, until their process finishes.
+_held: dict[int, tuple[Flask, Future[str]]] = {}
+_keeper: threading.Thread | None = None
+log = logging.getLogger(__name__)
 
 
 class EnqueueError(RuntimeError):
@@ -80,6 +89,58 @@ def _when_finished(app: Flask, job_id: int, future: Future[str]) -> None:
         mark_failed(job_id, f"the process running it stopped ({type(exc).__name__}: {exc})")
 
 
+def beat_held() -> int:
+    """Renew the heartbeat of every row still queued in this process's local runner; returns
+    how many rows were renewed."""
+    import sqlalchemy as sa
+    from sqlalchemy.exc import SQLAlchemyError
+
+    from app.extensions import db, transaction
+    from app.models import Job, utcnow
+
+    by_app: dict[int, tuple[Flask, list[int]]] = {}
+    with _lock:
+        for job_id, (app, future) in list(_held.items()):
+            if future.done():
+                del _held[job_id]
+            else:
+                by_app.setdefault(id(app), (app, []))[1].append(job_id)
+    renewed = 0
+    for app, held in by_app.values():
+        with app.app_context():
+            try:
+                with transaction() as session:
+                    result = session.execute(
+                        sa.update(Job).where(Job.id.in_(held), Job.status == "queued")
+                        .values(heartbeat_at=utcnow()))
+                renewed += int(result.rowcount or 0)
+            except SQLAlchemyError:  # the database is away: the next beat tries again
+                log.warning("could not renew the heartbeat of queued jobs %s", held)
+            finally:
+                db.session.remove()
+    return renewed
+
+
+def _keep_held_alive(interval: float) -> None:
+    while True:
+        time.sleep(interval)
+        beat_held()
+
+
+def _hold(app: Flask, job_id: int, future: Future[str]) -> None:
+    """Keep row ``job_id`` alive while it waits in this process's queue."""
+    global _keeper
+    from app.jobs.tasks import beat_interval
+
+    with _lock:
+        _held[job_id] = (app, future)
+        if _keeper is None or not _keeper.is_alive():
+            interval = beat_interval(app.config.get("JOB_STALE_AFTER_SECONDS", 900))
+            _keeper = threading.Thread(target=_keep_held_alive, args=(interval,),
+                                       name="facepair-queued-jobs", daemon=True)
+            _keeper.start()
+
+
 def enqueue(app: Flask, job_id: int) -> Future[str] | None:
     """Start job ``job_id`` (already committed) on the configured runner; raises
     :class:`EnqueueError` when the runner cannot take it."""
@@ -107,4 +168,5 @@ def enqueue(app: Flask, job_id: int) -> Future[str] | None:
     config = {key: app.config[key] for key in CHILD_CONFIG if key in app.config}
     future = _process_executor().submit(run_in_child, job_id, config)
     future.add_done_callback(functools.partial(_when_finished, app, job_id))
+    _hold(app, job_id, future)
     return future

@@ -8,11 +8,15 @@ the application.
 from __future__ import annotations
 
 import logging
+import math
+import re
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from typing import Any
 
 import sqlalchemy as sa
+from sqlalchemy.exc import SQLAlchemyError
 
 from app.extensions import db, transaction
 from app.models import Clip, Job, Stimulus, Study, Track, utcnow
@@ -23,24 +27,43 @@ log = logging.getLogger(__name__)
 JOB_KINDS = ("generate", "render", "report")
 
 
-def _progress(job_id: int, *, min_interval: float = 0.5,
+def _progress(job_id: int, *, min_interval: float = 0.5, beat_every: float = 30.0,
               echo: Callable[[int, int], None] | None = None) -> Callable[[int, int], None]:
-    """A ``progress(done, total)`` callback that writes the job row at most every 0.5 s (and
-    passes every call on to ``echo``, e.g. a CLI progress bar)."""
-    last = [0.0]
+    """A ``progress(done, total)`` callback that writes the job row at most every
+    ``min_interval`` seconds and passes each new value on to ``echo`` (e.g. a CLI progress
+    bar). Called again with the same values (from inside a long step, such as every frame of
+    one clip) it still refreshes the heartbeat every ``beat_every`` seconds, so a step longer
+    than JOB_STALE_AFTER_SECONDS is never mistaken for a dead process."""
+    state: dict[str, Any] = {"written_at": -math.inf, "written": None, "echoed": None}
 
     def report(done: int, total: int) -> None:
-        if echo is not None:
-            echo(done, total)
+        values = (int(done), int(total))
+        if echo is not None and values != state["echoed"]:
+            state["echoed"] = values
+            echo(*values)
         now = time.monotonic()
-        if now - last[0] < min_interval and done < total:
+        wait = beat_every if values == state["written"] else min_interval
+        if now - state["written_at"] < wait and done < total:
             return
-        last[0] = now
-        with transaction() as session:
-            session.execute(sa.update(Job).where(Job.id == job_id)
-                            .values(done=int(done), total=int(total), heartbeat_at=utcnow()))
+        state["written_at"] = now
+        try:
+            with transaction() as session:
+                session.execute(sa.update(Job).where(Job.id == job_id)
+                                .values(done=values[0], total=values[1], heartbeat_at=utcnow()))
+        except SQLAlchemyError:
+            # The database is briefly away (a restart): the work goes on, the next report
+            # writes the row. Only an outage longer than the stale timeout fails the job.
+            log.warning("job %s: progress not recorded (database unreachable)", job_id)
+            return
+        state["written"] = values
 
     return report
+
+
+def beat_interval(stale_after: float) -> float:
+    """How often a live job (or a queued one's holder) signs of life: well inside the time
+    after which the sweeper gives it up (a fifth of it, at most 30 s)."""
+    return max(0.05, min(30.0, stale_after / 5))
 
 
 def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
@@ -122,7 +145,9 @@ def render_clips(study: Study, progress: Callable[[int, int], None]) -> str:
         renderer.render_pair(
             load_track(root / tracks[(stim.left_id, stim.clip_id)]),
             load_track(root / tracks[(stim.right_id, stim.clip_id)]),
-            root / stim.clip.audio_path, root / rel, settings=settings, cache_dir=cache)
+            root / stim.clip.audio_path, root / rel, settings=settings, cache_dir=cache,
+            # every frame is a sign of life: a clip may take longer than the stale timeout
+            progress=lambda _frame, _frames, i=i: progress(i, len(stimuli)))
         stim.video_path = rel
         db.session.commit()
     progress(len(stimuli), len(stimuli))
@@ -159,16 +184,27 @@ TASKS: dict[str, Callable[[Study, Callable[[int, int], None]], str]] = {
 def run_job(job_id: int, *, echo: Callable[[int, int], None] | None = None) -> str:
     """Run job ``job_id``; its row ends ``done`` with a summary or ``failed`` with the error.
     Returns the final status."""
+    from flask import current_app
+
     job = db.session.get(Job, job_id)
     if job is None:
         log.warning("job %s vanished", job_id)
         return "failed"
-    job.status, job.heartbeat_at = "running", utcnow()
     study_id, kind = job.study_id, job.kind
+    # Only a queued row starts: one the sweeper gave up (and the experimenter may have retried)
+    # stays failed instead of rendering beside its retry.
+    started = db.session.execute(
+        sa.update(Job).where(Job.id == job_id, Job.status == "queued")
+        .values(status="running", heartbeat_at=utcnow())
+        .execution_options(synchronize_session=False))
     db.session.commit()
+    if started.rowcount != 1:
+        log.warning("job %s is no longer queued; not started", job_id)
+        return str(db.session.scalar(sa.select(Job.status).where(Job.id == job_id)))
+    beat = beat_interval(current_app.config.get("JOB_STALE_AFTER_SECONDS", 900))
     try:
         study = db.session.get(Study, study_id)
-        message = TASKS[kind](study, _progress(job_id, echo=echo))  # type: ignore[arg-type]
+        message = TASKS[kind](study, _progress(job_id, beat_every=beat, echo=echo))  # type: ignore[arg-type]
         status = "done"
     except Exception as exc:  # noqa: BLE001 - every failure must reach the experimenter
         db.session.rollback()
@@ -219,8 +255,23 @@ def rq_failed(job, connection, exc_type, exc_value, traceback) -> None:  # type:
         mark_failed(int(job.args[0]), reason)
 
 
-def _rq_states(app_redis_url: str, ids: list[int]) -> dict[int, str | None]:
-    """RQ's status of each job (None: RQ no longer knows it)."""
+def rq_horse_killed(job, retpid, ret_val, rusage) -> None:  # type: ignore[no-untyped-def]
+    """The RQ worker's handler for a work horse that died (SIGKILL, out of memory): RQ calls
+    no failure callback then, so the row is marked here, at once, with the signal."""
+    import os
+
+    how = (f"killed by signal {os.WTERMSIG(ret_val)}" if ret_val and os.WIFSIGNALED(ret_val)
+           else f"exited with status {ret_val}")
+    try:
+        mark_failed(int(job.args[0]), f"the process running it was {how}; retry it")
+    finally:  # the worker forks the next work horse: it must hold no database connection
+        db.session.remove()
+        db.engine.dispose()
+
+
+def _rq_states(app_redis_url: str, ids: list[int]) -> dict[int, tuple[str, str] | None]:
+    """RQ's status of each job and, for a failed one, the last line of its error (None: RQ no
+    longer knows it)."""
     from redis import Redis
     from rq.exceptions import NoSuchJobError
     from rq.job import Job as RQJob
@@ -228,40 +279,58 @@ def _rq_states(app_redis_url: str, ids: list[int]) -> dict[int, str | None]:
     from app.jobs import rq_job_id
 
     connection = Redis.from_url(app_redis_url, socket_connect_timeout=2, socket_timeout=5)
-    states: dict[int, str | None] = {}
+    states: dict[int, tuple[str, str] | None] = {}
     for job_id in ids:
         try:
-            states[job_id] = RQJob.fetch(rq_job_id(job_id), connection=connection).get_status()
+            rq_job = RQJob.fetch(rq_job_id(job_id), connection=connection)
         except NoSuchJobError:
             states[job_id] = None
+            continue
+        state = rq_job.get_status()
+        result = rq_job.latest_result() if state == "failed" else None
+        # the exception's own line ("module.Error: text"), not SQL or links printed after it
+        error = [line for line in ((result.exc_string if result else None) or "").splitlines()
+                 if re.match(r"[A-Za-z_][\w.]*: ", line)]
+        # RQ's JobStatus is a str enum: its value is the word
+        states[job_id] = (str(getattr(state, "value", state)), error[-1][:200] if error else "")
     return states
 
 
 def sweep_stale(study_id: int, *, stale_after: float, redis_url: str | None = None) -> int:
     """Mark failed the study's unfinished jobs whose runner is gone: RQ no longer has them or
-    reports them failed, or (any runner) running without a sign of life for ``stale_after``
-    seconds. Returns how many rows were swept. A Redis outage sweeps nothing through RQ."""
+    reports them failed; (any runner) running without a sign of life for ``stale_after``
+    seconds; (local runner) queued while the web process holding it has not renewed its
+    heartbeat for that long (it was restarted: its queue is gone). Returns how many rows
+    were swept. A Redis outage sweeps nothing through RQ."""
     import datetime as dt
 
     from redis.exceptions import RedisError
 
-    rows = db.session.execute(sa.select(Job.id, Job.status, Job.heartbeat_at).where(
-        Job.study_id == study_id, Job.status.in_(("queued", "running")))).all()
+    rows = db.session.execute(
+        sa.select(Job.id, Job.status, sa.func.coalesce(Job.heartbeat_at, Job.created_at))
+        .where(Job.study_id == study_id, Job.status.in_(("queued", "running")))).all()
     cutoff = utcnow() - dt.timedelta(seconds=stale_after)
     reasons: dict[int, str] = {}
-    for job_id, status, heartbeat in rows:
-        if status == "running" and (heartbeat is None or heartbeat < cutoff):
+    for job_id, status, last_sign in rows:
+        if last_sign >= cutoff:
+            continue
+        if status == "running":
             reasons[job_id] = (f"no sign of life for over {stale_after:.0f} s: the process "
                                "running it stopped; retry it")
+        elif not redis_url:  # RQ is asked about its own queue below
+            reasons[job_id] = (f"never started: the process holding it has not answered "
+                               f"for over {stale_after:.0f} s (restarted?); retry it")
     if redis_url and rows:
         try:
             states = _rq_states(redis_url, [r.id for r in rows if r.id not in reasons])
         except RedisError:
             states = {}
-        for job_id, state in states.items():
-            if state is None or state in ("failed", "stopped", "canceled"):
-                reasons[job_id] = (f"the job queue {'lost it' if state is None else state}: "
-                                   "its worker stopped; retry it")
+        for job_id, known in states.items():
+            if known is None:
+                reasons[job_id] = "the job queue lost it: its worker stopped; retry it"
+            elif known[0] in ("failed", "stopped", "canceled"):
+                why = f" ({known[1]})" if known[1] else ""
+                reasons[job_id] = f"the job queue reports it {known[0]}{why}; retry it"
     return sum(mark_failed(job_id, reason) for job_id, reason in reasons.items())
 
 

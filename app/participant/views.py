@@ -22,7 +22,15 @@ from flask_wtf import FlaskForm
 from wtforms import HiddenField, SubmitField
 
 from app import limits
-from app.enrolment import enrol, next_trial, practice_stimulus, progress
+from app.enrolment import (
+    SESSION_ENDED,
+    dropped_after,
+    enrol,
+    next_trial,
+    practice_stimulus,
+    progress,
+    touch,
+)
 from app.extensions import db
 from app.limits import fits
 from app.models import Participant, Study, Trial, utcnow
@@ -76,7 +84,7 @@ def start(slug: str):  # type: ignore[no-untyped-def]
         ids = {column: (getattr(form, field).data or None) for field, column
                in PROLIFIC_FIELDS.items()}
         agent = limits.printable(request.user_agent.string)[:300]
-        participant = enrol(study, user_agent=agent, **ids)
+        participant = enrol(study, user_agent=agent, dropped_after=dropped_after(), **ids)
         db.session.commit()
         response = make_response(redirect(url_for(".instructions", token=participant.token)))
         response.set_cookie(_cookie_name(study), participant.token, max_age=COOKIE_DAYS * 86400,
@@ -112,10 +120,12 @@ def trial(token: str):  # type: ignore[no-untyped-def]
     upcoming = next_trial(participant)
     if upcoming is None:
         return redirect(url_for(".done", token=token))
-    now = utcnow()
+    if not touch(participant):
+        db.session.commit()
+        return render_template("participant/unavailable.html", study=study,
+                               reason=SESSION_ENDED), 410
     if participant.started_at is None:
-        participant.started_at = now
-    participant.last_seen_at = now
+        participant.started_at = utcnow()
     answered, total = progress(participant)
     db.session.commit()
     return render_template("participant/trial.html", participant=participant, study=study,

@@ -119,6 +119,9 @@ RENDER_KEYS: Final[dict[str, tuple[tuple[type, ...], str]]] = {
     "crf": ((int,), "an integer"),
     "preset": ((str,), "a string"),
 }
+#: What a participant counted as dropped (idle past the deployment's DROPPED_AFTER_MINUTES)
+#: meets on coming back: ``resume`` takes their list slot back, ``refuse`` ends their session.
+REJOIN_POLICIES: Final = ("resume", "refuse")
 #: ``renderer.gl.ANTIALIAS_MODES``, repeated so that reading a study file imports no GL.
 ANTIALIAS_MODES: Final = ("edges", "msaa", "none")
 
@@ -136,6 +139,7 @@ _TOP_KEYS: Final = (
     "block_by_clip",
     "eyes",
     "normalize",
+    "rejoin",
     "render",
     "exclude",
     "practice",
@@ -202,6 +206,7 @@ class _StudyReader(FieldReader):
         elif reference is not None:
             raise self.error("reference", f"only applies to design = 'reference', not {design!r}")
         practice, practice_clip = self.practice(top, names, [c.name for c in clips])
+        rejoin = self.choice(top, "rejoin", "rejoin", REJOIN_POLICIES, "resume")
         spec = StudySpec(
             title=title,
             question=question,
@@ -227,6 +232,7 @@ class _StudyReader(FieldReader):
             normalize=normalize,
             render=render,
             exclude=exclude,
+            rejoin=rejoin,
         )
         main = len(replace(spec, catch_trials=0, practice=None).schedule(seed=0, list_index=0))
         if catch_trials > main:

@@ -94,6 +94,7 @@ class StudySpec:
     normalize: bool = False
     render: Mapping[str, Any] = field(default_factory=dict)
     exclude: str = ""
+    rejoin: str = "resume"
 
     @property
     def condition_names(self) -> list[str]:
@@ -166,6 +167,7 @@ class StudySpec:
         out["block_by_clip"] = self.block_by_clip
         out["eyes"] = self.eyes
         out["normalize"] = self.normalize
+        out["rejoin"] = self.rejoin
         if self.render:
             out["render"] = dict(self.render)
         if self.exclude:

@@ -130,6 +130,30 @@ def test_job_the_queue_lost_is_swept(app, client, web, redis_url):
     assert status == "failed" and message.startswith("the job queue lost it")
 
 
+def test_a_job_rq_reports_failed_is_swept_with_its_error(app, client, web, redis_url):
+    """The failure callback could not write the row (the database was away): the sweeper
+    names RQ's error instead."""
+    from redis import Redis
+    from rq import Queue, SimpleWorker
+
+    from app.jobs import QUEUE, rq_job_id
+
+    app.config["REDIS_URL"] = redis_url
+    study_id = web.study(video=False)
+    job_id = _job(app, study_id, status="running", heartbeat_at=utcnow())
+    connection = Redis.from_url(redis_url)
+    queue = Queue(QUEUE, connection=connection)
+    queue.enqueue("builtins.int", "not a number", job_id=rq_job_id(job_id))
+    SimpleWorker([queue], connection=connection).work(burst=True)
+    connection.close()
+    web.login(client)
+    client.get(f"/experimenter/studies/{study_id}")
+    status, message = _row(app, job_id)
+    assert status == "failed"
+    assert message == ("the job queue reports it failed (ValueError: invalid literal for int() "
+                       "with base 10: 'not a number'); retry it")
+
+
 def test_rq_failure_callback_marks_the_row(app, web, monkeypatch):
     from app.jobs import tasks
 
@@ -161,3 +185,62 @@ def test_run_job_keeps_a_heartbeat(app, web, monkeypatch):
         assert tasks.run_job(job_id) == "done"
     assert beats[0] is not None and all(b is not None for b in beats)
 
+
+def test_a_clip_longer_than_the_stale_timeout_keeps_its_job_alive(app, web, monkeypatch):
+    """The renderer's per-frame progress renews the heartbeat inside one clip."""
+    import time
+
+    import renderer
+    from app.jobs import tasks
+    from app.models import Clip, Condition
+
+    app.config["JOB_STALE_AFTER_SECONDS"] = 1.0
+    study_id = web.study(video=False)
+    with app.app_context():
+        clip = db.session.scalar(sa.select(Clip).where(Clip.study_id == study_id))
+        for condition in db.session.scalars(sa.select(Condition)
+                                            .where(Condition.study_id == study_id)):
+            db.session.add(Track(condition_id=condition.id, clip_id=clip.id, path="x.fap"))
+        db.session.commit()
+    swept = []
+
+    def slow_clip(left, right, audio, out, *, settings, cache_dir, progress=None):
+        for frame in range(15):  # 1.5 s for one clip: past the 1 s timeout
+            time.sleep(0.1)
+            if progress is not None:
+                progress(frame, 15)
+        swept.append(tasks.sweep_stale(study_id, stale_after=1.0))
+        out.write_bytes(b"video")
+        return out
+
+    monkeypatch.setattr(renderer, "render_pair", slow_clip)
+    monkeypatch.setattr("app.stimuli.io.load_track", lambda path: None)
+    job_id = _job(app, study_id)
+    with app.app_context():
+        assert tasks.run_job(job_id) == "done"
+    assert swept and not any(swept)
+    assert _row(app, job_id)[0] == "done"
+
+
+def test_a_progress_report_the_database_cannot_take_is_skipped(app, web, monkeypatch):
+    """A database restart during a render loses a progress report, not the job."""
+    from contextlib import contextmanager
+
+    from sqlalchemy.exc import OperationalError
+
+    from app.jobs import tasks
+
+    @contextmanager
+    def away():
+        raise OperationalError("UPDATE job", {}, Exception("connection refused"))
+        yield  # pragma: no cover
+
+    job_id = _job(app, web.study(video=False), status="running")
+    with app.app_context():
+        report = tasks._progress(job_id, min_interval=0.0)
+        monkeypatch.setattr(tasks, "transaction", away)
+        report(1, 4)  # no exception: the work goes on
+        monkeypatch.undo()
+        report(2, 4)
+        job = db.session.get(Job, job_id)
+        assert (job.done, job.total) == (2, 4) and job.heartbeat_at is not None

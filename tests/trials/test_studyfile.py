@@ -46,6 +46,7 @@ def test_minimal_study_gets_the_documented_defaults(
     assert spec.block_by_clip and spec.redirect_url is None
     assert len(spec.pairs()) == 9 and spec.n_lists() == 2
     assert (spec.eyes, spec.normalize, dict(spec.render)) == ("still", False, {})
+    assert spec.rejoin == "resume"
     trials = spec.schedule(seed=1, list_index=1)
     assert len(trials) == 1 + 18 and trials[0].kind == "practice"
 
@@ -263,6 +264,8 @@ BAD_FIELDS: list[tuple[dict[str, Any], str]] = [
     ({"render": {"colour": 1}}, "render.colour: unknown key (expected one of size,"),
     ({"render": {"antialias": "fxaa"}}, "render.antialias: expected one of edges, msaa, none"),
     ({"render": 3}, "render: expected a table, got 3"),
+    ({"rejoin": "ask"}, "rejoin: expected one of resume, refuse, got 'ask'"),
+    ({"rejoin": True}, "rejoin: expected a string, got true"),
     (
         {"clips.0.speaker": "x"},
         "clips[0].speaker: unknown key (expected one of name, audio, ground_truth)",
@@ -423,3 +426,13 @@ def test_stimulus_settings_are_read_and_round_trip(
     assert dict(spec.render) == {"size": 256, "antialias": "msaa"}
     again = parse_study(spec.to_dict(), source="study.toml", base_dir=study_dir)
     assert (again.eyes, again.normalize, dict(again.render)) == ("generated", True, spec.render)
+
+
+def test_the_rejoin_policy_is_read_and_round_trips(
+    make_study_data: StudyData, study_dir: Path
+) -> None:
+    data = make_study_data()
+    data["rejoin"] = "refuse"
+    spec = parse_study(data, source="study.toml", base_dir=study_dir)
+    assert spec.rejoin == "refuse"
+    assert loads_study(spec.to_toml(), base_dir=study_dir).rejoin == "refuse"

@@ -1,0 +1,129 @@
+"""Enrolment and list balancing when participants drop out and come back: a dropped participant
+who returns takes their list slot back (``rejoin = "resume"``) or is refused with a message
+(``rejoin = "refuse"``); the assignment table always agrees with who holds a slot."""
+
+import datetime as dt
+import re
+
+import sqlalchemy as sa
+
+from app.enrolment import release_dropped
+from app.extensions import db
+from app.models import Participant, Study, StudyList
+
+
+def _slug(app, study_id: int) -> str:
+    with app.app_context():
+        return db.session.get(Study, study_id).slug
+
+
+def _go_idle(app, token: str) -> None:
+    with app.app_context():
+        person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        person.last_seen_at = person.last_seen_at - dt.timedelta(hours=3)
+        db.session.commit()
+
+
+def _slots(app) -> int:
+    with app.app_context():
+        return sum(row.n_assigned for row in db.session.scalars(sa.select(StudyList)))
+
+
+def _row(app, token: str) -> Participant:
+    with app.app_context():
+        person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        db.session.expunge(person)
+        return person
+
+
+def _answer_all(participant) -> int:
+    answered = 0
+    while (trial := participant.current_trial()) is not None:
+        assert participant.vote(trial).status_code == 201
+        answered += 1
+    return answered
+
+
+def test_a_dropped_participant_who_returns_takes_the_slot_back(app, client, participant, web):
+    study_id = web.study(design="all_ordered")
+    token = participant.join(_slug(app, study_id))
+    trial = participant.current_trial()
+    assert participant.vote(trial).status_code == 201
+    _go_idle(app, token)
+    web.login(client)
+    monitor = client.get(f"/experimenter/studies/{study_id}/monitor").get_data(as_text=True)
+    assert re.search(r'id="stat-dropped">1<', monitor)
+    assert _slots(app) == 0
+    assert _answer_all(participant) > 0  # back, and finishes
+    person = _row(app, token)
+    assert person.finished_at is not None and person.dropped_at is None
+    assert _slots(app) == 1  # the finished participant holds their list again
+    monitor = client.get(f"/experimenter/studies/{study_id}/monitor").get_data(as_text=True)
+    assert re.search(r'id="stat-finished">1<', monitor)
+    assert re.search(r'id="stat-dropped">0<', monitor)
+
+
+def test_a_returning_vote_alone_takes_the_slot_back(app, participant, web):
+    study_id = web.study(design="all_ordered")
+    token = participant.join(_slug(app, study_id))
+    trial = participant.current_trial()  # the page was open before the pause
+    _go_idle(app, token)
+    with app.app_context():
+        assert release_dropped(db.session.get(Study, study_id), after=dt.timedelta(hours=1)) == 1
+        db.session.commit()
+    assert participant.vote(trial).status_code == 201
+    assert _row(app, token).dropped_at is None
+    assert _slots(app) == 1
+
+
+def test_refused_when_the_study_file_says_so(app, client, participant, web):
+    study_id = web.study(design="all_ordered", extra='rejoin = "refuse"')
+    token = participant.join(_slug(app, study_id))
+    trial = participant.current_trial()
+    _go_idle(app, token)
+    with app.app_context():
+        assert release_dropped(db.session.get(Study, study_id), after=dt.timedelta(hours=1)) == 1
+        db.session.commit()
+    page = client.get(f"/p/{token}/trial")
+    assert page.status_code == 410
+    assert "Your session ended after a long pause" in page.get_data(as_text=True)
+    response = participant.vote(trial)
+    assert response.status_code == 409
+    assert response.get_json()["closed"] is True  # final: the browser does not resend it
+    assert "your place was given to another participant" in response.get_json()["error"]
+    assert _row(app, token).dropped_at is not None
+    assert _slots(app) == 0
+
+
+def test_new_arrivals_are_balanced_over_those_still_taking_part(app, client, web):
+    """An idle participant's list goes to the next arrival without anyone opening the
+    monitor."""
+    from tests.conftest import ParticipantActions
+
+    study_id = web.study(design="all_ordered")
+    slug = _slug(app, study_id)
+    first = ParticipantActions(app.test_client(), app)
+    first.join(slug)
+    _go_idle(app, first.token)
+    second = ParticipantActions(app.test_client(), app)
+    second.join(slug)
+    first_row, second_row = _row(app, first.token), _row(app, second.token)
+    assert first_row.dropped_at is not None
+    assert second_row.list_id == first_row.list_id  # the least-filled list again
+    assert _slots(app) == 1
+
+
+def test_release_and_return_never_count_a_slot_twice(app, participant, web):
+    from app.enrolment import touch
+
+    study_id = web.study(design="all_ordered")
+    token = participant.join(_slug(app, study_id))
+    _go_idle(app, token)
+    with app.app_context():
+        study = db.session.get(Study, study_id)
+        assert release_dropped(study, after=dt.timedelta(hours=1)) == 1
+        assert release_dropped(study, after=dt.timedelta(hours=1)) == 0
+        person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        assert touch(person) and touch(person)
+        db.session.commit()
+    assert _slots(app) == 1
