@@ -7,7 +7,8 @@ choices"). The web app exports through :func:`write_votes_csv`; the analysis rea
 :func:`read_votes`; both validate with the same rules, so a file one writes the other reads.
 
 CSV layout: a header naming the columns (any order; all required ones present; columns the
-format does not know are ignored on reading and refused on writing), then one row per vote. Line numbers in messages count the header as line 1.
+format does not know are ignored on reading and refused on writing), then one row per vote.
+Line numbers in messages count the header as line 1.
 
 >>> [c.name for c in COLUMN_SPECS if c.required]
 ['participant', 'clip', 'left', 'right', 'choice']
