@@ -7,7 +7,11 @@ Follows the MPEG-4 FBA deformation as the open player Xface implements it (proje
 
 * lips, inner (4-13, on 2.x) and outer (51-60, on 8.x), push (16, 17) and chin (18), with the
   upper- and lower-lip FAPs kept to their own lip (Parke's unconnected lips, thesis sec. 2.1.2);
-* eyebrows 31-36 (raise, ENS, up) and 37/38 (squeeze, ES, towards the midline).
+* eyebrows 31-36 (raise, ENS, up) and 37/38 (squeeze, ES, towards the midline). The brows
+  use a smooth field separable in width and height (:func:`brow_field`) instead of radial
+  zones, and a lowered brow saturates before the skin between brow and lid would fold.
+
+The normals of the moved skin are recomputed each frame (:class:`ZoneNormals`).
 
 Zones along one lip or brow reach exactly to the neighbouring feature point, so each feature
 point moves by value * FAPU and equal values move the lip or brow uniformly; an inner/outer lip
@@ -49,6 +53,7 @@ import numpy as np
 from app.stimuli.fap import AU_RADIANS
 from renderer.face import Face
 from renderer.rigweights import derive_weights
+from renderer.sdf import smoothstep
 
 UP, DOWN = np.array([0.0, 1.0, 0.0]), np.array([0.0, -1.0, 0.0])
 LEFT, RIGHT, FORWARD = np.array([1.0, 0, 0]), np.array([-1.0, 0, 0]), np.array([0, 0, 1.0])
@@ -67,6 +72,10 @@ _OUTER_OF = {"2.2": "8.1", "2.3": "8.2", "2.4": "8.3", "2.5": "8.4", "2.6": "8.5
 _CHAINS = {"upper": ("2.2", "2.6", "2.7", "2.4", "2.5"),
            "lower": ("2.3", "2.8", "2.9", "2.4", "2.5")}
 _BROWS = {31: "4.1", 32: "4.2", 33: "4.3", 34: "4.4", 35: "4.5", 36: "4.6"}
+
+#: The FAPs of the jaw and lips (set to zero for the mouth at rest that the mosaic shows).
+MOUTH_FAPS: tuple[int, ...] = tuple(sorted(
+    [3, 14, 15, 16, 17, 18] + list(_INNER_LIPS) + [f + 47 for f in _INNER_LIPS]))
 
 #: Every FAP the deformation moves (the groups the stimulus engine produces).
 SUPPORTED_FAPS: tuple[int, ...] = tuple(sorted(
@@ -92,6 +101,93 @@ def _chain_weights(v: np.ndarray, points: list[np.ndarray]) -> np.ndarray:
     reach = np.maximum(gaps.min(axis=1), 1e-6)
     return np.stack([raised_cosine(np.linalg.norm(v - p, axis=1), r)
                      for p, r in zip(pts, reach, strict=True)])
+
+
+#: How far a brow may lower, as a share of the room it squeezes (brow to upper lid margin,
+#: divided by the steepest slope of the field there): beyond it that skin would fold over.
+BROW_LOWER_ROOM = 0.6
+#: The brow field reaches its full weight this far (in ENS0) below the brow line, so the
+#: painted brow moves as a whole.
+BROW_RAMP_END = 0.12
+
+
+def brow_field(v: np.ndarray, points: np.ndarray, lid: np.ndarray, ens0: float) -> np.ndarray:
+    """Weights (3, n) of one eyebrow's three FAPs (inner, middle, outer point) on vertices ``v``.
+
+    A smooth field, separable in the face's width and height, so a brow raise moves the brow
+    as a whole and stretches forehead and upper lid evenly, with no fold at any value:
+
+    * across: a partition of unity between the points (``cos^2`` / ``sin^2`` ramps), so each
+      point moves by its own FAP alone and equal values move the brow uniformly; medially the
+      inner weight falls to 1/2 at the midline (both brows raised together lift the glabella
+      evenly), laterally the outer one fades out over 0.5 ENS0 towards the temple;
+    * up: 0 at the upper lid margin (``lid``; the eye opening keeps its size), rising
+      smoothly to 1 just below the brow line, 1 across the brow, then fading out over the
+      forehead to 1.1 ENS0 above it;
+    * depth: only the front of the head (within 0.6 ENS0 behind the outer point).
+
+    The raised-cosine zones of the MPEG-4 player (used for the lips) are radial, so off the
+    line of points their sum falls below one: raised brows then sank into an oblique dent.
+    """
+    x = np.abs(v[:, 0])
+    px = np.abs(points[:, 0])
+    y_brow = np.interp(x, px, points[:, 1])  # the brow line (held beyond its ends)
+    w = np.zeros((3, len(v)))
+    for j in range(3):
+        if j > 0:  # rising from the previous point
+            t = np.clip((x - px[j - 1]) / (px[j] - px[j - 1]), 0, 1)
+            rise = np.sin(0.5 * np.pi * t) ** 2
+        else:  # medially: 1/2 at the midline
+            rise = 0.5 + 0.5 * np.sin(0.5 * np.pi * np.clip(x / px[0], 0, 1)) ** 2
+        if j < 2:
+            t = np.clip((x - px[j]) / (px[j + 1] - px[j]), 0, 1)
+            fall = np.cos(0.5 * np.pi * t) ** 2
+        else:  # laterally, over 0.5 ENS0
+            fall = np.cos(0.5 * np.pi * np.clip((x - px[j]) / (0.5 * ens0), 0, 1)) ** 2
+        w[j] = np.where(x < px[j], rise, fall)
+    # across the midline the inner weight goes on falling, to 0 at the other inner point
+    other = v[:, 0] * points[0, 0] < 0
+    w[0] = np.where(other, np.where(x < px[0], 1.0 - w[0], 0.0), w[0])
+    w[1:] *= ~other
+    up = smoothstep(lid[1], y_brow - BROW_RAMP_END * ens0, v[:, 1])
+    up = up * (1.0 - smoothstep(y_brow + 0.1 * ens0, y_brow + 1.1 * ens0, v[:, 1]))
+    depth = smoothstep(points[2, 2] - 0.6 * ens0, points[2, 2] - 0.3 * ens0, v[:, 2])
+    return w * (up * depth)[None]
+
+
+class ZoneNormals:
+    """Area-weighted normals of the vertices of a zone, recomputed from posed positions.
+
+    The translational FAPs stretch and shear the skin; its neutral normals would then shade a
+    stretched forehead or cheek as if it still had its old slope (a raised brow darkened the
+    whole upper lid). Only triangles touching the zone take part, gathered by one sparse
+    product, so this costs a fraction of a millisecond. Equal to
+    :func:`renderer.face.vertex_normals` on the zone.
+    """
+
+    def __init__(self, triangles: np.ndarray, zone: np.ndarray, n_vertices: int) -> None:
+        from scipy import sparse
+
+        in_zone = np.zeros(n_vertices, bool)
+        in_zone[zone] = True
+        self.triangles = np.asarray(triangles)[in_zone[triangles].any(axis=1)]
+        row_of = np.full(n_vertices, -1)
+        row_of[zone] = np.arange(len(zone))
+        rows = row_of[self.triangles].ravel()
+        cols = np.repeat(np.arange(len(self.triangles)), 3)
+        keep = rows >= 0
+        self.gather = sparse.csr_matrix((np.ones(int(keep.sum()), np.float32),
+                                         (rows[keep], cols[keep])),
+                                        shape=(len(zone), len(self.triangles)))
+
+    def __call__(self, positions: np.ndarray) -> np.ndarray:
+        t = self.triangles
+        p0 = positions[t[:, 0]]
+        face_normals = np.cross(positions[t[:, 1]] - p0, positions[t[:, 2]] - p0)
+        n = self.gather @ face_normals
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        return np.where(length > 1e-12, n / np.maximum(length, 1e-12),
+                        np.float32([0, 0, 1])).astype(np.float32)
 
 
 _IDENTITY = np.eye(4)
@@ -164,23 +260,27 @@ class Rig:
             w = raised_cosine(np.linalg.norm(v - fp[pt], axis=1), 0.7 * mw0)
             w = w * self.weights[f"{lip}_lip"] * ~eyeball
             columns[fap] = w[:, None] * (UP if fap == 18 else FORWARD) * fu["MNS"]
-        eye_y = (fp["3.5"][1] + fp["3.6"][1]) / 2.0
+        self.brow_lower_limit = np.inf  # FAP units: lowering saturates at this
         for side, faps in (("l", (31, 33, 35)), ("r", (32, 34, 36))):
-            pts = [_BROWS[f] for f in faps]
-            brow_y = np.mean([fp[p][1] for p in pts])
-            mask = np.clip((v[:, 1] - eye_y) / max(0.5 * (brow_y - eye_y), 1e-9), 0, 1)
-            mask = mask * mask * (3 - 2 * mask) * ~eyeball
-            norm = _chain_weights(v, [fp[p] for p in pts]) * mask
+            pts = np.array([fp[_BROWS[f]] for f in faps])
+            lid = fp["3.1" if side == "l" else "3.2"]
+            field = brow_field(v, pts, lid, face.fapu["ENS0"]) * ~eyeball
+            room = float(np.min(pts[:, 1] - BROW_RAMP_END * face.fapu["ENS0"] - lid[1]))
+            self.brow_lower_limit = min(self.brow_lower_limit,
+                                        BROW_LOWER_ROOM * max(room, 0.0) / 1.5 / fu["ENS"])
             for j, f in enumerate(faps):
-                columns[f] = norm[j][:, None] * UP * fu["ENS"]
-            squeeze = raised_cosine(np.linalg.norm(v - fp[pts[0]], axis=1), 0.5 * es0) * mask
+                columns[f] = field[j][:, None] * UP * fu["ENS"]
+            mask = field.sum(axis=0)
+            squeeze = raised_cosine(np.linalg.norm(v - pts[0], axis=1), 0.5 * es0) * mask
             f = 37 if side == "l" else 38
             columns[f] = squeeze[:, None] * (RIGHT if side == "l" else LEFT) * fu["ES"]
 
         self.basis_faps = np.array(sorted(columns))
+        self._brow_columns = np.isin(self.basis_faps, list(_BROWS))
         stacked = np.stack([columns[f] for f in self.basis_faps])  # (k, n, 3)
         self.zone = np.flatnonzero(np.abs(stacked).sum(axis=(0, 2)) > 1e-9)
         self.basis = stacked[:, self.zone, :].reshape(len(self.basis_faps), -1).astype(np.float32)
+        self._zone_normals = ZoneNormals(face.triangles, self.zone, face.n_vertices)
 
         hinge = face.hinge()
         self.hinge = hinge
@@ -219,10 +319,14 @@ class Rig:
         f = np.asarray(faps, dtype=np.float64)
         pos = self.v0.copy()
         nrm = self.n0.copy()
-        coeff = f[self.basis_faps - 1].astype(np.float32)
+        coeff = f[self.basis_faps - 1]
+        limit = max(self.brow_lower_limit, 1e-9)
+        lower = self._brow_columns & (coeff < 0)  # brows lower with room to spare: saturate
+        coeff = np.where(lower, limit * np.tanh(coeff / limit), coeff).astype(np.float32)
         active = np.flatnonzero(coeff)
         if len(active):
             pos[self.zone] += (coeff[active] @ self.basis[active]).reshape(-1, 3)
+            nrm[self.zone] = self._zone_normals(pos)
         jaw_open = max(f[2], 0.0) * self.jaw_rad_per_unit
         shift = np.array([-f[14] * self.fapu["MW"], 0.0, max(f[13], 0.0) * self.fapu["MNS"]])
         if jaw_open or np.any(shift):

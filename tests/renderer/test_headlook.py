@@ -1,0 +1,131 @@
+"""Pixels of the built-in head: the artefacts a participant could tell conditions apart by.
+
+Each test draws the head and measures what an observer would see: the eyeball staying behind
+the lids as it turns, closed lids reading as skin, the two brows' surroundings alike, the brows
+rising smoothly. The measures compare against the neutral face, so they do not depend on the
+lighting.
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from renderer.deform import Rig
+from renderer.gl import FaceCanvas, project
+from renderer.headmodel import builtin_face
+
+pytestmark = pytest.mark.gl
+SIZE = 368
+GAZE_20_DEG = np.radians(20.0) / 1e-5  # FAP units (1e-5 rad)
+
+
+def _draw(rig, *faps_list, antialias="edges"):
+    canvas = FaceCanvas(rig, SIZE, len(faps_list), antialias=antialias,
+                        background=(0.5, 0.5, 0.5))
+    try:
+        frames = []
+        for faps in faps_list:
+            f = np.zeros(68)
+            for k, v in faps.items():
+                f[k - 1] = v
+            frames.append(rig.deform(f))
+        img = canvas.draw(frames).copy()
+    finally:
+        canvas.release()
+    return [img[:, k * SIZE:(k + 1) * SIZE].astype(float) for k in range(len(faps_list))]
+
+
+@pytest.fixture(scope="module")
+def marked_eyes():
+    """The head with pure green eyeballs: their visible pixels are easy to find."""
+    face = builtin_face()
+    colors = face.colors.copy()
+    for side in ("l", "r"):
+        colors[face.groups[f"eyeball_{side}"], :3] = (0.0, 1.0, 0.0)
+    return Rig(dataclasses.replace(face, colors=colors))
+
+
+def _eyeball(img):
+    return (img[..., 1] > 150) & (img[..., 0] < 90) & (img[..., 2] < 90)
+
+
+def _eye_boxes(rig):
+    """Pixel boxes around both eyes (1.6 eyeball radii about each centre)."""
+    face = rig.face
+    from renderer.gl import camera_for
+
+    vp, _ = camera_for(rig)
+    boxes = []
+    for side in ("l", "r"):
+        c = face.eye_centre(side)
+        r = 1.6 * 12.0
+        corners = np.array([c + [sx * r, sy * r, 0] for sx in (-1, 1) for sy in (-1, 1)])
+        px = project(vp, corners, SIZE)
+        (x0, y0), (x1, y1) = px.min(axis=0).astype(int), np.ceil(px.max(axis=0)).astype(int)
+        boxes.append((slice(y0, y1), slice(x0, x1)))
+    return boxes
+
+
+def test_turned_eyeballs_stay_behind_the_lids(marked_eyes):
+    # a ball turning about its centre fills the same space: what shows of it may not grow
+    rest, *turned = _draw(marked_eyes, {}, {23: GAZE_20_DEG, 24: GAZE_20_DEG},
+                          {23: -GAZE_20_DEG, 24: -GAZE_20_DEG},
+                          {25: GAZE_20_DEG, 26: GAZE_20_DEG}, antialias="none")
+    allowed = ndimage.binary_dilation(_eyeball(rest), iterations=1)
+    for img in turned:
+        outside = _eyeball(img) & ~allowed
+        assert outside.sum() <= 12, outside.sum()  # 61 px when it swung out of its socket
+
+
+def test_closed_lids_cover_the_eye(marked_eyes):
+    rest, closed = _draw(marked_eyes, {}, {19: 1024.0, 20: 1024.0}, antialias="none")
+    assert _eyeball(rest).sum() > 400
+    assert _eyeball(closed).sum() <= 0.04 * _eyeball(rest).sum()  # a slit at most
+
+
+def _roughness(img, region):
+    """Mean absolute luminance detail finer than 2 px (luminance minus its blur) in a region."""
+    lum = img @ np.array([0.299, 0.587, 0.114])
+    detail = lum - ndimage.gaussian_filter(lum, 2.0)
+    return float(np.abs(detail[region]).mean())
+
+
+def test_the_skin_above_both_eyes_has_the_same_fine_detail():
+    rig = Rig(builtin_face())
+    (rest,) = _draw(rig, {})
+    left, right = _eye_boxes(rig)
+    lum = rest @ np.array([0.299, 0.587, 0.114])
+    detail = lum - ndimage.gaussian_filter(lum, 2.0)
+    # above the eyes, below the brows: mirror one side onto the other
+    a = detail[left[0].start - 14:left[0].start + 10, left[1]]
+    b = detail[right[0].start - 14:right[0].start + 10, right[1]][:, ::-1]
+    w = min(a.shape[1], b.shape[1])
+    assert np.abs(a[:, :w] - b[:, :w]).mean() < 1.0
+
+
+def _brow_top(img, box):
+    """Row of each column's brow top in an eye's box extended upwards (first dark pixel)."""
+    lum = img @ np.array([0.299, 0.587, 0.114])
+    inner = slice(box[1].start + 5, box[1].stop - 5)  # clear of the temples and the nose
+    band = lum[box[0].start - 40:box[0].start + 10, inner]
+    dark = band < 0.75 * np.median(band)
+    has = dark.any(axis=0)
+    return np.where(has, dark.argmax(axis=0), -1), has
+
+
+@pytest.mark.parametrize("value", [-300.0, 200.0, 400.0])
+def test_brows_move_smoothly_over_the_range_tracks_produce(value):
+    rig = Rig(builtin_face())
+    faps = {k: value for k in range(31, 37)}
+    rest, moved = _draw(rig, {}, faps)
+    for box in _eye_boxes(rig):
+        top0, has0 = _brow_top(rest, box)
+        top1, has1 = _brow_top(moved, box)
+        both = has0 & has1
+        assert both.sum() > 20
+        shift = (top1 - top0)[both].astype(float)
+        # equal values move the brow as a whole: its top edge shifts evenly, no waves or dents
+        assert np.abs(np.diff(shift)).max() <= 2, shift
+        assert shift.std() < 1.5, shift
