@@ -19,6 +19,7 @@ import numpy as np
 from app.errors import InputError
 from renderer.deform import FaceFrame, Rig
 from renderer.edges import EdgeTable, edge_table, overdraw_edges
+from renderer.face import MOUTH_FEATURE_POINTS
 
 _VERTEX = """
 #version 330
@@ -243,7 +244,15 @@ class FaceCanvas:
                                    ctx.depth_renderbuffer((size, size), samples=self.samples))
         self.resolved = (ctx.framebuffer(ctx.renderbuffer((size, size), 3)) if self.samples
                          else self.fbo)
+        # the mouth's neighbourhood (the triangles a mosaic reference needs)
+        mouth = np.mean([face.feature_points[n] for n in MOUTH_FEATURE_POINTS], axis=0)
+        near = np.linalg.norm(face.vertices - mouth, axis=1) < 1.5 * face.fapu["MW0"]
+        self.mouth_index = ctx.buffer(
+            face.triangles[near[face.triangles].any(axis=1)].astype("i4").tobytes())
+        self.mouth_vaos = [self._vertex_array(self.prog, pos, nrm, self.mouth_index)
+                           for pos, nrm in self.dynamic]
         self.face_buffer = np.empty((size, size, 3), np.uint8)
+        self.background_u8 = np.round(np.asarray(background) * 255).astype(np.uint8)
         self.buffer = np.empty((size, size * n_faces, 3), np.uint8)
         self._modes = (moderngl.DEPTH_TEST | moderngl.CULL_FACE,
                        moderngl.DEPTH_TEST | moderngl.BLEND, moderngl.TRIANGLES)
@@ -254,13 +263,24 @@ class FaceCanvas:
                                             (self.static, "4f", "in_color")],
                                      index_buffer=index)
 
-    def draw(self, frames: list[FaceFrame], out: np.ndarray | None = None) -> np.ndarray:
+    def draw(self, frames: list[FaceFrame], out: np.ndarray | None = None,
+             references: list[tuple[FaceFrame, tuple[int, int, int, int]]] | None = None
+             ) -> np.ndarray:
         """Draw one frame per face (left to right) into ``out`` (default: a buffer reused by the
-        next draw); returns the (H, W, 3) uint8 frame, top row first."""
+        next draw); returns the (H, W, 3) uint8 frame, top row first.
+
+        ``references``: per face, a second frame and a box ``(x0, y0, x1, y1)`` in that face's
+        pixels; the second frame is drawn first, only inside the box and only near the mouth,
+        and the box's pixels are left in :attr:`regions` (the mosaic's reference, see
+        :func:`renderer.mosaic.pixelate_reference`).
+        """
         ctx, size = self.ctx, self.size
         solid, blended, triangles = self._modes
         out = self.buffer if out is None else out
+        self.regions: list[np.ndarray | None] = [None] * len(frames)
         for k, frame in enumerate(frames):
+            if references is not None:
+                self.regions[k] = self._draw_region(k, *references[k])
             positions, normals = self.rig.posed(frame)
             self.dynamic[k][0].write(positions)
             self.dynamic[k][1].write(normals)
@@ -277,6 +297,27 @@ class FaceCanvas:
             out[:, k * size:(k + 1) * size] = self.face_buffer[::-1]
         return out
 
+    def _draw_region(self, k: int, frame: FaceFrame,
+                     box: tuple[int, int, int, int]) -> np.ndarray | None:
+        x0, y0, x1, y1 = box
+        if x1 <= x0 or y1 <= y0:
+            return None
+        positions, normals = self.rig.posed(frame)
+        self.dynamic[k][0].write(positions)
+        self.dynamic[k][1].write(normals)
+        self.fbo.use()
+        self.ctx.enable_only(self._modes[0])
+        self.ctx.viewport = (0, 0, self.size, self.size)
+        self.fbo.clear(*self.background, 1.0)
+        gl_box = (x0, self.size - y1, x1 - x0, y1 - y0)  # GL rows run bottom-up
+        self.ctx.scissor = gl_box
+        self.mouth_vaos[k].render(self._modes[2])
+        self.ctx.scissor = None
+        if self.samples:
+            self.ctx.copy_framebuffer(self.resolved, self.fbo)
+        data = self.resolved.read(viewport=gl_box, components=3)
+        return np.frombuffer(data, np.uint8).reshape(y1 - y0, x1 - x0, 3)[::-1]
+
     def _overdraw_edges(self, k: int, positions: np.ndarray, table: EdgeTable) -> None:
         solid, blended, triangles = self._modes
         xyw = positions @ self._xyw[:3] + self._xyw[3]
@@ -292,7 +333,8 @@ class FaceCanvas:
 
     def release(self) -> None:
         buffers = [b for pair in self.dynamic for b in pair]
-        objs = [*self.vaos, *buffers, self.static, self.index, self.prog]
+        objs = [*self.vaos, *self.mouth_vaos, *buffers, self.static, self.index,
+                self.mouth_index, self.prog]
         if self.edges is not None:
             objs += [*self.edge_vaos, self.edge_index, self.edge_prog]
         for obj in objs:

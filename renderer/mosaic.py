@@ -7,6 +7,14 @@ surprisingly coarse pixelation (MacDonald, Andersen & Bachmann 2000, Perception 
 coarse default (see :class:`renderer.api.RenderSettings`). Both faces of a pair get the same
 block size and margin.
 
+Even coarse blocks keep each block's mean, and the dark open mouth lowers the means of the
+blocks over it: the mouth's opening stays readable as a darkening of the mosaic. The renderer
+therefore takes the means from a *reference* image of the same frame with the mouth at rest
+(:func:`pixelate_reference`, the face posed as it is but with the jaw and lip FAPs at zero),
+so the blocks follow the head and its lighting but carry nothing of the mouth's motion, and
+it blocks only face pixels: the background beside the face is never averaged in or painted
+over.
+
 Example
 -------
 >>> import numpy as np
@@ -58,4 +66,47 @@ def pixelate(image: np.ndarray, box: tuple[int, int, int, int], block: int) -> n
     total = cells.sum(axis=1, dtype=np.uint32).sum(axis=2)
     mean = (total + block * block // 2) // (block * block)
     cells[:] = mean.astype(np.uint8)[:, None, :, None, :]
+    return image
+
+
+def pixelate_reference(image: np.ndarray, reference: np.ndarray, box: tuple[int, int, int, int],
+                       block: int, background: np.ndarray) -> np.ndarray:
+    """Fill each ``block`` cell of ``box`` in ``image`` with the mean face colour of
+    ``reference`` in that cell, on face pixels only.
+
+    ``reference`` is the ``box`` region (its shape) of an image of the same face drawn with the
+    mouth at rest; ``background`` the uint8 RGB of the empty canvas. Face pixels are those not
+    exactly of the background colour; a cell with no face pixel in the reference (the reference
+    draws only the mouth's neighbourhood) takes the mean of its own face pixels. Works in place
+    on ``image`` and returns it.
+
+    Example
+    -------
+    >>> bg = np.array([9, 9, 9], np.uint8)
+    >>> img = np.full((4, 4, 3), 9, np.uint8); img[:, :2] = 200      # face on the left
+    >>> ref = np.full((4, 4, 3), 9, np.uint8); ref[:, :2] = 100
+    >>> out = pixelate_reference(img, ref, (0, 0, 4, 4), 4, bg)
+    >>> int(out[0, 0, 0]), int(out[0, 3, 0])                           # face <- ref, bg kept
+    (100, 9)
+    """
+    x0, y0, x1, y1 = box
+    if x1 <= x0 or y1 <= y0:
+        return image
+    ny, nx = (y1 - y0) // block, (x1 - x0) // block
+    region = image[y0:y1, x0:x1]
+
+    def face_means(pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        on = (pixels != background).any(axis=2).reshape(ny, block, nx, block)
+        counts = on.sum(axis=(1, 3))
+        cells = pixels.reshape(ny, block, nx, block, 3).astype(np.uint32)
+        total = (cells * on[..., None]).sum(axis=(1, 3))
+        return (total + counts[..., None] // 2) // np.maximum(counts, 1)[..., None], counts
+
+    mean, counts = face_means(reference)
+    if (counts == 0).any():  # parts of the box away from the mouth (neck): their own mean
+        own, _ = face_means(region)
+        mean = np.where((counts == 0)[..., None], own, mean)
+    fill = np.repeat(np.repeat(mean.astype(np.uint8), block, axis=0), block, axis=1)
+    face = (region != background).any(axis=2)
+    region[face] = fill[face]
     return image
