@@ -148,6 +148,25 @@ def context():
     return _CONTEXTS[key]
 
 
+#: Mesa's CPU rasterisers, as they name themselves in GL_RENDERER.
+SOFTWARE_RENDERERS: tuple[str, ...] = ("llvmpipe", "softpipe", "swrast", "lavapipe")
+
+
+def device_name() -> str:
+    """The GL_RENDERER string of this thread's context: the device frames are drawn on.
+
+    EGL picks the device; set ``GLCONTEXT_DEVICE_INDEX`` (read by moderngl's glcontext when it
+    makes the context, and inherited by the worker processes) to choose another one of the
+    machine's EGL devices (0 is the first; see docs/renderer.md, "On a GPU").
+    """
+    return str(context().info["GL_RENDERER"])
+
+
+def is_software(name: str) -> bool:
+    """Whether a GL_RENDERER string names a CPU rasteriser rather than a GPU."""
+    return any(s in name.lower() for s in SOFTWARE_RENDERERS)
+
+
 def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
     f = target - eye
     f = f / np.linalg.norm(f)
