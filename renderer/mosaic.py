@@ -94,19 +94,32 @@ def pixelate_reference(image: np.ndarray, reference: np.ndarray, box: tuple[int,
         return image
     ny, nx = (y1 - y0) // block, (x1 - x0) // block
     region = image[y0:y1, x0:x1]
-
-    def face_means(pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        on = (pixels != background).any(axis=2).reshape(ny, block, nx, block)
-        counts = on.sum(axis=(1, 3))
-        cells = pixels.reshape(ny, block, nx, block, 3).astype(np.uint32)
-        total = (cells * on[..., None]).sum(axis=(1, 3))
-        return (total + counts[..., None] // 2) // np.maximum(counts, 1)[..., None], counts
-
-    mean, counts = face_means(reference)
-    if (counts == 0).any():  # parts of the box away from the mouth (neck): their own mean
-        own, _ = face_means(region)
-        mean = np.where((counts == 0)[..., None], own, mean)
-    fill = np.repeat(np.repeat(mean.astype(np.uint8), block, axis=0), block, axis=1)
-    face = (region != background).any(axis=2)
-    region[face] = fill[face]
+    mean, counts, _ = _face_means(reference, block, background)
+    own, _, face = _face_means(region, block, background)
+    # parts of the box away from the mouth (the neck) have no reference: their own mean
+    mean = np.where((counts == 0)[..., None], own, mean).astype(np.uint8)
+    np.copyto(region.reshape(ny, block, nx, block, 3), mean[:, None, :, None, :],
+              where=face.reshape(ny, block, nx, block, 1))
     return image
+
+
+def _face_means(pixels: np.ndarray, block: int, background: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per ``block`` cell of ``pixels`` (h, w, 3) uint8: the rounded mean colour of its face
+    pixels (those not exactly ``background``; 0 where there are none), their count, and the
+    (h, w) face mask.
+
+    Sums every pixel in two contiguous passes (rows of a cell, then its columns) and takes the
+    background's share back out, rather than masking a widened copy: this runs twice a face
+    and frame.
+    """
+    h, w, _ = pixels.shape
+    ny, nx = h // block, w // block
+    face = ((pixels[..., 0] != background[0]) | (pixels[..., 1] != background[1])
+            | (pixels[..., 2] != background[2]))
+    counts = face.reshape(ny, block, nx, block).sum(axis=(1, 3))
+    total = pixels.reshape(ny, block, w * 3).sum(axis=1, dtype=np.int64)
+    total = total.reshape(ny, nx, block, 3).sum(axis=2)
+    total -= (block * block - counts)[..., None] * background.astype(np.int64)
+    mean = (total + counts[..., None] // 2) // np.maximum(counts, 1)[..., None]
+    return mean, counts, face
