@@ -54,6 +54,7 @@ from app.stimuli.fap import AU_RADIANS
 from renderer.browfield import BROW_LOWER_ROOM, BROW_RAMP_END, brow_field
 from renderer.face import Face
 from renderer.rigweights import derive_weights
+from renderer.skin import SkinPart, one_ring
 
 UP, DOWN = np.array([0.0, 1.0, 0.0]), np.array([0.0, -1.0, 0.0])
 LEFT, RIGHT, FORWARD = np.array([1.0, 0, 0]), np.array([-1.0, 0, 0]), np.array([0, 0, 1.0])
@@ -103,42 +104,9 @@ def _chain_weights(v: np.ndarray, points: list[np.ndarray]) -> np.ndarray:
                      for p, r in zip(pts, reach, strict=True)])
 
 
-class ZoneNormals:
-    """Area-weighted normals of the vertices of a zone, recomputed from posed positions.
-
-    The translational FAPs stretch and shear the skin; its neutral normals would then shade a
-    stretched forehead or cheek as if it still had its old slope (a raised brow darkened the
-    whole upper lid). Only triangles touching the zone take part, gathered by one sparse
-    product, so this costs a fraction of a millisecond. Equal to
-    :func:`renderer.face.vertex_normals` on the zone.
-    """
-
-    def __init__(self, triangles: np.ndarray, zone: np.ndarray, n_vertices: int) -> None:
-        from scipy import sparse
-
-        in_zone = np.zeros(n_vertices, bool)
-        in_zone[zone] = True
-        self.triangles = np.asarray(triangles)[in_zone[triangles].any(axis=1)]
-        row_of = np.full(n_vertices, -1)
-        row_of[zone] = np.arange(len(zone))
-        rows = row_of[self.triangles].ravel()
-        cols = np.repeat(np.arange(len(self.triangles)), 3)
-        keep = rows >= 0
-        self.gather = sparse.csr_matrix((np.ones(int(keep.sum()), np.float32),
-                                         (rows[keep], cols[keep])),
-                                        shape=(len(zone), len(self.triangles)))
-
-    def __call__(self, positions: np.ndarray) -> np.ndarray:
-        t = self.triangles
-        p0 = positions[t[:, 0]]
-        face_normals = np.cross(positions[t[:, 1]] - p0, positions[t[:, 2]] - p0)
-        n = self.gather @ face_normals
-        length = np.linalg.norm(n, axis=1, keepdims=True)
-        return np.where(length > 1e-12, n / np.maximum(length, 1e-12),
-                        np.float32([0, 0, 1])).astype(np.float32)
-
-
 _IDENTITY = np.eye(4)
+MOUTH_FAPS_INDEX = np.array(MOUTH_FAPS) - 1
+
 
 
 def rotation(axis: str, angle: float) -> np.ndarray:
@@ -226,9 +194,9 @@ class Rig:
         self.basis_faps = np.array(sorted(columns))
         self._brow_columns = np.isin(self.basis_faps, list(_BROWS))
         stacked = np.stack([columns[f] for f in self.basis_faps])  # (k, n, 3)
-        self.zone = np.flatnonzero(np.abs(stacked).sum(axis=(0, 2)) > 1e-9)
-        self.basis = stacked[:, self.zone, :].reshape(len(self.basis_faps), -1).astype(np.float32)
-        self._zone_normals = ZoneNormals(face.triangles, self.zone, face.n_vertices)
+        of_mouth = np.isin(self.basis_faps, MOUTH_FAPS)
+        self.mouth, self.brows = (SkinPart(np.flatnonzero(cols), stacked, face.triangles)
+                                  for cols in (of_mouth, ~of_mouth))
 
         hinge = face.hinge()
         self.hinge = hinge
@@ -253,6 +221,8 @@ class Rig:
         self._still = np.flatnonzero(head_w <= 0.0)
         self._blend = np.flatnonzero((head_w > 0.0) & (head_w < 1.0))
         self._blend_w = head_w[self._blend][:, None]
+        #: the vertices only the jaw and lip FAPs change (None: other FAPs reach them too)
+        self.rest_mouth_vertices = self._mouth_apart()
 
     def _pair_share(self, v: np.ndarray, inner_pt: str, tag: str) -> np.ndarray:
         """Share of an inner or outer lip FAP at each vertex: the nearer feature point wins."""
@@ -271,10 +241,9 @@ class Rig:
         limit = max(self.brow_lower_limit, 1e-9)
         lower = self._brow_columns & (coeff < 0)  # brows lower with room to spare: saturate
         coeff = np.where(lower, limit * np.tanh(coeff / limit), coeff).astype(np.float32)
-        active = np.flatnonzero(coeff)
-        if len(active):
-            pos[self.zone] += (coeff[active] @ self.basis[active]).reshape(-1, 3)
-            nrm[self.zone] = self._zone_normals(pos)
+        moved = [part for part in (self.mouth, self.brows) if part.move(coeff, pos)]
+        for part in moved:
+            part.shade(pos, nrm)
         jaw_open = max(f[2], 0.0) * self.jaw_rad_per_unit
         shift = np.array([-f[14] * self.fapu["MW"], 0.0, max(f[13], 0.0) * self.fapu["MNS"]])
         if jaw_open or np.any(shift):
@@ -330,6 +299,32 @@ class Rig:
         t = nrm[blend] + w * (turned[blend] - nrm[blend])
         turned[blend] = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-12)
         return moved, turned
+
+    def mouth_at_rest(self, frame: FaceFrame, faps: np.ndarray) -> FaceFrame:
+        """``frame`` (deformed from ``faps``) as it would be with the jaw and lip FAPs at zero:
+        the face the mouth mosaic takes its colours from (:mod:`renderer.mosaic`).
+
+        Equal to deforming ``faps`` with :data:`MOUTH_FAPS` at zero. Where nothing else moves
+        the triangles the mouth moves (the built-in head), their vertices are simply put back
+        at rest, without a second deformation.
+        """
+        if self.rest_mouth_vertices is None:
+            rest = np.array(faps, dtype=np.float64)
+            rest[MOUTH_FAPS_INDEX] = 0.0
+            return self.deform(rest)
+        idx = self.rest_mouth_vertices
+        pos, nrm = frame.positions.copy(), frame.normals.copy()
+        pos[idx], nrm[idx] = self.v0[idx], self.n0[idx]
+        return FaceFrame(pos, nrm, frame.head, frame.eye_l, frame.eye_r)
+
+    def _mouth_apart(self) -> np.ndarray | None:
+        """The vertices whose position or normal only the jaw and lip FAPs change (the mouth
+        parts and their one-ring), or None if other FAPs move any of their triangles."""
+        triangles, n = self.face.triangles, self.face.n_vertices
+        mouth = one_ring(triangles, np.union1d(self.mouth.zone, self.jaw_zone), n)
+        others = np.concatenate([self.brows.zone, *(zone for _, zone, *_ in self.lids),
+                                 *self.eye_vertices.values()])
+        return None if np.isin(mouth, one_ring(triangles, others, n)).any() else mouth
 
     @staticmethod
     def _eyes_turned(frame: FaceFrame) -> bool:

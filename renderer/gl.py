@@ -234,7 +234,15 @@ class FaceCanvas:
         face = rig.face
         self.prog = ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT)
         self.static = ctx.buffer(face.colors.astype("f4").tobytes())
-        self.index = ctx.buffer(face.triangles.astype("i4").tobytes())
+        # the lower face (triangles within 1.5 MW0 of the mouth) first: drawn alone, it is what
+        # a mosaic's reference shows (draw); the order changes no pixel, as adjacent triangles
+        # never both fill a pixel of their shared edge
+        mouth = np.mean([face.feature_points[n] for n in MOUTH_FEATURE_POINTS], axis=0)
+        near = np.linalg.norm(face.vertices - mouth, axis=1) < 1.5 * face.fapu["MW0"]
+        lower = near[face.triangles].any(axis=1)
+        self.n_lower = int(lower.sum())
+        self.index = ctx.buffer(np.concatenate([face.triangles[lower], face.triangles[~lower]])
+                                .astype("i4").tobytes())
         self.dynamic = [(ctx.buffer(reserve=face.n_vertices * 3 * 4),
                          ctx.buffer(reserve=face.n_vertices * 3 * 4)) for _ in range(n_faces)]
         self.vaos = [self._vertex_array(self.prog, pos, nrm, self.index)
@@ -263,13 +271,6 @@ class FaceCanvas:
                                    ctx.depth_renderbuffer((size, size), samples=self.samples))
         self.resolved = (ctx.framebuffer(ctx.renderbuffer((size, size), 3)) if self.samples
                          else self.fbo)
-        # the mouth's neighbourhood (the triangles a mosaic reference needs)
-        mouth = np.mean([face.feature_points[n] for n in MOUTH_FEATURE_POINTS], axis=0)
-        near = np.linalg.norm(face.vertices - mouth, axis=1) < 1.5 * face.fapu["MW0"]
-        self.mouth_index = ctx.buffer(
-            face.triangles[near[face.triangles].any(axis=1)].astype("i4").tobytes())
-        self.mouth_vaos = [self._vertex_array(self.prog, pos, nrm, self.mouth_index)
-                           for pos, nrm in self.dynamic]
         self.face_buffer = np.empty((size, size, 3), np.uint8)
         self.background_u8 = np.round(np.asarray(background) * 255).astype(np.uint8)
         self.buffer = np.empty((size, size * n_faces, 3), np.uint8)
@@ -283,23 +284,26 @@ class FaceCanvas:
                                      index_buffer=index)
 
     def draw(self, frames: list[FaceFrame], out: np.ndarray | None = None,
-             references: list[tuple[FaceFrame, tuple[int, int, int, int]]] | None = None
+             references: list[tuple[FaceFrame | None, tuple[int, int, int, int]]] | None = None
              ) -> np.ndarray:
         """Draw one frame per face (left to right) into ``out`` (default: a buffer reused by the
         next draw); returns the (H, W, 3) uint8 frame, top row first.
 
-        ``references``: per face, a second frame and a box ``(x0, y0, x1, y1)`` in that face's
-        pixels; the second frame is drawn first, only inside the box and only near the mouth,
-        and the box's pixels are left in :attr:`regions` (the mosaic's reference, see
-        :func:`renderer.mosaic.pixelate_reference`).
+        ``references``: per face, a second frame (the mouth at rest) and a box ``(x0, y0, x1,
+        y1)`` in that face's pixels: the second frame's lower face, drawn alone before the face
+        and only inside the box, is left in :attr:`regions` (the mosaic's reference, see
+        :func:`renderer.mosaic.pixelate_reference`). A second frame of None stands for the
+        face's own: the box is then read from its drawing once the lower face is drawn, which
+        gives the same pixels without drawing it twice.
         """
         ctx, size = self.ctx, self.size
         solid, blended, triangles = self._modes
         out = self.buffer if out is None else out
         self.regions: list[np.ndarray | None] = [None] * len(frames)
         for k, frame in enumerate(frames):
-            if references is not None:
-                self.regions[k] = self._draw_region(k, *references[k])
+            reference, box = references[k] if references is not None else (frame, None)
+            if reference is not None and box is not None:
+                self.regions[k] = self._draw_box(k, reference, box)
             positions, normals = self.rig.posed(frame)
             self.dynamic[k][0].write(positions)
             self.dynamic[k][1].write(normals)
@@ -307,7 +311,14 @@ class FaceCanvas:
             ctx.enable_only(solid)
             ctx.viewport = (0, 0, size, size)
             self.fbo.clear(*self.background, 1.0)
-            self.vaos[k].render(triangles)
+            if reference is None:  # the box's reference: the lower face as drawn alone
+                self.vaos[k].render(triangles, vertices=3 * self.n_lower)
+                self.regions[k] = self._read_box(box)
+                self.vaos[k].render(triangles, vertices=3 * (self.rig.face.n_triangles
+                                                             - self.n_lower),
+                                    first=3 * self.n_lower)
+            else:
+                self.vaos[k].render(triangles)
             if self.edges is not None:
                 self._overdraw_edges(k, positions, self.edges)
             if self.samples:
@@ -316,10 +327,11 @@ class FaceCanvas:
             out[:, k * size:(k + 1) * size] = self.face_buffer[::-1]
         return out
 
-    def _draw_region(self, k: int, frame: FaceFrame,
-                     box: tuple[int, int, int, int]) -> np.ndarray | None:
-        x0, y0, x1, y1 = box
-        if x1 <= x0 or y1 <= y0:
+    def _draw_box(self, k: int, frame: FaceFrame,
+                  box: tuple[int, int, int, int]) -> np.ndarray | None:
+        """Draw the lower face of ``frame`` inside ``box`` only (with face ``k``'s buffers);
+        the box's pixels."""
+        if box[2] <= box[0] or box[3] <= box[1]:
             return None
         positions, normals = self.rig.posed(frame)
         self.dynamic[k][0].write(positions)
@@ -327,14 +339,24 @@ class FaceCanvas:
         self.fbo.use()
         self.ctx.enable_only(self._modes[0])
         self.ctx.viewport = (0, 0, self.size, self.size)
-        self.fbo.clear(*self.background, 1.0)
-        gl_box = (x0, self.size - y1, x1 - x0, y1 - y0)  # GL rows run bottom-up
-        self.ctx.scissor = gl_box
-        self.mouth_vaos[k].render(self._modes[2])
+        self.ctx.scissor = self._gl_box(box)
+        self.fbo.clear(*self.background, 1.0, viewport=self.ctx.scissor)
+        self.vaos[k].render(self._modes[2], vertices=3 * self.n_lower)
         self.ctx.scissor = None
+        return self._read_box(box)
+
+    def _gl_box(self, box: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
+        x0, y0, x1, y1 = box
+        return x0, self.size - y1, x1 - x0, y1 - y0  # GL rows run bottom-up
+
+    def _read_box(self, box: tuple[int, int, int, int]) -> np.ndarray | None:
+        """The pixels of ``box`` as drawn so far, top row first (None for an empty box)."""
+        x0, y0, x1, y1 = box
+        if x1 <= x0 or y1 <= y0:
+            return None
         if self.samples:
             self.ctx.copy_framebuffer(self.resolved, self.fbo)
-        data = self.resolved.read(viewport=gl_box, components=3)
+        data = self.resolved.read(viewport=self._gl_box(box), components=3)
         return np.frombuffer(data, np.uint8).reshape(y1 - y0, x1 - x0, 3)[::-1]
 
     def _overdraw_edges(self, k: int, positions: np.ndarray, table: EdgeTable) -> None:
@@ -352,8 +374,7 @@ class FaceCanvas:
 
     def release(self) -> None:
         buffers = [b for pair in self.dynamic for b in pair]
-        objs = [*self.vaos, *self.mouth_vaos, *buffers, self.static, self.index,
-                self.mouth_index, self.prog]
+        objs = [*self.vaos, *buffers, self.static, self.index, self.prog]
         if self.edges is not None:
             objs += [*self.edge_vaos, self.edge_index, self.edge_prog]
         for obj in objs:

@@ -25,7 +25,7 @@ import numpy as np
 
 from app.errors import InputError
 from app.stimuli.track import MotionTrack
-from renderer.deform import MOUTH_FAPS, Rig
+from renderer.deform import MOUTH_FAPS_INDEX, Rig
 from renderer.face import MOUTH_FEATURE_POINTS, Face
 from renderer.gl import FaceCanvas, project
 from renderer.mosaic import mouth_box, pixelate_reference
@@ -65,7 +65,6 @@ def align_tracks(tracks: list[MotionTrack], fps: float | None) -> list[MotionTra
 #: How far below the lower lip at rest the mosaic reaches, in MNS0: the lower lip of a jaw
 #: opened by FAP 3 = 512 (half an MNS0) stays under it.
 JAW_ALLOWANCE = 0.5
-MOUTH_FAPS_INDEX = np.array(MOUTH_FAPS) - 1
 
 #: Fewer frames than this are drawn in-process: starting a worker costs about a second.
 PARALLEL_MIN_FRAMES = 240
@@ -89,14 +88,15 @@ class _Drawer:
         deformed = [rig.deform(d[i]) for d in self.dense]
         if not block:
             return RenderedFrame(i, self.canvas.draw(deformed, out), [])
-        # the mosaic comes from the mouth at rest: its box and its colours (mosaic.py)
+        # the mosaic comes from the mouth at rest: its box and its colours (mosaic.py); a
+        # mouth already at rest is read from the face's own drawing (None)
         references = []
-        for d in self.dense:
-            rest = d[i].copy()
-            rest[MOUTH_FAPS_INDEX] = 0.0
-            frame = rig.deform(rest)
-            references.append((frame, mouth_box(self._mouth_pixels(frame), size, size,
-                                                block=block, margin=self.mosaic_margin)))
+        for d, frame in zip(self.dense, deformed, strict=True):
+            moving = d[i][MOUTH_FAPS_INDEX].any()
+            rest = rig.mouth_at_rest(frame, d[i]) if moving else frame
+            box = mouth_box(self._mouth_pixels(rest), size, size, block=block,
+                            margin=self.mosaic_margin)
+            references.append((rest if moving else None, box))
         image = self.canvas.draw(deformed, out, references)
         boxes = []
         for k, (_, (x0, y0, x1, y1)) in enumerate(references):

@@ -183,3 +183,22 @@ def test_the_mosaic_does_not_spill_onto_the_background():
     background = (plain == [140, 143, 148]).all(axis=2)
     assert background[y0:y1, x0:x1].sum() > 50  # the case this is about
     assert np.array_equal(mosaicked[background], plain[background])
+
+
+def test_the_mosaic_is_the_same_whether_the_mouth_moves_or_not():
+    # two conditions alike but for the mouth: on the pixels that are face in both, every
+    # block of the mosaic has the same colour (a still mouth is read from its own drawing,
+    # a moving one from a second drawing at rest: the two must agree to the bit)
+    pose = dict(f49=25000, f48=-6000, f31=150, f32=150)
+    still, boxes = _frame([_track(**pose)], mosaic_block=16)
+    moving, boxes_moving = _frame([_track(**pose, f3=400, f5=-150, f12=120, f13=120, f53=90)],
+                                  mosaic_block=16)
+    assert boxes == boxes_moving
+    x0, y0, x1, y1 = boxes[0]
+    background = [140, 143, 148]
+    face = (still != background).any(axis=2) & (moving != background).any(axis=2)
+    box = np.zeros_like(face)
+    box[y0:y1, x0:x1] = True
+    assert (face & box).sum() > 0.8 * box.sum()
+    assert not np.array_equal(still[~box], moving[~box])  # the jaw shows below the box
+    assert np.array_equal(still[face & box], moving[face & box])
