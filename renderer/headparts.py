@@ -138,8 +138,9 @@ def skin_grid(sdf: Callable[[np.ndarray], np.ndarray], centre: np.ndarray, solve
         hit = centre + solve(sdf, centre, d, 260.0)[:, None] * d
         mouth_el = np.arctan2(mouth_y - centre[1], hit[0, 2] - centre[2])
     mouth_el = np.degrees(mouth_el)
-    # the brows (painted per vertex) get twice the rows of the rest of the face
-    el = _warp(n_elevation, -72, 86, -50, 36, 4.0, bands=((18.0, 34.0, 4.0),))
+    # dense rows from the chin up over the hairline, whose edge (painted per vertex, like
+    # the brows) otherwise fell between two rows 21 mm apart; the brows get twice as many
+    el = _warp(n_elevation, -72, 86, -50, 50, 4.0, bands=((18.0, 34.0, 4.0),))
     m = int(np.argmin(np.abs(el - mouth_el)))
     el[m] = mouth_el
     el = np.radians(el)
