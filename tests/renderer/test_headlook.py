@@ -106,13 +106,18 @@ def test_the_skin_above_both_eyes_has_the_same_fine_detail():
 
 
 def _brow_top(img, box):
-    """Row of each column's brow top in an eye's box extended upwards (first dark pixel)."""
+    """Row of each column's brow top in an eye's box extended upwards, to a tenth of a pixel
+    (where the luminance first falls below 3/4 of the band's median, interpolated)."""
     lum = img @ np.array([0.299, 0.587, 0.114])
     inner = slice(box[1].start + 5, box[1].stop - 5)  # clear of the temples and the nose
     band = lum[box[0].start - 40:box[0].start + 10, inner]
-    dark = band < 0.75 * np.median(band)
-    has = dark.any(axis=0)
-    return np.where(has, dark.argmax(axis=0), -1), has
+    level = 0.75 * np.median(band)
+    dark = band < level
+    first = dark.argmax(axis=0)
+    cols = np.arange(band.shape[1])
+    above, at = band[np.maximum(first - 1, 0), cols], band[first, cols]
+    top = first - 1 + np.clip((above - level) / np.maximum(above - at, 1e-9), 0.0, 1.0)
+    return top, dark.any(axis=0) & (first > 0)
 
 
 @pytest.mark.parametrize("value", [-300.0, 200.0, 400.0])
@@ -125,10 +130,12 @@ def test_brows_move_smoothly_over_the_range_tracks_produce(value):
         top1, has1 = _brow_top(moved, box)
         both = has0 & has1
         assert both.sum() > 20
-        shift = (top1 - top0)[both].astype(float)
-        # equal values move the brow as a whole: its top edge shifts evenly, no waves or dents
-        assert np.abs(np.diff(shift)).max() <= 2, shift
-        assert shift.std() < 1.5, shift
+        shift = (top1 - top0)[both]
+        # equal values move the brow as a whole: its top edge is the resting one moved by one
+        # shift. Radial zones left it 2.7 px off that at +200 (raised at the three feature
+        # points, sagging between them, the brow smeared obliquely into the lid): a dent
+        assert abs(shift.mean()) > 2.0  # it did move
+        assert np.abs(shift - shift.mean()).max() <= 1.0, np.round(shift, 1)
 
 
 def test_the_hairline_is_painted_as_designed():
