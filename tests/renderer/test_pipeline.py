@@ -11,8 +11,8 @@ pytestmark = pytest.mark.gl
 SIZE = 256
 
 
-def _frame(tracks, mosaic_block=0, index=0, size=SIZE):
-    gen = render_frames(tracks, builtin_face(), size=size, samples=4,
+def _frame(tracks, mosaic_block=0, index=0, size=SIZE, antialias="edges"):
+    gen = render_frames(tracks, builtin_face(), size=size, samples=4, antialias=antialias,
                         background=(0.55, 0.56, 0.58), mosaic_block=mosaic_block,
                         mosaic_margin=0.15, frames=range(index, index + 1))
     out = next(gen)
@@ -185,14 +185,15 @@ def test_the_mosaic_does_not_spill_onto_the_background():
     assert np.array_equal(mosaicked[background], plain[background])
 
 
-def test_the_mosaic_is_the_same_whether_the_mouth_moves_or_not():
+@pytest.mark.parametrize("antialias", ["edges", "msaa"])
+def test_the_mosaic_is_the_same_whether_the_mouth_moves_or_not(antialias):
     # two conditions alike but for the mouth: on the pixels that are face in both, every
     # block of the mosaic has the same colour (a still mouth is read from its own drawing,
     # a moving one from a second drawing at rest: the two must agree to the bit)
     pose = dict(f49=25000, f48=-6000, f31=150, f32=150)
-    still, boxes = _frame([_track(**pose)], mosaic_block=16)
+    still, boxes = _frame([_track(**pose)], mosaic_block=16, antialias=antialias)
     moving, boxes_moving = _frame([_track(**pose, f3=400, f5=-150, f12=120, f13=120, f53=90)],
-                                  mosaic_block=16)
+                                  mosaic_block=16, antialias=antialias)
     assert boxes == boxes_moving
     x0, y0, x1, y1 = boxes[0]
     background = [140, 143, 148]
