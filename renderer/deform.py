@@ -8,10 +8,12 @@ Follows the MPEG-4 FBA deformation as the open player Xface implements it (proje
 * lips, inner (4-13, on 2.x) and outer (51-60, on 8.x), push (16, 17) and chin (18), with the
   upper- and lower-lip FAPs kept to their own lip (Parke's unconnected lips, thesis sec. 2.1.2);
 * eyebrows 31-36 (raise, ENS, up) and 37/38 (squeeze, ES, towards the midline). The brows
-  use a smooth field separable in width and height (:func:`brow_field`) instead of radial
-  zones, and a lowered brow saturates before the skin between brow and lid would fold.
+  use a smooth field separable in width and height (:func:`renderer.browfield.brow_field`)
+  instead of radial zones, and a lowered brow saturates before the skin between brow and lid
+  would fold.
 
-The normals of the moved skin are recomputed each frame (:class:`ZoneNormals`).
+The normals of the skin a part (the mouth, the brows) moves are recomputed when it moves
+(:class:`renderer.skin.SkinPart`).
 
 Zones along one lip or brow reach exactly to the neighbouring feature point, so each feature
 point moves by value * FAPU and equal values move the lip or brow uniformly; an inner/outer lip
