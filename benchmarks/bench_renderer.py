@@ -14,6 +14,7 @@ deformation, drawing (GL + read-back), mosaic, and encoding of the same frames.
 from __future__ import annotations
 
 import argparse
+import os
 import resource
 import tempfile
 import time
@@ -25,7 +26,7 @@ from synthetic import write_speech  # benchmarks/synthetic.py, beside this scrip
 from app.stimuli.generate import generate_conditions
 from renderer import RenderSettings, render_pair
 from renderer.encode import ClipWriter
-from renderer.gl import ANTIALIAS_MODES
+from renderer.gl import ANTIALIAS_MODES, device_name
 from renderer.headmodel import builtin_face
 from renderer.pipeline import align_tracks, render_frames, rig_for
 
@@ -66,6 +67,8 @@ def main() -> None:
         best, median = min(times), float(np.median(times))
         own, children = (1e3 * float(np.median(c)) / n for c in zip(*cpu, strict=True))
         size_mb = (Path(d) / "pair0.mp4").stat().st_size / 1e6
+        print(f"device: {device_name()} (EGL; GLCONTEXT_DEVICE_INDEX="
+              f"{os.environ.get('GLCONTEXT_DEVICE_INDEX', 'unset')})")
         aa = settings.antialias + (f" x{settings.samples}" if settings.antialias == "msaa" else "")
         print(f"antialias {aa}, workers {settings.workers or 'auto'}, x264 {settings.preset}: "
               f"pair clip {clip_seconds:.0f} s, {n} frames at {fps:g} fps, "

@@ -7,7 +7,13 @@ Follows the MPEG-4 FBA deformation as the open player Xface implements it (proje
 
 * lips, inner (4-13, on 2.x) and outer (51-60, on 8.x), push (16, 17) and chin (18), with the
   upper- and lower-lip FAPs kept to their own lip (Parke's unconnected lips, thesis sec. 2.1.2);
-* eyebrows 31-36 (raise, ENS, up) and 37/38 (squeeze, ES, towards the midline).
+* eyebrows 31-36 (raise, ENS, up) and 37/38 (squeeze, ES, towards the midline). The brows
+  use a smooth field separable in width and height (:func:`renderer.browfield.brow_field`)
+  instead of radial zones, and a lowered brow saturates before the skin between brow and lid
+  would fold.
+
+The normals of the skin a part (the mouth, the brows) moves are recomputed when it moves
+(:class:`renderer.skin.SkinPart`).
 
 Zones along one lip or brow reach exactly to the neighbouring feature point, so each feature
 point moves by value * FAPU and equal values move the lip or brow uniformly; an inner/outer lip
@@ -47,8 +53,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.stimuli.fap import AU_RADIANS
+from renderer.browfield import BROW_LOWER_ROOM, BROW_RAMP_END, brow_field
 from renderer.face import Face
 from renderer.rigweights import derive_weights
+from renderer.skin import SkinPart, one_ring
 
 UP, DOWN = np.array([0.0, 1.0, 0.0]), np.array([0.0, -1.0, 0.0])
 LEFT, RIGHT, FORWARD = np.array([1.0, 0, 0]), np.array([-1.0, 0, 0]), np.array([0, 0, 1.0])
@@ -67,6 +75,10 @@ _OUTER_OF = {"2.2": "8.1", "2.3": "8.2", "2.4": "8.3", "2.5": "8.4", "2.6": "8.5
 _CHAINS = {"upper": ("2.2", "2.6", "2.7", "2.4", "2.5"),
            "lower": ("2.3", "2.8", "2.9", "2.4", "2.5")}
 _BROWS = {31: "4.1", 32: "4.2", 33: "4.3", 34: "4.4", 35: "4.5", 36: "4.6"}
+
+#: The FAPs of the jaw and lips (set to zero for the mouth at rest that the mosaic shows).
+MOUTH_FAPS: tuple[int, ...] = tuple(sorted(
+    [3, 14, 15, 16, 17, 18] + list(_INNER_LIPS) + [f + 47 for f in _INNER_LIPS]))
 
 #: Every FAP the deformation moves (the groups the stimulus engine produces).
 SUPPORTED_FAPS: tuple[int, ...] = tuple(sorted(
@@ -95,6 +107,9 @@ def _chain_weights(v: np.ndarray, points: list[np.ndarray]) -> np.ndarray:
 
 
 _IDENTITY = np.eye(4)
+_IDENTITY.flags.writeable = False
+MOUTH_FAPS_INDEX = np.array(MOUTH_FAPS) - 1
+
 
 
 def rotation(axis: str, angle: float) -> np.ndarray:
@@ -164,23 +179,27 @@ class Rig:
             w = raised_cosine(np.linalg.norm(v - fp[pt], axis=1), 0.7 * mw0)
             w = w * self.weights[f"{lip}_lip"] * ~eyeball
             columns[fap] = w[:, None] * (UP if fap == 18 else FORWARD) * fu["MNS"]
-        eye_y = (fp["3.5"][1] + fp["3.6"][1]) / 2.0
+        self.brow_lower_limit = np.inf  # FAP units: lowering saturates at this
         for side, faps in (("l", (31, 33, 35)), ("r", (32, 34, 36))):
-            pts = [_BROWS[f] for f in faps]
-            brow_y = np.mean([fp[p][1] for p in pts])
-            mask = np.clip((v[:, 1] - eye_y) / max(0.5 * (brow_y - eye_y), 1e-9), 0, 1)
-            mask = mask * mask * (3 - 2 * mask) * ~eyeball
-            norm = _chain_weights(v, [fp[p] for p in pts]) * mask
+            pts = np.array([fp[_BROWS[f]] for f in faps])
+            lid = fp["3.1" if side == "l" else "3.2"]
+            field = brow_field(v, pts, lid, face.fapu["ENS0"]) * ~eyeball
+            room = float(np.min(pts[:, 1] - BROW_RAMP_END * face.fapu["ENS0"] - lid[1]))
+            self.brow_lower_limit = min(self.brow_lower_limit,
+                                        BROW_LOWER_ROOM * max(room, 0.0) / 1.5 / fu["ENS"])
             for j, f in enumerate(faps):
-                columns[f] = norm[j][:, None] * UP * fu["ENS"]
-            squeeze = raised_cosine(np.linalg.norm(v - fp[pts[0]], axis=1), 0.5 * es0) * mask
+                columns[f] = field[j][:, None] * UP * fu["ENS"]
+            mask = field.sum(axis=0)
+            squeeze = raised_cosine(np.linalg.norm(v - pts[0], axis=1), 0.5 * es0) * mask
             f = 37 if side == "l" else 38
             columns[f] = squeeze[:, None] * (RIGHT if side == "l" else LEFT) * fu["ES"]
 
         self.basis_faps = np.array(sorted(columns))
+        self._brow_columns = np.isin(self.basis_faps, list(_BROWS))
         stacked = np.stack([columns[f] for f in self.basis_faps])  # (k, n, 3)
-        self.zone = np.flatnonzero(np.abs(stacked).sum(axis=(0, 2)) > 1e-9)
-        self.basis = stacked[:, self.zone, :].reshape(len(self.basis_faps), -1).astype(np.float32)
+        of_mouth = np.isin(self.basis_faps, MOUTH_FAPS)
+        self.mouth, self.brows = (SkinPart(np.flatnonzero(cols), stacked, face.triangles)
+                                  for cols in (of_mouth, ~of_mouth))
 
         hinge = face.hinge()
         self.hinge = hinge
@@ -205,6 +224,8 @@ class Rig:
         self._still = np.flatnonzero(head_w <= 0.0)
         self._blend = np.flatnonzero((head_w > 0.0) & (head_w < 1.0))
         self._blend_w = head_w[self._blend][:, None]
+        #: the vertices only the jaw and lip FAPs change (None: other FAPs reach them too)
+        self.rest_mouth_vertices = self._mouth_apart()
 
     def _pair_share(self, v: np.ndarray, inner_pt: str, tag: str) -> np.ndarray:
         """Share of an inner or outer lip FAP at each vertex: the nearer feature point wins."""
@@ -219,22 +240,29 @@ class Rig:
         f = np.asarray(faps, dtype=np.float64)
         pos = self.v0.copy()
         nrm = self.n0.copy()
-        coeff = f[self.basis_faps - 1].astype(np.float32)
-        active = np.flatnonzero(coeff)
-        if len(active):
-            pos[self.zone] += (coeff[active] @ self.basis[active]).reshape(-1, 3)
-        jaw_open = max(f[2], 0.0) * self.jaw_rad_per_unit
-        shift = np.array([-f[14] * self.fapu["MW"], 0.0, max(f[13], 0.0) * self.fapu["MNS"]])
-        if jaw_open or np.any(shift):
+        coeff = f[self.basis_faps - 1]
+        lower = self._brow_columns & (coeff < 0)  # brows lower with room to spare: saturate
+        if lower.any():
+            limit = max(self.brow_lower_limit, 1e-9)
+            coeff = np.where(lower, limit * np.tanh(coeff / limit), coeff)
+        coeff = coeff.astype(np.float32)
+        moved = [part for part in (self.mouth, self.brows) if part.move(coeff, pos)]
+        for part in moved:
+            part.shade(pos, nrm)
+        if f[2] > 0.0 or f[13] > 0.0 or f[14]:
+            jaw_open = max(f[2], 0.0) * self.jaw_rad_per_unit
+            shift = np.array([-f[14] * self.fapu["MW"], 0.0, max(f[13], 0.0) * self.fapu["MNS"]])
             self._rotate_x(pos, nrm, self.jaw_zone, self.jaw_w * jaw_open, self.hinge)
             pos[self.jaw_zone] += (self.jaw_w[:, None] * shift).astype(np.float32)
         for fap, zone, w, centre, rad_per_unit in self.lids:
             if f[fap - 1]:
                 self._rotate_x(pos, nrm, zone, w * f[fap - 1] * rad_per_unit, centre)
-        eyes = {}
+        eyes = {"l": _IDENTITY, "r": _IDENTITY}  # (shared: posed skips eyes at rest)
         for side, (yaw, pitch) in (("l", (23, 25)), ("r", (24, 26))):
-            rot = rotation("y", f[yaw - 1] * AU_RADIANS) @ rotation("x", f[pitch - 1] * AU_RADIANS)
-            eyes[side] = about(rot, self.eye_centres[side])
+            if f[yaw - 1] or f[pitch - 1]:
+                rot = (rotation("y", f[yaw - 1] * AU_RADIANS)
+                       @ rotation("x", f[pitch - 1] * AU_RADIANS))
+                eyes[side] = about(rot, self.eye_centres[side])
         head = (rotation("y", f[48] * AU_RADIANS) @ rotation("x", f[47] * AU_RADIANS)
                 @ rotation("z", f[49] * AU_RADIANS))
         return FaceFrame(pos, nrm, about(head, self.pivot), eyes["l"], eyes["r"])
@@ -279,8 +307,36 @@ class Rig:
         turned[blend] = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-12)
         return moved, turned
 
+    def mouth_at_rest(self, frame: FaceFrame, faps: np.ndarray) -> FaceFrame:
+        """``frame`` (deformed from ``faps``) as it would be with the jaw and lip FAPs at zero:
+        the face the mouth mosaic takes its colours from (:mod:`renderer.mosaic`).
+
+        Equal to deforming ``faps`` with :data:`MOUTH_FAPS` at zero. Where nothing else moves
+        the triangles the mouth moves (the built-in head), their vertices are simply put back
+        at rest, without a second deformation.
+        """
+        if self.rest_mouth_vertices is None:
+            rest = np.array(faps, dtype=np.float64)
+            rest[MOUTH_FAPS_INDEX] = 0.0
+            return self.deform(rest)
+        idx = self.rest_mouth_vertices
+        pos, nrm = frame.positions.copy(), frame.normals.copy()
+        pos[idx], nrm[idx] = self.v0[idx], self.n0[idx]
+        return FaceFrame(pos, nrm, frame.head, frame.eye_l, frame.eye_r)
+
+    def _mouth_apart(self) -> np.ndarray | None:
+        """The vertices whose position or normal only the jaw and lip FAPs change (the mouth
+        parts and their one-ring), or None if other FAPs move any of their triangles."""
+        triangles, n = self.face.triangles, self.face.n_vertices
+        mouth = one_ring(triangles, np.union1d(self.mouth.zone, self.jaw_zone), n)
+        others = np.concatenate([self.brows.zone, *(zone for _, zone, *_ in self.lids),
+                                 *self.eye_vertices.values()])
+        return None if np.isin(mouth, one_ring(triangles, others, n)).any() else mouth
+
     @staticmethod
     def _eyes_turned(frame: FaceFrame) -> bool:
+        if frame.eye_l is _IDENTITY and frame.eye_r is _IDENTITY:
+            return False
         return not (np.array_equal(frame.eye_l, _IDENTITY)
                     and np.array_equal(frame.eye_r, _IDENTITY))
 

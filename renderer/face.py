@@ -97,9 +97,28 @@ class Face:
         return int(self.triangles.shape[0])
 
     def eye_centre(self, side: str) -> np.ndarray:
-        """Rotation centre of eyeball ``side`` (``"l"`` or ``"r"``): its vertices' bbox centre."""
+        """Rotation centre of eyeball ``side`` (``"l"`` or ``"r"``): the centre of the sphere
+        fitted to its vertices (least squares), or their bounding-box centre when they do not
+        span a sphere.
+
+        An eyeball mesh is often open at the back (it is never seen); its bounding box then
+        centres in front of the ball's centre, and turning about that point swings the ball out
+        of its socket. The algebraic sphere fit ``|p|^2 = 2 c . p + k`` (linear in ``c``, ``k``)
+        finds the true centre from any patch of the sphere.
+        """
         v = self.vertices[self.groups[f"eyeball_{side}"]].astype(np.float64)
-        return (v.min(axis=0) + v.max(axis=0)) / 2.0
+        box = (v.min(axis=0) + v.max(axis=0)) / 2.0
+        if len(v) < 4:
+            return box
+        q = v - box  # centred, for conditioning
+        a = np.column_stack([2.0 * q, np.ones(len(q))])
+        coef, _, rank, _ = np.linalg.lstsq(a, (q * q).sum(axis=1), rcond=None)
+        centre = box + coef[:3]
+        radius2 = coef[3] + coef[:3] @ coef[:3]
+        fits = (rank == 4 and radius2 > 0
+                and np.abs(np.linalg.norm(v - centre, axis=1) - np.sqrt(radius2)).max()
+                < 0.05 * np.sqrt(radius2))
+        return centre if fits else box
 
     def pivot(self) -> np.ndarray:
         """Head rotation pivot: feature point 7.1 (top of the spine)."""

@@ -19,6 +19,7 @@ import numpy as np
 from app.errors import InputError
 from renderer.deform import FaceFrame, Rig
 from renderer.edges import EdgeTable, edge_table, overdraw_edges
+from renderer.face import MOUTH_FEATURE_POINTS
 
 _VERTEX = """
 #version 330
@@ -147,6 +148,25 @@ def context():
     return _CONTEXTS[key]
 
 
+#: Mesa's CPU rasterisers, as they name themselves in GL_RENDERER.
+SOFTWARE_RENDERERS: tuple[str, ...] = ("llvmpipe", "softpipe", "swrast", "lavapipe")
+
+
+def device_name() -> str:
+    """The GL_RENDERER string of this thread's context: the device frames are drawn on.
+
+    EGL picks the device; set ``GLCONTEXT_DEVICE_INDEX`` (read by moderngl's glcontext when it
+    makes the context, and inherited by the worker processes) to choose another one of the
+    machine's EGL devices (0 is the first; see docs/renderer.md, "On a GPU").
+    """
+    return str(context().info["GL_RENDERER"])
+
+
+def is_software(name: str) -> bool:
+    """Whether a GL_RENDERER string names a CPU rasteriser rather than a GPU."""
+    return any(s in name.lower() for s in SOFTWARE_RENDERERS)
+
+
 def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
     f = target - eye
     f = f / np.linalg.norm(f)
@@ -214,7 +234,15 @@ class FaceCanvas:
         face = rig.face
         self.prog = ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT)
         self.static = ctx.buffer(face.colors.astype("f4").tobytes())
-        self.index = ctx.buffer(face.triangles.astype("i4").tobytes())
+        # the lower face (triangles within 1.5 MW0 of the mouth) first: drawn alone, it is what
+        # a mosaic's reference shows (draw); the order changes no pixel, as adjacent triangles
+        # never both fill a pixel of their shared edge
+        mouth = np.mean([face.feature_points[n] for n in MOUTH_FEATURE_POINTS], axis=0)
+        near = np.linalg.norm(face.vertices - mouth, axis=1) < 1.5 * face.fapu["MW0"]
+        lower = near[face.triangles].any(axis=1)
+        self.n_lower = int(lower.sum())
+        self.index = ctx.buffer(np.concatenate([face.triangles[lower], face.triangles[~lower]])
+                                .astype("i4").tobytes())
         self.dynamic = [(ctx.buffer(reserve=face.n_vertices * 3 * 4),
                          ctx.buffer(reserve=face.n_vertices * 3 * 4)) for _ in range(n_faces)]
         self.vaos = [self._vertex_array(self.prog, pos, nrm, self.index)
@@ -244,6 +272,7 @@ class FaceCanvas:
         self.resolved = (ctx.framebuffer(ctx.renderbuffer((size, size), 3)) if self.samples
                          else self.fbo)
         self.face_buffer = np.empty((size, size, 3), np.uint8)
+        self.background_u8 = np.round(np.asarray(background) * 255).astype(np.uint8)
         self.buffer = np.empty((size, size * n_faces, 3), np.uint8)
         self._modes = (moderngl.DEPTH_TEST | moderngl.CULL_FACE,
                        moderngl.DEPTH_TEST | moderngl.BLEND, moderngl.TRIANGLES)
@@ -254,13 +283,27 @@ class FaceCanvas:
                                             (self.static, "4f", "in_color")],
                                      index_buffer=index)
 
-    def draw(self, frames: list[FaceFrame], out: np.ndarray | None = None) -> np.ndarray:
+    def draw(self, frames: list[FaceFrame], out: np.ndarray | None = None,
+             references: list[tuple[FaceFrame | None, tuple[int, int, int, int]]] | None = None
+             ) -> np.ndarray:
         """Draw one frame per face (left to right) into ``out`` (default: a buffer reused by the
-        next draw); returns the (H, W, 3) uint8 frame, top row first."""
+        next draw); returns the (H, W, 3) uint8 frame, top row first.
+
+        ``references``: per face, a second frame (the mouth at rest) and a box ``(x0, y0, x1,
+        y1)`` in that face's pixels: the second frame's lower face, drawn alone before the face
+        and only inside the box, is left in :attr:`regions` (the mosaic's reference, see
+        :func:`renderer.mosaic.pixelate_reference`). A second frame of None stands for the
+        face's own: the box is then read from its drawing once the lower face is drawn, which
+        gives the same pixels without drawing it twice.
+        """
         ctx, size = self.ctx, self.size
         solid, blended, triangles = self._modes
         out = self.buffer if out is None else out
+        self.regions: list[np.ndarray | None] = [None] * len(frames)
         for k, frame in enumerate(frames):
+            reference, box = references[k] if references is not None else (frame, None)
+            if reference is not None and box is not None:
+                self.regions[k] = self._draw_box(k, reference, box)
             positions, normals = self.rig.posed(frame)
             self.dynamic[k][0].write(positions)
             self.dynamic[k][1].write(normals)
@@ -268,7 +311,14 @@ class FaceCanvas:
             ctx.enable_only(solid)
             ctx.viewport = (0, 0, size, size)
             self.fbo.clear(*self.background, 1.0)
-            self.vaos[k].render(triangles)
+            if reference is None:  # the box's reference: the lower face as drawn alone
+                self.vaos[k].render(triangles, vertices=3 * self.n_lower)
+                self.regions[k] = self._read_box(box)
+                self.vaos[k].render(triangles, vertices=3 * (self.rig.face.n_triangles
+                                                             - self.n_lower),
+                                    first=3 * self.n_lower)
+            else:
+                self.vaos[k].render(triangles)
             if self.edges is not None:
                 self._overdraw_edges(k, positions, self.edges)
             if self.samples:
@@ -276,6 +326,38 @@ class FaceCanvas:
             self.resolved.read_into(self.face_buffer, components=3)
             out[:, k * size:(k + 1) * size] = self.face_buffer[::-1]
         return out
+
+    def _draw_box(self, k: int, frame: FaceFrame,
+                  box: tuple[int, int, int, int]) -> np.ndarray | None:
+        """Draw the lower face of ``frame`` inside ``box`` only (with face ``k``'s buffers);
+        the box's pixels."""
+        if box[2] <= box[0] or box[3] <= box[1]:
+            return None
+        positions, normals = self.rig.posed(frame)
+        self.dynamic[k][0].write(positions)
+        self.dynamic[k][1].write(normals)
+        self.fbo.use()
+        self.ctx.enable_only(self._modes[0])
+        self.ctx.viewport = (0, 0, self.size, self.size)
+        self.ctx.scissor = self._gl_box(box)
+        self.fbo.clear(*self.background, 1.0, viewport=self.ctx.scissor)
+        self.vaos[k].render(self._modes[2], vertices=3 * self.n_lower)
+        self.ctx.scissor = None
+        return self._read_box(box)
+
+    def _gl_box(self, box: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
+        x0, y0, x1, y1 = box
+        return x0, self.size - y1, x1 - x0, y1 - y0  # GL rows run bottom-up
+
+    def _read_box(self, box: tuple[int, int, int, int]) -> np.ndarray | None:
+        """The pixels of ``box`` as drawn so far, top row first (None for an empty box)."""
+        x0, y0, x1, y1 = box
+        if x1 <= x0 or y1 <= y0:
+            return None
+        if self.samples:
+            self.ctx.copy_framebuffer(self.resolved, self.fbo)
+        data = self.resolved.read(viewport=self._gl_box(box), components=3)
+        return np.frombuffer(data, np.uint8).reshape(y1 - y0, x1 - x0, 3)[::-1]
 
     def _overdraw_edges(self, k: int, positions: np.ndarray, table: EdgeTable) -> None:
         solid, blended, triangles = self._modes

@@ -35,6 +35,7 @@ MOUTH_Y = -58.0  # stomion (lips meet), in the midline
 MOUTH_HALF_WIDTH = 25.0  # x of the lip corners
 EYE_X, EYE_Y, EYE_Z = 31.0, 14.0, 70.0  # eyeball centre (left eye at +x)
 EYE_RADIUS = 12.0
+COVER_RADIUS = EYE_RADIUS + 0.45  # the skin over the eyeball, under the lids (radius + 0.8, 1)
 PIVOT_71 = (0.0, -40.0, -18.0)  # top of the spine: head rotation pivot
 JAW_HINGE = (0.0, -4.0, 10.0)  # temporo-mandibular joint axis (parallel to x)
 N_AZIMUTH, N_ELEVATION = 64, 52
@@ -53,6 +54,7 @@ def _skin_sdf(p: np.ndarray) -> np.ndarray:
     d = smin(d, ellipsoid(q, (0, 50, 30), (60, 46, 60)), 22)  # forehead
     d = smin(d, ellipsoid(q, (26, 27, 76), (20, 7, 9)), 8)  # brow ridge
     d = smax(d, -ellipsoid(q, (EYE_X, EYE_Y, 84), (17, 11, 12)), 6)  # eye socket
+    d = smin(d, _lid_cover(q), 2.5)
     d = smin(d, ellipsoid(q, (0, -58, 80), (32, 24, 18)), 10)  # muzzle
     nose = capsule(q, (0, 20, 84), (0, -22, 104), 6.5, 8.5)
     nose = smin(nose, ellipsoid(q, (0, -25, 105), (10, 9.5, 9.5)), 5)  # tip
@@ -64,6 +66,26 @@ def _skin_sdf(p: np.ndarray) -> np.ndarray:
     return d - 5.0 * hp.hair_mask(p)
 
 
+def _lid_cover(q: np.ndarray) -> np.ndarray:
+    """The skin over the eyeball outside the eye opening: a ball between eyeball and lids.
+
+    It fills the socket where the lids root (and beyond the eye corners), so the lids meet
+    skin that follows the eyeball instead of a socket rim, and closed lids read as skin over
+    a ball rather than a cap set into a hole. Outside the opening by 3 degrees (under the lid
+    margins at rest); approximate distance, as for the other primitives.
+    """
+    e = q - np.array([EYE_X, EYE_Y, EYE_Z])
+    ball = np.linalg.norm(e, axis=1) - COVER_RADIUS
+    az = np.degrees(np.arctan2(e[:, 0], e[:, 2]))
+    el = np.degrees(np.arctan2(e[:, 1], np.hypot(e[:, 0], e[:, 2])))
+    lateral = az / hp.LID_HALF_WIDTH
+    opening = np.minimum.reduce([hp.lid_margin(lateral, upper=True) - 3.0 - el,
+                                 el - hp.lid_margin(lateral, upper=False) - 3.0,
+                                 hp.LID_HALF_WIDTH + 3.0 - np.abs(az)])
+    # degrees inside the opening -> millimetres on the ball
+    return np.maximum(ball, np.radians(opening) * COVER_RADIUS)
+
+
 @lru_cache(maxsize=1)
 def builtin_face() -> Face:
     """Build (once per process) the built-in head as a :class:`Face`."""
@@ -72,8 +94,8 @@ def builtin_face() -> Face:
     for side, sx in (("l", 1.0), ("r", -1.0)):
         centre = np.array([sx * EYE_X, EYE_Y, EYE_Z])
         parts.append(hp.eyeball(centre, EYE_RADIUS, f"eyeball_{side}"))
-        parts.append(hp.eyelid(centre, EYE_RADIUS + 1.0, upper=True, side=side))
-        parts.append(hp.eyelid(centre, EYE_RADIUS + 0.8, upper=False, side=side))
+        for upper, radius in ((True, EYE_RADIUS + 1.0), (False, EYE_RADIUS + 0.8)):
+            parts.append(hp.eyelid(centre, radius, EYE_RADIUS + 0.25, upper=upper, side=side))
         parts.append(hp.ear(np.array([sx * 73.0, 2.0, -4.0]), sx))
     parts.append(hp.mouth_cavity(MOUTH_Y))
     parts.append(hp.neck_and_shoulders())

@@ -52,13 +52,28 @@ def merge(parts: list[Part]) -> Part:
     )
 
 
-def _grid_triangles(rows: int, cols: int, wrap: bool) -> np.ndarray:
-    """Two triangles per cell of a rows x cols vertex grid (row-major), optionally wrapping."""
+def _grid_triangles(rows: int, cols: int, wrap: bool,
+                    vertices: np.ndarray | None = None) -> np.ndarray:
+    """Two triangles per cell of a rows x cols vertex grid (row-major), optionally wrapping.
+
+    With ``vertices``, each cell is split along its shorter diagonal. A fixed diagonal makes a
+    mirror-symmetric surface shade differently on its two halves (per-vertex shading follows
+    the diagonal, so a ridge crossed by it shows as a crease above one eye only); the shorter
+    diagonal is mirror-symmetric with the surface and follows its ridges.
+    """
     r, c = np.meshgrid(np.arange(rows - 1), np.arange(cols if wrap else cols - 1), indexing="ij")
     a = r * cols + c
     b = r * cols + (c + 1) % cols
-    return np.concatenate([np.stack([a, b, b + cols], -1).reshape(-1, 3),
-                           np.stack([a, b + cols, a + cols], -1).reshape(-1, 3)])
+    one = np.concatenate([np.stack([a, b, b + cols], -1).reshape(-1, 3),
+                          np.stack([a, b + cols, a + cols], -1).reshape(-1, 3)])
+    if vertices is None:
+        return one
+    other = np.concatenate([np.stack([a, b, a + cols], -1).reshape(-1, 3),
+                            np.stack([b, b + cols, a + cols], -1).reshape(-1, 3)])
+    a, b = a.ravel(), b.ravel()
+    flip = (np.linalg.norm(vertices[b] - vertices[a + cols], axis=1)
+            < np.linalg.norm(vertices[a] - vertices[b + cols], axis=1))
+    return np.where(np.tile(flip, 2)[:, None], other, one)
 
 
 def _warp(n: int, lo: float, hi: float, dense_lo: float, dense_hi: float,
@@ -123,8 +138,9 @@ def skin_grid(sdf: Callable[[np.ndarray], np.ndarray], centre: np.ndarray, solve
         hit = centre + solve(sdf, centre, d, 260.0)[:, None] * d
         mouth_el = np.arctan2(mouth_y - centre[1], hit[0, 2] - centre[2])
     mouth_el = np.degrees(mouth_el)
-    # the brows (painted per vertex) get twice the rows of the rest of the face
-    el = _warp(n_elevation, -72, 86, -50, 36, 4.0, bands=((18.0, 34.0, 4.0),))
+    # dense rows from the chin up over the hairline, whose edge (painted per vertex, like
+    # the brows) otherwise fell between two rows 21 mm apart; the brows get twice as many
+    el = _warp(n_elevation, -72, 86, -50, 50, 4.0, bands=((18.0, 34.0, 4.0),))
     m = int(np.argmin(np.abs(el - mouth_el)))
     el[m] = mouth_el
     el = np.radians(el)
@@ -132,7 +148,7 @@ def skin_grid(sdf: Callable[[np.ndarray], np.ndarray], centre: np.ndarray, solve
     dirs = np.stack([np.cos(E) * np.sin(A), np.sin(E), np.cos(E) * np.cos(A)], -1).reshape(-1, 3)
     t = solve(sdf, centre, dirs, 260.0)
     verts = centre + t[:, None] * dirs
-    tris = _grid_triangles(n_elevation, n_azimuth, wrap=True)
+    tris = _grid_triangles(n_elevation, n_azimuth, wrap=True, vertices=verts)
     # pole cap
     pole = len(verts)
     top = (n_elevation - 1) * n_azimuth + np.arange(n_azimuth)
@@ -227,22 +243,42 @@ def eyeball(centre: np.ndarray, radius: float, name: str) -> Part:
                               "hidden_outline": idx})
 
 
-def eyelid(centre: np.ndarray, radius: float, *, upper: bool, side: str) -> Part:
-    """An eyelid shell over the eyeball: margin arc to a root hidden under the skin."""
-    alpha = np.radians(np.linspace(-78, 78, 19))
-    a_n = alpha / np.radians(78)
-    lateral = a_n * (1.0 if side == "l" else -1.0)  # +1 at the outer corner
+#: Half the angular width of the eye opening about the eyeball centre (degrees of azimuth).
+LID_HALF_WIDTH = 78.0
+
+
+def lid_margin(lateral: np.ndarray, *, upper: bool) -> np.ndarray:
+    """Elevation (degrees about the eyeball centre) of a lid margin at rest.
+
+    ``lateral`` is the azimuth over :data:`LID_HALF_WIDTH`, +1 at the outer corner: the upper
+    lid arches 23 degrees above the eye's equator, the lower 18 below, both rising outwards.
+    """
+    a = np.clip(lateral, -1.0, 1.0)
     if upper:
-        margin = np.radians(3 + 20 * (1 - a_n ** 2) + 3 * lateral)
-        root = np.radians(np.full_like(alpha, 64.0))
-    else:
-        margin = np.radians(1 - 19 * (1 - a_n ** 2) + 3 * lateral)
-        root = np.radians(np.full_like(alpha, -58.0))
-    s = np.linspace(0, 1, 5)
+        return 3 + 20 * (1 - a ** 2) + 3 * a
+    return 1 - 19 * (1 - a ** 2) + 3 * a
+
+
+def eyelid(centre: np.ndarray, radius: float, root_radius: float, *, upper: bool,
+           side: str) -> Part:
+    """An eyelid shell over the eyeball: margin arc to a root that dives under the skin.
+
+    The shell has ``radius`` at the margin and sinks to ``root_radius`` (between the eyeball
+    and the skin over it) at the root, so it enters the skin's cover over the eyeball
+    (:func:`renderer.headmodel._lid_cover`) at a grazing angle instead of standing on it as a
+    separate cap, and still covers the eyeball wherever it turns.
+    """
+    alpha = np.radians(np.linspace(-LID_HALF_WIDTH, LID_HALF_WIDTH, 19))
+    a_n = alpha / np.radians(LID_HALF_WIDTH)
+    lateral = a_n * (1.0 if side == "l" else -1.0)  # +1 at the outer corner
+    margin = np.radians(lid_margin(lateral, upper=upper))
+    root = np.radians(np.full_like(alpha, 64.0 if upper else -58.0))
+    s = np.linspace(0, 1, 9)  # rows fine enough to follow the skin over them when stretched
     B = margin[None, :] + s[:, None] * (root - margin)[None, :]
     A = np.broadcast_to(alpha, B.shape)
     v = np.stack([np.cos(B) * np.sin(A), np.sin(B), np.cos(B) * np.cos(A)], -1).reshape(-1, 3)
-    verts = centre + radius * v
+    sink = np.repeat((radius - root_radius) * s ** 2, len(alpha))[:, None]
+    verts = centre + (radius - sink) * v
     tris = _grid_triangles(len(s), len(alpha), wrap=False)
     if not upper:  # rows run downwards: keep the outside counter-clockwise
         tris = tris[:, ::-1]

@@ -25,10 +25,10 @@ import numpy as np
 
 from app.errors import InputError
 from app.stimuli.track import MotionTrack
-from renderer.deform import Rig
+from renderer.deform import MOUTH_FAPS_INDEX, Rig
 from renderer.face import MOUTH_FEATURE_POINTS, Face
 from renderer.gl import FaceCanvas, project
-from renderer.mosaic import mouth_box, pixelate
+from renderer.mosaic import mouth_box, pixelate_reference
 
 
 @dataclass
@@ -62,6 +62,10 @@ def align_tracks(tracks: list[MotionTrack], fps: float | None) -> list[MotionTra
     return [t if t.n_frames == n else t.fit_length(n) for t in out]
 
 
+#: How far below the lower lip at rest the mosaic reaches, in MNS0: the lower lip of a jaw
+#: opened by FAP 3 = 512 (half an MNS0) stays under it.
+JAW_ALLOWANCE = 0.5
+
 #: Fewer frames than this are drawn in-process: starting a worker costs about a second.
 PARALLEL_MIN_FRAMES = 240
 CHUNK_FRAMES = 6
@@ -80,19 +84,38 @@ class _Drawer:
                                  samples=samples, background=background)
 
     def draw(self, i: int, out: np.ndarray | None = None) -> RenderedFrame:
-        rig, size = self.rig, self.size
+        rig, size, block = self.rig, self.size, self.mosaic_block
         deformed = [rig.deform(d[i]) for d in self.dense]
-        image = self.canvas.draw(deformed, out)
+        if not block:
+            return RenderedFrame(i, self.canvas.draw(deformed, out), [])
+        # the mosaic comes from the mouth at rest: its box and its colours (mosaic.py); a
+        # mouth already at rest is read from the face's own drawing (None)
+        references = []
+        for d, frame in zip(self.dense, deformed, strict=True):
+            moving = d[i][MOUTH_FAPS_INDEX].any()
+            rest = rig.mouth_at_rest(frame, d[i]) if moving else frame
+            box = mouth_box(self._mouth_pixels(rest), size, size, block=block,
+                            margin=self.mosaic_margin)
+            references.append((rest if moving else None, box))
+        image = self.canvas.draw(deformed, out, references)
         boxes = []
-        if self.mosaic_block:
-            for k, frame in enumerate(deformed):
-                pts = project(self.canvas.vp, rig.world_points(frame, MOUTH_FEATURE_POINTS), size)
-                x0, y0, x1, y1 = mouth_box(pts, size, size, block=self.mosaic_block,
-                                           margin=self.mosaic_margin)
-                box = (x0 + k * size, y0, x1 + k * size, y1)
-                pixelate(image, box, self.mosaic_block)
-                boxes.append(box)
+        for k, (_, (x0, y0, x1, y1)) in enumerate(references):
+            box = (x0 + k * size, y0, x1 + k * size, y1)
+            region = self.canvas.regions[k]
+            if region is not None:
+                pixelate_reference(image, region, box, block, self.canvas.background_u8)
+            boxes.append(box)
         return RenderedFrame(i, image, boxes)
+
+    def _mouth_pixels(self, frame) -> np.ndarray:
+        """Projected mouth points of a mouth-at-rest frame, and the lower lip as far down as an
+        open jaw takes it (``JAW_ALLOWANCE``), so the box covers an open mouth without
+        growing with it."""
+        rig = self.rig
+        pts = rig.world_points(frame, MOUTH_FEATURE_POINTS)
+        down = frame.head[:3, :3] @ np.array([0.0, -JAW_ALLOWANCE * rig.face.fapu["MNS0"], 0.0])
+        lower = rig.world_points(frame, ("2.3", "8.2", "2.8", "2.9")) + down
+        return project(self.canvas.vp, np.vstack([pts, lower]), self.size)
 
     def release(self) -> None:
         self.canvas.release()

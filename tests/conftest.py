@@ -14,6 +14,20 @@ def repo_root() -> Path:
     return REPO
 
 
+def pytest_runtest_setup(item):
+    """Skip ``gpu`` tests where frames would be drawn on a CPU rasteriser (or not at all)."""
+    if item.get_closest_marker("gpu") is None:
+        return
+    from renderer.gl import GLUnavailable, device_name, is_software
+
+    try:
+        name = device_name()
+    except GLUnavailable:
+        pytest.skip("no OpenGL context")
+    if is_software(name):
+        pytest.skip(f"no GPU: EGL draws on {name}")
+
+
 # --- analysis -------------------------------------------------------------------------------
 
 ANALYSIS_DATA = REPO / "tests" / "analysis" / "data"

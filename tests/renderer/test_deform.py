@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from renderer.deform import SUPPORTED_FAPS, Rig, raised_cosine
 from renderer.headmodel import builtin_face
@@ -147,3 +149,50 @@ def test_posed_turns_the_head_about_7_1_and_the_eyes_about_their_centres():
     turned = rotation("y", 0.2) @ (rig.v0[neck] - pivot) + pivot
     np.testing.assert_allclose(pos[neck], rig.v0[neck] + w[neck] * (turned - rig.v0[neck]),
                                atol=1e-3)
+
+
+_MOVING = (3, 4, 5, 8, 12, 14, 15, 16, 17, 18, 19, 21, 23, 26, 31, 34, 35, 37, 48, 49, 50,
+           51, 55, 59)
+
+
+@settings(max_examples=30, deadline=None)
+@given(values=st.lists(st.floats(-600, 600), min_size=len(_MOVING), max_size=len(_MOVING)))
+def test_the_mouth_at_rest_is_the_frame_with_the_jaw_and_lip_faps_at_zero(rig, values):
+    from renderer.deform import MOUTH_FAPS
+
+    faps = np.zeros(68)
+    for fap, v in zip(_MOVING, values, strict=True):
+        faps[fap - 1] = v * (50.0 if fap >= 48 else 1.0)  # head turns up to 0.3 rad
+    rest = rig.mouth_at_rest(rig.deform(faps), faps)
+    zeroed = faps.copy()
+    zeroed[np.array(MOUTH_FAPS) - 1] = 0.0
+    expected = rig.deform(zeroed)
+    for got, want in ((rest.positions, expected.positions), (rest.normals, expected.normals),
+                      (rest.head, expected.head), (rest.eye_l, expected.eye_l)):
+        np.testing.assert_array_equal(got, want)
+
+
+def test_the_built_in_mouth_comes_to_rest_without_a_second_deformation(rig, monkeypatch):
+    faps = _faps(f3=400, f5=-200, f31=300, f49=20000)
+    frame = rig.deform(faps)
+    monkeypatch.setattr(rig, "deform", lambda f: pytest.fail("deformed again"))
+    rest = rig.mouth_at_rest(frame, faps)
+    chin = rig.face.fp_vertices["2.1"]
+    np.testing.assert_array_equal(rest.positions[chin], rig.v0[chin])
+    brow = rig.face.fp_vertices["4.1"]
+    np.testing.assert_array_equal(rest.positions[brow], frame.positions[brow])  # still raised
+
+
+def test_a_face_whose_brows_reach_the_mouth_deforms_again_for_the_mouth_at_rest():
+    import dataclasses
+
+    face = builtin_face()
+    # squash the face vertically so that the brows' zone reaches the lips
+    squashed = face.vertices.copy()
+    squashed[:, 1] *= 0.2
+    fp = {k: v * np.array([1.0, 0.2, 1.0]) for k, v in face.feature_points.items()}
+    tight = Rig(dataclasses.replace(face, vertices=squashed, feature_points=fp))
+    assert tight.rest_mouth_vertices is None
+    faps = _faps(f3=300, f31=200)
+    rest = tight.mouth_at_rest(tight.deform(faps), faps)
+    np.testing.assert_array_equal(rest.positions, tight.deform(_faps(f31=200)).positions)

@@ -97,3 +97,35 @@ def test_edge_overdraw_stops_the_outline_popping_and_stays_on_it():
     near[:, [0, -1]] = True
     assert np.array_equal(smooth[0][~near], plain[0][~near])
     assert not (np.abs(smooth[0] - 128).max(axis=2) <= 2)[~background].any()
+
+
+def test_software_rasterisers_are_told_from_gpus():
+    assert gl.is_software("llvmpipe (LLVM 15.0.6, 256 bits)")
+    assert not gl.is_software("NVIDIA H200/PCIe/SSE2")
+
+
+@pytest.mark.gl
+def test_the_device_is_named():
+    assert gl.device_name().strip()
+
+
+@pytest.mark.gpu
+def test_multisampling_on_a_gpu_smooths_the_outline():
+    rig = Rig(builtin_face())
+    faps = np.zeros(68)
+    faps[49 - 1] = 15000.0
+    frame = rig.deform(faps)
+    images = {}
+    for mode, samples in (("none", 0), ("msaa", 8)):
+        canvas = gl.FaceCanvas(rig, 256, 1, antialias=mode, samples=samples,
+                               background=(0.5, 0.5, 0.5))
+        try:
+            images[mode] = canvas.draw([frame]).astype(int)
+        finally:
+            canvas.release()
+    outline = np.abs(images["none"] - 128).max(axis=2) > 2
+    from scipy import ndimage
+
+    edge = outline ^ ndimage.binary_erosion(outline)
+    changed = np.abs(images["msaa"] - images["none"]).max(axis=2) > 3
+    assert changed[edge].mean() > 0.3

@@ -1,6 +1,8 @@
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from renderer.mosaic import mouth_box, pixelate
+from renderer.mosaic import mouth_box, pixelate, pixelate_reference
 
 
 def test_box_snaps_outwards_to_whole_blocks():
@@ -37,3 +39,41 @@ def test_pixelate_makes_each_block_its_mean_colour():
     outside = np.ones((64, 64), bool)
     outside[8:40, 16:48] = False
     assert (img[outside] == before[outside]).all()
+
+
+def _reference_mosaic_by_cells(image, reference, box, block, background):
+    """pixelate_reference's definition, one cell at a time."""
+    out = image.copy()
+    x0, y0, x1, y1 = box
+    for by in range(y0, y1, block):
+        for bx in range(x0, x1, block):
+            ref = reference[by - y0:by - y0 + block, bx - x0:bx - x0 + block].reshape(-1, 3)
+            own = image[by:by + block, bx:bx + block].reshape(-1, 3)
+            on_ref = (ref != background).any(axis=1)
+            on_own = (own != background).any(axis=1)
+            source = ref[on_ref] if on_ref.any() else own[on_own]
+            if not len(source):
+                continue
+            mean = np.floor(source.astype(float).mean(axis=0) + 0.5).astype(np.uint8)
+            cell = out[by:by + block, bx:bx + block]
+            cell[(cell != background).any(axis=2)] = mean
+    return out
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**31), block=st.sampled_from([1, 2, 4, 8, 24]),
+       cells=st.tuples(st.integers(0, 4), st.integers(0, 4)), share=st.floats(0.0, 1.0))
+def test_pixelate_reference_is_the_mean_face_colour_of_the_reference_per_cell(
+        seed, block, cells, share):
+    rng = np.random.default_rng(seed)
+    background = np.array([140, 143, 148], np.uint8)
+    image = rng.integers(0, 256, (130, 150, 3), dtype=np.uint8)
+    image[rng.random((130, 150)) > share] = background  # background inside and around the face
+    x0, y0 = int(rng.integers(0, 20)), int(rng.integers(0, 20))
+    box = (x0, y0, x0 + cells[0] * block, y0 + cells[1] * block)
+    reference = rng.integers(0, 256, (cells[1] * block, cells[0] * block, 3), dtype=np.uint8)
+    reference[rng.random(reference.shape[:2]) > share] = background
+    reference[: block] = background  # a row of cells with no reference face pixel
+    expected = _reference_mosaic_by_cells(image, reference, box, block, background)
+    assert np.array_equal(pixelate_reference(image, reference, box, block, background),
+                          expected)

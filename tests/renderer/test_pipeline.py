@@ -11,8 +11,8 @@ pytestmark = pytest.mark.gl
 SIZE = 256
 
 
-def _frame(tracks, mosaic_block=0, index=0, size=SIZE):
-    gen = render_frames(tracks, builtin_face(), size=size, samples=4,
+def _frame(tracks, mosaic_block=0, index=0, size=SIZE, antialias="edges"):
+    gen = render_frames(tracks, builtin_face(), size=size, samples=4, antialias=antialias,
                         background=(0.55, 0.56, 0.58), mosaic_block=mosaic_block,
                         mosaic_margin=0.15, frames=range(index, index + 1))
     out = next(gen)
@@ -92,7 +92,11 @@ def test_mosaic_blocks_are_constant_on_raw_frames():
             assert x1 > x0 and y1 > y0
             cells = fr.image[y0:y1, x0:x1].reshape((y1 - y0) // block, block,
                                                    (x1 - x0) // block, block, 3)
-            assert (cells == cells[:, :1, :, :1]).all()
+            # constant on the face; background pixels beside it are left alone
+            face = (cells != 128).any(axis=-1)
+            same = (cells == cells.max(axis=(1, 3), where=face[..., None], initial=0)[
+                :, None, :, None]).all(axis=-1)
+            assert (same | ~face).all() and face.mean() > 0.8
         n += 1
     assert n == 12
 
@@ -153,3 +157,49 @@ def test_worker_frames_outlive_the_ring_and_nothing_is_left_behind(monkeypatch):
     gen.close()  # stopped early
     assert np.array_equal(first.image, serial[0])
     assert _shared_segments() <= before
+
+
+def test_the_mosaic_carries_no_mouth_opening():
+    # the jaw opens and closes while the head turns and nods: the mosaic's mean luminance
+    # must not follow the jaw (the mean over a plain mosaic correlates about -0.9 with it)
+    n = 40
+    t = np.arange(n) / 30.0
+    jaw = 300 + 300 * np.sin(2 * np.pi * 1.3 * t)
+    track = MotionTrack.from_channels(30.0, {3: jaw, 49: 30000 * np.sin(2 * np.pi * 0.4 * t),
+                                             48: 5000 * np.sin(2 * np.pi * 0.7 * t)})
+    means = []
+    for fr in render_frames([track], builtin_face(), size=SIZE, mosaic_block=16,
+                            mosaic_margin=0.15):
+        x0, y0, x1, y1 = fr.boxes[0]
+        means.append(fr.image[y0:y1, x0:x1].astype(float).mean())
+    assert abs(np.corrcoef(means, jaw)[0, 1]) < 0.15
+
+
+def test_the_mosaic_does_not_spill_onto_the_background():
+    track = _track(f49=60000, f3=400)  # head turned 34 degrees: the box reaches past the cheek
+    plain, _ = _frame([track], mosaic_block=0)
+    mosaicked, boxes = _frame([track], mosaic_block=16)
+    x0, y0, x1, y1 = boxes[0]
+    background = (plain == [140, 143, 148]).all(axis=2)
+    assert background[y0:y1, x0:x1].sum() > 50  # the case this is about
+    assert np.array_equal(mosaicked[background], plain[background])
+
+
+@pytest.mark.parametrize("antialias", ["edges", "msaa"])
+def test_the_mosaic_is_the_same_whether_the_mouth_moves_or_not(antialias):
+    # two conditions alike but for the mouth: on the pixels that are face in both, every
+    # block of the mosaic has the same colour (a still mouth is read from its own drawing,
+    # a moving one from a second drawing at rest: the two must agree to the bit)
+    pose = dict(f49=25000, f48=-6000, f31=150, f32=150)
+    still, boxes = _frame([_track(**pose)], mosaic_block=16, antialias=antialias)
+    moving, boxes_moving = _frame([_track(**pose, f3=400, f5=-150, f12=120, f13=120, f53=90)],
+                                  mosaic_block=16, antialias=antialias)
+    assert boxes == boxes_moving
+    x0, y0, x1, y1 = boxes[0]
+    background = [140, 143, 148]
+    face = (still != background).any(axis=2) & (moving != background).any(axis=2)
+    box = np.zeros_like(face)
+    box[y0:y1, x0:x1] = True
+    assert (face & box).sum() > 0.8 * box.sum()
+    assert not np.array_equal(still[~box], moving[~box])  # the jaw shows below the box
+    assert np.array_equal(still[face & box], moving[face & box])
