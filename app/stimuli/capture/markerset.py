@@ -87,12 +87,12 @@ HEAD_FRAME = HeadFrame()
 
 #: Face markers' neutral places inside the frame: (u, v) fractions (see the module text).
 NEUTRAL_LAYOUT: dict[str, tuple[float, float]] = {
-    "brow_inner_l": (0.594, 0.236), "brow_inner_r": (0.406, 0.236),
-    "brow_middle_l": (0.682, 0.213), "brow_middle_r": (0.318, 0.213),
-    "nose_bridge": (0.500, 0.356),
-    "nose_tip": (0.500, 0.544),
-    "cheek_l": (0.731, 0.525), "cheek_r": (0.269, 0.525),
-    "lip_top": (0.500, 0.707), "lip_bottom": (0.500, 0.818),
-    "lip_corner_l": (0.666, 0.737), "lip_corner_r": (0.334, 0.737),
-    "chin": (0.500, 0.950),
+    "brow_inner_l": (0.594, 0.233), "brow_inner_r": (0.406, 0.233),
+    "brow_middle_l": (0.682, 0.208), "brow_middle_r": (0.318, 0.208),
+    "nose_bridge": (0.500, 0.371),
+    "nose_tip": (0.500, 0.559),
+    "cheek_l": (0.729, 0.513), "cheek_r": (0.271, 0.513),
+    "lip_top": (0.500, 0.711), "lip_bottom": (0.500, 0.834),
+    "lip_corner_l": (0.666, 0.746), "lip_corner_r": (0.334, 0.746),
+    "chin": (0.500, 0.947),
 }
