@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from app.errors import InputError
+from app.stimuli.capture.csvfile import read_numeric_csv
 from app.stimuli.capture.mapping import IRISD_CLOSED, LID_SHARE, FapMapping
 from app.stimuli.capture.timeline import MAX_GAP_S, to_track
 from app.stimuli.fap import AU_RADIANS
@@ -121,7 +122,10 @@ def read_arkit_csv(path: str | Path, fps: float = 30.0, *, app_fps: float | None
     24/25/30/48/50/60 above every frame number in the file (60 for a take under a second).
     """
     p = Path(path)
-    header, stamps, data, rows = _read_rows(p)
+    table = read_numeric_csv(p, check_header=_header_problem,
+                             text_columns={"Timecode": _timecode_problem})
+    header, data, rows = table.header, table.values, table.lines
+    stamps = table.text[header[0]]
     names = {h.lower(): i for i, h in enumerate(header)}
     if app_fps is None:
         top = max(int(_TIMECODE.match(s).group(4)) for s in stamps)  # type: ignore[union-attr]
@@ -142,44 +146,14 @@ def read_arkit_csv(path: str | Path, fps: float = 30.0, *, app_fps: float | None
     return mapping.limit(track).replace(metadata={**track.metadata, "capture": report})
 
 
-def _read_rows(path: Path) -> tuple[list[str], list[str], np.ndarray, np.ndarray]:
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as f:
-            reader = csv.reader(f, skipinitialspace=True)
-            header = [h.strip() for h in next(reader, [])]
-            if not is_arkit(header):
-                raise InputError("not a Live Link Face CSV: the header must start "
-                                 "'Timecode,BlendShapeCount'", path=path, line=1)
-            stamps, values, rows = [], [], []
-            for record in reader:
-                if not record or all(not v.strip() for v in record):
-                    continue
-                line = reader.line_num
-                if len(record) != len(header):
-                    raise InputError(f"{len(record)} values for {len(header)} columns",
-                                     path=path, line=line)
-                if not _TIMECODE.match(record[0].strip()):
-                    raise InputError(f"column Timecode: expected HH:MM:SS:FF(.sss), got "
-                                     f"{record[0][:40]!r}", path=path, line=line)
-                row = []
-                for name, text in zip(header[1:], record[1:], strict=True):
-                    try:
-                        row.append(float(text))
-                    except ValueError:
-                        raise InputError(f"column {name}: not a number: {text[:40]!r}",
-                                         path=path, line=line) from None
-                stamps.append(record[0].strip())
-                values.append([np.nan] + row)
-                rows.append(line)
-    except FileNotFoundError:
-        raise InputError("no such file", path=path) from None
-    except UnicodeDecodeError:
-        raise InputError("not a text CSV file (not UTF-8)", path=path) from None
-    except csv.Error as exc:
-        raise InputError(f"not a readable CSV: {exc}", path=path) from None
-    if not values:
-        raise InputError("no data rows", path=path)
-    return header, stamps, np.array(values, dtype=np.float64), np.array(rows)
+def _timecode_problem(text: str) -> str | None:
+    return None if _TIMECODE.match(text) else f"expected HH:MM:SS:FF(.sss), got {text[:40]!r}"
+
+
+def _header_problem(header: list[str]) -> str | None:
+    if is_arkit(header):
+        return None
+    return "not a Live Link Face CSV: the header must start 'Timecode,BlendShapeCount'"
 
 
 def write_arkit_csv(track: MotionTrack, path: str | Path, *, app_fps: float | None = None

@@ -24,12 +24,12 @@ imply (docs/stimuli.md); an AU45 of 3 is taken as fully closed. Every scale is a
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
 
 from app.errors import InputError
+from app.stimuli.capture.csvfile import read_numeric_csv
 from app.stimuli.capture.mapping import FapMapping
 from app.stimuli.capture.timeline import MAX_GAP_S, to_track
 from app.stimuli.track import MotionTrack
@@ -57,6 +57,13 @@ def openface_mapping(brow: float = 25.0, jaw: float = 120.0, blink_closed: float
 OPENFACE_MAP = openface_mapping()
 
 
+def _header_problem(header: list[str]) -> str | None:
+    missing = [h for h in REQUIRED if h not in header]
+    if missing:
+        return f"not an OpenFace FeatureExtraction CSV: no {', '.join(missing)} column"
+    return None
+
+
 def is_openface(header: list[str]) -> bool:
     """True for an OpenFace FeatureExtraction header (names stripped of spaces)."""
     return header[:2] == ["frame", "face_id"] and "success" in header
@@ -71,7 +78,8 @@ def read_openface(path: str | Path, fps: float = 30.0, *, min_confidence: float 
     left out for want of columns (``missing``). Bad input: one :class:`InputError` naming the
     file, row and column.
     """
-    header, data, rows = _read_table(Path(path))
+    table = read_numeric_csv(path, check_header=_header_problem)
+    header, data, rows = table.header, table.values, table.lines
     col = {name: i for i, name in enumerate(header)}
 
     def column(name: str) -> np.ndarray:
@@ -87,47 +95,3 @@ def read_openface(path: str | Path, fps: float = 30.0, *, min_confidence: float 
                              source=f"OpenFace 2.0 CSV {Path(path).name}")
     report["missing"] = mapping.needs(set(col))
     return mapping.limit(track).replace(metadata={**track.metadata, "capture": report})
-
-
-def _read_table(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
-    """Header names (spaces stripped), the numbers (rows x columns) and each row's line."""
-    try:
-        with path.open(newline="", encoding="utf-8") as f:
-            reader = csv.reader(f, skipinitialspace=True)
-            header = [h.strip() for h in next(reader, [])]
-            missing = [h for h in REQUIRED if h not in header]
-            if missing:
-                raise InputError(f"not an OpenFace FeatureExtraction CSV: no "
-                                 f"{', '.join(missing)} column", path=path, line=1)
-            values, rows = [], []
-            for record in reader:
-                if not record or all(not v.strip() for v in record):
-                    continue
-                line = reader.line_num
-                if len(record) != len(header):
-                    raise InputError(f"{len(record)} values for {len(header)} columns",
-                                     path=path, line=line)
-                try:
-                    values.append([float(v) for v in record])
-                except ValueError:
-                    bad = next(i for i, v in enumerate(record) if not _is_number(v))
-                    raise InputError(f"column {header[bad]}: not a number: "
-                                     f"{record[bad][:40]!r}", path=path, line=line) from None
-                rows.append(line)
-    except FileNotFoundError:
-        raise InputError("no such file", path=path) from None
-    except UnicodeDecodeError:
-        raise InputError("not a text CSV file (not UTF-8)", path=path) from None
-    except csv.Error as exc:
-        raise InputError(f"not a readable CSV: {exc}", path=path) from None
-    if not values:
-        raise InputError("no data rows", path=path)
-    return header, np.array(values, dtype=np.float64), np.array(rows)
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
