@@ -311,7 +311,7 @@ class FaceCanvas:
             ctx.enable_only(solid)
             ctx.viewport = (0, 0, size, size)
             self.fbo.clear(*self.background, 1.0)
-            if reference is None:  # the box's reference: the lower face as drawn alone
+            if reference is None and box is not None:  # the box's reference: the lower face
                 self.vaos[k].render(triangles, vertices=3 * self.n_lower)
                 self.regions[k] = self._read_box(box)
                 self.vaos[k].render(triangles, vertices=3 * (self.rig.face.n_triangles

@@ -111,15 +111,16 @@ class ArxModel:
         if from_rest and len(u):
             u = _as_2d(u)
             u = u - u[:1]
-            rest = ArxModel(self.a, self.b, np.zeros(self.n_out), self.nk,
-                            np.zeros(self.n_out))
-            return rest.simulate(u, noise=noise)
+            at_rest = ArxModel(self.a, self.b, np.zeros(self.n_out), self.nk,
+                               np.zeros(self.n_out))
+            return at_rest.simulate(u, noise=noise)
         drive = self.exogenous(u)
         if noise is not None:
             drive = drive + noise
         n, m = drive.shape
         y = np.empty((n, m))
-        hist = np.tile(self.y_rest, self.na)  # [y_{t-1}, y_{t-2}, ...] flattened
+        start = np.zeros(m) if self.y_rest is None else self.y_rest
+        hist = np.tile(start, self.na)  # [y_{t-1}, y_{t-2}, ...] flattened
         big_a = np.hstack(list(self.a)) if self.na else np.zeros((m, 0))
         for t in range(n):  # the recursion itself is inherently sequential
             y[t] = drive[t] + big_a @ hist
@@ -131,7 +132,8 @@ class ArxModel:
         """One-step-ahead predictions from measured past outputs (for fit diagnostics)."""
         y = _as_2d(y)
         pred = self.exogenous(u)
-        padded = np.vstack([np.tile(self.y_rest, (self.na, 1)), y])
+        rest = np.zeros(self.n_out) if self.y_rest is None else self.y_rest
+        padded = np.vstack([np.tile(rest, (self.na, 1)), y])
         for i in range(self.na):
             pred += padded[self.na - 1 - i: self.na - 1 - i + len(y)] @ self.a[i].T
         return pred

@@ -19,6 +19,7 @@ import re
 import subprocess
 import threading
 from collections.abc import Iterator
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -94,7 +95,7 @@ def read_grey_frames(path: str | Path, info: dict[str, Any] | None = None
         k = 0
         while len(data := proc.stdout.read(size)) == size:
             with ready:
-                ready.wait_for(lambda k=k: len(stamps) > k)
+                ready.wait_for(partial(_has_more, stamps, k))
                 t = stamps[k]
             if not np.isfinite(t):
                 raise InputError(f"frame {k}: no time stamp from ffmpeg", path=path)
@@ -105,8 +106,14 @@ def read_grey_frames(path: str | Path, info: dict[str, Any] | None = None
         proc.wait()
         thread.join()
         proc.stdout.close()
-        proc.stderr.close()
+        if proc.stderr is not None:
+            proc.stderr.close()
     if k == 0:
         tail = b"".join(log[-3:]).decode(errors="replace").strip().splitlines()
         raise InputError(f"no frames decoded ({tail[-1] if tail else 'empty video'})",
                          path=path)
+
+
+def _has_more(stamps: list[float], k: int) -> bool:
+    """Whether the time stamp of frame ``k`` has arrived."""
+    return len(stamps) > k

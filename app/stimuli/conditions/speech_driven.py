@@ -100,7 +100,8 @@ class SpeechDrivenCondition(Condition):
         self.brow_offset: dict[int, float | None] = {c: eyebrow_offset for c in BROW_CHANNELS}
         self.fit_eyebrows = bool(fit_eyebrows)
         self.brows_fitted = False
-        self.order = dict(na=int(na), nb=int(nb), nk=int(nk), ridge=float(ridge))
+        self.order: dict[str, Any] = dict(na=int(na), nb=int(nb), nk=int(nk),
+                                          ridge=float(ridge))
         self.input_norm = input_norm
         self.model_path = model_path
         self.head: HeadPoseArx | None = None
