@@ -178,10 +178,11 @@ def _colors(gltf, blob: bytes, prim, n: int, path: Path) -> np.ndarray:
         if info is not None and uv_index is not None:
             rgb = _texture_rgb(gltf, blob, info.index, path.parent)
             if rgb is not None:
-                uv = _accessor(gltf, blob, uv_index, path)[:, :2] % 1.0
+                uv = _accessor(gltf, blob, uv_index, path)[:, :2]
+                uv = np.where((uv >= 0) & (uv <= 1), uv, uv % 1.0)  # repeat, edges kept
                 h, w = rgb.shape[:2]
-                out[:, :3] *= rgb[(uv[:, 1] * (h - 1)).round().astype(int),
-                                  (uv[:, 0] * (w - 1)).round().astype(int)]
+                rows = np.clip((uv[:, 1] * h).astype(int), 0, h - 1)  # the nearest texel
+                out[:, :3] *= rgb[rows, np.clip((uv[:, 0] * w).astype(int), 0, w - 1)]
     if prim.attributes.COLOR_0 is not None:
         c = _accessor(gltf, blob, prim.attributes.COLOR_0, path)
         out[:, :3] *= np.sqrt(np.clip(c[:, :3], 0, 1))
