@@ -43,6 +43,8 @@ _COMPONENTS = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16,
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
 #: Specular strength of a fully smooth dielectric (the renderer's 4th colour column).
 SPECULAR_SMOOTH = 0.5
+#: Elements an accessor without data of its own may declare (all zeros but for sparse ones).
+MAX_SPARSE_ELEMENTS = 10_000_000
 #: Application-specific vertex attribute carrying the renderer's specular strength.
 SPECULAR_ATTRIBUTE = "_SPECULAR"
 
@@ -93,6 +95,8 @@ def _accessor(gltf, blob: bytes, index: int, path: Path) -> np.ndarray:
         acc = gltf.accessors[index]
         dtype = np.dtype(_COMPONENTS[acc.componentType])
         width = _WIDTH[acc.type]
+        if not 0 <= acc.count <= len(blob) + MAX_SPARSE_ELEMENTS:
+            raise ValueError(f"count {acc.count} does not fit the file")
         out = np.zeros((acc.count, width), dtype)
         if acc.bufferView is not None:
             view = gltf.bufferViews[acc.bufferView]
@@ -118,7 +122,7 @@ def _accessor(gltf, blob: bytes, index: int, path: Path) -> np.ndarray:
     except (IndexError, KeyError, ValueError, TypeError, AttributeError) as exc:
         raise InputError(f"accessor {index} cannot be read: {exc}", path=path) from None
     if acc.normalized and dtype.kind in "iu":
-        return np.maximum(out / np.iinfo(dtype).max, -1.0)
+        return np.maximum(out / float(np.iinfo(dtype.str).max), -1.0)
     return out.astype(np.float64) if dtype.kind == "f" else out
 
 
@@ -218,6 +222,17 @@ def read_gltf(path: str | Path) -> GltfScene:
     """Read a ``.glb``, ``.gltf`` or ``.vrm`` file (see the module docstring)."""
     path = Path(path)
     gltf, blob = _load(path)
+    try:
+        return _flatten(gltf, blob, path)
+    except (IndexError, KeyError, TypeError, ValueError, AttributeError) as exc:
+        if isinstance(exc, InputError):
+            raise
+        reason = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else type(
+            exc).__name__
+        raise InputError(f"malformed glTF: {reason}", path=path) from None
+
+
+def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
     k = len(gltf.nodes)
     parents = np.full(k, -1)
     for i, node in enumerate(gltf.nodes):
@@ -254,11 +269,9 @@ def read_gltf(path: str | Path) -> GltfScene:
             n = len(pos)
             nrm = (_accessor(gltf, blob, prim.attributes.NORMAL, path)[:, :3]
                    if prim.attributes.NORMAL is not None else None)
-            if prim.indices is not None:
-                tri = _accessor(gltf, blob, prim.indices, path).astype(np.int64).reshape(-1)
-            else:
-                tri = np.arange(n)
-            tri = tri[:len(tri) // 3 * 3].reshape(-1, 3)
+            flat = (_accessor(gltf, blob, prim.indices, path).astype(np.int64).reshape(-1)
+                    if prim.indices is not None else np.arange(n))
+            tri = flat[:len(flat) // 3 * 3].reshape(-1, 3)
             if len(tri) and (tri.min() < 0 or tri.max() >= n):
                 raise InputError(f"mesh {node.mesh}: indices beyond its {n} vertices",
                                  path=path)

@@ -6,6 +6,8 @@ import imageio.v3 as iio
 import numpy as np
 import pygltflib
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from app.errors import InputError
 from renderer.avatar import load_avatar
@@ -102,3 +104,54 @@ def test_a_scene_without_triangles_is_an_input_error(tmp_path):
                     scenes=[pygltflib.Scene(nodes=[0])]).save_json(str(path))
     with pytest.raises(InputError, match="no triangle mesh"):
         read_gltf(path)
+
+
+def _tiny_gltf() -> dict:
+    """A one-triangle skinned glTF with one morph target, as JSON with embedded buffers."""
+    import json
+    import tempfile
+    from pathlib import Path
+
+    from renderer.gltfio import MeshOut, write_glb
+
+    v = np.eye(3)
+    with tempfile.TemporaryDirectory() as d:
+        path = write_glb(Path(d) / "t.glb",
+                         MeshOut(v, np.tile([0, 0, 1.0], (3, 1)), np.array([[0, 1, 2]]),
+                                 np.ones((3, 4)), {"JawOpen": (v * 0.1, v * 0)},
+                                 joints=np.zeros((3, 4), np.uint8),
+                                 weights=np.tile([1.0, 0, 0, 0], (3, 1))),
+                         bones=[("head", -1, np.zeros(3))], extras={})
+        gltf = pygltflib.GLTF2().load_binary(str(path))
+    gltf.convert_buffers(pygltflib.BufferFormat.DATAURI)
+    return json.loads(gltf.to_json())
+
+
+TINY = _tiny_gltf()
+_INT_FIELDS = [("nodes", "mesh"), ("nodes", "skin"), ("accessors", "count"),
+               ("accessors", "bufferView"), ("accessors", "byteOffset"),
+               ("accessors", "componentType"), ("bufferViews", "byteOffset"),
+               ("bufferViews", "byteLength"), ("bufferViews", "byteStride"),
+               ("skins", "inverseBindMatrices"), ("scenes", "nodes")]
+
+
+@settings(max_examples=60, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(edits=st.lists(st.tuples(st.sampled_from(_INT_FIELDS), st.integers(0, 5),
+                                st.integers(-3, 10**6) | st.just(None)), min_size=1,
+                      max_size=3))
+def test_a_corrupted_gltf_reads_or_is_an_input_error(tmp_path, edits):
+    import copy
+    import json
+
+    doc = copy.deepcopy(TINY)
+    for (array, key), index, value in edits:
+        items = doc.get(array) or []
+        if items:
+            items[index % len(items)][key] = [value] if key == "nodes" else value
+    path = tmp_path / "c.gltf"
+    path.write_text(json.dumps(doc))
+    try:
+        read_gltf(path)
+    except InputError as err:
+        assert "\n" not in str(err)
