@@ -155,3 +155,12 @@ def test_any_json_gives_an_input_error(tmp_path, doc):
     path.write_text(json.dumps(doc))
     with pytest.raises(InputError):
         load_avatar(path)
+
+
+def test_cache_key_follows_the_morph_targets(exported_head):
+    """Clips are cached by the face's content hash: a changed blendshape is another face."""
+    face = load_avatar(exported_head)
+    before = face.content_hash()
+    face.targets["JawOpen"][0][0, 1] += 1e-3
+    assert face.content_hash() != before
+    assert load_avatar(exported_head).content_hash() == before
