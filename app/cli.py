@@ -32,11 +32,12 @@ def main() -> None:
 
 
 def _register() -> None:
-    from app.commands import analyze, capture, plan, render, stimuli, web
+    from app.commands import analyze, capture, face, plan, render, stimuli, web
 
     main.add_command(stimuli.stimuli)
     main.add_command(capture.capture)
     main.add_command(render.render)
+    main.add_command(face.face)
     main.add_command(analyze.analyze)
     main.add_command(plan.plan)
     web.register(main)

@@ -9,6 +9,10 @@ deformation, drawing (GL + read-back), mosaic, and encoding of the same frames.
 
     python benchmarks/bench_renderer.py [--seconds 60] [--size 368] [--repeat 2]
                                         [--antialias edges] [--samples 4] [--workers 0]
+                                        [--face avatar.glb]
+
+``--face`` measures a face file or glTF avatar instead of the built-in head (e.g. the head
+written by ``facepair face export``).
 """
 
 from __future__ import annotations
@@ -24,10 +28,9 @@ import numpy as np
 from synthetic import write_speech  # benchmarks/synthetic.py, beside this script
 
 from app.stimuli.generate import generate_conditions
-from renderer import RenderSettings, render_pair
+from renderer import RenderSettings, load_face, render_pair
 from renderer.encode import ClipWriter
 from renderer.gl import ANTIALIAS_MODES, device_name
-from renderer.headmodel import builtin_face
 from renderer.pipeline import align_tracks, render_frames, rig_for
 
 
@@ -47,9 +50,10 @@ def main() -> None:
                         default=RenderSettings.antialias)
     parser.add_argument("--samples", type=int, default=RenderSettings.samples)
     parser.add_argument("--workers", type=int, default=RenderSettings.workers)
+    parser.add_argument("--face", default=None)
     args = parser.parse_args()
     settings = RenderSettings(size=args.size, antialias=args.antialias, samples=args.samples,
-                              workers=args.workers)
+                              workers=args.workers, face=args.face)
     with tempfile.TemporaryDirectory() as d:
         wav = write_speech(Path(d) / "speech.wav", args.seconds)
         result = generate_conditions(wav, conditions=("speech_driven", "random"))
@@ -69,8 +73,10 @@ def main() -> None:
         size_mb = (Path(d) / "pair0.mp4").stat().st_size / 1e6
         print(f"device: {device_name()} (EGL; GLCONTEXT_DEVICE_INDEX="
               f"{os.environ.get('GLCONTEXT_DEVICE_INDEX', 'unset')})")
+        face_name = args.face or "built-in"
         aa = settings.antialias + (f" x{settings.samples}" if settings.antialias == "msaa" else "")
-        print(f"antialias {aa}, workers {settings.workers or 'auto'}, x264 {settings.preset}: "
+        print(f"face {face_name}, antialias {aa}, workers {settings.workers or 'auto'}, "
+              f"x264 {settings.preset}: "
               f"pair clip {clip_seconds:.0f} s, {n} frames at {fps:g} fps, "
               f"{2 * args.size}x{args.size}, with audio ({size_mb:.1f} MB): "
               f"best {best:.2f} s = {n / best:.0f} fps = {clip_seconds / best:.1f}x real time; "
@@ -80,7 +86,7 @@ def main() -> None:
 
         # the parts alone, on the first 600 frames
         k = min(n, 600)
-        face = builtin_face()
+        face = load_face(settings)
         rig = rig_for(face)
         dense = [left.dense(), right.dense()]
         start = time.perf_counter()

@@ -20,6 +20,7 @@ from typing import Any
 
 from app.errors import InputError
 from app.stimuli.track import MotionTrack
+from renderer.avatar import AVATAR_SUFFIXES
 from renderer.cache import cache_key, cached_path, deliver
 from renderer.encode import ClipWriter, check_audio
 from renderer.face import Face
@@ -44,7 +45,8 @@ class RenderSettings:
         ``"none"``.
     samples : multisample anti-aliasing samples for ``antialias="msaa"`` (2, 4 or 8).
     fps : output frame rate; None takes the (first) track's.
-    face : a face JSON file (bring your own face, see docs/renderer.md); None = built-in head.
+    face : a face JSON file (bring your own face) or a glTF 2.0 / VRM avatar with ARKit
+        blendshapes (``.glb``, ``.gltf``, ``.vrm``; see docs/renderer.md); None = built-in head.
     background : RGB in 0..1, a neutral grey by default.
     crf, preset : libx264 quality (lower crf = better) and speed preset (superfast: about
         a quarter less CPU than veryfast for about twice the bytes at the same crf).
@@ -116,11 +118,16 @@ class RenderSettings:
 
 
 def load_face(settings: RenderSettings) -> Face:
-    """The face the settings name: a face JSON file, or the built-in head."""
+    """The face the settings name: a face JSON file, a glTF / VRM avatar, or the built-in
+    head."""
     if settings.face is None:
         from renderer.headmodel import builtin_face
 
         return builtin_face()
+    if Path(settings.face).suffix.lower() in AVATAR_SUFFIXES:
+        from renderer.avatar import load_avatar
+
+        return load_avatar(settings.face)
     from renderer.objface import load_face as load_face_file
 
     return load_face_file(settings.face)

@@ -217,15 +217,21 @@ class Rig:
             r = max(float(np.linalg.norm(margin - centre)), 1e-9)
             sign = 1.0 if upper else -1.0
             self.lids.append((fap, zone, layer[zone], centre, sign * fu["IRISD"] / r))
-        self.eye_centres = {s: face.eye_centre(s) for s in ("l", "r")}
+        self._set_pose({s: face.eye_centre(s) for s in ("l", "r")})
+        #: the vertices only the jaw and lip FAPs change (None: other FAPs reach them too)
+        self.rest_mouth_vertices = self._mouth_apart()
+
+    def _set_pose(self, eye_centres: dict[str, np.ndarray]) -> None:
+        """What :meth:`posed` needs: eye pivots and vertices, the head pivot, and the vertices
+        the head leaves still or blends (by the ``head`` weight)."""
+        face = self.face
+        self.eye_centres = eye_centres
         self.eye_vertices = {s: np.asarray(face.groups[f"eyeball_{s}"]) for s in ("l", "r")}
         self.pivot = face.pivot()
         head_w = self.weights["head"].astype(np.float32)
         self._still = np.flatnonzero(head_w <= 0.0)
         self._blend = np.flatnonzero((head_w > 0.0) & (head_w < 1.0))
         self._blend_w = head_w[self._blend][:, None]
-        #: the vertices only the jaw and lip FAPs change (None: other FAPs reach them too)
-        self.rest_mouth_vertices = self._mouth_apart()
 
     def _pair_share(self, v: np.ndarray, inner_pt: str, tag: str) -> np.ndarray:
         """Share of an inner or outer lip FAP at each vertex: the nearer feature point wins."""

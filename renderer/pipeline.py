@@ -25,6 +25,7 @@ import numpy as np
 
 from app.errors import InputError
 from app.stimuli.track import MotionTrack
+from renderer.avatar import AvatarFace, AvatarRig
 from renderer.deform import MOUTH_FAPS_INDEX, Rig
 from renderer.face import MOUTH_FEATURE_POINTS, Face
 from renderer.gl import FaceCanvas, project
@@ -42,6 +43,8 @@ class RenderedFrame:
 
 @lru_cache(maxsize=4)
 def _rig_for(face_key: str, face: Face) -> Rig:
+    if isinstance(face, AvatarFace):
+        return AvatarRig(face)
     return Rig(face)
 
 

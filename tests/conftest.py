@@ -542,3 +542,11 @@ def live_server(tmp_path, tiny_video):
 def _in_context(app, function, *args):
     with app.app_context():
         return function(*args).id
+
+
+@pytest.fixture(scope="session")
+def exported_head(tmp_path_factory) -> Path:
+    """The built-in head exported as a glTF avatar (``facepair face export``)."""
+    from renderer.faceexport import export_builtin_head
+
+    return export_builtin_head(tmp_path_factory.mktemp("avatar") / "head.glb")

@@ -38,7 +38,8 @@ def _progress_bar(label: str):
 
 def _common(fn: Callable) -> Callable:
     fn = click.option("--face", type=click.Path(dir_okay=False), default=None,
-                      help="Face JSON file (bring your own face); default: built-in head.")(fn)
+                      help="Face JSON file (bring your own face) or glTF/VRM avatar "
+                           "(.glb, .gltf, .vrm); default: built-in head.")(fn)
     fn = click.option("--size", type=int, default=368, show_default=True,
                       help="Pixels per face (square, a multiple of 16).")(fn)
     fn = click.option("--mosaic-block", type=int, default=24, show_default=True,

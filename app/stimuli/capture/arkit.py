@@ -165,8 +165,44 @@ def write_arkit_csv(track: MotionTrack, path: str | Path, *, app_fps: float | No
     """
     rate = float(app_fps or track.fps)
     n = track.n_frames
-    g = track.get
-    cols: dict[str, np.ndarray] = {name: np.zeros(n) for name in (*BLENDSHAPES, *ROTATIONS)}
+    weights = arkit_weights(track.dense())
+    cols = {name: np.clip(weights[name], 0.0, 1.0) if name in BLENDSHAPES else weights[name]
+            for name in (*BLENDSHAPES, *ROTATIONS)}
+    with Path(path).open("w", newline="", encoding="utf-8") as f:
+        out = csv.writer(f, lineterminator="\n")
+        out.writerow(HEADER)
+        for k in range(n):
+            t = k / track.fps
+            frames = t * rate
+            whole = int(np.floor(frames + 1e-9))
+            secs, ff = divmod(whole, int(round(rate)))
+            h, rem = divmod(secs, 3600)
+            mi, s = divmod(rem, 60)
+            stamp = f"{h:02d}:{mi:02d}:{s:02d}:{ff:02d}.{round((frames - whole) * 1000):03d}"
+            out.writerow([stamp, len(BLENDSHAPES) + len(ROTATIONS),
+                          *(f"{cols[name][k]:.6f}" for name in (*BLENDSHAPES, *ROTATIONS))])
+
+
+def arkit_weights(faps: np.ndarray) -> dict[str, np.ndarray]:
+    """Per-frame ARKit blendshape weights and rotations (radians) of FAP frames: the inverse
+    of :func:`arkit_mapping`, shared by :func:`write_arkit_csv` and the renderer's avatars.
+
+    ``faps``: (n, 68) FAP values (column k is FAP k+1, as :meth:`MotionTrack.dense` gives) or
+    one frame of 68. Returns every name of :data:`BLENDSHAPES` and :data:`ROTATIONS`, each an
+    array of n values (a 0-d array for one frame); blendshapes the table does not drive are 0.
+    The weights are not clipped: a brow raised past 100 units gives more than 1.
+
+    >>> faps = np.zeros(68); faps[3 - 1] = 400.0
+    >>> float(arkit_weights(faps)["JawOpen"])
+    0.5
+    """
+    f = np.asarray(faps, dtype=np.float64)
+
+    def g(fap: int) -> np.ndarray:
+        return f[..., fap - 1]
+
+    zero = np.zeros(f.shape[:-1])
+    cols: dict[str, np.ndarray] = {name: zero for name in (*BLENDSHAPES, *ROTATIONS)}
     for fap, name in ((48, "HeadPitch"), (49, "HeadYaw"), (50, "HeadRoll"),
                       (23, "LeftEyeYaw"), (24, "RightEyeYaw"), (25, "LeftEyePitch"),
                       (26, "RightEyePitch")):
@@ -181,18 +217,4 @@ def write_arkit_csv(track: MotionTrack, path: str | Path, *, app_fps: float | No
     cols["EyeBlinkLeft"] = g(19) / (LID_SHARE[19] * IRISD_CLOSED)
     cols["EyeBlinkRight"] = g(20) / (LID_SHARE[20] * IRISD_CLOSED)
     cols["JawOpen"] = g(3) / JAW
-    for name in BLENDSHAPES:
-        cols[name] = np.clip(cols[name], 0.0, 1.0)
-    with Path(path).open("w", newline="", encoding="utf-8") as f:
-        out = csv.writer(f, lineterminator="\n")
-        out.writerow(HEADER)
-        for k in range(n):
-            t = k / track.fps
-            frames = t * rate
-            whole = int(np.floor(frames + 1e-9))
-            secs, ff = divmod(whole, int(round(rate)))
-            h, rem = divmod(secs, 3600)
-            mi, s = divmod(rem, 60)
-            stamp = f"{h:02d}:{mi:02d}:{s:02d}:{ff:02d}.{round((frames - whole) * 1000):03d}"
-            out.writerow([stamp, len(BLENDSHAPES) + len(ROTATIONS),
-                          *(f"{cols[name][k]:.6f}" for name in (*BLENDSHAPES, *ROTATIONS))])
+    return cols

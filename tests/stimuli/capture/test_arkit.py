@@ -111,3 +111,17 @@ def test_cli_import_and_export(tmp_path):
     bad = CliRunner().invoke(main, ["capture", "import", str(src), "--out",
                                     str(tmp_path / "x.fap"), "--flip", "Nose"])
     assert bad.exit_code == 2 and "--flip takes ARKit rotation columns" in bad.output
+
+
+def test_arkit_weights_of_one_frame_equal_those_of_the_track():
+    """The avatar's per-frame weights and the CSV writer's columns come from one table."""
+    from app.stimuli.capture.arkit import arkit_weights
+
+    rng = np.random.default_rng(3)
+    dense = rng.uniform(-150, 150, (5, 68))
+    frames = [arkit_weights(row) for row in dense]
+    whole = arkit_weights(dense)
+    for name, column in whole.items():
+        assert np.allclose(column, [f[name] for f in frames])
+    assert np.allclose(whole["JawOpen"], dense[:, 2] / 800.0)
+    assert np.allclose(whole["HeadYaw"], dense[:, 48] * 1e-5)

@@ -1,0 +1,433 @@
+"""glTF 2.0 / VRM files in and out: the geometry, morph targets, skin and bones of an avatar.
+
+Reading (:func:`read_gltf`) flattens the default scene into one vertex list: every primitive of
+every mesh node, triangles only, in node order. Positions of unskinned meshes are taken to the
+scene's space by their node's world transform; skinned meshes are taken as bound (their
+vertices already in the skeleton's space, the usual ``inverseBindMatrices`` = inverse joint
+world transforms). Morph targets are matched across primitives by name (``mesh.extras
+.targetNames``, the convention of Blender's exporter, or the primitive's ``extras``); a
+primitive without a target contributes zeros to it. Base colours come from ``COLOR_0``,
+``baseColorFactor`` and the ``baseColor`` texture sampled at each vertex's UV; the specular
+strength from the material's roughness and metalness. VRM 0.x avatars face -z and are turned
+half round about y so that every avatar faces +z, as glTF and the renderer expect (Khronos,
+glTF 2.0 sec. 3.4; VRM 1.0 "Model orientation").
+
+Writing (:func:`write_glb`) is the inverse for one skinned primitive with named morph targets.
+pygltflib parses and writes the container; accessors are decoded here with numpy.
+
+Example
+-------
+>>> import numpy as np, tempfile, os
+>>> tri = np.array([[0, 1, 2]]); v = np.eye(3)
+>>> path = os.path.join(tempfile.mkdtemp(), "t.glb")
+>>> _ = write_glb(path, MeshOut(v, np.tile([0, 0, 1.0], (3, 1)), tri,
+...               np.ones((3, 4)), {"JawOpen": (v * 0.1, v * 0)}), bones=[], extras={})
+>>> scene = read_gltf(path)
+>>> scene.triangles.tolist(), sorted(scene.targets)
+([[0, 1, 2]], ['JawOpen'])
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from app.errors import InputError
+
+_COMPONENTS = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16,
+               5125: np.uint32, 5126: np.float32}
+_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
+#: Specular strength of a fully smooth dielectric (the renderer's 4th colour column).
+SPECULAR_SMOOTH = 0.5
+#: Elements an accessor without data of its own may declare (all zeros but for sparse ones).
+MAX_SPARSE_ELEMENTS = 10_000_000
+#: Application-specific vertex attribute carrying the renderer's specular strength.
+SPECULAR_ATTRIBUTE = "_SPECULAR"
+
+
+@dataclass
+class GltfScene:
+    """The default scene of a glTF file, flattened (see the module docstring)."""
+
+    vertices: np.ndarray  # (n, 3) float64
+    normals: np.ndarray | None  # (n, 3), None if a primitive lacks them
+    triangles: np.ndarray  # (m, 3) int64
+    colors: np.ndarray  # (n, 4): RGB (display-referred, 0..1) and specular strength
+    targets: dict[str, tuple[np.ndarray, np.ndarray]]  # name -> (dpos, dnormal), (n, 3)
+    influence_nodes: np.ndarray  # (n, 4) node index of each skin joint (or the mesh node)
+    influence_weights: np.ndarray  # (n, 4)
+    node_names: list[str]
+    parents: np.ndarray  # (k,) parent node index, -1 at a root
+    world: np.ndarray  # (k, 4, 4) node world transforms at rest
+    humanoid: dict[str, int] = field(default_factory=dict)  # VRM bone name -> node
+    extras: dict[str, Any] = field(default_factory=dict)  # the file's root extras
+
+
+def _load(path: Path):
+    import pygltflib
+
+    if not path.is_file():
+        raise InputError("avatar file not found", path=path)
+    try:
+        if path.suffix.lower() == ".gltf":
+            gltf = pygltflib.GLTF2().load_json(str(path))
+        else:
+            gltf = pygltflib.GLTF2().load_binary(str(path))
+        if gltf is None:
+            raise ValueError("not a glTF file")
+        gltf.convert_buffers(pygltflib.BufferFormat.BINARYBLOB)
+    except InputError:
+        raise
+    except Exception as exc:  # pygltflib raises assorted types on malformed files
+        reason = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else type(
+            exc).__name__
+        raise InputError(f"not a readable glTF 2.0 / VRM file: {reason}", path=path) from None
+    return gltf, gltf.binary_blob() or b""
+
+
+def _accessor(gltf, blob: bytes, index: int, path: Path) -> np.ndarray:
+    """Accessor ``index`` as an (count, width) float64 or int array (normalised as declared)."""
+    try:
+        acc = gltf.accessors[index]
+        dtype = np.dtype(_COMPONENTS[acc.componentType])
+        width = _WIDTH[acc.type]
+        if not 0 <= acc.count <= len(blob) + MAX_SPARSE_ELEMENTS:
+            raise ValueError(f"count {acc.count} does not fit the file")
+        out = np.zeros((acc.count, width), dtype)
+        if acc.bufferView is not None:
+            view = gltf.bufferViews[acc.bufferView]
+            start = (view.byteOffset or 0) + (acc.byteOffset or 0)
+            stride = view.byteStride or dtype.itemsize * width
+            need = start + stride * (acc.count - 1) + dtype.itemsize * width
+            if acc.count and need > len(blob):
+                raise ValueError("accessor reaches past its buffer")
+            raw = np.frombuffer(blob, np.uint8, count=max(need - start, 0), offset=start)
+            rows = np.lib.stride_tricks.as_strided(
+                raw, (acc.count, dtype.itemsize * width), (stride, 1)) if acc.count else raw
+            out = np.ascontiguousarray(rows).view(dtype).reshape(acc.count, width)
+        if acc.sparse is not None and acc.sparse.count:
+            sp = acc.sparse
+            idx = np.frombuffer(blob, _COMPONENTS[sp.indices.componentType], sp.count,
+                                (gltf.bufferViews[sp.indices.bufferView].byteOffset or 0)
+                                + (sp.indices.byteOffset or 0))
+            vals = np.frombuffer(blob, dtype, sp.count * width,
+                                 (gltf.bufferViews[sp.values.bufferView].byteOffset or 0)
+                                 + (sp.values.byteOffset or 0)).reshape(sp.count, width)
+            out = out.copy()
+            out[idx.astype(np.int64)] = vals
+    except (IndexError, KeyError, ValueError, TypeError, AttributeError) as exc:
+        raise InputError(f"accessor {index} cannot be read: {exc}", path=path) from None
+    if acc.normalized and dtype.kind in "iu":
+        return np.maximum(out / float(np.iinfo(dtype.str).max), -1.0)
+    return out.astype(np.float64) if dtype.kind == "f" else out
+
+
+def _quat_matrix(q: list[float]) -> np.ndarray:
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def _local(node) -> np.ndarray:
+    if node.matrix is not None:
+        return np.array(node.matrix, dtype=np.float64).reshape(4, 4).T  # column-major
+    m = np.eye(4)
+    rs = _quat_matrix(node.rotation or [0, 0, 0, 1]) * np.array(node.scale or [1, 1, 1])
+    m[:3, :3], m[:3, 3] = rs, node.translation or [0, 0, 0]
+    return m
+
+
+def _texture_rgb(gltf, blob: bytes, texture_index: int, base: Path) -> np.ndarray | None:
+    """The base colour image of texture ``texture_index`` as (h, w, 3) floats, or None."""
+    import imageio.v3 as iio
+
+    try:
+        image = gltf.images[gltf.textures[texture_index].source]
+        if image.bufferView is not None:
+            view = gltf.bufferViews[image.bufferView]
+            data = blob[view.byteOffset or 0:(view.byteOffset or 0) + view.byteLength]
+            pixels = iio.imread(io.BytesIO(data))
+        elif image.uri and not image.uri.startswith("data:"):
+            pixels = iio.imread(base / image.uri)
+        else:
+            return None
+    except Exception:  # an unreadable texture falls back to the material's colour
+        return None
+    pixels = np.asarray(pixels, dtype=np.float64)
+    if pixels.ndim == 2:
+        pixels = pixels[..., None].repeat(3, axis=2)
+    return pixels[..., :3] / (65535.0 if pixels.max() > 255 else 255.0)
+
+
+def _colors(gltf, blob: bytes, prim, n: int, path: Path) -> np.ndarray:
+    """Per-vertex display RGB and specular strength of a primitive (PBR-lite)."""
+    out = np.ones((n, 4))
+    out[:, 3] = 0.18
+    mat = gltf.materials[prim.material] if prim.material is not None else None
+    pbr = mat.pbrMetallicRoughness if mat is not None else None
+    if pbr is not None:
+        # glTF factors are linear; the renderer's colours display-referred (its shader squares)
+        out[:, :3] *= np.sqrt(np.clip(np.array(pbr.baseColorFactor or [1, 1, 1, 1])[:3], 0, 1))
+        rough = 1.0 if pbr.roughnessFactor is None else pbr.roughnessFactor
+        metal = 1.0 if pbr.metallicFactor is None else pbr.metallicFactor
+        out[:, 3] = SPECULAR_SMOOTH * (1.0 - rough) * (1.0 - 0.5 * metal)
+        info = pbr.baseColorTexture
+        uv_name = f"TEXCOORD_{info.texCoord or 0}" if info is not None else None
+        uv_index = getattr(prim.attributes, uv_name, None) if uv_name else None
+        if info is not None and uv_index is not None:
+            rgb = _texture_rgb(gltf, blob, info.index, path.parent)
+            if rgb is not None:
+                uv = _accessor(gltf, blob, uv_index, path)[:, :2]
+                uv = np.where((uv >= 0) & (uv <= 1), uv, uv % 1.0)  # repeat, edges kept
+                h, w = rgb.shape[:2]
+                rows = np.clip((uv[:, 1] * h).astype(int), 0, h - 1)  # the nearest texel
+                out[:, :3] *= rgb[rows, np.clip((uv[:, 0] * w).astype(int), 0, w - 1)]
+    if prim.attributes.COLOR_0 is not None:
+        c = _accessor(gltf, blob, prim.attributes.COLOR_0, path)
+        out[:, :3] *= np.sqrt(np.clip(c[:, :3], 0, 1))
+    spec = getattr(prim.attributes, SPECULAR_ATTRIBUTE, None)
+    if spec is not None:
+        out[:, 3] = _accessor(gltf, blob, spec, path)[:, 0]
+    return out
+
+
+def _target_names(mesh, prim) -> list[str]:
+    names = (prim.extras or {}).get("targetNames") or (mesh.extras or {}).get("targetNames")
+    count = len(prim.targets or [])
+    if not isinstance(names, list) or len(names) != count:
+        return [f"target{k}" for k in range(count)]
+    return [str(x) for x in names]
+
+
+def _humanoid(gltf) -> tuple[dict[str, int], bool]:
+    """VRM humanoid bone name -> node, and whether the file is VRM 0.x (facing -z)."""
+    ext = gltf.extensions or {}
+    if isinstance(ext.get("VRMC_vrm"), dict):  # VRM 1.0
+        bones = ext["VRMC_vrm"].get("humanoid", {}).get("humanBones", {})
+        return {k: int(v["node"]) for k, v in bones.items()
+                if isinstance(v, dict) and isinstance(v.get("node"), int)}, False
+    if isinstance(ext.get("VRM"), dict):  # VRM 0.x
+        bones = ext["VRM"].get("humanoid", {}).get("humanBones", [])
+        return {str(b["bone"]): int(b["node"]) for b in bones
+                if isinstance(b, dict) and isinstance(b.get("node"), int) and "bone" in b}, True
+    return {}, False
+
+
+def read_gltf(path: str | Path) -> GltfScene:
+    """Read a ``.glb``, ``.gltf`` or ``.vrm`` file (see the module docstring)."""
+    path = Path(path)
+    gltf, blob = _load(path)
+    try:
+        return _flatten(gltf, blob, path)
+    except (IndexError, KeyError, TypeError, ValueError, AttributeError) as exc:
+        if isinstance(exc, InputError):
+            raise
+        reason = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else type(
+            exc).__name__
+        raise InputError(f"malformed glTF: {reason}", path=path) from None
+
+
+def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
+    k = len(gltf.nodes)
+    parents = np.full(k, -1)
+    for i, node in enumerate(gltf.nodes):
+        for c in node.children or []:
+            if not 0 <= c < k:
+                raise InputError(f"node {i} has a child {c} that does not exist", path=path)
+            parents[c] = i
+    world = np.zeros((k, 4, 4))
+    done = np.zeros(k, bool)
+
+    def resolve(i: int, depth: int = 0) -> np.ndarray:
+        if not done[i]:
+            if depth > k:
+                raise InputError("the node hierarchy has a cycle", path=path)
+            local = _local(gltf.nodes[i])
+            world[i] = local if parents[i] < 0 else resolve(parents[i], depth + 1) @ local
+            done[i] = True
+        return world[i]
+
+    for i in range(k):
+        resolve(i)
+    humanoid, turned = _humanoid(gltf)
+    parts: list[dict[str, Any]] = []
+    offset = 0
+    for i, node in enumerate(gltf.nodes):
+        if node.mesh is None:
+            continue
+        mesh = gltf.meshes[node.mesh]
+        skin = gltf.skins[node.skin] if node.skin is not None else None
+        for prim in mesh.primitives:
+            if prim.mode not in (None, 4) or prim.attributes.POSITION is None:
+                continue  # points and lines are not drawn
+            pos = _accessor(gltf, blob, prim.attributes.POSITION, path)[:, :3]
+            n = len(pos)
+            nrm = (_accessor(gltf, blob, prim.attributes.NORMAL, path)[:, :3]
+                   if prim.attributes.NORMAL is not None else None)
+            flat = (_accessor(gltf, blob, prim.indices, path).astype(np.int64).reshape(-1)
+                    if prim.indices is not None else np.arange(n))
+            tri = flat[:len(flat) // 3 * 3].reshape(-1, 3)
+            if len(tri) and (tri.min() < 0 or tri.max() >= n):
+                raise InputError(f"mesh {node.mesh}: indices beyond its {n} vertices",
+                                 path=path)
+            deltas = {}
+            for name, t in zip(_target_names(mesh, prim), prim.targets or [], strict=True):
+                dp = (_accessor(gltf, blob, t["POSITION"], path)[:, :3]
+                      if isinstance(t, dict) and t.get("POSITION") is not None
+                      else np.zeros((n, 3)))
+                dn = (_accessor(gltf, blob, t["NORMAL"], path)[:, :3]
+                      if isinstance(t, dict) and t.get("NORMAL") is not None
+                      else np.zeros((n, 3)))
+                deltas[name] = (dp, dn)
+            if skin is not None and prim.attributes.JOINTS_0 is not None \
+                    and prim.attributes.WEIGHTS_0 is not None:
+                joints = _accessor(gltf, blob, prim.attributes.JOINTS_0, path).astype(int)
+                if joints.max(initial=0) >= len(skin.joints):
+                    raise InputError(f"skin {node.skin}: joint index beyond its joints",
+                                     path=path)
+                nodes = np.asarray(skin.joints)[joints]
+                weights = _accessor(gltf, blob, prim.attributes.WEIGHTS_0, path)
+            else:
+                m = world[i]
+                pos = pos @ m[:3, :3].T + m[:3, 3]
+                if nrm is not None:
+                    nrm = nrm @ np.linalg.inv(m[:3, :3])  # the inverse transpose, row-wise
+                for name, (dp, dn) in deltas.items():
+                    deltas[name] = (dp @ m[:3, :3].T, dn @ np.linalg.inv(m[:3, :3]))
+                nodes = np.tile([i, i, i, i], (n, 1))
+                weights = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+            parts.append({"pos": pos, "nrm": nrm, "tri": tri + offset, "deltas": deltas,
+                          "col": _colors(gltf, blob, prim, n, path), "nodes": nodes,
+                          "weights": weights})
+            offset += n
+    if not parts or not sum(len(p["tri"]) for p in parts):
+        raise InputError("no triangle mesh in the scene", path=path)
+    names = list(dict.fromkeys(name for p in parts for name in p["deltas"]))
+    zeros = [np.zeros((len(p["pos"]), 3)) for p in parts]
+    targets = {name: tuple(np.vstack([p["deltas"].get(name, (z, z))[j]
+                                      for p, z in zip(parts, zeros, strict=True)])
+                           for j in (0, 1))
+               for name in names}
+    vertices = np.vstack([p["pos"] for p in parts])
+    normals = (None if any(p["nrm"] is None for p in parts)
+               else np.vstack([p["nrm"] for p in parts]))
+    if not np.isfinite(vertices).all():
+        raise InputError("vertex positions must be finite numbers", path=path)
+    scene = GltfScene(
+        vertices=vertices, normals=normals, triangles=np.vstack([p["tri"] for p in parts]),
+        colors=np.vstack([p["col"] for p in parts]), targets=targets,  # type: ignore[arg-type]
+        influence_nodes=np.vstack([p["nodes"] for p in parts]),
+        influence_weights=np.vstack([p["weights"] for p in parts]),
+        node_names=[str(node.name or f"node{i}") for i, node in enumerate(gltf.nodes)],
+        parents=parents, world=world, humanoid=humanoid,
+        extras=gltf.extras if isinstance(gltf.extras, dict) else {})
+    if turned:
+        _turn_half_round(scene)
+    return scene
+
+
+def _turn_half_round(scene: GltfScene) -> None:
+    """Turn a -z facing (VRM 0.x) scene by 180 degrees about y, in place."""
+    flip = np.array([-1.0, 1.0, -1.0])
+    scene.vertices = scene.vertices * flip
+    if scene.normals is not None:
+        scene.normals = scene.normals * flip
+    scene.targets = {k: (dp * flip, dn * flip) for k, (dp, dn) in scene.targets.items()}
+    turn = np.diag([-1.0, 1.0, -1.0, 1.0])
+    scene.world = turn @ scene.world
+
+
+@dataclass
+class MeshOut:
+    """One skinned primitive to write: vertices, normals, triangles, colours (display RGB and
+    specular strength) and morph targets name -> (dpos, dnormal)."""
+
+    vertices: np.ndarray
+    normals: np.ndarray
+    triangles: np.ndarray
+    colors: np.ndarray
+    targets: dict[str, tuple[np.ndarray, np.ndarray]]
+    joints: np.ndarray | None = None  # (n, 4) indices into ``bones``
+    weights: np.ndarray | None = None  # (n, 4)
+
+
+def write_glb(path: str | Path, mesh: MeshOut, *, bones: list[tuple[str, int, np.ndarray]],
+              extras: dict[str, Any]) -> Path:
+    """Write ``mesh`` as a binary glTF: one node with the mesh, skinned to ``bones``
+    (name, parent index or -1, world position), and ``extras`` on the root.
+
+    Colours go to ``COLOR_0`` in linear light (glTF's convention: the display value squared,
+    the renderer's gamma), the specular strength to :data:`SPECULAR_ATTRIBUTE`.
+    """
+    import pygltflib as g
+
+    blob = bytearray()
+    views: list[g.BufferView] = []
+    accessors: list[g.Accessor] = []
+
+    def add(array: np.ndarray, kind: str, component: int, target: int | None = None,
+            bounds: bool = False) -> int:
+        data = np.ascontiguousarray(array, dtype=_COMPONENTS[component])
+        while len(blob) % 4:
+            blob.append(0)
+        views.append(g.BufferView(buffer=0, byteOffset=len(blob), byteLength=data.nbytes,
+                                  target=target))
+        blob.extend(data.tobytes())
+        flat = data.reshape(len(data), -1)
+        accessors.append(g.Accessor(
+            bufferView=len(views) - 1, componentType=component, count=len(data), type=kind,
+            min=flat.min(axis=0).tolist() if bounds else None,
+            max=flat.max(axis=0).tolist() if bounds else None))
+        return len(accessors) - 1
+
+    f32, vertex_buffer = g.FLOAT, g.ARRAY_BUFFER
+    attributes = g.Attributes(
+        POSITION=add(mesh.vertices, "VEC3", f32, vertex_buffer, bounds=True),
+        NORMAL=add(mesh.normals, "VEC3", f32, vertex_buffer),
+        COLOR_0=add(np.clip(mesh.colors[:, :3], 0, 1) ** 2, "VEC3", f32, vertex_buffer))
+    setattr(attributes, SPECULAR_ATTRIBUTE, add(mesh.colors[:, 3], "SCALAR", f32,
+                                                vertex_buffer))
+    if bones and mesh.joints is not None and mesh.weights is not None:
+        attributes.JOINTS_0 = add(mesh.joints, "VEC4", g.UNSIGNED_BYTE, vertex_buffer)
+        attributes.WEIGHTS_0 = add(mesh.weights, "VEC4", f32, vertex_buffer)
+    targets = [{"POSITION": add(dp, "VEC3", f32, vertex_buffer, bounds=True),
+                "NORMAL": add(dn, "VEC3", f32, vertex_buffer)}
+               for dp, dn in mesh.targets.values()]
+    indices = add(mesh.triangles.reshape(-1), "SCALAR", g.UNSIGNED_INT, g.ELEMENT_ARRAY_BUFFER)
+    names = list(mesh.targets)
+    primitive = g.Primitive(attributes=attributes, indices=indices, material=0,
+                            targets=targets)
+    nodes = [g.Node(name="face", mesh=0, skin=0 if bones else None)]
+    first_bone = len(nodes)
+    for k, (name, parent, position) in enumerate(bones):
+        origin = bones[parent][2] if parent >= 0 else np.zeros(3)
+        nodes.append(g.Node(name=name, translation=[float(x) for x in position - origin]))
+        if parent >= 0:
+            nodes[first_bone + parent].children.append(first_bone + k)
+    skins = []
+    if bones:
+        inverse = np.tile(np.eye(4), (len(bones), 1, 1))
+        inverse[:, :3, 3] = -np.array([b[2] for b in bones])
+        skins.append(g.Skin(joints=list(range(first_bone, first_bone + len(bones))),
+                            inverseBindMatrices=add(inverse.transpose(0, 2, 1).reshape(-1, 16),
+                                                    "MAT4", f32)))
+    roots = [0] + [first_bone + k for k, b in enumerate(bones) if b[1] < 0]
+    gltf = g.GLTF2(
+        asset=g.Asset(version="2.0", generator="facepair"),
+        scene=0, scenes=[g.Scene(nodes=roots)], nodes=nodes, skins=skins,
+        meshes=[g.Mesh(name="face", primitives=[primitive], weights=[0.0] * len(names),
+                       extras={"targetNames": names})],
+        materials=[g.Material(name="skin", pbrMetallicRoughness=g.PbrMetallicRoughness(
+            baseColorFactor=[1, 1, 1, 1], metallicFactor=0.0, roughnessFactor=0.6))],
+        accessors=accessors, bufferViews=views, buffers=[g.Buffer(byteLength=len(blob))],
+        extras=extras)
+    gltf.set_binary_blob(bytes(blob))
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    gltf.save_binary(str(out))
+    return out

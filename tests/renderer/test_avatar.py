@@ -1,0 +1,166 @@
+"""glTF avatars: driven by the ARKit table, clear errors for what is missing, mouth found."""
+
+import json
+
+import numpy as np
+import pygltflib
+import pytest
+from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from app.cli import main
+from app.errors import InputError
+from renderer.avatar import AvatarRig, driven, load_avatar, mouth_points
+from renderer.deform import Rig
+from renderer.headmodel import builtin_face
+from renderer.pipeline import render_frames
+
+
+def _edited(exported_head, tmp_path, edit, name="avatar.glb"):
+    gltf = pygltflib.GLTF2().load_binary(str(exported_head))
+    edit(gltf)
+    out = tmp_path / name
+    gltf.save_binary(str(out))
+    return out
+
+
+def _rename_target(old, new):
+    def edit(gltf):
+        names = gltf.meshes[0].extras["targetNames"]
+        names[names.index(old)] = new
+    return edit
+
+
+def _rename_node(old, new):
+    def edit(gltf):
+        next(n for n in gltf.nodes if n.name == old).name = new
+    return edit
+
+
+def test_driven_table_names_shapes_bones_and_their_faps():
+    shapes, bones = driven()
+    assert shapes["JawOpen"] == [3]
+    assert sorted(shapes["BrowDownLeft"]) == [31, 33, 35]
+    assert sorted(bones["head"]) == [48, 49, 50] and sorted(bones["leftEye"]) == [23, 25]
+
+
+def test_missing_blendshape_names_it_and_its_faps(exported_head, tmp_path):
+    path = _edited(exported_head, tmp_path, _rename_target("JawOpen", "mouth_open"))
+    with pytest.raises(InputError) as err:
+        load_avatar(path)
+    message = str(err.value)
+    assert "blendshape JawOpen (FAP 3)" in message and "\n" not in message
+    assert str(path) in message
+    # the sidecar renames it, and the avatar loads
+    path.with_name("avatar.avatar.json").write_text(
+        json.dumps({"blendshapes": {"JawOpen": "mouth_open"}}))
+    assert "JawOpen" in load_avatar(path).targets
+
+
+def test_missing_bone_names_it_and_its_faps(exported_head, tmp_path):
+    path = _edited(exported_head, tmp_path, _rename_node("leftEye", "eyeball"))
+    with pytest.raises(InputError, match=r"bone leftEye \(FAP 23, 25\)"):
+        load_avatar(path)
+    path.with_name("avatar.avatar.json").write_text(
+        json.dumps({"bones": {"leftEye": "eyeball"}}))
+    assert len(load_avatar(path).groups["eyeball_l"]) > 0
+
+
+def test_bone_names_match_common_rig_spellings(exported_head, tmp_path):
+    path = _edited(exported_head, tmp_path, _rename_node("head", "J_Bip_C_Head"))
+    assert load_avatar(path).weights["head"].max() == 1.0
+
+
+def test_cli_reports_a_missing_blendshape_in_one_line(exported_head, tmp_path):
+    path = _edited(exported_head, tmp_path, _rename_target("EyeBlinkLeft", "blink"))
+    track = tmp_path / "t.csv"
+    track.write_text("# fps=30\nframe,fap49\n0,0\n1,100\n")
+    result = CliRunner().invoke(main, ["render", "still", "--track", str(track), "--face",
+                                       str(path), "--size", "64", "--out",
+                                       str(tmp_path / "s.png")])
+    assert result.exit_code == 2, result.output
+    assert "EyeBlinkLeft (FAP 19, 21)" in result.output
+    assert "Traceback" not in result.output and len(result.output.strip().splitlines()) == 1
+
+
+def test_avatar_rig_poses_as_the_builtin_rig(exported_head):
+    """Head, eyes and raised brows: the avatar's vertices where the built-in head's are."""
+    avatar, ref = AvatarRig(load_avatar(exported_head)), Rig(builtin_face())
+    faps = np.zeros(68)
+    faps[[47, 48, 49]] = (-8000.0, 20000.0, 5000.0)  # head pitch, yaw, roll
+    faps[[22, 23, 24, 25]] = (15000.0, 15000.0, -9000.0, -9000.0)  # gaze
+    # brows raised more inside than outside (the ARKit table carries inner and outer values;
+    # the middle one is their mean, and BrowInnerUp is one shape for both sides)
+    faps[30:36] = (60.0, 60.0, 50.0, 50.0, 40.0, 40.0)
+    got = avatar.posed(avatar.deform(faps))[0] / 0.001
+    want = ref.posed(ref.deform(faps))[0]
+    assert np.abs(got - want).max() < 0.05  # millimetres
+    assert np.abs(want - ref.posed(ref.deform(np.zeros(68)))[0]).max() > 5
+
+
+def test_mouth_points_found_from_the_jaw_shape(exported_head):
+    """Without feature points, the mouth comes from JawOpen near where the head has it."""
+    face, ref = load_avatar(exported_head), builtin_face()
+    eyes = [ref.feature_points[k] * 0.001 for k in ("3.5", "3.6")]
+    found = mouth_points(face.vertices, face.targets["JawOpen"][0], *eyes)
+    es = ref.fapu["ES0"]
+    for name, tol in (("2.3", 0.1), ("2.2", 0.1), ("2.4", 0.2), ("2.5", 0.2)):
+        err = np.linalg.norm(face.vertices[found[name]] / 0.001 - ref.feature_points[name])
+        assert err < tol * es, (name, err / es)
+
+
+def test_avatar_without_feature_points_frames_and_mosaics(exported_head, tmp_path):
+    def strip(gltf):
+        gltf.extras = {}
+    path = _edited(exported_head, tmp_path, strip)
+    face = load_avatar(path)
+    assert {"2.2", "2.3", "8.3"} <= set(face.fp_vertices)
+    jaw = np.zeros((2, 68))
+    jaw[1, 2] = 600.0
+    frames = list(render_frames([_track(jaw)], face, size=96, mosaic_block=8))
+    closed, opened = frames[0], frames[1]
+    assert closed.boxes == opened.boxes and closed.boxes[0][2] > closed.boxes[0][0]
+    x0, y0, x1, y1 = closed.boxes[0]
+    assert np.array_equal(closed.image[y0:y1, x0:x1], opened.image[y0:y1, x0:x1])
+
+
+def _track(dense):
+    from app.stimuli.track import MotionTrack
+
+    return MotionTrack.from_channels(30.0, {k + 1: dense[:, k] for k in range(68)
+                                            if dense[:, k].any()} or {49: dense[:, 48]})
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                                                                 HealthCheck.function_scoped_fixture])
+@given(data=st.binary(max_size=400), suffix=st.sampled_from([".glb", ".gltf", ".vrm"]))
+def test_any_bytes_give_an_input_error_or_an_avatar(tmp_path, data, suffix):
+    path = tmp_path / f"a{suffix}"
+    path.write_bytes(data)
+    with pytest.raises(InputError):
+        load_avatar(path)
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                                                                 HealthCheck.function_scoped_fixture])
+@given(doc=st.recursive(st.none() | st.booleans() | st.integers(-3, 3) | st.text(max_size=5),
+                        lambda c: st.lists(c, max_size=3)
+                        | st.dictionaries(st.sampled_from(["nodes", "meshes", "accessors",
+                                                           "asset", "scenes", "buffers",
+                                                           "version", "mesh", "children"]),
+                                          c, max_size=4), max_leaves=12))
+def test_any_json_gives_an_input_error(tmp_path, doc):
+    path = tmp_path / "a.gltf"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(InputError):
+        load_avatar(path)
+
+
+def test_cache_key_follows_the_morph_targets(exported_head):
+    """Clips are cached by the face's content hash: a changed blendshape is another face."""
+    face = load_avatar(exported_head)
+    before = face.content_hash()
+    face.targets["JawOpen"][0][0, 1] += 1e-3
+    assert face.content_hash() != before
+    assert load_avatar(exported_head).content_hash() == before
