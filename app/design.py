@@ -45,7 +45,8 @@ def n_lists(design: str, n_clips: int) -> int:
 
 
 def participation(study: Study):  # type: ignore[no-untyped-def]
-    """The study's participant-side settings (:class:`app.trials.participation.ParticipationSpec`)."""
+    """The study's participant-side settings
+    (:class:`app.trials.participation.ParticipationSpec`)."""
     from app.trials.participation import ParticipationSpec
 
     return ParticipationSpec.from_settings((study.settings or {}).get("participation"))
