@@ -25,8 +25,10 @@ from app.trials.fields import FieldReader
 SCALES: Final = (3, 5)
 """Answer scales: 3 = left / right (/ undecided), 5 = HEMVIP2's clearly / slightly levels."""
 
-PORTRAIT_MODES: Final = ("rotate", "stack")
-"""What a phone held upright shows: a hint to turn it, or the two faces one above the other."""
+PORTRAIT_MODES: Final = ("fit", "rotate")
+"""What a phone held upright shows: the side-by-side clip across the width (both faces in
+view, each half the screen wide), or a hint to turn the phone. The faces are never stacked:
+one side-by-side file is what keeps them frame-synchronous."""
 
 STRENGTHS: Final = {"clearly": 2, "slightly": 1, "undecided": 0}
 """The ``strength`` stored with a 5-level vote; its direction is the vote's ``choice``."""
@@ -46,7 +48,8 @@ class ParticipationSpec:
         the recruiting platform can tell them from those who completed.
     min_face_px : the viewing check: each face must be shown at least this many CSS pixels
         wide before the first trial (0 = no check).
-    portrait : a phone held upright: ``rotate`` asks to turn it, ``stack`` stacks the faces.
+    portrait : a phone held upright: ``fit`` shows the pair across the width, ``rotate`` asks
+        to turn the phone (:data:`PORTRAIT_MODES`).
     mismatched : add appropriateness pairs: per condition and clip, that condition's motion
         for this clip beside its motion for another clip, under this clip's speech.
     """
@@ -56,7 +59,7 @@ class ParticipationSpec:
     max_failed: int = 0
     screened_out_code: str = ""
     min_face_px: int = 0
-    portrait: str = "rotate"
+    portrait: str = "fit"
     mismatched: bool = False
 
     def to_dict(self) -> dict[str, Any]:
@@ -82,7 +85,7 @@ class ParticipationSpec:
             max_failed=int(attention.get("max_failed", 0)),
             screened_out_code=str(attention.get("screened_out_code", "")),
             min_face_px=int(viewing.get("min_face_px", 0)),
-            portrait=str(viewing.get("portrait", "rotate")),
+            portrait=str(viewing.get("portrait", "fit")),
             mismatched=bool(stored.get("mismatched", False)))
 
 
@@ -120,7 +123,7 @@ def read_participation(reader: FieldReader, top: Mapping[str, Any], *,
         raise reader.error("attention.screened_out_code", "at most 80 characters")
     viewing = reader.table(top.get("viewing", {}), "viewing", ("min_face_px", "portrait"))
     min_face = reader.integer(viewing, "min_face_px", "viewing.min_face_px", 0, 0, 4096)
-    portrait = reader.choice(viewing, "portrait", "viewing.portrait", PORTRAIT_MODES, "rotate")
+    portrait = reader.choice(viewing, "portrait", "viewing.portrait", PORTRAIT_MODES, "fit")
     return ParticipationSpec(scale=scale, reasons=tuple(t.strip() for t in tags),
                              max_failed=max_failed, screened_out_code=code,
                              min_face_px=min_face, portrait=portrait, mismatched=mismatched)

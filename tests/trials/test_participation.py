@@ -30,11 +30,11 @@ def test_block_is_read_and_written_back(make_study_data, study_dir) -> None:
     data = make_study_data() | {
         "mismatched": True, "answer": {"scale": 5, "reasons": ["lips", "eyes"]},
         "attention": {"max_failed": 2, "screened_out_code": "RETURN-7"},
-        "viewing": {"min_face_px": 160, "portrait": "stack"}}
+        "viewing": {"min_face_px": 160, "portrait": "rotate"}}
     spec = _parse(data, study_dir)
     assert spec.participation == ParticipationSpec(
         scale=5, reasons=("lips", "eyes"), max_failed=2, screened_out_code="RETURN-7",
-        min_face_px=160, portrait="stack", mismatched=True)
+        min_face_px=160, portrait="rotate", mismatched=True)
     again = loads_study(spec.to_toml(), base_dir=study_dir)
     assert again.participation == spec.participation
     stored = ParticipationSpec.from_settings(spec.participation.to_dict())
@@ -49,7 +49,7 @@ def test_block_is_read_and_written_back(make_study_data, study_dir) -> None:
     ({"answer": {"reasons": [str(i) for i in range(9)]}}, "answer.reasons: at most 8 tags"),
     ({"answer": {"levels": 5}}, "answer.levels: unknown key"),
     ({"attention": {"max_failed": -1}}, "attention.max_failed: must be >= 0"),
-    ({"viewing": {"portrait": "tilt"}}, "viewing.portrait: expected one of rotate, stack"),
+    ({"viewing": {"portrait": "tilt"}}, "viewing.portrait: expected one of fit, rotate"),
     ({"viewing": {"min_face_px": 1.5}}, "viewing.min_face_px: expected an integer"),
     ({"mismatched": "yes"}, "mismatched: expected true or false"),
 ])
