@@ -217,9 +217,11 @@ def test_environment_and_viewing_check(app, client, participant, web):
         "Chrome", "126", 3, True)
 
 
-JSONISH = st.recursive(st.none() | st.booleans() | st.integers() | st.floats()
-                       | st.text(max_size=8), lambda inner: st.lists(inner, max_size=3) | st.dictionaries(
-                           st.text(max_size=8), inner, max_size=3), max_leaves=8)
+JSONISH = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=8),
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=8), inner,
+                                                                max_size=3),
+    max_leaves=8)
 
 
 @settings(max_examples=40, deadline=None,
