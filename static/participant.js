@@ -277,7 +277,7 @@
           if (action === "saved") {
             say("Saved.", "ok");
             // replace: the back button never returns to an answered pair
-            window.location.replace(body.next || d.nextUrl);
+            window.location.replace(d.nextUrl);
           } else if (action === "closed") {
             // Final: the study (or this participant's session) stopped taking answers.
             // Nothing is resent; the server's reason is shown.
@@ -408,7 +408,6 @@
   var startLink = document.getElementById("start");
   if (startLink && startLink.dataset.environmentUrl) {
     startLink.addEventListener("click", function (e) {
-      e.preventDefault();
       var stage = document.querySelector(".stage");
       var width = stage ? stage.clientWidth : document.querySelector("main").clientWidth;
       var facePx = Math.floor(width / 2);
@@ -418,12 +417,16 @@
         viewport_h: window.innerHeight, dpr: window.devicePixelRatio || 1,
         touch: navigator.maxTouchPoints > 0, face_px: facePx
       };
-      function go() { window.location.assign(startLink.href); }
-      fetch(startLink.dataset.environmentUrl, {
-        method: "POST", credentials: "same-origin", cache: "no-store",
+      var sent = fetch(startLink.dataset.environmentUrl, {
+        method: "POST", credentials: "same-origin", cache: "no-store", keepalive: true,
         headers: { "Content-Type": "application/json", Accept: "application/json" },
         body: JSON.stringify(report)
-      }).then(function (r) { return r.json(); }).then(function (body) {
+      });
+      // Without a viewing check the link is followed at once; the report goes out alongside.
+      if (!minFace) return;
+      e.preventDefault();
+      function go() { window.location.assign(startLink.href); }
+      sent.then(function (r) { return r.json(); }).then(function (body) {
         if (body.viewing_ok === false) {
           var message = document.querySelector(".viewing-check");
           message.textContent = "The faces are shown " + facePx + " pixels wide, but this " +
