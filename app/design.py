@@ -44,10 +44,21 @@ def n_lists(design: str, n_clips: int) -> int:
     return n_lists_for(design, n_clips=n_clips)
 
 
-def stimulus_combinations(study: Study) -> list[tuple[str, str, str]]:
-    """Every (clip, left, right) some participant may see, the practice pair included (in
-    the order given; the schedule decides the practice clip, so it is rendered on every clip)."""
+def participation(study: Study):  # type: ignore[no-untyped-def]
+    """The study's participant-side settings
+    (:class:`app.trials.participation.ParticipationSpec`)."""
+    from app.trials.participation import ParticipationSpec
+
+    return ParticipationSpec.from_settings((study.settings or {}).get("participation"))
+
+
+def stimulus_combinations(study: Study) -> list[tuple[str, str, str, str, str]]:
+    """Every (clip, left, right, instruction, foreign side) some participant may see: the
+    practice pair included (the schedule decides the practice clip, so it is rendered on every
+    clip), then the attention-check and appropriateness variants
+    (:func:`app.trials.schedule.variant_stimuli`)."""
     from app.trials.design import Pair, stimulus_pairs
+    from app.trials.schedule import variant_stimuli
 
     shown = list(stimulus_pairs(design_pairs(study), study.design))
     if study.catch_trials and study.catch_kind == "identical":
@@ -56,7 +67,13 @@ def stimulus_combinations(study: Study) -> list[tuple[str, str, str]]:
     if practice:
         shown.append(Pair(practice[0], practice[1]))
     unique = list(dict.fromkeys(shown))
-    return [(clip.name, p.left, p.right) for clip in study.clips for p in unique]
+    plain = [(clip.name, p.left, p.right, "", "") for clip in study.clips for p in unique]
+    clips = [c.name for c in study.clips]
+    variants = variant_stimuli(clips=clips, pairs=design_pairs(study), design=study.design,
+                               catch_trials=study.catch_trials, catch_kind=study.catch_kind,
+                               mismatched=participation(study).mismatched)
+    return plain + [(clip, p.left, p.right, instruction, foreign)
+                    for clip, p, instruction, foreign in variants]
 
 
 def schedule(study: Study, *, seed: int, list_index: int):  # type: ignore[no-untyped-def]
@@ -72,6 +89,7 @@ def schedule(study: Study, *, seed: int, list_index: int):  # type: ignore[no-un
         practice_pair=Pair(practice[0], practice[1]) if practice else None,
         practice_clip=study.settings.get("practice_clip"),
         block_by_clip=study.settings.get("block_by_clip", True),
+        mismatched=participation(study).mismatched,
     )
 
 

@@ -70,8 +70,9 @@ def enrol(study: Study, *, user_agent: str = "", prolific_pid: str | None = None
     db.session.flush()
     clips = {c.name: c.id for c in study.clips}
     conditions = {c.name: c.id for c in study.conditions}
-    stimuli = {(s.clip_id, s.left_id, s.right_id): s.id for s in db.session.scalars(
-        sa.select(Stimulus).where(Stimulus.study_id == study.id))}
+    stimuli = {(s.clip_id, s.left_id, s.right_id, s.instruction, s.foreign_side): s.id
+               for s in db.session.scalars(
+                   sa.select(Stimulus).where(Stimulus.study_id == study.id))}
     pairs: dict[tuple[int, int], int] = {}
     for pair in study.pairs:
         pairs.setdefault((pair.first_id, pair.second_id), pair.id)
@@ -83,7 +84,8 @@ def enrol(study: Study, *, user_agent: str = "", prolific_pid: str | None = None
         rows.append({
             "participant_id": participant.id, "position": item.position, "kind": item.kind,
             "expected": item.expected, "pair_id": pairs.get((left, right)),
-            "stimulus_id": stimuli[(clips[item.clip], left, right)],
+            "stimulus_id": stimuli[(clips[item.clip], left, right, item.instruction,
+                                    item.foreign)],
         })
     db.session.execute(sa.insert(Trial), rows)
     return participant

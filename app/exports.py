@@ -1,8 +1,11 @@
 """Votes in the analysis module's CSV schema, and the analysis report of a study.
 
 The column names come from ``app.analysis.votes.VOTE_COLUMNS`` (one place for the votes
-schema). Practice answers are never stored; catch trials are attention checks and are left
-out of the export and the report (the monitor shows how many were passed).
+schema), with the media log and the answer details of each vote. Practice answers are never
+stored; catch trials are attention checks and are left out of the votes export and the report
+(the participants export counts them, and the side bias on identical pairs); appropriateness
+pairs are exported with their ``mismatched`` side and analysed on their own
+(``app.analysis.appropriateness``).
 """
 
 from __future__ import annotations
@@ -32,23 +35,29 @@ def vote_rows(study: Study) -> list[dict[str, Any]]:
     left = sa.orm.aliased(Condition)
     right = sa.orm.aliased(Condition)
     query = (
-        sa.select(Vote, Trial.position, Participant.number, Clip.name, left.name, right.name)
+        sa.select(Vote, Trial.position, Participant.number, Clip.name, left.name, right.name,
+                  Stimulus.foreign_side)
         .join(Trial, Vote.trial_id == Trial.id)
         .join(Participant, Vote.participant_id == Participant.id)
         .join(Stimulus, Trial.stimulus_id == Stimulus.id)
         .join(Clip, Stimulus.clip_id == Clip.id)
         .join(left, Stimulus.left_id == left.id)
         .join(right, Stimulus.right_id == right.id)
-        .where(Participant.study_id == study.id, Trial.kind == "trial")
+        .where(Participant.study_id == study.id, Trial.kind.in_(("trial", "mismatch")))
         .order_by(Participant.number, Trial.position)
     )
     rows = []
-    for vote, position, number, clip, left_name, right_name in db.session.execute(query):
+    for vote, position, number, clip, left_name, right_name, foreign in db.session.execute(
+            query):
         rows.append({
             "participant": participant_label(number), "clip": clip, "left": left_name,
             "right": right_name, "choice": vote.choice, "study": study.title,
             "trial": position, "response_ms": vote.response_ms, "plays": vote.plays,
             "presented_at": _iso(vote.presented_at), "voted_at": _iso(vote.voted_at),
+            "strength": vote.strength, "reasons": ";".join(vote.reasons or []),
+            "mismatched": foreign, "watched_ms": vote.watched_ms,
+            "played_to_end": vote.played_to_end, "stalls": vote.stalls,
+            "stall_ms": vote.stall_ms, "focus_lost": vote.focus_lost,
         })
     return rows
 

@@ -162,9 +162,16 @@ class Pair(db.Model):
 
 
 class Stimulus(db.Model):
-    """A rendered side-by-side video: one clip, one condition on each side."""
+    """A rendered side-by-side video: one clip, one condition on each side.
 
-    __table_args__ = (sa.UniqueConstraint("clip_id", "left_id", "right_id"),)
+    Two variants share the clip and conditions of an ordinary stimulus: an attention check
+    carries an on-screen ``instruction`` drawn into the clip, and an appropriateness pair shows
+    on its ``foreign_side`` the motion made for another clip (``foreign_clip``) under this
+    clip's speech.
+    """
+
+    __table_args__ = (sa.UniqueConstraint("clip_id", "left_id", "right_id", "instruction",
+                                          "foreign_side"),)
     id: so.Mapped[int] = so.mapped_column(primary_key=True)
     study_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study.id"), index=True)
     clip_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("clip.id"))
@@ -172,8 +179,14 @@ class Stimulus(db.Model):
     right_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("condition.id"))
     #: Relative to the study's media folder; None until rendered.
     video_path: so.Mapped[str | None] = so.mapped_column(sa.String(500))
+    #: The side an attention check tells the participant to press ("left"/"right"), or "".
+    instruction: so.Mapped[str] = so.mapped_column(sa.String(10), default="")
+    #: The side showing another clip's motion in an appropriateness pair, or "".
+    foreign_side: so.Mapped[str] = so.mapped_column(sa.String(10), default="")
+    foreign_clip_id: so.Mapped[int | None] = so.mapped_column(sa.ForeignKey("clip.id"))
 
-    clip: so.Mapped[Clip] = so.relationship()
+    clip: so.Mapped[Clip] = so.relationship(foreign_keys=[clip_id])
+    foreign_clip: so.Mapped[Clip | None] = so.relationship(foreign_keys=[foreign_clip_id])
     left: so.Mapped[Condition] = so.relationship(foreign_keys=[left_id])
     right: so.Mapped[Condition] = so.relationship(foreign_keys=[right_id])
 
@@ -198,7 +211,10 @@ class StudyList(db.Model):
 
 
 class Participant(db.Model):
-    __table_args__ = (sa.UniqueConstraint("study_id", "number"),)
+    #: One Prolific ID enrols once per study: a second arrival resumes the first (NULLs, i.e.
+    #: arrivals without an ID, are distinct in both SQLite and PostgreSQL).
+    __table_args__ = (sa.UniqueConstraint("study_id", "number"),
+                      sa.UniqueConstraint("study_id", "prolific_pid"))
     id: so.Mapped[int] = so.mapped_column(primary_key=True)
     study_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study.id"), index=True)
     #: The participant's only credential: in their URL and a cookie.
@@ -221,6 +237,11 @@ class Participant(db.Model):
     last_seen_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
     #: Set when an unfinished participant timed out and gave their list slot back.
     dropped_at: so.Mapped[dt.datetime | None]
+    #: Set when the attention stop rule (``attention.max_failed``) ended the session.
+    screened_out_at: so.Mapped[dt.datetime | None]
+    #: Screen, viewport, pixel ratio, touch, browser family and version, and the viewing
+    #: check, recorded once before the first trial (``app.environment``).
+    environment: so.Mapped[dict[str, Any] | None] = so.mapped_column(sa.JSON)
 
     study: so.Mapped[Study] = so.relationship()
     study_list: so.Mapped[StudyList] = so.relationship()
@@ -242,6 +263,8 @@ class Trial(db.Model):
     kind: so.Mapped[str] = so.mapped_column(sa.String(10), default="trial")
     #: For a catch trial, the answer an attentive participant gives.
     expected: so.Mapped[str | None] = so.mapped_column(sa.String(10))
+    #: Plays the server granted (one request per play), so a reload gives none back.
+    plays: so.Mapped[int] = so.mapped_column(default=0)
 
     participant: so.Mapped[Participant] = so.relationship(back_populates="trials")
     pair: so.Mapped[Pair | None] = so.relationship()
@@ -266,6 +289,18 @@ class Vote(db.Model):
     #: Browser clock (ISO 8601) when the clip was shown; the server clock when stored.
     presented_at: so.Mapped[dt.datetime | None]
     voted_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
+    #: On the 5-level scale, 2 = clearly, 1 = slightly, 0 = cannot decide; None on 3 levels.
+    strength: so.Mapped[int | None]
+    #: Reason tags ticked after the choice (the study file's ``reasons``).
+    reasons: so.Mapped[list[str] | None] = so.mapped_column(sa.JSON)
+    # The media log's summary (``app.medialog``), exported as columns:
+    watched_ms: so.Mapped[int | None]
+    played_to_end: so.Mapped[bool | None]
+    stalls: so.Mapped[int | None]
+    stall_ms: so.Mapped[int | None]
+    focus_lost: so.Mapped[int | None]
+    #: The rest of the media log: pauses, seeks, displayed video size, stall durations.
+    media: so.Mapped[dict[str, Any] | None] = so.mapped_column(sa.JSON)
 
     trial: so.Mapped[Trial] = so.relationship(back_populates="vote")
     participant: so.Mapped[Participant] = so.relationship()

@@ -25,12 +25,14 @@ import sqlalchemy as sa
 from app.enrolment import move_slot
 from app.exports import participant_label, report_path
 from app.extensions import db
-from app.models import Participant, Study, Trial, Vote
+from app.models import Participant, Stimulus, Study, Trial, Vote
 
 #: Columns of the participants export, in order.
 PARTICIPANT_COLUMNS = ("participant", "prolific_pid", "prolific_study_id", "prolific_session_id",
                        "status", "answered", "catch_passed", "catch_total", "consented_at",
-                       "started_at", "finished_at")
+                       "started_at", "finished_at", "identical_left", "identical_right",
+                       "identical_undecided", "browser", "screen", "viewport", "dpr", "touch",
+                       "face_px")
 #: Columns holding personal identifiers: pseudonymised unless the raw IDs are asked for.
 PERSONAL_COLUMNS = ("prolific_pid", "prolific_session_id")
 
@@ -60,18 +62,28 @@ def participant_rows(study: Study, *, raw_ids: bool = False) -> list[dict[str, A
     catch_total = sa.func.count(sa.case((Trial.kind == "catch", Vote.id)))
     catch_passed = sa.func.count(sa.case(
         (sa.and_(Trial.kind == "catch", Vote.choice == Trial.expected), Vote.id)))
+    same = sa.and_(Stimulus.left_id == Stimulus.right_id, Trial.kind != "mismatch")
+    # Pairs without a difference measure the side bias: an unbiased participant answers
+    # undecided, or left and right about equally often.
+    identical = {choice: sa.func.count(sa.case((sa.and_(same, Vote.choice == choice),
+                                                Vote.id))).label(f"identical_{choice}")
+                 for choice in ("left", "right", "undecided")}
     counts = {row.participant_id: row for row in db.session.execute(
         sa.select(Vote.participant_id, answered.label("answered"),
-                  catch_total.label("catch_total"), catch_passed.label("catch_passed"))
+                  catch_total.label("catch_total"), catch_passed.label("catch_passed"),
+                  *identical.values())
         .join(Trial, Vote.trial_id == Trial.id)
+        .join(Stimulus, Trial.stimulus_id == Stimulus.id)
         .join(Participant, Vote.participant_id == Participant.id)
         .where(Participant.study_id == study.id).group_by(Vote.participant_id))}
     rows = []
     for person in db.session.scalars(sa.select(Participant).where(
             Participant.study_id == study.id).order_by(Participant.number)):
         tally = counts.get(person.id)
-        status = ("finished" if person.finished_at else
+        status = ("screened_out" if person.screened_out_at else
+                  "finished" if person.finished_at else
                   "dropped" if person.dropped_at else "in_progress")
+        env = person.environment or {}
         row = {
             "participant": participant_label(person.number),
             "prolific_pid": person.prolific_pid or "",
@@ -83,12 +95,23 @@ def participant_rows(study: Study, *, raw_ids: bool = False) -> list[dict[str, A
             "catch_total": tally.catch_total if tally else 0,
             "consented_at": _iso(person.consented_at), "started_at": _iso(person.started_at),
             "finished_at": _iso(person.finished_at),
+            **{f"identical_{c}": getattr(tally, f"identical_{c}") if tally else 0
+               for c in ("left", "right", "undecided")},
+            "browser": " ".join(filter(None, (env.get("browser"), env.get("browser_version")))),
+            "screen": _size(env, "screen"), "viewport": _size(env, "viewport"),
+            "dpr": env.get("dpr", ""), "touch": env.get("touch", ""),
+            "face_px": env.get("face_px", ""),
         }
         if not raw_ids:
             for column in PERSONAL_COLUMNS:
                 row[column] = pseudonym(study.pseudonym_key, row[column])
         rows.append(row)
     return rows
+
+
+def _size(environment: dict[str, Any], name: str) -> str:
+    width, height = environment.get(f"{name}_w"), environment.get(f"{name}_h")
+    return f"{width}x{height}" if width and height else ""
 
 
 def participants_csv(study: Study, *, raw_ids: bool = False) -> str:

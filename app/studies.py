@@ -12,6 +12,7 @@ from app.analysis.quality import parse_rules
 from app.extensions import db
 from app.models import Clip, Condition, Pair, Stimulus, Study, StudyList, User
 from app.storage import media_dir
+from app.trials.schedule import foreign_clip
 
 if TYPE_CHECKING:
     from app.trials.studyfile import StudySpec
@@ -56,6 +57,7 @@ def create_study(owner: User, spec: StudySpec, *, source_toml: str = "",
             "rejoin": spec.rejoin,
             "render": {**spec.render, **(render or {})},
             "exclude": spec.exclude or None,
+            "participation": spec.participation.to_dict(),
         },
     )
     db.session.add(study)
@@ -101,9 +103,13 @@ def _design_rows(study: Study, spec: StudySpec) -> None:
         study.lists.append(StudyList(index=index))
     db.session.flush()
     clips = {c.name: c for c in study.clips}
-    for clip, left, right in design.stimulus_combinations(study):
+    names = list(clips)
+    for clip, left, right, instruction, foreign in design.stimulus_combinations(study):
+        lender = clips[foreign_clip(names, clip)].id if foreign else None
         db.session.add(Stimulus(study_id=study.id, clip_id=clips[clip].id,
-                                left_id=by_name[left].id, right_id=by_name[right].id))
+                                left_id=by_name[left].id, right_id=by_name[right].id,
+                                instruction=instruction, foreign_side=foreign,
+                                foreign_clip_id=lender))
     db.session.flush()
 
 

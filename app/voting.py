@@ -19,7 +19,12 @@ from app import limits
 from app.analysis.votes import CHOICES
 from app.enrolment import SESSION_ENDED, progress, touch
 from app.extensions import db
+from app.medialog import MediaLogError, media_fields
 from app.models import Participant, Trial, Vote, utcnow
+
+#: What a participant reads when the attention stop rule has ended their session.
+SCREENED_OUT = ("your session has ended because several attention checks were missed; "
+                "thank you for your time")
 
 
 class VoteRejected(Exception):
@@ -95,21 +100,59 @@ def validate(participant: Participant, payload: dict[str, Any]) -> tuple[Trial, 
     if (not isinstance(key, str) or not 8 <= len(key) <= longest
             or not limits.fits(Vote.idempotency_key, key)):
         raise VoteRejected(f"idempotency_key: expected text of 8 to {longest} characters")
-    plays = _int_field(payload, "plays", Vote.plays, required=True) or 0
+    claimed = _int_field(payload, "plays", Vote.plays, required=True) or 0
+    # The server's count wins: a reload cannot give plays back. The page's own count is the
+    # fallback only when no play request reached the server (played from its cache offline).
+    plays = trial.plays or claimed
     watched = bool(payload.get("watched_to_end", False))
-    from app.design import may_vote
+    from app.design import may_vote, participation
 
     reason = may_vote(study, plays=plays, watched_to_end=watched)
     if reason:
         raise VoteRejected(reason, 422)
+    spec = participation(study)
+    try:
+        columns, log = media_fields(payload.get("media"))
+    except MediaLogError as exc:
+        raise VoteRejected(str(exc)) from None
     fields = {
         "choice": choice,
         "idempotency_key": key,
         "plays": plays,
         "response_ms": _int_field(payload, "response_ms", Vote.response_ms),
         "presented_at": _parse_time(payload.get("presented_at")),
+        "strength": _strength(payload.get("strength"), choice, spec.scale),
+        "reasons": _reasons(payload.get("reasons"), spec.reasons),
+        "media": log or None,
+        **columns,
     }
     return trial, fields
+
+
+def _strength(value: Any, choice: str, scale: int) -> int | None:
+    """The 5-level answer's strength: 2 clearly, 1 slightly, 0 for "cannot decide"."""
+    if scale == 3:
+        if value is not None:
+            raise VoteRejected("strength: this study has a 3-level scale")
+        return None
+    if choice == "undecided":
+        if value not in (None, 0):
+            raise VoteRejected("strength: expected 0 with undecided")
+        return 0
+    if isinstance(value, bool) or value not in (1, 2):
+        raise VoteRejected("strength: expected 1 (slightly) or 2 (clearly)")
+    return int(value)
+
+
+def _reasons(value: Any, offered: tuple[str, ...]) -> list[str] | None:
+    """The ticked reason tags: distinct, each one of the study's ``reasons``."""
+    if value is None or value == []:
+        return [] if offered else None
+    if (not offered or not isinstance(value, list) or len(value) > len(offered)
+            or len(set(map(repr, value))) != len(value) or any(v not in offered for v in value)):
+        allowed = ", ".join(offered) if offered else "none in this study"
+        raise VoteRejected(f"reasons: expected distinct tags from: {allowed}")
+    return [str(v) for v in value]
 
 
 def _existing(participant: Participant, trial: Trial, key: str) -> Vote | None:
@@ -127,6 +170,8 @@ def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcom
     Raises :class:`VoteRejected` for a request that is not a valid vote of this participant
     (another participant's trial, a bad choice, a key reused on another trial).
     """
+    if participant.screened_out_at is not None:
+        raise VoteRejected(SCREENED_OUT, 409, closed=True)
     trial, fields = validate(participant, payload)
     if not touch(participant):
         raise VoteRejected(SESSION_ENDED, 409, closed=True)
@@ -149,7 +194,29 @@ def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcom
                 raise
     if vote.trial_id != trial_id or vote.participant_id != participant_id:
         raise VoteRejected("idempotency_key: already used for another trial", 409)
+    if created and trial.kind == "catch" and vote.choice != trial.expected:
+        screen_out(participant)
     answered, total = progress(participant)
-    if answered >= total and participant.finished_at is None:
+    if (answered >= total and participant.finished_at is None
+            and participant.screened_out_at is None):
         participant.finished_at = utcnow()
     return VoteOutcome(vote=vote, created=created, answered=answered, total=total)
+
+
+def failed_checks(participant: Participant) -> int:
+    """Attention checks (catch trials) ``participant`` answered otherwise than expected."""
+    return int(db.session.scalar(
+        sa.select(sa.func.count(Vote.id)).join(Trial, Vote.trial_id == Trial.id)
+        .where(Vote.participant_id == participant.id, Trial.kind == "catch",
+               Vote.choice != Trial.expected)) or 0)
+
+
+def screen_out(participant: Participant) -> bool:
+    """Apply the stop rule (``attention.max_failed``): end the session once that many checks
+    failed. Returns whether the session is now ended; not committed."""
+    from app.design import participation
+
+    limit = participation(participant.study).max_failed
+    if limit and participant.screened_out_at is None and failed_checks(participant) >= limit:
+        participant.screened_out_at = utcnow()
+    return participant.screened_out_at is not None

@@ -135,8 +135,15 @@ def load_face(settings: RenderSettings) -> Face:
 
 def _render_clip(kind: str, tracks: list[MotionTrack], audio_path: str | Path | None,
                  out_path: str | Path, settings: RenderSettings | None,
-                 cache_dir: str | Path | None, progress: Progress | None) -> Path:
+                 cache_dir: str | Path | None, progress: Progress | None,
+                 caption: str | None = None) -> Path:
     settings = settings or RenderSettings()
+    stamp = None
+    if caption:
+        from renderer.caption import CaptionStamp
+
+        stamp = CaptionStamp(caption, width=settings.size * len(tracks), height=settings.size)
+        kind = f"{kind}+caption:{caption}"
     audio = check_audio(audio_path)
     tracks = align_tracks(tracks, settings.fps)
     face = load_face(settings)
@@ -160,7 +167,7 @@ def _render_clip(kind: str, tracks: list[MotionTrack], audio_path: str | Path | 
                     audio_bitrate=settings.audio_bitrate,
                     threads=settings.encode_threads) as writer:
         for frame in frames:
-            writer.write(frame.image)
+            writer.write(frame.image if stamp is None else stamp(frame.image))
             if progress:
                 progress(frame.index + 1, n)
     partial.replace(target)
@@ -169,17 +176,20 @@ def _render_clip(kind: str, tracks: list[MotionTrack], audio_path: str | Path | 
 
 def render_pair(left: MotionTrack, right: MotionTrack, audio_path: str | Path | None,
                 out_path: str | Path, *, settings: RenderSettings | None = None,
-                cache_dir: str | Path | None = None, progress: Progress | None = None) -> Path:
+                cache_dir: str | Path | None = None, progress: Progress | None = None,
+                caption: str | None = None) -> Path:
     """Render ``left`` | ``right`` side by side over ``audio_path`` into an MP4.
 
     Both faces come from the same timeline, frame for frame; swap the arguments for B|A.
     The clip has the first track's length and frame rate (``settings.fps`` overrides; the
     other track is resampled and padded or trimmed to it); the audio is padded or trimmed to
     the clip. With ``cache_dir`` the clip is looked up by content hash and rendered only once.
-    ``progress(done, total)`` is called after each frame. Returns ``out_path``.
+    ``progress(done, total)`` is called after each frame. ``caption`` is drawn across the top
+    of every frame (:mod:`renderer.caption`: an attention check's "PRESS LEFT"). Returns
+    ``out_path``.
     """
     return _render_clip("pair", [left, right], audio_path, out_path, settings, cache_dir,
-                        progress)
+                        progress, caption)
 
 
 def render_single(track: MotionTrack, audio_path: str | Path | None, out_path: str | Path, *,

@@ -28,7 +28,7 @@
     } catch (e) { /* private mode: the page still holds the vote in memory */ }
   }
 
-  function load(name) {
+  function load_(name) {
     try { return JSON.parse(window.localStorage.getItem(name) || "null"); } catch (e) { return null; }
   }
 
@@ -52,6 +52,46 @@
 
   window.facepairVotes = { action: voteAction, wait: retryWait };
 
+  // The media log of one trial: what was seen, not only what was answered.
+  function MediaLog(video) {
+    var log = { watched_ms: 0, played_to_end: false, stalls: 0, stall_ms: 0, focus_lost: 0,
+                pauses: 0, seeks: 0, stall_durations: [] };
+    var lastTime = null, stallStart = null;
+    function endStall() {
+      if (stallStart === null) return;
+      var ms = Math.round(performance.now() - stallStart);
+      stallStart = null;
+      log.stall_ms += ms;
+      if (log.stall_durations.length < 50) log.stall_durations.push(ms);
+    }
+    video.addEventListener("timeupdate", function () {
+      var now = video.currentTime;
+      // Only forward steps of ordinary playback count as watched (not seeks or restarts).
+      if (lastTime !== null && !video.paused && now > lastTime && now - lastTime < 1.5) {
+        log.watched_ms += Math.round(1000 * (now - lastTime));
+      }
+      lastTime = now;
+    });
+    video.addEventListener("seeking", function () { lastTime = null; });
+    video.addEventListener("waiting", function () {
+      if (stallStart === null && !video.ended) { log.stalls += 1; stallStart = performance.now(); }
+    });
+    video.addEventListener("playing", endStall);
+    video.addEventListener("pause", function () { endStall(); if (!video.ended) log.pauses += 1; });
+    video.addEventListener("ended", function () { endStall(); log.played_to_end = true; });
+    this.seeked = function () { log.seeks += 1; };
+    this.restarted = function () { lastTime = null; };
+    this.focusLost = function () { log.focus_lost += 1; };
+    this.report = function () {
+      endStall();
+      log.width = Math.round(video.clientWidth);
+      log.height = Math.round(video.clientHeight);
+      return log;
+    };
+  }
+
+  var coarse = window.matchMedia && window.matchMedia("(pointer: coarse)").matches;
+
   function Player(root) {
     var d = root.dataset;
     var self = this;
@@ -60,25 +100,32 @@
     var voteButtons = root.querySelectorAll(".vote");
     var overlay = root.querySelector(".overlay");
     var overlayText = root.querySelector(".overlay-text");
+    var loading = root.querySelector(".loading");
     var hint = root.querySelector(".hint");
     var status = root.querySelector(".status");
     var playsLeft = root.querySelector(".plays-left");
+    var reasons = root.querySelector(".reasons");
     var practice = d.practice === "yes";
     var maxPlays = d.maxPlays ? parseInt(d.maxPlays, 10) : null;
     var pendingName = d.token ? "fp-pending-" + d.token : null;
-    var state = { loaded: false, playing: false, plays: 0, watched: false, firstPlay: null,
-                  presentedAt: null, voted: false, attempt: 0 };
+    // Plays the server already granted: a reload gives none back.
+    var state = { loaded: false, playing: false, plays: parseInt(d.plays || "0", 10),
+                  watched: false, firstPlay: null, presentedAt: null, voted: false,
+                  attempt: 0, choice: null, strength: null, requesting: false };
+    var media = new MediaLog(video);
 
     self.root = root;
     self.active = function () { return !state.voted; };
+    self.media = media;
 
     function mayPlay() {
-      if (!state.loaded || state.playing || state.voted) return false;
+      if (!state.loaded || state.playing || state.voted || state.requesting) return false;
       return !(d.replay === "max_plays" && state.plays >= maxPlays);
     }
 
     function mayVote() {
-      if (state.voted || state.plays === 0) return false;
+      if (state.voted || (state.plays === 0 && state.firstPlay === null)) return false;
+      if (state.firstPlay === null) return false;
       if (d.replay === "play_to_end") return state.watched;
       return true;
     }
@@ -91,58 +138,95 @@
         var left = Math.max(0, maxPlays - state.plays);
         playsLeft.textContent = left + (left === 1 ? " play left" : " plays left");
       }
-      if (state.voted) return;
-      if (!state.loaded) return;
-      if (state.plays === 0) hint.textContent = "Press Play (or Space) to watch both faces.";
-      else if (!mayVote()) hint.textContent = "Watch the video to the end, then answer.";
+      if (state.voted || !state.loaded) return;
+      if (state.firstPlay === null) {
+        hint.textContent = coarse ? "Tap Play to watch both faces." :
+          "Press Play (or Space) to watch both faces.";
+      } else if (!mayVote()) hint.textContent = "Watch the video to the end, then answer.";
       else hint.textContent = "Choose the left or the right face" +
         (d.undecided === "yes" ? ", or that you cannot decide" : "") + ".";
     }
 
-    function preload(attempt) {
-      var xhr = new XMLHttpRequest();
-      xhr.open("GET", d.videoUrl);
-      xhr.responseType = "blob";
-      xhr.onprogress = function (e) {
-        if (e.lengthComputable) overlayText.textContent =
-          "Loading… " + Math.round(100 * e.loaded / e.total) + "%";
-      };
-      xhr.onload = function () {
-        if (xhr.status !== 200) return retryLoad(attempt);
-        video.src = URL.createObjectURL(xhr.response);
-        video.addEventListener("loadeddata", function () {
-          state.loaded = true;
-          state.presentedAt = new Date().toISOString();
-          overlayText.textContent = "Ready: press Play";
-          update();
-          if (!practice) playButton.focus();
-        }, { once: true });
-        video.load();
-      };
-      xhr.onerror = function () { retryLoad(attempt); };
-      xhr.send();
+    function ready() {
+      if (state.loaded) return;
+      state.loaded = true;
+      state.presentedAt = new Date().toISOString();
+      overlayText.textContent = "Ready: press Play";
+      loading.hidden = true;
+      update();
+      if (!practice) playButton.focus();
+      // While this pair is judged, the next clip comes into the browser's cache.
+      if (d.preloadUrl && window.fetch) {
+        fetch(d.preloadUrl, { credentials: "same-origin" }).then(function (r) {
+          return r.blob();
+        }).catch(function () { /* fetched again when its page opens */ });
+      }
     }
 
-    function retryLoad(attempt) {
+    // The clip streams (HTTP ranges): play may start before it is all here, and a slow
+    // connection shows how much has arrived rather than a black box.
+    function showProgress() {
+      if (state.loaded || !video.duration || !video.buffered.length) return;
+      var part = video.buffered.end(video.buffered.length - 1) / video.duration;
+      loading.value = Math.round(100 * part);
+      overlayText.textContent = "Loading… " + Math.round(100 * part) + "%";
+    }
+
+    var loadAttempts = 0;
+    function load() {
+      video.preload = "auto";
+      video.src = d.videoUrl;
+      video.load();
+    }
+    video.addEventListener("progress", showProgress);
+    video.addEventListener("loadeddata", ready);
+    video.addEventListener("error", function () {
+      if (state.loaded) return;
+      loadAttempts += 1;
       overlayText.textContent = "Could not load the video, retrying…";
-      window.setTimeout(function () { preload(attempt + 1); }, Math.min(15000, 1000 * Math.pow(2, attempt)));
-    }
+      window.setTimeout(load, Math.min(15000, 1000 * Math.pow(2, loadAttempts)));
+    });
 
-    self.play = function () {
-      if (!mayPlay()) return;
+    function start() {
       state.playing = true;
-      state.plays += 1;
       if (state.firstPlay === null) state.firstPlay = performance.now();
+      if (video.currentTime > 0) media.seeked();
+      media.restarted();
       video.currentTime = 0;
       overlay.hidden = true;
       update();
       var started = video.play();
       if (started && started.catch) started.catch(function () {
         state.playing = false;
-        state.plays -= 1;
         overlay.hidden = false;
         overlayText.textContent = "Press Play to start";
         update();
+      });
+    }
+
+    self.play = function () {
+      if (!mayPlay()) return;
+      if (practice || !d.playUrl) { state.plays += 1; start(); return; }
+      // Each play is asked of the server first, so the count survives a reload.
+      state.requesting = true;
+      update();
+      fetch(d.playUrl, {
+        method: "POST", credentials: "same-origin", cache: "no-store",
+        headers: { "Content-Type": "application/json", Accept: "application/json" },
+        body: JSON.stringify({ token: d.token, trial_id: parseInt(d.trialId, 10) })
+      }).then(function (response) {
+        return response.json().catch(function () { return {}; }).then(function (body) {
+          state.requesting = false;
+          if (typeof body.plays === "number") state.plays = body.plays;
+          if (response.status === 200) start();
+          else if (response.status >= 500) { state.plays += 1; start(); }
+          else { say(body.error || "No more plays of this pair.", "error"); update(); }
+        });
+      }, function () {
+        // Offline: the clip is here, so it plays; the vote carries the page's count.
+        state.requesting = false;
+        state.plays += 1;
+        start();
       });
     };
 
@@ -192,7 +276,8 @@
           store(pendingName, null);
           if (action === "saved") {
             say("Saved.", "ok");
-            window.location.assign(d.nextUrl);
+            // replace: the back button never returns to an answered pair
+            window.location.replace(d.nextUrl);
           } else if (action === "closed") {
             // Final: the study (or this participant's session) stopped taking answers.
             // Nothing is resent; the server's reason is shown.
@@ -208,44 +293,74 @@
       }, function () { retryLater(payload, null); });
     }
 
-    self.vote = function (choice) {
-      if (!mayVote()) return;
-      var button = root.querySelector('.vote[data-choice="' + choice + '"]');
-      if (!button) return;
+    function mark(button) {
+      for (var i = 0; i < voteButtons.length; i++) {
+        voteButtons[i].classList.toggle("chosen", voteButtons[i] === button);
+        voteButtons[i].setAttribute("aria-pressed", voteButtons[i] === button ? "true" : "false");
+      }
+    }
+
+    function submit() {
       state.voted = true;
       video.pause();
-      for (var i = 0; i < voteButtons.length; i++) {
-        voteButtons[i].disabled = true;
-        voteButtons[i].classList.toggle("chosen", voteButtons[i] === button);
-      }
+      for (var i = 0; i < voteButtons.length; i++) voteButtons[i].disabled = true;
       playButton.disabled = true;
+      if (reasons) reasons.hidden = true;
       if (practice) {
-        say("Practice answer: " + choice + ". That is all there is to it; start when ready.", "ok");
-        var start = document.getElementById("start");
-        if (start) start.focus();
+        say("Practice answer: " + state.choice + ". That is all there is to it; start when ready.", "ok");
+        var startLink = document.getElementById("start");
+        if (startLink) startLink.focus();
         return;
       }
       hint.textContent = "";
       say("Saving your answer…");
       var payload = {
-        token: d.token, trial_id: parseInt(d.trialId, 10), choice: choice, plays: state.plays,
-        watched_to_end: state.watched,
+        token: d.token, trial_id: parseInt(d.trialId, 10), choice: state.choice,
+        plays: state.plays, watched_to_end: state.watched,
         response_ms: Math.round(performance.now() - state.firstPlay),
-        presented_at: state.presentedAt, idempotency_key: newKey()
+        presented_at: state.presentedAt, idempotency_key: newKey(), media: media.report()
       };
+      if (d.scale === "5") payload.strength = state.strength;
+      if (reasons) {
+        payload.reasons = Array.prototype.filter.call(
+          reasons.querySelectorAll("input"), function (box) { return box.checked; }
+        ).map(function (box) { return box.value; });
+      }
       store(pendingName, payload);
       send(payload);
+    }
+
+    self.vote = function (button) {
+      if (!button || !mayVote()) return;
+      state.choice = button.dataset.choice;
+      state.strength = button.dataset.strength ? parseInt(button.dataset.strength, 10) : null;
+      mark(button);
+      if (!reasons) return submit();
+      // Reason tags first; the choice can still change until Next.
+      reasons.hidden = false;
+      hint.textContent = "Tick what made the difference (optional), then press Next.";
+    };
+    self.key = function (key) {
+      var button = root.querySelector('.vote[data-key="' + key + '"]');
+      if (!button && d.scale !== "5" && KEYS[key]) {
+        button = root.querySelector('.vote[data-choice="' + KEYS[key] + '"]');
+      }
+      if (button) self.vote(button);
+      return Boolean(button);
     };
 
     playButton.addEventListener("click", self.play);
     for (var i = 0; i < voteButtons.length; i++) {
-      voteButtons[i].addEventListener("click", function (e) {
-        self.vote(e.currentTarget.dataset.choice);
+      voteButtons[i].addEventListener("click", function (e) { self.vote(e.currentTarget); });
+    }
+    if (reasons) {
+      reasons.querySelector(".confirm").addEventListener("click", function () {
+        if (!state.voted && state.choice) submit();
       });
     }
 
     // A vote kept from before a reload (e.g. sent while offline) goes out first, unchanged.
-    var kept = pendingName ? load(pendingName) : null;
+    var kept = pendingName ? load_(pendingName) : null;
     if (kept && String(kept.trial_id) === d.trialId) {
       state.voted = true;
       update();
@@ -255,27 +370,87 @@
     }
     if (kept) store(pendingName, null);
     update();
-    preload(0);
+    load();
   }
 
   var players = Array.prototype.map.call(document.querySelectorAll(".player"), function (root) {
     return new Player(root);
   });
 
+  function current() { return players.filter(function (p) { return p.active(); })[0]; }
+
+  // Leaving the window while a pair is on screen is part of its media log.
+  function lostFocus() { var player = current(); if (player) player.media.focusLost(); }
+  window.addEventListener("blur", lostFocus);
+  document.addEventListener("visibilitychange", function () {
+    if (document.visibilityState === "hidden") lostFocus();
+  });
+  // A page restored from the back-forward cache would show an answered pair: fetch it anew.
+  window.addEventListener("pageshow", function (e) { if (e.persisted) window.location.reload(); });
+
   document.addEventListener("keydown", function (e) {
     if (e.altKey || e.ctrlKey || e.metaKey) return;
     var tag = (e.target && e.target.tagName) || "";
     if (tag === "INPUT" || tag === "TEXTAREA" || tag === "SELECT") return;
-    var player = players.filter(function (p) { return p.active(); })[0];
+    var player = current();
     if (!player) return;
     if (e.key === " " || e.key === "p" || e.key === "P") {
       // Space on a focused button activates that button itself.
       if (e.key === " " && tag === "BUTTON") return;
       e.preventDefault();
       player.play();
-    } else if (KEYS[e.key]) {
+    } else if (player.key(e.key)) {
       e.preventDefault();
-      player.vote(KEYS[e.key]);
     }
   });
+
+  // The viewing check before the first trial: each face must be shown large enough.
+  var startLink = document.getElementById("start");
+  if (startLink && startLink.dataset.environmentUrl) {
+    startLink.addEventListener("click", function (e) {
+      var stage = document.querySelector(".stage");
+      var width = stage ? stage.clientWidth : document.querySelector("main").clientWidth;
+      var facePx = Math.floor(width / 2);
+      var minFace = parseInt(startLink.dataset.minFace || "0", 10);
+      var report = {
+        screen_w: screen.width, screen_h: screen.height, viewport_w: window.innerWidth,
+        viewport_h: window.innerHeight, dpr: window.devicePixelRatio || 1,
+        touch: navigator.maxTouchPoints > 0, face_px: facePx
+      };
+      var sent = fetch(startLink.dataset.environmentUrl, {
+        method: "POST", credentials: "same-origin", cache: "no-store", keepalive: true,
+        headers: { "Content-Type": "application/json", Accept: "application/json" },
+        body: JSON.stringify(report)
+      });
+      // Without a viewing check the link is followed at once; the report goes out alongside.
+      if (!minFace) return;
+      e.preventDefault();
+      function go() { window.location.assign(startLink.href); }
+      sent.then(function (r) { return r.json(); }).then(function (body) {
+        if (body.viewing_ok === false) {
+          var message = document.querySelector(".viewing-check");
+          message.textContent = "The faces are shown " + facePx + " pixels wide, but this " +
+            "study needs at least " + minFace + ". Please use a larger window or screen (or " +
+            "turn your phone sideways), then press Start again.";
+          message.hidden = false;
+          message.scrollIntoView();
+        } else go();
+      }, go);
+    });
+  }
+
+  // The completion code waits for every answer: one kept from a lost connection goes first.
+  var done = document.querySelector(".done[data-token]");
+  var code = document.getElementById("completion-code");
+  var pending = done ? load_("fp-pending-" + done.dataset.token) : null;
+  if (pending && code) {
+    code.hidden = true;
+    fetch("/api/v1/votes", {
+      method: "POST", credentials: "same-origin", cache: "no-store",
+      headers: { "Content-Type": "application/json", Accept: "application/json" },
+      body: JSON.stringify(pending)
+    }).then(function (r) {
+      if (r.status < 500) { store("fp-pending-" + done.dataset.token, null); code.hidden = false; }
+    });
+  }
 })();

@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from app.analysis.agreement import coefficient_of_agreement
+from app.analysis.appropriateness import appropriateness, without_appropriateness
 from app.analysis.btd import btd_summary
 from app.analysis.consistence import consistence_p, consistence_row, consistence_table
 from app.analysis.counts import UNDECIDED_TREATMENTS, VoteCounts, ballots, count_votes
@@ -190,6 +191,12 @@ def analyze(votes: VotesTable | pd.DataFrame | str | Path, *,
     if len(table) == 0:
         raise InputError("no valid votes to analyse", path=table.source)
     rules = parse_rules(exclude)
+    # Appropriateness pairs (the same condition with its own and another clip's motion)
+    # have their own test; the pair statistics see the comparisons of conditions only.
+    appropriate = appropriateness(table.frame)
+    table = without_appropriateness(table)
+    if len(table) == 0:
+        raise InputError("no valid votes to analyse", path=table.source)
     counts = count_votes(table, conditions)
     names = counts.conditions
     quality = participant_quality(counts, table.frame)
@@ -228,4 +235,5 @@ def analyze(votes: VotesTable | pd.DataFrame | str | Path, *,
         "participants": participants,
         "quality": {"rules": [str(r) for r in rules], "excluded": excluded,
                     "fields": dict(QUALITY_FIELDS), "participants": quality},
+        "appropriateness": appropriate,
     }

@@ -46,6 +46,11 @@ QUALITY_FIELDS: dict[str, str] = {
     "tau": "Kendall tau-b with the consensus ranking",
     "catch": "share of identical pairs answered undecided",
     "median_ms": "median response time (ms)",
+    "same_left": "share of left among decided identical-pair votes (side bias on pairs "
+                 "without a difference)",
+    "unfinished": "share of votes whose clip did not play to its end (media log)",
+    "stall_ms": "total milliseconds the clips stalled (media log)",
+    "focus_lost": "times the window lost focus during trials (media log)",
     "outlier": "pwcmp outlier distance (IQRs below the first quartile of log-likelihood)",
 }
 _OPS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
@@ -133,6 +138,7 @@ def participant_quality(counts: VoteCounts, frame: pd.DataFrame) -> dict[str, di
     times = pd.to_numeric(frame["response_ms"], errors="coerce").astype(float)
     median_ms = times.groupby(frame["participant"]).median()
     side_p = sign_test_p(left, right)
+    media = _media_measures(frame)
     out = {}
     for q, pid in enumerate(counts.participants):
         out[pid] = {
@@ -145,8 +151,23 @@ def participant_quality(counts: VoteCounts, frame: pd.DataFrame) -> dict[str, di
             "catch_trials": int(same_votes[q]),
             "median_ms": json_number(median_ms.get(pid, np.nan)),
             "outlier": json_number(outlier[q]),
+            "same_left": json_number(same[q, :, 0].sum() / same[q, :, :2].sum())
+            if same[q, :, :2].sum() else None,
+            **{name: json_number(media[name].get(pid, np.nan)) for name in media},
         }
     return out
+
+
+def _media_measures(frame: pd.DataFrame) -> dict[str, pd.Series]:
+    """Per participant, from the media log columns (NaN where a file has none)."""
+    by = frame["participant"]
+    ended = frame["played_to_end"].astype("Float64") if "played_to_end" in frame else None
+    out = {"unfinished": (1 - ended).groupby(by).mean() if ended is not None else pd.Series()}
+    for name in ("stall_ms", "focus_lost"):
+        values = pd.to_numeric(frame[name], errors="coerce").astype(float) \
+            if name in frame else pd.Series(np.nan, index=frame.index)
+        out[name] = values.groupby(by).sum(min_count=1)
+    return {k: v.astype(float) for k, v in out.items()}
 
 
 def excluded_participants(quality: dict[str, dict[str, Any]], rules: Sequence[ExclusionRule]

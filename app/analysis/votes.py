@@ -29,6 +29,9 @@ import pandas as pd
 from app.errors import InputError
 
 CHOICES: tuple[str, ...] = ("left", "right", "undecided")
+#: How a true/false column may be spelt (case-insensitive); written as true/false.
+FLAGS: dict[str, bool] = {"true": True, "1": True, "yes": True,
+                          "false": False, "0": False, "no": False}
 
 
 @dataclass(frozen=True)
@@ -36,7 +39,7 @@ class VoteColumn:
     """One column of the votes table: its name, kind, whether required, and its meaning."""
 
     name: str
-    kind: str  # "text", "choice", "count", "number" or "time"
+    kind: str  # "text", "choice", "count", "number", "flag" (true/false) or "time"
     required: bool
     description: str
 
@@ -53,6 +56,17 @@ COLUMN_SPECS: tuple[VoteColumn, ...] = (
     VoteColumn("plays", "count", False, "how many times the pair was played"),
     VoteColumn("presented_at", "time", False, "ISO 8601 time the pair was shown"),
     VoteColumn("voted_at", "time", False, "ISO 8601 time of the vote"),
+    # The participant's side (HEMVIP2's 5-level scale, reason tags, the media log):
+    VoteColumn("strength", "count", False,
+               "on a 5-level scale: 2 clearly, 1 slightly, 0 cannot decide (empty: 3 levels)"),
+    VoteColumn("reasons", "text", False, "reason tags ticked after the choice, ';'-separated"),
+    VoteColumn("mismatched", "text", False,
+               "appropriateness pair: the side showing another clip's motion (else empty)"),
+    VoteColumn("watched_ms", "number", False, "milliseconds of the clip actually played"),
+    VoteColumn("played_to_end", "flag", False, "whether the clip played to its end"),
+    VoteColumn("stalls", "count", False, "times playback waited for data"),
+    VoteColumn("stall_ms", "number", False, "milliseconds playback waited for data"),
+    VoteColumn("focus_lost", "count", False, "times the window lost focus during the trial"),
 )
 VOTE_COLUMNS: tuple[str, ...] = tuple(c.name for c in COLUMN_SPECS)
 REQUIRED_COLUMNS: tuple[str, ...] = tuple(c.name for c in COLUMN_SPECS if c.required)
@@ -183,6 +197,13 @@ def _validate(raw: pd.DataFrame) -> tuple[pd.DataFrame, list[tuple[int, str, str
             out[spec.name] = low.to_numpy(dtype=object)
         elif spec.kind == "text":
             out[spec.name] = col.to_numpy(dtype=object)
+        elif spec.kind == "flag":
+            low = col.str.lower()
+            truth = low.map(FLAGS)
+            wrong = (truth.isna().to_numpy()) & ~empty
+            flag(wrong, spec.name,
+                 lambda p, c=col: f"expected true or false, got {c.iloc[p]!r}")
+            out[spec.name] = truth.astype("boolean")
         elif spec.kind in ("count", "number"):
             num = pd.to_numeric(col.where(~empty), errors="coerce")
             fraction = (num != np.floor(num)).fillna(False) if spec.kind == "count" else False
@@ -277,6 +298,8 @@ def _column_text(values: pd.Series, kind: str) -> list[str]:
         text = micro.str.replace(r"\.?0+$", "", regex=True) + "Z"
     elif kind == "count":
         text = values.astype("string").fillna("")
+    elif kind == "flag":
+        text = values.map({True: "true", False: "false"}).astype(object)
     elif kind == "number":
         num = values.astype(float).to_numpy()
         whole = np.isfinite(num) & (num == np.round(num)) & (np.abs(num) < 2**53)

@@ -13,11 +13,12 @@ from typing import Any
 import sqlalchemy as sa
 from flask import Blueprint, abort, jsonify, request, url_for
 
+from app import limits
 from app.enrolment import progress as enrolment_progress
 from app.experimenter.auth import current_user
 from app.extensions import db
 from app.limits import fits
-from app.models import Job, Participant
+from app.models import Job, Participant, Trial
 from app.voting import VoteRejected, record_vote
 
 bp = Blueprint("api", __name__, url_prefix="/api/v1")
@@ -47,10 +48,7 @@ def post_vote():  # type: ignore[no-untyped-def]
     payload = _json_object()
     if isinstance(payload, str):
         return _error(payload, 400)
-    token = payload.get("token")
-    participant = None
-    if isinstance(token, str) and fits(Participant.token, token):
-        participant = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+    participant = _participant_of(payload)
     if participant is None:
         return _error("unknown participant", 403)
     try:
@@ -64,12 +62,77 @@ def post_vote():  # type: ignore[no-untyped-def]
     body = {
         "status": "recorded" if outcome.created else "duplicate",
         "vote": {"trial_id": vote.trial_id, "choice": vote.choice, "plays": vote.plays,
-                 "response_ms": vote.response_ms},
+                 "response_ms": vote.response_ms, "strength": vote.strength},
         "answered": outcome.answered, "total": outcome.total,
         "next": url_for("participant.resume", token=participant.token),
     }
     db.session.commit()
     return jsonify(body), 201 if outcome.created else 200
+
+
+def _participant_of(payload: dict[str, Any]) -> Participant | None:
+    token = payload.get("token")
+    if isinstance(token, str) and fits(Participant.token, token):
+        return db.session.scalar(sa.select(Participant).where(Participant.token == token))
+    return None
+
+
+@bp.post("/plays")
+def post_play():  # type: ignore[no-untyped-def]
+    """One play of a trial's clip, asked for before it starts: counted here, so the replay
+    policy holds across reloads. 409 when no play is left (``max_plays``)."""
+    payload = _json_object()
+    if isinstance(payload, str):
+        return _error(payload, 400)
+    participant = _participant_of(payload)
+    if participant is None:
+        return _error("unknown participant", 403)
+    trial_id = payload.get("trial_id")
+    if isinstance(trial_id, bool) or not isinstance(trial_id, int) or not fits(Trial.id,
+                                                                             trial_id):
+        return _error("trial_id: expected a whole number", 400)
+    trial = db.session.get(Trial, trial_id)
+    if trial is None or trial.participant_id != participant.id or trial.kind == "practice":
+        return _error("no such trial", 404)
+    study = participant.study
+    limit = study.max_plays if study.replay == "max_plays" else None
+    granted = db.session.execute(
+        sa.update(Trial).where(Trial.id == trial.id,
+                               sa.true() if limit is None else Trial.plays < limit)
+        .values(plays=Trial.plays + 1).execution_options(synchronize_session=False)).rowcount
+    db.session.commit()
+    db.session.refresh(trial)
+    left = None if limit is None else max(0, limit - trial.plays)
+    if not granted:
+        return jsonify({"error": f"plays: at most {limit} plays are allowed", "plays": trial.plays,
+                        "plays_left": 0}), 409
+    return jsonify({"plays": trial.plays, "plays_left": left}), 200
+
+
+@bp.post("/participants/<token>/environment")
+def post_environment(token: str):  # type: ignore[no-untyped-def]
+    """The device and the viewing check, reported once before the first trial (a later
+    report replaces it until the first trial is shown)."""
+    from app.design import participation
+    from app.medialog import MediaLogError, environment_fields
+
+    participant = db.session.scalar(sa.select(Participant).where(Participant.token == token)) \
+        if fits(Participant.token, token) else None
+    if participant is None:
+        return _error("unknown participant", 404)
+    payload = _json_object()
+    if isinstance(payload, str):
+        return _error(payload, 400)
+    agent = limits.printable(request.user_agent.string)[:300]
+    try:
+        found = environment_fields(payload, agent,
+                                   min_face_px=participation(participant.study).min_face_px)
+    except MediaLogError as exc:
+        return _error(str(exc), 400)
+    if participant.started_at is None or participant.environment is None:
+        participant.environment = found
+        db.session.commit()
+    return jsonify({"viewing_ok": found["viewing_ok"]}), 200
 
 
 @bp.get("/participants/<token>/progress")

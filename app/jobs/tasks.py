@@ -128,8 +128,7 @@ def render_clips(study: Study, progress: Callable[[int, int], None]) -> str:
         sa.select(Track).join(Clip).where(Clip.study_id == study.id))}
     stimuli = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id)
                                  .order_by(Stimulus.id)).all()
-    missing = [s for s in stimuli if (s.left_id, s.clip_id) not in tracks
-               or (s.right_id, s.clip_id) not in tracks]
+    missing = [s for s in stimuli if any(key not in tracks for key in _track_keys(s))]
     if missing:
         raise ValueError("generate the tracks first: some conditions have no track yet")
     settings = renderer.RenderSettings(**study.settings.get("render", {}))
@@ -140,12 +139,20 @@ def render_clips(study: Study, progress: Callable[[int, int], None]) -> str:
         progress(i, len(stimuli))
         if stim.video_path and (root / stim.video_path).is_file():
             continue
-        rel = f"videos/{stim.clip.name}/{stim.left.name}__{stim.right.name}.mp4"
+        rel = f"videos/{stim.clip.name}/{stim.left.name}__{stim.right.name}{_variant(stim)}.mp4"
         (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        left, right = (load_track(root / tracks[(condition, clip)]) for condition, clip
+                       in _track_keys(stim))
+        if stim.foreign_side:
+            # The lent motion is time-aligned to this clip's speech and trimmed to its length.
+            matched = right if stim.foreign_side == "left" else left
+            lent = (left if stim.foreign_side == "left" else right).resample(
+                matched.fps).fit_length(matched.n_frames)
+            left, right = (lent, right) if stim.foreign_side == "left" else (left, lent)
+        caption = {"caption": f"press {stim.instruction}"} if stim.instruction else {}
         renderer.render_pair(
-            load_track(root / tracks[(stim.left_id, stim.clip_id)]),
-            load_track(root / tracks[(stim.right_id, stim.clip_id)]),
-            root / stim.clip.audio_path, root / rel, settings=settings, cache_dir=cache,
+            left, right, root / stim.clip.audio_path, root / rel, settings=settings,
+            cache_dir=cache, **caption,
             # every frame is a sign of life: a clip may take longer than the stale timeout
             progress=lambda _frame, _frames, i=i: progress(i, len(stimuli)))
         stim.video_path = rel
@@ -155,6 +162,21 @@ def render_clips(study: Study, progress: Callable[[int, int], None]) -> str:
         study.status = "ready"
     db.session.commit()
     return f"{len(stimuli)} clips rendered" + (f" ({kept} kept from before)" if kept else "")
+
+
+def _track_keys(stim: Stimulus) -> list[tuple[int, int]]:
+    """(condition, clip) of the motion on each side: an appropriateness pair's foreign side
+    shows the motion made for its ``foreign_clip``."""
+    clips = [stim.foreign_clip_id if stim.foreign_side == side and stim.foreign_clip_id
+             else stim.clip_id for side in ("left", "right")]
+    return [(stim.left_id, clips[0]), (stim.right_id, clips[1])]
+
+
+def _variant(stim: Stimulus) -> str:
+    """The file-name suffix of an attention-check or appropriateness clip."""
+    if stim.instruction:
+        return f"__press_{stim.instruction}"
+    return f"__foreign_{stim.foreign_side}" if stim.foreign_side else ""
 
 
 def build_report(study: Study, progress: Callable[[int, int], None]) -> str:

@@ -7,6 +7,8 @@ cookie, so reopening the study link resumes where they left off.
 
 from __future__ import annotations
 
+import re
+
 import sqlalchemy as sa
 from flask import (
     Blueprint,
@@ -19,9 +21,12 @@ from flask import (
     url_for,
 )
 from flask_wtf import FlaskForm
+from markupsafe import Markup, escape
+from sqlalchemy.exc import IntegrityError
 from wtforms import HiddenField, SubmitField
 
 from app import limits
+from app.design import participation
 from app.enrolment import (
     SESSION_ENDED,
     dropped_after,
@@ -33,12 +38,16 @@ from app.enrolment import (
 )
 from app.extensions import db
 from app.limits import fits
-from app.models import Participant, Study, Trial, utcnow
+from app.models import Participant, Study, Trial, Vote, utcnow
 from app.storage import media_file
+from app.voting import SCREENED_OUT
 
 bp = Blueprint("participant", __name__)
 
 COOKIE_DAYS = 30
+#: Clips never change under a URL (a re-render writes a new file and ETag), so the browser
+#: may keep them for the length of a study: a preloaded next clip is served from its cache.
+CLIP_CACHE_SECONDS = 7 * 86400
 PROLIFIC_FIELDS = {"PROLIFIC_PID": "prolific_pid", "STUDY_ID": "prolific_study_id",
                    "SESSION_ID": "prolific_session_id"}
 
@@ -68,6 +77,27 @@ def _participant(token: str) -> Participant:
     return participant
 
 
+@bp.app_template_filter("paragraphs")
+def paragraphs(text: str | None) -> Markup:
+    """Study-file text as paragraphs: a blank line starts one, single line breaks (as a TOML
+    multi-line string wraps) flow together, so the page is not ragged."""
+    blocks = [" ".join(b.split()) for b in re.split(r"\n\s*\n", text or "") if b.strip()]
+    return Markup("".join(f"<p>{escape(b)}</p>" for b in blocks))
+
+
+def _with_cookie(response, study: Study, participant: Participant):  # type: ignore[no-untyped-def]
+    response.set_cookie(_cookie_name(study), participant.token, max_age=COOKIE_DAYS * 86400,
+                        httponly=True, samesite="Lax", secure=request.is_secure)
+    return response
+
+
+def _by_prolific_id(study: Study, pid: str | None) -> Participant | None:
+    if not pid or not fits(Participant.prolific_pid, pid):
+        return None
+    return db.session.scalar(sa.select(Participant).where(
+        Participant.study_id == study.id, Participant.prolific_pid == pid))
+
+
 @bp.route("/s/<slug>", methods=["GET", "POST"])
 def start(slug: str):  # type: ignore[no-untyped-def]
     study = _study(slug)
@@ -77,6 +107,11 @@ def start(slug: str):  # type: ignore[no-untyped-def]
             Participant.token == token, Participant.study_id == study.id))
         if known is not None:
             return redirect(url_for(".resume", token=known.token))
+    # One Prolific ID takes part once: its second arrival (another device, cleared cookies)
+    # resumes the first, as a single-use link would.
+    known = _by_prolific_id(study, request.values.get("PROLIFIC_PID"))
+    if known is not None:
+        return _with_cookie(redirect(url_for(".resume", token=known.token)), study, known)
     if study.status != "open":
         return render_template("participant/unavailable.html", study=study), 503
     form = ConsentForm(data={k: request.args.get(k, "") for k in PROLIFIC_FIELDS})
@@ -84,19 +119,25 @@ def start(slug: str):  # type: ignore[no-untyped-def]
         ids = {column: (getattr(form, field).data or None) for field, column
                in PROLIFIC_FIELDS.items()}
         agent = limits.printable(request.user_agent.string)[:300]
-        participant = enrol(study, user_agent=agent, dropped_after=dropped_after(), **ids)
-        db.session.commit()
-        response = make_response(redirect(url_for(".instructions", token=participant.token)))
-        response.set_cookie(_cookie_name(study), participant.token, max_age=COOKIE_DAYS * 86400,
-                            httponly=True, samesite="Lax", secure=request.is_secure)
-        return response
+        try:
+            participant = enrol(study, user_agent=agent, dropped_after=dropped_after(), **ids)
+            db.session.commit()
+        except IntegrityError:
+            # The same ID enrolled at the same moment in another tab: resume that one.
+            db.session.rollback()
+            study = db.session.get(Study, study.id)  # type: ignore[assignment]
+            participant = _by_prolific_id(study, ids["prolific_pid"])  # type: ignore[assignment]
+            if participant is None:  # pragma: no cover - the constraint fired, so it exists
+                raise
+        return _with_cookie(make_response(redirect(url_for(".resume", token=participant.token))),
+                            study, participant)
     return render_template("participant/consent.html", study=study, form=form)
 
 
 @bp.get("/p/<token>")
 def resume(token: str):  # type: ignore[no-untyped-def]
     participant = _participant(token)
-    if participant.finished_at is not None:
+    if participant.finished_at is not None or participant.screened_out_at is not None:
         return redirect(url_for(".done", token=token))
     if participant.started_at is None:
         return redirect(url_for(".instructions", token=token))
@@ -106,17 +147,45 @@ def resume(token: str):  # type: ignore[no-untyped-def]
 @bp.get("/p/<token>/instructions")
 def instructions(token: str):  # type: ignore[no-untyped-def]
     participant = _participant(token)
+    if participant.started_at is not None:
+        # The back button after a vote: the practice is over, the study goes on.
+        return redirect(url_for(".resume", token=token))
     practice = practice_stimulus(participant)
-    return render_template("participant/instructions.html", participant=participant,
-                           study=participant.study, practice=practice)
+    return _no_store(render_template(
+        "participant/instructions.html", participant=participant, study=participant.study,
+        practice=practice, spec=participation(participant.study)))
+
+
+def _no_store(body: str):  # type: ignore[no-untyped-def]
+    """A page the back button must fetch again rather than show from memory (a trial that
+    was answered, the practice after the start)."""
+    response = make_response(body)
+    response.headers["Cache-Control"] = "no-store"
+    return response
+
+
+def _following(participant: Participant, trial: Trial) -> Trial | None:
+    """The unanswered trial after ``trial``: its clip is preloaded while this one is judged."""
+    return db.session.scalar(
+        sa.select(Trial).outerjoin(Vote, Vote.trial_id == Trial.id)
+        .where(Trial.participant_id == participant.id, Trial.kind != "practice",
+               Trial.position > trial.position, Vote.id.is_(None))
+        .order_by(Trial.position).limit(1))
 
 
 @bp.get("/p/<token>/trial")
 def trial(token: str):  # type: ignore[no-untyped-def]
     participant = _participant(token)
     study = participant.study
+    if participant.screened_out_at is not None:
+        return redirect(url_for(".done", token=token))
     if study.status == "closed":
         return render_template("participant/unavailable.html", study=study), 410
+    spec = participation(study)
+    environment = participant.environment or {}
+    if spec.min_face_px and environment.get("viewing_ok") is False:
+        return render_template("participant/unavailable.html", study=study,
+                               viewing=spec.min_face_px), 409
     upcoming = next_trial(participant)
     if upcoming is None:
         return redirect(url_for(".done", token=token))
@@ -127,9 +196,11 @@ def trial(token: str):  # type: ignore[no-untyped-def]
     if participant.started_at is None:
         participant.started_at = utcnow()
     answered, total = progress(participant)
+    following = _following(participant, upcoming)
     db.session.commit()
-    return render_template("participant/trial.html", participant=participant, study=study,
-                           trial=upcoming, answered=answered, total=total)
+    return _no_store(render_template(
+        "participant/trial.html", participant=participant, study=study, trial=upcoming,
+        answered=answered, total=total, spec=spec, following=following))
 
 
 @bp.get("/p/<token>/video/<int:trial_id>")
@@ -158,15 +229,21 @@ def _send_video(study: Study, rel: str | None):  # type: ignore[no-untyped-def]
         abort(404)
     # Range requests (conditional=True) let the browser seek and replay without refetching;
     # the URL names no condition, so the file name cannot give the answer away.
-    response = send_file(path, mimetype="video/mp4", conditional=True, max_age=3600)
-    response.headers["Cache-Control"] = "private, max-age=3600"
+    response = send_file(path, mimetype="video/mp4", conditional=True,
+                         max_age=CLIP_CACHE_SECONDS)
+    response.headers["Cache-Control"] = f"private, max-age={CLIP_CACHE_SECONDS}"
     return response
 
 
 @bp.get("/p/<token>/done")
 def done(token: str):  # type: ignore[no-untyped-def]
     participant = _participant(token)
-    if participant.finished_at is None:
+    screened = participant.screened_out_at is not None
+    # Only after the server holds every vote: finished_at is set by the last one stored.
+    if participant.finished_at is None and not screened:
         return redirect(url_for(".resume", token=token))
-    return render_template("participant/done.html", participant=participant,
-                           study=participant.study)
+    study = participant.study
+    code = participation(study).screened_out_code if screened else study.completion_code
+    return _no_store(render_template(
+        "participant/done.html", participant=participant, study=study, screened=screened,
+        code=code, reason=SCREENED_OUT if screened else None))

@@ -35,17 +35,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Final
 
 import numpy as np
 
 from app.trials.design import Pair, check_design, stimulus_pairs
 
-TRIAL_KINDS: Final = ("practice", "trial", "catch")
-"""Kinds of trial: the practice pair after the instructions, a real trial, a catch trial."""
+TRIAL_KINDS: Final = ("practice", "trial", "catch", "mismatch")
+"""Kinds of trial: the practice pair after the instructions, a real trial, a catch trial, an
+appropriateness pair (one condition's motion for this clip beside its motion for another
+clip, under this clip's speech: the GENEA challenge's appropriateness test)."""
 
-CATCH_KINDS: Final = ("identical", "instructed")
+CATCH_KINDS: Final = ("identical", "instructed", "onscreen")
 """Kinds of catch trial.
 
 ``identical``
@@ -55,6 +57,10 @@ CATCH_KINDS: Final = ("identical", "instructed")
 ``instructed``
     An ordinary pair whose page tells the participant which side to pick ("for this pair,
     please choose left"); the expected answer is ``"left"`` or ``"right"``, balanced.
+``onscreen``
+    As ``instructed``, but the instruction ("press Left") is drawn into the clip by the
+    renderer, so only a participant who watches the clip can pass; always the design's first
+    displayed pair of the clip, so two extra clips per clip are rendered.
 """
 
 
@@ -75,7 +81,13 @@ class Trial:
         One of :data:`TRIAL_KINDS`.
     expected:
         For a catch trial, the answer an attentive participant gives (a value of
-        ``app.trials.rules.CHOICES``); ``None`` otherwise.
+        ``app.trials.rules.CHOICES``); for an appropriateness pair, the side whose motion
+        belongs to the speech; ``None`` otherwise.
+    instruction:
+        For an ``onscreen`` catch trial, the side the clip tells the participant to press.
+    foreign:
+        For an appropriateness pair, the side showing another clip's motion
+        (:func:`foreign_clip`); ``""`` otherwise.
     """
 
     position: int
@@ -84,6 +96,8 @@ class Trial:
     right: str
     kind: str = "trial"
     expected: str | None = None
+    instruction: str = ""
+    foreign: str = ""
 
     @property
     def pair(self) -> Pair:
@@ -234,6 +248,7 @@ def make_schedule(
     catch_kind: str = "identical",
     practice_clip: str | None = None,
     block_by_clip: bool = True,
+    mismatched: bool = False,
 ) -> list[Trial]:
     """Build one participant's schedule; pure and deterministic in all its arguments.
 
@@ -258,6 +273,10 @@ def make_schedule(
     block_by_clip:
         Keep each clip's trials together, blocks ordered by a Williams-square row (thesis
         sec. 5.2-5.3); ``False`` shuffles all trials together.
+    mismatched:
+        Add one appropriateness pair per condition and clip (kind ``"mismatch"``, needs two
+        clips), each at a random place; drawn after everything else, so the rest of the
+        schedule is the same with or without them.
 
     Returns
     -------
@@ -310,22 +329,53 @@ def make_schedule(
         main = [flat[i] for i in rng.permutation(len(flat))]
 
     slots = _catch_slots(len(main), catch_trials, rng)
-    catches = _catch_trials(main, slots, catch_kind, rng)
-    sequence: list[tuple[str, Pair, str, str | None]] = []
+    onscreen = stimulus_pairs(pairs, design)[0] if catch_kind == "onscreen" else None
+    catches = _catch_trials(main, slots, catch_kind, rng, onscreen)
+    sequence: list[Trial] = []
     if practice_pair is not None:
         clip = practice_clip if practice_clip is not None else main[0][0]
-        sequence.append((clip, practice_pair, "practice", None))
+        sequence.append(Trial(0, clip, practice_pair.left, practice_pair.right, "practice"))
     pending = 0
     for index, (clip, pair) in enumerate(main):
-        sequence.append((clip, pair, "trial", None))
+        sequence.append(Trial(0, clip, pair.left, pair.right))
         while pending < len(slots) and slots[pending] == index + 1:
             c_clip, c_pair, expected = catches[pending]
-            sequence.append((c_clip, c_pair, "catch", expected))
+            sequence.append(Trial(0, c_clip, c_pair.left, c_pair.right, "catch", expected,
+                                  expected if onscreen is not None else ""))
             pending += 1
-    return [
-        Trial(position, clip, pair.left, pair.right, kind, expected)
-        for position, (clip, pair, kind, expected) in enumerate(sequence)
-    ]
+    if mismatched:
+        sequence = _with_mismatched(sequence, clips, pairs, rng,
+                                    first=int(practice_pair is not None))
+    return [replace(trial, position=position) for position, trial in enumerate(sequence)]
+
+
+def foreign_clip(clips: Sequence[str], clip: str) -> str:
+    """The clip whose motion an appropriateness pair on ``clip`` shows as the mismatched
+    side: the next clip in the study's order (cyclic), so every clip lends its motion once.
+
+    >>> foreign_clip(["s2", "s7", "s9"], "s9")
+    's2'
+    """
+    index = list(clips).index(clip)
+    return clips[(index + 1) % len(clips)]
+
+
+def _with_mismatched(sequence: list[Trial], clips: Sequence[str], pairs: Sequence[Pair],
+                     rng: np.random.Generator, *, first: int) -> list[Trial]:
+    """Insert one appropriateness pair per condition and clip at random places after
+    ``first``; the mismatched side is balanced (left and right equally often, within one)."""
+    if len(clips) < 2:
+        raise ValueError("appropriateness pairs need at least two clips")
+    conditions = list(dict.fromkeys(c for pair in pairs for c in (pair.left, pair.right)))
+    items = [(clip, c) for clip in clips for c in conditions]
+    sides = (["left", "right"] * (len(items) // 2 + 1))[:len(items)]
+    sides = [sides[i] for i in rng.permutation(len(sides))]
+    out = list(sequence)
+    for (clip, condition), side in zip(items, sides, strict=True):
+        matched = "right" if side == "left" else "left"
+        at = int(rng.integers(first, len(out) + 1))
+        out.insert(at, Trial(0, clip, condition, condition, "mismatch", matched, "", side))
+    return out
 
 
 def shown_stimuli(
@@ -360,6 +410,36 @@ def shown_stimuli(
     return list(shown)
 
 
+def variant_stimuli(
+    *,
+    clips: Sequence[str],
+    pairs: Sequence[Pair],
+    design: str,
+    catch_trials: int = 0,
+    catch_kind: str = "identical",
+    mismatched: bool = False,
+) -> list[tuple[str, Pair, str, str]]:
+    """The clips to render besides :func:`shown_stimuli`: ``(clip, pair, instruction,
+    foreign side)`` for ``onscreen`` catch trials (the design's first displayed pair with
+    "press Left" and with "press Right" drawn in) and for appropriateness pairs (each
+    condition against itself with the mismatched motion on either side).
+
+    >>> from app.trials.design import build_pairs
+    >>> len(variant_stimuli(clips=["s2", "s7"], pairs=build_pairs(["a", "b"], "all_ordered"),
+    ...                     design="all_ordered", mismatched=True))
+    8
+    """
+    out: list[tuple[str, Pair, str, str]] = []
+    if catch_trials and catch_kind == "onscreen":
+        pair = stimulus_pairs(pairs, design)[0]
+        out += [(clip, pair, side, "") for clip in clips for side in ("left", "right")]
+    if mismatched:
+        conditions = dict.fromkeys(c for pair in pairs for c in (pair.left, pair.right))
+        out += [(clip, Pair(c, c), "", side) for clip in clips for c in conditions
+                for side in ("left", "right")]
+    return out
+
+
 def _catch_slots(n_main: int, n_catch: int, rng: np.random.Generator) -> list[int]:
     """After how many main trials each catch trial comes: one per equal segment, never first."""
     if n_catch == 0:
@@ -371,7 +451,8 @@ def _catch_slots(n_main: int, n_catch: int, rng: np.random.Generator) -> list[in
 
 
 def _catch_trials(
-    main: Sequence[tuple[str, Pair]], slots: Sequence[int], kind: str, rng: np.random.Generator
+    main: Sequence[tuple[str, Pair]], slots: Sequence[int], kind: str, rng: np.random.Generator,
+    onscreen: Pair | None = None,
 ) -> list[tuple[str, Pair, str]]:
     """Stimuli and expected answers of the catch trials, each on the clip of the trial before.
 
@@ -389,6 +470,8 @@ def _catch_trials(
         if kind == "identical":
             condition = pair.left if rng.random() < 0.5 else pair.right
             out.append((clip, Pair(condition, condition), "undecided"))
+        elif onscreen is not None:
+            out.append((clip, onscreen, answers[int(order[number])]))
         else:
             same_clip = [p for c, p in main if c == clip]
             chosen = same_clip[int(rng.integers(len(same_clip)))]

@@ -28,6 +28,7 @@ from app.errors import InputError
 from app.stimuli.eyes import DEFAULT_EYES, EYE_MODES
 from app.trials.design import PAIR_DESIGNS, Pair
 from app.trials.fields import MISSING, FieldReader, describe
+from app.trials.participation import PARTICIPATION_KEYS, read_participation
 from app.trials.rules import REPLAY_KINDS, ReplayPolicy
 from app.trials.schedule import CATCH_KINDS
 from app.trials.studyspec import MODELS, ClipSpec, ConditionSpec, StudySpec
@@ -149,6 +150,7 @@ _TOP_KEYS: Final = (
     "catch",
     "conditions",
     "clips",
+    *PARTICIPATION_KEYS,
 )
 
 
@@ -207,6 +209,7 @@ class _StudyReader(FieldReader):
             raise self.error("reference", f"only applies to design = 'reference', not {design!r}")
         practice, practice_clip = self.practice(top, names, [c.name for c in clips])
         rejoin = self.choice(top, "rejoin", "rejoin", REJOIN_POLICIES, "resume")
+        participation = read_participation(self, top, n_clips=len(clips))
         spec = StudySpec(
             title=title,
             question=question,
@@ -233,6 +236,7 @@ class _StudyReader(FieldReader):
             render=render,
             exclude=exclude,
             rejoin=rejoin,
+            participation=participation,
         )
         main = len(replace(spec, catch_trials=0, practice=None).schedule(seed=0, list_index=0))
         if catch_trials > main:

@@ -20,8 +20,9 @@ from typing import Any, Final
 from app.stimuli.eyes import DEFAULT_EYES
 from app.trials.design import Pair, build_pairs
 from app.trials.fields import key_text
+from app.trials.participation import ParticipationSpec
 from app.trials.rules import ReplayPolicy
-from app.trials.schedule import Trial, make_schedule, n_lists_for, shown_stimuli
+from app.trials.schedule import Trial, make_schedule, n_lists_for, shown_stimuli, variant_stimuli
 
 KNOWN_MODELS: Final = ("none", "random", "speech_driven", "ground_truth", "live_gmm")
 """The models of the stimulus engine's interface; every one must be a key of
@@ -95,6 +96,7 @@ class StudySpec:
     render: Mapping[str, Any] = field(default_factory=dict)
     exclude: str = ""
     rejoin: str = "resume"
+    participation: ParticipationSpec = field(default_factory=ParticipationSpec)
 
     @property
     def condition_names(self) -> list[str]:
@@ -127,6 +129,14 @@ class StudySpec:
             practice_clip=self.practice_clip,
         )
 
+    def variants(self) -> list[tuple[str, Pair, str, str]]:
+        """Attention-check and appropriateness clips to render besides :meth:`stimuli`
+        (:func:`app.trials.schedule.variant_stimuli`)."""
+        return variant_stimuli(
+            clips=self.clip_names, pairs=self.pairs(), design=self.design,
+            catch_trials=self.catch_trials, catch_kind=self.catch_kind,
+            mismatched=self.participation.mismatched)
+
     def schedule(self, *, seed: int, list_index: int) -> list[Trial]:
         """One participant's schedule from their stored seed and assigned list."""
         return make_schedule(
@@ -141,6 +151,7 @@ class StudySpec:
             catch_kind=self.catch_kind,
             practice_clip=self.practice_clip,
             block_by_clip=self.block_by_clip,
+            mismatched=self.participation.mismatched,
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -182,6 +193,7 @@ class StudySpec:
         if self.replay.max_plays is not None:
             out["replay"]["max_plays"] = self.replay.max_plays
         out["catch"] = {"trials": self.catch_trials, "kind": self.catch_kind}
+        out |= self.participation.to_dict()
         out["conditions"] = [_condition_dict(c) for c in self.conditions]
         out["clips"] = [_clip_dict(c) for c in self.clips]
         return out

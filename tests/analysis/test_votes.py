@@ -29,7 +29,8 @@ def _write(tmp_path, text, name="votes.csv"):
 def test_schema_is_the_interface():
     assert REQUIRED_COLUMNS == ("participant", "clip", "left", "right", "choice")
     assert OPTIONAL_COLUMNS == ("study", "trial", "response_ms", "plays", "presented_at",
-                                "voted_at")
+                                "voted_at", "strength", "reasons", "mismatched", "watched_ms",
+                                "played_to_end", "stalls", "stall_ms", "focus_lost")
     assert VOTE_COLUMNS == REQUIRED_COLUMNS + OPTIONAL_COLUMNS
     assert CHOICES == ("left", "right", "undecided")
 
@@ -161,5 +162,24 @@ def test_times_are_written_in_utc_with_seconds(tmp_path):
                  hours=1))), "voted_at": "2026-03-02T09:00:10.120Z"}]
     buffer = io.StringIO()
     write_votes_csv(rows, buffer)
-    assert buffer.getvalue().splitlines()[1].endswith(",2026-03-02T09:00:00Z,"
-                                                      "2026-03-02T09:00:10.12Z")
+    assert ",2026-03-02T09:00:00Z,2026-03-02T09:00:10.12Z," in buffer.getvalue().splitlines()[1]
+
+
+def test_media_log_columns_read_write_and_refuse_nonsense(tmp_path):
+    text = ("participant,clip,left,right,choice,strength,watched_ms,played_to_end,stalls,"
+            "stall_ms,focus_lost\n"
+            "p1,s2,a,b,left,2,4000,TRUE,1,850,0\n"
+            "p1,s2,b,a,undecided,0,1200,no,0,0,2\n"
+            "p2,s2,a,b,right,,,,,,\n")
+    t = read_votes(_write(tmp_path, text))
+    assert t.frame["played_to_end"].tolist()[:2] == [True, False]
+    assert t.frame["played_to_end"].isna().tolist() == [False, False, True]
+    assert t.frame["stall_ms"].tolist()[:2] == [850, 0]
+    out = tmp_path / "out.csv"
+    write_votes_csv(t, out)
+    again = read_votes(out)
+    assert again.frame["played_to_end"].isna().tolist() == [False, False, True]
+    assert "true" in out.read_text() and "false" in out.read_text()
+    bad = text.replace("TRUE", "maybe")
+    with pytest.raises(InputError, match="played_to_end.*expected true or false"):
+        read_votes(_write(tmp_path, bad, "bad.csv"))

@@ -2,6 +2,8 @@ import threading
 
 import pytest
 import sqlalchemy as sa
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from app.extensions import db
 from app.models import Participant, Study, Trial, Vote
@@ -152,3 +154,89 @@ def test_database_unreachable_is_503_with_retry_after(tmp_path, url):
     assert page.status_code == 503 and page.headers["Retry-After"] == "7"
     assert "Please try again in a moment" in page.get_data(as_text=True)
     assert client.get("/healthz").status_code == 503
+
+
+# --- the media log, the environment and the play requests -----------------------------------
+
+MEDIA = {"watched_ms": 4100, "played_to_end": True, "stalls": 2, "stall_ms": 950,
+         "focus_lost": 1, "pauses": 1, "seeks": 0, "width": 640, "height": 320,
+         "stall_durations": [700, 250]}
+
+
+def test_the_media_log_is_stored_and_exported(app, participant, web):
+    from app.exports import votes_csv
+
+    _join(app, participant, web)
+    trial = participant.current_trial()
+    assert participant.vote(trial, "left", media=MEDIA).status_code == 201
+    with app.app_context():
+        vote = db.session.scalar(sa.select(Vote))
+        assert (vote.watched_ms, vote.played_to_end, vote.stalls, vote.stall_ms,
+                vote.focus_lost) == (4100, True, 2, 950, 1)
+        assert vote.media == {"pauses": 1, "seeks": 0, "width": 640, "height": 320,
+                              "stall_durations": [700, 250]}
+        text = votes_csv(db.session.scalars(sa.select(Study)).one())
+    header, row = text.splitlines()[:2]
+    values = dict(zip(header.split(","), row.split(","), strict=True))
+    assert {k: values[k] for k in ("watched_ms", "played_to_end", "stalls", "stall_ms",
+                                   "focus_lost")} == {
+        "watched_ms": "4100", "played_to_end": "true", "stalls": "2", "stall_ms": "950",
+        "focus_lost": "1"}
+
+
+@pytest.mark.parametrize(("media", "message"), [
+    ("lots", "media: expected an object"),
+    ({"stalls": -1}, "stalls: expected a whole number"),
+    ({"played_to_end": "yes"}, "played_to_end: expected true or false"),
+    ({"stall_durations": "x"}, "stall_durations: expected a list"),
+])
+def test_a_bad_media_log_is_refused_with_its_field(app, participant, web, media, message):
+    _join(app, participant, web)
+    response = participant.vote(participant.current_trial(), "left", media=media)
+    assert response.status_code == 400 and response.json["error"].startswith(message)
+
+
+def test_environment_and_viewing_check(app, client, participant, web):
+    token = _join(app, participant, web, extra="\n[viewing]\nmin_face_px = 200\n")
+    chrome = ("Mozilla/5.0 (Linux; Android 14) AppleWebKit/537.36 (KHTML, like Gecko) "
+              "Chrome/126.0.0.0 Mobile Safari/537.36")
+    report = {"screen_w": 390, "screen_h": 844, "viewport_w": 390, "viewport_h": 700,
+              "dpr": 3, "touch": True, "face_px": 180}
+    answer = client.post(f"/api/v1/participants/{token}/environment", json=report,
+                         headers={"User-Agent": chrome})
+    assert answer.status_code == 200 and answer.json == {"viewing_ok": False}
+    blocked = client.get(f"/p/{token}/trial")
+    assert blocked.status_code == 409 and b"at least 200 pixels" in blocked.data
+    wide = client.post(f"/api/v1/participants/{token}/environment",
+                       json=report | {"face_px": 320}, headers={"User-Agent": chrome})
+    assert wide.json == {"viewing_ok": True}
+    assert client.get(f"/p/{token}/trial").status_code == 200
+    with app.app_context():
+        env = db.session.scalar(sa.select(Participant)).environment
+    assert (env["browser"], env["browser_version"], env["dpr"], env["touch"]) == (
+        "Chrome", "126", 3, True)
+
+
+JSONISH = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=8),
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=8), inner,
+                                                                max_size=3),
+    max_leaves=8)
+
+
+@settings(max_examples=40, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(media=JSONISH, env=JSONISH, strength=JSONISH, reasons=JSONISH, trial=JSONISH)
+def test_hostile_participant_side_bodies_never_5xx(app, client, participant, web, media, env,
+                                                  strength, reasons, trial):
+    if participant.token is None:
+        _join(app, participant, web, extra="\n[answer]\nscale = 5\nreasons = [\"a\"]\n")
+    trial_id = participant.current_trial()
+    responses = [
+        participant.vote(trial_id, "left", media=media, strength=strength, reasons=reasons),
+        client.post(f"/api/v1/participants/{participant.token}/environment", json=env),
+        client.post("/api/v1/plays", json={"token": participant.token, "trial_id": trial}),
+    ]
+    for response in responses:
+        assert response.status_code < 500, response.get_data(as_text=True)
+        assert "Traceback" not in response.get_data(as_text=True)

@@ -244,3 +244,75 @@ def test_a_progress_report_the_database_cannot_take_is_skipped(app, web, monkeyp
         report(2, 4)
         job = db.session.get(Job, job_id)
         assert (job.done, job.total) == (2, 4) and job.heartbeat_at is not None
+
+
+MISMATCHED_TOML = """
+title = "Appropriateness"
+question = "Which face belongs to the speech?"
+design = "all_ordered"
+seed = 5
+practice = false
+mismatched = true
+
+[catch]
+trials = 1
+kind = "onscreen"
+
+[[conditions]]
+name = "calm"
+model = "random"
+
+[[conditions]]
+name = "lively"
+model = "random"
+
+[[clips]]
+name = "long"
+audio = "long.wav"
+
+[[clips]]
+name = "short"
+audio = "short.wav"
+"""
+
+
+def test_render_job_lends_the_other_clips_motion_and_draws_the_instruction(
+        app, tmp_path, monkeypatch):
+    """An appropriateness clip shows, on its foreign side, the motion made for the next clip,
+    cut or held to this clip's length; an on-screen check gets its caption."""
+    import renderer
+    from app.jobs.tasks import generate_tracks, render_clips
+    from app.models import Stimulus
+
+    write_tone_wav(tmp_path / "long.wav", seconds=1.0)
+    write_tone_wav(tmp_path / "short.wav", seconds=0.6)
+    calls = {}
+
+    def record(left, right, audio, out, *, settings, cache_dir, progress=None, caption=None):
+        calls[f"{out.parent.name}/{out.name}"] = (left, right, audio.name, caption)
+        out.write_bytes(b"video")
+        return out
+
+    monkeypatch.setattr(renderer, "render_pair", record)
+    with app.app_context():
+        study = create_study(create_test_user(), loads_study(MISMATCHED_TOML,
+                                                             base_dir=tmp_path))
+        db.session.commit()
+        generate_tracks(study, lambda done, total: None)
+        render_clips(study, lambda done, total: None)
+        own = {(t.condition.name, t.clip.name): load_track(media_dir(study) / t.path)
+               for t in db.session.scalars(sa.select(Track))}
+        stimuli = db.session.scalars(sa.select(Stimulus)).all()
+        assert all(s.video_path for s in stimuli)
+    left, right, audio, caption = calls["long/calm__calm__foreign_left.mp4"]
+    assert audio == "audio.wav" and caption is None
+    assert right.equals(own[("calm", "long")])
+    assert left.n_frames == right.n_frames  # the short clip's motion, held to length
+    assert np.array_equal(left.values[:own[("calm", "short")].n_frames],
+                          own[("calm", "short")].values)
+    # on the short clip, the long clip's motion is cut to the short clip's length
+    left, right, _audio, _caption = calls["short/calm__calm__foreign_right.mp4"]
+    assert left.equals(own[("calm", "short")])
+    assert np.array_equal(right.values, own[("calm", "long")].values[:left.n_frames])
+    captions = sorted(c for _l, _r, _a, c in calls.values() if c)
+    assert captions == ["press left", "press left", "press right", "press right"]

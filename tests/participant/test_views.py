@@ -132,3 +132,128 @@ def test_closed_study_stops_trials(app, client, participant, web):
         db.session.commit()
     assert client.get(f"/p/{token}/trial").status_code == 410
     assert client.get(f"/p/{token}").status_code == 302
+
+
+# --- the participant's side: integrity of the trial page ------------------------------------
+
+def _play(client, token, trial_id):
+    return client.post("/api/v1/plays", json={"token": token, "trial_id": trial_id})
+
+
+def test_plays_are_counted_by_the_server_and_a_reload_gives_none_back(app, client,
+                                                                      participant, web):
+    token = participant.join(_slug(app, web.study(replay="max_plays", max_plays=2)))
+    trial_id = participant.current_trial()
+    assert _play(client, token, trial_id).get_json() == {"plays": 1, "plays_left": 1}
+    assert _play(client, token, trial_id).get_json() == {"plays": 2, "plays_left": 0}
+    # A reload: the page starts from the server's count, and the server refuses a third play.
+    page = client.get(f"/p/{token}/trial").get_data(as_text=True)
+    assert 'data-plays="2"' in page
+    refused = _play(client, token, trial_id)
+    assert refused.status_code == 409 and refused.get_json()["plays_left"] == 0
+    # The page claims one play (its own count after the reload); the server's count is kept.
+    assert participant.vote(trial_id, plays=1).status_code == 201
+    with app.app_context():
+        assert db.session.scalar(sa.select(Vote.plays)) == 2
+
+
+def test_a_prolific_id_enrols_once_and_resumes(app, client, participant, web):
+    slug = _slug(app, web.study())
+    token = participant.join(slug, "PROLIFIC_PID=same&STUDY_ID=s&SESSION_ID=a")
+    client.delete_cookie(f"fp-{web_study_id(app, slug)}")  # another device: no cookie
+    again = client.get(f"/s/{slug}?PROLIFIC_PID=same&STUDY_ID=s&SESSION_ID=b")
+    assert again.status_code == 302 and again.headers["Location"].endswith(f"/p/{token}")
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count(Participant.id))) == 1
+
+
+def web_study_id(app, slug):
+    with app.app_context():
+        return db.session.scalar(sa.select(Study.id).where(Study.slug == slug))
+
+
+def test_back_after_a_vote_never_shows_the_practice_again(app, client, participant, web):
+    token = participant.join(_slug(app, web.study()))
+    assert client.get(f"/p/{token}/instructions").status_code == 200
+    trial = client.get(f"/p/{token}/trial")
+    assert trial.headers["Cache-Control"] == "no-store"
+    back = client.get(f"/p/{token}/instructions")
+    assert back.status_code == 302 and back.headers["Location"].endswith(f"/p/{token}")
+
+
+def test_study_text_is_paragraphs_not_ragged_lines(app, client, participant, web):
+    from app.participant.views import paragraphs
+
+    assert str(paragraphs("one\ntwo <b>\n\n  three\n")) == "<p>one two &lt;b&gt;</p><p>three</p>"
+    token = participant.join(_slug(app, web.study()))
+    assert "<p>Watch both faces.</p>" in client.get(f"/p/{token}/instructions").get_data(
+        as_text=True)
+
+
+def test_answer_buttons_are_mirror_images(app, client, participant, web):
+    """Equal grid columns whatever the number of buttons (no `1fr auto 1fr` side bias)."""
+    from pathlib import Path
+
+    css = (Path(app.static_folder) / "style.css").read_text()
+    votes = re.search(r"\n\.votes \{([^}]*)\}", css).group(1)
+    assert "grid-auto-columns: minmax(0, 1fr)" in votes and "auto 1fr" not in votes
+    for undecided in (True, False):
+        token = participant.join(_slug(app, web.study(undecided=undecided)))
+        page = client.get(f"/p/{token}/trial").get_data(as_text=True)
+        labels = re.findall(r'class="vote" data-choice="(\w+)"', page)
+        assert labels == (["left", "undecided", "right"] if undecided else ["left", "right"])
+
+
+FIVE = """
+[answer]
+scale = 5
+reasons = ["lips", "head"]
+
+[attention]
+max_failed = 2
+screened_out_code = "SCREENED-9"
+"""
+
+
+def test_five_levels_reasons_and_the_stop_rule(app, client, participant, web):
+    token = participant.join(_slug(app, web.study(
+        design="all_ordered", catch=2, extra=FIVE.replace("[answer]", "\n[answer]"))))
+    page = client.get(f"/p/{token}/trial").get_data(as_text=True)
+    assert page.count('class="vote"') == 5 and "Clearly left" in page and 'value="lips"' in page
+    with app.app_context():
+        catches = db.session.scalars(sa.select(Trial).where(Trial.kind == "catch")).all()
+        catch_ids = [t.id for t in catches]
+    first = participant.current_trial()
+    assert participant.vote(first, "left").get_json()["error"].startswith("strength:")
+    assert participant.vote(first, "left", strength=2, reasons=["eyes"]).status_code == 400
+    assert participant.vote(first, "left", strength=2, reasons=["lips"]).status_code == 201
+    # Two failed attention checks end the session with the separate code.
+    for trial_id in catch_ids:
+        assert participant.vote(trial_id, "left", strength=1).status_code == 201
+    done = client.get(f"/p/{token}/done")
+    assert done.status_code == 200 and b"SCREENED-9" in done.data and b"DONE-123" not in done.data
+    assert client.get(f"/p/{token}/trial").status_code == 302
+    with app.app_context():
+        vote = db.session.scalar(sa.select(Vote).where(Vote.trial_id == first))
+        assert (vote.strength, vote.reasons) == (2, ["lips"])
+        person = db.session.scalar(sa.select(Participant))
+        assert person.screened_out_at is not None and person.finished_at is None
+
+
+def test_the_completion_code_waits_for_the_last_vote(app, client, participant, web):
+    token = participant.join(_slug(app, web.study()))
+    early = client.get(f"/p/{token}/done")
+    assert early.status_code == 302 and b"DONE-123" not in early.data
+    while (trial_id := participant.current_trial()) is not None:
+        assert b"DONE-123" not in client.get(f"/p/{token}/done").data
+        participant.vote(trial_id, "left")
+    assert b"DONE-123" in client.get(f"/p/{token}/done").data
+
+
+def test_clips_answer_ranges_with_a_long_private_cache(app, client, participant, web):
+    token = participant.join(_slug(app, web.study()))
+    trial_id = participant.current_trial()
+    part = client.get(f"/p/{token}/video/{trial_id}", headers={"Range": "bytes=0-99"})
+    assert part.status_code == 206 and len(part.data) == 100
+    assert part.headers["Cache-Control"] == "private, max-age=604800"
+    part.close()

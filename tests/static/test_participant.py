@@ -12,8 +12,10 @@ import pytest
 SCRIPT = Path(__file__).resolve().parents[2] / "static" / "participant.js"
 # Just enough of a browser for the script to load on a page without a player.
 HARNESS = """
-global.window = { localStorage: null };
+global.window = { localStorage: null, addEventListener: function () {} };
 global.document = { querySelectorAll: function () { return []; },
+                    querySelector: function () { return null; },
+                    getElementById: function () { return null; },
                     addEventListener: function () {} };
 require(process.argv[1]);
 var votes = window.facepairVotes;

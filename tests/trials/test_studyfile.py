@@ -166,7 +166,7 @@ BAD_FIELDS: list[tuple[dict[str, Any], str]] = [
     ({"catch.trials": -1}, "catch.trials: must be >= 0, got -1"),
     (
         {"catch.trials": 1, "catch.kind": "trick"},
-        "catch.kind: expected one of identical, instructed, got 'trick'",
+        "catch.kind: expected one of identical, instructed, onscreen, got 'trick'",
     ),
     (
         {"catch.trials": 1, "undecided.allowed": False},
