@@ -56,7 +56,9 @@
   function MediaLog(video) {
     var log = { watched_ms: 0, played_to_end: false, stalls: 0, stall_ms: 0, focus_lost: 0,
                 pauses: 0, seeks: 0, stall_durations: [] };
-    var lastTime = null, stallStart = null;
+    // A stall is playback running dry: a `waiting` after frames have been shown, not the
+    // wait that every play (and its seek back to the start) begins with.
+    var lastTime = null, stallStart = null, flowing = false;
     function endStall() {
       if (stallStart === null) return;
       var ms = Math.round(performance.now() - stallStart);
@@ -72,15 +74,18 @@
       }
       lastTime = now;
     });
-    video.addEventListener("seeking", function () { lastTime = null; });
+    video.addEventListener("seeking", function () { lastTime = null; flowing = false; });
     video.addEventListener("waiting", function () {
-      if (stallStart === null && !video.ended) { log.stalls += 1; stallStart = performance.now(); }
+      if (stallStart === null && flowing && !video.seeking && !video.ended) {
+        log.stalls += 1;
+        stallStart = performance.now();
+      }
     });
-    video.addEventListener("playing", endStall);
+    video.addEventListener("playing", function () { endStall(); flowing = true; });
     video.addEventListener("pause", function () { endStall(); if (!video.ended) log.pauses += 1; });
     video.addEventListener("ended", function () { endStall(); log.played_to_end = true; });
     this.seeked = function () { log.seeks += 1; };
-    this.restarted = function () { lastTime = null; };
+    this.restarted = function () { lastTime = null; flowing = false; };
     this.focusLost = function () { log.focus_lost += 1; };
     this.report = function () {
       endStall();

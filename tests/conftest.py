@@ -345,18 +345,24 @@ def write_tone_wav(path: Path, seconds: float = 0.5, rate: int = 16000) -> Path:
     return path
 
 
-@pytest.fixture(scope="session")
-def tiny_video(tmp_path_factory) -> Path:
-    """A 0.6 s H.264 + AAC clip, the stand-in for a rendered side-by-side stimulus."""
+def make_clip(path: Path, seconds: float = 0.6, size: str = "128x64",
+              bitrate: str | None = None) -> Path:
+    """An H.264 + AAC test-pattern clip in the stimuli's format (streamable: +faststart)."""
     import imageio_ffmpeg
 
-    path = tmp_path_factory.mktemp("video") / "tiny.mp4"
+    rate = ["-b:v", bitrate] if bitrate else []
     subprocess.run([
         imageio_ffmpeg.get_ffmpeg_exe(), "-v", "error", "-f", "lavfi",
-        "-i", "testsrc=size=128x64:rate=25", "-f", "lavfi", "-i", "sine=frequency=440",
-        "-t", "0.6", "-c:v", "libx264", "-pix_fmt", "yuv420p", "-c:a", "aac", "-shortest",
-        "-movflags", "+faststart", str(path)], check=True)
+        "-i", f"testsrc=size={size}:rate=25", "-f", "lavfi", "-i", "sine=frequency=440",
+        "-t", str(seconds), "-c:v", "libx264", *rate, "-pix_fmt", "yuv420p", "-c:a", "aac",
+        "-shortest", "-movflags", "+faststart", str(path)], check=True)
     return path
+
+
+@pytest.fixture(scope="session")
+def tiny_video(tmp_path_factory) -> Path:
+    """A 0.6 s clip, the stand-in for a rendered side-by-side stimulus."""
+    return make_clip(tmp_path_factory.mktemp("video") / "tiny.mp4")
 
 
 STUDY_TOML = """
@@ -378,6 +384,7 @@ policy = "{replay}"
 {max_plays}
 [catch]
 trials = {catch}
+kind = "{catch_kind}"
 
 [[conditions]]
 name = "none"
@@ -394,10 +401,11 @@ audio = "s1.wav"
 
 
 def study_toml(*, design: str = "unordered_counterbalanced", replay: str = "unlimited",
-               max_plays: int | None = None, catch: int = 0, undecided: bool = True,
-               extra: str = "") -> str:
+               max_plays: int | None = None, catch: int = 0, catch_kind: str = "identical",
+               undecided: bool = True, extra: str = "") -> str:
     return textwrap.dedent(STUDY_TOML).format(
-        design=design, replay=replay, catch=catch, undecided=str(undecided).lower(),
+        design=design, replay=replay, catch=catch, catch_kind=catch_kind,
+        undecided=str(undecided).lower(),
         max_plays=f"max_plays = {max_plays}" if max_plays else "", extra=extra)
 
 

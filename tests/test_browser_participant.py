@@ -1,0 +1,209 @@
+"""Browser test of the participant's side end to end: Debian's chromium driven by Playwright
+against a live server. One study with an on-screen attention check, the five-level scale with
+reason tags and mismatched (appropriateness) pairs is taken from consent to completion at
+desktop (1366x768) and phone (390x844) size. On the way the clip of one trial stalls (its
+route holds back the second half of the file until the test lets it through) and another trial
+is reloaded after its first play. The votes CSV the experimenter downloads must then hold the
+media log these actions caused: the stall with its duration, the replay the reload could not
+give back, the levels and the reason tags clicked."""
+
+from __future__ import annotations
+
+import csv
+import io
+
+import pytest
+import sqlalchemy as sa
+
+from app.extensions import db
+from app.models import Participant, Study, Trial
+from tests.conftest import login, make_clip
+from tests.test_browser import browser  # noqa: F401  (the chromium fixture)
+
+pytestmark = pytest.mark.browser
+
+DESKTOP = {"width": 1366, "height": 768}
+PHONE = {"width": 390, "height": 844}
+EXTRA = """
+mismatched = true
+
+[answer]
+scale = 5
+reasons = ["lips", "head", "timing"]
+
+[attention]
+max_failed = 2
+screened_out_code = "RETURN-77"
+
+[viewing]
+min_face_px = 120
+
+[[clips]]
+name = "s2"
+audio = "s1.wav"
+"""
+# Which step of the schedule stalls and which is reloaded (0 is the first trial).
+STALL_STEP, RELOAD_STEP = 1, 2
+HELD_MS = 2500  # how long the stalled clip's second half is held back (its first half: ~1.5 s)
+
+
+@pytest.fixture(scope="module")
+def stall_clip(tmp_path_factory) -> bytes:
+    """A 3 s clip of about 100 kB: its first half holds more than the browser's demuxer reads
+    before it starts, so playback can begin on that half and run dry."""
+    return make_clip(tmp_path_factory.mktemp("stall") / "stall.mp4", seconds=3,
+                     size="320x180", bitrate="500k").read_bytes()
+
+
+class StalledClip:
+    """Serves one trial's clip in two parts: the first half at once, the rest only when
+    ``release()`` is called, so playback runs dry in the middle (a stall the player sees as
+    ``waiting``). Every other request goes through unchanged."""
+
+    def __init__(self, clip: bytes) -> None:
+        self.clip, self.suffix, self.held, self.asked = clip, None, [], []
+
+    def handle(self, route) -> None:
+        request = route.request
+        if self.suffix is None or not request.url.endswith(self.suffix):
+            route.continue_()
+            return
+        ranged = request.all_headers().get("range", "bytes=0-")
+        start = int(ranged.split("=")[1].split("-")[0] or 0)
+        self.asked.append(ranged)
+        cut = len(self.clip) // 2
+        if start >= cut:
+            self.held.append((route, start))
+            return
+        route.fulfill(status=206, body=self.clip[start:cut], headers={
+            "Content-Type": "video/mp4", "Accept-Ranges": "bytes",
+            "Content-Range": f"bytes {start}-{cut - 1}/{len(self.clip)}"})
+
+    def release(self) -> None:
+        while self.held:
+            route, start = self.held.pop(0)
+            route.fulfill(status=206, body=self.clip[start:], headers={
+                "Content-Type": "video/mp4", "Accept-Ranges": "bytes",
+                "Content-Range": f"bytes {start}-{len(self.clip) - 1}/{len(self.clip)}"})
+
+
+def _expected(app, trial_id: int) -> tuple[str, str | None]:
+    with app.app_context():
+        trial = db.session.get(Trial, trial_id)
+        return trial.kind, trial.expected
+
+
+def _press(page, selector: str, touch: bool) -> None:
+    (page.tap if touch else page.click)(selector)
+
+
+def _take_part(live_server, chromium, slug: str, pid: str, viewport: dict, clip: bytes,
+               touch: bool) -> dict[int, dict]:
+    """One participant from consent to the completion code; returns what was done per
+    trial (choice, strength, reasons, plays, stalled)."""
+    context = chromium.new_context(viewport=viewport, is_mobile=touch, has_touch=touch)
+    page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    stall = StalledClip(clip)
+    page.route("**/video/*", stall.handle)
+    done: dict[int, dict] = {}
+    try:
+        page.goto(f"{live_server.url}/s/{slug}?PROLIFIC_PID={pid}&STUDY_ID=st&SESSION_ID=se")
+        _press(page, "text=I agree", touch)
+        page.wait_for_url("**/instructions")
+        _press(page, "#start", touch)
+        step = 0
+        while True:
+            page.wait_for_selector(".player[data-trial-id], .done", timeout=30000)
+            if "/trial" not in page.url:
+                break
+            trial = int(page.get_attribute(".player", "data-trial-id"))
+            kind, expected = _expected(live_server.app, trial)
+            plays = 1
+            if step == STALL_STEP:
+                # This trial's page is opened again with the route in place.
+                stall.suffix = f"/video/{trial}"
+                page.reload()
+            page.wait_for_selector(".play:not([disabled])", timeout=20000)
+            _press(page, ".play", touch)
+            if step == STALL_STEP:
+                page.wait_for_timeout(HELD_MS)
+                assert stall.held, f"the second half was never asked for: {stall.asked}"
+                stall.release()
+                stall.suffix = None
+            if step == RELOAD_STEP:
+                # The play was counted by the server: the reload does not give it back.
+                page.wait_for_selector(".vote:not([disabled])", timeout=20000)
+                page.reload()
+                page.wait_for_selector(".play:not([disabled])", timeout=20000)
+                assert int(page.get_attribute(".player", "data-plays")) == 1
+                _press(page, ".play", touch)
+                plays = 2
+            page.wait_for_selector(".vote:not([disabled])", timeout=20000)
+            # The attention check is answered as its clip says; the others vary the level.
+            side = expected if kind == "catch" else ("left", "right")[step % 2]
+            strength = 2 if kind == "catch" else 1 + step % 2
+            _press(page, f'.vote[data-choice="{side}"][data-strength="{strength}"]', touch)
+            page.wait_for_selector(".reasons:not([hidden])")
+            tags = ["lips", "timing"][: step % 3]
+            for tag in tags:
+                page.check(f'.reasons input[value="{tag}"]')
+            _press(page, ".reasons .confirm", touch)
+            done[trial] = {"kind": kind, "choice": side, "strength": strength,
+                           "reasons": ";".join(tags), "plays": plays,
+                           "stalled": step == STALL_STEP}
+            page.wait_for_selector(f'.player[data-trial-id="{trial}"]', state="detached",
+                                   timeout=30000)
+            step += 1
+        assert page.inner_text("#completion-code") == "DONE-123"
+    finally:
+        context.close()
+    assert errors == []
+    return done
+
+
+def test_participants_take_a_full_study_on_desktop_and_phone(live_server, browser,  # noqa: F811
+                                                             stall_clip):
+    study_id = live_server.study(design="unordered_counterbalanced", replay="play_to_end",
+                                 catch=1,
+                                 catch_kind="onscreen", extra=EXTRA)
+    with live_server.app.app_context():
+        study = db.session.get(Study, study_id)
+        slug = study.slug
+    clip = stall_clip
+    runs = {
+        "desk-1": _take_part(live_server, browser, slug, "desk-1", DESKTOP, clip, False),
+        "phone-1": _take_part(live_server, browser, slug, "phone-1", PHONE, clip, True),
+    }
+    with live_server.app.test_client() as client:
+        login(client)  # the study's owner
+        response = client.get(f"/experimenter/studies/{study_id}/votes.csv")
+        assert response.status_code == 200
+        rows = list(csv.DictReader(io.StringIO(response.get_data(as_text=True))))
+    with live_server.app.app_context():
+        people = {p.prolific_pid: p.number for p in db.session.scalars(sa.select(Participant))}
+        positions = {t.id: t.position for t in db.session.scalars(sa.select(Trial))}
+        assert all(p.finished_at is not None and p.screened_out_at is None
+                   for p in db.session.scalars(sa.select(Participant)))
+    by_key = {(r["participant"], int(r["trial"])): r for r in rows}
+    kinds = set()
+    for pid, done in runs.items():
+        for trial, did in done.items():
+            kinds.add(did["kind"])
+            if did["kind"] == "catch":
+                continue  # attention checks are not votes of the export
+            row = by_key.pop((f"P{people[pid]:04d}", positions[trial]))
+            assert (row["choice"], int(row["strength"]), row["reasons"], int(row["plays"])) == (
+                did["choice"], did["strength"], did["reasons"], did["plays"]), row
+            assert row["played_to_end"] == "true" and int(row["watched_ms"]) > 0, (did, row)
+            # The held-back half is a stall of about HELD_MS; the start of a play, its seek
+            # to the beginning included, is none.
+            stalls, stall_ms = int(row["stalls"]), int(row["stall_ms"])
+            if did["stalled"]:
+                assert stalls >= 1 and stall_ms >= HELD_MS // 4, (did, row)
+            else:
+                assert (stalls, stall_ms) == (0, 0), (did, row)
+            assert (row["mismatched"] != "") == (did["kind"] == "mismatch")
+    assert by_key == {}  # nothing exported that was not clicked
+    assert kinds == {"trial", "mismatch", "catch"}
