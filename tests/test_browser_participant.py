@@ -11,13 +11,15 @@ from __future__ import annotations
 
 import csv
 import io
+import os
+from pathlib import Path
 
 import pytest
 import sqlalchemy as sa
 
 from app.extensions import db
 from app.models import Participant, Study, Trial
-from tests.conftest import login, make_clip
+from tests.conftest import create_test_study, login, make_clip
 from tests.test_browser import browser  # noqa: F401  (the chromium fixture)
 
 pytestmark = pytest.mark.browser
@@ -207,3 +209,43 @@ def test_participants_take_a_full_study_on_desktop_and_phone(live_server, browse
             assert (row["mismatched"] != "") == (did["kind"] == "mismatch")
     assert by_key == {}  # nothing exported that was not clicked
     assert kinds == {"trial", "mismatch", "catch"}
+
+
+@pytest.mark.parametrize("name, viewport", [("desktop", DESKTOP), ("phone", PHONE)])
+def test_trial_page_layout_and_screenshots(live_server, browser, tiny_video,  # noqa: F811
+                                           tmp_path, name, viewport):
+    """The trial page of the five-level scale: both faces in view without scrolling, every
+    answer a 44 px touch target, mirror-image buttons, and no shift when the clip loads.
+    With ``$FACEPAIR_DEMO_CLIP`` (docs/make_participant_figures.py) the page shows that clip
+    and the screenshots go to ``$FACEPAIR_SCREENSHOTS``."""
+    clip = Path(os.environ.get("FACEPAIR_DEMO_CLIP", tiny_video))
+    shots = Path(os.environ.get("FACEPAIR_SCREENSHOTS", tmp_path))
+    study_id = create_test_study(live_server.app, tmp_path, clip, extra=EXTRA)
+    with live_server.app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    touch = name == "phone"
+    context = browser.new_context(viewport=viewport, is_mobile=touch, has_touch=touch)
+    page = context.new_page()
+    try:
+        page.goto(f"{live_server.url}/s/{slug}")
+        _press(page, "text=I agree", touch)
+        _press(page, "#start", touch)
+        page.wait_for_selector(".player[data-trial-id]")
+        before = page.locator(".stage").bounding_box()
+        page.wait_for_selector(".play:not([disabled])", timeout=20000)
+        assert page.locator(".stage").bounding_box() == before  # no layout shift
+        _press(page, ".play", touch)
+        page.wait_for_timeout(1000)
+        page.screenshot(path=shots / f"participant-trial-{name}.png")
+        video = page.locator("video").bounding_box()
+        assert video["y"] >= 0 and video["y"] + video["height"] <= viewport["height"]
+        assert video["x"] >= 0 and video["x"] + video["width"] <= viewport["width"]
+        boxes = [page.locator(".vote").nth(i).bounding_box() for i in range(5)]
+        assert all(b["height"] >= 44 and b["width"] >= 44 for b in boxes)
+        assert all(b["y"] + b["height"] <= viewport["height"] for b in boxes)
+        # Mirror images: clearly left and clearly right, slightly left and slightly right.
+        for left, right in ((0, 4), (1, 3)):
+            assert (boxes[left]["width"], boxes[left]["height"]) == pytest.approx(
+                (boxes[right]["width"], boxes[right]["height"]), abs=0.5)  # subpixel rounding
+    finally:
+        context.close()
