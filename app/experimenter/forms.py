@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from flask_wtf import FlaskForm
-from flask_wtf.file import FileAllowed, FileField, FileRequired
+from flask_wtf.file import FileAllowed, FileField
 from wtforms import (
     BooleanField,
     EmailField,
+    HiddenField,
     IntegerField,
     MultipleFileField,
     PasswordField,
@@ -18,6 +19,7 @@ from wtforms import (
     TextAreaField,
 )
 from wtforms.validators import URL, DataRequired, Length, NumberRange, Optional
+from wtforms.widgets import CheckboxInput, ListWidget
 
 DESIGN_CHOICES = [
     SelectChoice("all_ordered", "All ordered pairs, same-condition pairs included (thesis)"),
@@ -48,9 +50,12 @@ class DeleteParticipantForm(FlaskForm):
 
 
 class StudyFileForm(FlaskForm):
+    # Not FileRequired: after a failed attempt the kept study file stands in (``uploads``).
     study_file = FileField("Study file (.toml)", validators=[
-        FileRequired(), FileAllowed(["toml"], "a .toml study file")])
+        FileAllowed(["toml"], "a .toml study file")])
     media = MultipleFileField("Audio and track files it names (.wav, .fap, ...)")
+    #: Token of the files kept from a failed attempt (``app.experimenter.uploads``).
+    kept = HiddenField(validators=[Optional(), Length(max=64)])
     submit = SubmitField("Create study from file")
 
 
@@ -60,10 +65,12 @@ class StudyWebForm(FlaskForm):
                            default="Which animation looks more natural?")
     instructions = TextAreaField("Instructions")
     consent = TextAreaField("Consent text")
-    models = SelectMultipleField("Conditions from models", choices=[])
+    models = SelectMultipleField("Conditions from models", choices=[],
+                                 widget=ListWidget(prefix_label=False),
+                                 option_widget=CheckboxInput())
     tracks = MultipleFileField("Uploaded tracks, named <condition>__<clip>.fap")
-    audio = MultipleFileField("Clips: audio files (the file name is the clip name)",
-                              validators=[DataRequired()])
+    # Required, but checked in the view: kept files of a failed attempt count.
+    audio = MultipleFileField("Clips: audio files (the file name is the clip name)")
     ground_truth = MultipleFileField("Ground truth: <clip>.fap (optional)")
     design = SelectField("Pair design", choices=DESIGN_CHOICES, default="all_ordered")
     reference = StringField("Reference condition (design 'reference')")
@@ -78,4 +85,5 @@ class StudyWebForm(FlaskForm):
     redirect_url = StringField("Redirect URL after completion",
                                validators=[Optional(), URL(require_tld=False)])
     seed = IntegerField("Seed", default=0, validators=[NumberRange(min=0)])
+    kept = HiddenField(validators=[Optional(), Length(max=64)])
     submit = SubmitField("Create study")

@@ -2,10 +2,6 @@
 
 from __future__ import annotations
 
-import tempfile
-from pathlib import Path
-from typing import Any
-
 import sqlalchemy as sa
 from flask import (
     Blueprint,
@@ -21,23 +17,19 @@ from flask import (
     url_for,
 )
 from werkzeug.utils import secure_filename
-from wtforms import SelectChoice
 
-from app.errors import InputError
 from app.experimenter.auth import authenticate, current_user, login_required
 from app.experimenter.forms import (
     ActionForm,
     DeleteParticipantForm,
     LoginForm,
-    StudyFileForm,
-    StudyWebForm,
 )
 from app.extensions import db, limiter
 from app.jobs import enqueue
 from app.jobs.tasks import JOB_KINDS, sweep_study_jobs
 from app.models import Job, Stimulus, Study
 from app.security import REPORT_CONTENT_SECURITY_POLICY, safe_next
-from app.storage import disk_full, disk_full_message, media_file
+from app.storage import media_file
 
 bp = Blueprint("experimenter", __name__, url_prefix="/experimenter")
 
@@ -109,108 +101,6 @@ def studies():  # type: ignore[no-untyped-def]
     rows = db.session.scalars(sa.select(Study).where(Study.owner_id == user.id)  # type: ignore[union-attr]
                               .order_by(Study.created_at.desc())).all()
     return render_template("experimenter/studies.html", studies=rows, action=ActionForm())
-
-
-def _save_uploads(files: list[Any], folder: Path) -> dict[str, Path]:
-    saved = {}
-    for upload in files:
-        if not upload or not getattr(upload, "filename", ""):
-            continue
-        name = secure_filename(upload.filename)
-        if name:
-            upload.save(folder / name)
-            saved[name] = folder / name
-    return saved
-
-
-def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
-    """The web form as a study-file mapping, validated by the same parser as a TOML file."""
-    audio = _save_uploads(form.audio.data or [], folder)
-    truths = _save_uploads(form.ground_truth.data or [], folder)
-    tracks = _save_uploads(form.tracks.data or [], folder)
-    clips = []
-    for name in audio:
-        clip: dict[str, Any] = {"name": Path(name).stem, "audio": name}
-        truth = next((t for t in truths if Path(t).stem == Path(name).stem), None)
-        if truth:
-            clip["ground_truth"] = truth
-        clips.append(clip)
-    conditions: list[dict[str, Any]] = [{"name": m, "model": m} for m in form.models.data or []]
-    uploaded: dict[str, dict[str, str]] = {}
-    for name in tracks:
-        condition, _, clip_name = Path(name).stem.partition("__")
-        if not clip_name:
-            raise InputError("expected <condition>__<clip>.fap", path=name, field="tracks")
-        uploaded.setdefault(condition, {})[clip_name] = name
-    conditions += [{"name": c, "tracks": t} for c, t in uploaded.items()]
-    data: dict[str, Any] = {
-        "title": form.title.data, "question": form.question.data,
-        "instructions": form.instructions.data or "", "consent": form.consent.data or "",
-        "design": form.design.data, "seed": form.seed.data or 0,
-        "target_participants": form.target_participants.data or 1,
-        "completion_code": form.completion_code.data or "",
-        "undecided": {"allowed": bool(form.undecided_allowed.data),
-                      "label": form.undecided_label.data or "Undecided"},
-        "replay": {"policy": form.replay.data},
-        "catch": {"trials": form.catch_trials.data or 0,
-                  "kind": "identical" if form.undecided_allowed.data else "instructed"},
-        "clips": clips, "conditions": conditions,
-    }
-    if form.replay.data == "max_plays":
-        data["replay"]["max_plays"] = form.max_plays.data or 1
-    if form.reference.data:
-        data["reference"] = form.reference.data.strip()
-    if form.redirect_url.data:
-        data["redirect_url"] = form.redirect_url.data.strip()
-    return data
-
-
-@bp.route("/studies/new", methods=["GET", "POST"])
-@login_required
-def new_study():  # type: ignore[no-untyped-def]
-    from app.studies import create_study
-    from app.trials.studyfile import MODELS, loads_study, parse_study
-
-    file_form = StudyFileForm(prefix="file")
-    web_form = StudyWebForm(prefix="web")
-    web_form.models.choices = [SelectChoice(m) for m in MODELS]
-    study = None
-    source = "form"
-    try:
-        with tempfile.TemporaryDirectory(prefix="facepair-upload-") as tmp:
-            folder = Path(tmp)
-            if file_form.submit.data and file_form.validate_on_submit():
-                upload = file_form.study_file.data
-                text = upload.read().decode("utf-8", errors="replace")
-                _save_uploads(file_form.media.data or [], folder)
-                source = secure_filename(upload.filename) or "study.toml"
-                spec = loads_study(text, source=source, base_dir=folder, confine=True)
-                study = create_study(current_user(), spec, source_toml=text)  # type: ignore[arg-type]
-            elif web_form.submit.data and web_form.validate_on_submit():
-                spec = parse_study(_web_form_mapping(web_form, folder), source="form",
-                                   base_dir=folder, confine=True)
-                study = create_study(current_user(), spec)  # type: ignore[arg-type]
-    except OSError as exc:
-        if not disk_full(exc):
-            raise
-        db.session.rollback()
-        flash(disk_full_message(exc), "error")
-        return render_template("experimenter/new_study.html", file_form=file_form,
-                               web_form=web_form), 507
-    except InputError as exc:
-        db.session.rollback()
-        # A value the columns cannot hold is found when the rows are written: name the file.
-        flash(str(exc if exc.path else InputError(exc.message, path=source, field=exc.field)),
-              "error")
-        return render_template("experimenter/new_study.html", file_form=file_form,
-                               web_form=web_form), 400
-    if study is not None:
-        db.session.commit()
-        flash("Study created. Generate the tracks, then render the clips.", "ok")
-        return redirect(url_for(".study", study_id=study.id))
-    status = 400 if request.method == "POST" else 200
-    return render_template("experimenter/new_study.html", file_form=file_form,
-                           web_form=web_form), status
 
 
 def _start(study: Study, kind: str) -> None:
@@ -388,3 +278,7 @@ def preview(study_id: int, stimulus_id: int):  # type: ignore[no-untyped-def]
         abort(404)
     return send_file(media_file(study, stimulus.video_path), mimetype="video/mp4",
                      conditional=True)
+
+
+# The other experimenter pages add their routes to ``bp`` (one module per idea).
+from app.experimenter import create  # noqa: E402, F401

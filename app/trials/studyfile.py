@@ -76,9 +76,11 @@ def loads_study(
     base_dir: str | Path = ".",
     check_files: bool = True,
     confine: bool = False,
+    by_name: bool = False,
 ) -> StudySpec:
     """Parse and validate study-file text; ``source`` names it in errors (see
-    :func:`load_study_file` for the options)."""
+    :func:`load_study_file` for the options; ``by_name=True`` reads an uploaded study file,
+    whose paths name files uploaded beside it: see :class:`~app.trials.fields.FieldReader`)."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -90,7 +92,12 @@ def loads_study(
     except RecursionError:  # tomllib recurses once per level of nested arrays and tables
         raise InputError("invalid TOML: arrays or tables nested too deeply", path=source) from None
     return parse_study(
-        data, source=source, base_dir=base_dir, check_files=check_files, confine=confine
+        data,
+        source=source,
+        base_dir=base_dir,
+        check_files=check_files,
+        confine=confine,
+        by_name=by_name,
     )
 
 
@@ -101,9 +108,12 @@ def parse_study(
     base_dir: str | Path = ".",
     check_files: bool = True,
     confine: bool = False,
+    by_name: bool = False,
 ) -> StudySpec:
     """Validate an already-parsed study (a TOML document or a web form's mapping)."""
-    reader = _StudyReader(source, Path(base_dir), check_files=check_files, confine=confine)
+    reader = _StudyReader(
+        source, Path(base_dir), check_files=check_files, confine=confine, by_name=by_name
+    )
     return reader.study(data)
 
 
