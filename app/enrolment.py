@@ -180,7 +180,8 @@ def touch(participant: Participant) -> bool:
             return False
         returned = db.session.execute(
             sa.update(Participant)
-            .where(Participant.id == participant.id, Participant.dropped_at.is_not(None))
+            .where(Participant.id == participant.id, Participant.dropped_at.is_not(None),
+                   Participant.excluded_at.is_(None))  # an exclusion's slot stays given back
             .values(last_seen_at=now, dropped_at=None)
             .execution_options(synchronize_session=False))
         if returned.rowcount == 1:

@@ -1,8 +1,10 @@
 """Votes in the analysis module's CSV schema, and the analysis report of a study.
 
 The column names come from ``app.analysis.votes.VOTE_COLUMNS`` (one place for the votes
-schema). Practice answers are never stored; catch trials are attention checks and are left
-out of the export and the report (the monitor shows how many were passed).
+schema). Practice answers are never stored; catch trials are exported with ``kind = catch``
+and the analysis leaves them out. Every row carries its participant's status, pseudonymised
+Prolific ID and, when the analysis is to leave them out, why (``app.participants``). Pilot
+participants are exported only when asked for (``pilot="with"`` or ``"only"``).
 """
 
 from __future__ import annotations
@@ -27,38 +29,52 @@ def participant_label(number: int) -> str:
     return f"P{number:04d}"
 
 
-def vote_rows(study: Study) -> list[dict[str, Any]]:
-    """One dict per stored vote of a real trial, ordered by participant and trial position."""
+def vote_rows(study: Study, *, pilot: str = "without") -> list[dict[str, Any]]:
+    """One dict per stored vote of a real or catch trial, ordered by participant and trial
+    position; ``pilot`` is "without" (default), "with" or "only" the pilot participants."""
+    from app.enrolment import dropped_after
+    from app.participants import participant_rows
+    from app.privacy import pseudonym
+
+    people = {row.id: row for row in participant_rows(study, dropped_after=dropped_after())
+              if (pilot == "with") or (row.pilot == (pilot == "only"))}
     left = sa.orm.aliased(Condition)
     right = sa.orm.aliased(Condition)
     query = (
-        sa.select(Vote, Trial.position, Participant.number, Clip.name, left.name, right.name)
+        sa.select(Vote, Trial.position, Trial.kind, Participant.id, Participant.number,
+                  Participant.prolific_pid, Clip.name, left.name, right.name)
         .join(Trial, Vote.trial_id == Trial.id)
         .join(Participant, Vote.participant_id == Participant.id)
         .join(Stimulus, Trial.stimulus_id == Stimulus.id)
         .join(Clip, Stimulus.clip_id == Clip.id)
         .join(left, Stimulus.left_id == left.id)
         .join(right, Stimulus.right_id == right.id)
-        .where(Participant.study_id == study.id, Trial.kind == "trial")
+        .where(Participant.study_id == study.id, Trial.kind.in_(("trial", "catch")))
         .order_by(Participant.number, Trial.position)
     )
     rows = []
-    for vote, position, number, clip, left_name, right_name in db.session.execute(query):
+    for (vote, position, kind, person, number, pid, clip, left_name,
+         right_name) in db.session.execute(query):
+        if person not in people:
+            continue
         rows.append({
             "participant": participant_label(number), "clip": clip, "left": left_name,
             "right": right_name, "choice": vote.choice, "study": study.title,
             "trial": position, "response_ms": vote.response_ms, "plays": vote.plays,
             "presented_at": _iso(vote.presented_at), "voted_at": _iso(vote.voted_at),
+            "kind": kind, "status": people[person].status,
+            "excluded": people[person].excluded,
+            "prolific_id": pseudonym(study.pseudonym_key, pid),
         })
     return rows
 
 
-def votes_csv(study: Study) -> str:
+def votes_csv(study: Study, *, pilot: str = "without") -> str:
     """The study's votes as CSV text (``app.analysis.votes.write_votes_csv``)."""
     from app.analysis.votes import write_votes_csv
 
     buffer = io.StringIO()
-    write_votes_csv(vote_rows(study), buffer)
+    write_votes_csv(vote_rows(study, pilot=pilot), buffer)
     return buffer.getvalue()
 
 

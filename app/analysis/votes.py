@@ -53,7 +53,16 @@ COLUMN_SPECS: tuple[VoteColumn, ...] = (
     VoteColumn("plays", "count", False, "how many times the pair was played"),
     VoteColumn("presented_at", "time", False, "ISO 8601 time the pair was shown"),
     VoteColumn("voted_at", "time", False, "ISO 8601 time of the vote"),
+    VoteColumn("kind", "text", False, "trial (a pair of the design) or catch (an attention "
+               "check, left out of every statistic); empty means trial"),
+    VoteColumn("status", "text", False, "the participant's status when exported: started, "
+               "finished, dropped, excluded or returned"),
+    VoteColumn("excluded", "text", False, "why the participant is left out of the analysis "
+               "(pilot, excluded, a failed catch trial, unfinished); empty: included"),
+    VoteColumn("prolific_id", "text", False, "the participant's Prolific ID, pseudonymised"),
 )
+#: Values of ``kind`` whose rows are analysed (the others are attention checks).
+ANALYSED_KINDS: tuple[str, ...] = ("", "trial")
 VOTE_COLUMNS: tuple[str, ...] = tuple(c.name for c in COLUMN_SPECS)
 REQUIRED_COLUMNS: tuple[str, ...] = tuple(c.name for c in COLUMN_SPECS if c.required)
 OPTIONAL_COLUMNS: tuple[str, ...] = tuple(c.name for c in COLUMN_SPECS if not c.required)

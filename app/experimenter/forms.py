@@ -87,3 +87,34 @@ class StudyWebForm(FlaskForm):
     seed = IntegerField("Seed", default=0, validators=[NumberRange(min=0)])
     kept = HiddenField(validators=[Optional(), Length(max=64)])
     submit = SubmitField("Create study")
+
+
+class ConfirmForm(FlaskForm):
+    """A state change that needs a tick first (reopening a closed study)."""
+
+    confirm = BooleanField("I understand", validators=[DataRequired()])
+
+
+class DuplicateForm(FlaskForm):
+    with_clips = BooleanField("Copy the generated tracks and rendered clips too")
+
+
+class DeleteStudyForm(FlaskForm):
+    #: The study's title, typed again: deleting a study cannot be undone.
+    title = StringField("Type the study's title to delete it with all its data",
+                        validators=[DataRequired(), Length(max=200)])
+
+
+class ShareForm(FlaskForm):
+    email = EmailField("Collaborator's e-mail", validators=[DataRequired(), Length(max=200)])
+    access = SelectField("Access", choices=[
+        SelectChoice("read", "read-only: monitor, exports, report"),
+        SelectChoice("full", "full: also render, open, close, exclude")], default="read")
+
+
+class ExcludeForm(FlaskForm):
+    participant = HiddenField(validators=[DataRequired(), Length(max=20)])
+    how = SelectField("", choices=[SelectChoice("excluded", "exclude"),
+                                   SelectChoice("returned", "returned on Prolific")],
+                      default="excluded")
+    reason = StringField("Reason", validators=[Optional(), Length(max=300)])

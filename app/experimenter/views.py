@@ -39,13 +39,33 @@ def _load_user() -> None:
     current_user()  # sets g.user for the templates
 
 
-def _own_study(study_id: int) -> Study:
-    """The study if it belongs to the logged-in experimenter; 404 otherwise (no leak)."""
+#: What each level of access allows, weakest first: a collaborator with "read" sees the
+#: study, its monitor, exports and report; "full" also runs it; only the owner shares,
+#: deletes or reads the raw Prolific IDs.
+ACCESS_LEVELS = ("read", "full", "owner")
+
+
+def study_access(study: Study, user_id: int) -> str | None:
+    """The access ``user_id`` has to ``study`` (one of :data:`ACCESS_LEVELS`), or None."""
+    from app.models import StudyShare
+
+    if study.owner_id == user_id:
+        return "owner"
+    return db.session.scalar(sa.select(StudyShare.access).where(
+        StudyShare.study_id == study.id, StudyShare.user_id == user_id))
+
+
+def _own_study(study_id: int, need: str = "read") -> Study:
+    """The study if the logged-in experimenter has at least ``need`` access to it; 404 if they
+    have none (no leak that it exists), 403 if they may only look."""
     study = db.session.get(Study, study_id)
     user = current_user()
-    if study is None or user is None or study.owner_id != user.id:
+    access = None if study is None or user is None else study_access(study, user.id)
+    if access is None:
         abort(404)
-    return study
+    if ACCESS_LEVELS.index(access) < ACCESS_LEVELS.index(need):
+        abort(403)
+    return study  # type: ignore[return-value]
 
 
 def _account_limits() -> str:
@@ -98,8 +118,12 @@ def logout():  # type: ignore[no-untyped-def]
 @login_required
 def studies():  # type: ignore[no-untyped-def]
     user = current_user()
-    rows = db.session.scalars(sa.select(Study).where(Study.owner_id == user.id)  # type: ignore[union-attr]
-                              .order_by(Study.created_at.desc())).all()
+    from app.models import StudyShare
+
+    shared = sa.select(StudyShare.study_id).where(StudyShare.user_id == user.id)  # type: ignore[union-attr]
+    rows = db.session.scalars(sa.select(Study).where(sa.or_(
+        Study.owner_id == user.id, Study.id.in_(shared)))  # type: ignore[union-attr]
+        .order_by(Study.created_at.desc())).all()
     return render_template("experimenter/studies.html", studies=rows, action=ActionForm())
 
 
@@ -132,16 +156,41 @@ def study(study_id: int):  # type: ignore[no-untyped-def]
                                  .order_by(Stimulus.id)).all()
     link = url_for("participant.start", slug=study.slug, _external=True)
     return render_template("experimenter/study.html", study=study, jobs=jobs, stimuli=stimuli,
-                           link=link, action=ActionForm(), forget=DeleteParticipantForm())
+                           link=link, action=ActionForm(), forget=DeleteParticipantForm(),
+                           **_study_extras(study, link))
+
+
+def _study_extras(study: Study, link: str) -> dict[str, object]:
+    """The study page's lifecycle, recruitment and sharing parts."""
+    from app.experimenter.forms import ConfirmForm, DeleteStudyForm, DuplicateForm, ShareForm
+    from app.experimenter.lifecycle import shares_of
+    from app.recruitment import completion_url, prolific_study_url
+    from app.studies import stimuli_locked
+
+    access = study_access(study, current_user().id)  # type: ignore[union-attr]
+    return {
+        "access": access, "locked": stimuli_locked(study),
+        "pilot_link": url_for(".pilot", token=study.pilot_token, _external=True),
+        "prolific_url": prolific_study_url(link), "completion_url": completion_url(study),
+        "confirm": ConfirmForm(), "duplicate_form": DuplicateForm(),
+        "delete_form": DeleteStudyForm(), "share_form": ShareForm(),
+        "shares": shares_of(study) if access == "owner" else [],
+    }
 
 
 @bp.post("/studies/<int:study_id>/jobs/<kind>")
 @login_required
 def start_job(study_id: int, kind: str):  # type: ignore[no-untyped-def]
-    study = _own_study(study_id)
+    from app.studies import stimuli_locked
+
+    study = _own_study(study_id, "full")
     if kind not in JOB_KINDS or not ActionForm().validate_on_submit():
         abort(400)
-    _start(study, kind)
+    locked = stimuli_locked(study) if kind in ("generate", "render") else None
+    if locked:
+        flash(f"Nothing started: {locked}.", "error")
+    else:
+        _start(study, kind)
     return redirect(url_for(".study", study_id=study.id))
 
 
@@ -149,7 +198,7 @@ def start_job(study_id: int, kind: str):  # type: ignore[no-untyped-def]
 @login_required
 def retry_job(study_id: int, job_id: int):  # type: ignore[no-untyped-def]
     """Run a failed job again; a render resumes from the clips already rendered."""
-    study = _own_study(study_id)
+    study = _own_study(study_id, "full")
     job = db.session.get(Job, job_id)
     if job is None or job.study_id != study.id or not ActionForm().validate_on_submit():
         abort(404)
@@ -165,8 +214,10 @@ def retry_job(study_id: int, job_id: int):  # type: ignore[no-untyped-def]
 def change_status(study_id: int, action: str):  # type: ignore[no-untyped-def]
     from app.studies import change_status as apply
 
-    study = _own_study(study_id)
+    study = _own_study(study_id, "full")
     if not ActionForm().validate_on_submit():
+        abort(400)
+    if action == "reopen":  # only with its confirmation (``lifecycle.reopen``)
         abort(400)
     if action == "open" and any(s.video_path is None for s in db.session.scalars(
             sa.select(Stimulus).where(Stimulus.study_id == study.id))):
@@ -174,6 +225,10 @@ def change_status(study_id: int, action: str):  # type: ignore[no-untyped-def]
         return redirect(url_for(".study", study_id=study.id))
     try:
         apply(study, action)
+        if action == "open":
+            from app.participants import release_pilots
+
+            release_pilots(study)
     except ValueError as exc:
         flash(str(exc), "error")
         return redirect(url_for(".study", study_id=study.id))
@@ -193,7 +248,10 @@ def monitor(study_id: int):  # type: ignore[no-untyped-def]
     release_dropped(study, after=dropped_after())
     db.session.commit()
     stats = study_monitor(study, dropped_after=dropped_after())
-    return render_template("experimenter/monitor.html", study=study, stats=stats)
+    from app.experimenter.participants import participant_table
+
+    return render_template("experimenter/monitor.html", study=study, stats=stats,
+                           **participant_table(study))
 
 
 @bp.get("/studies/<int:study_id>/votes.csv")
@@ -202,8 +260,12 @@ def export_votes(study_id: int):  # type: ignore[no-untyped-def]
     from app.exports import votes_csv
 
     study = _own_study(study_id)
-    name = secure_filename(study.title) or f"study-{study.id}"
-    return Response(votes_csv(study), mimetype="text/csv",
+    pilot = request.args.get("pilot", "without")
+    if pilot not in ("without", "with", "only"):
+        pilot = "without"
+    name = (secure_filename(study.title) or f"study-{study.id}") + (
+        "" if pilot == "without" else f"-{pilot}-pilot")
+    return Response(votes_csv(study, pilot=pilot), mimetype="text/csv",
                     headers={"Content-Disposition": f'attachment; filename="{name}-votes.csv"'})
 
 
@@ -213,7 +275,7 @@ def export_participants(study_id: int):  # type: ignore[no-untyped-def]
     """Participants with pseudonymised Prolific IDs; ``?ids=raw`` for the real ones (payment)."""
     from app.privacy import participants_csv
 
-    study = _own_study(study_id)
+    study = _own_study(study_id, "owner" if request.args.get("ids") == "raw" else "read")
     raw = request.args.get("ids") == "raw"
     name = (secure_filename(study.title) or f"study-{study.id}") + (
         "-participants-prolific-ids" if raw else "-participants")
@@ -228,7 +290,7 @@ def delete_participant(study_id: int):  # type: ignore[no-untyped-def]
     """Delete one participant's data on their request (the monitor and exports follow)."""
     from app.privacy import delete_participants
 
-    study = _own_study(study_id)
+    study = _own_study(study_id, "full")
     form = DeleteParticipantForm()
     if not form.validate_on_submit():
         problems = "; ".join(f"{name}: {errors[0]}" for name, errors in form.errors.items())
@@ -281,4 +343,4 @@ def preview(study_id: int, stimulus_id: int):  # type: ignore[no-untyped-def]
 
 
 # The other experimenter pages add their routes to ``bp`` (one module per idea).
-from app.experimenter import create  # noqa: E402, F401
+from app.experimenter import create, lifecycle, participants  # noqa: E402, F401

@@ -159,7 +159,12 @@ _TOP_KEYS: Final = (
     "catch",
     "conditions",
     "clips",
+    # -- the experimenter's side (docs/studyfile.md, "Participants and questionnaires") --
+    "auto_exclude",
 )
+#: Automatic exclusion rules the report applies (``app.participants.AUTO_RULES``), repeated
+#: so that reading a study file needs no database.
+AUTO_EXCLUDE_RULES: Final = ("catch_failed", "unfinished")
 
 
 class _StudyReader(FieldReader):
@@ -217,6 +222,7 @@ class _StudyReader(FieldReader):
             raise self.error("reference", f"only applies to design = 'reference', not {design!r}")
         practice, practice_clip = self.practice(top, names, [c.name for c in clips])
         rejoin = self.choice(top, "rejoin", "rejoin", REJOIN_POLICIES, "resume")
+        auto_exclude = self.experimenter_side(top)
         spec = StudySpec(
             title=title,
             question=question,
@@ -243,6 +249,7 @@ class _StudyReader(FieldReader):
             render=render,
             exclude=exclude,
             rejoin=rejoin,
+            auto_exclude=auto_exclude,
         )
         main = len(replace(spec, catch_trials=0, practice=None).schedule(seed=0, list_index=0))
         if catch_trials > main:
@@ -252,6 +259,20 @@ class _StudyReader(FieldReader):
                 f"{main} trials of a participant (at most one each)",
             )
         return spec
+
+    def experimenter_side(self, top: Mapping[str, Any]) -> tuple[str, ...]:
+        """``auto_exclude``: the automatic exclusion rules (default: all of them)."""
+        rules = self.get(
+            top, "auto_exclude", "auto_exclude", (list,), "an array of rule names",
+            list(AUTO_EXCLUDE_RULES),
+        )
+        for rule in rules:
+            if rule not in AUTO_EXCLUDE_RULES:
+                raise self.error(
+                    "auto_exclude",
+                    f"expected rules from {', '.join(AUTO_EXCLUDE_RULES)}, got {describe(rule)}",
+                )
+        return tuple(dict.fromkeys(rules))
 
     def stimulus_settings(
         self, top: Mapping[str, Any], clips: tuple[ClipSpec, ...]

@@ -95,6 +95,9 @@ class StudySpec:
     render: Mapping[str, Any] = field(default_factory=dict)
     exclude: str = ""
     rejoin: str = "resume"
+    # -- the experimenter's side --
+    #: Automatic exclusion rules the report applies (``app.participants.AUTO_RULES``).
+    auto_exclude: tuple[str, ...] = ("catch_failed", "unfinished")
 
     @property
     def condition_names(self) -> list[str]:
@@ -168,6 +171,7 @@ class StudySpec:
         out["eyes"] = self.eyes
         out["normalize"] = self.normalize
         out["rejoin"] = self.rejoin
+        out["auto_exclude"] = list(self.auto_exclude)
         if self.render:
             out["render"] = dict(self.render)
         if self.exclude:

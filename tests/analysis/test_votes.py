@@ -29,7 +29,7 @@ def _write(tmp_path, text, name="votes.csv"):
 def test_schema_is_the_interface():
     assert REQUIRED_COLUMNS == ("participant", "clip", "left", "right", "choice")
     assert OPTIONAL_COLUMNS == ("study", "trial", "response_ms", "plays", "presented_at",
-                                "voted_at")
+                                "voted_at", "kind", "status", "excluded", "prolific_id")
     assert VOTE_COLUMNS == REQUIRED_COLUMNS + OPTIONAL_COLUMNS
     assert CHOICES == ("left", "right", "undecided")
 
@@ -162,4 +162,4 @@ def test_times_are_written_in_utc_with_seconds(tmp_path):
     buffer = io.StringIO()
     write_votes_csv(rows, buffer)
     assert buffer.getvalue().splitlines()[1].endswith(",2026-03-02T09:00:00Z,"
-                                                      "2026-03-02T09:00:10.12Z")
+                                                      "2026-03-02T09:00:10.12Z,,,,")
