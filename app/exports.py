@@ -83,7 +83,9 @@ def report_path(study: Study) -> Path:
 
 
 def write_report_files(study: Study) -> Path:
-    """Analyse the votes so far and write the HTML report into the study's media folder."""
+    """Analyse the votes so far and write the report into the study's media folder: HTML and
+    PDF, headed by the study's title, design and participants, from the votes CSV written
+    beside them (which ``facepair analyze`` reads back to the same report)."""
     from app.analysis import analyze
     from app.analysis.report import write_report
     from app.analysis.votes import read_votes
@@ -93,7 +95,37 @@ def write_report_files(study: Study) -> Path:
     csv_path = path.parent / "votes.csv"
     csv_path.write_text(votes_csv(study), encoding="utf-8")
     # exclusion rules as `facepair analyze --exclude` reads them (app.analysis.quality)
+    exclude = study.settings.get("exclude")
     results = analyze(read_votes(csv_path), conditions=[c.name for c in study.conditions],
-                      exclude=study.settings.get("exclude"))
-    write_report(results, path)
+                      exclude=exclude)
+    results["study"] = report_head(study, results, exclude=exclude)
+    write_report(results, path, path.with_suffix(".pdf"))
     return path
+
+
+def report_head(study: Study, results: dict[str, Any], *, exclude: str | None) -> dict[str, Any]:
+    """What the report says of the study itself (``app.analysis.document``'s study head)."""
+    import datetime as dt
+    import shlex
+
+    from app.analysis.document import counted
+
+    left_out = results["input"]["left_out"]
+    design = (f"Design: {study.design}"
+              + (f" against {study.reference}" if study.reference else "")
+              + f"; conditions {', '.join(c.name for c in study.conditions)}; clips "
+              f"{', '.join(c.name for c in study.clips)}; question: {study.question!r}; "
+              + ("undecided answers allowed" if study.allow_undecided else "no undecided answer")
+              + f"; {counted(study.catch_trials, 'catch trial')} per participant; replay "
+              f"{study.replay}; target {counted(study.target_participants, 'participant')}.")
+    included = results["input"]["participants"]
+    who = (f"{counted(included, 'participant')} included, {len(left_out)} left out"
+           + (" (" + "; ".join(f"{p}: {why}" for p, why in sorted(left_out.items())) + ")"
+              if left_out else "") + ".")
+    command = ["facepair", "analyze", "votes.csv", "--report", "report.html", "--pdf",
+               "report.pdf", "--conditions", ",".join(c.name for c in study.conditions)]
+    if exclude:
+        command += ["--exclude", exclude]
+    return {"title": study.title, "design": design, "participants": who,
+            "date": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+            "command": shlex.join(command), "votes_file": "votes.csv"}
