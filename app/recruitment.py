@@ -16,6 +16,8 @@ from app.models import Study
 
 PROLIFIC_PARAMETERS = ("PROLIFIC_PID", "STUDY_ID", "SESSION_ID")
 COMPLETION_BASE = "https://app.prolific.com/submissions/complete?cc="
+#: How long the completion page shows the code before it sends the participant on.
+REDIRECT_SECONDS = 5
 
 
 def prolific_study_url(link: str) -> str:
@@ -35,4 +37,15 @@ def completion_url(study: Study) -> str:
         return study.redirect_url
     if study.completion_code:
         return COMPLETION_BASE + quote(study.completion_code, safe="")
+    return ""
+
+
+def participant_completion_url(study: Study, prolific_pid: str | None) -> str:
+    """Where this finished participant is sent: the study's ``redirect_url``; else, for a
+    participant who came from Prolific (``prolific_pid``), Prolific's completion URL with the
+    code; else "" (the code is shown, nothing more)."""
+    if study.redirect_url:
+        return study.redirect_url
+    if prolific_pid and study.completion_code:
+        return completion_url(study)
     return ""

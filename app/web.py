@@ -89,6 +89,11 @@ def init_web(app: Flask) -> None:
     # The JSON API authenticates participants by the token in the request body, not a cookie,
     # so a cross-site form cannot forge a vote; experimenter endpoints there are GET only.
     csrf.exempt(api_bp)
+    from app.recruitment import REDIRECT_SECONDS, participant_completion_url
+
+    # The completion page sends a finished participant on (``app.recruitment``).
+    app.jinja_env.globals.update(participant_completion_url=participant_completion_url,
+                                 redirect_seconds=REDIRECT_SECONDS)
 
     limits.install(db.session)
     app.register_error_handler(InputError, _bad_input)
