@@ -126,6 +126,10 @@ def report_head(study: Study, results: dict[str, Any], *, exclude: str | None) -
                "report.pdf", "--conditions", ",".join(c.name for c in study.conditions)]
     if exclude:
         command += ["--exclude", exclude]
+    from app.questionnaires import answers_summary
+
+    kept = {str(p) for p in results["participants"]}
     return {"title": study.title, "design": design, "participants": who,
+            "questionnaire": answers_summary(study, included=kept),
             "date": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
             "command": shlex.join(command), "votes_file": "votes.csv"}

@@ -248,6 +248,9 @@ class Participant(db.Model):
     excluded_at: so.Mapped[dt.datetime | None]
     exclusion_reason: so.Mapped[str] = so.mapped_column(sa.String(300), default="",
                                                         server_default="")
+    #: Questionnaire answers by page and question name (``app.questionnaires``); a page
+    #: answered is a key, so an empty page of optional questions still counts as done.
+    answers: so.Mapped[dict[str, Any] | None] = so.mapped_column(sa.JSON, default=dict)
 
     study: so.Mapped[Study] = so.relationship()
     study_list: so.Mapped[StudyList] = so.relationship()

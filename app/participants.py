@@ -26,7 +26,7 @@ import sqlalchemy as sa
 from app.enrolment import move_slot
 from app.extensions import db
 from app.models import Participant, Study, StudyList, Trial, Vote, utcnow
-from app.trials.studyfile import AUTO_EXCLUDE_RULES
+from app.trials.questions import AUTO_EXCLUDE_RULES
 
 STATUSES = ("started", "finished", "dropped", "excluded", "returned")
 #: How a participant is taken out by hand: the status it gives.

@@ -77,6 +77,7 @@ def create_study(owner: User, spec: StudySpec, *, source_toml: str = "",
             "render": {**spec.render, **(render or {})},
             "exclude": spec.exclude or None,
             "auto_exclude": list(spec.auto_exclude),
+            "questions": [q.to_dict() for q in spec.questions],
         },
     )
     db.session.add(study)

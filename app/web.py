@@ -82,8 +82,13 @@ def init_web(app: Flask) -> None:
     from app.experimenter.views import bp as experimenter_bp
     from app.extensions import csrf, db
     from app.participant.views import bp as participant_bp
+    from app.questionnaire.views import bp as questionnaire_bp
+    from app.questionnaire.views import questionnaire_first
 
     app.register_blueprint(participant_bp)
+    app.register_blueprint(questionnaire_bp)
+    # The participant's path passes through the study's questionnaire pages by itself.
+    app.before_request(questionnaire_first)
     app.register_blueprint(experimenter_bp)
     app.register_blueprint(api_bp)
     # The JSON API authenticates participants by the token in the request body, not a cookie,

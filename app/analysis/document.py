@@ -263,10 +263,31 @@ def _study_blocks(study: dict[str, Any]) -> list[Block]:
     blocks.append(Paragraph(f"Report written {study['date']}. " + study.get("design", "")))
     if study.get("participants"):
         blocks.append(Paragraph(study["participants"]))
+    blocks += _questionnaire_blocks(study.get("questionnaire") or [])
     if study.get("command"):
         blocks.append(Paragraph("To reproduce this report from the exported votes "
                                 f"({study.get('votes_file', 'votes.csv')}): {study['command']}"))
     return blocks
+
+
+def _questionnaire_blocks(summary: list[dict[str, Any]]) -> list[Block]:
+    """The included participants' questionnaire answers: options counted, numbers summarised,
+    free texts listed."""
+    if not summary:
+        return []
+    rows = []
+    for q in summary:
+        if q["kind"] == "choice":
+            given = "; ".join(f"{c}: {n}" for c, n in q["counts"].items() if n)
+        elif q["kind"] == "number":
+            given = (f"median {q['median']:g}, range {q['min']:g}-{q['max']:g}"
+                     if q["answered"] else "")
+        else:
+            given = " | ".join(q["texts"])
+        rows.append([q["text"], f"{q['answered']} of {q['asked']}", given or "-"])
+    return [Heading("Questionnaire", 2),
+            Table("Answers of the included participants.", ["Question", "Answered", "Answers"],
+                  rows, numeric=[False, True, False])]
 
 
 def _left_out_table(left_out: dict[str, str]) -> Table:

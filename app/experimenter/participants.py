@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 import sqlalchemy as sa
-from flask import flash, redirect, request, url_for
+from flask import Response, flash, redirect, request, url_for
 
 from app.experimenter.auth import current_user, login_required
 from app.experimenter.forms import ExcludeForm
@@ -66,3 +66,19 @@ def exclude_participant(study_id: int):  # type: ignore[no-untyped-def]
     db.session.commit()
     flash(f"P{person.number:04d} {form.how.data}; their list slot is free again.", "ok")
     return back
+
+
+@bp.get("/studies/<int:study_id>/answers.csv")
+@login_required
+def export_answers(study_id: int):  # type: ignore[no-untyped-def]
+    """The questionnaire answers, one row per participant (joined to the votes by label)."""
+    from werkzeug.utils import secure_filename
+
+    from app.questionnaires import answers_csv
+
+    study = _own_study(study_id)
+    pilot = request.args.get("pilot") == "only"
+    name = (secure_filename(study.title) or f"study-{study.id}") + (
+        "-pilot-answers" if pilot else "-answers")
+    return Response(answers_csv(study, pilot=pilot), mimetype="text/csv",
+                    headers={"Content-Disposition": f'attachment; filename="{name}.csv"'})

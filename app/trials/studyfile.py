@@ -27,7 +27,8 @@ from typing import Any, Final
 from app.errors import InputError
 from app.stimuli.eyes import DEFAULT_EYES, EYE_MODES
 from app.trials.design import PAIR_DESIGNS, Pair
-from app.trials.fields import MISSING, FieldReader, describe
+from app.trials.fields import MISSING, describe
+from app.trials.questions import ExperimenterSideReader
 from app.trials.rules import REPLAY_KINDS, ReplayPolicy
 from app.trials.schedule import CATCH_KINDS
 from app.trials.studyspec import MODELS, ClipSpec, ConditionSpec, StudySpec
@@ -161,13 +162,12 @@ _TOP_KEYS: Final = (
     "clips",
     # -- the experimenter's side (docs/studyfile.md, "Participants and questionnaires") --
     "auto_exclude",
+    "demographics",
+    "questions",
 )
-#: Automatic exclusion rules the report applies (``app.participants.AUTO_RULES``), repeated
-#: so that reading a study file needs no database.
-AUTO_EXCLUDE_RULES: Final = ("catch_failed", "unfinished")
 
 
-class _StudyReader(FieldReader):
+class _StudyReader(ExperimenterSideReader):
     """The study-file schema on top of the typed field access of :class:`FieldReader`."""
 
     def study(self, data: Mapping[str, Any]) -> StudySpec:
@@ -222,7 +222,7 @@ class _StudyReader(FieldReader):
             raise self.error("reference", f"only applies to design = 'reference', not {design!r}")
         practice, practice_clip = self.practice(top, names, [c.name for c in clips])
         rejoin = self.choice(top, "rejoin", "rejoin", REJOIN_POLICIES, "resume")
-        auto_exclude = self.experimenter_side(top)
+        auto_exclude, questions = self.experimenter_side(top)
         spec = StudySpec(
             title=title,
             question=question,
@@ -250,6 +250,7 @@ class _StudyReader(FieldReader):
             exclude=exclude,
             rejoin=rejoin,
             auto_exclude=auto_exclude,
+            questions=questions,
         )
         main = len(replace(spec, catch_trials=0, practice=None).schedule(seed=0, list_index=0))
         if catch_trials > main:
@@ -259,20 +260,6 @@ class _StudyReader(FieldReader):
                 f"{main} trials of a participant (at most one each)",
             )
         return spec
-
-    def experimenter_side(self, top: Mapping[str, Any]) -> tuple[str, ...]:
-        """``auto_exclude``: the automatic exclusion rules (default: all of them)."""
-        rules = self.get(
-            top, "auto_exclude", "auto_exclude", (list,), "an array of rule names",
-            list(AUTO_EXCLUDE_RULES),
-        )
-        for rule in rules:
-            if rule not in AUTO_EXCLUDE_RULES:
-                raise self.error(
-                    "auto_exclude",
-                    f"expected rules from {', '.join(AUTO_EXCLUDE_RULES)}, got {describe(rule)}",
-                )
-        return tuple(dict.fromkeys(rules))
 
     def stimulus_settings(
         self, top: Mapping[str, Any], clips: tuple[ClipSpec, ...]

@@ -20,6 +20,7 @@ from typing import Any, Final
 from app.stimuli.eyes import DEFAULT_EYES
 from app.trials.design import Pair, build_pairs
 from app.trials.fields import key_text
+from app.trials.questions import QuestionSpec
 from app.trials.rules import ReplayPolicy
 from app.trials.schedule import Trial, make_schedule, n_lists_for, shown_stimuli
 
@@ -98,6 +99,8 @@ class StudySpec:
     # -- the experimenter's side --
     #: Automatic exclusion rules the report applies (``app.participants.AUTO_RULES``).
     auto_exclude: tuple[str, ...] = ("catch_failed", "unfinished")
+    #: Questionnaire pages before and after the trials (:mod:`app.trials.questions`).
+    questions: tuple[QuestionSpec, ...] = ()
 
     @property
     def condition_names(self) -> list[str]:
@@ -188,6 +191,8 @@ class StudySpec:
         out["catch"] = {"trials": self.catch_trials, "kind": self.catch_kind}
         out["conditions"] = [_condition_dict(c) for c in self.conditions]
         out["clips"] = [_clip_dict(c) for c in self.clips]
+        if self.questions:
+            out["questions"] = [q.to_dict() for q in self.questions]
         return out
 
     def to_toml(self) -> str:

@@ -1,5 +1,5 @@
-"""The experimenter's side: pilot links, participant exclusions, studies shared with
-collaborators.
+"""The experimenter's side: pilot links, participant exclusions, questionnaire answers,
+studies shared with collaborators.
 
 Reviewed by hand: every existing study is given its own random pilot token before the column
 becomes NOT NULL and unique; the participant columns have server defaults, so existing rows
@@ -40,6 +40,7 @@ def upgrade():
         batch_op.add_column(sa.Column('excluded_at', sa.DateTime(), nullable=True))
         batch_op.add_column(sa.Column('exclusion_reason', sa.String(length=300),
                                       server_default='', nullable=False))
+        batch_op.add_column(sa.Column('answers', sa.JSON(), nullable=True))
     op.create_table(
         'study_share',
         sa.Column('id', sa.Integer(), nullable=False),
@@ -61,6 +62,7 @@ def upgrade():
 def downgrade():
     op.drop_table('study_share')
     with op.batch_alter_table('participant', schema=None) as batch_op:
+        batch_op.drop_column('answers')
         batch_op.drop_column('exclusion_reason')
         batch_op.drop_column('excluded_at')
         batch_op.drop_column('pilot')
