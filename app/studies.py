@@ -154,11 +154,9 @@ def stimuli_locked(study: Study) -> str | None:
     a changed study is a new study (:func:`duplicate_study`).
     """
     if study.status not in EDITABLE_STATES:
-        return (f"the study is {study.status}; its stimuli are frozen (duplicate the study to "
-                "change them)")
+        return f"the study is {study.status}; duplicate the study to change them"
     if has_votes(study):
-        return ("participants have voted on these stimuli, so they are frozen (duplicate the "
-                "study to change them)")
+        return "participants have voted on them; duplicate the study to change them"
     return None
 
 

@@ -138,8 +138,9 @@ def _summary_text(r: dict[str, Any]) -> list[str]:
             hi, lo = max(s["wins"], s["losses"]), min(s["wins"], s["losses"])
             parts.append(f"{better} over {worse} ({hi} vs {lo}, {s['undecided']} undecided, "
                          f"Holm-adjusted {_p_eq(s['p_holm'])})")
-        text = (f"Exact sign tests (undecided votes excluded, Holm-adjusted over {len(signs)} "
-                f"pairs) found {len(sig)} of {len(signs)} pairs different")
+        text = (f"Exact sign tests (undecided votes excluded, Holm-adjusted over "
+                f"{counted(len(signs), 'pair')}) found {len(sig)} of "
+                f"{counted(len(signs), 'pair')} different")
         out.append(text + (": " + "; ".join(parts) + "." if parts else "."))
     tt = [t for t in pooled["paired_t"] if t["p_holm"] is not None and t["p_holm"] < ALPHA]
     if pooled["paired_t"]:
@@ -147,7 +148,8 @@ def _summary_text(r: dict[str, Any]) -> list[str]:
                  f"t({t['df']}) = {t['t']:.2f}, Holm {_p_eq(t['p_holm'])}, 95 % CI "
                  f"[{t['ci_low']:.2f}, {t['ci_high']:.2f}]" for t in tt]
         out.append("Paired t-tests on each participant's ballots per condition "
-                   f"({len(tt)} of {len(pooled['paired_t'])} pairs significant after Holm)"
+                   f"({len(tt)} of {counted(len(pooled['paired_t']), 'pair')} significant "
+                   "after Holm)"
                    + (": " + "; ".join(parts) + "." if parts else "."))
     scale = [s for s in pooled["scale"] if s["score"] is not None]
     if scale:

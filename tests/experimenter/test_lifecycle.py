@@ -49,7 +49,7 @@ def test_stimuli_are_frozen_once_open(app, client, web):
     assert 'id="stimuli-locked"' not in client.get(f"/experimenter/studies/{ready}").get_data(
         as_text=True)
     page = client.get(f"/experimenter/studies/{opened}").get_data(as_text=True)
-    assert "Stimuli frozen: the study is open" in page
+    assert "Stimuli frozen: the study is open; duplicate the study" in page
     assert re.search(r"disabled>1\. Generate tracks", page)
     response = _post(client, opened, "/jobs/generate")
     assert response.status_code == 302
@@ -72,6 +72,8 @@ def test_pilot_votes_freeze_the_stimuli_and_stay_out_of_the_export(app, client, 
         assert db.session.scalar(sa.select(sa.func.count(Job.id))) == 0
     export = client.get(f"/experimenter/studies/{study_id}/votes.csv").get_data(as_text=True)
     assert export.count("\n") == 1  # the header only
+    monitor = client.get(f"/experimenter/studies/{study_id}/monitor").get_data(as_text=True)
+    assert re.search(r'id="stat-started">0<', monitor) and "no: pilot" in monitor
     pilots = client.get(f"/experimenter/studies/{study_id}/votes.csv?pilot=only").get_data(
         as_text=True)
     assert pilots.count("\n") == 5 and ",pilot," in pilots
