@@ -7,9 +7,9 @@ from typing import Any
 import sqlalchemy as sa
 from flask import Response, flash, redirect, request, url_for
 
-from app.experimenter.auth import current_user, login_required
+from app.experimenter.auth import current_user, login_required, study_access
 from app.experimenter.forms import ExcludeForm
-from app.experimenter.views import _own_study, bp, study_access
+from app.experimenter.views import _own_study, bp
 from app.extensions import db
 from app.models import Participant, Study
 from app.privacy import pseudonym

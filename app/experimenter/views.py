@@ -18,7 +18,13 @@ from flask import (
 )
 from werkzeug.utils import secure_filename
 
-from app.experimenter.auth import authenticate, current_user, login_required
+from app.experimenter.auth import (
+    ACCESS_LEVELS,
+    authenticate,
+    current_user,
+    login_required,
+    study_access,
+)
 from app.experimenter.forms import (
     ActionForm,
     DeleteParticipantForm,
@@ -37,22 +43,6 @@ bp = Blueprint("experimenter", __name__, url_prefix="/experimenter")
 @bp.before_request
 def _load_user() -> None:
     current_user()  # sets g.user for the templates
-
-
-#: What each level of access allows, weakest first: a collaborator with "read" sees the
-#: study, its monitor, exports and report; "full" also runs it; only the owner shares,
-#: deletes or reads the raw Prolific IDs.
-ACCESS_LEVELS = ("read", "full", "owner")
-
-
-def study_access(study: Study, user_id: int) -> str | None:
-    """The access ``user_id`` has to ``study`` (one of :data:`ACCESS_LEVELS`), or None."""
-    from app.models import StudyShare
-
-    if study.owner_id == user_id:
-        return "owner"
-    return db.session.scalar(sa.select(StudyShare.access).where(
-        StudyShare.study_id == study.id, StudyShare.user_id == user_id))
 
 
 def _own_study(study_id: int, need: str = "read") -> Study:

@@ -180,6 +180,12 @@ def test_collaborators_read_only_or_full(app, client, web):
     web.user("stranger@example.org")
     web.login(stranger, "stranger@example.org")
     assert stranger.get(f"/experimenter/studies/{study_id}").status_code == 404
+    # The progress of the study's jobs, as the study page polls it.
+    _post(client, study_id, "/jobs/report")
+    with app.app_context():
+        job_id = db.session.scalar(sa.select(Job.id))
+    assert reader.get(f"/api/v1/jobs/{job_id}").status_code == 200
+    assert stranger.get(f"/api/v1/jobs/{job_id}").status_code == 404
 
 
 def test_lifecycle_forms_never_answer_5xx(app, client, web):
