@@ -10,8 +10,9 @@ the study's automatic rules (:data:`AUTO_RULES`, set by the study file's ``auto_
 left out, each with the reason the report prints.
 
 An excluded or returned participant gives their list slot back (``app.enrolment.move_slot``),
-so the next arrival fills the gap in the counterbalancing; pilot participants give theirs back
-when recruitment opens.
+so the next arrival fills the gap in the counterbalancing, and so does a participant who
+finishes having failed a catch trial (under the ``catch_failed`` rule); pilot participants
+give theirs back when recruitment opens.
 """
 
 from __future__ import annotations
@@ -163,6 +164,22 @@ def _give_back_slot(participant: Participant) -> None:
     if released.rowcount == 1:
         move_slot(participant.list_id, -1)
     db.session.refresh(participant)
+
+
+def release_if_left_out(participant: Participant) -> bool:
+    """A participant who has just finished but failed a catch trial, under the study's
+    ``catch_failed`` rule, gives the list slot back: the report leaves them out, so the lists
+    stay balanced over the participants it counts. Not committed; True if released."""
+    if participant.pilot or "catch_failed" not in auto_rules(participant.study):
+        return False
+    failed = db.session.scalar(
+        sa.select(Vote.id).join(Trial, Vote.trial_id == Trial.id)
+        .where(Vote.participant_id == participant.id, Trial.kind == "catch",
+               Vote.choice != Trial.expected).limit(1))
+    if failed is None:
+        return False
+    _give_back_slot(participant)
+    return True
 
 
 def release_pilots(study: Study) -> int:

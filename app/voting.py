@@ -154,4 +154,7 @@ def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcom
     answered, total = progress(participant)
     if answered >= total and participant.finished_at is None:
         participant.finished_at = utcnow()
+        from app.participants import release_if_left_out
+
+        release_if_left_out(participant)
     return VoteOutcome(vote=vote, created=created, answered=answered, total=total)

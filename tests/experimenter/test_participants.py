@@ -53,6 +53,9 @@ def test_table_statuses_catch_scores_and_the_export(app, client, web, participan
     assert excluded == {"P0000": "", "P0001": "failed a catch trial (0 of 2 passed)"}
     assert {r["status"] for r in export} == {"finished"}
     assert all(r["prolific_id"].startswith("anon-") for r in export)
+    # The one who failed gave the list slot back (the one who started still holds theirs).
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.sum(StudyList.n_assigned))) == 2
 
 
 def test_excluding_by_hand_frees_the_list_slot(app, client, web, participant):
