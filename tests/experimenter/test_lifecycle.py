@@ -209,3 +209,17 @@ def test_lifecycle_forms_never_answer_5xx(app, client, web):
 
     hostile()
     assert _get(app, study_id, "status") == ("closed",)
+
+
+def test_a_pilot_still_voting_after_opening_takes_no_slot(app, client, web, participant):
+    study_id = web.study(status="ready", design="all_ordered")
+    (token,) = _get(app, study_id, "pilot_token")
+    participant.client = app.test_client()
+    response = participant.client.get(f"/experimenter/pilot/{token}")
+    participant.token = response.headers["Location"].split("/p/")[1].split("/")[0]
+    assert participant.vote(participant.current_trial()).status_code == 201
+    web.login(client)
+    _post(client, study_id, "/status/open")
+    assert participant.vote(participant.current_trial()).status_code == 201
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.sum(StudyList.n_assigned))) == 0
