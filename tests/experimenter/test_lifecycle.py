@@ -161,8 +161,9 @@ def test_collaborators_read_only_or_full(app, client, web):
     reader, runner = app.test_client(), app.test_client()
     web.login(reader, "reader@example.org")
     web.login(runner, "runner@example.org")
-    assert f"/experimenter/studies/{study_id}" in reader.get("/experimenter/").get_data(
-        as_text=True)
+    listing = reader.get("/experimenter/").get_data(as_text=True)
+    assert f"/experimenter/studies/{study_id}" in listing
+    assert "(shared by exp@example.org)" in listing
     for path in ("", "/monitor", "/votes.csv", "/participants.csv"):
         assert reader.get(f"/experimenter/studies/{study_id}{path}").status_code == 200
     assert reader.get(f"/experimenter/studies/{study_id}/participants.csv?ids=raw"
