@@ -182,7 +182,9 @@ def touch(participant: Participant) -> bool:
             return False
         returned = db.session.execute(
             sa.update(Participant)
-            .where(Participant.id == participant.id, Participant.dropped_at.is_not(None))
+            # An excluded participant's or a pilot's slot stays given back.
+            .where(Participant.id == participant.id, Participant.dropped_at.is_not(None),
+                   Participant.excluded_at.is_(None), Participant.pilot.is_(False))
             .values(last_seen_at=now, dropped_at=None)
             .execution_options(synchronize_session=False))
         if returned.rowcount == 1:

@@ -2,10 +2,12 @@
 
 The column names come from ``app.analysis.votes.VOTE_COLUMNS`` (one place for the votes
 schema), with the media log and the answer details of each vote. Practice answers are never
-stored; catch trials are attention checks and are left out of the votes export and the report
-(the participants export counts them, and the side bias on identical pairs); appropriateness
-pairs are exported with their ``mismatched`` side and analysed on their own
-(``app.analysis.appropriateness``).
+stored; catch trials (attention checks) are exported with ``kind = catch`` and the analysis
+leaves them out; appropriateness pairs are exported with their ``mismatched`` side and analysed
+on their own (``app.analysis.appropriateness``). Every row carries its participant's status,
+pseudonymised Prolific ID and, when the analysis is to leave them out, why
+(``app.participants``). Pilot participants are exported only when asked for (``pilot="with"``
+or ``"only"``).
 """
 
 from __future__ import annotations
@@ -30,12 +32,20 @@ def participant_label(number: int) -> str:
     return f"P{number:04d}"
 
 
-def vote_rows(study: Study) -> list[dict[str, Any]]:
-    """One dict per stored vote of a real trial, ordered by participant and trial position."""
+def vote_rows(study: Study, *, pilot: str = "without") -> list[dict[str, Any]]:
+    """One dict per stored vote of a real or catch trial, ordered by participant and trial
+    position; ``pilot`` is "without" (default), "with" or "only" the pilot participants."""
+    from app.enrolment import dropped_after
+    from app.participants import participant_rows
+    from app.privacy import pseudonym
+
+    people = {row.id: row for row in participant_rows(study, dropped_after=dropped_after())
+              if (pilot == "with") or (row.pilot == (pilot == "only"))}
     left = sa.orm.aliased(Condition)
     right = sa.orm.aliased(Condition)
     query = (
-        sa.select(Vote, Trial.position, Participant.number, Clip.name, left.name, right.name,
+        sa.select(Vote, Trial.position, Trial.kind, Participant.id, Participant.number,
+                  Participant.prolific_pid, Clip.name, left.name, right.name,
                   Stimulus.foreign_side)
         .join(Trial, Vote.trial_id == Trial.id)
         .join(Participant, Vote.participant_id == Participant.id)
@@ -43,12 +53,15 @@ def vote_rows(study: Study) -> list[dict[str, Any]]:
         .join(Clip, Stimulus.clip_id == Clip.id)
         .join(left, Stimulus.left_id == left.id)
         .join(right, Stimulus.right_id == right.id)
-        .where(Participant.study_id == study.id, Trial.kind.in_(("trial", "mismatch")))
+        .where(Participant.study_id == study.id,
+               Trial.kind.in_(("trial", "mismatch", "catch")))
         .order_by(Participant.number, Trial.position)
     )
     rows = []
-    for vote, position, number, clip, left_name, right_name, foreign in db.session.execute(
-            query):
+    for (vote, position, kind, person, number, pid, clip, left_name, right_name,
+         foreign) in db.session.execute(query):
+        if person not in people:
+            continue
         rows.append({
             "participant": participant_label(number), "clip": clip, "left": left_name,
             "right": right_name, "choice": vote.choice, "study": study.title,
@@ -58,16 +71,19 @@ def vote_rows(study: Study) -> list[dict[str, Any]]:
             "mismatched": foreign, "watched_ms": vote.watched_ms,
             "played_to_end": vote.played_to_end, "stalls": vote.stalls,
             "stall_ms": vote.stall_ms, "focus_lost": vote.focus_lost,
+            "kind": kind, "status": people[person].status,
+            "excluded": people[person].excluded,
+            "prolific_id": pseudonym(study.pseudonym_key, pid),
         })
     return rows
 
 
-def votes_csv(study: Study) -> str:
+def votes_csv(study: Study, *, pilot: str = "without") -> str:
     """The study's votes as CSV text (``app.analysis.votes.write_votes_csv``)."""
     from app.analysis.votes import write_votes_csv
 
     buffer = io.StringIO()
-    write_votes_csv(vote_rows(study), buffer)
+    write_votes_csv(vote_rows(study, pilot=pilot), buffer)
     return buffer.getvalue()
 
 
@@ -76,7 +92,9 @@ def report_path(study: Study) -> Path:
 
 
 def write_report_files(study: Study) -> Path:
-    """Analyse the votes so far and write the HTML report into the study's media folder."""
+    """Analyse the votes so far and write the report into the study's media folder: HTML and
+    PDF, headed by the study's title, design and participants, from the votes CSV written
+    beside them (which ``facepair analyze`` reads back to the same report)."""
     from app.analysis import analyze
     from app.analysis.report import write_report
     from app.analysis.votes import read_votes
@@ -86,7 +104,41 @@ def write_report_files(study: Study) -> Path:
     csv_path = path.parent / "votes.csv"
     csv_path.write_text(votes_csv(study), encoding="utf-8")
     # exclusion rules as `facepair analyze --exclude` reads them (app.analysis.quality)
+    exclude = study.settings.get("exclude")
     results = analyze(read_votes(csv_path), conditions=[c.name for c in study.conditions],
-                      exclude=study.settings.get("exclude"))
-    write_report(results, path)
+                      exclude=exclude)
+    results["study"] = report_head(study, results, exclude=exclude)
+    write_report(results, path, path.with_suffix(".pdf"))
     return path
+
+
+def report_head(study: Study, results: dict[str, Any], *, exclude: str | None) -> dict[str, Any]:
+    """What the report says of the study itself (``app.analysis.document``'s study head)."""
+    import datetime as dt
+    import shlex
+
+    from app.analysis.document import counted
+
+    left_out = results["input"]["left_out"]
+    design = (f"Design: {study.design}"
+              + (f" against {study.reference}" if study.reference else "")
+              + f"; conditions {', '.join(c.name for c in study.conditions)}; clips "
+              f"{', '.join(c.name for c in study.clips)}; question: {study.question!r}; "
+              + ("undecided answers allowed" if study.allow_undecided else "no undecided answer")
+              + f"; {counted(study.catch_trials, 'catch trial')} per participant; replay "
+              f"{study.replay}; target {counted(study.target_participants, 'participant')}.")
+    included = results["input"]["participants"]
+    who = (f"{counted(included, 'participant')} included, {len(left_out)} left out"
+           + (" (" + "; ".join(f"{p}: {why}" for p, why in sorted(left_out.items())) + ")"
+              if left_out else "") + ".")
+    command = ["facepair", "analyze", "votes.csv", "--report", "report.html", "--pdf",
+               "report.pdf", "--conditions", ",".join(c.name for c in study.conditions)]
+    if exclude:
+        command += ["--exclude", exclude]
+    from app.questionnaires import answers_summary
+
+    kept = {str(p) for p in results["participants"]}
+    return {"title": study.title, "design": design, "participants": who,
+            "questionnaire": answers_summary(study, included=kept),
+            "date": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+            "command": shlex.join(command), "votes_file": "votes.csv"}

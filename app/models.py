@@ -85,6 +85,10 @@ class Study(db.Model):
     #: Secret of the pseudonymised Prolific IDs in this study's exports (``app.privacy``).
     pseudonym_key: so.Mapped[str] = so.mapped_column(
         sa.String(64), default=lambda: new_token(32))
+    #: The pilot link is ``/experimenter/pilot/<pilot_token>``: it enrols pilot participants
+    #: before recruitment opens (their votes are flagged and kept out of the analysis).
+    pilot_token: so.Mapped[str] = so.mapped_column(sa.String(64), unique=True,
+                                                   default=new_token)
 
     owner: so.Mapped[User] = so.relationship()
     conditions: so.Mapped[list[Condition]] = so.relationship(
@@ -95,6 +99,23 @@ class Study(db.Model):
         back_populates="study", order_by="Pair.position", cascade="all, delete-orphan")
     lists: so.Mapped[list[StudyList]] = so.relationship(
         back_populates="study", order_by="StudyList.index", cascade="all, delete-orphan")
+
+
+#: What a collaborator may do with a shared study: look (read) or everything but delete (full).
+SHARE_ACCESS = ("read", "full")
+
+
+class StudyShare(db.Model):
+    """A study shared by its owner with another experimenter's account."""
+
+    __table_args__ = (sa.UniqueConstraint("study_id", "user_id"),)
+    id: so.Mapped[int] = so.mapped_column(primary_key=True)
+    study_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study.id"), index=True)
+    user_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("user.id"), index=True)
+    #: One of :data:`SHARE_ACCESS`.
+    access: so.Mapped[str] = so.mapped_column(sa.String(10), default="read")
+
+    user: so.Mapped[User] = so.relationship()
 
 
 class Condition(db.Model):
@@ -242,6 +263,15 @@ class Participant(db.Model):
     #: Screen, viewport, pixel ratio, touch, browser family and version, and the viewing
     #: check, recorded once before the first trial (``app.environment``).
     environment: so.Mapped[dict[str, Any] | None] = so.mapped_column(sa.JSON)
+    #: Enrolled through the pilot link: kept out of exports and the analysis unless asked for.
+    pilot: so.Mapped[bool] = so.mapped_column(default=False, server_default=sa.false())
+    #: Excluded by the experimenter (with ``exclusion_reason``); their list slot went back.
+    excluded_at: so.Mapped[dt.datetime | None]
+    exclusion_reason: so.Mapped[str] = so.mapped_column(sa.String(300), default="",
+                                                        server_default="")
+    #: Questionnaire answers by page and question name (``app.questionnaires``); a page
+    #: answered is a key, so an empty page of optional questions still counts as done.
+    answers: so.Mapped[dict[str, Any] | None] = so.mapped_column(sa.JSON, default=dict)
 
     study: so.Mapped[Study] = so.relationship()
     study_list: so.Mapped[StudyList] = so.relationship()

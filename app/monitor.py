@@ -27,10 +27,12 @@ class PairStats:
 
 def study_monitor(study: Study, *, dropped_after: dt.timedelta) -> dict[str, Any]:
     """Counts and per-pair tallies; ``dropped`` = unfinished and idle longer than
-    ``dropped_after`` (or already released)."""
+    ``dropped_after`` (or already released). Pilot participants are not counted (the
+    participant table lists them)."""
     now = utcnow()
     participants = db.session.scalars(
-        sa.select(Participant).where(Participant.study_id == study.id)).all()
+        sa.select(Participant).where(Participant.study_id == study.id,
+                                     Participant.pilot.is_(False))).all()
     finished = sum(p.finished_at is not None for p in participants)
     dropped = sum(p.finished_at is None and (p.dropped_at is not None
                                              or now - p.last_seen_at > dropped_after)
@@ -45,7 +47,7 @@ def study_monitor(study: Study, *, dropped_after: dt.timedelta) -> dict[str, Any
                        Trial.stimulus_id)
              .join(Trial, Vote.trial_id == Trial.id)
              .join(Participant, Vote.participant_id == Participant.id)
-             .where(Participant.study_id == study.id))
+             .where(Participant.study_id == study.id, Participant.pilot.is_(False)))
     from app.models import Stimulus
 
     left_of = dict(db.session.execute(sa.select(Stimulus.id, Stimulus.left_id)

@@ -1,5 +1,6 @@
 """Turning a validated study (``app.trials.studyfile.StudySpec``) into rows and media files,
-and the study's life cycle (draft -> ready -> open <-> paused -> closed)."""
+and the study's life cycle (draft -> ready -> open <-> paused -> closed, closed -> open again),
+its copies and its deletion."""
 
 from __future__ import annotations
 
@@ -7,10 +8,26 @@ import shutil
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import sqlalchemy as sa
+
 from app import design
 from app.analysis.quality import parse_rules
 from app.extensions import db
-from app.models import Clip, Condition, Pair, Stimulus, Study, StudyList, User
+from app.models import (
+    Clip,
+    Condition,
+    Job,
+    Pair,
+    Participant,
+    Stimulus,
+    Study,
+    StudyList,
+    StudyShare,
+    Track,
+    Trial,
+    User,
+    Vote,
+)
 from app.storage import media_dir
 from app.trials.schedule import foreign_clip
 
@@ -22,7 +39,10 @@ TRANSITIONS: dict[str, tuple[tuple[str, ...], str]] = {
     "open": (("ready", "paused"), "open"),
     "pause": (("open",), "paused"),
     "close": (("open", "paused", "ready"), "closed"),
+    "reopen": (("closed",), "open"),
 }
+#: States in which the stimuli may still be generated and rendered (until the first vote).
+EDITABLE_STATES = ("draft", "ready")
 
 
 def _copy(study: Study, source: Path, rel: str) -> str:
@@ -58,6 +78,8 @@ def create_study(owner: User, spec: StudySpec, *, source_toml: str = "",
             "render": {**spec.render, **(render or {})},
             "exclude": spec.exclude or None,
             "participation": spec.participation.to_dict(),
+            "auto_exclude": list(spec.auto_exclude),
+            "questions": [q.to_dict() for q in spec.questions],
         },
     )
     db.session.add(study)
@@ -122,3 +144,98 @@ def change_status(study: Study, action: str) -> str:
         raise ValueError(f"cannot {action} a study that is {study.status}")
     study.status = target
     return target
+
+
+def has_votes(study: Study) -> bool:
+    """Whether any participant (pilot included) has voted in ``study``."""
+    return db.session.scalar(
+        sa.select(Vote.id).join(Participant, Vote.participant_id == Participant.id)
+        .where(Participant.study_id == study.id).limit(1)) is not None
+
+
+def stimuli_locked(study: Study) -> str | None:
+    """Why the stimuli of ``study`` can no longer be generated or rendered, or None.
+
+    Once recruitment has opened, or anyone has voted, what participants saw is the record:
+    a changed study is a new study (:func:`duplicate_study`).
+    """
+    if study.status not in EDITABLE_STATES:
+        return f"the study is {study.status}; duplicate the study to change them"
+    if has_votes(study):
+        return "participants have voted on them; duplicate the study to change them"
+    return None
+
+
+#: Study columns a copy does not take over: its identity, links, secrets, state and history.
+_NOT_COPIED = {"id", "owner_id", "slug", "pilot_token", "pseudonym_key", "status", "created_at",
+               "report_at", "title"}
+
+
+def duplicate_study(study: Study, owner: User, *, with_clips: bool) -> Study:
+    """A new draft of ``study`` owned by ``owner``: the same design, clips and conditions, new
+    links and secrets, no participants. ``with_clips`` also copies the generated tracks and the
+    rendered videos (the copy is then ready to open); without, they are generated again.
+    Not committed."""
+    copy = Study(owner_id=owner.id, title=f"{study.title} (copy)"[:200], status="draft",
+                 **{c.key: getattr(study, c.key) for c in Study.__table__.columns
+                    if c.key not in _NOT_COPIED})
+    db.session.add(copy)
+    db.session.flush()
+    source, target = media_dir(study), media_dir(copy)
+    kept = ("clips", "uploads") + (("tracks", "videos") if with_clips else ())
+    for folder in kept:
+        if (source / folder).is_dir():
+            shutil.copytree(source / folder, target / folder, dirs_exist_ok=True)
+    conditions = {c.id: Condition(name=c.name, model=c.model, params=dict(c.params),
+                                  uploads=dict(c.uploads), position=c.position)
+                  for c in study.conditions}
+    clips = {c.id: Clip(name=c.name, audio_path=c.audio_path,
+                        ground_truth_path=c.ground_truth_path, position=c.position)
+             for c in study.clips}
+    copy.conditions.extend(conditions.values())
+    copy.clips.extend(clips.values())
+    copy.pairs.extend(Pair(first=conditions[p.first_id], second=conditions[p.second_id],
+                           position=p.position) for p in study.pairs)
+    copy.lists.extend(StudyList(index=sl.index) for sl in study.lists)
+    db.session.flush()
+    stimuli = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id))
+    db.session.add_all(Stimulus(study_id=copy.id, clip_id=clips[s.clip_id].id,
+                                left_id=conditions[s.left_id].id,
+                                right_id=conditions[s.right_id].id,
+                                video_path=s.video_path if with_clips else None)
+                       for s in stimuli)
+    if with_clips:
+        tracks = db.session.scalars(sa.select(Track).where(Track.clip_id.in_(list(clips))))
+        db.session.add_all(Track(condition_id=conditions[t.condition_id].id,
+                                 clip_id=clips[t.clip_id].id, path=t.path) for t in tracks)
+        rendered = db.session.scalar(sa.select(sa.func.count(Stimulus.id)).where(
+            Stimulus.study_id == study.id, Stimulus.video_path.is_(None))) == 0
+        copy.status = "ready" if rendered else "draft"
+    db.session.flush()
+    return copy
+
+
+def delete_study(study: Study) -> None:
+    """Delete ``study`` with every row that belongs to it and its media folder (audio, tracks,
+    videos, reports). Not committed; the files go first, so a failure leaves rows that still
+    show the study rather than rows pointing at nothing."""
+    shutil.rmtree(media_dir(study), ignore_errors=True)
+    participants = sa.select(Participant.id).where(Participant.study_id == study.id)
+    conditions = sa.select(Condition.id).where(Condition.study_id == study.id)
+    for statement in (
+        sa.delete(Vote).where(Vote.participant_id.in_(participants)),
+        sa.delete(Trial).where(Trial.participant_id.in_(participants)),
+        sa.delete(Participant).where(Participant.study_id == study.id),
+        sa.delete(Track).where(Track.condition_id.in_(conditions)),
+        sa.delete(Stimulus).where(Stimulus.study_id == study.id),
+        sa.delete(Pair).where(Pair.study_id == study.id),
+        sa.delete(StudyList).where(StudyList.study_id == study.id),
+        sa.delete(Clip).where(Clip.study_id == study.id),
+        sa.delete(Condition).where(Condition.study_id == study.id),
+        sa.delete(Job).where(Job.study_id == study.id),
+        sa.delete(StudyShare).where(StudyShare.study_id == study.id),
+    ):
+        db.session.execute(statement.execution_options(synchronize_session=False))
+    db.session.execute(sa.delete(Study).where(Study.id == study.id)
+                       .execution_options(synchronize_session=False))
+    db.session.expire_all()

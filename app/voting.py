@@ -82,7 +82,9 @@ def _int_field(payload: dict[str, Any], name: str, column: Any, *,
 def validate(participant: Participant, payload: dict[str, Any]) -> tuple[Trial, dict[str, Any]]:
     """Check a vote request against the participant's schedule and the study's rules."""
     study = participant.study
-    if study.status not in ("open", "paused"):
+    # Pilot participants (``app.participants``) vote before recruitment opens.
+    piloting = participant.pilot and study.status in ("draft", "ready")
+    if study.status not in ("open", "paused") and not piloting:
         raise VoteRejected("this study is closed", 409, closed=True)
     trial_id = _int_field(payload, "trial_id", Trial.id, required=True)
     trial = db.session.get(Trial, trial_id)
@@ -200,6 +202,9 @@ def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcom
     if (answered >= total and participant.finished_at is None
             and participant.screened_out_at is None):
         participant.finished_at = utcnow()
+        from app.participants import release_if_left_out
+
+        release_if_left_out(participant)
     return VoteOutcome(vote=vote, created=created, answered=answered, total=total)
 
 

@@ -82,13 +82,23 @@ def init_web(app: Flask) -> None:
     from app.experimenter.views import bp as experimenter_bp
     from app.extensions import csrf, db
     from app.participant.views import bp as participant_bp
+    from app.questionnaire.views import bp as questionnaire_bp
+    from app.questionnaire.views import questionnaire_first
 
     app.register_blueprint(participant_bp)
+    app.register_blueprint(questionnaire_bp)
+    # The participant's path passes through the study's questionnaire pages by itself.
+    app.before_request(questionnaire_first)
     app.register_blueprint(experimenter_bp)
     app.register_blueprint(api_bp)
     # The JSON API authenticates participants by the token in the request body, not a cookie,
     # so a cross-site form cannot forge a vote; experimenter endpoints there are GET only.
     csrf.exempt(api_bp)
+    from app.recruitment import REDIRECT_SECONDS, participant_completion_url
+
+    # The completion page sends a finished participant on (``app.recruitment``).
+    app.jinja_env.globals.update(participant_completion_url=participant_completion_url,
+                                 redirect_seconds=REDIRECT_SECONDS)
 
     limits.install(db.session)
     app.register_error_handler(InputError, _bad_input)

@@ -558,3 +558,34 @@ def exported_head(tmp_path_factory) -> Path:
     from renderer.faceexport import export_builtin_head
 
     return export_builtin_head(tmp_path_factory.mktemp("avatar") / "head.glb")
+
+
+@pytest.fixture
+def stub_pipeline(monkeypatch, tiny_video):
+    """Generation and rendering stand-ins for browser tests (the real pipeline is tested in
+    its own packages; there only the web's wiring): every stimulus 'rendered' as the tiny
+    video, the study then ready."""
+    import sqlalchemy as sa
+
+    from app.extensions import db
+    from app.jobs import tasks
+    from app.models import Stimulus
+    from app.storage import media_dir
+
+    def fake_generate(study, progress):
+        progress(1, 1)
+        return "tracks: stub"
+
+    def fake_render(study, progress):
+        rows = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id)).all()
+        for i, stimulus in enumerate(rows):
+            progress(i, len(rows))
+            stimulus.video_path = f"videos/{stimulus.id}.mp4"
+            (media_dir(study) / "videos").mkdir(exist_ok=True)
+            shutil.copyfile(tiny_video, media_dir(study) / stimulus.video_path)
+        study.status = "ready"
+        db.session.commit()
+        return f"{len(rows)} clips rendered (stub)"
+
+    monkeypatch.setitem(tasks.TASKS, "generate", fake_generate)
+    monkeypatch.setitem(tasks.TASKS, "render", fake_render)

@@ -69,6 +69,14 @@ def _ready_to_vote(page) -> None:
     page.wait_for_selector(".vote:not([disabled])", timeout=20000)
 
 
+def log_in(page, url: str) -> None:
+    """The test experimenter logs in on the login page."""
+    page.goto(f"{url}/experimenter/")
+    page.fill("input[name=email]", "exp@example.org")
+    page.fill("input[name=password]", "correct horse")
+    page.click("input[type=submit]")
+
+
 def test_participant_walks_through_a_whole_study(live_server, browser, shots):
     study_id = live_server.study(design="all_ordered", replay="play_to_end", catch=1)
     with live_server.app.app_context():
@@ -167,32 +175,7 @@ def test_trial_page_on_a_phone(live_server, browser, shots):
 
 
 def test_experimenter_creates_a_study_and_downloads_votes(live_server, browser, shots,
-                                                          tmp_path, monkeypatch, tiny_video):
-    from app.jobs import tasks
-
-    def fake_generate(study, progress):
-        progress(1, 1)
-        return "tracks: stub"
-
-    def fake_render(study, progress):
-        import shutil
-
-        from app.models import Stimulus
-        from app.storage import media_dir
-
-        rows = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id)).all()
-        for i, stimulus in enumerate(rows):
-            progress(i, len(rows))
-            stimulus.video_path = f"videos/{stimulus.id}.mp4"
-            (media_dir(study) / "videos").mkdir(exist_ok=True)
-            shutil.copyfile(tiny_video, media_dir(study) / stimulus.video_path)
-        study.status = "ready"
-        db.session.commit()
-        return f"{len(rows)} clips rendered (stub)"
-
-    # The real pipeline is tested in its own packages; here only the web's wiring.
-    monkeypatch.setitem(tasks.TASKS, "generate", fake_generate)
-    monkeypatch.setitem(tasks.TASKS, "render", fake_render)
+                                                          tmp_path, stub_pipeline):
     live_server.user()
     toml = tmp_path / "study.toml"
     toml.write_text(live_server.toml(design="unordered_counterbalanced"))
@@ -200,10 +183,7 @@ def test_experimenter_creates_a_study_and_downloads_votes(live_server, browser, 
     context = browser.new_context(viewport=DESKTOP, accept_downloads=True)
     page = context.new_page()
     try:
-        page.goto(f"{live_server.url}/experimenter/")
-        page.fill("input[name=email]", "exp@example.org")
-        page.fill("input[name=password]", "correct horse")
-        page.click("input[type=submit]")
+        log_in(page, live_server.url)
         page.click("text=New study")
         page.set_input_files("input[name=file-study_file]", str(toml))
         page.set_input_files("input[name=file-media]", str(wav))

@@ -32,7 +32,7 @@ from app.analysis.quality import (
 from app.analysis.scaling import JOD_SIGMA, bootstrap_scale, connected
 from app.analysis.signtest import sign_test_p
 from app.analysis.ttest import holm, paired_t_many
-from app.analysis.votes import VotesTable, read_votes
+from app.analysis.votes import ANALYSED_KINDS, VotesTable, read_votes
 from app.errors import InputError
 
 
@@ -166,6 +166,25 @@ def _consistence_summary(participants: dict[str, Any], n: int) -> dict[str, Any]
             "mean_zeta": _num(np.nanmean(z)) if (~np.isnan(z)).any() else None}
 
 
+def _analysed_rows(table: VotesTable) -> tuple[VotesTable, int, dict[str, str]]:
+    """The votes the statistics use: catch trials (``kind``) and participants the export marks
+    ``excluded`` are left out. Returns the table, the number of catch votes and, per participant
+    left out, the reason (the first one their rows give)."""
+    frame = table.frame
+    if "kind" not in frame or "excluded" not in frame:  # built by hand, not read
+        return table, 0, {}
+    catch = ~frame["kind"].isin(ANALYSED_KINDS).to_numpy()
+    excluded = (frame["excluded"] != "").to_numpy()
+    left_out = (frame.loc[excluded].drop_duplicates("participant")
+                .set_index("participant")["excluded"].to_dict())
+    keep = ~catch & ~excluded
+    if keep.all():
+        return table, 0, {}
+    kept = VotesTable(frame[keep].reset_index(drop=True), table.skipped, table.problems,
+                      table.source)
+    return kept, int((catch & ~excluded).sum()), {str(k): str(v) for k, v in left_out.items()}
+
+
 def analyze(votes: VotesTable | pd.DataFrame | str | Path, *,
             conditions: Sequence[str] | None = None, undecided: str = "exclude",
             skip_bad_rows: bool = False, bootstrap: int = 1000, seed: int = 0,
@@ -188,6 +207,7 @@ def analyze(votes: VotesTable | pd.DataFrame | str | Path, *,
         raise InputError(f"must lie between 0 and 1, got {confidence}", field="confidence")
     table = votes if isinstance(votes, VotesTable) else read_votes(
         votes, skip_bad_rows=skip_bad_rows, conditions=conditions)
+    table, catch_votes, left_out = _analysed_rows(table)
     if len(table) == 0:
         raise InputError("no valid votes to analyse", path=table.source)
     rules = parse_rules(exclude)
@@ -225,7 +245,8 @@ def analyze(votes: VotesTable | pd.DataFrame | str | Path, *,
         "conditions": list(names),
         "input": {"source": table.source, "votes": len(table), "skipped_rows": table.skipped,
                   "problems": list(table.problems), "participants": len(counts.participants),
-                  "clips": list(counts.clips), "excluded_participants": len(excluded)},
+                  "clips": list(counts.clips), "excluded_participants": len(excluded),
+                  "catch_votes": catch_votes, "left_out": left_out},
         "options": {"undecided": undecided, "bootstrap": bootstrap, "seed": seed,
                     "confidence": confidence, "anchor": anchor,
                     "scale": "Thurstone Case V, least squares, JOD units",

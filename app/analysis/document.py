@@ -8,6 +8,7 @@ the way a paper's results section prints them (APA: p without leading zero, "< .
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from matplotlib.figure import Figure
@@ -69,6 +70,15 @@ METHOD_TEXT = (
 )
 
 
+def counted(n: int, noun: str) -> str:
+    """``n`` and the noun, singular for one (never "1 participants").
+
+    >>> counted(1, "participant"), counted(3, "vote")
+    ('1 participant', '3 votes')
+    """
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
 def fmt(x: float | int | None, digits: int = 2) -> str:
     """A number for the reader; "-" for a statistic that could not be computed."""
     if x is None:
@@ -98,8 +108,9 @@ def _summary_text(r: dict[str, Any]) -> list[str]:
     und_rule = ("undecided votes excluded" if opts["undecided"] == "exclude"
                 else "undecided votes split half to each side")
     n_clips = len(info["clips"])
-    out = [f"{info['participants']} participants cast {info['votes']} votes on {n_clips} "
-           f"clip{'s' if n_clips != 1 else ''} ({pooled['undecided']} undecided, "
+    out = [f"{counted(info['participants'], 'participant')} cast "
+           f"{counted(info['votes'], 'vote')} on {counted(n_clips, 'clip')} "
+           f"({pooled['undecided']} undecided, "
            f"{100.0 * pooled['undecided'] / max(pooled['votes'], 1):.1f} %; "
            f"{pooled['same_condition_votes']} votes on same-condition pairs)."
            + (f" {info['skipped_rows']} bad rows of the votes file were skipped and are not "
@@ -127,8 +138,9 @@ def _summary_text(r: dict[str, Any]) -> list[str]:
             hi, lo = max(s["wins"], s["losses"]), min(s["wins"], s["losses"])
             parts.append(f"{better} over {worse} ({hi} vs {lo}, {s['undecided']} undecided, "
                          f"Holm-adjusted {_p_eq(s['p_holm'])})")
-        text = (f"Exact sign tests (undecided votes excluded, Holm-adjusted over {len(signs)} "
-                f"pairs) found {len(sig)} of {len(signs)} pairs different")
+        text = (f"Exact sign tests (undecided votes excluded, Holm-adjusted over "
+                f"{counted(len(signs), 'pair')}) found {len(sig)} of "
+                f"{counted(len(signs), 'pair')} different")
         out.append(text + (": " + "; ".join(parts) + "." if parts else "."))
     tt = [t for t in pooled["paired_t"] if t["p_holm"] is not None and t["p_holm"] < ALPHA]
     if pooled["paired_t"]:
@@ -136,7 +148,8 @@ def _summary_text(r: dict[str, Any]) -> list[str]:
                  f"t({t['df']}) = {t['t']:.2f}, Holm {_p_eq(t['p_holm'])}, 95 % CI "
                  f"[{t['ci_low']:.2f}, {t['ci_high']:.2f}]" for t in tt]
         out.append("Paired t-tests on each participant's ballots per condition "
-                   f"({len(tt)} of {len(pooled['paired_t'])} pairs significant after Holm)"
+                   f"({len(tt)} of {counted(len(pooled['paired_t']), 'pair')} significant "
+                   "after Holm)"
                    + (": " + "; ".join(parts) + "." if parts else "."))
     scale = [s for s in pooled["scale"] if s["score"] is not None]
     if scale:
@@ -152,7 +165,8 @@ def _summary_text(r: dict[str, Any]) -> list[str]:
         out.append(f"The participants' median coefficient of consistence was "
                    f"ζ = {cs['median_zeta']:.2f} (mean {cs['mean_zeta']:.2f}; 1 = no circular "
                    f"triad). The test of consistence could be run for {cs['tested']} of "
-                   f"{cs['participants']} participants and rejected random choice at .05 for "
+                   f"{counted(cs['participants'], 'participant')} and rejected random choice at "
+                   ".05 for "
                    f"{cs['significant_05']}"
                    + (f" (with {cs['conditions']} conditions even a perfectly consistent judge "
                       f"reaches only P = {cs['min_p']:.3f})" if cs.get("min_p", 0) >= 0.05
@@ -244,15 +258,61 @@ def _participant_table(r: dict[str, Any]) -> Table:
                  numeric=[False] + [True] * 5 + [False])
 
 
+def _study_blocks(study: dict[str, Any]) -> list[Block]:
+    """The report's head when a study describes the votes: its title, the date, the design
+    and the command that writes the same report from the exported votes."""
+    blocks: list[Block] = [Heading(study["title"], 1)]
+    blocks.append(Paragraph(f"Report written {study['date']}. " + study.get("design", "")))
+    if study.get("participants"):
+        blocks.append(Paragraph(study["participants"]))
+    blocks += _questionnaire_blocks(study.get("questionnaire") or [])
+    if study.get("command"):
+        blocks.append(Paragraph("To reproduce this report from the exported votes "
+                                f"({study.get('votes_file', 'votes.csv')}): {study['command']}"))
+    return blocks
+
+
+def _questionnaire_blocks(summary: list[dict[str, Any]]) -> list[Block]:
+    """The included participants' questionnaire answers: options counted, numbers summarised,
+    free texts listed."""
+    if not summary:
+        return []
+    rows = []
+    for q in summary:
+        if q["kind"] == "choice":
+            given = "; ".join(f"{c}: {n}" for c, n in q["counts"].items() if n)
+        elif q["kind"] == "number":
+            given = (f"median {q['median']:g}, range {q['min']:g}-{q['max']:g}"
+                     if q["answered"] else "")
+        else:
+            given = " | ".join(q["texts"])
+        rows.append([q["text"], f"{q['answered']} of {q['asked']}", given or "-"])
+    return [Heading("Questionnaire", 2),
+            Table("Answers of the included participants.", ["Question", "Answered", "Answers"],
+                  rows, numeric=[False, True, False])]
+
+
+def _left_out_table(left_out: dict[str, str]) -> Table:
+    rows = [[pid, why] for pid, why in sorted(left_out.items())]
+    return Table(f"Table 0. Participants left out of every statistic ({len(rows)}).",
+                 ["Participant", "Reason"], rows,
+                 note="Catch trials are attention checks and are never part of a statistic.",
+                 numeric=[False, False])
+
+
 def build_document(r: dict[str, Any]) -> list[Block]:
     """Every block of the report, in reading order."""
     pooled = r["pooled"]
-    doc: list[Block] = [Heading("Results", 1)]
-    source = r["input"]["source"] or "in-memory votes"
+    doc: list[Block] = _study_blocks(r["study"]) if r.get("study") else []
+    doc.append(Heading("Results", 1))
+    # the file's name only: a report shared from a server never shows the server's folders
+    source = Path(r["input"]["source"]).name if r["input"]["source"] else "in-memory votes"
     doc.append(Paragraph(f"Source: {source}. Conditions: {', '.join(r['conditions'])}. "
                          f"Undecided votes: {r['options']['undecided']}. Skipped bad rows: "
                          f"{r['input']['skipped_rows']}."))
     doc += [Paragraph(t) for t in _summary_text(r)]
+    if r["input"].get("left_out"):
+        doc.append(_left_out_table(r["input"]["left_out"]))
     doc.append(Heading("Ballots"))
     doc.append(Plot("Figure 1. Ballots per condition pooled over clips (hatched: undecided), "
                     "and each clip's share of votes.", figures.ballots_figure(r)))

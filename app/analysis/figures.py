@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 BLACK, GREY, WHITE = "#222222", "#9a9a9a", "#ffffff"
 PALETTE = ("#1b6ca8", "#d1495b", "#2e8b57", "#edae49", "#6a4c93", "#00798c", "#8d6e63",
@@ -43,6 +44,7 @@ def ballots_figure(results: dict[str, Any]) -> Figure:
     left.bar_label(bars, labels=[str(v) for v in values], fontsize=8, padding=2)
     left.set_xticks(range(len(values)), labels, rotation=30, ha="right", fontsize=8)
     left.set_ylabel("ballots (all clips)")
+    left.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts: no 2.5 ballots
     left.set_ylim(0, max(values + [1]) * 1.15)
     left.set_title("Ballots per condition", fontsize=10)
     left.spines[["top", "right"]].set_visible(False)
@@ -195,10 +197,12 @@ def consistence_figure(results: dict[str, Any]) -> Figure:
                   if p["consistence"]["zeta"] is not None], dtype=float)
     fig = _figure(4.6, 2.6)
     ax = fig.subplots()
-    ax.hist(z, bins=np.linspace(min(0.0, float(z.min()) if z.size else 0.0), 1.0, 11).tolist(),
-            color=_colour(0), edgecolor="white")
+    counts, _, _ = ax.hist(z, bins=np.linspace(min(0.0, float(z.min()) if z.size else 0.0), 1.0,
+                                               11).tolist(), color=_colour(0), edgecolor="white")
+    ax.set_ylim(0, max(1.0, float(np.max(counts))) * 1.1)  # whole participants, even none
     ax.set_xlabel("coefficient of consistence ζ")
     ax.set_ylabel("participants")
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax.spines[["top", "right"]].set_visible(False)
     return fig
 

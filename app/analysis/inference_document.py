@@ -15,6 +15,7 @@ from app.analysis.document import (
     Paragraph,
     Plot,
     Table,
+    counted,
     fmt,
     fmt_p,
 )
@@ -55,7 +56,8 @@ def _which_to_cite(r: dict[str, Any]) -> Paragraph:
               else f"{a['judges_min']}–{a['judges_max']}")
     text = (f"Which is which: the sign tests of Table 2 and the agreement test of Table 4 treat "
             f"every presentation as an independent judge ({judges} judgements per pair from "
-            f"{pooled['participants']} participants, pooled over clips and both side orders), "
+            f"{counted(pooled['participants'], 'participant')}, pooled over clips and both side "
+            "orders), "
             "which overstates the evidence when a participant judges a pair more than once. "
             "Cite the participant-level tests below (Table 7: Wilcoxon tests with effect sizes; "
             "Table 8: u and sign tests with one judgement per participant) and the model "
@@ -151,8 +153,9 @@ def _quality_blocks(r: dict[str, Any]) -> list[Block]:
     if q["rules"]:
         who = "; ".join(f"{pid}: {', '.join(why)}" for pid, why in q["excluded"].items())
         text = (f"Exclusion rules {', '.join(q['rules'])} were applied before every statistic "
-                f"of this report: {len(q['excluded'])} of {len(q['participants'])} participants "
-                "excluded" + (f" ({who})." if who else "."))
+                f"of this report: {len(q['excluded'])} of "
+                f"{counted(len(q['participants']), 'participant')} excluded"
+                + (f" ({who})." if who else "."))
     else:
         text = ("No exclusion rules were applied (facepair analyze --exclude, e.g. "
                 "'catch<1.0,side_p<0.001'); every participant is in every statistic.")

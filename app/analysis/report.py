@@ -244,7 +244,8 @@ def write_report(results: dict[str, Any], html_path: str | Path,
             raise InputError("folder does not exist", path=Path(target).parent)
     blocks = build_document(results)
     images = {q: _png(b.figure) for q, b in enumerate(blocks) if isinstance(b, Plot)}
-    title = "Paired-comparison results: " + ", ".join(results["conditions"])
+    title = (results["study"]["title"] if results.get("study")
+             else "Paired-comparison results: " + ", ".join(results["conditions"]))
     Path(html_path).write_text(render_html(blocks, images, title), encoding="utf-8")
     if pdf_path is not None:
         render_pdf(blocks, images, Path(pdf_path), title)

@@ -67,7 +67,18 @@ COLUMN_SPECS: tuple[VoteColumn, ...] = (
     VoteColumn("stalls", "count", False, "times playback waited for data"),
     VoteColumn("stall_ms", "number", False, "milliseconds playback waited for data"),
     VoteColumn("focus_lost", "count", False, "times the window lost focus during the trial"),
+    VoteColumn("kind", "text", False, "trial (a pair of the design), mismatch (an "
+               "appropriateness pair) or catch (an attention check, left out of every "
+               "statistic); empty means trial"),
+    VoteColumn("status", "text", False, "the participant's status when exported: started, "
+               "finished, dropped, excluded or returned"),
+    VoteColumn("excluded", "text", False, "why the participant is left out of the analysis "
+               "(pilot, excluded, a failed catch trial, unfinished); empty: included"),
+    VoteColumn("prolific_id", "text", False, "the participant's Prolific ID, pseudonymised"),
 )
+#: Values of ``kind`` whose rows are analysed (the others are attention checks); mismatch rows
+#: go to the appropriateness test (``app.analysis.appropriateness``), not the pair statistics.
+ANALYSED_KINDS: tuple[str, ...] = ("", "trial", "mismatch")
 VOTE_COLUMNS: tuple[str, ...] = tuple(c.name for c in COLUMN_SPECS)
 REQUIRED_COLUMNS: tuple[str, ...] = tuple(c.name for c in COLUMN_SPECS if c.required)
 OPTIONAL_COLUMNS: tuple[str, ...] = tuple(c.name for c in COLUMN_SPECS if not c.required)

@@ -15,7 +15,7 @@ from flask import Blueprint, abort, jsonify, request, url_for
 
 from app import limits
 from app.enrolment import progress as enrolment_progress
-from app.experimenter.auth import current_user
+from app.experimenter.auth import current_user, study_access
 from app.extensions import db
 from app.limits import fits
 from app.models import Job, Participant, Trial
@@ -151,7 +151,7 @@ def job_status(job_id: int):  # type: ignore[no-untyped-def]
     if user is None:
         return _error("login required", 401)
     job = db.session.get(Job, job_id)
-    if job is None or job.study.owner_id != user.id:
+    if job is None or study_access(job.study, user.id) is None:
         abort(404)
     if job.status in ("queued", "running"):
         from app.jobs.tasks import sweep_study_jobs

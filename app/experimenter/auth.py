@@ -1,4 +1,5 @@
-"""Experimenter login: hashed passwords (werkzeug), the user id in the signed session."""
+"""Experimenter login: hashed passwords (werkzeug), the user id in the signed session; what
+each experimenter may do with a study (owner, or a collaborator it is shared with)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from flask import g, redirect, request, session, url_for
 
 from app.extensions import db
 from app.limits import fits
-from app.models import User
+from app.models import Study, StudyShare, User
 
 
 def current_user() -> User | None:
@@ -49,3 +50,17 @@ def create_user(email: str, password: str) -> User:
     user.set_password(password)
     db.session.add(user)
     return user
+
+
+#: What each level of access allows, weakest first: a collaborator with "read" sees the
+#: study, its monitor, exports and report; "full" also runs it; only the owner shares,
+#: deletes or reads the raw Prolific IDs.
+ACCESS_LEVELS = ("read", "full", "owner")
+
+
+def study_access(study: Study, user_id: int) -> str | None:
+    """The access ``user_id`` has to ``study`` (one of :data:`ACCESS_LEVELS`), or None."""
+    if study.owner_id == user_id:
+        return "owner"
+    return db.session.scalar(sa.select(StudyShare.access).where(
+        StudyShare.study_id == study.id, StudyShare.user_id == user_id))

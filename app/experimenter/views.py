@@ -2,10 +2,6 @@
 
 from __future__ import annotations
 
-import tempfile
-from pathlib import Path
-from typing import Any
-
 import sqlalchemy as sa
 from flask import (
     Blueprint,
@@ -21,23 +17,25 @@ from flask import (
     url_for,
 )
 from werkzeug.utils import secure_filename
-from wtforms import SelectChoice
 
-from app.errors import InputError
-from app.experimenter.auth import authenticate, current_user, login_required
+from app.experimenter.auth import (
+    ACCESS_LEVELS,
+    authenticate,
+    current_user,
+    login_required,
+    study_access,
+)
 from app.experimenter.forms import (
     ActionForm,
     DeleteParticipantForm,
     LoginForm,
-    StudyFileForm,
-    StudyWebForm,
 )
 from app.extensions import db, limiter
 from app.jobs import enqueue
 from app.jobs.tasks import JOB_KINDS, sweep_study_jobs
 from app.models import Job, Stimulus, Study
 from app.security import REPORT_CONTENT_SECURITY_POLICY, safe_next
-from app.storage import disk_full, disk_full_message, media_file
+from app.storage import media_file
 
 bp = Blueprint("experimenter", __name__, url_prefix="/experimenter")
 
@@ -47,13 +45,17 @@ def _load_user() -> None:
     current_user()  # sets g.user for the templates
 
 
-def _own_study(study_id: int) -> Study:
-    """The study if it belongs to the logged-in experimenter; 404 otherwise (no leak)."""
+def _own_study(study_id: int, need: str = "read") -> Study:
+    """The study if the logged-in experimenter has at least ``need`` access to it; 404 if they
+    have none (no leak that it exists), 403 if they may only look."""
     study = db.session.get(Study, study_id)
     user = current_user()
-    if study is None or user is None or study.owner_id != user.id:
+    access = None if study is None or user is None else study_access(study, user.id)
+    if access is None:
         abort(404)
-    return study
+    if ACCESS_LEVELS.index(access) < ACCESS_LEVELS.index(need):
+        abort(403)
+    return study  # type: ignore[return-value]
 
 
 def _account_limits() -> str:
@@ -106,111 +108,13 @@ def logout():  # type: ignore[no-untyped-def]
 @login_required
 def studies():  # type: ignore[no-untyped-def]
     user = current_user()
-    rows = db.session.scalars(sa.select(Study).where(Study.owner_id == user.id)  # type: ignore[union-attr]
-                              .order_by(Study.created_at.desc())).all()
+    from app.models import StudyShare
+
+    shared = sa.select(StudyShare.study_id).where(StudyShare.user_id == user.id)  # type: ignore[union-attr]
+    rows = db.session.scalars(sa.select(Study).where(sa.or_(
+        Study.owner_id == user.id, Study.id.in_(shared)))  # type: ignore[union-attr]
+        .order_by(Study.created_at.desc())).all()
     return render_template("experimenter/studies.html", studies=rows, action=ActionForm())
-
-
-def _save_uploads(files: list[Any], folder: Path) -> dict[str, Path]:
-    saved = {}
-    for upload in files:
-        if not upload or not getattr(upload, "filename", ""):
-            continue
-        name = secure_filename(upload.filename)
-        if name:
-            upload.save(folder / name)
-            saved[name] = folder / name
-    return saved
-
-
-def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
-    """The web form as a study-file mapping, validated by the same parser as a TOML file."""
-    audio = _save_uploads(form.audio.data or [], folder)
-    truths = _save_uploads(form.ground_truth.data or [], folder)
-    tracks = _save_uploads(form.tracks.data or [], folder)
-    clips = []
-    for name in audio:
-        clip: dict[str, Any] = {"name": Path(name).stem, "audio": name}
-        truth = next((t for t in truths if Path(t).stem == Path(name).stem), None)
-        if truth:
-            clip["ground_truth"] = truth
-        clips.append(clip)
-    conditions: list[dict[str, Any]] = [{"name": m, "model": m} for m in form.models.data or []]
-    uploaded: dict[str, dict[str, str]] = {}
-    for name in tracks:
-        condition, _, clip_name = Path(name).stem.partition("__")
-        if not clip_name:
-            raise InputError("expected <condition>__<clip>.fap", path=name, field="tracks")
-        uploaded.setdefault(condition, {})[clip_name] = name
-    conditions += [{"name": c, "tracks": t} for c, t in uploaded.items()]
-    data: dict[str, Any] = {
-        "title": form.title.data, "question": form.question.data,
-        "instructions": form.instructions.data or "", "consent": form.consent.data or "",
-        "design": form.design.data, "seed": form.seed.data or 0,
-        "target_participants": form.target_participants.data or 1,
-        "completion_code": form.completion_code.data or "",
-        "undecided": {"allowed": bool(form.undecided_allowed.data),
-                      "label": form.undecided_label.data or "Undecided"},
-        "replay": {"policy": form.replay.data},
-        "catch": {"trials": form.catch_trials.data or 0,
-                  "kind": "identical" if form.undecided_allowed.data else "instructed"},
-        "clips": clips, "conditions": conditions,
-    }
-    if form.replay.data == "max_plays":
-        data["replay"]["max_plays"] = form.max_plays.data or 1
-    if form.reference.data:
-        data["reference"] = form.reference.data.strip()
-    if form.redirect_url.data:
-        data["redirect_url"] = form.redirect_url.data.strip()
-    return data
-
-
-@bp.route("/studies/new", methods=["GET", "POST"])
-@login_required
-def new_study():  # type: ignore[no-untyped-def]
-    from app.studies import create_study
-    from app.trials.studyfile import MODELS, loads_study, parse_study
-
-    file_form = StudyFileForm(prefix="file")
-    web_form = StudyWebForm(prefix="web")
-    web_form.models.choices = [SelectChoice(m) for m in MODELS]
-    study = None
-    source = "form"
-    try:
-        with tempfile.TemporaryDirectory(prefix="facepair-upload-") as tmp:
-            folder = Path(tmp)
-            if file_form.submit.data and file_form.validate_on_submit():
-                upload = file_form.study_file.data
-                text = upload.read().decode("utf-8", errors="replace")
-                _save_uploads(file_form.media.data or [], folder)
-                source = secure_filename(upload.filename) or "study.toml"
-                spec = loads_study(text, source=source, base_dir=folder, confine=True)
-                study = create_study(current_user(), spec, source_toml=text)  # type: ignore[arg-type]
-            elif web_form.submit.data and web_form.validate_on_submit():
-                spec = parse_study(_web_form_mapping(web_form, folder), source="form",
-                                   base_dir=folder, confine=True)
-                study = create_study(current_user(), spec)  # type: ignore[arg-type]
-    except OSError as exc:
-        if not disk_full(exc):
-            raise
-        db.session.rollback()
-        flash(disk_full_message(exc), "error")
-        return render_template("experimenter/new_study.html", file_form=file_form,
-                               web_form=web_form), 507
-    except InputError as exc:
-        db.session.rollback()
-        # A value the columns cannot hold is found when the rows are written: name the file.
-        flash(str(exc if exc.path else InputError(exc.message, path=source, field=exc.field)),
-              "error")
-        return render_template("experimenter/new_study.html", file_form=file_form,
-                               web_form=web_form), 400
-    if study is not None:
-        db.session.commit()
-        flash("Study created. Generate the tracks, then render the clips.", "ok")
-        return redirect(url_for(".study", study_id=study.id))
-    status = 400 if request.method == "POST" else 200
-    return render_template("experimenter/new_study.html", file_form=file_form,
-                           web_form=web_form), status
 
 
 def _start(study: Study, kind: str) -> None:
@@ -242,16 +146,41 @@ def study(study_id: int):  # type: ignore[no-untyped-def]
                                  .order_by(Stimulus.id)).all()
     link = url_for("participant.start", slug=study.slug, _external=True)
     return render_template("experimenter/study.html", study=study, jobs=jobs, stimuli=stimuli,
-                           link=link, action=ActionForm(), forget=DeleteParticipantForm())
+                           link=link, action=ActionForm(), forget=DeleteParticipantForm(),
+                           **_study_extras(study, link))
+
+
+def _study_extras(study: Study, link: str) -> dict[str, object]:
+    """The study page's lifecycle, recruitment and sharing parts."""
+    from app.experimenter.forms import ConfirmForm, DeleteStudyForm, DuplicateForm, ShareForm
+    from app.experimenter.lifecycle import shares_of
+    from app.recruitment import completion_url, prolific_study_url
+    from app.studies import stimuli_locked
+
+    access = study_access(study, current_user().id)  # type: ignore[union-attr]
+    return {
+        "access": access, "locked": stimuli_locked(study),
+        "pilot_link": url_for(".pilot", token=study.pilot_token, _external=True),
+        "prolific_url": prolific_study_url(link), "completion_url": completion_url(study),
+        "confirm": ConfirmForm(), "duplicate_form": DuplicateForm(),
+        "delete_form": DeleteStudyForm(), "share_form": ShareForm(),
+        "shares": shares_of(study) if access == "owner" else [],
+    }
 
 
 @bp.post("/studies/<int:study_id>/jobs/<kind>")
 @login_required
 def start_job(study_id: int, kind: str):  # type: ignore[no-untyped-def]
-    study = _own_study(study_id)
+    from app.studies import stimuli_locked
+
+    study = _own_study(study_id, "full")
     if kind not in JOB_KINDS or not ActionForm().validate_on_submit():
         abort(400)
-    _start(study, kind)
+    locked = stimuli_locked(study) if kind in ("generate", "render") else None
+    if locked:
+        flash(f"Nothing started: {locked}.", "error")
+    else:
+        _start(study, kind)
     return redirect(url_for(".study", study_id=study.id))
 
 
@@ -259,7 +188,7 @@ def start_job(study_id: int, kind: str):  # type: ignore[no-untyped-def]
 @login_required
 def retry_job(study_id: int, job_id: int):  # type: ignore[no-untyped-def]
     """Run a failed job again; a render resumes from the clips already rendered."""
-    study = _own_study(study_id)
+    study = _own_study(study_id, "full")
     job = db.session.get(Job, job_id)
     if job is None or job.study_id != study.id or not ActionForm().validate_on_submit():
         abort(404)
@@ -275,8 +204,10 @@ def retry_job(study_id: int, job_id: int):  # type: ignore[no-untyped-def]
 def change_status(study_id: int, action: str):  # type: ignore[no-untyped-def]
     from app.studies import change_status as apply
 
-    study = _own_study(study_id)
+    study = _own_study(study_id, "full")
     if not ActionForm().validate_on_submit():
+        abort(400)
+    if action == "reopen":  # only with its confirmation (``lifecycle.reopen``)
         abort(400)
     if action == "open" and any(s.video_path is None for s in db.session.scalars(
             sa.select(Stimulus).where(Stimulus.study_id == study.id))):
@@ -284,6 +215,10 @@ def change_status(study_id: int, action: str):  # type: ignore[no-untyped-def]
         return redirect(url_for(".study", study_id=study.id))
     try:
         apply(study, action)
+        if action == "open":
+            from app.participants import release_pilots
+
+            release_pilots(study)
     except ValueError as exc:
         flash(str(exc), "error")
         return redirect(url_for(".study", study_id=study.id))
@@ -303,7 +238,10 @@ def monitor(study_id: int):  # type: ignore[no-untyped-def]
     release_dropped(study, after=dropped_after())
     db.session.commit()
     stats = study_monitor(study, dropped_after=dropped_after())
-    return render_template("experimenter/monitor.html", study=study, stats=stats)
+    from app.experimenter.participants import participant_table
+
+    return render_template("experimenter/monitor.html", study=study, stats=stats,
+                           **participant_table(study))
 
 
 @bp.get("/studies/<int:study_id>/votes.csv")
@@ -312,8 +250,12 @@ def export_votes(study_id: int):  # type: ignore[no-untyped-def]
     from app.exports import votes_csv
 
     study = _own_study(study_id)
-    name = secure_filename(study.title) or f"study-{study.id}"
-    return Response(votes_csv(study), mimetype="text/csv",
+    pilot = request.args.get("pilot", "without")
+    if pilot not in ("without", "with", "only"):
+        pilot = "without"
+    name = (secure_filename(study.title) or f"study-{study.id}") + (
+        "" if pilot == "without" else f"-{pilot}-pilot")
+    return Response(votes_csv(study, pilot=pilot), mimetype="text/csv",
                     headers={"Content-Disposition": f'attachment; filename="{name}-votes.csv"'})
 
 
@@ -323,7 +265,7 @@ def export_participants(study_id: int):  # type: ignore[no-untyped-def]
     """Participants with pseudonymised Prolific IDs; ``?ids=raw`` for the real ones (payment)."""
     from app.privacy import participants_csv
 
-    study = _own_study(study_id)
+    study = _own_study(study_id, "owner" if request.args.get("ids") == "raw" else "read")
     raw = request.args.get("ids") == "raw"
     name = (secure_filename(study.title) or f"study-{study.id}") + (
         "-participants-prolific-ids" if raw else "-participants")
@@ -338,7 +280,7 @@ def delete_participant(study_id: int):  # type: ignore[no-untyped-def]
     """Delete one participant's data on their request (the monitor and exports follow)."""
     from app.privacy import delete_participants
 
-    study = _own_study(study_id)
+    study = _own_study(study_id, "full")
     form = DeleteParticipantForm()
     if not form.validate_on_submit():
         problems = "; ".join(f"{name}: {errors[0]}" for name, errors in form.errors.items())
@@ -388,3 +330,7 @@ def preview(study_id: int, stimulus_id: int):  # type: ignore[no-untyped-def]
         abort(404)
     return send_file(media_file(study, stimulus.video_path), mimetype="video/mp4",
                      conditional=True)
+
+
+# The other experimenter pages add their routes to ``bp`` (one module per idea).
+from app.experimenter import create, lifecycle, participants  # noqa: E402, F401

@@ -29,16 +29,26 @@ class FieldReader:
 
     Relative paths resolve against ``base_dir``; ``check_files`` requires them to exist;
     ``confine`` refuses absolute paths and paths that leave ``base_dir`` (for uploaded files,
-    whose paths must not reach the server's own files).
+    whose paths must not reach the server's own files); ``by_name`` resolves every path to the
+    file of the same name in ``base_dir`` (uploads arrive as a flat folder of files, so the
+    study file written for a checkout, ``../data/demo/speech.wav``, names its upload
+    ``speech.wav``; the folder part is dropped, so nothing outside ``base_dir`` is reached).
     """
 
     def __init__(
-        self, source: str, base_dir: Path, *, check_files: bool = True, confine: bool = False
+        self,
+        source: str,
+        base_dir: Path,
+        *,
+        check_files: bool = True,
+        confine: bool = False,
+        by_name: bool = False,
     ) -> None:
         self.source = source
         self.base_dir = base_dir
         self.check_files = check_files
         self.confine = confine
+        self.by_name = by_name
 
     def error(self, name: str, message: str) -> InputError:
         return InputError(message, path=self.source, field=name)
@@ -138,6 +148,14 @@ class FieldReader:
         path = Path(value)
         if path.suffix.lower() not in suffixes:
             raise self.error(name, f"expected a {' or '.join(suffixes)} file, got {value!r}")
+        if self.by_name:
+            uploaded = upload_name(value)
+            resolved = Path(os.path.abspath(self.base_dir / uploaded))
+            if self.check_files and (not uploaded or not resolved.is_file()):
+                raise self.error(
+                    name, f"no uploaded file named {uploaded!r}; upload it with the study file"
+                )
+            return resolved
         resolved = Path(os.path.abspath(self.base_dir / path))
         if self.confine:
             root = Path(os.path.abspath(self.base_dir))
@@ -146,6 +164,16 @@ class FieldReader:
         if self.check_files and not resolved.is_file():
             raise self.error(name, f"no such file: {str(resolved)!r}")
         return resolved
+
+
+def upload_name(path: str) -> str:
+    r"""The file name an uploaded file has for ``path`` (its last part, either slash).
+
+    >>> upload_name("../data/demo/speech.wav"), upload_name("C:\\audio\\s2.wav")
+    ('speech.wav', 's2.wav')
+    """
+    name = path.replace("\\", "/").rsplit("/", 1)[-1]
+    return "" if name in (".", "..") else name
 
 
 def describe(value: Any) -> str:

@@ -27,8 +27,9 @@ from typing import Any, Final
 from app.errors import InputError
 from app.stimuli.eyes import DEFAULT_EYES, EYE_MODES
 from app.trials.design import PAIR_DESIGNS, Pair
-from app.trials.fields import MISSING, FieldReader, describe
+from app.trials.fields import MISSING, describe
 from app.trials.participation import PARTICIPATION_KEYS, read_participation
+from app.trials.questions import ExperimenterSideReader
 from app.trials.rules import REPLAY_KINDS, ReplayPolicy
 from app.trials.schedule import CATCH_KINDS
 from app.trials.studyspec import MODELS, ClipSpec, ConditionSpec, StudySpec
@@ -77,9 +78,11 @@ def loads_study(
     base_dir: str | Path = ".",
     check_files: bool = True,
     confine: bool = False,
+    by_name: bool = False,
 ) -> StudySpec:
     """Parse and validate study-file text; ``source`` names it in errors (see
-    :func:`load_study_file` for the options)."""
+    :func:`load_study_file` for the options; ``by_name=True`` reads an uploaded study file,
+    whose paths name files uploaded beside it: see :class:`~app.trials.fields.FieldReader`)."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -91,7 +94,12 @@ def loads_study(
     except RecursionError:  # tomllib recurses once per level of nested arrays and tables
         raise InputError("invalid TOML: arrays or tables nested too deeply", path=source) from None
     return parse_study(
-        data, source=source, base_dir=base_dir, check_files=check_files, confine=confine
+        data,
+        source=source,
+        base_dir=base_dir,
+        check_files=check_files,
+        confine=confine,
+        by_name=by_name,
     )
 
 
@@ -102,9 +110,12 @@ def parse_study(
     base_dir: str | Path = ".",
     check_files: bool = True,
     confine: bool = False,
+    by_name: bool = False,
 ) -> StudySpec:
     """Validate an already-parsed study (a TOML document or a web form's mapping)."""
-    reader = _StudyReader(source, Path(base_dir), check_files=check_files, confine=confine)
+    reader = _StudyReader(
+        source, Path(base_dir), check_files=check_files, confine=confine, by_name=by_name
+    )
     return reader.study(data)
 
 
@@ -151,10 +162,14 @@ _TOP_KEYS: Final = (
     "conditions",
     "clips",
     *PARTICIPATION_KEYS,
+    # -- the experimenter's side (docs/studyfile.md, "Participants and questionnaires") --
+    "auto_exclude",
+    "demographics",
+    "questions",
 )
 
 
-class _StudyReader(FieldReader):
+class _StudyReader(ExperimenterSideReader):
     """The study-file schema on top of the typed field access of :class:`FieldReader`."""
 
     def study(self, data: Mapping[str, Any]) -> StudySpec:
@@ -210,6 +225,7 @@ class _StudyReader(FieldReader):
         practice, practice_clip = self.practice(top, names, [c.name for c in clips])
         rejoin = self.choice(top, "rejoin", "rejoin", REJOIN_POLICIES, "resume")
         participation = read_participation(self, top, n_clips=len(clips))
+        auto_exclude, questions = self.experimenter_side(top)
         spec = StudySpec(
             title=title,
             question=question,
@@ -237,6 +253,8 @@ class _StudyReader(FieldReader):
             exclude=exclude,
             rejoin=rejoin,
             participation=participation,
+            auto_exclude=auto_exclude,
+            questions=questions,
         )
         main = len(replace(spec, catch_trials=0, practice=None).schedule(seed=0, list_index=0))
         if catch_trials > main:

@@ -21,6 +21,7 @@ from app.stimuli.eyes import DEFAULT_EYES
 from app.trials.design import Pair, build_pairs
 from app.trials.fields import key_text
 from app.trials.participation import ParticipationSpec
+from app.trials.questions import QuestionSpec
 from app.trials.rules import ReplayPolicy
 from app.trials.schedule import Trial, make_schedule, n_lists_for, shown_stimuli, variant_stimuli
 
@@ -97,6 +98,11 @@ class StudySpec:
     exclude: str = ""
     rejoin: str = "resume"
     participation: ParticipationSpec = field(default_factory=ParticipationSpec)
+    # -- the experimenter's side --
+    #: Automatic exclusion rules the report applies (``app.participants.AUTO_RULES``).
+    auto_exclude: tuple[str, ...] = ("catch_failed", "unfinished")
+    #: Questionnaire pages before and after the trials (:mod:`app.trials.questions`).
+    questions: tuple[QuestionSpec, ...] = ()
 
     @property
     def condition_names(self) -> list[str]:
@@ -179,6 +185,7 @@ class StudySpec:
         out["eyes"] = self.eyes
         out["normalize"] = self.normalize
         out["rejoin"] = self.rejoin
+        out["auto_exclude"] = list(self.auto_exclude)
         if self.render:
             out["render"] = dict(self.render)
         if self.exclude:
@@ -196,6 +203,8 @@ class StudySpec:
         out |= self.participation.to_dict()
         out["conditions"] = [_condition_dict(c) for c in self.conditions]
         out["clips"] = [_clip_dict(c) for c in self.clips]
+        if self.questions:
+            out["questions"] = [q.to_dict() for q in self.questions]
         return out
 
     def to_toml(self) -> str:

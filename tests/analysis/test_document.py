@@ -39,3 +39,56 @@ def test_any_small_study_builds_a_document():
                 block.figure.canvas.draw()
 
     check()
+
+
+def test_one_participant_is_one_participant_and_no_folder_is_printed(tmp_path):
+    import pandas as pd
+
+    from app.analysis.document import Paragraph
+
+    frame = pd.DataFrame([("p", "x", "A", "B", "left"), ("p", "x", "B", "A", "right")],
+                         columns=["participant", "clip", "left", "right", "choice"])
+    path = tmp_path / "server" / "study-7" / "votes.csv"
+    path.parent.mkdir(parents=True)
+    frame.to_csv(path, index=False)
+    text = " ".join(b.text for b in build_document(analyze(path, bootstrap=0))
+                    if isinstance(b, Paragraph))
+    assert "1 participant cast 2 votes on 1 clip " in text
+    assert "1 participants" not in text
+    assert "Source: votes.csv." in text and str(tmp_path) not in text
+
+
+def test_catch_rows_and_excluded_participants_stay_out(tmp_path):
+    """The export's ``kind`` and ``excluded`` columns: the statistics are those of the
+    included participants' real trials, and the report lists who was left out and why."""
+    import pandas as pd
+
+    base = [("p", "x", "A", "B", "left", "trial", ""), ("p", "x", "B", "A", "right", "trial", ""),
+            ("q", "x", "A", "B", "left", "trial", "")]
+    noise = [("p", "x", "A", "A", "left", "catch", ""),
+             ("r", "x", "A", "B", "right", "trial", "did not finish"),
+             ("s", "x", "B", "A", "left", "trial", "failed a catch trial (0 of 1 passed)")]
+    columns = ["participant", "clip", "left", "right", "choice", "kind", "excluded"]
+    clean = analyze(pd.DataFrame(base, columns=columns), bootstrap=0)
+    mixed = analyze(pd.DataFrame(base + noise, columns=columns), bootstrap=0)
+    assert mixed["pooled"]["ballots"] == clean["pooled"]["ballots"] == {"A": 3, "B": 0}
+    assert mixed["input"]["participants"] == 2 and mixed["input"]["catch_votes"] == 1
+    assert mixed["input"]["left_out"] == {"r": "did not finish",
+                                          "s": "failed a catch trial (0 of 1 passed)"}
+    tables = [b for b in build_document(mixed) if isinstance(b, Table)]
+    assert tables[0].rows == [["r", "did not finish"],
+                              ["s", "failed a catch trial (0 of 1 passed)"]]
+
+
+def test_a_study_head_names_the_study_and_the_command():
+    from app.analysis.document import Paragraph
+
+    votes = simulate_votes({"a": 0.0, "b": 1.0}, participants=3, clips=("x",))
+    results = analyze(votes, bootstrap=0)
+    results["study"] = {"title": "Eyebrows", "date": "2026-12-01 10:00 UTC",
+                        "design": "Design: all_ordered.", "participants": "3 included.",
+                        "command": "facepair analyze votes.csv --report report.html"}
+    blocks = build_document(results)
+    assert isinstance(blocks[0], Heading) and blocks[0].text == "Eyebrows"
+    texts = [b.text for b in blocks if isinstance(b, Paragraph)]
+    assert any("facepair analyze votes.csv --report report.html" in t for t in texts)

@@ -41,3 +41,14 @@ def test_scale_interval_not_containing_its_estimate_is_drawn_as_given(results):
     segments = [seg for coll in fig.axes[0].collections for seg in coll.get_segments()]
     spans = sorted(round(float(s[1][0] - s[0][0]), 6) for s in segments)
     assert 0.7 in spans
+
+
+def test_count_axes_have_whole_ticks():
+    import numpy as np
+
+    few = analyze(simulate_votes({"a": 0.0, "b": 0.5}, participants=1, clips=("x",)),
+                  bootstrap=0)
+    for fig in (figures.ballots_figure(few), figures.consistence_figure(few)):
+        fig.canvas.draw()
+        ticks = fig.axes[0].get_yticks()
+        assert np.allclose(ticks, np.round(ticks)), ticks

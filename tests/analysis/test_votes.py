@@ -30,7 +30,8 @@ def test_schema_is_the_interface():
     assert REQUIRED_COLUMNS == ("participant", "clip", "left", "right", "choice")
     assert OPTIONAL_COLUMNS == ("study", "trial", "response_ms", "plays", "presented_at",
                                 "voted_at", "strength", "reasons", "mismatched", "watched_ms",
-                                "played_to_end", "stalls", "stall_ms", "focus_lost")
+                                "played_to_end", "stalls", "stall_ms", "focus_lost", "kind",
+                                "status", "excluded", "prolific_id")
     assert VOTE_COLUMNS == REQUIRED_COLUMNS + OPTIONAL_COLUMNS
     assert CHOICES == ("left", "right", "undecided")
 

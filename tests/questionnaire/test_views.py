@@ -1,0 +1,118 @@
+"""The questionnaire pages on a participant's path, the answers export and the report summary."""
+
+import csv
+import io
+import re
+
+import sqlalchemy as sa
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from app.extensions import db
+from app.models import Participant, Study
+
+QUESTIONS = '''demographics = true
+[[questions]]
+name = "comments"
+text = "Any comments?"
+page = "after"
+required = false
+[[questions]]
+name = "hours"
+text = "Hours of screen time a day"
+page = "after"
+type = "number"
+min = 0
+max = 24
+'''
+BEFORE = {"age_band": "25-34", "gender": "female", "native_language": "Welsh",
+          "vision_corrected": "no", "animation_experience": "none"}
+
+
+def _slug(app, study_id):
+    with app.app_context():
+        return db.session.get(Study, study_id).slug
+
+
+def _answer(client, token, page, **values):
+    url = f"/p/{token}/questions/{page}"
+    form = client.get(url).get_data(as_text=True)
+    csrf = re.search(r'name="csrf_token" type="hidden" value="([^"]+)"', form).group(1)
+    return client.post(url, data={"csrf_token": csrf, **values})
+
+
+def test_the_path_passes_through_both_pages(app, client, web, participant):
+    study_id = web.study(design="all_ordered", extra=QUESTIONS)
+    token = participant.join(_slug(app, study_id))
+    page = participant.client.get(f"/p/{token}/instructions")
+    assert page.headers["Location"] == f"/p/{token}/questions/before"
+    assert participant.client.get(f"/p/{token}/trial").headers["Location"].endswith("/before")
+    missing = _answer(participant.client, token, "before", **(BEFORE | {"gender": ""}))
+    assert missing.status_code == 400
+    text = missing.get_data(as_text=True)
+    assert "an answer is required" in text and 'value="Welsh"' in text  # the rest kept
+    assert _answer(participant.client, token, "before", **BEFORE).headers["Location"] == (
+        f"/p/{token}/instructions")
+    while (trial := participant.current_trial()) is not None:
+        participant.vote(trial, "left")
+    done = participant.client.get(f"/p/{token}/done")
+    assert done.headers["Location"] == f"/p/{token}/questions/after"
+    bad = _answer(participant.client, token, "after", hours="25")
+    assert "must be at most 24, got 25" in bad.get_data(as_text=True)
+    ok = _answer(participant.client, token, "after", hours="3.5", comments="Nice faces")
+    assert ok.headers["Location"] == f"/p/{token}/done"
+    assert participant.client.get(f"/p/{token}/done").status_code == 200
+    # A page is answered once.
+    assert participant.client.get(f"/p/{token}/questions/before").status_code == 302
+    web.login(client)
+    answers = list(csv.DictReader(io.StringIO(client.get(
+        f"/experimenter/studies/{study_id}/answers.csv").get_data(as_text=True))))
+    assert answers == [{"participant": "P0000", "status": "finished", "excluded": "",
+                        "prolific_id": "", **BEFORE, "comments": "Nice faces",
+                        "hours": "3.5"}]
+
+
+def test_the_report_summarises_the_answers(app, client, web, participant):
+    study_id = web.study(design="all_ordered", extra=QUESTIONS)
+    for hours in ("2", "6"):
+        participant.client = app.test_client()
+        token = participant.join(_slug(app, study_id))
+        _answer(participant.client, token, "before", **BEFORE)
+        while (trial := participant.current_trial()) is not None:
+            participant.vote(trial, "left")
+        _answer(participant.client, token, "after", hours=hours)
+    web.login(client)
+    token = web.csrf(client, f"/experimenter/studies/{study_id}")
+    client.post(f"/experimenter/studies/{study_id}/status/close", data={"csrf_token": token})
+    response = client.get(f"/experimenter/studies/{study_id}/report/")
+    html = response.get_data(as_text=True)
+    response.close()
+    assert "<h2>Questionnaire</h2>" in html
+    assert "median 4, range 2-6" in html and "25-34: 2" in html
+
+
+def test_a_study_without_questions_goes_straight_on(app, web, participant):
+    token = participant.join(_slug(app, web.study()))
+    assert participant.client.get(f"/p/{token}/instructions").status_code == 200
+    assert participant.client.get(f"/p/{token}/questions/before").status_code == 302
+
+
+def test_hostile_answers_never_give_a_5xx(app, web, participant):
+    study_id = web.study(design="all_ordered", extra=QUESTIONS)
+    token = participant.join(_slug(app, study_id))
+    url = f"/p/{token}/questions/before"
+    form = participant.client.get(url).get_data(as_text=True)
+    csrf = re.search(r'name="csrf_token" type="hidden" value="([^"]+)"', form).group(1)
+    text = st.text(st.characters(blacklist_categories=("Cs",)), max_size=200)
+
+    @settings(max_examples=80, deadline=None, database=None,
+              suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+    @given(st.dictionaries(st.sampled_from([*BEFORE, "x"]), text))
+    def hostile(values):
+        response = participant.client.post(url, data={"csrf_token": csrf, **values})
+        assert response.status_code in (302, 400), response.status_code
+
+    hostile()
+    with app.app_context():
+        answers = db.session.scalar(sa.select(Participant.answers)) or {}
+        assert set(answers.get("before", BEFORE)) == set(BEFORE)

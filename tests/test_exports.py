@@ -1,0 +1,65 @@
+"""The report a study writes when it closes: its head, who was left out and why, no server
+path, the PDF on the web, and the command that reproduces it from the exported votes."""
+
+import re
+
+import sqlalchemy as sa
+
+from app.extensions import db
+from app.models import Job, Study, Trial
+
+
+def _run(app, participant, slug, *, catch_answer, finish=True):
+    participant.client = app.test_client()
+    participant.join(slug)
+    while (trial := participant.current_trial()) is not None:
+        with app.app_context():
+            kind = db.session.get(Trial, trial).kind
+        participant.vote(trial, catch_answer if kind == "catch" else "left")
+        if not finish:
+            return
+
+
+def test_the_closing_report(app, client, web, participant, tmp_path, monkeypatch):
+    study_id = web.study(design="all_ordered", catch=1)
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    _run(app, participant, slug, catch_answer="undecided")
+    _run(app, participant, slug, catch_answer="left")
+    _run(app, participant, slug, catch_answer="undecided", finish=False)
+    web.login(client)
+    token = web.csrf(client, f"/experimenter/studies/{study_id}")
+    client.post(f"/experimenter/studies/{study_id}/status/close", data={"csrf_token": token})
+    with app.app_context():
+        job = db.session.scalar(sa.select(Job).where(Job.kind == "report"))
+        assert job.status == "done", job.message
+    response = client.get(f"/experimenter/studies/{study_id}/report/")
+    html = response.get_data(as_text=True)
+    response.close()
+    html = html.replace("&#x27;", "'").replace("&quot;", '"')
+    assert "<h1>Test study</h1>" in html and "Report written 20" in html
+    assert "1 participant cast 4 votes on 1 clip " in html
+    assert "P0001: failed a catch trial (0 of 1 passed)" in html
+    assert "P0002: did not finish" in html
+    assert str(tmp_path) not in html and "study-" not in html
+    command = re.search(r"(facepair analyze votes\.csv [^<]*?)</p>", html).group(1)
+    pdf = client.get(f"/experimenter/studies/{study_id}/report/report.pdf")
+    assert pdf.status_code == 200 and pdf.data.startswith(b"%PDF")
+    pdf.close()
+    # The command, run on the exported CSV, gives the report's statistics.
+    import json
+    import shlex
+
+    from click.testing import CliRunner
+
+    from app.cli import main
+
+    (tmp_path / "again").mkdir()
+    monkeypatch.chdir(tmp_path / "again")
+    (tmp_path / "again" / "votes.csv").write_bytes(
+        client.get(f"/experimenter/studies/{study_id}/votes.csv").data)
+    result = CliRunner().invoke(main, [*shlex.split(command)[1:], "--json", "again.json"])
+    assert result.exit_code == 0, result.output
+    again = json.loads((tmp_path / "again" / "again.json").read_text())
+    assert again["input"]["participants"] == 1 and again["input"]["votes"] == 4
+    assert set(again["input"]["left_out"]) == {"P0001", "P0002"}
