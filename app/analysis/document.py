@@ -300,6 +300,25 @@ def _left_out_table(left_out: dict[str, str]) -> Table:
                  numeric=[False, False])
 
 
+def _appropriateness_blocks(appropriate: dict[str, dict[str, Any]]) -> list[Block]:
+    """The appropriateness test (``app.analysis.appropriateness``), when the study had it."""
+    if not appropriate:
+        return []
+    rows = [[name, str(a["matched"]), str(a["mismatched"]), str(a["undecided"]),
+             fmt(a["matched_share"]), fmt_p(a["p"])] for name, a in appropriate.items()]
+    return [Heading("Appropriateness"),
+            Paragraph("Appropriateness pairs show one condition twice under one clip's speech: "
+                      "one face moves with the motion made for this speech, the other with the "
+                      "motion made for another clip. A matched share above 1/2 says "
+                      "participants could tell which motion belongs to the speech; these votes "
+                      "are kept out of every other statistic."),
+            Table("Appropriateness per condition: votes for the face moving with its own "
+                  "speech, for the mismatched face, undecided; the matched share of decided "
+                  "votes and its exact two-sided sign test against 1/2.",
+                  ["Condition", "Matched", "Mismatched", "Undecided", "Share", "p"], rows,
+                  numeric=[False, True, True, True, True, True])]
+
+
 def build_document(r: dict[str, Any]) -> list[Block]:
     """Every block of the report, in reading order."""
     pooled = r["pooled"]
@@ -348,6 +367,7 @@ def build_document(r: dict[str, Any]) -> list[Block]:
     from app.analysis.inference_document import inference_blocks
 
     doc += inference_blocks(r)
+    doc += _appropriateness_blocks(r.get("appropriateness") or {})
     doc.append(Heading("Per clip"))
     for clip, section in r["clips"].items():
         doc.append(_sign_table(section, f"Sign tests, clip {clip}."))

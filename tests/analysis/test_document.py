@@ -92,3 +92,23 @@ def test_a_study_head_names_the_study_and_the_command():
     assert isinstance(blocks[0], Heading) and blocks[0].text == "Eyebrows"
     texts = [b.text for b in blocks if isinstance(b, Paragraph)]
     assert any("facepair analyze votes.csv --report report.html" in t for t in texts)
+
+
+def test_the_appropriateness_test_has_its_section_when_the_study_had_it():
+    import pandas as pd
+
+    rows = [("p", "x", "A", "B", "left", ""), ("p", "x", "B", "A", "right", ""),
+            ("p", "x", "A", "A", "left", "right"), ("q", "x", "A", "A", "right", "left"),
+            ("q", "x", "A", "A", "undecided", "left"), ("q", "x", "B", "A", "left", "")]
+    frame = pd.DataFrame(rows, columns=["participant", "clip", "left", "right", "choice",
+                                        "mismatched"])
+    blocks = build_document(analyze(frame, bootstrap=0))
+    headings = [b.text for b in blocks if isinstance(b, Heading)]
+    assert "Appropriateness" in headings
+    table = next(b for b in blocks if isinstance(b, Table) and b.caption.startswith(
+        "Appropriateness"))
+    assert table.rows == [["A", "2", "0", "1", "1.00", ".500"]]  # 2 of 2 decided: p = 1/2
+    plain = pd.DataFrame(rows[:2], columns=["participant", "clip", "left", "right", "choice",
+                                            "mismatched"])
+    assert "Appropriateness" not in [b.text for b in build_document(analyze(plain, bootstrap=0))
+                                     if isinstance(b, Heading)]
