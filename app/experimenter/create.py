@@ -63,9 +63,16 @@ def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
         "undecided": {"allowed": bool(form.undecided_allowed.data),
                       "label": form.undecided_label.data or "Undecided"},
         "replay": {"policy": form.replay.data},
-        "catch": {"trials": form.catch_trials.data or 0,
-                  "kind": "identical" if form.undecided_allowed.data else "instructed"},
+        "catch": {"trials": form.catch_trials.data or 0, "kind": form.catch_kind.data},
         "clips": clips, "conditions": conditions,
+        "eyes": form.eyes.data, "normalize": bool(form.normalize.data),
+        "mismatched": bool(form.mismatched.data),
+        "answer": {"scale": int(form.scale.data),
+                   "reasons": [t.strip() for t in (form.reasons.data or "").split(",")
+                               if t.strip()]},
+        "attention": {"max_failed": form.max_failed.data or 0,
+                      "screened_out_code": form.screened_out_code.data or ""},
+        "viewing": {"min_face_px": form.min_face_px.data or 0},
     }
     if form.replay.data == "max_plays":
         data["replay"]["max_plays"] = form.max_plays.data or 1

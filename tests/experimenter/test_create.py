@@ -181,3 +181,32 @@ def test_hostile_upload_names_never_give_a_5xx(app, client, web):
         assert response.status_code in (302, 400), response.get_data(as_text=True)[-500:]
 
     hostile()
+
+
+def test_the_form_sets_the_stimulus_and_participant_page_options(app, client, web, tmp_path):
+    web.user()
+    web.login(client)
+    a, b = web.write_wav(tmp_path / "clip_a.wav"), web.write_wav(tmp_path / "clip_b.wav")
+    response = _post(client, _form(_new_page(client), **{
+        "web-models": ["none", "random"], "web-audio": _files(a, b),
+        "web-eyes": "generated", "web-mismatched": "y", "web-catch_trials": "1",
+        "web-catch_kind": "onscreen", "web-scale": "5",
+        "web-reasons": "head motion, eyebrows ,timing", "web-max_failed": "2",
+        "web-screened_out_code": "SCREENED", "web-min_face_px": "150"}))
+    assert response.status_code == 302, response.get_data(as_text=True)
+    with app.app_context():
+        study = db.session.scalar(sa.select(Study))
+        settings = study.settings
+    assert settings["eyes"] == "generated" and settings["normalize"] is False
+    assert study.catch_kind == "onscreen"
+    from app.trials.participation import ParticipationSpec
+
+    part = ParticipationSpec.from_settings(settings["participation"])
+    assert part.scale == 5 and part.reasons == ("head motion", "eyebrows", "timing")
+    assert (part.max_failed, part.screened_out_code) == (2, "SCREENED")
+    assert part.min_face_px == 150 and part.mismatched is True
+    # an option that does not fit is named, as a study file's would be
+    bad = _post(client, _form(_new_page(client), **{
+        "web-models": ["none", "random"], "web-audio": _files(a, b), "web-eyes": "ground_truth"}))
+    assert bad.status_code == 400
+    assert "eyes: needs a ground_truth for every clip" in bad.get_data(as_text=True)
