@@ -181,7 +181,28 @@ def _quality_blocks(r: dict[str, Any]) -> list[Block]:
                   + (f"Side p < .05 or outlier > 1.5: {', '.join(flagged)}." if flagged
                      else "No participant has side p < .05 or outlier > 1.5."),
                   numeric=[False] + [True] * 8 + [False])
-    return [Paragraph(text), table]
+    return [Paragraph(text), table, *_seen_blocks(q)]
+
+
+#: The per-participant measures of the media log and identical pairs (``app.analysis.quality``).
+SEEN = ("same_left", "unfinished", "stall_ms", "focus_lost")
+
+
+def _seen_blocks(q: dict[str, Any]) -> list[Block]:
+    """What participants saw: side bias on identical pairs and the media log, when recorded."""
+    people = list(q["participants"].items())
+    if not any(p.get(k) is not None for _, p in people for k in SEEN):
+        return []
+    rows = [[pid, fmt(p.get("same_left")), fmt(p.get("unfinished")),
+             fmt(p.get("stall_ms"), 0), fmt(p.get("focus_lost"), 0)]
+            for pid, p in people[:MAX_LISTED_PARTICIPANTS]]
+    return [Table("Table 11. What each participant saw: share of left among decided "
+                  "identical-pair votes (side bias), share of clips not played to their end, "
+                  "milliseconds of stalled playback and times the window lost focus.",
+                  ["participant", "identical: left", "not to end", "stall ms", "focus lost"],
+                  rows, note="From the media log of each vote; exclusion rules can use these "
+                             "fields (same_left, unfinished, stall_ms, focus_lost).",
+                  numeric=[False, True, True, True, True])]
 
 
 def inference_blocks(r: dict[str, Any]) -> list[Block]:

@@ -112,3 +112,19 @@ def test_the_appropriateness_test_has_its_section_when_the_study_had_it():
                                             "mismatched"])
     assert "Appropriateness" not in [b.text for b in build_document(analyze(plain, bootstrap=0))
                                      if isinstance(b, Heading)]
+
+
+def test_what_participants_saw_is_reported_when_the_votes_have_a_media_log():
+    import pandas as pd
+
+    cols = ["participant", "clip", "left", "right", "choice", "played_to_end", "stall_ms",
+            "focus_lost"]
+    rows = [("p", "x", "A", "B", "left", True, 0, 0), ("p", "x", "A", "A", "left", False, 900, 1),
+            ("q", "x", "B", "A", "right", True, 0, 2), ("q", "x", "B", "B", "undecided", True,
+                                                           0, 0)]
+    blocks = build_document(analyze(pd.DataFrame(rows, columns=cols), bootstrap=0))
+    table = next(b for b in blocks if isinstance(b, Table) and b.caption.startswith("Table 11"))
+    assert table.rows == [["p", "1.00", "0.50", "900", "1"], ["q", "-", "0.00", "0", "2"]]
+    plain = pd.DataFrame([rows[0][:5], rows[2][:5]], columns=cols[:5])  # no log, no identical
+    assert not any(isinstance(b, Table) and b.caption.startswith("Table 11")
+                   for b in build_document(analyze(plain, bootstrap=0)))
