@@ -9,12 +9,17 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
+from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from flask import Flask
 
-__version__ = "0.1.0"
+try:
+    # The one place the version is written is pyproject.toml.
+    __version__ = version("facepair")
+except PackageNotFoundError:  # a source tree that was never installed
+    __version__ = "0+unknown"
 
 
 def embedded_database_uri(instance_path: str) -> str:
@@ -35,8 +40,8 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
     from app.security import init_security
     from app.web import init_web
 
-    app = Flask(__name__, instance_relative_config=True, static_folder="../static",
-                static_url_path="/static", instance_path=os.environ.get("FACEPAIR_INSTANCE"))
+    app = Flask(__name__, instance_relative_config=True,
+                instance_path=os.environ.get("FACEPAIR_INSTANCE"))
     os.makedirs(app.instance_path, exist_ok=True)
     app.config.from_mapping(
         # None: refused outside tests (app.security.check_secret_key).

@@ -33,8 +33,9 @@ class Base(so.DeclarativeBase):
     metadata = sa.MetaData(naming_convention=NAMING_CONVENTION)
 
 
-#: Alembic scripts live at the repository root (``flask db upgrade``).
-MIGRATIONS = Path(__file__).resolve().parent.parent / "migrations"
+#: Alembic scripts ship inside the package, so an installed wheel migrates too
+#: (``flask --app app db upgrade`` in a checkout, ``facepair demo``).
+MIGRATIONS = Path(__file__).resolve().parent / "migrations"
 
 db = SQLAlchemy(model_class=Base)
 migrate = Migrate()

@@ -47,7 +47,7 @@ def main() -> None:
     from app.stimuli.speech import extract_features, load_audio
 
     model = load_model(args.model or DEFAULT_MODEL_PATH)
-    wav = ROOT / "data" / "demo" / "speech.wav"
+    wav = ROOT / "app" / "data" / "demo" / "speech.wav"
     feats = extract_features(wav, model.fps, pitch_ceiling=300.0)
     reps = int(np.ceil(args.frames / feats.n_frames))
     f0 = np.tile(feats.f0, reps)[: args.frames]

@@ -30,7 +30,7 @@ def main() -> None:
     from app.stimuli.live.model import train_live_model
     from app.stimuli.speech import load_sound
 
-    sound, _ = load_sound(ROOT / "data" / "demo" / "speech.wav")
+    sound, _ = load_sound(ROOT / "app" / "data" / "demo" / "speech.wav")
     split = held_out_split(sound, train_takes=args.train_takes, test_takes=args.test_takes,
                            seconds=args.seconds)
     print(f"train {len(split.train)} x {args.seconds:g} s, test {len(split.test)} x "

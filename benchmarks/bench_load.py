@@ -1,7 +1,7 @@
 """Load benchmark: 200 simulated participants voting at once against gunicorn + PostgreSQL.
 
 Creates a fresh PostgreSQL database on 127.0.0.1:5432 (user postgres), migrates it, creates the
-example study (examples/study.toml: 4 conditions, all ordered pairs, 2 catch trials = 18 trials
+example study (app/data/examples: 4 conditions, all ordered pairs, 2 catch trials = 18 trials
 per participant) with placeholder clips, and starts ``facepair serve`` (gunicorn, gthread) on it.
 Then every simulated participant, each in its own thread with its own keep-alive connection,
 does what the browser does: opens the study link, consents (CSRF form), and for each trial
@@ -77,7 +77,7 @@ def prepare(url: str, media: Path) -> str:
         upgrade()
         owner = create_user("load@example.org", "load benchmark")
         db.session.commit()
-        study_file = ROOT / "examples" / "study.toml"
+        study_file = ROOT / "app" / "data" / "examples" / "study.toml"
         text = study_file.read_text(encoding="utf-8")
         study = create_study(owner, loads_study(text, base_dir=study_file.parent),
                              source_toml=text)

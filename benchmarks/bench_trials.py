@@ -66,9 +66,9 @@ def main() -> None:
     counts = initial_counts(40)
     rng = np.random.default_rng(0)
     timed("choose_list over 40 lists", lambda: choose_list(counts, rng), 2000)
-    example = REPO / "examples" / "study.toml"
+    example = REPO / "app" / "data" / "examples" / "study.toml"
     timed(
-        "load_study_file examples/study.toml (no file checks)",
+        "load_study_file app/data/examples/study.toml (no file checks)",
         lambda: load_study_file(example, check_files=False),
         200,
     )

@@ -136,7 +136,7 @@ def prepare(database_url: str, media: Path, folder: Path) -> tuple[str, int, int
         upgrade()
         owner = create_user(*EXPERIMENTER)
         db.session.commit()
-        example = ROOT / "examples" / "study.toml"
+        example = ROOT / "app" / "data" / "examples" / "study.toml"
         text = example.read_text(encoding="utf-8")
         voting = create_study(owner, loads_study(text, base_dir=example.parent), source_toml=text)
         for stimulus in db.session.scalars(sa.select(Stimulus)
@@ -146,7 +146,7 @@ def prepare(database_url: str, media: Path, folder: Path) -> tuple[str, int, int
             path.write_bytes(b"\0" * 1024)  # never played here
             stimulus.video_path = f"videos/{stimulus.id}.mp4"
         voting.status, voting.target_participants = "open", 10_000
-        text = RENDER_STUDY.format(audio=ROOT / "data" / "demo" / "speech.wav")
+        text = RENDER_STUDY.format(audio=ROOT / "app" / "data" / "demo" / "speech.wav")
         rendered = create_study(owner, loads_study(text, base_dir=folder), source_toml=text)
         db.session.commit()
         ids = voting.slug, voting.id, rendered.id

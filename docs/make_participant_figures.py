@@ -2,7 +2,7 @@
 
     PYTHONPATH=. python docs/make_participant_figures.py
 
-Renders one demo pair (data/demo/speech.wav: speech-driven prosody on the left, Perlin-noise
+Renders one demo pair (app/data/demo/speech.wav: speech-driven prosody on the left, Perlin-noise
 prosody on the right) with ``renderer.render_pair``, then runs the browser test that puts that
 clip on the trial page at desktop (1366x768) and phone (390x844) size and checks its layout
 (tests/test_browser_participant.py::test_trial_page_layout_and_screenshots), saving
@@ -25,7 +25,7 @@ OUT = ROOT / "docs" / "figures"
 
 
 def main() -> None:
-    speech = ROOT / "data" / "demo" / "speech.wav"
+    speech = ROOT / "app" / "data" / "demo" / "speech.wav"
     result = generate_conditions(speech, conditions=("speech_driven", "random"))
     with tempfile.TemporaryDirectory() as tmp:
         clip = render_pair(result.tracks["speech_driven"], result.tracks["random"], speech,

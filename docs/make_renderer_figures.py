@@ -3,7 +3,7 @@ same frame drawn on a glTF avatar.
 
     python docs/make_renderer_figures.py
 
-The pair frame is frame 45 of the demo speech (data/demo/speech.wav): speech-driven prosody on
+The pair frame is frame 45 of the demo speech (app/data/demo/speech.wav): speech-driven prosody on
 the left, Perlin-noise prosody on the right, mouths hidden by the default mosaic. The avatar
 frame draws them on the built-in head exported as glTF (``facepair face export``), through
 the ARKit blendshapes and bones an avatar is driven by.
@@ -28,7 +28,7 @@ def main() -> None:
     settings = RenderSettings()
     face = render_still(MotionTrack.zeros(30.0, 1), 0, OUT / "face.png", settings=settings,
                         mosaic=False)
-    result = generate_conditions(ROOT / "data" / "demo" / "speech.wav",
+    result = generate_conditions(ROOT / "app" / "data" / "demo" / "speech.wav",
                                  conditions=("speech_driven", "random"))
     pair = render_still(result.tracks["speech_driven"], 45, OUT / "pair.png",
                         right=result.tracks["random"], settings=settings)

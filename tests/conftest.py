@@ -97,7 +97,7 @@ def write_wav(path, samples, sr: int = 16000, *, channels: int = 1) -> None:
 
 @pytest.fixture
 def demo_wav(repo_root: Path) -> Path:
-    return repo_root / "data" / "demo" / "speech.wav"
+    return repo_root / "app" / "data" / "demo" / "speech.wav"
 # -- live head-and-eye generator (app/stimuli/live) ----------------------------------------------
 
 def live_synthetic_speaker(n_frames: int = 3000, fps: float = 30.0, seed: int = 0,

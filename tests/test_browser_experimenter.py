@@ -1,5 +1,5 @@
 """Browser test of the experimenter's side, end to end: a study from the shipped
-``examples/study.toml`` upload and one from the form; the form's study is piloted, opened,
+``app/data/examples/study.toml`` upload and one from the form; the form's study is piloted, opened,
 taken by two participants (one fails a catch trial and is left out), closed, its PDF report
 downloaded, duplicated and deleted. Debian's chromium through Playwright against a live server
 on a file-backed SQLite database, as in ``tests/test_browser.py``."""
@@ -66,9 +66,9 @@ def test_an_experimenter_runs_a_study_from_start_to_end(live_server, browser, sh
         # The shipped example, uploaded as it is with the two files it names.
         page.click("text=New study")
         page.set_input_files("input[name=file-study_file]",
-                             str(repo_root / "examples" / "study.toml"))
+                             str(repo_root / "app" / "data" / "examples" / "study.toml"))
         page.set_input_files("input[name=file-media]",
-                             [str(repo_root / "data" / "demo" / n)
+                             [str(repo_root / "app" / "data" / "demo" / n)
                               for n in ("speech.wav", "ground_truth.fap")])
         page.click("input[name=file-submit]")
         page.wait_for_selector("text=Study created")

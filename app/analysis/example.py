@@ -1,6 +1,6 @@
-"""The example study shipped in ``data/examples/votes.csv`` (simulated; see its README).
+"""The example study shipped in ``app/data/examples/votes.csv`` (simulated; see its README).
 
-Regenerate with ``python -m app.analysis.example data/examples/votes.csv``.
+Regenerate with ``python -m app.analysis.example app/data/examples/votes.csv``.
 """
 
 from __future__ import annotations

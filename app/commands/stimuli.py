@@ -87,7 +87,7 @@ def fit_head_model(audio: str, ground_truth: str, out: str, ridge: float, label:
                    fps: float, pitch_floor: float, pitch_ceiling: float) -> None:
     """Fit the speech-driven head ARX model (na=4, nb=4, nk=1) and save it as JSON.
 
-    This is how data/models/head_arx_default.json is made from the demo data.
+    This is how app/data/models/head_arx_default.json is made from the demo data.
     """
     from app.stimuli.conditions.ground_truth import align_to_features
     from app.stimuli.conditions.head_arx import HeadPoseArx
@@ -148,8 +148,8 @@ def generate(audio: str, ground_truth: str | None, conditions: str | None, out_d
              fps: float, pitch_floor: float | None, pitch_ceiling: float | None) -> None:
     """Generate the motion track of each condition for a recording, with objective measures.
 
-    Demo: facepair stimuli generate --audio data/demo/speech.wav
-    --ground-truth data/demo/ground_truth.fap --out demo-out
+    Demo: facepair stimuli generate --audio app/data/demo/speech.wav
+    --ground-truth app/data/demo/ground_truth.fap --out demo-out
     """
     import sys
 

@@ -12,9 +12,9 @@ from typing import Any
 
 import click
 
+from app.data import data_path
 from app.errors import InputError
 
-REPO = Path(__file__).resolve().parents[2]
 DEMO_EMAIL = "demo@facepair.local"
 DEMO_PASSWORD = "facepair-demo"
 
@@ -237,7 +237,7 @@ def add(email: str, password: str) -> None:
 @click.option("--host", default="127.0.0.1", show_default=True)
 @click.option("--port", default=5000, show_default=True, type=int)
 @click.option("--study-file", type=click.Path(dir_okay=False, path_type=Path),
-              default=REPO / "examples" / "study.toml", show_default=True)
+              default=data_path("examples", "study.toml"), show_default=True)
 @click.option("--no-serve", is_flag=True, help="Set everything up, print the URLs, exit.")
 def demo(host: str, port: int, study_file: Path, no_serve: bool) -> None:
     """Migrate the embedded database, create a demo experimenter and a ready, open demo study

@@ -2,8 +2,8 @@
 
 Both go through the study-file parser (``app.trials.studyfile``), so the web accepts exactly what
 ``facepair study create`` accepts: an uploaded study file names its media by file name
-(``by_name``), so ``examples/study.toml`` uploads as it is. A failed attempt keeps its files
-(``app.experimenter.uploads``) and its error names the file, not a row number of the parser.
+(``by_name``), so ``app/data/examples/study.toml`` uploads as it is. A failed attempt keeps its
+files (``app.experimenter.uploads``) and its error names the file, not a row number of the parser.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ and ``summary.json``.
 
 Example
 -------
->>> result = generate_conditions("data/demo/speech.wav", conditions=["none", "random"])
+>>> result = generate_conditions("app/data/demo/speech.wav", conditions=["none", "random"])
 >>> sorted(result.tracks), result.tracks["random"].n_frames
 (['none', 'random'], 120)
 """

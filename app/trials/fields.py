@@ -31,7 +31,7 @@ class FieldReader:
     ``confine`` refuses absolute paths and paths that leave ``base_dir`` (for uploaded files,
     whose paths must not reach the server's own files); ``by_name`` resolves every path to the
     file of the same name in ``base_dir`` (uploads arrive as a flat folder of files, so the
-    study file written for a checkout, ``../data/demo/speech.wav``, names its upload
+    study file written for a checkout, ``../demo/speech.wav``, names its upload
     ``speech.wav``; the folder part is dropped, so nothing outside ``base_dir`` is reached).
     """
 
@@ -169,7 +169,7 @@ class FieldReader:
 def upload_name(path: str) -> str:
     r"""The file name an uploaded file has for ``path`` (its last part, either slash).
 
-    >>> upload_name("../data/demo/speech.wav"), upload_name("C:\\audio\\s2.wav")
+    >>> upload_name("../demo/speech.wav"), upload_name("C:\\audio\\s2.wav")
     ('speech.wav', 's2.wav')
     """
     name = path.replace("\\", "/").rsplit("/", 1)[-1]

@@ -8,7 +8,8 @@ animation do you consider to be more realistic motion-wise?"), the pair design
 (:mod:`app.trials.rules`), plus what a remote study needs: consent text, a completion code, a
 redirect URL, a target number of participants and the seed every schedule derives from.
 
-Every key is documented in ``docs/studyfile.md``; ``examples/study.toml`` is a complete example.
+Every key is documented in ``docs/studyfile.md``; ``app/data/examples/study.toml`` is a complete
+example.
 Every mistake is one :class:`~app.errors.InputError` line naming the file and the field, e.g.
 ``study.toml: design: expected one of all_ordered, reference, unordered_counterbalanced, got
 'foo'``. Relative paths are resolved against the directory of the study file.

@@ -156,7 +156,7 @@ def test_pooled_counts_overstate_the_evidence():
 
 
 def test_sections_carry_the_new_statistics():
-    r = analyze("data/examples/votes.csv", bootstrap=50)
+    r = analyze("app/data/examples/votes.csv", bootstrap=50)
     for section in [*r["clips"].values(), r["pooled"]]:
         assert len(section["participant_level"]) == 6
         for row in section["participant_level"]:

@@ -89,14 +89,14 @@ def test_plan_prints_power_and_writes_json_and_plot(tmp_path):
     assert [lv["participants"] for lv in data["levels"]] == [8, 16]
     assert "16 participants: power" in out.output and "a vs c" in out.output
     assert (tmp_path / "p.png").read_bytes().startswith(b"\x89PNG")
-    pilot = CliRunner().invoke(main, ["plan", "--pilot", "data/examples/votes.csv",
+    pilot = CliRunner().invoke(main, ["plan", "--pilot", "app/data/examples/votes.csv",
                                       "--participants", "14", "--simulations", "50"])
-    assert pilot.exit_code == 0, pilot.output and "data/examples/votes.csv" in pilot.output
+    assert pilot.exit_code == 0, pilot.output and "app/data/examples/votes.csv" in pilot.output
 
 
 def test_plan_bad_input_exits_2_with_one_line():
     for args in (["--effects", "a=0,b"], ["--effects", "a=0,b=1", "--participants", "x"],
-                 ["--effects", "a=0,b=1", "--pilot", "data/examples/votes.csv"]):
+                 ["--effects", "a=0,b=1", "--pilot", "app/data/examples/votes.csv"]):
         out = CliRunner().invoke(main, ["plan", *args])
         lines = [ln for ln in out.output.splitlines() if ln.strip()]
         assert out.exit_code == 2 and len(lines) == 1 and "Traceback" not in out.output

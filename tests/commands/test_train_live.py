@@ -11,8 +11,8 @@ from app.stimuli.live.model import load_model
 def test_train_live_on_the_demo_ground_truth(repo_root, tmp_path):
     out = tmp_path / "model.npz"
     result = CliRunner().invoke(main, [
-        "stimuli", "train-live", "--audio", str(repo_root / "data/demo/speech.wav"),
-        "--ground-truth", str(repo_root / "data/demo/ground_truth.fap"),
+        "stimuli", "train-live", "--audio", str(repo_root / "app/data/demo/speech.wav"),
+        "--ground-truth", str(repo_root / "app/data/demo/ground_truth.fap"),
         "--pitch-ceiling", "300", "--components", "3", "--out", str(out)])
     assert result.exit_code == 0, result.output
     model = load_model(out)
@@ -23,7 +23,7 @@ def test_train_live_on_the_demo_ground_truth(repo_root, tmp_path):
 def test_train_live_on_the_repeated_reference_speaker(repo_root, tmp_path):
     out = tmp_path / "model.npz"
     result = CliRunner().invoke(main, [
-        "stimuli", "train-live", "--audio", str(repo_root / "data/demo/speech.wav"),
+        "stimuli", "train-live", "--audio", str(repo_root / "app/data/demo/speech.wav"),
         "--reference", "--repeat", "5", "--components", "2", "--out", str(out)])
     assert result.exit_code == 0, result.output
     assert load_model(out).summary["frames"] == 600
@@ -31,7 +31,7 @@ def test_train_live_on_the_repeated_reference_speaker(repo_root, tmp_path):
 
 def test_bad_input_is_one_line_exit_2(repo_root, tmp_path):
     runner = CliRunner()
-    wav = str(repo_root / "data/demo/speech.wav")
+    wav = str(repo_root / "app/data/demo/speech.wav")
     result = runner.invoke(main, ["stimuli", "train-live", "--audio", wav, "--out",
                                   str(tmp_path / "m.npz")])
     assert result.exit_code == 2 and "--ground-truth" in result.output

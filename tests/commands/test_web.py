@@ -177,11 +177,11 @@ def test_demo_jobs_run_in_a_spawned_process(monkeypatch, tmp_path, web):
 
 
 def test_the_shipped_example_creates_a_study(app, monkeypatch, web, repo_root):
-    """The same examples/study.toml the web takes as an upload (tests/experimenter)."""
+    """The same app/data/examples/study.toml the web takes as an upload (tests/experimenter)."""
     _env(monkeypatch, app)
     web.user("lab@example.org")
     created = CliRunner().invoke(main, ["study", "create",
-                                        str(repo_root / "examples" / "study.toml"),
+                                        str(repo_root / "app" / "data" / "examples" / "study.toml"),
                                         "--owner", "lab@example.org"])
     assert created.exit_code == 0, created.output
     with app.app_context():

@@ -38,8 +38,8 @@ def _files(*paths):
 def test_the_shipped_example_uploads_as_it_is(app, client, web, repo_root):
     web.user()
     web.login(client)
-    text = (repo_root / "examples" / "study.toml").read_text()
-    demo = repo_root / "data" / "demo"
+    text = (repo_root / "app" / "data" / "examples" / "study.toml").read_text()
+    demo = repo_root / "app" / "data" / "demo"
     response = _post(client, {
         "file-csrf_token": _token(_new_page(client), "file"), "file-submit": "1",
         "file-study_file": (io.BytesIO(text.encode()), "study.toml"),
@@ -56,11 +56,11 @@ def test_the_shipped_example_uploads_as_it_is(app, client, web, repo_root):
 def test_a_file_the_study_names_but_nobody_uploaded_is_named(app, client, web, repo_root):
     web.user()
     web.login(client)
-    text = (repo_root / "examples" / "study.toml").read_text()
+    text = (repo_root / "app" / "data" / "examples" / "study.toml").read_text()
     response = _post(client, {
         "file-csrf_token": _token(_new_page(client), "file"), "file-submit": "1",
         "file-study_file": (io.BytesIO(text.encode()), "study.toml"),
-        "file-media": _files(repo_root / "data" / "demo" / "speech.wav")})
+        "file-media": _files(repo_root / "app" / "data" / "demo" / "speech.wav")})
     assert response.status_code == 400
     assert ("study.toml: clips[0].ground_truth: no uploaded file named 'ground_truth.fap'; "
             "upload it with the study file") in response.get_data(as_text=True).replace(

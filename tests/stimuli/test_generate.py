@@ -12,7 +12,7 @@ from app.stimuli.io import load_track
 
 
 def test_demo_generates_four_conditions(repo_root, tmp_path):
-    demo = repo_root / "data" / "demo"
+    demo = repo_root / "app" / "data" / "demo"
     result = generate_conditions(demo / "speech.wav", ground_truth=demo / "ground_truth.fap",
                                  normalize=True, seed=1, pitch_ceiling=300)
     assert set(result.tracks) == {"none", "random", "speech_driven", "ground_truth"}
@@ -22,7 +22,7 @@ def test_demo_generates_four_conditions(repo_root, tmp_path):
 
 
 def test_cli_writes_tracks_summary_and_plot(repo_root, tmp_path):
-    demo = repo_root / "data" / "demo"
+    demo = repo_root / "app" / "data" / "demo"
     out = tmp_path / "out"
     r = CliRunner().invoke(main, ["stimuli", "generate", "--audio", str(demo / "speech.wav"),
                                   "--out", str(out), "--no-plot"])
@@ -37,7 +37,7 @@ def test_cli_writes_tracks_summary_and_plot(repo_root, tmp_path):
 
 
 def demo_args(repo_root):
-    demo = repo_root / "data" / "demo"
+    demo = repo_root / "app" / "data" / "demo"
     return demo / "speech.wav", demo / "ground_truth.fap"
 
 
@@ -140,7 +140,7 @@ def test_greta_ground_truth_passes_through_unchanged(repo_root, tmp_path, greta)
     gt_path = tmp_path / "greta_gt.fap"
     expected = _greta_ground_truth(gt_path)
     out = tmp_path / "out"
-    args = ["stimuli", "generate", "--audio", str(repo_root / "data" / "demo" / "speech.wav"),
+    args = ["stimuli", "generate", "--audio", str(repo_root / "app/data/demo/speech.wav"),
             "--ground-truth", str(gt_path), "--conditions", "ground_truth", "--out", str(out),
             "--no-plot", "--eyes", "ground_truth"] + (["--greta"] if greta else [])
     r = CliRunner().invoke(main, args)

@@ -119,7 +119,7 @@ def test_uploaded_paths_are_matched_by_file_name(tmp_path: Path) -> None:
     (tmp_path / "up" / "speech.wav").write_bytes(b"")
     (tmp_path / "speech2.wav").write_bytes(b"")
     reader = FieldReader("study.toml", tmp_path / "up", by_name=True)
-    for written in ("../data/demo/speech.wav", "speech.wav", "C:\\audio\\speech.wav",
+    for written in ("../demo/speech.wav", "speech.wav", "C:\\audio\\speech.wav",
                     str(tmp_path / "elsewhere" / "speech.wav")):
         assert reader.file({"f": written}, "f", "f", (".wav",)) == tmp_path / "up" / "speech.wav"
     # A file beside the upload folder is never reached, whatever the path says.

@@ -52,8 +52,8 @@ def test_minimal_study_gets_the_documented_defaults(
 
 
 def test_the_example_study_file_loads(repo_root: Path) -> None:
-    path = repo_root / "examples" / "study.toml"
-    demo = repo_root / "data" / "demo"
+    path = repo_root / "app" / "data" / "examples" / "study.toml"
+    demo = repo_root / "app" / "data" / "demo"
     spec = load_study_file(path, check_files=(demo / "ground_truth.fap").is_file())
     assert spec.condition_names == ["none", "random", "speech_driven", "ground_truth"]
     assert spec.clips[0].audio == demo / "speech.wav"

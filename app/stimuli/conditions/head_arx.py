@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from app.data import data_path
 from app.errors import InputError
 from app.stimuli.arx import ArxModel, fit_arx
 from app.stimuli.fap import HEAD
@@ -35,8 +36,7 @@ from app.stimuli.track import MotionTrack
 
 HEAD_INPUTS = ("intensity_db", "f0_conditioned_hz", "intensity_x_f0",
                "intensity_db_1s_mean", "f0_conditioned_hz_1s_mean")
-DEFAULT_MODEL_PATH = (Path(__file__).resolve().parents[3] / "data" / "models"
-                      / "head_arx_default.json")
+DEFAULT_MODEL_PATH = data_path("models", "head_arx_default.json")
 FORMAT = "facepair-head-arx"
 _STABLE = 0.995
 _RIDGES = (1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0)

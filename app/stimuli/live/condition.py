@@ -19,6 +19,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from app.data import data_path
 from app.errors import InputError
 from app.stimuli.conditions.base import Condition
 from app.stimuli.features import SpeechFeatures
@@ -29,8 +30,7 @@ if TYPE_CHECKING:
     from app.stimuli.live.model import LiveModel
 
 #: The model trained on the demo reference speaker (rebuild command in docs/live.md).
-DEFAULT_MODEL_PATH = Path(__file__).resolve().parents[3] / "data" / "models" / \
-    "live_gmm_default.npz"
+DEFAULT_MODEL_PATH = data_path("models", "live_gmm_default.npz")
 
 
 class LiveGmmCondition(Condition):

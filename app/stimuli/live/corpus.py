@@ -14,7 +14,7 @@ heard (other pitch medians, ranges and rates), with motion of another reference-
 Example
 -------
 >>> from app.stimuli.speech import load_sound
->>> sound, _ = load_sound("data/demo/speech.wav")              # doctest: +SKIP
+>>> sound, _ = load_sound("app/data/demo/speech.wav")              # doctest: +SKIP
 >>> feats = speech_take(sound, TEST_VOICES, 60.0, seed=1)      # doctest: +SKIP
 >>> feats.n_frames                                             # doctest: +SKIP
 1800

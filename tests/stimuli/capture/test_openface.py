@@ -126,7 +126,7 @@ def test_cli_import_and_ground_truth_detection(tmp_path, repo_root):
     assert load_track(src).channels == read_openface(src, FPS).channels  # by header
     out = tmp_path / "out"
     r = CliRunner().invoke(main, ["stimuli", "generate", "--audio",
-                                  str(repo_root / "data" / "demo" / "speech.wav"),
+                                  str(repo_root / "app" / "data" / "demo" / "speech.wav"),
                                   "--ground-truth", str(src), "--out", str(out), "--no-plot",
                                   "--conditions", "ground_truth"])
     assert r.exit_code == 0, r.output

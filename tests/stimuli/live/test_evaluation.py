@@ -54,7 +54,7 @@ def test_compare_motion_of_a_scaled_copy():
 
 @pytest.fixture(scope="module")
 def split():
-    sound, _ = load_sound(Path(__file__).resolve().parents[3] / "data" / "demo" / "speech.wav")
+    sound, _ = load_sound(Path(__file__).resolve().parents[3] / "app/data/demo/speech.wav")
     return held_out_split(sound)
 
 
