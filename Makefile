@@ -1,7 +1,8 @@
 # facepair: the two commands a newcomer needs.
 #   make demo   set up .venv and run the demo (the embedded default: SQLite, local files);
 #               make demo PORT=8080 HOST=0.0.0.0 to serve elsewhere
-#   make test   set up .venv and the Debian packages the tests need, then run every test
+#   make test   set up .venv and the Debian packages the tests need, lint, then run every test
+#   make lint   ruff on the whole tree, mypy on the pure packages (also the first step of test)
 SHELL := /bin/bash
 PYTHON ?= python3
 VENV := .venv
@@ -45,14 +46,14 @@ debs-demo:
 	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
 	fi
 
-test: $(STAMP) debs-test
+test: $(STAMP) debs-test lint
 	$(PY) -m pytest
 
 demo: $(STAMP_RUN) debs-demo
 	$(VENV)/bin/facepair demo --host $(HOST) --port $(PORT)
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check app renderer tests benchmarks
+	$(VENV)/bin/ruff check .
 	$(VENV)/bin/mypy app/stimuli app/analysis app/trials renderer
 
 bench: $(STAMP)

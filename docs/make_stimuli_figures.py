@@ -21,7 +21,7 @@ from renderer import RenderSettings, render_still
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "img"
-DEMO = ROOT / "data" / "demo"
+DEMO = ROOT / "app" / "data" / "demo"
 #: Thesis Table 8 (experiment 1): (sd, mean) of inner eyebrow, middle eyebrow, pitch, yaw, roll.
 TABLE_8 = {
     ("S2", "GROUND_TRUTH"): ((5.54, -2.38), (2.75, -0.96), (2803.69, -916.94),
@@ -54,7 +54,7 @@ def table() -> str:
         result = generate_conditions(DEMO / "speech.wav", ground_truth=DEMO / "ground_truth.fap",
                                      conditions=("random", "speech_driven", "ground_truth"),
                                      normalize=normalize, seed=1)
-        for name, track in result.tracks.items():
+        for track in result.tracks.values():
             stats = tuple((float(track[c].std()), float(track[c].mean())) for c in CHANNELS)
             label = f"facepair demo {track.name}" + (" (--normalize)" if normalize else "")
             lines.append(_row(label, stats))
