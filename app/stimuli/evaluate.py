@@ -31,14 +31,12 @@ from scipy import signal
 
 from app.errors import InputError
 from app.stimuli.conditions import make_condition
-from app.stimuli.conditions.ground_truth import align_to_features
-from app.stimuli.features import SpeechFeatures
 from app.stimuli.generate import parse_conditions
 from app.stimuli.io import load_track
 from app.stimuli.measures import canonical_correlations, pearson
 from app.stimuli.progress import Progress, progress_steps
-from app.stimuli.speech import extract_features
-from app.stimuli.track import MotionTrack
+from app.stimuli.speech import SpeechFeatures, extract_features
+from app.stimuli.track import MotionTrack, align_to_features
 
 #: Channels evaluated: the head angles and the inner and middle eyebrows.
 EVALUATED: tuple[int, ...] = (48, 49, 50, 31, 33)

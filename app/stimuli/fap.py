@@ -27,6 +27,7 @@ Example
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -50,8 +51,9 @@ FAPU_DISTANCE: dict[str, str] = {
 }
 FAPU_DIVISOR = 1024.0
 
-#: Radians per angle unit.
+#: Radians per angle unit, and degrees.
 AU_RADIANS = 1e-5
+DEG_PER_AU = AU_RADIANS * 180.0 / math.pi
 
 
 def fapu_values(distances: Mapping[str, float]) -> dict[str, float]:

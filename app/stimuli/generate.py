@@ -26,15 +26,13 @@ import numpy as np
 
 from app.errors import InputError
 from app.stimuli.conditions import DISPLAY_NAMES, condition_class, make_condition
-from app.stimuli.conditions.ground_truth import align_to_features
 from app.stimuli.eyes import DEFAULT_EYES, check_eyes, eye_channels
-from app.stimuli.features import SpeechFeatures
 from app.stimuli.io import load_track, save_track
 from app.stimuli.measures import measure_track
 from app.stimuli.normalize import normalize_tracks
 from app.stimuli.progress import Progress, progress_steps
-from app.stimuli.speech import extract_features
-from app.stimuli.track import MotionTrack
+from app.stimuli.speech import SpeechFeatures, extract_features
+from app.stimuli.track import MotionTrack, align_to_features
 
 DEFAULT_CONDITIONS = ("none", "random", "speech_driven", "ground_truth")
 
@@ -140,8 +138,8 @@ def generate_conditions(
                                  field="model")
             kw["model_path"] = str(models[name])
         cond = make_condition(model, **kw)
-        if gt_track is not None:
-            cond.fit(features, gt_track)
+        if gt_aligned is not None:
+            cond.fit(features, gt_aligned)
         track = cond.generate(features, seed=seed, ground_truth=gt_track)
         track.metadata.update(seed=seed, audio=str(audio_path), model=model)
         tracks[name] = track

@@ -29,8 +29,7 @@ import numpy as np
 from app.errors import InputError
 from app.stimuli.arx import ArxModel, fit_arx
 from app.stimuli.fap import HEAD
-from app.stimuli.features import SpeechFeatures
-from app.stimuli.speech import smooth_1s
+from app.stimuli.speech import SpeechFeatures, smooth_1s
 from app.stimuli.track import MotionTrack
 
 HEAD_INPUTS = ("intensity_db", "f0_conditioned_hz", "intensity_x_f0",
