@@ -7,12 +7,11 @@ Follows the MPEG-4 FBA deformation as the open player Xface implements it (proje
 FAPU, rotation axis and side are read from the FAP table (:mod:`app.stimuli.fap`), so this
 module states only how the face moves. Translational FAPs:
 
-* lips, inner (4-13, on 2.x) and outer (51-60, on 8.x), push (16, 17) and chin (18), with the
-  upper- and lower-lip FAPs kept to their own lip (Parke's unconnected lips, thesis sec. 2.1.2);
-* eyebrows 31-36 (raise, ENS, up) and 37/38 (squeeze, ES, towards the midline). The brows
-  use a smooth field separable in width and height (:func:`renderer.browfield.brow_field`)
-  instead of radial zones, and a lowered brow saturates before the skin between brow and lid
-  would fold.
+* lips, inner (4-13) and outer (51-60), push (16, 17) and chin (18), with the upper- and
+  lower-lip FAPs kept to their own lip (Parke's unconnected lips, thesis sec. 2.1.2);
+* eyebrows, raise (31-36) and squeeze (37/38). The brows use a smooth field separable in width
+  and height (:func:`renderer.browfield.brow_field`) instead of radial zones, and a lowered
+  brow saturates before the skin between brow and lid would fold.
 
 The normals of the skin a part (the mouth, the brows) moves are recomputed when it moves
 (:class:`renderer.skin.SkinPart`).
@@ -21,15 +20,14 @@ Zones along one lip or brow reach exactly to the neighbouring feature point, so 
 point moves by value * FAPU and equal values move the lip or brow uniformly; an inner/outer lip
 pair shares a vertex by proximity (the nearer feature point wins).
 
-Rotations (MPEG-4 directions; AU = 1e-5 rad):
+Rotations:
 
-* jaw 3 (open, MNS, down: the chin 2.1 moves down by value * MNS) about the hinge axis, with
-  14 (thrust, forward) and 15 (shift, right) as translations, weighted per vertex;
-* eyelids 19-22 (IRISD): each lid turns about its eye centre so that its margin moves by
-  value * IRISD (top down, bottom up), weighted from margin to root;
-* eyeballs 23/24 (yaw, positive to the face's left) and 25/26 (pitch, positive down);
-* head 48 (pitch, down), 49 (yaw, to the face's left), 50 (roll, to the face's right) about
-  feature point 7.1, blended into the neck by the ``head`` weight.
+* the jaw (3) about the hinge axis so that the chin moves by value * FAPU, with thrust (14)
+  and shift (15) as translations, weighted per vertex;
+* the eyelids (19-22): each lid turns about its eye centre so that its margin moves by
+  value * FAPU, weighted from margin to root;
+* the eyeballs (23-26) about their centres and the head (48-50) about feature point 7.1,
+  blended into the neck by the ``head`` weight.
 
 The head and eye rotations are returned as matrices; :meth:`Rig.posed` applies them, with the
 rest of the deformation, on the vertices (vectorised numpy; about a millisecond a face), so the
@@ -133,14 +131,16 @@ _IDENTITY.flags.writeable = False
 MOUTH_FAPS_INDEX = np.array(MOUTH_FAPS) - 1
 
 
+#: The rotation FAPs of each eyeball (yaw, then pitch) and of the head (yaw, pitch, roll), in
+#: the order their rotations compose.
+EYE_TURNS = {side: tuple(sorted(_on_side(GAZE, side), key=lambda f: AXIS[f] != "y"))
+             for side in ("l", "r")}
+HEAD_TURNS = (HEAD_YAW, HEAD_PITCH, HEAD_ROLL)
 
-#: The eyeball turns per eye: yaw, then pitch.
-_EYE_TURNS = {side: tuple(sorted(_on_side(GAZE, side), key=lambda f: AXIS[f] != "y"))
-              for side in ("l", "r")}
 
-
-def _turn(faps: np.ndarray, turns: tuple[int, ...]) -> np.ndarray:
-    """3x3 product of the rotations of the FAPs ``turns`` (AU), in that order."""
+def fap_rotation(faps: np.ndarray, turns: tuple[int, ...]) -> np.ndarray:
+    """3x3 product of the rotations of the FAPs ``turns`` (AU, about their table axes), in
+    that order; ``faps`` holds 68 values, FAP k at k-1."""
     rot = rotation(AXIS[turns[0]], faps[turns[0] - 1] * AU_RADIANS)
     for t in turns[1:]:
         rot = rot @ rotation(AXIS[t], faps[t - 1] * AU_RADIANS)
@@ -315,10 +315,10 @@ class Rig:
             if f[fap - 1]:
                 self._rotate_x(pos, nrm, zone, w * f[fap - 1] * rad_per_unit, centre)
         eyes = {"l": _IDENTITY, "r": _IDENTITY}  # (shared: posed skips eyes at rest)
-        for side, turns in _EYE_TURNS.items():  # yaw, then pitch
+        for side, turns in EYE_TURNS.items():
             if any(f[t - 1] for t in turns):
-                eyes[side] = about(_turn(f, turns), self.eye_centres[side])
-        head = _turn(f, (HEAD_YAW, HEAD_PITCH, HEAD_ROLL))
+                eyes[side] = about(fap_rotation(f, turns), self.eye_centres[side])
+        head = fap_rotation(f, HEAD_TURNS)
         return FaceFrame(pos, nrm, about(head, self.pivot), eyes["l"], eyes["r"])
 
     @staticmethod
