@@ -20,6 +20,7 @@ from typing import Any
 
 from app.errors import InputError
 from app.stimuli.track import MotionTrack
+from renderer import defaults
 from renderer.avatar import AVATAR_SUFFIXES
 from renderer.cache import cache_key, cached_path, deliver
 from renderer.encode import ClipWriter, check_audio
@@ -36,18 +37,19 @@ Progress = Callable[[int, int], None]
 class RenderSettings:
     """How clips look and are encoded.
 
-    size : pixels per face, square, a multiple of 16 (default 368).
-    mosaic_block : mosaic cell size in pixels (default 24: about 3-4 cells across the lips at
-        368 px, coarse enough to hide lip shape); 0 turns the mosaic off.
+    size : pixels per face, square, a multiple of 16.
+    mosaic_block : mosaic cell size in pixels; 0 turns the mosaic off.
     mosaic_margin : the mouth box grows by this fraction of its larger side on every side.
-    antialias : ``"edges"`` (default: discontinuity edge overdraw, Sander et al. 2001; cheap on
-        a CPU), ``"msaa"`` (multisampling with ``samples`` samples; the choice on a GPU) or
-        ``"none"``.
+    antialias : ``"edges"`` (discontinuity edge overdraw, Sander et al. 2001; cheap on a CPU),
+        ``"msaa"`` (multisampling with ``samples`` samples; the choice on a GPU) or ``"none"``.
     samples : multisample anti-aliasing samples for ``antialias="msaa"`` (2, 4 or 8).
     fps : output frame rate; None takes the (first) track's.
     face : a face JSON file (bring your own face) or a glTF 2.0 / VRM avatar with ARKit
         blendshapes (``.glb``, ``.gltf``, ``.vrm``; see docs/renderer.md); None = built-in head.
-    background : RGB in 0..1, a neutral grey by default.
+    background : RGB in 0..1.
+
+    The drawing defaults (size, mosaic, anti-aliasing, background) are those of
+    :mod:`renderer.defaults`.
     crf, preset : libx264 quality (lower crf = better) and speed preset (superfast: about
         a quarter less CPU than veryfast for about twice the bytes at the same crf).
     encode_threads : libx264 threads (1, the least CPU per frame; 0 = one per core).
@@ -57,14 +59,14 @@ class RenderSettings:
         key.
     """
 
-    size: int = 368
-    mosaic_block: int = 24
-    mosaic_margin: float = 0.15
-    antialias: str = "edges"
-    samples: int = 4
+    size: int = defaults.SIZE
+    mosaic_block: int = defaults.MOSAIC_BLOCK
+    mosaic_margin: float = defaults.MOSAIC_MARGIN
+    antialias: str = defaults.ANTIALIAS
+    samples: int = defaults.SAMPLES
     fps: float | None = None
     face: str | None = None
-    background: tuple[float, float, float] = (0.55, 0.56, 0.58)
+    background: tuple[float, float, float] = defaults.BACKGROUND
     crf: int = 20
     preset: str = "superfast"
     audio_bitrate: str = "128k"

@@ -35,7 +35,7 @@ import numpy as np
 
 from app.errors import InputError
 from app.stimuli.capture.arkit import ARKIT_MAP, BLENDSHAPES, arkit_weights
-from renderer.deform import Rig, about, rotation
+from renderer.deform import EYE_TURNS, HEAD_TURNS, Rig, about, fap_rotation
 from renderer.face import MOUTH_FEATURE_POINTS, Face, fapu_from_feature_points, vertex_normals
 from renderer.gltfio import GltfScene, read_gltf
 from renderer.skin import ZoneNormals, one_ring
@@ -135,7 +135,8 @@ class AvatarRig(Rig):
         """Mix the morph targets and set the bone rotations for one frame of 68 FAPs."""
         from renderer.deform import FaceFrame
 
-        w = arkit_weights(np.asarray(faps, dtype=np.float64))
+        f = np.asarray(faps, dtype=np.float64)
+        w = arkit_weights(f)
         coeff = np.clip([float(w[k]) for k in self.names], 0.0, 1.0).astype(np.float32)
         pos, nrm = self.v0.copy(), self.n0.copy()
         on = np.flatnonzero(coeff)
@@ -147,13 +148,9 @@ class AvatarRig(Rig):
                 nrm[z] = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
             else:
                 nrm[self.zone_normals.zone] = self.zone_normals(pos)
-        eyes = {}
-        for side, prefix in (("l", "LeftEye"), ("r", "RightEye")):
-            rot = rotation("y", float(w[f"{prefix}Yaw"])) @ rotation("x",
-                                                                     float(w[f"{prefix}Pitch"]))
-            eyes[side] = about(rot, self.eye_centres[side])
-        head = (rotation("y", float(w["HeadYaw"])) @ rotation("x", float(w["HeadPitch"]))
-                @ rotation("z", float(w["HeadRoll"])))
+        eyes = {side: about(fap_rotation(f, turns), self.eye_centres[side])
+                for side, turns in EYE_TURNS.items()}
+        head = fap_rotation(f, HEAD_TURNS)
         return FaceFrame(pos, nrm, about(head, self.pivot), eyes["l"], eyes["r"])
 
 

@@ -3,14 +3,15 @@
 Follows the MPEG-4 FBA deformation as the open player Xface implements it (project reference
 ``mpeg4-fap``): a vertex at distance ``d`` from a FAP's feature point moves by
 ``w(d) * value * FAPU`` along the FAP's direction, with the raised-cosine influence
-``w(d) = (1 + cos(pi d / dmax)) / 2`` for ``d < dmax``. Translational FAPs:
+``w(d) = (1 + cos(pi d / dmax)) / 2`` for ``d < dmax``. Each FAP's feature point, direction,
+FAPU, rotation axis and side are read from the FAP table (:mod:`app.stimuli.fap`), so this
+module states only how the face moves. Translational FAPs:
 
-* lips, inner (4-13, on 2.x) and outer (51-60, on 8.x), push (16, 17) and chin (18), with the
-  upper- and lower-lip FAPs kept to their own lip (Parke's unconnected lips, thesis sec. 2.1.2);
-* eyebrows 31-36 (raise, ENS, up) and 37/38 (squeeze, ES, towards the midline). The brows
-  use a smooth field separable in width and height (:func:`renderer.browfield.brow_field`)
-  instead of radial zones, and a lowered brow saturates before the skin between brow and lid
-  would fold.
+* lips, inner (4-13) and outer (51-60), push (16, 17) and chin (18), with the upper- and
+  lower-lip FAPs kept to their own lip (Parke's unconnected lips, thesis sec. 2.1.2);
+* eyebrows, raise (31-36) and squeeze (37/38). The brows use a smooth field separable in width
+  and height (:func:`renderer.browfield.brow_field`) instead of radial zones, and a lowered
+  brow saturates before the skin between brow and lid would fold.
 
 The normals of the skin a part (the mouth, the brows) moves are recomputed when it moves
 (:class:`renderer.skin.SkinPart`).
@@ -19,15 +20,14 @@ Zones along one lip or brow reach exactly to the neighbouring feature point, so 
 point moves by value * FAPU and equal values move the lip or brow uniformly; an inner/outer lip
 pair shares a vertex by proximity (the nearer feature point wins).
 
-Rotations (MPEG-4 directions; AU = 1e-5 rad):
+Rotations:
 
-* jaw 3 (open, MNS, down: the chin 2.1 moves down by value * MNS) about the hinge axis, with
-  14 (thrust, forward) and 15 (shift, right) as translations, weighted per vertex;
-* eyelids 19-22 (IRISD): each lid turns about its eye centre so that its margin moves by
-  value * IRISD (top down, bottom up), weighted from margin to root;
-* eyeballs 23/24 (yaw, positive to the face's left) and 25/26 (pitch, positive down);
-* head 48 (pitch, down), 49 (yaw, to the face's left), 50 (roll, to the face's right) about
-  feature point 7.1, blended into the neck by the ``head`` weight.
+* the jaw (3) about the hinge axis so that the chin moves by value * FAPU, with thrust (14)
+  and shift (15) as translations, weighted per vertex;
+* the eyelids (19-22): each lid turns about its eye centre so that its margin moves by
+  value * FAPU, weighted from margin to root;
+* the eyeballs (23-26) about their centres and the head (48-50) about feature point 7.1,
+  blended into the neck by the ``head`` weight.
 
 The head and eye rotations are returned as matrices; :meth:`Rig.posed` applies them, with the
 rest of the deformation, on the vertices (vectorised numpy; about a millisecond a face), so the
@@ -52,38 +52,58 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.stimuli.fap import AU_RADIANS
+from app.stimuli.fap import (
+    AU_RADIANS,
+    AXIS,
+    DIRECTION,
+    EYEBROW_RAISE,
+    EYEBROW_SQUEEZE,
+    EYEBROWS,
+    EYELIDS,
+    FAPS,
+    FEATURE_POINT,
+    GAZE,
+    HEAD,
+    HEAD_PITCH,
+    HEAD_ROLL,
+    HEAD_YAW,
+    INNER_LIPS,
+    JAW_LIPS,
+    LIP_PUSH_CHIN,
+    OPEN_JAW,
+    OUTER_LIPS,
+    SHIFT_JAW,
+    SIDE,
+    THRUST_JAW,
+    fapu_values,
+)
 from renderer.browfield import BROW_LOWER_ROOM, BROW_RAMP_END, brow_field
 from renderer.face import Face
 from renderer.rigweights import derive_weights
 from renderer.skin import SkinPart, one_ring
 
-UP, DOWN = np.array([0.0, 1.0, 0.0]), np.array([0.0, -1.0, 0.0])
-LEFT, RIGHT, FORWARD = np.array([1.0, 0, 0]), np.array([-1.0, 0, 0]), np.array([0, 0, 1.0])
-
-#: Lip FAPs: fap -> (feature point, direction, FAPU, lip side). Outer FAPs 51-60 = inner + 47.
-_INNER_LIPS: dict[int, tuple[str, np.ndarray, str, str]] = {
-    4: ("2.2", DOWN, "MNS", "upper"), 5: ("2.3", UP, "MNS", "lower"),
-    6: ("2.4", LEFT, "MW", "both"), 7: ("2.5", RIGHT, "MW", "both"),
-    8: ("2.6", DOWN, "MNS", "upper"), 9: ("2.7", DOWN, "MNS", "upper"),
-    10: ("2.8", UP, "MNS", "lower"), 11: ("2.9", UP, "MNS", "lower"),
-    12: ("2.4", UP, "MNS", "both"), 13: ("2.5", UP, "MNS", "both"),
-}
-_OUTER_OF = {"2.2": "8.1", "2.3": "8.2", "2.4": "8.3", "2.5": "8.4", "2.6": "8.5",
-             "2.7": "8.6", "2.8": "8.7", "2.9": "8.8"}
-#: Lip zones whose weights are normalised together (vertical motion of one lip).
+#: Outer lip FAP of each inner one, and outer lip feature point of each inner one.
+_OUTER_FAP = dict(zip(INNER_LIPS, OUTER_LIPS, strict=True))
+_OUTER_OF = {FEATURE_POINT[i]: FEATURE_POINT[o] for i, o in _OUTER_FAP.items()}
+#: Lip zones whose weights are normalised together (vertical motion of one lip): the feature
+#: points along each inner lip, corners included.
 _CHAINS = {"upper": ("2.2", "2.6", "2.7", "2.4", "2.5"),
            "lower": ("2.3", "2.8", "2.9", "2.4", "2.5")}
-_BROWS = {31: "4.1", 32: "4.2", 33: "4.3", 34: "4.4", 35: "4.5", 36: "4.6"}
 
 #: The FAPs of the jaw and lips (set to zero for the mouth at rest that the mosaic shows).
-MOUTH_FAPS: tuple[int, ...] = tuple(sorted(
-    [3, 14, 15, 16, 17, 18] + list(_INNER_LIPS) + [f + 47 for f in _INNER_LIPS]))
+MOUTH_FAPS: tuple[int, ...] = tuple(sorted(JAW_LIPS))
 
 #: Every FAP the deformation moves (the groups the stimulus engine produces).
-SUPPORTED_FAPS: tuple[int, ...] = tuple(sorted(
-    [3, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 37, 38, 48, 49, 50]
-    + list(_INNER_LIPS) + [f + 47 for f in _INNER_LIPS] + list(_BROWS)))
+SUPPORTED_FAPS: tuple[int, ...] = tuple(sorted(JAW_LIPS + EYELIDS + GAZE + EYEBROWS + HEAD))
+
+
+def _direction(fap: int) -> np.ndarray:
+    """The unit vector a positive value of translational ``fap`` moves its feature point."""
+    return np.array(DIRECTION[fap])
+
+
+def _on_side(faps: tuple[int, ...], side: str) -> tuple[int, ...]:
+    return tuple(f for f in faps if SIDE.get(f) == side)
 
 
 def raised_cosine(d: np.ndarray, dmax: float) -> np.ndarray:
@@ -110,6 +130,21 @@ _IDENTITY = np.eye(4)
 _IDENTITY.flags.writeable = False
 MOUTH_FAPS_INDEX = np.array(MOUTH_FAPS) - 1
 
+
+#: The rotation FAPs of each eyeball (yaw, then pitch) and of the head (yaw, pitch, roll), in
+#: the order their rotations compose.
+EYE_TURNS = {side: tuple(sorted(_on_side(GAZE, side), key=lambda f: AXIS[f] != "y"))
+             for side in ("l", "r")}
+HEAD_TURNS = (HEAD_YAW, HEAD_PITCH, HEAD_ROLL)
+
+
+def fap_rotation(faps: np.ndarray, turns: tuple[int, ...]) -> np.ndarray:
+    """3x3 product of the rotations of the FAPs ``turns`` (AU, about their table axes), in
+    that order; ``faps`` holds 68 values, FAP k at k-1."""
+    rot = rotation(AXIS[turns[0]], faps[turns[0] - 1] * AU_RADIANS)
+    for t in turns[1:]:
+        rot = rot @ rotation(AXIS[t], faps[t - 1] * AU_RADIANS)
+    return rot
 
 
 def rotation(axis: str, angle: float) -> np.ndarray:
@@ -150,7 +185,7 @@ class Rig:
         self.v0 = face.vertices.astype(np.float32)
         self.n0 = face.normals()
         self.weights = derive_weights(face)
-        fu = {k[:-1]: val / 1024.0 for k, val in face.fapu.items()}
+        fu = fapu_values(face.fapu)
         self.fapu = fu
         fp = face.feature_points
         eyeball = np.zeros(face.n_vertices, bool)
@@ -164,38 +199,49 @@ class Rig:
                                                       "outer")):
                 norm = _chain_weights(v, [fp[c] for c in layer_fps])
                 norm *= self.weights[f"{name}_lip"] * ~eyeball
-                for fap, (pt, direction, unit, lip) in _INNER_LIPS.items():
-                    if lip not in (name, "both") or pt not in chain or direction[0] != 0:
+                for fap in INNER_LIPS:  # vertical ones; a corner FAP moves both lips
+                    pt, direction = FEATURE_POINT[fap], _direction(fap)
+                    if pt not in chain or direction[0] != 0:
                         continue
-                    f = fap if tag == "inner" else fap + 47
+                    f = fap if tag == "inner" else _OUTER_FAP[fap]
                     w = norm[chain.index(pt)] * self._pair_share(v, pt, tag)
-                    columns[f] = columns.get(f, 0) + w[:, None] * direction * fu[unit]
-        for fap in (6, 7):
-            pt, direction, unit, _ = _INNER_LIPS[fap]
-            for f, p, tag in ((fap, pt, "inner"), (fap + 47, _OUTER_OF[pt], "outer")):
+                    columns[f] = (columns.get(f, 0)
+                                  + w[:, None] * direction * fu[FAPS[fap].unit])
+        for fap in INNER_LIPS:  # horizontal ones: the corners stretch
+            pt, direction = FEATURE_POINT[fap], _direction(fap)
+            if direction[0] == 0:
+                continue
+            for f, p, tag in ((fap, pt, "inner"), (_OUTER_FAP[fap], _OUTER_OF[pt], "outer")):
                 w = raised_cosine(np.linalg.norm(v - fp[p], axis=1), 0.5 * mw0) * ~eyeball
-                columns[f] = (w * self._pair_share(v, pt, tag))[:, None] * direction * fu[unit]
-        for fap, pt, lip in ((16, "2.3", "lower"), (17, "2.2", "upper"), (18, "2.10", "lower")):
+                columns[f] = ((w * self._pair_share(v, pt, tag))[:, None] * direction
+                              * fu[FAPS[fap].unit])
+        for fap in LIP_PUSH_CHIN:  # the chin (2.10) moves with the lower lip
+            pt = FEATURE_POINT[fap]
+            lip = "upper" if pt in _CHAINS["upper"] else "lower"
             w = raised_cosine(np.linalg.norm(v - fp[pt], axis=1), 0.7 * mw0)
             w = w * self.weights[f"{lip}_lip"] * ~eyeball
-            columns[fap] = w[:, None] * (UP if fap == 18 else FORWARD) * fu["MNS"]
+            columns[fap] = w[:, None] * _direction(fap) * fu[FAPS[fap].unit]
         self.brow_lower_limit = np.inf  # FAP units: lowering saturates at this
-        for side, faps in (("l", (31, 33, 35)), ("r", (32, 34, 36))):
-            pts = np.array([fp[_BROWS[f]] for f in faps])
-            lid = fp["3.1" if side == "l" else "3.2"]
+        upper_lid = {SIDE[f]: FEATURE_POINT[f] for f in EYELIDS if DIRECTION[f][1] < 0}
+        for side in ("l", "r"):
+            faps = _on_side(EYEBROW_RAISE, side)  # inner, middle, outer
+            pts = np.array([fp[FEATURE_POINT[f]] for f in faps])
+            lid = fp[upper_lid[side]]
             field = brow_field(v, pts, lid, face.fapu["ENS0"]) * ~eyeball
+            ens = fu[FAPS[faps[0]].unit]
             room = float(np.min(pts[:, 1] - BROW_RAMP_END * face.fapu["ENS0"] - lid[1]))
             self.brow_lower_limit = min(self.brow_lower_limit,
-                                        BROW_LOWER_ROOM * max(room, 0.0) / 1.5 / fu["ENS"])
+                                        BROW_LOWER_ROOM * max(room, 0.0) / 1.5 / ens)
             for j, f in enumerate(faps):
-                columns[f] = field[j][:, None] * UP * fu["ENS"]
+                columns[f] = field[j][:, None] * _direction(f) * fu[FAPS[f].unit]
             mask = field.sum(axis=0)
-            squeeze = raised_cosine(np.linalg.norm(v - pts[0], axis=1), 0.5 * es0) * mask
-            f = 37 if side == "l" else 38
-            columns[f] = squeeze[:, None] * (RIGHT if side == "l" else LEFT) * fu["ES"]
+            (f,) = _on_side(EYEBROW_SQUEEZE, side)
+            squeeze = raised_cosine(np.linalg.norm(v - fp[FEATURE_POINT[f]], axis=1),
+                                    0.5 * es0) * mask
+            columns[f] = squeeze[:, None] * _direction(f) * fu[FAPS[f].unit]
 
         self.basis_faps = np.array(sorted(columns))
-        self._brow_columns = np.isin(self.basis_faps, list(_BROWS))
+        self._brow_columns = np.isin(self.basis_faps, EYEBROW_RAISE)
         stacked = np.stack([columns[f] for f in self.basis_faps])  # (k, n, 3)
         of_mouth = np.isin(self.basis_faps, MOUTH_FAPS)
         self.mouth, self.brows = (SkinPart(np.flatnonzero(cols), stacked, face.triangles)
@@ -203,20 +249,23 @@ class Rig:
 
         hinge = face.hinge()
         self.hinge = hinge
-        lever = max(fp["2.1"][2] - hinge[2], 0.3 * float(np.linalg.norm(fp["2.1"] - hinge)))
-        self.jaw_rad_per_unit = fu["MNS"] / lever
+        chin = fp[FEATURE_POINT[OPEN_JAW]]
+        lever = max(chin[2] - hinge[2], 0.3 * float(np.linalg.norm(chin - hinge)))
+        self.jaw_rad_per_unit = fu[FAPS[OPEN_JAW].unit] / lever
+        #: jaw shift (to the right) and thrust (forward) per unit FAP value
+        self.jaw_shift = {f: _direction(f) * fu[FAPS[f].unit] for f in (SHIFT_JAW, THRUST_JAW)}
         self.jaw_zone = np.flatnonzero(self.weights["jaw"] > 1e-6)
         self.jaw_w = self.weights["jaw"][self.jaw_zone]
         self.lids = []
-        for fap, side, upper in ((19, "l", True), (20, "r", True), (21, "l", False),
-                                 (22, "r", False)):
+        for fap in EYELIDS:
+            side, upper = SIDE[fap], DIRECTION[fap][1] < 0
             layer = self.weights[f"eyelid_{'upper' if upper else 'lower'}_{side}"]
             zone = np.flatnonzero(layer > 1e-6)
             centre = face.eye_centre(side)
-            margin = fp[f"3.{(1 if upper else 3) + (0 if side == 'l' else 1)}"]
+            margin = fp[FEATURE_POINT[fap]]
             r = max(float(np.linalg.norm(margin - centre)), 1e-9)
-            sign = 1.0 if upper else -1.0
-            self.lids.append((fap, zone, layer[zone], centre, sign * fu["IRISD"] / r))
+            sign = -_direction(fap)[1]  # a positive turn about x moves the margin down
+            self.lids.append((fap, zone, layer[zone], centre, sign * fu[FAPS[fap].unit] / r))
         self._set_pose({s: face.eye_centre(s) for s in ("l", "r")})
         #: the vertices only the jaw and lip FAPs change (None: other FAPs reach them too)
         self.rest_mouth_vertices = self._mouth_apart()
@@ -255,22 +304,21 @@ class Rig:
         moved = [part for part in (self.mouth, self.brows) if part.move(coeff, pos)]
         for part in moved:
             part.shade(pos, nrm)
-        if f[2] > 0.0 or f[13] > 0.0 or f[14]:
-            jaw_open = max(f[2], 0.0) * self.jaw_rad_per_unit
-            shift = np.array([-f[14] * self.fapu["MW"], 0.0, max(f[13], 0.0) * self.fapu["MNS"]])
+        jaw, thrust, shift = f[OPEN_JAW - 1], f[THRUST_JAW - 1], f[SHIFT_JAW - 1]
+        if jaw > 0.0 or thrust > 0.0 or shift:
+            jaw_open = max(jaw, 0.0) * self.jaw_rad_per_unit
+            move = (shift * self.jaw_shift[SHIFT_JAW]
+                    + max(thrust, 0.0) * self.jaw_shift[THRUST_JAW])
             self._rotate_x(pos, nrm, self.jaw_zone, self.jaw_w * jaw_open, self.hinge)
-            pos[self.jaw_zone] += (self.jaw_w[:, None] * shift).astype(np.float32)
+            pos[self.jaw_zone] += (self.jaw_w[:, None] * move).astype(np.float32)
         for fap, zone, w, centre, rad_per_unit in self.lids:
             if f[fap - 1]:
                 self._rotate_x(pos, nrm, zone, w * f[fap - 1] * rad_per_unit, centre)
         eyes = {"l": _IDENTITY, "r": _IDENTITY}  # (shared: posed skips eyes at rest)
-        for side, (yaw, pitch) in (("l", (23, 25)), ("r", (24, 26))):
-            if f[yaw - 1] or f[pitch - 1]:
-                rot = (rotation("y", f[yaw - 1] * AU_RADIANS)
-                       @ rotation("x", f[pitch - 1] * AU_RADIANS))
-                eyes[side] = about(rot, self.eye_centres[side])
-        head = (rotation("y", f[48] * AU_RADIANS) @ rotation("x", f[47] * AU_RADIANS)
-                @ rotation("z", f[49] * AU_RADIANS))
+        for side, turns in EYE_TURNS.items():
+            if any(f[t - 1] for t in turns):
+                eyes[side] = about(fap_rotation(f, turns), self.eye_centres[side])
+        head = fap_rotation(f, HEAD_TURNS)
         return FaceFrame(pos, nrm, about(head, self.pivot), eyes["l"], eyes["r"])
 
     @staticmethod

@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from app.stimuli.fap import FAPU_DISTANCE
+
 #: Feature points every face must define (the ones the deformation and the mosaic use).
 REQUIRED_FEATURE_POINTS: tuple[str, ...] = (
     "2.1", "2.2", "2.3", "2.4", "2.5", "2.6", "2.7", "2.8", "2.9", "2.10",
@@ -40,7 +42,7 @@ MOUTH_FEATURE_POINTS: tuple[str, ...] = (
     "8.1", "8.2", "8.3", "8.4", "8.5", "8.6", "8.7", "8.8",
 )
 
-FAPU_NAMES: tuple[str, ...] = ("ES0", "IRISD0", "ENS0", "MNS0", "MW0")
+FAPU_NAMES: tuple[str, ...] = tuple(FAPU_DISTANCE.values())
 
 #: Vertex groups every face must define.
 REQUIRED_GROUPS: tuple[str, ...] = ("eyeball_l", "eyeball_r")

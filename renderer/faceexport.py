@@ -29,7 +29,7 @@ import numpy as np
 
 from renderer.avatar import driven, shape_faps
 from renderer.deform import Rig
-from renderer.gltfio import MeshOut, write_glb
+from renderer.gltfwrite import MeshOut, write_glb
 from renderer.headmodel import builtin_face
 
 #: Model units (millimetres) to glTF's metres.

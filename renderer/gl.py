@@ -17,6 +17,7 @@ import threading
 import numpy as np
 
 from app.errors import InputError
+from renderer import defaults
 from renderer.deform import FaceFrame, Rig
 from renderer.edges import EdgeTable, edge_table, overdraw_edges
 from renderer.face import MOUTH_FEATURE_POINTS
@@ -221,9 +222,9 @@ class FaceCanvas:
     better choice on a GPU) or ``"none"``.
     """
 
-    def __init__(self, rig: Rig, size: int, n_faces: int = 1, *, antialias: str = "edges",
-                 samples: int = 4,
-                 background: tuple[float, float, float] = (0.55, 0.56, 0.58)) -> None:
+    def __init__(self, rig: Rig, size: int, n_faces: int = 1, *,
+                 antialias: str = defaults.ANTIALIAS, samples: int = defaults.SAMPLES,
+                 background: tuple[float, float, float] = defaults.BACKGROUND) -> None:
         import moderngl
 
         check_antialias(antialias)

@@ -1,4 +1,4 @@
-"""glTF 2.0 / VRM files in and out: the geometry, morph targets, skin and bones of an avatar.
+"""glTF 2.0 / VRM files in: the geometry, morph targets, skin and bones of an avatar.
 
 Reading (:func:`read_gltf`) flattens the default scene into one vertex list: every primitive of
 every mesh node, triangles only, in node order. Positions of unskinned meshes are taken to the
@@ -12,12 +12,13 @@ strength from the material's roughness and metalness. VRM 0.x avatars face -z an
 half round about y so that every avatar faces +z, as glTF and the renderer expect (Khronos,
 glTF 2.0 sec. 3.4; VRM 1.0 "Model orientation").
 
-Writing (:func:`write_glb`) is the inverse for one skinned primitive with named morph targets.
-pygltflib parses and writes the container; accessors are decoded here with numpy.
+Writing is :mod:`renderer.gltfwrite`. pygltflib parses the container; accessors are decoded
+here with numpy.
 
 Example
 -------
 >>> import numpy as np, tempfile, os
+>>> from renderer.gltfwrite import MeshOut, write_glb
 >>> tri = np.array([[0, 1, 2]]); v = np.eye(3)
 >>> path = os.path.join(tempfile.mkdtemp(), "t.glb")
 >>> _ = write_glb(path, MeshOut(v, np.tile([0, 0, 1.0], (3, 1)), tri,
@@ -38,7 +39,8 @@ import numpy as np
 
 from app.errors import InputError
 
-_COMPONENTS = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16,
+#: glTF accessor component type -> numpy dtype (glTF 2.0 sec. 3.6.2.2).
+COMPONENT_TYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16,
                5125: np.uint32, 5126: np.float32}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
 #: Specular strength of a fully smooth dielectric (the renderer's 4th colour column).
@@ -93,7 +95,7 @@ def _accessor(gltf, blob: bytes, index: int, path: Path) -> np.ndarray:
     """Accessor ``index`` as an (count, width) float64 or int array (normalised as declared)."""
     try:
         acc = gltf.accessors[index]
-        dtype = np.dtype(_COMPONENTS[acc.componentType])
+        dtype = np.dtype(COMPONENT_TYPES[acc.componentType])
         width = _WIDTH[acc.type]
         if not 0 <= acc.count <= len(blob) + MAX_SPARSE_ELEMENTS:
             raise ValueError(f"count {acc.count} does not fit the file")
@@ -111,7 +113,7 @@ def _accessor(gltf, blob: bytes, index: int, path: Path) -> np.ndarray:
             out = np.ascontiguousarray(rows).view(dtype).reshape(acc.count, width)
         if acc.sparse is not None and acc.sparse.count:
             sp = acc.sparse
-            idx = np.frombuffer(blob, _COMPONENTS[sp.indices.componentType], sp.count,
+            idx = np.frombuffer(blob, COMPONENT_TYPES[sp.indices.componentType], sp.count,
                                 (gltf.bufferViews[sp.indices.bufferView].byteOffset or 0)
                                 + (sp.indices.byteOffset or 0))
             vals = np.frombuffer(blob, dtype, sp.count * width,
@@ -340,94 +342,3 @@ def _turn_half_round(scene: GltfScene) -> None:
     scene.targets = {k: (dp * flip, dn * flip) for k, (dp, dn) in scene.targets.items()}
     turn = np.diag([-1.0, 1.0, -1.0, 1.0])
     scene.world = turn @ scene.world
-
-
-@dataclass
-class MeshOut:
-    """One skinned primitive to write: vertices, normals, triangles, colours (display RGB and
-    specular strength) and morph targets name -> (dpos, dnormal)."""
-
-    vertices: np.ndarray
-    normals: np.ndarray
-    triangles: np.ndarray
-    colors: np.ndarray
-    targets: dict[str, tuple[np.ndarray, np.ndarray]]
-    joints: np.ndarray | None = None  # (n, 4) indices into ``bones``
-    weights: np.ndarray | None = None  # (n, 4)
-
-
-def write_glb(path: str | Path, mesh: MeshOut, *, bones: list[tuple[str, int, np.ndarray]],
-              extras: dict[str, Any]) -> Path:
-    """Write ``mesh`` as a binary glTF: one node with the mesh, skinned to ``bones``
-    (name, parent index or -1, world position), and ``extras`` on the root.
-
-    Colours go to ``COLOR_0`` in linear light (glTF's convention: the display value squared,
-    the renderer's gamma), the specular strength to :data:`SPECULAR_ATTRIBUTE`.
-    """
-    import pygltflib as g
-
-    blob = bytearray()
-    views: list[g.BufferView] = []
-    accessors: list[g.Accessor] = []
-
-    def add(array: np.ndarray, kind: str, component: int, target: int | None = None,
-            bounds: bool = False) -> int:
-        data = np.ascontiguousarray(array, dtype=_COMPONENTS[component])
-        while len(blob) % 4:
-            blob.append(0)
-        views.append(g.BufferView(buffer=0, byteOffset=len(blob), byteLength=data.nbytes,
-                                  target=target))
-        blob.extend(data.tobytes())
-        flat = data.reshape(len(data), -1)
-        accessors.append(g.Accessor(
-            bufferView=len(views) - 1, componentType=component, count=len(data), type=kind,
-            min=flat.min(axis=0).tolist() if bounds else None,
-            max=flat.max(axis=0).tolist() if bounds else None))
-        return len(accessors) - 1
-
-    f32, vertex_buffer = g.FLOAT, g.ARRAY_BUFFER
-    attributes = g.Attributes(
-        POSITION=add(mesh.vertices, "VEC3", f32, vertex_buffer, bounds=True),
-        NORMAL=add(mesh.normals, "VEC3", f32, vertex_buffer),
-        COLOR_0=add(np.clip(mesh.colors[:, :3], 0, 1) ** 2, "VEC3", f32, vertex_buffer))
-    setattr(attributes, SPECULAR_ATTRIBUTE, add(mesh.colors[:, 3], "SCALAR", f32,
-                                                vertex_buffer))
-    if bones and mesh.joints is not None and mesh.weights is not None:
-        attributes.JOINTS_0 = add(mesh.joints, "VEC4", g.UNSIGNED_BYTE, vertex_buffer)
-        attributes.WEIGHTS_0 = add(mesh.weights, "VEC4", f32, vertex_buffer)
-    targets = [{"POSITION": add(dp, "VEC3", f32, vertex_buffer, bounds=True),
-                "NORMAL": add(dn, "VEC3", f32, vertex_buffer)}
-               for dp, dn in mesh.targets.values()]
-    indices = add(mesh.triangles.reshape(-1), "SCALAR", g.UNSIGNED_INT, g.ELEMENT_ARRAY_BUFFER)
-    names = list(mesh.targets)
-    primitive = g.Primitive(attributes=attributes, indices=indices, material=0,
-                            targets=targets)
-    nodes = [g.Node(name="face", mesh=0, skin=0 if bones else None)]
-    first_bone = len(nodes)
-    for k, (name, parent, position) in enumerate(bones):
-        origin = bones[parent][2] if parent >= 0 else np.zeros(3)
-        nodes.append(g.Node(name=name, translation=[float(x) for x in position - origin]))
-        if parent >= 0:
-            nodes[first_bone + parent].children.append(first_bone + k)
-    skins = []
-    if bones:
-        inverse = np.tile(np.eye(4), (len(bones), 1, 1))
-        inverse[:, :3, 3] = -np.array([b[2] for b in bones])
-        skins.append(g.Skin(joints=list(range(first_bone, first_bone + len(bones))),
-                            inverseBindMatrices=add(inverse.transpose(0, 2, 1).reshape(-1, 16),
-                                                    "MAT4", f32)))
-    roots = [0] + [first_bone + k for k, b in enumerate(bones) if b[1] < 0]
-    gltf = g.GLTF2(
-        asset=g.Asset(version="2.0", generator="facepair"),
-        scene=0, scenes=[g.Scene(nodes=roots)], nodes=nodes, skins=skins,
-        meshes=[g.Mesh(name="face", primitives=[primitive], weights=[0.0] * len(names),
-                       extras={"targetNames": names})],
-        materials=[g.Material(name="skin", pbrMetallicRoughness=g.PbrMetallicRoughness(
-            baseColorFactor=[1, 1, 1, 1], metallicFactor=0.0, roughnessFactor=0.6))],
-        accessors=accessors, bufferViews=views, buffers=[g.Buffer(byteLength=len(blob))],
-        extras=extras)
-    gltf.set_binary_blob(bytes(blob))
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    gltf.save_binary(str(out))
-    return out

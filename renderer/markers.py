@@ -22,7 +22,8 @@ known FAP tracks in, the clip the capture would have recorded out.
 Example
 -------
 >>> import numpy as np
->>> from app.stimuli.track import MotionTrack
+>>> from app.stimuli.fap import AU_RADIANS, HEAD_PITCH, HEAD_ROLL, HEAD_YAW
+from app.stimuli.track import MotionTrack
 >>> track = MotionTrack.zeros(30.0, 2, (48,))
 >>> frames = list(marker_frames(track, 128))
 >>> frames[0].shape, frames[0].dtype.name, int(frames[0].max()) > 200
@@ -39,6 +40,7 @@ import numpy as np
 from scipy import ndimage
 
 from app.stimuli.capture.markerset import HEAD_FRAME, MARKERS, POSTS, SITES, HeadFrame
+from app.stimuli.fap import AU_RADIANS, HEAD_PITCH, HEAD_ROLL, HEAD_YAW
 from app.stimuli.track import MotionTrack
 from renderer.deform import Rig
 from renderer.face import Face
@@ -202,7 +204,8 @@ def calibration_motion(fps: float = 30.0, seconds: float = 4.0) -> MotionTrack:
     half = seconds / 2.0
     nod = np.where(t < half, np.radians(17.0) * np.sin(2 * np.pi * t / half), 0.0)
     turn = np.where(t >= half, np.radians(8.0) * np.sin(2 * np.pi * (t - half) / half), 0.0)
-    return MotionTrack.from_channels(fps, {48: nod / 1e-5, 49: turn / 1e-5},
+    return MotionTrack.from_channels(fps, {HEAD_PITCH: nod / AU_RADIANS,
+                                           HEAD_YAW: turn / AU_RADIANS},
                                      source="marker calibration motion")
 
 
@@ -212,8 +215,9 @@ def known_motion(fps: float = 30.0, seconds: float = 4.0) -> MotionTrack:
     0.25 s), all from a neutral first half second: the closed-loop test's known motion."""
     t = np.arange(int(round(seconds * fps))) / fps
     ramp = np.clip((t - 0.5) / 0.5, 0.0, 1.0)
-    angles = {48: (12.0, 0.45, 0.0), 49: (6.0, 0.31, 0.7), 50: (8.0, 0.53, 1.9)}
-    cols = {f: np.radians(a) * np.sin(2 * np.pi * hz * (t - 0.5) + ph) * ramp / 1e-5
+    angles = {HEAD_PITCH: (12.0, 0.45, 0.0), HEAD_YAW: (6.0, 0.31, 0.7),
+              HEAD_ROLL: (8.0, 0.53, 1.9)}
+    cols = {f: np.radians(a) * np.sin(2 * np.pi * hz * (t - 0.5) + ph) * ramp / AU_RADIANS
             for f, (a, hz, ph) in angles.items()}
     raise_ = np.zeros_like(t)
     for start, hold in ((1.0, 0.5), (2.4, 0.8)):

@@ -25,6 +25,7 @@ import numpy as np
 
 from app.errors import InputError
 from app.stimuli.track import MotionTrack
+from renderer import defaults
 from renderer.avatar import AvatarFace, AvatarRig
 from renderer.deform import MOUTH_FAPS_INDEX, Rig
 from renderer.face import MOUTH_FEATURE_POINTS, Face
@@ -147,9 +148,10 @@ def _worker_draw(jobs: list[tuple[int, int]]) -> list[tuple[int, int, list]]:
 
 
 def render_frames(tracks: list[MotionTrack], face: Face, *, size: int,
-                  antialias: str = "edges", samples: int = 4,
-                  background: tuple[float, float, float] = (0.55, 0.56, 0.58),
-                  mosaic_block: int | None = 24, mosaic_margin: float = 0.15,
+                  antialias: str = defaults.ANTIALIAS, samples: int = defaults.SAMPLES,
+                  background: tuple[float, float, float] = defaults.BACKGROUND,
+                  mosaic_block: int | None = defaults.MOSAIC_BLOCK,
+                  mosaic_margin: float = defaults.MOSAIC_MARGIN,
                   frames: range | None = None, workers: int = 1) -> Iterator[RenderedFrame]:
     """Yield the side-by-side frames of ``tracks`` (one face per track, left to right).
 

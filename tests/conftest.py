@@ -110,9 +110,9 @@ def live_synthetic_speaker(n_frames: int = 3000, fps: float = 30.0, seed: int = 
     import numpy as np
     from scipy.ndimage import gaussian_filter1d
 
-    from app.stimuli.features import SpeechFeatures
     from app.stimuli.live.eyelids import blink_closure
     from app.stimuli.live.inputs import talking_mode
+    from app.stimuli.speech import SpeechFeatures
     from app.stimuli.track import MotionTrack
 
     rng = np.random.default_rng(seed)

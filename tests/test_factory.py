@@ -26,7 +26,7 @@ def test_database_url_from_environment(monkeypatch):
 
 def test_pure_packages_never_load_flask():
     code = (
-        "import sys, app.stimuli.io, app.stimuli.features, app.errors\n"
+        "import sys, app.stimuli.io, app.stimuli.speech, app.errors\n"
         "bad = [m for m in ('flask', 'flask_sqlalchemy', 'moderngl') if m in sys.modules]\n"
         "assert not bad, bad\n"
     )

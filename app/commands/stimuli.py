@@ -89,10 +89,10 @@ def fit_head_model(audio: str, ground_truth: str, out: str, ridge: float, label:
 
     This is how app/data/models/head_arx_default.json is made from the demo data.
     """
-    from app.stimuli.conditions.ground_truth import align_to_features
     from app.stimuli.conditions.head_arx import HeadPoseArx
     from app.stimuli.io import load_track
     from app.stimuli.speech import extract_features
+    from app.stimuli.track import align_to_features
 
     feats = extract_features(audio, fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling)
     gt = load_track(ground_truth, fps=fps)
@@ -229,10 +229,9 @@ def train_live(audio: tuple[str, ...], ground_truth: tuple[str, ...], reference:
     from tqdm import tqdm
 
     from app.errors import InputError
-    from app.stimuli.features import SpeechFeatures
     from app.stimuli.io import load_track
     from app.stimuli.live.model import save_model, train_live_model
-    from app.stimuli.speech import extract_features
+    from app.stimuli.speech import SpeechFeatures, extract_features
 
     if reference and ground_truth:
         raise InputError("give either --ground-truth or --reference, not both",

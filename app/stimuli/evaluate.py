@@ -22,7 +22,7 @@ The result is JSON-able; :func:`plot_evaluation` draws it. Example::
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -31,13 +31,12 @@ from scipy import signal
 
 from app.errors import InputError
 from app.stimuli.conditions import make_condition
-from app.stimuli.conditions.ground_truth import align_to_features
-from app.stimuli.features import SpeechFeatures
 from app.stimuli.generate import parse_conditions
 from app.stimuli.io import load_track
 from app.stimuli.measures import canonical_correlations, pearson
-from app.stimuli.speech import extract_features
-from app.stimuli.track import MotionTrack
+from app.stimuli.progress import Progress, progress_steps
+from app.stimuli.speech import SpeechFeatures, extract_features
+from app.stimuli.track import MotionTrack, align_to_features
 
 #: Channels evaluated: the head angles and the inner and middle eyebrows.
 EVALUATED: tuple[int, ...] = (48, 49, 50, 31, 33)
@@ -155,7 +154,7 @@ def evaluate_conditions(train: Sequence[Take], test: Sequence[Take], *,
                         conditions: str | Iterable[str] | Mapping[str, Any] =
                         ("none", "random", "speech_driven", "ground_truth"), seed: int = 0,
                         n_random_seeds: int = N_RANDOM_SEEDS, n_shifts: int = N_SHIFTS,
-                        progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+                        progress: Progress | None = None) -> dict[str, Any]:
     """Fit on ``train``, measure on ``test`` (see the module docstring); JSON-able result.
 
     ``conditions`` as for :func:`app.stimuli.generate.parse_conditions`. Each condition is
@@ -165,14 +164,7 @@ def evaluate_conditions(train: Sequence[Take], test: Sequence[Take], *,
         raise InputError("give at least one training and one test recording", field="train")
     requests = parse_conditions(conditions)
     train_feats, train_truth = _concatenate(train)
-    total = len(requests) + 2
-    done = 0
-
-    def step() -> None:
-        nonlocal done
-        done += 1
-        if progress is not None:
-            progress(done, total)
+    step = progress_steps(progress, len(requests) + 2)
 
     results: dict[str, Any] = {}
     for name, (model, params) in requests.items():

@@ -15,7 +15,7 @@ FAPs 19-26 once per clip and writes the same columns into every condition's trac
 Example
 -------
 >>> import numpy as np
->>> from app.stimuli.features import SpeechFeatures
+>>> from app.stimuli.speech import SpeechFeatures
 >>> f = SpeechFeatures(30.0, np.zeros(4), np.zeros(4), np.zeros(4))
 >>> sorted(eye_channels("still", f))[:2], float(eye_channels("still", f)[19].sum())
 ([19, 20], 0.0)
@@ -29,7 +29,7 @@ import numpy as np
 
 from app.errors import InputError
 from app.stimuli.fap import EYELIDS, GAZE
-from app.stimuli.features import SpeechFeatures
+from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
 #: The eye FAPs a study setting controls: eyelids 19-22 and gaze 23-26.

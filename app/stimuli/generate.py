@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import inspect
 import json
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -26,14 +26,13 @@ import numpy as np
 
 from app.errors import InputError
 from app.stimuli.conditions import DISPLAY_NAMES, condition_class, make_condition
-from app.stimuli.conditions.ground_truth import align_to_features
 from app.stimuli.eyes import DEFAULT_EYES, check_eyes, eye_channels
-from app.stimuli.features import SpeechFeatures
 from app.stimuli.io import load_track, save_track
 from app.stimuli.measures import measure_track
 from app.stimuli.normalize import normalize_tracks
-from app.stimuli.speech import extract_features
-from app.stimuli.track import MotionTrack
+from app.stimuli.progress import Progress, progress_steps
+from app.stimuli.speech import SpeechFeatures, extract_features
+from app.stimuli.track import MotionTrack, align_to_features
 
 DEFAULT_CONDITIONS = ("none", "random", "speech_driven", "ground_truth")
 
@@ -91,7 +90,7 @@ def generate_conditions(
     ground_truth: str | Path | MotionTrack | None = None, fps: float = 30.0, seed: int = 0,
     normalize: bool = False, eyes: str = DEFAULT_EYES,
     models: Mapping[str, str | Path] | None = None,
-    progress: Callable[[int, int], None] | None = None, pitch_floor: float | None = None,
+    progress: Progress | None = None, pitch_floor: float | None = None,
     pitch_ceiling: float | None = None,
     condition_params: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> GenerationResult:
@@ -121,14 +120,7 @@ def generate_conditions(
         if name not in requests:
             raise InputError(f"a model is given for {name!r}, which is not among the "
                              f"conditions ({', '.join(requests)})", field="model")
-    total = len(requests) + 3 + int(normalize)
-    done = 0
-
-    def step() -> None:
-        nonlocal done
-        done += 1
-        if progress is not None:
-            progress(done, total)
+    step = progress_steps(progress, len(requests) + 3 + int(normalize))
 
     features = extract_features(audio_path, fps, pitch_floor=pitch_floor,
                                 pitch_ceiling=pitch_ceiling)
@@ -146,8 +138,8 @@ def generate_conditions(
                                  field="model")
             kw["model_path"] = str(models[name])
         cond = make_condition(model, **kw)
-        if gt_track is not None:
-            cond.fit(features, gt_track)
+        if gt_aligned is not None:
+            cond.fit(features, gt_aligned)
         track = cond.generate(features, seed=seed, ground_truth=gt_track)
         track.metadata.update(seed=seed, audio=str(audio_path), model=model)
         tracks[name] = track

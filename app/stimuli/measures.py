@@ -26,11 +26,9 @@ from typing import Any
 
 import numpy as np
 
-from app.stimuli.fap import AU_RADIANS, EYEBROW_RAISE, HEAD
-from app.stimuli.features import SpeechFeatures
+from app.stimuli.fap import DEG_PER_AU, EYEBROW_RAISE, HEAD
+from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
-
-_DEG_PER_AU = AU_RADIANS * 180 / np.pi
 
 
 def _num(x: float) -> float | None:
@@ -94,7 +92,7 @@ def channel_stats(track: MotionTrack, channels: Iterable[int] | None = None
 
 def head_kinematics(track: MotionTrack) -> dict[str, float | None]:
     """Angular speed and acceleration of the head over (pitch, yaw, roll), in degrees."""
-    angles = np.column_stack([track.get(c) for c in HEAD]) * _DEG_PER_AU
+    angles = np.column_stack([track.get(c) for c in HEAD]) * DEG_PER_AU
     if len(angles) < 3:
         return {"speed_mean_deg_s": None, "speed_max_deg_s": None,
                 "acceleration_mean_deg_s2": None}

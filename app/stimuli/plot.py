@@ -13,12 +13,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from app.stimuli.fap import AU_RADIANS
+from app.stimuli.fap import DEG_PER_AU
 
 if TYPE_CHECKING:
     from app.stimuli.generate import GenerationResult
 
-_DEG_PER_AU = AU_RADIANS * 180 / np.pi
 _COLOURS = {"ground_truth": "black", "none": "0.6", "random": "tab:orange",
             "speech_driven": "tab:blue", "live_gmm": "tab:green"}
 
@@ -34,9 +33,9 @@ def plot_conditions(result: GenerationResult, path: str | Path) -> Path:
 
     feats = result.features
     t = np.arange(feats.n_frames) / feats.fps
-    rows = [("head pitch (48), deg, + down", 48, _DEG_PER_AU),
-            ("head yaw (49), deg, + left", 49, _DEG_PER_AU),
-            ("head roll (50), deg, + right", 50, _DEG_PER_AU),
+    rows = [("head pitch (48), deg, + down", 48, DEG_PER_AU),
+            ("head yaw (49), deg, + left", 49, DEG_PER_AU),
+            ("head roll (50), deg, + right", 50, DEG_PER_AU),
             ("inner eyebrow raise (31), ENS", 31, 1.0)]
     fig, axes = plt.subplots(len(rows) + 1, 1, figsize=(12, 11), sharex=True,
                              constrained_layout=True)

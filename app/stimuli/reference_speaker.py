@@ -40,7 +40,7 @@ frames, so later tests can check detectors against known events.
 Example
 -------
 >>> import numpy as np
->>> from app.stimuli.features import SpeechFeatures
+>>> from app.stimuli.speech import SpeechFeatures
 >>> n = 90; f0 = np.where(np.arange(n) % 30 < 20, 120.0, 0.0)
 >>> feats = SpeechFeatures(30.0, f0, np.where(f0 > 0, 70.0, 40.0), np.full(n, 120.0))
 >>> t = synthesize_reference(feats, seed=1)
@@ -55,14 +55,13 @@ from typing import Any
 import numpy as np
 from scipy import ndimage, signal
 
-from app.stimuli.fap import EYEBROW_RAISE
-from app.stimuli.features import SpeechFeatures
-from app.stimuli.speech import smooth_1s, smooth_3
+from app.stimuli.fap import AU_RADIANS, EYEBROW_RAISE
+from app.stimuli.speech import SpeechFeatures, smooth_1s, smooth_3
 from app.stimuli.track import MotionTrack
 
 SOURCE = "synthetic reference speaker (facepair; not a recording)"
 SPEAKER = "synthetic reference speaker"
-_DEG = np.pi / 180 / 1e-5  # AU per degree
+_DEG = np.pi / 180 / AU_RADIANS  # AU per degree
 
 
 def synthesize_reference(features: SpeechFeatures, *, seed: int = 0, nod_au: float = 2500.0,

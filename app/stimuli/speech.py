@@ -1,5 +1,8 @@
 """Speech features per video frame: Praat F0 and intensity, F0 conditioning, smoothed contours.
 
+:class:`SpeechFeatures` is the input every speech-driven condition, the live generator and the
+measures read.
+
 Thesis sec. 4.3.4.1: F0 and energy are computed with Praat (Boersma & Weenink); unvoiced frames
 are treated as missing and filled by a cubic spline through the voiced frames, and the result is
 clipped to [0, max observed F0] (eq. 35). Sec. 4.3.4.2 adds 1-second (30-frame) mean-filtered
@@ -26,14 +29,15 @@ Example
 from __future__ import annotations
 
 import struct
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import parselmouth
 from scipy import interpolate, ndimage
 
 from app.errors import InputError
-from app.stimuli.features import SpeechFeatures
 
 #: Longest audio accepted by default, in seconds (a study stimulus is a few seconds to minutes).
 MAX_DURATION_S = 600.0
@@ -43,6 +47,49 @@ MIN_DURATION_S = 0.1
 INTENSITY_FLOOR_DB = 0.0
 #: Peak amplitude (full scale = 1) below which a recording counts as silence.
 SILENCE_PEAK = 1e-6
+
+
+@dataclass(eq=False)
+class SpeechFeatures:
+    """Per-frame speech features at the video frame rate.
+
+    Attributes
+    ----------
+    fps : frames per second; frame i describes the audio around time i / fps.
+    f0 : raw F0 in Hz, 0 where unvoiced (Praat autocorrelation pitch).
+    intensity : intensity in dB (Praat, re 2e-5 Pa with samples taken as pascals).
+    f0_conditioned : unvoiced gaps filled by a cubic spline through the voiced frames, clipped
+        to [0, max observed F0] (thesis sec. 4.3.4.1).
+    metadata : audio path, sample rate, duration, channel handling, pitch floor/ceiling.
+    """
+
+    fps: float
+    f0: np.ndarray
+    intensity: np.ndarray
+    f0_conditioned: np.ndarray
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        n = len(self.f0)
+        for name in ("intensity", "f0_conditioned"):
+            if len(getattr(self, name)) != n:
+                raise ValueError(f"{name} has {len(getattr(self, name))} frames, f0 has {n}")
+
+    @property
+    def n_frames(self) -> int:
+        return len(self.f0)
+
+    @property
+    def voiced(self) -> np.ndarray:
+        """Boolean mask of voiced frames (raw F0 > 0)."""
+        return np.asarray(self.f0) > 0
+
+    def slice(self, start: int, stop: int) -> SpeechFeatures:
+        """Frames ``start:stop`` as new features (for held-out splits and streaming)."""
+        return SpeechFeatures(
+            self.fps, self.f0[start:stop].copy(), self.intensity[start:stop].copy(),
+            self.f0_conditioned[start:stop].copy(), dict(self.metadata),
+        )
 
 
 def load_audio(path: str | Path, *, max_duration: float = MAX_DURATION_S

@@ -19,11 +19,14 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from app.stimuli.fap import N_FAPS, check_fap
+
+if TYPE_CHECKING:
+    from app.stimuli.speech import SpeechFeatures
 
 
 @dataclass(eq=False)
@@ -210,3 +213,23 @@ class MotionTrack:
             and self.values.shape == other.values.shape
             and bool(np.array_equal(self.values, other.values))
         )
+
+
+def align_to_features(track: MotionTrack, features: SpeechFeatures, offset: float = 0.0
+                      ) -> MotionTrack:
+    """``track`` at the features' frame rate and frame count, shifted by ``offset`` seconds:
+    a ground truth aligned to the speech it goes with (thesis sec. 4.3.2).
+
+    The capture is resampled to the video frame rate of the features (low-passed first when
+    downsampling) and cut or padded to the audio's frame count; a positive ``offset`` means the
+    capture started ``offset`` seconds after the audio. Frames before the capture starts hold
+    its first frame; frames after it ends hold its last. Aligning an aligned track (offset 0)
+    returns the same values.
+    """
+    r = track.resample(features.fps)
+    shift = round(offset * features.fps)
+    if shift > 0:
+        r = r.replace(values=np.vstack([np.repeat(r.values[:1], shift, axis=0), r.values]))
+    elif shift < 0:
+        r = r.replace(values=r.values[-shift:].copy())
+    return r.fit_length(features.n_frames)

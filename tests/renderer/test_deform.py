@@ -196,3 +196,21 @@ def test_a_face_whose_brows_reach_the_mouth_deforms_again_for_the_mouth_at_rest(
     faps = _faps(f3=300, f31=200)
     rest = tight.mouth_at_rest(tight.deform(faps), faps)
     np.testing.assert_array_equal(rest.positions, tight.deform(_faps(f31=200)).positions)
+
+
+def test_rotations_turn_the_way_the_fap_table_says():
+    """Positive head pitch moves the front down, yaw to the face's left (+x), roll the top to
+    the face's right; positive eyeball yaw and pitch likewise (reference mpeg4-fap)."""
+    from app.stimuli import fap
+    from renderer.deform import EYE_TURNS, HEAD_TURNS, fap_rotation
+
+    front, top = np.array([0.0, 0.0, 1.0]), np.array([0.0, 1.0, 0.0])
+    expected = {"down": (front, 1, -1), "left": (front, 0, 1), "right": (top, 0, -1)}
+    for turns in (HEAD_TURNS, *EYE_TURNS.values()):
+        for f in turns:
+            faps = np.zeros(68)
+            faps[f - 1] = 10000.0
+            point, axis, sign = expected[fap.FAPS[f].positive]
+            moved = fap_rotation(faps, turns) @ point
+            assert np.sign(moved[axis]) == sign, (f, moved)
+    assert EYE_TURNS == {"l": (23, 25), "r": (24, 26)} and HEAD_TURNS == (49, 48, 50)

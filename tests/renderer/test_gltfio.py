@@ -112,7 +112,7 @@ def _tiny_gltf() -> dict:
     import tempfile
     from pathlib import Path
 
-    from renderer.gltfio import MeshOut, write_glb
+    from renderer.gltfwrite import MeshOut, write_glb
 
     v = np.eye(3)
     with tempfile.TemporaryDirectory() as d:

@@ -7,10 +7,9 @@ from click.testing import CliRunner
 from app.cli import main
 from app.errors import InputError
 from app.stimuli.evaluate import coupling, evaluate_conditions, power_above, split_take
-from app.stimuli.features import SpeechFeatures
 from app.stimuli.io import save_track
 from app.stimuli.reference_speaker import synthesize_reference
-from app.stimuli.speech import extract_features
+from app.stimuli.speech import SpeechFeatures, extract_features
 from app.stimuli.track import MotionTrack
 from tests.conftest import harmonic_glide, live_synthetic_speaker, write_wav
 

@@ -3,7 +3,7 @@ import pytest
 
 from app.errors import InputError
 from app.stimuli.eyes import EYE_CHANNELS, check_eyes, eye_channels
-from app.stimuli.features import SpeechFeatures
+from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
 

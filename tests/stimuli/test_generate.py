@@ -13,8 +13,12 @@ from app.stimuli.io import load_track
 
 def test_demo_generates_four_conditions(repo_root, tmp_path):
     demo = repo_root / "app" / "data" / "demo"
+    seen = []
     result = generate_conditions(demo / "speech.wav", ground_truth=demo / "ground_truth.fap",
-                                 normalize=True, seed=1, pitch_ceiling=300)
+                                 normalize=True, seed=1, pitch_ceiling=300,
+                                 progress=lambda done, total: seen.append((done, total)))
+    # features, four conditions, eyes, normalisation, summary
+    assert seen == [(k, 8) for k in range(1, 9)]
     assert set(result.tracks) == {"none", "random", "speech_driven", "ground_truth"}
     assert all(t.n_frames == 120 for t in result.tracks.values())
     assert result.summary["ground_truth"]["synthetic"] is True

@@ -1,6 +1,5 @@
 import numpy as np
 
-from app.stimuli.features import SpeechFeatures
 from app.stimuli.measures import (
     canonical_correlations,
     channel_stats,
@@ -9,6 +8,7 @@ from app.stimuli.measures import (
     measure_track,
     pearson,
 )
+from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
 

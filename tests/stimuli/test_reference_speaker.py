@@ -1,12 +1,12 @@
 import numpy as np
 import pytest
 
-from app.stimuli.features import SpeechFeatures
 from app.stimuli.reference_speaker import (
     pitch_accents,
     synthesize_reference,
     talking_frames,
 )
+from app.stimuli.speech import SpeechFeatures
 
 
 def phrase_features(seconds=40.0, fps=30.0, seed=3):

@@ -1,7 +1,10 @@
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
-from app.stimuli.track import MotionTrack
+from app.stimuli.speech import SpeechFeatures
+from app.stimuli.track import MotionTrack, align_to_features
 
 
 def sine_track(fps, seconds, freq=0.5, channels=(48, 49)):
@@ -67,3 +70,26 @@ def test_fit_length():
     assert t.fit_length(10).n_frames == 10
     longer = t.fit_length(40)
     assert longer.n_frames == 40 and np.all(longer[48][30:] == t[48][-1])
+
+
+def frames_of_audio(n, fps=30.0):
+    return SpeechFeatures(fps, np.zeros(n), np.zeros(n), np.zeros(n))
+
+
+def test_align_to_features_resamples_cuts_and_shifts_a_capture():
+    capture = sine_track(120.0, 4.0)  # 4 s at 120 Hz against 3 s of audio at 30 fps
+    aligned = align_to_features(capture, frames_of_audio(90))
+    assert aligned.fps == 30.0 and aligned.n_frames == 90
+    late = align_to_features(capture, frames_of_audio(90), offset=0.5)  # started 0.5 s later
+    np.testing.assert_array_equal(late.values[:15], np.repeat(aligned.values[:1], 15, axis=0))
+    np.testing.assert_allclose(late.values[15:], aligned.values[:75])
+    early = align_to_features(capture, frames_of_audio(90), offset=-0.5)
+    np.testing.assert_allclose(early.values[:75], aligned.values[15:])
+    assert not np.allclose(early.values[75:], early.values[74])  # the capture goes on
+
+
+@given(st.integers(1, 200), st.sampled_from([24.0, 25.0, 30.0, 60.0]))
+def test_aligning_an_aligned_track_changes_nothing(n, fps):
+    track = align_to_features(sine_track(120.0, 2.0), frames_of_audio(n, fps))
+    again = align_to_features(track, frames_of_audio(n, fps))
+    assert again.equals(track) and again.n_frames == n

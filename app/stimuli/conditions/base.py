@@ -12,8 +12,8 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 from app.stimuli.fap import EYEBROWS, HEAD, JAW_LIPS
-from app.stimuli.features import SpeechFeatures
-from app.stimuli.track import MotionTrack
+from app.stimuli.speech import SpeechFeatures
+from app.stimuli.track import MotionTrack, align_to_features
 
 #: Channels each condition generates itself (thesis sec. 4.3.1: FAPs 31-34 and 48-50, and the
 #: other eyebrow FAPs, which stay neutral where a condition does not drive them).
@@ -26,11 +26,15 @@ class Condition:
     name: ClassVar[str] = ""
 
     def fit(self, features: SpeechFeatures, ground_truth: MotionTrack | None) -> Condition:
-        """Learn from speech and ground truth; conditions that learn nothing return self."""
+        """Learn from speech and a ground truth aligned to it frame for frame
+        (:func:`app.stimuli.track.align_to_features`); conditions that learn nothing return
+        self."""
         return self
 
     def generate(self, features: SpeechFeatures, *, seed: int = 0,
                  ground_truth: MotionTrack | None = None) -> MotionTrack:
+        """The condition's track for ``features``; ``ground_truth`` is the capture as it is
+        (at its own rate and length), aligned here by :meth:`base_track`."""
         raise NotImplementedError
 
     def describe(self) -> dict[str, Any]:
@@ -42,7 +46,6 @@ class Condition:
                    ) -> MotionTrack:
         """The jaw and lips from ``ground_truth`` (aligned) and neutral prosody channels."""
         from app.stimuli.conditions import DISPLAY_NAMES
-        from app.stimuli.conditions.ground_truth import align_to_features
 
         carried: dict[int, Any] = {}
         speaker = ""

@@ -1,36 +1,18 @@
 """GROUND_TRUTH (thesis sec. 4.3.2): the captured motion, aligned and resampled to the audio.
 
-The captured track is resampled to the video frame rate of the features (low-passed first when
-downsampling, e.g. 120 Hz capture -> 30 fps) and cut or padded to the audio's frame count.
-``offset`` (seconds) shifts the capture against the audio when the two did not start together:
-a positive offset means the capture started ``offset`` seconds after the audio.
+The capture is aligned by :func:`app.stimuli.track.align_to_features`; ``offset`` (seconds)
+shifts it against the audio when the two did not start together (positive: the capture started
+``offset`` seconds after the audio), which is why this condition takes the capture as it is.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
 from app.errors import InputError
 from app.stimuli.conditions.base import Condition
-from app.stimuli.features import SpeechFeatures
-from app.stimuli.track import MotionTrack
-
-
-def align_to_features(track: MotionTrack, features: SpeechFeatures, offset: float = 0.0
-                      ) -> MotionTrack:
-    """``track`` at the features' frame rate and frame count, shifted by ``offset`` seconds.
-
-    Frames before the capture starts hold its first frame; frames after it ends hold its last.
-    """
-    r = track.resample(features.fps)
-    shift = round(offset * features.fps)
-    if shift > 0:
-        r = r.replace(values=np.vstack([np.repeat(r.values[:1], shift, axis=0), r.values]))
-    elif shift < 0:
-        r = r.replace(values=r.values[-shift:].copy())
-    return r.fit_length(features.n_frames)
+from app.stimuli.speech import SpeechFeatures
+from app.stimuli.track import MotionTrack, align_to_features
 
 
 class GroundTruthCondition(Condition):

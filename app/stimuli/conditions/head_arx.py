@@ -30,8 +30,7 @@ from app.data import data_path
 from app.errors import InputError
 from app.stimuli.arx import ArxModel, fit_arx
 from app.stimuli.fap import HEAD
-from app.stimuli.features import SpeechFeatures
-from app.stimuli.speech import smooth_1s
+from app.stimuli.speech import SpeechFeatures, smooth_1s
 from app.stimuli.track import MotionTrack
 
 HEAD_INPUTS = ("intensity_db", "f0_conditioned_hz", "intensity_x_f0",

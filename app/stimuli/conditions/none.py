@@ -7,7 +7,7 @@ Jaw and lips come from the ground truth when there is one; gaze and eyelids foll
 from __future__ import annotations
 
 from app.stimuli.conditions.base import Condition
-from app.stimuli.features import SpeechFeatures
+from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
 

@@ -25,10 +25,9 @@ from typing import Any
 import numpy as np
 
 from app.stimuli.conditions.base import Condition
-from app.stimuli.conditions.ground_truth import align_to_features
 from app.stimuli.fap import HEAD
-from app.stimuli.features import SpeechFeatures
 from app.stimuli.perlin import frame_noise
+from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
 #: Perlin amplitude constants (Table 8, RANDOM, mean of S2 and S7): standard deviations of the
@@ -63,10 +62,9 @@ class RandomCondition(Condition):
         """With ``match_amplitudes``, take amplitudes from a reference track's statistics."""
         if ground_truth is None or not self.match_amplitudes:
             return self
-        ref = align_to_features(ground_truth, features)
         for c in (*HEAD, *BROW_CHANNELS):
-            if c in ref.channels:
-                self.target[c] = (float(ref[c].mean()), float(ref[c].std()))
+            if c in ground_truth.channels:
+                self.target[c] = (float(ground_truth[c].mean()), float(ground_truth[c].std()))
         self.matched_to = ground_truth.source or "reference track"
         return self
 

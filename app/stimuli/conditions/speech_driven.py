@@ -45,10 +45,9 @@ from app.stimuli.conditions.eyebrow_rule import (
     hold_warnings,
     raise_size,
 )
-from app.stimuli.conditions.ground_truth import align_to_features
 from app.stimuli.conditions.head_arx import DEFAULT_MODEL_PATH, HeadPoseArx
 from app.stimuli.fap import HEAD
-from app.stimuli.features import SpeechFeatures
+from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
 #: The eyebrow FAPs the rule drives, all with the same raise (thesis sec. 4.3.1, Table 8).
@@ -170,7 +169,7 @@ class SpeechDrivenCondition(Condition):
         gains); the ground truth's head mean becomes the generated head's mean."""
         if ground_truth is None:
             return self
-        gt = align_to_features(ground_truth, features)
+        gt = ground_truth  # aligned to the features by the caller
         self.head_mean = {c: float(gt[c].mean()) for c in HEAD if c in gt.channels}
         if self.model_path is None and any(c in gt.channels and np.std(gt[c]) > 0
                                            for c in HEAD):

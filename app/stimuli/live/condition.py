@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING, Any
 from app.data import data_path
 from app.errors import InputError
 from app.stimuli.conditions.base import Condition
-from app.stimuli.features import SpeechFeatures
 from app.stimuli.live.stream import OUTPUT_CHANNELS
+from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
 if TYPE_CHECKING:

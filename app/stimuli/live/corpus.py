@@ -29,8 +29,7 @@ import numpy as np
 import parselmouth
 from parselmouth.praat import call
 
-from app.stimuli.features import SpeechFeatures
-from app.stimuli.speech import features_from_samples
+from app.stimuli.speech import SpeechFeatures, features_from_samples
 
 
 class Voice(NamedTuple):

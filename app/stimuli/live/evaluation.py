@@ -31,12 +31,12 @@ from dataclasses import dataclass
 import numpy as np
 import parselmouth
 
-from app.stimuli.features import SpeechFeatures
 from app.stimuli.live.corpus import TEST_VOICES, TRAIN_VOICES, speech_take
 from app.stimuli.live.eyelids import blink_onsets, closure_from_faps
 from app.stimuli.live.model import LiveModel, gaze_angles, head_angles
 from app.stimuli.live.stream import generate_track
 from app.stimuli.reference_speaker import synthesize_reference
+from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
 #: Channels measured, in the order of :attr:`HeldOutFigures.sd` etc.

@@ -21,19 +21,17 @@ from typing import Any
 import numpy as np
 
 from app.errors import InputError
-from app.stimuli.fap import AU_RADIANS, EYELIDS, GAZE, HEAD_PITCH, HEAD_ROLL, HEAD_YAW
-from app.stimuli.features import SpeechFeatures
+from app.stimuli.fap import DEG_PER_AU, EYELIDS, GAZE, HEAD_PITCH, HEAD_ROLL, HEAD_YAW
 from app.stimuli.live.eyelids import EyelidModel, fit_eyelid_model
 from app.stimuli.live.gaze import FixationModel, GazeModel, fit_fixation_model, fit_gaze_model
 from app.stimuli.live.head import HeadModel, fit_head_model
 from app.stimuli.live.inputs import SpeechScale, smoothed_inputs, talking_mode
 from app.stimuli.live.mixture import Mixture, MixtureBank
+from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
 FORMAT = "facepair-live-gmm"
 VERSION = 2
-#: Degrees per MPEG-4 angle unit.
-DEG_PER_AU = AU_RADIANS * 180.0 / np.pi
 _MIX = ("weights", "means", "covariances")
 
 

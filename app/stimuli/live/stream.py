@@ -24,13 +24,13 @@ import math
 
 import numpy as np
 
-from app.stimuli.fap import EYELIDS, GAZE, HEAD
-from app.stimuli.features import SpeechFeatures
+from app.stimuli.fap import DEG_PER_AU, EYELIDS, GAZE, HEAD
 from app.stimuli.live.audio import AudioFrameStream
 from app.stimuli.live.eyelids import BlinkClock
 from app.stimuli.live.gaze import FixationClock
 from app.stimuli.live.inputs import LOUDNESS_FLOOR_DB, ContourSmoother
-from app.stimuli.live.model import DEG_PER_AU, LiveModel
+from app.stimuli.live.model import LiveModel
+from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
 #: FAPs of each output frame, ascending: eyelids 19-22, gaze 23-26, head 48-50.

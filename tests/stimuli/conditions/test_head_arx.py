@@ -6,8 +6,7 @@ import pytest
 from app.errors import InputError
 from app.stimuli.arx import ArxModel
 from app.stimuli.conditions.head_arx import DEFAULT_MODEL_PATH, HeadPoseArx, head_inputs
-from app.stimuli.features import SpeechFeatures
-from app.stimuli.speech import condition_f0
+from app.stimuli.speech import SpeechFeatures, condition_f0
 from app.stimuli.track import MotionTrack
 
 

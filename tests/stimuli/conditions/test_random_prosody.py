@@ -1,8 +1,8 @@
 import numpy as np
 
 from app.stimuli.conditions import make_condition
-from app.stimuli.features import SpeechFeatures
 from app.stimuli.perlin import fbm_bound
+from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
 

@@ -3,7 +3,7 @@ import pytest
 
 from app.errors import InputError
 from app.stimuli.conditions import CONDITIONS, DISPLAY_NAMES, make_condition
-from app.stimuli.features import SpeechFeatures
+from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
 

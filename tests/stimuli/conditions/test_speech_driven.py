@@ -5,8 +5,8 @@ from app.errors import InputError
 from app.stimuli.conditions import make_condition
 from app.stimuli.conditions.head_arx import DEFAULT_MODEL_PATH
 from app.stimuli.conditions.speech_driven import resolve_threshold
-from app.stimuli.features import SpeechFeatures
 from app.stimuli.reference_speaker import synthesize_reference
+from app.stimuli.speech import SpeechFeatures
 from tests.stimuli.conditions.test_eyebrow_rule import known_contours
 
 

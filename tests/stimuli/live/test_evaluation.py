@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from app.stimuli.fap import DEG_PER_AU
 from app.stimuli.live.evaluation import (
     CHANNELS,
     blink_rate,
@@ -17,7 +18,7 @@ from app.stimuli.live.evaluation import (
     high_frequency_fraction,
 )
 from app.stimuli.live.eyelids import blink_closure
-from app.stimuli.live.model import DEG_PER_AU, train_live_model
+from app.stimuli.live.model import train_live_model
 from app.stimuli.speech import load_sound
 from app.stimuli.track import MotionTrack
 
