@@ -181,3 +181,24 @@ def test_a_bucket_url_is_read_or_refused_by_name(url):
     else:
         assert url.startswith("s3://") and bucket and "/" not in bucket
         assert prefix == "" or prefix.endswith("/")
+
+
+def test_a_worker_without_the_files_reads_and_writes_through_the_bucket(app, web, request):
+    """``s3``: the study's audio went to the bucket when the study was made; a worker on
+    another machine (no local copy) fetches it, and what it writes is in the bucket."""
+    import shutil
+
+    from app.jobs.tasks import generate_tracks
+
+    use_backend(app, "s3", request)
+    study_id = web.study(video=False)
+    with app.app_context():
+        study = db.session.get(Study, study_id)
+        folder = media.media_dir(study)
+        shutil.rmtree(folder)  # this machine never saw the upload
+        assert generate_tracks(study, lambda done, total: None) == "2 tracks generated"
+        keys = {o["Key"] for o in media.s3_client().list_objects_v2(
+            Bucket=BUCKET, Prefix=f"media/study-{study_id}/")["Contents"]}
+    assert f"media/study-{study_id}/clips/s1/audio.wav" in keys
+    assert {f"media/study-{study_id}/tracks/s1/{c}.fap" for c in ("none", "random")} <= keys
+    assert (folder / "clips" / "s1" / "audio.wav").is_file()  # fetched for the job
