@@ -202,3 +202,23 @@ def test_a_worker_without_the_files_reads_and_writes_through_the_bucket(app, web
     assert f"media/study-{study_id}/clips/s1/audio.wav" in keys
     assert {f"media/study-{study_id}/tracks/s1/{c}.fap" for c in ("none", "random")} <= keys
     assert (folder / "clips" / "s1" / "audio.wav").is_file()  # fetched for the job
+
+
+@settings(max_examples=40, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(name=st.text(max_size=60))
+def test_a_report_name_never_sends_a_file_outside_the_studys_report(app, client, web, name):
+    """``accel``: whatever the name, the proxy is pointed only inside the report folder."""
+    if not db_has_study(app):
+        web.study()
+        web.login(client)
+    app.config["MEDIA_BACKEND"] = "accel"
+    with app.app_context():
+        study = db.session.scalars(sa.select(Study)).first()
+        (media.media_dir(study) / "report").mkdir(exist_ok=True)
+        (media.media_dir(study) / "report" / "votes.csv").write_text("a,b\n", encoding="utf-8")
+    response = client.get(f"/experimenter/studies/{study.id}/report/"
+                          + urllib.request.quote(name, safe="/"))
+    assert response.status_code < 500
+    accel = response.headers.get("X-Accel-Redirect")
+    assert accel is None or accel.startswith(f"/_protected/study-{study.id}/report/")

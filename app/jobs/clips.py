@@ -57,6 +57,9 @@ def split_render(study: Study, job_id: int, progress: Callable[[int, int], None]
     if not todo:
         return False
     progress(len(stimuli) - len(todo), len(stimuli))
+    with transaction() as session:  # what the study page says until the first clip is in
+        session.execute(sa.update(Job).where(Job.id == job_id).values(
+            message=f"{len(todo)} clips queued, one job each, for any worker"))
     queue = Queue(QUEUE, connection=get_current_job().connection)  # type: ignore[union-attr]
     failed = Callback("app.jobs.tasks.rq_failed")
     clips = queue.enqueue_many([Queue.prepare_data(
@@ -129,7 +132,8 @@ def render_clip(job_id: int, stimulus_id: int) -> dict[str, Any]:
             outcome["rendered"] = True
         with transaction() as session:
             session.execute(sa.update(Job).where(Job.id == job_id, Job.status == "running")
-                            .values(done=Job.done + 1, heartbeat_at=utcnow()))
+                            .values(done=Job.done + 1, heartbeat_at=utcnow(),
+                                    message=f"clip {label} rendered by {worker}"))
     except Exception as exc:  # noqa: BLE001 - every failure must reach the experimenter
         db.session.rollback()
         log.exception("job %s: clip %s failed", job_id, label)
