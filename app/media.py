@@ -200,6 +200,23 @@ def publish_folder(study: Study, folder: str) -> int:
     return len(files)
 
 
+def forget(study: Study, folder: str = "") -> int:
+    """Delete the study's files under ``folder`` (all of them by default) from the bucket
+    (``s3`` only): a deleted study or participant leaves no copy there. Returns how many."""
+    if _backend() != "s3":
+        return 0
+    bucket, prefix = bucket_and_prefix(current_app.config.get("MEDIA_URL"))
+    under = f"{object_key(study, folder)}/" if folder else f"{prefix}study-{study.id}/"
+    client = s3_client()
+    removed = 0
+    for page in client.get_paginator("list_objects_v2").paginate(Bucket=bucket, Prefix=under):
+        keys = [{"Key": found["Key"]} for found in page.get("Contents", [])]
+        if keys:  # at most 1,000 a page, as delete_objects takes
+            client.delete_objects(Bucket=bucket, Delete={"Objects": keys, "Quiet": True})
+            removed += len(keys)
+    return removed
+
+
 def stored(study: Study, rel: str) -> bool:
     """Whether the study's file ``rel`` is where the backend serves it from (``s3``: a path
     is recorded only after its upload, so the record is the answer)."""

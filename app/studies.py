@@ -221,6 +221,7 @@ def delete_study(study: Study) -> None:
     """Delete ``study`` with every row that belongs to it and its media folder (audio, tracks,
     videos, reports). Not committed; the files go first, so a failure leaves rows that still
     show the study rather than rows pointing at nothing."""
+    media.forget(study)
     shutil.rmtree(media_dir(study), ignore_errors=True)
     participants = sa.select(Participant.id).where(Participant.study_id == study.id)
     conditions = sa.select(Condition.id).where(Condition.study_id == study.id)

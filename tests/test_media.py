@@ -222,3 +222,38 @@ def test_a_report_name_never_sends_a_file_outside_the_studys_report(app, client,
     assert response.status_code < 500
     accel = response.headers.get("X-Accel-Redirect")
     assert accel is None or accel.startswith(f"/_protected/study-{study.id}/report/")
+
+
+def test_deleted_participants_and_studies_leave_nothing_in_the_bucket(app, web, participant,
+                                                                       request):
+    from app.privacy import delete_participants
+    from app.studies import delete_study
+
+    use_backend(app, "s3", request)
+    study_id = web.study()
+    participant.join(_slug(app, study_id))
+    with app.app_context():
+        study = db.session.get(Study, study_id)
+        media.publish_folder(study, "videos")
+        report = media.media_dir(study) / "report"
+        report.mkdir()
+        (report / "votes.csv").write_text("participant\nsomeone\n", encoding="utf-8")
+        media.publish_folder(study, "report")
+        client, prefix = media.s3_client(), f"media/study-{study_id}/"
+
+        def keys() -> set[str]:
+            listed = client.list_objects_v2(Bucket=BUCKET, Prefix=prefix).get("Contents", [])
+            return {found["Key"] for found in listed}
+
+        assert f"{prefix}report/votes.csv" in keys()
+        from app.exports import participant_label
+
+        number = db.session.scalar(sa.select(Participant.number).where(
+            Participant.token == participant.token))
+        label = participant_label(number)
+        assert delete_participants(study, label).labels == (label,)
+        db.session.commit()
+        assert keys() and not any(key.startswith(f"{prefix}report/") for key in keys())
+        delete_study(study)
+        db.session.commit()
+        assert keys() == set()
