@@ -3,7 +3,9 @@
 The render job's row is the parent. Run by an RQ worker, it queues one job per clip still to
 render (:func:`render_clip_standalone`, RQ id :func:`clip_job_id`) and one closing job that
 depends on all of them (:func:`finish_render_standalone`, RQ id :func:`finish_job_id`), then
-returns with its row ``running``. Each clip job adds one to the row's ``done`` (the study page
+returns with its row ``queued`` again: while the clips wait their turn the sweeper asks RQ
+about the closing job, not the heartbeat. The first clip job to start sets the row
+``running``; each adds one to the row's ``done`` (the study page
 shows k of n clips, summed over the workers) and renews its heartbeat every frame; the closing
 job ends the row ``done`` when every clip is in place, ``failed`` otherwise. The clip jobs carry
 the parent's id as their first argument, so the lifecycle of :mod:`app.jobs` applies to them
@@ -57,9 +59,12 @@ def split_render(study: Study, job_id: int, progress: Callable[[int, int], None]
     if not todo:
         return False
     progress(len(stimuli) - len(todo), len(stimuli))
-    with transaction() as session:  # what the study page says until the first clip is in
+    # Queued again until a worker starts its first clip: the clips may wait behind other
+    # studies' longer than JOB_STALE_AFTER_SECONDS, and the sweeper asks RQ about a queued
+    # row (the closing job, deferred while clips are left) instead of its heartbeat.
+    with transaction() as session:
         session.execute(sa.update(Job).where(Job.id == job_id).values(
-            message=f"{len(todo)} clips queued, one job each, for any worker"))
+            status="queued", message=f"{len(todo)} clips queued, one job each, for any worker"))
     queue = Queue(QUEUE, connection=get_current_job().connection)  # type: ignore[union-attr]
     failed = Callback("app.jobs.tasks.rq_failed")
     clips = queue.enqueue_many([Queue.prepare_data(
@@ -117,10 +122,14 @@ def render_clip(job_id: int, stimulus_id: int) -> dict[str, Any]:
 
     worker = _worker_name()
     outcome = {"stimulus": stimulus_id, "worker": worker, "rendered": False}
-    status = db.session.scalar(sa.select(Job.status).where(Job.id == job_id))
+    with transaction() as session:
+        started = session.execute(
+            sa.update(Job).where(Job.id == job_id, Job.status.in_(("queued", "running")))
+            .values(status="running", heartbeat_at=utcnow())).rowcount
     stim = db.session.get(Stimulus, stimulus_id)
-    if status != "running" or stim is None:
+    if started != 1 or stim is None:
         # The render failed or was given up meanwhile: its retry renders this clip.
+        status = db.session.scalar(sa.select(Job.status).where(Job.id == job_id))
         return {**outcome, "skipped": status}
     label = f"{stim.clip.name} {stim.left.name}/{stim.right.name}"
     try:
@@ -151,7 +160,7 @@ def finish_render(job_id: int, kept: int) -> str:
     from app.jobs.tasks import mark_failed, render_inputs, rendered, rendering_finished
 
     job = db.session.get(Job, job_id)
-    if job is None or job.status != "running":
+    if job is None or job.status not in ("queued", "running"):
         return job.status if job is not None else "failed"
     study = job.study
     _, stimuli = render_inputs(study)
@@ -165,7 +174,8 @@ def finish_render(job_id: int, kept: int) -> str:
                } if current is not None else set()
     message = rendering_finished(study, len(stimuli), kept, len(workers - {None}))
     with transaction() as session:
-        session.execute(sa.update(Job).where(Job.id == job_id, Job.status == "running").values(
+        session.execute(sa.update(Job).where(
+            Job.id == job_id, Job.status.in_(("queued", "running"))).values(
             status="done", message=message, finished_at=utcnow(), done=len(stimuli),
             total=len(stimuli)))
     return "done"

@@ -178,3 +178,42 @@ def test_the_closing_job_fails_a_render_with_clips_missing(app, web):
         total = db.session.scalar(sa.select(sa.func.count(Stimulus.id)))
         assert db.session.get(Job, job.id).message == (
             f"0 of {total} clips rendered; retry it to render the rest")
+
+
+def test_a_split_render_waiting_for_workers_is_swept_only_when_rq_lost_it(app, web,
+                                                                         redis_url):
+    """Clips may wait behind other studies' clips for longer than the stale timeout: the row
+    is queued, its closing job deferred in RQ, and the sweeper leaves it; once RQ no longer
+    has the closing job the row is swept."""
+    import datetime as dt
+
+    from redis import Redis
+    from rq import Queue
+    from rq.job import Dependency
+
+    from app.jobs.tasks import sweep_stale
+    from app.models import utcnow
+
+    redis_url = redis_url.rsplit("/", 1)[0] + "/13"
+    study_id = web.study(video=False)
+    long_ago = utcnow() - dt.timedelta(hours=2)
+    with app.app_context():
+        job = Job(study_id=study_id, kind="render", status="queued", created_at=long_ago,
+                  heartbeat_at=long_ago)
+        db.session.add(job)
+        db.session.commit()
+        job_id = job.id
+    with Redis.from_url(redis_url) as connection:
+        connection.flushdb()
+        queue = Queue("facepair-test-split", connection=connection)
+        waiting = queue.enqueue("builtins.print", job_id=clip_job_id(job_id, 1))
+        queue.enqueue("builtins.print", job_id=finish_job_id(job_id),
+                      depends_on=Dependency(jobs=[waiting]))
+        with app.app_context():
+            assert sweep_stale(study_id, stale_after=60, redis_url=redis_url) == 0
+            assert db.session.get(Job, job_id).status == "queued"
+            connection.flushdb()  # Redis lost everything
+            assert sweep_stale(study_id, stale_after=60, redis_url=redis_url) == 1
+            db.session.commit()
+            row = db.session.get(Job, job_id)
+            assert row.status == "failed" and row.message.startswith("the job queue lost it")
