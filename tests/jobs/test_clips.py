@@ -120,10 +120,15 @@ def test_two_workers_render_one_studys_clips_in_parallel(pg_app, tmp_path):
         for stimulus in stimuli:
             assert (media_dir(study) / stimulus.video_path).stat().st_size > 1000
     connection = Redis.from_url(pg_app.config["REDIS_URL"])
-    by = {s.id: RQJob.fetch(clip_job_id(row.id, s.id), connection=connection).return_value()
-          for s in stimuli}
+    clip_jobs = [RQJob.fetch(clip_job_id(row.id, s.id), connection=connection)
+                 for s in stimuli]
+    by = {job.id: job.return_value() for job in clip_jobs}
     assert all(outcome["rendered"] for outcome in by.values()), by
     assert {outcome["worker"] for outcome in by.values()} == {"w1", "w2"}, by
+    # at once, not in turn: some clip of one worker was rendering while one of the other was
+    spans = {name: [(j.started_at, j.ended_at) for j in clip_jobs if j.worker_name == name]
+             for name in ("w1", "w2")}
+    assert any(a0 < b1 and b0 < a1 for a0, a1 in spans["w1"] for b0, b1 in spans["w2"]), spans
     assert row.message == f"{len(stimuli)} clips rendered by 2 workers"
     assert (row.done, row.total) == (len(stimuli), len(stimuli))
     # the page's k of n went up clip by clip, summed over both workers
