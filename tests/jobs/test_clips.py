@@ -119,9 +119,10 @@ def test_two_workers_render_one_studys_clips_in_parallel(pg_app, tmp_path):
         assert len(stimuli) >= 4 and study.status == "ready"
         for stimulus in stimuli:
             assert (media_dir(study) / stimulus.video_path).stat().st_size > 1000
-    connection = Redis.from_url(pg_app.config["REDIS_URL"])
-    clip_jobs = [RQJob.fetch(clip_job_id(row.id, s.id), connection=connection)
-                 for s in stimuli]
+    with Redis.from_url(pg_app.config["REDIS_URL"]) as connection:
+        clip_jobs = [RQJob.fetch(clip_job_id(row.id, s.id), connection=connection)
+                     for s in stimuli]
+        finished = RQJob.fetch(finish_job_id(row.id), connection=connection)
     by = {job.id: job.return_value() for job in clip_jobs}
     assert all(outcome["rendered"] for outcome in by.values()), by
     assert {outcome["worker"] for outcome in by.values()} == {"w1", "w2"}, by
@@ -134,7 +135,6 @@ def test_two_workers_render_one_studys_clips_in_parallel(pg_app, tmp_path):
     # the page's k of n went up clip by clip, summed over both workers
     assert seen[-1] == (len(stimuli), len(stimuli)) and len(seen) >= 3, seen
     assert [done for done, _ in seen] == sorted(done for done, _ in seen)
-    finished = RQJob.fetch(finish_job_id(row.id), connection=connection)
     assert finished.return_value() == "done"
 
 
