@@ -63,7 +63,7 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
         RETRY_AFTER_SECONDS=5,
     )
     from app.media import DEFAULTS as MEDIA_DEFAULTS
-    from app.media import check_media_settings
+    from app.media import init_media
 
     # Who sends clips, audio and reports: Flask, the front proxy or a bucket (app.media).
     app.config.from_mapping(MEDIA_DEFAULTS)
@@ -76,7 +76,7 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
     if config:
         app.config.update(config)
     init_security(app)
-    check_media_settings(app)
+    init_media(app)
     init_extensions(app)
     init_web(app)
     return app

@@ -21,6 +21,8 @@ them (the check is the view's and the same for every backend):
 from __future__ import annotations
 
 import posixpath
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 from urllib.parse import quote
@@ -55,6 +57,37 @@ DEFAULTS: dict[str, Any] = {
     "MEDIA_URL_TTL": 300,
 }
 _clients: dict[tuple[str | None, str | None], Any] = {}
+
+
+class MediaStoreError(RuntimeError):
+    """The bucket could not be reached or refused the request (``s3``): the job fails, and a
+    web request answers 503, with this one line."""
+
+
+@contextmanager
+def _store(action: str) -> Iterator[None]:
+    """Turn the client's errors into a :class:`MediaStoreError` naming the setting."""
+    from botocore.exceptions import BotoCoreError, ClientError
+
+    try:
+        yield
+    except (BotoCoreError, ClientError) as exc:
+        where = current_app.config.get("MEDIA_S3_ENDPOINT") or current_app.config["MEDIA_URL"]
+        raise MediaStoreError(f"the media store (MEDIA_URL, {where}) could not {action}: "
+                              f"{str(exc).splitlines()[0]}") from None
+
+
+def init_media(app: Flask) -> None:
+    """Check the settings and answer a request the bucket failed with 503 and one line."""
+    check_media_settings(app)
+
+    def unavailable(exc: MediaStoreError):  # type: ignore[no-untyped-def]
+        from flask import render_template
+
+        current_app.logger.warning("%s", exc)
+        return render_template("error.html", message=str(exc), status=503), 503
+
+    app.register_error_handler(MediaStoreError, unavailable)
 
 
 def check_media_settings(app: Flask) -> None:
@@ -112,9 +145,13 @@ def s3_client(*, public: bool = False) -> Any:
         from botocore.config import Config
 
         # Path-style addressing: MinIO and other self-hosted stores serve no bucket subdomains.
+        # Short connect timeout and few retries: a store that is away fails the job in
+        # seconds, with a reason, instead of holding a worker for minutes.
         _clients[key] = boto3.client("s3", endpoint_url=endpoint, region_name=region,
                                      config=Config(signature_version="s3v4",
-                                                   s3={"addressing_style": "path"}))
+                                                   s3={"addressing_style": "path"},
+                                                   connect_timeout=5, read_timeout=60,
+                                                   retries={"max_attempts": 3}))
     return _clients[key]
 
 
@@ -185,8 +222,9 @@ def publish(study: Study, rel: str) -> None:
         return
     bucket, _ = bucket_and_prefix(current_app.config.get("MEDIA_URL"))
     path = media_file(study, rel)
-    s3_client().upload_file(str(path), bucket, object_key(study, rel),
-                            ExtraArgs={"ContentType": _guess_type(path)})
+    with _store(f"take {rel}"):
+        s3_client().upload_file(str(path), bucket, object_key(study, rel),
+                                ExtraArgs={"ContentType": _guess_type(path)})
 
 
 def publish_folder(study: Study, folder: str) -> int:
@@ -209,11 +247,13 @@ def forget(study: Study, folder: str = "") -> int:
     under = f"{object_key(study, folder)}/" if folder else f"{prefix}study-{study.id}/"
     client = s3_client()
     removed = 0
-    for page in client.get_paginator("list_objects_v2").paginate(Bucket=bucket, Prefix=under):
-        keys = [{"Key": found["Key"]} for found in page.get("Contents", [])]
-        if keys:  # at most 1,000 a page, as delete_objects takes
-            client.delete_objects(Bucket=bucket, Delete={"Objects": keys, "Quiet": True})
-            removed += len(keys)
+    with _store(f"delete {under}"):
+        for page in client.get_paginator("list_objects_v2").paginate(Bucket=bucket,
+                                                                     Prefix=under):
+            keys = [{"Key": found["Key"]} for found in page.get("Contents", [])]
+            if keys:  # at most 1,000 a page, as delete_objects takes
+                client.delete_objects(Bucket=bucket, Delete={"Objects": keys, "Quiet": True})
+                removed += len(keys)
     return removed
 
 
@@ -236,6 +276,7 @@ def fetch(study: Study, rel: str) -> Path:
         bucket, _ = bucket_and_prefix(current_app.config.get("MEDIA_URL"))
         path.parent.mkdir(parents=True, exist_ok=True)
         part = path.with_name(path.name + ".part")
-        s3_client().download_file(bucket, object_key(study, rel), str(part))
+        with _store(f"give {rel}"):
+            s3_client().download_file(bucket, object_key(study, rel), str(part))
         part.replace(path)
     return path

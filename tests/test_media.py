@@ -257,3 +257,31 @@ def test_deleted_participants_and_studies_leave_nothing_in_the_bucket(app, web, 
         delete_study(study)
         db.session.commit()
         assert keys() == set()
+
+
+def test_a_store_that_is_away_fails_the_job_and_the_request_with_one_line(app, client, web,
+                                                                           request):
+    """``s3`` with the bucket unreachable: a job fails naming MEDIA_URL (no minutes of
+    retries), and a page that writes to the bucket answers 503 with that line, not a 500."""
+    from app.jobs.tasks import run_job
+    from app.models import Job
+    from tests.conftest import csrf_token
+
+    study_id = web.study()
+    web.login(client)
+    request.getfixturevalue("s3_env")
+    app.config.update(MEDIA_BACKEND="s3", MEDIA_URL=f"s3://{BUCKET}",
+                      MEDIA_S3_ENDPOINT=f"http://127.0.0.1:{_free_port()}")  # nobody listens
+    with app.app_context():
+        job = Job(study_id=study_id, kind="generate")
+        db.session.add(job)
+        db.session.commit()
+        assert run_job(job.id) == "failed"
+        message = db.session.get(Job, job.id).message
+    assert message.startswith("MediaStoreError: the media store (MEDIA_URL, http://127.0.0.1:")
+    assert "could not take tracks/s1/" in message and "\n" not in message
+    token = csrf_token(client, f"/experimenter/studies/{study_id}")
+    copied = client.post(f"/experimenter/studies/{study_id}/duplicate",
+                         data={"csrf_token": token, "with_clips": "y"})
+    assert copied.status_code == 503
+    assert "the media store (MEDIA_URL" in copied.get_data(as_text=True)
