@@ -12,8 +12,9 @@ STAMP := $(VENV)/.installed-test
 PORT ?= 5000
 HOST ?= 127.0.0.1
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
-# Debian packages: EGL/Mesa for headless rendering, chromium + driver for browser tests.
-DEBS_TEST := chromium chromium-driver libegl1 libgl1-mesa-dri libegl-mesa0
+# Debian packages: EGL/Mesa for headless rendering, chromium + driver for browser tests,
+# nginx for the front-proxy test (X-Accel-Redirect).
+DEBS_TEST := chromium chromium-driver libegl1 libgl1-mesa-dri libegl-mesa0 nginx-light
 DEBS_DEMO := libegl1 libgl1-mesa-dri libegl-mesa0
 
 .PHONY: demo test venv debs-test debs-demo lint bench clean

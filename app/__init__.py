@@ -67,15 +67,21 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
         # Seconds a client is asked to wait (Retry-After) while the database is unreachable.
         RETRY_AFTER_SECONDS=5,
     )
+    from app.media import DEFAULTS as MEDIA_DEFAULTS
+    from app.media import init_media
+
+    # Who sends clips, audio and reports: Flask, the front proxy or a bucket (app.media).
+    app.config.from_mapping(MEDIA_DEFAULTS)
     app.config.from_pyfile("config.py", silent=True)
     if os.environ.get("DATABASE_URL"):
         app.config["SQLALCHEMY_DATABASE_URI"] = os.environ["DATABASE_URL"]
-    for key in ("SECRET_KEY", "REDIS_URL", "MEDIA_ROOT", "TRUST_PROXY"):
+    for key in ("SECRET_KEY", "REDIS_URL", "MEDIA_ROOT", "TRUST_PROXY", *MEDIA_DEFAULTS):
         if os.environ.get(key):
             app.config[key] = os.environ[key]
     if config:
         app.config.update(config)
     init_security(app)
+    init_media(app)
     init_extensions(app)
     init_web(app)
     return app

@@ -22,6 +22,7 @@ from typing import Any
 
 import sqlalchemy as sa
 
+from app import media
 from app.enrolment import move_slot
 from app.exports import participant_label, report_path
 from app.extensions import db
@@ -166,6 +167,8 @@ def delete_participants(study: Study, identifier: str) -> Deleted:
     db.session.execute(sa.delete(Participant).where(Participant.id.in_(ids))
                        .execution_options(synchronize_session=False))
     db.session.expire_all()
-    shutil.rmtree(report_path(study).parent, ignore_errors=True)
+    folder = report_path(study).parent
+    media.forget(study, folder.name)  # the report's votes.csv names them
+    shutil.rmtree(folder, ignore_errors=True)
     study.report_at = None
     return Deleted(labels, int(votes or 0))

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import sqlalchemy as sa
 
-from app import design
+from app import design, media
 from app.analysis.quality import parse_rules
 from app.extensions import db
 from app.models import (
@@ -49,6 +49,7 @@ def _copy(study: Study, source: Path, rel: str) -> str:
     target = media_dir(study) / rel
     target.parent.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(source, target)
+    media.publish(study, rel)
     return rel
 
 
@@ -186,6 +187,7 @@ def duplicate_study(study: Study, owner: User, *, with_clips: bool) -> Study:
     for folder in kept:
         if (source / folder).is_dir():
             shutil.copytree(source / folder, target / folder, dirs_exist_ok=True)
+            media.publish_folder(copy, folder)
     conditions = {c.id: Condition(name=c.name, model=c.model, params=dict(c.params),
                                   uploads=dict(c.uploads), position=c.position)
                   for c in study.conditions}
@@ -219,6 +221,7 @@ def delete_study(study: Study) -> None:
     """Delete ``study`` with every row that belongs to it and its media folder (audio, tracks,
     videos, reports). Not committed; the files go first, so a failure leaves rows that still
     show the study rather than rows pointing at nothing."""
+    media.forget(study)
     shutil.rmtree(media_dir(study), ignore_errors=True)
     participants = sa.select(Participant.id).where(Participant.study_id == study.id)
     conditions = sa.select(Condition.id).where(Condition.study_id == study.id)

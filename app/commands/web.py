@@ -162,8 +162,11 @@ def serve(host: str, port: int, workers: int, dev: bool) -> None:
 
 
 @click.command()
-def worker() -> None:
-    """Run an RQ worker for the background jobs (needs REDIS_URL)."""
+@click.option("--name", default=None,
+              help="The worker's name in RQ and on each clip it renders (default: random).")
+def worker(name: str | None) -> None:
+    """Run an RQ worker for the background jobs (needs REDIS_URL); start one on each machine
+    that should render (docs/web.md, "Render workers")."""
     app = _offline_app()
     url = app.config.get("REDIS_URL")
     if not url:
@@ -175,7 +178,7 @@ def worker() -> None:
     from app.jobs.tasks import rq_horse_killed
 
     with app.app_context():
-        Worker(["facepair"], connection=Redis.from_url(url),
+        Worker(["facepair"], connection=Redis.from_url(url), name=name,
                work_horse_killed_handler=rq_horse_killed).work()
 
 

@@ -12,7 +12,6 @@ from flask import (
     redirect,
     render_template,
     request,
-    send_file,
     session,
     url_for,
 )
@@ -33,6 +32,7 @@ from app.experimenter.forms import (
 from app.extensions import db, limiter
 from app.jobs import enqueue
 from app.jobs.tasks import JOB_KINDS, sweep_study_jobs
+from app.media import media_response
 from app.models import Job, Stimulus, Study
 from app.security import REPORT_CONTENT_SECURITY_POLICY, safe_next
 from app.storage import media_file
@@ -307,18 +307,20 @@ def report(study_id: int, name: str = "report.html"):  # type: ignore[no-untyped
 
     study = _own_study(study_id)
     folder = report_path(study).parent
+    rel = f"{folder.name}/{name}"
     try:
-        path = media_file(study, f"{folder.name}/{name}")
+        path = media_file(study, rel)
     except ValueError:
         abort(404)
-    if not path.is_file():
+    # With a bucket (MEDIA_BACKEND = "s3") this machine may hold no copy of a written report.
+    in_bucket = current_app.config["MEDIA_BACKEND"] == "s3" and study.report_at is not None
+    if not path.is_file() and not in_bucket:
         if name != "report.html":
             abort(404)
         return render_template("experimenter/no_report.html", study=study,
                                action=ActionForm()), 404
-    response = send_file(path, max_age=0)
-    response.headers["Content-Security-Policy"] = REPORT_CONTENT_SECURITY_POLICY
-    return response
+    return media_response(study, rel, headers={
+        "Content-Security-Policy": REPORT_CONTENT_SECURITY_POLICY})
 
 
 @bp.get("/studies/<int:study_id>/stimuli/<int:stimulus_id>.mp4")
@@ -328,8 +330,7 @@ def preview(study_id: int, stimulus_id: int):  # type: ignore[no-untyped-def]
     stimulus = db.session.get(Stimulus, stimulus_id)
     if stimulus is None or stimulus.study_id != study.id or not stimulus.video_path:
         abort(404)
-    return send_file(media_file(study, stimulus.video_path), mimetype="video/mp4",
-                     conditional=True)
+    return media_response(study, stimulus.video_path, mimetype="video/mp4")
 
 
 # The other experimenter pages add their routes to ``bp`` (one module per idea).

@@ -165,7 +165,10 @@ def enqueue(app: Flask, job_id: int) -> Future[str] | None:
         with app.app_context():
             run_job(job_id)
         return None
-    config = {key: app.config[key] for key in CHILD_CONFIG if key in app.config}
+    from app.media import DEFAULTS as MEDIA_SETTINGS
+
+    config = {key: app.config[key] for key in (*CHILD_CONFIG, *MEDIA_SETTINGS)
+              if key in app.config}
     future = _process_executor().submit(run_in_child, job_id, config)
     future.add_done_callback(functools.partial(_when_finished, app, job_id))
     _hold(app, job_id, future)

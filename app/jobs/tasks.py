@@ -18,6 +18,7 @@ from typing import Any
 import sqlalchemy as sa
 from sqlalchemy.exc import SQLAlchemyError
 
+from app import media
 from app.extensions import db, transaction
 from app.models import Clip, Job, Stimulus, Study, Track, utcnow
 from app.storage import disk_full, disk_full_message, media_dir
@@ -81,9 +82,10 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
         tracks = {}
         if models:
             result = generate_conditions(
-                root / clip.audio_path,
+                media.fetch(study, clip.audio_path),
                 conditions={c.name: {"model": c.model, **c.params} for c in models},
-                ground_truth=(root / clip.ground_truth_path) if clip.ground_truth_path else None,
+                ground_truth=(media.fetch(study, clip.ground_truth_path)
+                              if clip.ground_truth_path else None),
                 seed=study.seed,
                 eyes=study.settings.get("eyes", "still"),
                 normalize=bool(study.settings.get("normalize", False)),
@@ -99,9 +101,10 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
                 if source is None:
                     raise ValueError(f"condition {condition.name}: no uploaded track for clip "
                                      f"{clip.name}")
-                save_track(load_track(root / source), root / rel)
+                save_track(load_track(media.fetch(study, source)), root / rel)
             else:
                 save_track(tracks[condition.name], root / rel)
+            media.publish(study, rel)
             _upsert_track(condition.id, clip.id, rel)
             done += 1
             progress(done, total)
@@ -118,50 +121,75 @@ def _upsert_track(condition_id: int, clip_id: int, rel: str) -> None:
         track.path = rel
 
 
-def render_clips(study: Study, progress: Callable[[int, int], None]) -> str:
-    """Render every stimulus video of the study (``renderer.render_pair``)."""
-    import renderer
-    from app.stimuli.io import load_track
-
-    root = media_dir(study)
+def render_inputs(study: Study) -> tuple[dict[tuple[int, int], str], list[Stimulus]]:
+    """The study's track paths by (condition, clip) and its stimuli in order; raises when a
+    stimulus has no track to show yet."""
     tracks = {(t.condition_id, t.clip_id): t.path for t in db.session.scalars(
         sa.select(Track).join(Clip).where(Clip.study_id == study.id))}
     stimuli = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id)
                                  .order_by(Stimulus.id)).all()
-    missing = [s for s in stimuli if any(key not in tracks for key in _track_keys(s))]
-    if missing:
+    if any(key not in tracks for s in stimuli for key in _track_keys(s)):
         raise ValueError("generate the tracks first: some conditions have no track yet")
+    return tracks, list(stimuli)
+
+
+def render_stimulus(study: Study, stim: Stimulus, tracks: dict[tuple[int, int], str],
+                    progress: Callable[[int, int], None]) -> str:
+    """Render one stimulus video (``renderer.render_pair``), record and publish it; returns
+    its path in the study's folder. ``progress(frame, frames)`` is called every frame."""
+    import renderer
+    from app.stimuli.io import load_track
+
+    root = media_dir(study)
     settings = renderer.RenderSettings(**study.settings.get("render", {}))
-    cache = root / "cache"
+    rel = f"videos/{stim.clip.name}/{stim.left.name}__{stim.right.name}{_variant(stim)}.mp4"
+    (root / rel).parent.mkdir(parents=True, exist_ok=True)
+    left, right = (load_track(media.fetch(study, tracks[(condition, clip)])) for condition, clip
+                   in _track_keys(stim))
+    if stim.foreign_side:
+        # The lent motion is time-aligned to this clip's speech and trimmed to its length.
+        matched = right if stim.foreign_side == "left" else left
+        lent = (left if stim.foreign_side == "left" else right).resample(
+            matched.fps).fit_length(matched.n_frames)
+        left, right = (lent, right) if stim.foreign_side == "left" else (left, lent)
+    caption = {"caption": f"press {stim.instruction}"} if stim.instruction else {}
+    renderer.render_pair(left, right, media.fetch(study, stim.clip.audio_path), root / rel,
+                         settings=settings, cache_dir=root / "cache", progress=progress,
+                         **caption)
+    media.publish(study, rel)
+    stim.video_path = rel
+    db.session.commit()
+    return rel
+
+
+def rendered(study: Study, stim: Stimulus) -> bool:
+    """Whether the stimulus's video is in place (a retried job keeps it)."""
+    return bool(stim.video_path) and media.stored(study, stim.video_path)
+
+
+def render_clips(study: Study, progress: Callable[[int, int], None]) -> str:
+    """Render every stimulus video of the study, one after the other in this process (an RQ
+    worker splits the render into one job per clip instead: ``app.jobs.clips``)."""
+    tracks, stimuli = render_inputs(study)
     # A retried job resumes: clips rendered before (their file in place) are kept.
-    kept = sum(bool(s.video_path) and (root / s.video_path).is_file() for s in stimuli)
+    kept = sum(rendered(study, s) for s in stimuli)
     for i, stim in enumerate(stimuli):
         progress(i, len(stimuli))
-        if stim.video_path and (root / stim.video_path).is_file():
+        if rendered(study, stim):
             continue
-        rel = f"videos/{stim.clip.name}/{stim.left.name}__{stim.right.name}{_variant(stim)}.mp4"
-        (root / rel).parent.mkdir(parents=True, exist_ok=True)
-        left, right = (load_track(root / tracks[(condition, clip)]) for condition, clip
-                       in _track_keys(stim))
-        if stim.foreign_side:
-            # The lent motion is time-aligned to this clip's speech and trimmed to its length.
-            matched = right if stim.foreign_side == "left" else left
-            lent = (left if stim.foreign_side == "left" else right).resample(
-                matched.fps).fit_length(matched.n_frames)
-            left, right = (lent, right) if stim.foreign_side == "left" else (left, lent)
-        caption = {"caption": f"press {stim.instruction}"} if stim.instruction else {}
-        renderer.render_pair(
-            left, right, root / stim.clip.audio_path, root / rel, settings=settings,
-            cache_dir=cache, **caption,
-            # every frame is a sign of life: a clip may take longer than the stale timeout
-            progress=lambda _frame, _frames, i=i: progress(i, len(stimuli)))
-        stim.video_path = rel
-        db.session.commit()
+        # every frame is a sign of life: a clip may take longer than the stale timeout
+        render_stimulus(study, stim, tracks, lambda _frame, _frames, i=i: progress(i, len(stimuli)))
     progress(len(stimuli), len(stimuli))
+    return rendering_finished(study, len(stimuli), kept)
+
+
+def rendering_finished(study: Study, total: int, kept: int, workers: int = 0) -> str:
+    """Mark a draft study ready once every clip is rendered; the job's closing message."""
     if study.status == "draft":
         study.status = "ready"
     db.session.commit()
-    return f"{len(stimuli)} clips rendered" + (f" ({kept} kept from before)" if kept else "")
+    by = f" by {workers} workers" if workers > 1 else ""
+    return f"{total} clips rendered{by}" + (f" ({kept} kept from before)" if kept else "")
 
 
 def _track_keys(stim: Stimulus) -> list[tuple[int, int]]:
@@ -185,6 +213,7 @@ def build_report(study: Study, progress: Callable[[int, int], None]) -> str:
 
     progress(0, 1)
     path = write_report_files(study)
+    media.publish_folder(study, path.parent.name)
     study.report_at = utcnow()
     db.session.commit()
     progress(1, 1)
@@ -226,7 +255,13 @@ def run_job(job_id: int, *, echo: Callable[[int, int], None] | None = None) -> s
     beat = beat_interval(current_app.config.get("JOB_STALE_AFTER_SECONDS", 900))
     try:
         study = db.session.get(Study, study_id)
-        message = TASKS[kind](study, _progress(job_id, beat_every=beat, echo=echo))  # type: ignore[arg-type]
+        progress = _progress(job_id, beat_every=beat, echo=echo)
+        if kind == "render" and _in_rq_worker():
+            from app.jobs.clips import split_render
+
+            if split_render(study, job_id, progress):  # type: ignore[arg-type]
+                return "running"  # its clip jobs end the row (app.jobs.clips)
+        message = TASKS[kind](study, progress)  # type: ignore[arg-type]
         status = "done"
     except Exception as exc:  # noqa: BLE001 - every failure must reach the experimenter
         db.session.rollback()
@@ -241,8 +276,14 @@ def run_job(job_id: int, *, echo: Callable[[int, int], None] | None = None) -> s
     return status
 
 
+def _in_rq_worker() -> bool:
+    from rq import get_current_job
+
+    return get_current_job() is not None
+
+
 @contextmanager
-def _standalone_context() -> Iterator[None]:
+def standalone_context() -> Iterator[None]:
     """An application built from the environment, its connections closed on the way out."""
     from app import create_app
 
@@ -257,7 +298,7 @@ def _standalone_context() -> Iterator[None]:
 
 def run_job_standalone(job_id: int) -> None:
     """Entry point for the RQ worker: builds the app from the environment."""
-    with _standalone_context():
+    with standalone_context():
         run_job(job_id)
 
 
@@ -273,7 +314,7 @@ def mark_failed(job_id: int, reason: str) -> bool:
 def rq_failed(job, connection, exc_type, exc_value, traceback) -> None:  # type: ignore[no-untyped-def]
     """RQ's failure callback (an exception, a timeout, a killed work horse): the row says why."""
     reason = failure_message(exc_value) if exc_value is not None else "failed in the worker"
-    with _standalone_context():
+    with standalone_context():
         mark_failed(int(job.args[0]), reason)
 
 
@@ -299,22 +340,29 @@ def _rq_states(app_redis_url: str, ids: list[int]) -> dict[int, tuple[str, str] 
     from rq.job import Job as RQJob
 
     from app.jobs import rq_job_id
+    from app.jobs.clips import finish_job_id
 
     connection = Redis.from_url(app_redis_url, socket_connect_timeout=2, socket_timeout=5)
-    states: dict[int, tuple[str, str] | None] = {}
-    for job_id in ids:
+
+    def state_of(rq_id: str) -> tuple[str, str] | None:
         try:
-            rq_job = RQJob.fetch(rq_job_id(job_id), connection=connection)
+            rq_job = RQJob.fetch(rq_id, connection=connection)
         except NoSuchJobError:
-            states[job_id] = None
-            continue
+            return None
         state = rq_job.get_status()
         result = rq_job.latest_result() if state == "failed" else None
         # the exception's own line ("module.Error: text"), not SQL or links printed after it
         error = [line for line in ((result.exc_string if result else None) or "").splitlines()
                  if re.match(r"[A-Za-z_][\w.]*: ", line)]
         # RQ's JobStatus is a str enum: its value is the word
-        states[job_id] = (str(getattr(state, "value", state)), error[-1][:200] if error else "")
+        return str(getattr(state, "value", state)), error[-1][:200] if error else ""
+
+    states: dict[int, tuple[str, str] | None] = {}
+    for job_id in ids:
+        states[job_id] = state_of(rq_job_id(job_id))
+        if states[job_id] is None or states[job_id][0] == "finished":  # type: ignore[index]
+            # A render split into clip jobs (app.jobs.clips) lives on in its closing job.
+            states[job_id] = state_of(finish_job_id(job_id)) or states[job_id]
     return states
 
 

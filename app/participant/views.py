@@ -17,7 +17,6 @@ from flask import (
     redirect,
     render_template,
     request,
-    send_file,
     url_for,
 )
 from flask_wtf import FlaskForm
@@ -38,8 +37,8 @@ from app.enrolment import (
 )
 from app.extensions import db
 from app.limits import fits
+from app.media import media_response
 from app.models import Participant, Study, Trial, Vote, utcnow
-from app.storage import media_file
 from app.voting import SCREENED_OUT
 
 bp = Blueprint("participant", __name__)
@@ -222,17 +221,9 @@ def practice_video(token: str):  # type: ignore[no-untyped-def]
 
 
 def _send_video(study: Study, rel: str | None):  # type: ignore[no-untyped-def]
-    if not rel:
-        abort(404)
-    path = media_file(study, rel)
-    if not path.is_file():
-        abort(404)
-    # Range requests (conditional=True) let the browser seek and replay without refetching;
-    # the URL names no condition, so the file name cannot give the answer away.
-    response = send_file(path, mimetype="video/mp4", conditional=True,
-                         max_age=CLIP_CACHE_SECONDS)
-    response.headers["Cache-Control"] = f"private, max-age={CLIP_CACHE_SECONDS}"
-    return response
+    # The URL names no condition, so the file name cannot give the answer away; the caller
+    # checked the clip is in this participant's schedule (app.media sends it, never first).
+    return media_response(study, rel, mimetype="video/mp4", cache_seconds=CLIP_CACHE_SECONDS)
 
 
 @bp.get("/p/<token>/done")

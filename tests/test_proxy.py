@@ -1,0 +1,98 @@
+"""A real nginx (deploy/nginx.conf) in front of the test server with MEDIA_BACKEND=accel: the
+participant's clip arrives through X-Accel-Redirect, whole and by range; another
+participant's clip and the internal location itself are refused from outside."""
+
+import shutil
+import socket
+import subprocess
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import pytest
+import sqlalchemy as sa
+
+from app.extensions import db
+from app.models import Participant, Study, Trial
+from tests.conftest import ParticipantActions
+from tests.proxy import nginx_conf
+
+pytestmark = pytest.mark.skipif(shutil.which("nginx") is None,
+                                reason="nginx is not installed (make test installs it)")
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+@pytest.fixture
+def proxy(live_server, tmp_path):
+    """nginx on a free port in front of ``live_server``; yields its base URL."""
+    live_server.app.config["MEDIA_BACKEND"] = "accel"
+    port = _free_port()
+    folder = tmp_path / "nginx"
+    conf = nginx_conf(folder, upstream=live_server.url.split("//")[1],
+                      media=tmp_path / "media", port=port)
+    process = subprocess.Popen(["nginx", "-p", str(folder), "-c", str(conf), "-g",
+                                "daemon off;"], stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline:
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
+                break
+            except OSError:
+                assert process.poll() is None, process.stderr.read().decode()
+                time.sleep(0.05)
+        yield f"http://127.0.0.1:{port}"
+    finally:
+        process.terminate()
+        process.wait(timeout=10)
+        process.stderr.close()
+
+
+def _get(url: str, **headers: str) -> tuple[int, dict[str, str], bytes]:
+    request = urllib.request.Request(url, headers=headers)
+    try:
+        with urllib.request.urlopen(request, timeout=10) as answer:
+            return answer.status, dict(answer.headers), answer.read()
+    except urllib.error.HTTPError as refused:
+        with refused:
+            return refused.code, dict(refused.headers), refused.read()
+
+
+def _trials(app, token: str) -> list[int]:
+    with app.app_context():
+        return list(db.session.scalars(sa.select(Trial.id).join(Participant).where(
+            Participant.token == token, Trial.stimulus_id.is_not(None))))
+
+
+def test_nginx_delivers_the_checked_clip_and_refuses_the_rest(live_server, proxy):
+    app = live_server.app
+    study_id = live_server.study()
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    me, other = (ParticipantActions(app.test_client(), app) for _ in range(2))
+    me.join(slug)
+    other.join(slug)
+    mine, theirs = _trials(app, me.token), _trials(app, other.token)
+    videos = Path(app.config["MEDIA_ROOT"]) / f"study-{study_id}" / "videos"
+    clip = next(videos.iterdir())
+    expected = clip.read_bytes()
+
+    status, headers, body = _get(f"{proxy}/p/{me.token}/video/{mine[0]}")
+    assert status == 200 and body == expected
+    assert headers["Content-Type"] == "video/mp4"
+    assert "X-Accel-Redirect" not in headers  # nginx acted on it, the browser never sees it
+    assert headers["Cache-Control"].startswith("private")
+
+    status, headers, body = _get(f"{proxy}/p/{me.token}/video/{mine[0]}", Range="bytes=0-99")
+    assert status == 206 and body == expected[:100]
+
+    status, headers, _ = _get(f"{proxy}/p/{me.token}/video/{theirs[0]}")
+    assert status == 404 and "X-Accel-Redirect" not in headers
+    status, _, body = _get(f"{proxy}/_protected/study-{study_id}/videos/{clip.name}")
+    assert status == 404 and body != expected
