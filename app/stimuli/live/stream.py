@@ -75,7 +75,9 @@ class LiveGenerator:
         # Not a number or infinite: no reading (the floor, unvoiced).
         loud_db = intensity if math.isfinite(intensity) else LOUDNESS_FLOOR_DB
         loud_db = self._smooth_loud.step(max(loud_db, LOUDNESS_FLOOR_DB))
-        pitch_st = 12.0 * math.log2(f0 / 100.0) if math.isfinite(f0) and f0 > 0 else math.nan
+        # log2(f0) - log2(100), not log2(f0 / 100): a subnormal F0 divided by 100 underflows to 0
+        pitch_st = (12.0 * (math.log2(f0) - math.log2(100.0))
+                    if math.isfinite(f0) and f0 > 0 else math.nan)
         pitch_st = self._smooth_pitch.step(pitch_st)
         lz, pz = scale.loud_z(loud_db), scale.pitch_z(pitch_st)
         # Head (sec. 5): eq. 5 start, Langevin steps on eq. 4.
