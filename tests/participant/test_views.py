@@ -47,7 +47,7 @@ def test_whole_study_with_reload_and_resume(app, client, participant, web):
 
 
 def test_schedule_is_reproducible_from_the_stored_seed(app, participant, web):
-    from app import design
+    from app.enrolment import schedule
 
     slug = _slug(app, web.study(catch=1))
     token = participant.join(slug)
@@ -55,7 +55,7 @@ def test_schedule_is_reproducible_from_the_stored_seed(app, participant, web):
         person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
         stored = [(t.position, t.kind, t.stimulus.left.name, t.stimulus.right.name)
                   for t in person.trials]
-        rebuilt = [(t.position, t.kind, t.left, t.right) for t in design.schedule(
+        rebuilt = [(t.position, t.kind, t.left, t.right) for t in schedule(
             person.study, seed=person.seed, list_index=person.study_list.index)]
         assert stored == rebuilt
         assert [t.kind for t in person.trials].count("catch") == 1
