@@ -20,7 +20,7 @@ from typing import Any
 import pandas as pd
 import sqlalchemy as sa
 
-from app.analysis.analyze import analyze
+from app.analysis.results import analyze
 from app.analysis.votes import VOTE_COLUMNS, VotesTable, read_votes, write_votes_csv
 from app.extensions import db
 from app.models import Clip, Condition, Participant, Stimulus, Study, Trial, Vote

@@ -70,7 +70,7 @@ def test_the_report_analyses_the_table_the_csv_holds(app, web, participant, tmp_
     """What the web report analyses is what the CSV export holds: same columns, same counts."""
     import io
 
-    from app.analysis.analyze import analyze
+    from app.analysis.results import analyze
     from app.analysis.votes import VOTE_COLUMNS, read_votes
     from app.exports import vote_rows, votes_csv, votes_table
 

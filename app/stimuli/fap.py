@@ -1,8 +1,8 @@
 """The MPEG-4 Facial Animation Parameter table and FAPU names: the one place for these facts.
 
 Follows ISO/IEC 14496-2 Annex C as implemented by the open players Greta and Xface (see the
-project's ``docs/formats.md``): 68 FAPs, each with a unit (a FAPU), one- or two-way motion and
-the direction a positive value moves the face. "Left" is the face's own left.
+project's ``docs/stimuli.md``, "The .fap format"): 68 FAPs, each with a unit (a FAPU), one- or
+two-way motion and the direction a positive value moves the face. "Left" is the face's own left.
 
 The thesis (sec. 3.2) maps captured marker motion to these FAPs; the channel groups below are
 those the prosody conditions drive (thesis sec. 4.3; Le, Ma & Deng 2012 sec. 5-7).

@@ -1,6 +1,7 @@
-"""From a votes table to every statistic of a paired-comparison study, per clip and pooled.
+"""From a votes table to every statistic of a paired-comparison study, per clip and pooled:
+:func:`analyze` (also importable as ``app.analysis.analyze``).
 
-The layout is the one of issue 5: ``{"clips": {CLIP: SECTION}, "pooled": SECTION,
+The layout: ``{"clips": {CLIP: SECTION}, "pooled": SECTION,
 "participants": {ID: {...}}}`` plus ``"conditions"``, ``"input"`` (source, votes, skipped bad
 rows) and ``"options"`` (how undecided votes were treated, bootstrap settings). A SECTION holds
 ballots, undecided, confusion, scores, paired_t, agreement, sign_tests and scale; see
