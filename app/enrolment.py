@@ -30,8 +30,9 @@ class EnrolmentBusy(RuntimeError):
     """Too many simultaneous arrivals; the participant should simply retry."""
 
 
-def schedule(study: Study, *, seed: int, list_index: int) -> list[schedules.Trial]:
-    """One participant's trials (:class:`app.trials.schedule.Trial`), in presentation order."""
+def schedule(study: Study, *, seed: int, list_index: int) -> list[schedules.ScheduledTrial]:
+    """One participant's trials (:class:`app.trials.schedule.ScheduledTrial`), in presentation
+    order."""
     settings = study.settings or {}
     return schedules.make_schedule(
         clips=[c.name for c in study.clips], pairs=design_pairs(study), design=study.design,

@@ -46,15 +46,15 @@ TRANSITIONS: dict[str, tuple[tuple[str, ...], str]] = {
 EDITABLE_STATES = ("draft", "ready")
 
 
-def design_pairs(study: Study) -> list[design.Pair]:
-    """The study's pairs (:class:`app.trials.design.Pair`) in the stored order."""
-    return [design.Pair(p.first.name, p.second.name) for p in study.pairs]
+def design_pairs(study: Study) -> list[design.ConditionPair]:
+    """The study's pairs (:class:`app.trials.design.ConditionPair`) in the stored order."""
+    return [design.ConditionPair(p.first.name, p.second.name) for p in study.pairs]
 
 
-def practice_pair(study: Study) -> design.Pair | None:
+def practice_pair(study: Study) -> design.ConditionPair | None:
     """The practice pair of the study file's ``practice``, if any."""
     practice = (study.settings or {}).get("practice")
-    return design.Pair(practice[0], practice[1]) if practice else None
+    return design.ConditionPair(practice[0], practice[1]) if practice else None
 
 
 def participation(study: Study) -> ParticipationSpec:

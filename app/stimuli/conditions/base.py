@@ -20,12 +20,12 @@ from app.stimuli.track import MotionTrack
 PROSODY: tuple[int, ...] = EYEBROWS + HEAD
 
 
-class Condition:
+class ConditionModel:
     """Base of the condition models (see :mod:`app.stimuli.conditions`)."""
 
     name: ClassVar[str] = ""
 
-    def fit(self, features: SpeechFeatures, ground_truth: MotionTrack | None) -> Condition:
+    def fit(self, features: SpeechFeatures, ground_truth: MotionTrack | None) -> ConditionModel:
         """Learn from speech and ground truth; conditions that learn nothing return self."""
         return self
 

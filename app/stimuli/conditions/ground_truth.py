@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from app.errors import InputError
-from app.stimuli.conditions.base import Condition
+from app.stimuli.conditions.base import ConditionModel
 from app.stimuli.features import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
@@ -33,7 +33,7 @@ def align_to_features(track: MotionTrack, features: SpeechFeatures, offset: floa
     return r.fit_length(features.n_frames)
 
 
-class GroundTruthCondition(Condition):
+class GroundTruthCondition(ConditionModel):
     """The captured (or synthetic reference) motion: the best case of the comparison."""
 
     name = "ground_truth"
