@@ -218,3 +218,22 @@ def test_clips_answer_ranges_with_a_long_private_cache(app, client, participant,
     assert part.status_code == 206 and len(part.data) == 100
     assert part.headers["Cache-Control"] == "private, max-age=604800"
     part.close()
+
+
+def test_the_page_takes_its_answers_keys_and_replay_rule_from_the_rules(app, client,
+                                                                        participant, web):
+    import html
+    import json
+
+    from app.trials.rules import answers, key_map
+
+    token = participant.join(_slug(app, web.study(undecided=False, replay="max_plays",
+                                                  max_plays=2)))
+    guide = client.get(f"/p/{token}/instructions").get_data(as_text=True)
+    assert "<kbd>←</kbd>/<kbd>1</kbd> for “Left”" in guide and "↓" not in guide
+    page = client.get(f"/p/{token}/trial").get_data(as_text=True)
+    keys = json.loads(html.unescape(re.search(r"data-keys='([^']*)'", page).group(1)))
+    assert keys == key_map(3)
+    buttons = re.findall(r'data-choice="(\w+)" data-key="(\w+)"', page)
+    assert buttons == [(a.choice, a.key) for a in answers(scale=3, undecided_allowed=False)]
+    assert 'data-max-plays="2"' in page and 'data-needs-end="no"' in page
