@@ -28,11 +28,13 @@ def embedded_database_uri(instance_path: str) -> str:
 
 
 def create_app(config: Mapping[str, Any] | None = None) -> Flask:
-    """Application factory: defaults -> instance ``config.py`` -> ``FACEPAIR_*``/env -> ``config``.
+    """Application factory: defaults -> instance ``config.py`` -> environment -> ``config``.
 
-    With no configuration the database is SQLite in the instance folder
-    (``FACEPAIR_INSTANCE`` moves that folder). Outside tests a real ``SECRET_KEY`` is required:
-    without one the factory raises :class:`app.errors.InputError` naming the setting.
+    The environment variables read are ``DATABASE_URL``, ``SECRET_KEY``, ``REDIS_URL``,
+    ``MEDIA_ROOT`` and ``TRUST_PROXY``. With no configuration the database is SQLite in the
+    instance folder (``FACEPAIR_INSTANCE`` moves that folder). Outside tests a real
+    ``SECRET_KEY`` is required: without one the factory raises :class:`app.errors.InputError`
+    naming the setting.
     """
     from flask import Flask
 

@@ -11,11 +11,14 @@ from __future__ import annotations
 
 import datetime as dt
 
+import numpy as np
 import sqlalchemy as sa
 
-from app import design
 from app.extensions import db
 from app.models import Participant, Stimulus, Study, StudyList, Trial, Vote, utcnow
+from app.studies import design_pairs, participation, practice_pair
+from app.trials import assignment
+from app.trials import schedule as schedules
 
 MAX_ATTEMPTS = 20
 #: What a dropped participant reads when the study's ``rejoin`` policy refuses their return.
@@ -27,6 +30,31 @@ class EnrolmentBusy(RuntimeError):
     """Too many simultaneous arrivals; the participant should simply retry."""
 
 
+def schedule(study: Study, *, seed: int, list_index: int) -> list[schedules.ScheduledTrial]:
+    """One participant's trials (:class:`app.trials.schedule.ScheduledTrial`), in presentation
+    order."""
+    settings = study.settings or {}
+    return schedules.make_schedule(
+        clips=[c.name for c in study.clips], pairs=design_pairs(study), design=study.design,
+        seed=seed, list_index=list_index, n_lists=len(study.lists),
+        catch_trials=study.catch_trials, catch_kind=study.catch_kind,
+        practice_pair=practice_pair(study), practice_clip=settings.get("practice_clip"),
+        block_by_clip=settings.get("block_by_clip", True),
+        mismatched=participation(study).mismatched,
+    )
+
+
+def participant_seed(study: Study, number: int) -> int:
+    """The schedule seed of the study's participant ``number``."""
+    return int(schedules.participant_seed(study.seed, number))
+
+
+def choose_list(study: Study, counts: dict[int, int]) -> int:
+    """The least-filled list; ties broken by a generator seeded from the study and arrivals."""
+    rng = np.random.default_rng([study.seed, sum(counts.values())])
+    return int(assignment.choose_list(counts, rng))
+
+
 def _take_list(study: Study) -> tuple[StudyList, int]:
     """Raise the count of the least-filled list; returns it and its arrivals before."""
     for _ in range(MAX_ATTEMPTS):
@@ -34,7 +62,7 @@ def _take_list(study: Study) -> tuple[StudyList, int]:
             sa.select(StudyList.id, StudyList.index, StudyList.n_assigned, StudyList.n_arrived)
             .where(StudyList.study_id == study.id)).all()
         counts = {row.index: row.n_assigned for row in rows}
-        index = design.choose_list(study, counts)
+        index = choose_list(study, counts)
         row = next(r for r in rows if r.index == index)
         # n_arrived only grows, so this guard cannot be fooled by a release in between.
         result = db.session.execute(
@@ -61,7 +89,7 @@ def enrol(study: Study, *, user_agent: str = "", prolific_pid: str | None = None
     study_list, before = _take_list(study)
     # (list, arrivals before) is unique per study, so this arrival number is too.
     number = before * len(study.lists) + study_list.index
-    seed = design.participant_seed(study, number)
+    seed = participant_seed(study, number)
     participant = Participant(
         study_id=study.id, list_id=study_list.id, number=number, seed=seed,
         user_agent=user_agent, prolific_pid=prolific_pid, prolific_study_id=prolific_study_id,
@@ -79,7 +107,7 @@ def enrol(study: Study, *, user_agent: str = "", prolific_pid: str | None = None
     for pair in study.pairs:
         pairs.setdefault((pair.second_id, pair.first_id), pair.id)
     rows = []
-    for item in design.schedule(study, seed=seed, list_index=study_list.index):
+    for item in schedule(study, seed=seed, list_index=study_list.index):
         left, right = conditions[item.left], conditions[item.right]
         rows.append({
             "participant_id": participant.id, "position": item.position, "kind": item.kind,

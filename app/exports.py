@@ -12,12 +12,16 @@ or ``"only"``).
 
 from __future__ import annotations
 
+import dataclasses
 import io
 from pathlib import Path
 from typing import Any
 
+import pandas as pd
 import sqlalchemy as sa
 
+from app.analysis.results import analyze
+from app.analysis.votes import VOTE_COLUMNS, VotesTable, read_votes, write_votes_csv
 from app.extensions import db
 from app.models import Clip, Condition, Participant, Stimulus, Study, Trial, Vote
 from app.storage import media_dir
@@ -78,12 +82,17 @@ def vote_rows(study: Study, *, pilot: str = "without") -> list[dict[str, Any]]:
     return rows
 
 
+def votes_table(study: Study, *, pilot: str = "without") -> VotesTable:
+    """The study's votes, validated once by the analysis reader's rules
+    (``app.analysis.votes.read_votes``): what the CSV export writes and the report analyses."""
+    rows = vote_rows(study, pilot=pilot)
+    return read_votes(pd.DataFrame(rows) if rows else pd.DataFrame(columns=list(VOTE_COLUMNS)))
+
+
 def votes_csv(study: Study, *, pilot: str = "without") -> str:
     """The study's votes as CSV text (``app.analysis.votes.write_votes_csv``)."""
-    from app.analysis.votes import write_votes_csv
-
     buffer = io.StringIO()
-    write_votes_csv(vote_rows(study, pilot=pilot), buffer)
+    write_votes_csv(votes_table(study, pilot=pilot), buffer)
     return buffer.getvalue()
 
 
@@ -93,20 +102,19 @@ def report_path(study: Study) -> Path:
 
 def write_report_files(study: Study) -> Path:
     """Analyse the votes so far and write the report into the study's media folder: HTML and
-    PDF, headed by the study's title, design and participants, from the votes CSV written
-    beside them (which ``facepair analyze`` reads back to the same report)."""
-    from app.analysis import analyze
-    from app.analysis.report import write_report
-    from app.analysis.votes import read_votes
+    PDF, headed by the study's title, design and participants. The votes analysed are those
+    written beside them as CSV (which ``facepair analyze`` reads back to the same report)."""
+    from app.analysis.report import write_report  # matplotlib: only when a report is written
 
     path = report_path(study)
     path.parent.mkdir(parents=True, exist_ok=True)
     csv_path = path.parent / "votes.csv"
-    csv_path.write_text(votes_csv(study), encoding="utf-8")
+    # The report names the file it analysed: the one written here.
+    votes = dataclasses.replace(votes_table(study), source=str(csv_path))
+    write_votes_csv(votes, csv_path)
     # exclusion rules as `facepair analyze --exclude` reads them (app.analysis.quality)
     exclude = study.settings.get("exclude")
-    results = analyze(read_votes(csv_path), conditions=[c.name for c in study.conditions],
-                      exclude=exclude)
+    results = analyze(votes, conditions=[c.name for c in study.conditions], exclude=exclude)
     results["study"] = report_head(study, results, exclude=exclude)
     write_report(results, path, path.with_suffix(".pdf"))
     return path

@@ -18,6 +18,7 @@ from sqlalchemy import orm as so
 from werkzeug.security import check_password_hash, generate_password_hash
 
 from app.extensions import db
+from app.trials.rules import CHOICES
 
 
 def utcnow() -> dt.datetime:
@@ -305,13 +306,15 @@ class Trial(db.Model):
 class Vote(db.Model):
     """A participant's answer to one trial: stored exactly once."""
 
-    __table_args__ = (sa.UniqueConstraint("participant_id", "trial_id"),)
+    __table_args__ = (sa.UniqueConstraint("participant_id", "trial_id"),
+                      sa.CheckConstraint(sa.column("choice").in_(CHOICES), name="choice"))
     id: so.Mapped[int] = so.mapped_column(primary_key=True)
     participant_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("participant.id"),
                                                       index=True)
     trial_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("trial.id"), index=True)
     #: Chosen by the browser per trial; a retried request carries the same key.
     idempotency_key: so.Mapped[str] = so.mapped_column(sa.String(64), unique=True)
+    #: One of ``app.trials.rules.CHOICES`` (a CHECK constraint holds the database to it).
     choice: so.Mapped[str] = so.mapped_column(sa.String(10))
     #: Milliseconds from the start of the first playback to the vote.
     response_ms: so.Mapped[int | None]

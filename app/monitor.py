@@ -10,15 +10,15 @@ from typing import Any
 import sqlalchemy as sa
 
 from app.extensions import db
-from app.models import Pair, Participant, Study, StudyList, Trial, Vote, utcnow
+from app.models import Pair, Participant, Stimulus, Study, StudyList, Trial, Vote, utcnow
+from app.trials.rules import CHOICES, VoteChoice
 
 
 @dataclass
 class PairStats:
     label: str
     votes: int = 0
-    choices: dict[str, int] = field(default_factory=lambda: {"left": 0, "right": 0,
-                                                               "undecided": 0})
+    choices: dict[str, int] = field(default_factory=lambda: dict.fromkeys(CHOICES, 0))
     #: Votes for the pair's first / second condition, whichever side it was shown on.
     first: int = 0
     second: int = 0
@@ -48,8 +48,6 @@ def study_monitor(study: Study, *, dropped_after: dt.timedelta) -> dict[str, Any
              .join(Trial, Vote.trial_id == Trial.id)
              .join(Participant, Vote.participant_id == Participant.id)
              .where(Participant.study_id == study.id, Participant.pilot.is_(False)))
-    from app.models import Stimulus
-
     left_of = dict(db.session.execute(sa.select(Stimulus.id, Stimulus.left_id)
                                       .where(Stimulus.study_id == study.id)).all())
     for choice, response_ms, pair_id, kind, expected, stimulus_id in db.session.execute(query):
@@ -64,8 +62,8 @@ def study_monitor(study: Study, *, dropped_after: dt.timedelta) -> dict[str, Any
         stats = pairs[pair_id]
         stats.votes += 1
         stats.choices[choice] = stats.choices.get(choice, 0) + 1
-        if choice != "undecided":
-            chosen_left = choice == "left"
+        if choice != VoteChoice.UNDECIDED:
+            chosen_left = choice == VoteChoice.LEFT
             first_on_left = left_of[stimulus_id] == first_of[pair_id]
             if chosen_left == first_on_left:
                 stats.first += 1

@@ -27,6 +27,7 @@ from app.enrolment import move_slot
 from app.exports import participant_label, report_path
 from app.extensions import db
 from app.models import Participant, Stimulus, Study, Trial, Vote
+from app.trials.rules import CHOICES
 
 #: Columns of the participants export, in order.
 PARTICIPANT_COLUMNS = ("participant", "prolific_pid", "prolific_study_id", "prolific_session_id",
@@ -68,7 +69,7 @@ def participant_rows(study: Study, *, raw_ids: bool = False) -> list[dict[str, A
     # undecided, or left and right about equally often.
     identical = {choice: sa.func.count(sa.case((sa.and_(same, Vote.choice == choice),
                                                 Vote.id))).label(f"identical_{choice}")
-                 for choice in ("left", "right", "undecided")}
+                 for choice in CHOICES}
     counts = {row.participant_id: row for row in db.session.execute(
         sa.select(Vote.participant_id, answered.label("answered"),
                   catch_total.label("catch_total"), catch_passed.label("catch_passed"),
@@ -97,7 +98,7 @@ def participant_rows(study: Study, *, raw_ids: bool = False) -> list[dict[str, A
             "consented_at": _iso(person.consented_at), "started_at": _iso(person.started_at),
             "finished_at": _iso(person.finished_at),
             **{f"identical_{c}": getattr(tally, f"identical_{c}") if tally else 0
-               for c in ("left", "right", "undecided")},
+               for c in CHOICES},
             "browser": " ".join(filter(None, (env.get("browser"), env.get("browser_version")))),
             "screen": _size(env, "screen"), "viewport": _size(env, "viewport"),
             "dpr": env.get("dpr", ""), "touch": env.get("touch", ""),

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import sqlalchemy as sa
 
-from app import design, media
+from app import media
 from app.analysis.quality import parse_rules
 from app.extensions import db
 from app.models import (
@@ -29,7 +29,9 @@ from app.models import (
     Vote,
 )
 from app.storage import media_dir
-from app.trials.schedule import foreign_clip
+from app.trials import design
+from app.trials.participation import ParticipationSpec
+from app.trials.schedule import foreign_clip, shown_stimuli, variant_stimuli
 
 if TYPE_CHECKING:
     from app.trials.studyfile import StudySpec
@@ -43,6 +45,40 @@ TRANSITIONS: dict[str, tuple[tuple[str, ...], str]] = {
 }
 #: States in which the stimuli may still be generated and rendered (until the first vote).
 EDITABLE_STATES = ("draft", "ready")
+
+
+def design_pairs(study: Study) -> list[design.ConditionPair]:
+    """The study's pairs (:class:`app.trials.design.ConditionPair`) in the stored order."""
+    return [design.ConditionPair(p.first.name, p.second.name) for p in study.pairs]
+
+
+def practice_pair(study: Study) -> design.ConditionPair | None:
+    """The practice pair of the study file's ``practice``, if any."""
+    practice = (study.settings or {}).get("practice")
+    return design.ConditionPair(practice[0], practice[1]) if practice else None
+
+
+def participation(study: Study) -> ParticipationSpec:
+    """The study's participant-side settings
+    (:class:`app.trials.participation.ParticipationSpec`)."""
+    return ParticipationSpec.from_settings((study.settings or {}).get("participation"))
+
+
+def stimulus_combinations(study: Study) -> list[tuple[str, str, str, str, str]]:
+    """Every (clip, left, right, instruction, foreign side) some participant may see: the
+    displayed pairs (:func:`app.trials.schedule.shown_stimuli`), then the attention-check and
+    appropriateness variants (:func:`app.trials.schedule.variant_stimuli`)."""
+    clips, pairs = [c.name for c in study.clips], design_pairs(study)
+    plain = shown_stimuli(clips=clips, pairs=pairs, design=study.design,
+                          catch_trials=study.catch_trials, catch_kind=study.catch_kind,
+                          practice_pair=practice_pair(study),
+                          practice_clip=(study.settings or {}).get("practice_clip"))
+    variants = variant_stimuli(clips=clips, pairs=pairs, design=study.design,
+                               catch_trials=study.catch_trials, catch_kind=study.catch_kind,
+                               mismatched=participation(study).mismatched)
+    return ([(clip, p.left, p.right, "", "") for clip, p in plain]
+            + [(clip, p.left, p.right, instruction, foreign)
+               for clip, p, instruction, foreign in variants])
 
 
 def _copy(study: Study, source: Path, rel: str) -> str:
@@ -127,7 +163,7 @@ def _design_rows(study: Study, spec: StudySpec) -> None:
     db.session.flush()
     clips = {c.name: c for c in study.clips}
     names = list(clips)
-    for clip, left, right, instruction, foreign in design.stimulus_combinations(study):
+    for clip, left, right, instruction, foreign in stimulus_combinations(study):
         lender = clips[foreign_clip(names, clip)].id if foreign else None
         db.session.add(Stimulus(study_id=study.id, clip_id=clips[clip].id,
                                 left_id=by_name[left].id, right_id=by_name[right].id,

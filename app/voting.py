@@ -16,11 +16,13 @@ import sqlalchemy as sa
 from sqlalchemy.exc import IntegrityError
 
 from app import limits
-from app.analysis.votes import CHOICES
 from app.enrolment import SESSION_ENDED, progress, touch
 from app.extensions import db
 from app.medialog import MediaLogError, media_fields
-from app.models import Participant, Trial, Vote, utcnow
+from app.models import Participant, Study, Trial, Vote, utcnow
+from app.participants import release_if_left_out
+from app.studies import participation
+from app.trials import rules
 
 #: What a participant reads when the attention stop rule has ended their session.
 SCREENED_OUT = ("your session has ended because several attention checks were missed; "
@@ -45,6 +47,18 @@ class VoteOutcome:
     created: bool
     answered: int
     total: int
+
+
+def replay_policy(study: Study) -> rules.ReplayPolicy:
+    """The study's replay policy (:class:`app.trials.rules.ReplayPolicy`)."""
+    return rules.ReplayPolicy(study.replay,
+                              max_plays=study.max_plays if study.replay == "max_plays" else None)
+
+
+def may_vote(study: Study, *, plays: int, watched_to_end: bool) -> str | None:
+    """Why a vote after ``plays`` plays is refused by the study's replay policy, or None
+    (:func:`app.trials.rules.vote_refusal`)."""
+    return rules.vote_refusal(replay_policy(study), plays, watched_to_end)
 
 
 def _parse_time(value: Any) -> dt.datetime | None:
@@ -93,10 +107,11 @@ def validate(participant: Participant, payload: dict[str, Any]) -> tuple[Trial, 
         raise VoteRejected("no such trial", 404)
     if trial.kind == "practice":
         raise VoteRejected("the practice pair is not recorded", 422)
-    choice = payload.get("choice")
-    if choice not in CHOICES or (choice == "undecided" and not study.allow_undecided):
-        allowed = CHOICES if study.allow_undecided else CHOICES[:2]
-        raise VoteRejected(f"choice: expected one of {', '.join(allowed)}")
+    try:
+        choice = str(rules.check_choice(payload.get("choice"),
+                                        undecided_allowed=study.allow_undecided))
+    except ValueError as exc:
+        raise VoteRejected(f"choice: {exc}") from None
     key = payload.get("idempotency_key")
     longest = limits.column_of(Vote.idempotency_key).type.length
     if (not isinstance(key, str) or not 8 <= len(key) <= longest
@@ -107,8 +122,6 @@ def validate(participant: Participant, payload: dict[str, Any]) -> tuple[Trial, 
     # fallback only when no play request reached the server (played from its cache offline).
     plays = trial.plays or claimed
     watched = bool(payload.get("watched_to_end", False))
-    from app.design import may_vote, participation
-
     reason = may_vote(study, plays=plays, watched_to_end=watched)
     if reason:
         raise VoteRejected(reason, 422)
@@ -137,7 +150,7 @@ def _strength(value: Any, choice: str, scale: int) -> int | None:
         if value is not None:
             raise VoteRejected("strength: this study has a 3-level scale")
         return None
-    if choice == "undecided":
+    if choice == rules.VoteChoice.UNDECIDED:
         if value not in (None, 0):
             raise VoteRejected("strength: expected 0 with undecided")
         return 0
@@ -202,8 +215,6 @@ def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcom
     if (answered >= total and participant.finished_at is None
             and participant.screened_out_at is None):
         participant.finished_at = utcnow()
-        from app.participants import release_if_left_out
-
         release_if_left_out(participant)
     return VoteOutcome(vote=vote, created=created, answered=answered, total=total)
 
@@ -219,8 +230,6 @@ def failed_checks(participant: Participant) -> int:
 def screen_out(participant: Participant) -> bool:
     """Apply the stop rule (``attention.max_failed``): end the session once that many checks
     failed. Returns whether the session is now ended; not committed."""
-    from app.design import participation
-
     limit = participation(participant.study).max_failed
     if limit and participant.screened_out_at is None and failed_checks(participant) >= limit:
         participant.screened_out_at = utcnow()

@@ -38,6 +38,7 @@ def test_the_closing_report(app, client, web, participant, tmp_path, monkeypatch
     response.close()
     html = html.replace("&#x27;", "'").replace("&quot;", '"')
     assert "<h1>Test study</h1>" in html and "Report written 20" in html
+    assert "in-memory votes" not in html
     assert "1 participant cast 4 votes on 1 clip " in html
     assert "P0001: failed a catch trial (0 of 1 passed)" in html
     assert "P0002: did not finish" in html
@@ -63,3 +64,30 @@ def test_the_closing_report(app, client, web, participant, tmp_path, monkeypatch
     again = json.loads((tmp_path / "again" / "again.json").read_text())
     assert again["input"]["participants"] == 1 and again["input"]["votes"] == 4
     assert set(again["input"]["left_out"]) == {"P0001", "P0002"}
+
+
+def test_the_report_analyses_the_table_the_csv_holds(app, web, participant, tmp_path):
+    """What the web report analyses is what the CSV export holds: same columns, same counts."""
+    import io
+
+    from app.analysis.results import analyze
+    from app.analysis.votes import VOTE_COLUMNS, read_votes
+    from app.exports import vote_rows, votes_csv, votes_table
+
+    study_id = web.study(design="all_ordered")
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    _run(app, participant, slug, catch_answer="left")
+    with app.app_context():
+        study = db.session.get(Study, study_id)
+        rows = vote_rows(study)
+        assert rows and all(set(row) <= set(VOTE_COLUMNS) for row in rows)
+        table = votes_table(study)
+        text = votes_csv(study)
+    (tmp_path / "votes.csv").write_text(text, encoding="utf-8")
+    again = read_votes(tmp_path / "votes.csv")
+    assert len(table) == len(again) == len(rows)
+    direct, reread = analyze(table), analyze(again)
+    assert {**direct["input"], "source": None} == {**reread["input"], "source": None}
+    assert direct["pooled"]["ballots"] == reread["pooled"]["ballots"]
+    assert io.StringIO(text).readline().strip().split(",") == list(VOTE_COLUMNS)

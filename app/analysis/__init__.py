@@ -5,7 +5,7 @@ Pure package (no Flask). Entry points: :func:`analyze` (every statistic, JSON-re
 and :func:`app.analysis.votes.write_votes_csv` (the one votes format).
 """
 
-from app.analysis.analyze import analyze
+from app.analysis.results import analyze
 from app.analysis.votes import CHOICES, VOTE_COLUMNS, VotesTable, read_votes, write_votes_csv
 
 __all__ = ["CHOICES", "VOTE_COLUMNS", "VotesTable", "analyze", "read_votes", "write_votes_csv"]

@@ -34,25 +34,41 @@ class VoteCounts:
     tensor: np.ndarray  # (P, K, n, n, 3) int64
 
     def wins(self, undecided: str = "exclude") -> np.ndarray:
-        """(P, K, n, n): judgements of i over j, whichever side i was on.
-
-        With ``undecided="split"`` every undecided vote adds 1/2 to both directions. The
-        diagonal holds same-condition votes (a ballot for that condition).
-        """
-        t = self.tensor
-        w = t[..., 0] + np.swapaxes(t[..., 1], -1, -2)
-        if undecided == "split":
-            u = t[..., 2] + np.swapaxes(t[..., 2], -1, -2)
-            return w + 0.5 * u
-        if undecided != "exclude":
-            raise InputError(f"undecided must be one of {', '.join(UNDECIDED_TREATMENTS)}, "
-                             f"got {undecided!r}", field="undecided")
-        return w
+        """(P, K, n, n): judgements of i over j, whichever side i was on (:func:`wins`)."""
+        return wins(self.tensor, undecided)
 
     def undecided_pairs(self) -> np.ndarray:
         """(P, K, n, n) symmetric: undecided votes on the unordered pair {i, j}."""
-        u = self.tensor[..., 2]
-        return u + np.swapaxes(u, -1, -2)
+        return undecided_pairs(self.tensor)
+
+
+def wins(tensor: np.ndarray, undecided: str = "exclude") -> np.ndarray:
+    """(..., n, n): judgements of condition i over j, whichever side i was on.
+
+    ``tensor`` is (..., n, n, 3) as in :class:`VoteCounts`: a ``left`` vote with i on the left
+    and a ``right`` vote with i on the right are both judgements of i over j (thesis sec. 5.2).
+    With ``undecided="split"`` every undecided vote adds 1/2 to both directions. The diagonal
+    holds same-condition votes (a ballot for that condition).
+
+    >>> t = np.zeros((2, 2, 3), dtype=np.int64)
+    >>> t[0, 1, 0], t[0, 1, 2] = 3, 2  # a left, b right: 3 votes for the left, 2 undecided
+    >>> t[1, 0, 1] = 1  # b left, a right: 1 vote for the right
+    >>> wins(t).tolist(), wins(t, "split").tolist()
+    ([[0, 4], [0, 0]], [[0.0, 5.0], [1.0, 0.0]])
+    """
+    w = tensor[..., 0] + np.swapaxes(tensor[..., 1], -1, -2)
+    if undecided == "split":
+        return w + 0.5 * undecided_pairs(tensor)
+    if undecided != "exclude":
+        raise InputError(f"undecided must be one of {', '.join(UNDECIDED_TREATMENTS)}, "
+                         f"got {undecided!r}", field="undecided")
+    return w
+
+
+def undecided_pairs(tensor: np.ndarray) -> np.ndarray:
+    """(..., n, n) symmetric: undecided votes on the unordered pair {i, j}."""
+    u = tensor[..., 2]
+    return u + np.swapaxes(u, -1, -2)
 
 
 def count_votes(votes: VotesTable, conditions: Sequence[str] | None = None) -> VoteCounts:

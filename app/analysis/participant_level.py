@@ -32,6 +32,7 @@ from numpy.typing import ArrayLike
 from scipy import stats
 
 from app.analysis.agreement import coefficient_of_agreement
+from app.analysis.counts import undecided_pairs, wins
 from app.analysis.json_values import json_number as _num
 from app.analysis.scaling import bootstrap_weights, canonical_participant_order
 from app.analysis.signtest import sign_test_p
@@ -50,9 +51,8 @@ def pair_counts(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """
     n = t.shape[-2]
     i, j = np.triu_indices(n, 1)
-    wins = t[..., 0] + np.swapaxes(t[..., 1], -1, -2)
-    und = t[..., 2] + np.swapaxes(t[..., 2], -1, -2)
-    return wins[:, i, j], wins[:, j, i], und[:, i, j]
+    won, und = wins(t), undecided_pairs(t)
+    return won[:, i, j], won[:, j, i], und[:, i, j]
 
 
 def net_preference(t: np.ndarray) -> np.ndarray:

@@ -34,7 +34,7 @@ import numpy as np
 import pandas as pd
 
 from app.analysis.btd import fit_btd, leave_one_out_loglik
-from app.analysis.counts import VoteCounts
+from app.analysis.counts import VoteCounts, wins
 from app.analysis.json_values import json_number
 from app.analysis.signtest import sign_test_p
 from app.errors import InputError
@@ -130,10 +130,10 @@ def participant_quality(counts: VoteCounts, frame: pd.DataFrame) -> dict[str, di
     same = t[:, diag, diag, :]
     same_votes = same.sum(axis=(1, 2))
     off = ~np.eye(n, dtype=bool)
-    wins = np.where(off, t[..., 0] + np.swapaxes(t[..., 1], -1, -2), 0.0).sum(axis=-1)
+    won = np.where(off, wins(t), 0.0).sum(axis=-1)
     fit = fit_btd(t.sum(axis=0))
-    consensus = fit.theta if fit.converged else wins.sum(axis=0)
-    tau = tau_b(wins, consensus)
+    consensus = fit.theta if fit.converged else won.sum(axis=0)
+    tau = tau_b(won, consensus)
     outlier = _outlier_distance(leave_one_out_loglik(t))
     times = pd.to_numeric(frame["response_ms"], errors="coerce").astype(float)
     median_ms = times.groupby(frame["participant"]).median()

@@ -27,8 +27,8 @@ import numpy as np
 import pandas as pd
 
 from app.errors import InputError
+from app.trials.rules import CHOICES
 
-CHOICES: tuple[str, ...] = ("left", "right", "undecided")
 #: How a true/false column may be spelt (case-insensitive); written as true/false.
 FLAGS: dict[str, bool] = {"true": True, "1": True, "yes": True,
                           "false": False, "0": False, "no": False}

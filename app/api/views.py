@@ -18,8 +18,11 @@ from app.enrolment import progress as enrolment_progress
 from app.experimenter.auth import current_user, study_access
 from app.extensions import db
 from app.limits import fits
+from app.medialog import MediaLogError, environment_fields
 from app.models import Job, Participant, Trial
-from app.voting import VoteRejected, record_vote
+from app.studies import participation
+from app.trials.rules import play_refusal
+from app.voting import VoteRejected, record_vote, replay_policy
 
 bp = Blueprint("api", __name__, url_prefix="/api/v1")
 
@@ -94,8 +97,8 @@ def post_play():  # type: ignore[no-untyped-def]
     trial = db.session.get(Trial, trial_id)
     if trial is None or trial.participant_id != participant.id or trial.kind == "practice":
         return _error("no such trial", 404)
-    study = participant.study
-    limit = study.max_plays if study.replay == "max_plays" else None
+    policy = replay_policy(participant.study)
+    limit = policy.max_plays
     granted = db.session.execute(
         sa.update(Trial).where(Trial.id == trial.id,
                                sa.true() if limit is None else Trial.plays < limit)
@@ -104,7 +107,7 @@ def post_play():  # type: ignore[no-untyped-def]
     db.session.refresh(trial)
     left = None if limit is None else max(0, limit - trial.plays)
     if not granted:
-        return jsonify({"error": f"plays: at most {limit} plays are allowed", "plays": trial.plays,
+        return jsonify({"error": play_refusal(policy), "plays": trial.plays,
                         "plays_left": 0}), 409
     return jsonify({"plays": trial.plays, "plays_left": left}), 200
 
@@ -113,9 +116,6 @@ def post_play():  # type: ignore[no-untyped-def]
 def post_environment(token: str):  # type: ignore[no-untyped-def]
     """The device and the viewing check, reported once before the first trial (a later
     report replaces it until the first trial is shown)."""
-    from app.design import participation
-    from app.medialog import MediaLogError, environment_fields
-
     participant = db.session.scalar(sa.select(Participant).where(Participant.token == token)) \
         if fits(Participant.token, token) else None
     if participant is None:

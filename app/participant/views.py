@@ -8,6 +8,7 @@ cookie, so reopening the study link resumes where they left off.
 from __future__ import annotations
 
 import re
+from typing import Any
 
 import sqlalchemy as sa
 from flask import (
@@ -25,7 +26,6 @@ from sqlalchemy.exc import IntegrityError
 from wtforms import HiddenField, SubmitField
 
 from app import limits
-from app.design import participation
 from app.enrolment import (
     SESSION_ENDED,
     dropped_after,
@@ -39,7 +39,10 @@ from app.extensions import db
 from app.limits import fits
 from app.media import media_response
 from app.models import Participant, Study, Trial, Vote, utcnow
-from app.voting import SCREENED_OUT
+from app.studies import participation
+from app.trials import rules
+from app.trials.participation import ParticipationSpec
+from app.voting import SCREENED_OUT, replay_policy
 
 bp = Blueprint("participant", __name__)
 
@@ -150,9 +153,19 @@ def instructions(token: str):  # type: ignore[no-untyped-def]
         # The back button after a vote: the practice is over, the study goes on.
         return redirect(url_for(".resume", token=token))
     practice = practice_stimulus(participant)
+    study = participant.study
+    spec = participation(study)
     return _no_store(render_template(
-        "participant/instructions.html", participant=participant, study=participant.study,
-        practice=practice, spec=participation(participant.study)))
+        "participant/instructions.html", participant=participant, study=study,
+        practice=practice, spec=spec, **player_settings(study, spec)))
+
+
+def player_settings(study: Study, spec: ParticipationSpec) -> dict[str, Any]:
+    """What the player template and script take from :mod:`app.trials.rules`: the answer
+    buttons, the keys that cast a choice, the replay policy."""
+    return {"answers": rules.answers(scale=spec.scale, undecided_allowed=study.allow_undecided,
+                                     undecided_label=study.undecided_label),
+            "answer_keys": rules.key_map(spec.scale), "replay": replay_policy(study)}
 
 
 def _no_store(body: str):  # type: ignore[no-untyped-def]
@@ -199,7 +212,8 @@ def trial(token: str):  # type: ignore[no-untyped-def]
     db.session.commit()
     return _no_store(render_template(
         "participant/trial.html", participant=participant, study=study, trial=upcoming,
-        answered=answered, total=total, spec=spec, following=following))
+        answered=answered, total=total, spec=spec, following=following,
+        **player_settings(study, spec)))
 
 
 @bp.get("/p/<token>/video/<int:trial_id>")

@@ -5,13 +5,6 @@
 (function () {
   "use strict";
 
-  // The study file's convention: 1 = left, 2 = right, 0 = undecided; arrows work too.
-  var KEYS = {
-    ArrowLeft: "left", "1": "left",
-    ArrowRight: "right", "2": "right",
-    ArrowDown: "undecided", "0": "undecided"
-  };
-
   function newKey() {
     if (window.crypto && window.crypto.randomUUID) return window.crypto.randomUUID();
     var bytes = new Uint8Array(16);
@@ -111,7 +104,11 @@
     var playsLeft = root.querySelector(".plays-left");
     var reasons = root.querySelector(".reasons");
     var practice = d.practice === "yes";
+    // The server's rules (app.trials.rules): the play cap, whether a vote waits for the end,
+    // and the keys that cast a choice besides each button's own key.
     var maxPlays = d.maxPlays ? parseInt(d.maxPlays, 10) : null;
+    var needsEnd = d.needsEnd === "yes";
+    var keys = JSON.parse(d.keys || "{}");
     var pendingName = d.token ? "fp-pending-" + d.token : null;
     // Plays the server already granted: a reload gives none back.
     var state = { loaded: false, playing: false, plays: parseInt(d.plays || "0", 10),
@@ -125,13 +122,13 @@
 
     function mayPlay() {
       if (!state.loaded || state.playing || state.voted || state.requesting) return false;
-      return !(d.replay === "max_plays" && state.plays >= maxPlays);
+      return !(maxPlays !== null && state.plays >= maxPlays);
     }
 
     function mayVote() {
       if (state.voted || (state.plays === 0 && state.firstPlay === null)) return false;
       if (state.firstPlay === null) return false;
-      if (d.replay === "play_to_end") return state.watched;
+      if (needsEnd) return state.watched;
       return true;
     }
 
@@ -139,7 +136,7 @@
       playButton.disabled = !mayPlay();
       playButton.firstChild.nodeValue = state.plays ? "Play again " : "Play ";
       for (var i = 0; i < voteButtons.length; i++) voteButtons[i].disabled = !mayVote();
-      if (d.replay === "max_plays" && state.loaded) {
+      if (maxPlays !== null && state.loaded) {
         var left = Math.max(0, maxPlays - state.plays);
         playsLeft.textContent = left + (left === 1 ? " play left" : " plays left");
       }
@@ -347,8 +344,8 @@
     };
     self.key = function (key) {
       var button = root.querySelector('.vote[data-key="' + key + '"]');
-      if (!button && d.scale !== "5" && KEYS[key]) {
-        button = root.querySelector('.vote[data-choice="' + KEYS[key] + '"]');
+      if (!button && Object.prototype.hasOwnProperty.call(keys, key)) {
+        button = root.querySelector('.vote[data-choice="' + keys[key] + '"]');
       }
       if (button) self.vote(button);
       return Boolean(button);

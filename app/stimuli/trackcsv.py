@@ -2,8 +2,8 @@
 
 An optional first line ``# fps=30`` (with ``name=``, ``source=``, ``speaker=`` fields separated
 by ``;``) carries the frame rate; without it the caller gives ``fps``. Values are written with
-Python's shortest round-trip float repr, so a write-read round trip is exact. See
-``docs/formats.md``.
+Python's shortest round-trip float repr, so a write-read round trip is exact. The FAP
+column names come from :mod:`app.stimuli.fap`.
 
 Example
 -------

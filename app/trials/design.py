@@ -23,8 +23,8 @@ Three designs, each taken from a seed study:
     participants (the counterbalancing the 2012 paper, sec. 8.1, asks for: "To counter balance
     the order of the visual stimuli ...").
 
-Conditions are named by their study names (e.g. ``"speech_driven"``); a ``Pair`` is what one
-side-by-side clip shows: ``left`` on the left panel, ``right`` on the right.
+Conditions are named by their study names (e.g. ``"speech_driven"``); a ``ConditionPair`` is what
+one side-by-side clip shows: ``left`` on the left panel, ``right`` on the right.
 """
 
 from __future__ import annotations
@@ -38,19 +38,19 @@ PAIR_DESIGNS: Final = ("all_ordered", "reference", "unordered_counterbalanced")
 
 
 @dataclass(frozen=True, order=True, slots=True)
-class Pair:
+class ConditionPair:
     """One side-by-side comparison: condition ``left`` on the left panel, ``right`` on the right.
 
-    >>> Pair("random", "speech_driven").flipped()
-    Pair(left='speech_driven', right='random')
+    >>> ConditionPair("random", "speech_driven").flipped()
+    ConditionPair(left='speech_driven', right='random')
     """
 
     left: str
     right: str
 
-    def flipped(self) -> Pair:
+    def flipped(self) -> ConditionPair:
         """The same comparison with the sides exchanged."""
-        return Pair(self.right, self.left)
+        return ConditionPair(self.right, self.left)
 
     @property
     def is_same(self) -> bool:
@@ -72,7 +72,7 @@ def check_design(design: str) -> str:
 
 def build_pairs(
     conditions: Sequence[str], design: str, *, reference: str | None = None
-) -> list[Pair]:
+) -> list[ConditionPair]:
     """List the pairs of a design, in a fixed order derived from the order of ``conditions``.
 
     Parameters
@@ -88,8 +88,9 @@ def build_pairs(
     -------
     ``all_ordered``: n^2 pairs, row-major over (left, right), same-condition pairs included
     (thesis sec. 5.2, TABLE 3). ``reference``: 2(n-1) pairs, for each other condition ``c`` in
-    order ``Pair(c, reference)`` then ``Pair(reference, c)`` (Le et al. 2012, sec. 8.1.1).
-    ``unordered_counterbalanced``: C(n, 2) pairs ``Pair(a, b)`` with ``a`` before ``b`` in
+    order ``ConditionPair(c, reference)`` then ``ConditionPair(reference, c)`` (Le et al. 2012,
+    sec. 8.1.1).
+    ``unordered_counterbalanced``: C(n, 2) pairs ``ConditionPair(a, b)`` with ``a`` before ``b`` in
     ``conditions``; the schedule chooses the displayed side.
 
     Raises
@@ -127,30 +128,30 @@ def build_pairs(
         )
 
     if design == "all_ordered":
-        return [Pair(a, b) for a in names for b in names]
+        return [ConditionPair(a, b) for a in names for b in names]
     if design == "reference":
-        pairs: list[Pair] = []
+        pairs: list[ConditionPair] = []
         for other in names:
             if other != reference:
-                pairs += [Pair(other, reference), Pair(reference, other)]  # type: ignore[arg-type]
+                pairs += [ConditionPair(other, reference), ConditionPair(reference, other)]  # type: ignore[arg-type]
         return pairs
-    return [Pair(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
+    return [ConditionPair(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
 
 
-def stimulus_pairs(pairs: Sequence[Pair], design: str) -> list[Pair]:
+def stimulus_pairs(pairs: Sequence[ConditionPair], design: str) -> list[ConditionPair]:
     """Every ordered pair some participant may see: the side-by-side clips to render.
 
     For ``all_ordered`` and ``reference`` that is ``pairs`` itself (both orders are already
     there); for ``unordered_counterbalanced`` each pair is followed by its flipped twin, because
     the schedule shows one order to half of the lists and the other order to the rest.
 
-    >>> stimulus_pairs([Pair("a", "b")], "unordered_counterbalanced")
-    [Pair(left='a', right='b'), Pair(left='b', right='a')]
+    >>> stimulus_pairs([ConditionPair("a", "b")], "unordered_counterbalanced")
+    [ConditionPair(left='a', right='b'), ConditionPair(left='b', right='a')]
     """
     check_design(design)
     if design != "unordered_counterbalanced":
         return list(dict.fromkeys(pairs))
-    out: dict[Pair, None] = {}
+    out: dict[ConditionPair, None] = {}
     for pair in pairs:
         out[pair] = None
         out[pair.flipped()] = None

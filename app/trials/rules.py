@@ -1,4 +1,7 @@
-"""Vote rules: when a clip may be (re)played, when a vote may be cast, which choices exist.
+"""The vote vocabulary: which choices exist, when a clip may be (re)played, when a vote may be
+cast, and what a participant reads when it may not. The one place for these facts: the votes
+schema (:mod:`app.analysis.votes`), the web layer's checks and the participant page's buttons and
+keys all read them from here.
 
 Replay policies: ``unlimited`` follows Le, Ma & Deng 2012, sec. 8.1 ("they can view
 the clips for unlimited times before made their decisions"); ``max_plays`` caps the number of
@@ -14,35 +17,72 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import StrEnum
-from typing import Final
-
-KNOWN_CHOICES: Final = ("left", "right", "undecided")
-"""The choices of the votes schema; must equal ``app.analysis.votes.CHOICES`` (the tests check it
-when that module is present), which is the one place for them."""
+from typing import Final, NamedTuple
 
 
-def _schema_choices() -> tuple[str, ...]:
-    """The vote choices from the analysis package's votes schema, if installed."""
-    try:
-        from app.analysis.votes import CHOICES as schema
-    except ImportError:
-        return KNOWN_CHOICES
-    return tuple(schema)
+class VoteChoice(StrEnum):
+    """A participant's answer: the left panel, the right panel, or undecided."""
+
+    LEFT = "left"
+    RIGHT = "right"
+    UNDECIDED = "undecided"
 
 
-CHOICES: Final[tuple[str, ...]] = _schema_choices()
-"""The answers a participant can give: left panel, right panel, undecided."""
+CHOICES: Final[tuple[str, ...]] = tuple(c.value for c in VoteChoice)
+"""The answers a participant can give, in the order the vote counts index them (0, 1, 2)."""
+
+KEYS: Final[dict[str, str]] = {
+    "ArrowLeft": CHOICES[0], "1": CHOICES[0],
+    "ArrowRight": CHOICES[1], "2": CHOICES[1],
+    "ArrowDown": CHOICES[2], "0": CHOICES[2],
+}
+"""Keyboard keys of the 3-level answer (the study file's convention: 1 = left, 2 = right,
+0 = undecided; the arrows work too). The 5-level answer is keyed 1 to 5, left to right."""
 
 REPLAY_KINDS: Final = ("unlimited", "max_plays", "play_to_end")
 """Kinds of replay policy."""
 
 
-class VoteChoice(StrEnum):
-    """A participant's answer; the values are :data:`CHOICES`, in the same order."""
+def key_map(scale: int) -> dict[str, str]:
+    """Key -> choice for keys that cast a choice whatever its button's own key: :data:`KEYS`
+    on the 3-level answer; none on the 5-level one (its buttons carry keys 1 to 5).
 
-    LEFT = "left"
-    RIGHT = "right"
-    UNDECIDED = "undecided"
+    >>> key_map(3)["ArrowDown"], key_map(5)
+    ('undecided', {})
+    """
+    return dict(KEYS) if scale != 5 else {}
+
+
+class Answer(NamedTuple):
+    """One answer button: the choice it casts, its strength on the 5-level scale (None on the
+    3-level one), its label and its key."""
+
+    choice: str
+    strength: int | None
+    label: str
+    key: str
+
+
+def answers(*, scale: int, undecided_allowed: bool,
+            undecided_label: str = "Undecided") -> tuple[Answer, ...]:
+    """The answer buttons of a study, left to right (HEMVIP2's 5-level scale when ``scale`` is 5).
+
+    >>> [a.key for a in answers(scale=3, undecided_allowed=True)]
+    ['1', '0', '2']
+    >>> [(a.choice, a.strength, a.key) for a in answers(scale=5, undecided_allowed=False)]
+    [('left', 2, '1'), ('left', 1, '2'), ('right', 1, '4'), ('right', 2, '5')]
+    """
+    left, right, undecided = CHOICES
+    if scale == 5:
+        out = [Answer(left, 2, "Clearly left", "1"), Answer(left, 1, "Slightly left", "2"),
+               Answer(undecided, 0, undecided_label, "3"),
+               Answer(right, 1, "Slightly right", "4"), Answer(right, 2, "Clearly right", "5")]
+    else:
+        key = {choice: k for k, choice in KEYS.items() if k.isdigit()}
+        out = [Answer(left, None, "Left", key[left]),
+               Answer(undecided, None, undecided_label, key[undecided]),
+               Answer(right, None, "Right", key[right])]
+    return tuple(a for a in out if undecided_allowed or a.choice != undecided)
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,6 +111,11 @@ class ReplayPolicy:
                 raise ValueError(f"max_plays must be a positive integer, got {self.max_plays!r}")
         elif self.max_plays is not None:
             raise ValueError(f"max_plays only applies to kind 'max_plays', not {self.kind!r}")
+
+    @property
+    def needs_end(self) -> bool:
+        """Whether a vote waits for a play to reach the end."""
+        return self.kind == "play_to_end"
 
 
 def may_play(policy: ReplayPolicy, plays: int) -> bool:
@@ -111,6 +156,29 @@ def may_vote(policy: ReplayPolicy, plays: int, finished: bool) -> bool:
     return True
 
 
+def vote_refusal(policy: ReplayPolicy, plays: int, finished: bool) -> str | None:
+    """Why a vote after ``plays`` started plays is refused (one line naming the field), or None
+    when :func:`may_vote` allows it.
+
+    >>> vote_refusal(ReplayPolicy("play_to_end"), 1, False)
+    'watched_to_end: the clip must play to the end before voting'
+    >>> vote_refusal(ReplayPolicy(), 1, False) is None
+    True
+    """
+    if may_vote(policy, plays, finished):
+        return None
+    if plays == 0:
+        return "plays: the clip must be played before voting"
+    if policy.needs_end:
+        return "watched_to_end: the clip must play to the end before voting"
+    return play_refusal(policy)
+
+
+def play_refusal(policy: ReplayPolicy) -> str:
+    """What a participant reads when no play is left (``max_plays``)."""
+    return f"plays: at most {policy.max_plays} plays are allowed"
+
+
 def allowed_choices(*, undecided_allowed: bool) -> tuple[str, ...]:
     """The choices a study offers: left, right, and undecided if allowed.
 
@@ -120,9 +188,13 @@ def allowed_choices(*, undecided_allowed: bool) -> tuple[str, ...]:
     return tuple(c for c in CHOICES if undecided_allowed or c != VoteChoice.UNDECIDED)
 
 
-def check_choice(choice: str, *, undecided_allowed: bool) -> VoteChoice:
-    """Validate a submitted choice; ``ValueError`` with one line if it is not allowed."""
+def check_choice(choice: object, *, undecided_allowed: bool) -> VoteChoice:
+    """Validate a submitted choice; ``ValueError`` with one line if it is not allowed.
+
+    >>> check_choice("left", undecided_allowed=False)
+    <VoteChoice.LEFT: 'left'>
+    """
     allowed = allowed_choices(undecided_allowed=undecided_allowed)
-    if choice not in allowed:
-        raise ValueError(f"expected one of {', '.join(allowed)}, got {choice!r}")
+    if not isinstance(choice, str) or choice not in allowed:
+        raise ValueError(f"expected one of {', '.join(allowed)}, got {repr(choice)[:40]}")
     return VoteChoice(choice)

@@ -28,7 +28,7 @@ Sides
     ``2k`` and ``2k+1`` together show every pair of every clip in both orders.
 
 Catch trials (``kind="catch"``) are spread evenly through the schedule and record the answer an
-attentive participant gives in ``Trial.expected`` (see :data:`CATCH_KINDS`).
+attentive participant gives in ``ScheduledTrial.expected`` (see :data:`CATCH_KINDS`).
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ from typing import Final
 
 import numpy as np
 
-from app.trials.design import Pair, check_design, stimulus_pairs
+from app.trials.design import ConditionPair, check_design, stimulus_pairs
 
 TRIAL_KINDS: Final = ("practice", "trial", "catch", "mismatch")
 """Kinds of trial: the practice pair after the instructions, a real trial, a catch trial, an
@@ -65,7 +65,7 @@ CATCH_KINDS: Final = ("identical", "instructed", "onscreen")
 
 
 @dataclass(frozen=True, slots=True)
-class Trial:
+class ScheduledTrial:
     """One page of the study.
 
     Attributes
@@ -100,9 +100,9 @@ class Trial:
     foreign: str = ""
 
     @property
-    def pair(self) -> Pair:
+    def pair(self) -> ConditionPair:
         """The displayed pair."""
-        return Pair(self.left, self.right)
+        return ConditionPair(self.left, self.right)
 
     def catch_passed(self, choice: str) -> bool | None:
         """For a catch trial, whether ``choice`` is the expected answer; ``None`` otherwise."""
@@ -178,7 +178,7 @@ def n_lists_for(design: str, *, n_clips: int = 1, block_by_clip: bool = True) ->
     return _side_lists(design) * rows
 
 
-def balanced_orientation(comparisons: Sequence[Pair]) -> list[Pair]:
+def balanced_orientation(comparisons: Sequence[ConditionPair]) -> list[ConditionPair]:
     """Orient comparisons so each condition is on the left as often as on the right, within one.
 
     Classic construction: join every odd-degree condition to a virtual vertex, so all degrees
@@ -187,8 +187,10 @@ def balanced_orientation(comparisons: Sequence[Pair]) -> list[Pair]:
     dropping the virtual edges changes each count by at most one. Deterministic: the result
     depends only on the order of ``comparisons``.
 
-    >>> balanced_orientation([Pair("a", "b"), Pair("a", "c"), Pair("b", "c")])
-    [Pair(left='a', right='b'), Pair(left='c', right='a'), Pair(left='b', right='c')]
+    >>> oriented = balanced_orientation([ConditionPair("a", "b"), ConditionPair("a", "c"),
+    ...                                  ConditionPair("b", "c")])
+    >>> [(p.left, p.right) for p in oriented]
+    [('a', 'b'), ('c', 'a'), ('b', 'c')]
     """
     if any(p.is_same for p in comparisons):
         raise ValueError("same-condition pairs have no side to balance")
@@ -220,14 +222,14 @@ def balanced_orientation(comparisons: Sequence[Pair]) -> list[Pair]:
             used[index] = True
             oriented[index] = (vertex, other)
             stack.append(other)
-    return [Pair(str(a), str(b)) for a, b in oriented[: len(comparisons)]]
+    return [ConditionPair(str(a), str(b)) for a, b in oriented[: len(comparisons)]]
 
 
-def _comparisons(pairs: Sequence[Pair], design: str) -> list[Pair]:
+def _comparisons(pairs: Sequence[ConditionPair], design: str) -> list[ConditionPair]:
     """The pairs one participant sees per clip, before the list's side flip."""
     if design == "all_ordered":
         return list(dict.fromkeys(pairs))
-    seen: dict[frozenset[str], Pair] = {}
+    seen: dict[frozenset[str], ConditionPair] = {}
     for pair in pairs:
         if pair.is_same:
             raise ValueError(f"design {design!r} has no same-condition pairs, got {pair}")
@@ -238,18 +240,18 @@ def _comparisons(pairs: Sequence[Pair], design: str) -> list[Pair]:
 def make_schedule(
     *,
     clips: Sequence[str],
-    pairs: Sequence[Pair],
+    pairs: Sequence[ConditionPair],
     design: str,
     seed: int,
     list_index: int,
     n_lists: int,
     catch_trials: int = 0,
-    practice_pair: Pair | None = None,
+    practice_pair: ConditionPair | None = None,
     catch_kind: str = "identical",
     practice_clip: str | None = None,
     block_by_clip: bool = True,
     mismatched: bool = False,
-) -> list[Trial]:
+) -> list[ScheduledTrial]:
     """Build one participant's schedule; pure and deterministic in all its arguments.
 
     Parameters
@@ -316,7 +318,7 @@ def make_schedule(
     block_order = rows[(list_index // sides) % len(rows)]
     comparisons = _comparisons(pairs, design)
 
-    blocks: list[list[tuple[str, Pair]]] = []
+    blocks: list[list[tuple[str, ConditionPair]]] = []
     for clip_number in block_order:
         clip = clips[clip_number]
         flip = flip_list != (sides == 2 and clip_number % 2 == 1)
@@ -331,16 +333,17 @@ def make_schedule(
     slots = _catch_slots(len(main), catch_trials, rng)
     onscreen = stimulus_pairs(pairs, design)[0] if catch_kind == "onscreen" else None
     catches = _catch_trials(main, slots, catch_kind, rng, onscreen)
-    sequence: list[Trial] = []
+    sequence: list[ScheduledTrial] = []
     if practice_pair is not None:
         clip = practice_clip if practice_clip is not None else main[0][0]
-        sequence.append(Trial(0, clip, practice_pair.left, practice_pair.right, "practice"))
+        sequence.append(ScheduledTrial(0, clip, practice_pair.left, practice_pair.right,
+                                       "practice"))
     pending = 0
     for index, (clip, pair) in enumerate(main):
-        sequence.append(Trial(0, clip, pair.left, pair.right))
+        sequence.append(ScheduledTrial(0, clip, pair.left, pair.right))
         while pending < len(slots) and slots[pending] == index + 1:
             c_clip, c_pair, expected = catches[pending]
-            sequence.append(Trial(0, c_clip, c_pair.left, c_pair.right, "catch", expected,
+            sequence.append(ScheduledTrial(0, c_clip, c_pair.left, c_pair.right, "catch", expected,
                                   expected if onscreen is not None else ""))
             pending += 1
     if mismatched:
@@ -360,8 +363,9 @@ def foreign_clip(clips: Sequence[str], clip: str) -> str:
     return clips[(index + 1) % len(clips)]
 
 
-def _with_mismatched(sequence: list[Trial], clips: Sequence[str], pairs: Sequence[Pair],
-                     rng: np.random.Generator, *, first: int) -> list[Trial]:
+def _with_mismatched(sequence: list[ScheduledTrial], clips: Sequence[str],
+                     pairs: Sequence[ConditionPair], rng: np.random.Generator, *,
+                     first: int) -> list[ScheduledTrial]:
     """Insert one appropriateness pair per condition and clip at random places after
     ``first``; the mismatched side is balanced (left and right equally often, within one)."""
     if len(clips) < 2:
@@ -374,20 +378,20 @@ def _with_mismatched(sequence: list[Trial], clips: Sequence[str], pairs: Sequenc
     for (clip, condition), side in zip(items, sides, strict=True):
         matched = "right" if side == "left" else "left"
         at = int(rng.integers(first, len(out) + 1))
-        out.insert(at, Trial(0, clip, condition, condition, "mismatch", matched, "", side))
+        out.insert(at, ScheduledTrial(0, clip, condition, condition, "mismatch", matched, "", side))
     return out
 
 
 def shown_stimuli(
     *,
     clips: Sequence[str],
-    pairs: Sequence[Pair],
+    pairs: Sequence[ConditionPair],
     design: str,
     catch_trials: int = 0,
     catch_kind: str = "identical",
-    practice_pair: Pair | None = None,
+    practice_pair: ConditionPair | None = None,
     practice_clip: str | None = None,
-) -> list[tuple[str, Pair]]:
+) -> list[tuple[str, ConditionPair]]:
     """Every (clip, displayed pair) that some participant's schedule can show: the clips to render.
 
     The design's pairs in both orders where the lists flip sides
@@ -403,7 +407,7 @@ def shown_stimuli(
     shown = dict.fromkeys((clip, pair) for clip in clips for pair in stimulus_pairs(pairs, design))
     if catch_trials and catch_kind == "identical":
         conditions = dict.fromkeys(c for pair in pairs for c in (pair.left, pair.right))
-        shown |= dict.fromkeys((clip, Pair(c, c)) for clip in clips for c in conditions)
+        shown |= dict.fromkeys((clip, ConditionPair(c, c)) for clip in clips for c in conditions)
     if practice_pair is not None:
         on = [practice_clip] if practice_clip is not None else list(clips)
         shown |= dict.fromkeys((clip, practice_pair) for clip in on)
@@ -413,12 +417,12 @@ def shown_stimuli(
 def variant_stimuli(
     *,
     clips: Sequence[str],
-    pairs: Sequence[Pair],
+    pairs: Sequence[ConditionPair],
     design: str,
     catch_trials: int = 0,
     catch_kind: str = "identical",
     mismatched: bool = False,
-) -> list[tuple[str, Pair, str, str]]:
+) -> list[tuple[str, ConditionPair, str, str]]:
     """The clips to render besides :func:`shown_stimuli`: ``(clip, pair, instruction,
     foreign side)`` for ``onscreen`` catch trials (the design's first displayed pair with
     "press Left" and with "press Right" drawn in) and for appropriateness pairs (each
@@ -429,13 +433,13 @@ def variant_stimuli(
     ...                     design="all_ordered", mismatched=True))
     8
     """
-    out: list[tuple[str, Pair, str, str]] = []
+    out: list[tuple[str, ConditionPair, str, str]] = []
     if catch_trials and catch_kind == "onscreen":
         pair = stimulus_pairs(pairs, design)[0]
         out += [(clip, pair, side, "") for clip in clips for side in ("left", "right")]
     if mismatched:
         conditions = dict.fromkeys(c for pair in pairs for c in (pair.left, pair.right))
-        out += [(clip, Pair(c, c), "", side) for clip in clips for c in conditions
+        out += [(clip, ConditionPair(c, c), "", side) for clip in clips for c in conditions
                 for side in ("left", "right")]
     return out
 
@@ -451,9 +455,10 @@ def _catch_slots(n_main: int, n_catch: int, rng: np.random.Generator) -> list[in
 
 
 def _catch_trials(
-    main: Sequence[tuple[str, Pair]], slots: Sequence[int], kind: str, rng: np.random.Generator,
-    onscreen: Pair | None = None,
-) -> list[tuple[str, Pair, str]]:
+    main: Sequence[tuple[str, ConditionPair]], slots: Sequence[int], kind: str,
+    rng: np.random.Generator,
+    onscreen: ConditionPair | None = None,
+) -> list[tuple[str, ConditionPair, str]]:
     """Stimuli and expected answers of the catch trials, each on the clip of the trial before.
 
     ``identical`` shows one of the two conditions of the preceding trial on both sides;
@@ -464,12 +469,12 @@ def _catch_trials(
     n_catch = len(slots)
     answers = (["left", "right"] * (n_catch // 2 + 1))[:n_catch]
     order = rng.permutation(n_catch)
-    out: list[tuple[str, Pair, str]] = []
+    out: list[tuple[str, ConditionPair, str]] = []
     for number, slot in enumerate(slots):
         clip, pair = main[slot - 1]
         if kind == "identical":
             condition = pair.left if rng.random() < 0.5 else pair.right
-            out.append((clip, Pair(condition, condition), "undecided"))
+            out.append((clip, ConditionPair(condition, condition), "undecided"))
         elif onscreen is not None:
             out.append((clip, onscreen, answers[int(order[number])]))
         else:

@@ -27,7 +27,7 @@ from typing import Any, Final
 
 from app.errors import InputError
 from app.stimuli.eyes import DEFAULT_EYES, EYE_MODES
-from app.trials.design import PAIR_DESIGNS, Pair
+from app.trials.design import PAIR_DESIGNS, ConditionPair
 from app.trials.fields import MISSING, describe
 from app.trials.participation import PARTICIPATION_KEYS, read_participation
 from app.trials.questions import ExperimenterSideReader
@@ -375,7 +375,7 @@ class _StudyReader(ExperimenterSideReader):
 
     def practice(
         self, top: Mapping[str, Any], conditions: list[str], clips: list[str]
-    ) -> tuple[Pair | None, str | None]:
+    ) -> tuple[ConditionPair | None, str | None]:
         value = top.get("practice", [conditions[0], conditions[-1]])
         if value is False:
             pair = None
@@ -393,7 +393,7 @@ class _StudyReader(ExperimenterSideReader):
                     raise self.error(
                         "practice", f"expected condition names ({', '.join(conditions)}), got {v!r}"
                     )
-            pair = Pair(value[0], value[1])
+            pair = ConditionPair(value[0], value[1])
         clip = self.text(top, "practice_clip", "practice_clip", None)
         if clip is not None and clip not in clips:
             raise self.error(

@@ -18,12 +18,18 @@ from pathlib import Path
 from typing import Any, Final
 
 from app.stimuli.eyes import DEFAULT_EYES
-from app.trials.design import Pair, build_pairs
+from app.trials.design import ConditionPair, build_pairs
 from app.trials.fields import key_text
 from app.trials.participation import ParticipationSpec
 from app.trials.questions import QuestionSpec
 from app.trials.rules import ReplayPolicy
-from app.trials.schedule import Trial, make_schedule, n_lists_for, shown_stimuli, variant_stimuli
+from app.trials.schedule import (
+    ScheduledTrial,
+    make_schedule,
+    n_lists_for,
+    shown_stimuli,
+    variant_stimuli,
+)
 
 KNOWN_MODELS: Final = ("none", "random", "speech_driven", "ground_truth", "live_gmm")
 """The models of the stimulus engine's interface; every one must be a key of
@@ -89,7 +95,7 @@ class StudySpec:
     completion_code: str = ""
     redirect_url: str | None = None
     seed: int = 0
-    practice: Pair | None = None
+    practice: ConditionPair | None = None
     practice_clip: str | None = None
     block_by_clip: bool = True
     eyes: str = DEFAULT_EYES
@@ -114,7 +120,7 @@ class StudySpec:
         """Clip names in file order."""
         return [c.name for c in self.clips]
 
-    def pairs(self) -> list[Pair]:
+    def pairs(self) -> list[ConditionPair]:
         """The design's pairs (:func:`app.trials.design.build_pairs`)."""
         return build_pairs(self.condition_names, self.design, reference=self.reference)
 
@@ -122,7 +128,7 @@ class StudySpec:
         """Lists in one counterbalancing cycle (:func:`app.trials.schedule.n_lists_for`)."""
         return n_lists_for(self.design, n_clips=len(self.clips), block_by_clip=self.block_by_clip)
 
-    def stimuli(self) -> list[tuple[str, Pair]]:
+    def stimuli(self) -> list[tuple[str, ConditionPair]]:
         """Every (clip name, displayed pair) some schedule shows: the side-by-side clips to render
         (:func:`app.trials.schedule.shown_stimuli`)."""
         return shown_stimuli(
@@ -135,7 +141,7 @@ class StudySpec:
             practice_clip=self.practice_clip,
         )
 
-    def variants(self) -> list[tuple[str, Pair, str, str]]:
+    def variants(self) -> list[tuple[str, ConditionPair, str, str]]:
         """Attention-check and appropriateness clips to render besides :meth:`stimuli`
         (:func:`app.trials.schedule.variant_stimuli`)."""
         return variant_stimuli(
@@ -143,7 +149,7 @@ class StudySpec:
             catch_trials=self.catch_trials, catch_kind=self.catch_kind,
             mismatched=self.participation.mismatched)
 
-    def schedule(self, *, seed: int, list_index: int) -> list[Trial]:
+    def schedule(self, *, seed: int, list_index: int) -> list[ScheduledTrial]:
         """One participant's schedule from their stored seed and assigned list."""
         return make_schedule(
             clips=self.clip_names,

@@ -46,45 +46,6 @@ def test_whole_study_with_reload_and_resume(app, client, participant, web):
         assert {v.choice for v in votes} == {"right"}
 
 
-def test_schedule_is_reproducible_from_the_stored_seed(app, participant, web):
-    from app import design
-
-    slug = _slug(app, web.study(catch=1))
-    token = participant.join(slug)
-    with app.app_context():
-        person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
-        stored = [(t.position, t.kind, t.stimulus.left.name, t.stimulus.right.name)
-                  for t in person.trials]
-        rebuilt = [(t.position, t.kind, t.left, t.right) for t in design.schedule(
-            person.study, seed=person.seed, list_index=person.study_list.index)]
-        assert stored == rebuilt
-        assert [t.kind for t in person.trials].count("catch") == 1
-        assert person.trials[0].kind == "practice"
-
-
-def test_lists_are_balanced_from_the_assignment_table(app, client, web):
-    from app.models import StudyList
-
-    slug = _slug(app, web.study())
-    tokens = []
-    for _ in range(4):
-        fresh = app.test_client()  # a new browser: no cookie
-        actions = type(web)  # noqa: F841 - keeps the namespace import honest
-        page = fresh.get(f"/s/{slug}")
-        token = re.search(r'name="csrf_token"[^>]*value="([^"]+)"', page.get_data(as_text=True))
-        response = fresh.post(f"/s/{slug}", data={"csrf_token": token.group(1), "agree": "1"})
-        tokens.append(response.headers["Location"].split("/p/")[1].split("/")[0])
-    with app.app_context():
-        lists = db.session.scalars(sa.select(StudyList).order_by(StudyList.index)).all()
-        assert [row.n_assigned for row in lists] == [2, 2]  # unordered design: two side lists
-        people = db.session.scalars(sa.select(Participant)).all()
-        assert sorted(p.number for p in people) == [0, 1, 2, 3]
-        # Each pair is shown in both orders across the two lists.
-        orders = {(p.study_list.index, t.stimulus.left.name) for p in people for t in p.trials
-                  if t.kind == "trial"}
-        assert {o for _, o in orders} == {"none", "random"}
-
-
 def test_consent_needs_csrf_and_an_open_study(app, client, web):
     slug = _slug(app, web.study())
     assert client.post(f"/s/{slug}", data={"agree": "1"}).status_code == 400  # no CSRF token
@@ -257,3 +218,22 @@ def test_clips_answer_ranges_with_a_long_private_cache(app, client, participant,
     assert part.status_code == 206 and len(part.data) == 100
     assert part.headers["Cache-Control"] == "private, max-age=604800"
     part.close()
+
+
+def test_the_page_takes_its_answers_keys_and_replay_rule_from_the_rules(app, client,
+                                                                        participant, web):
+    import html
+    import json
+
+    from app.trials.rules import answers, key_map
+
+    token = participant.join(_slug(app, web.study(undecided=False, replay="max_plays",
+                                                  max_plays=2)))
+    guide = client.get(f"/p/{token}/instructions").get_data(as_text=True)
+    assert "<kbd>←</kbd>/<kbd>1</kbd> for “Left”" in guide and "↓" not in guide
+    page = client.get(f"/p/{token}/trial").get_data(as_text=True)
+    keys = json.loads(html.unescape(re.search(r"data-keys='([^']*)'", page).group(1)))
+    assert keys == key_map(3)
+    buttons = re.findall(r'data-choice="(\w+)" data-key="(\w+)"', page)
+    assert buttons == [(a.choice, a.key) for a in answers(scale=3, undecided_allowed=False)]
+    assert 'data-max-plays="2"' in page and 'data-needs-end="no"' in page

@@ -11,7 +11,7 @@ from app.stimuli.io import save_track
 from app.stimuli.reference_speaker import synthesize_reference
 from app.stimuli.speech import SpeechFeatures, extract_features
 from app.stimuli.track import MotionTrack
-from tests.conftest import harmonic_glide, live_synthetic_speaker, write_wav
+from tests.stimuli.conftest import harmonic_glide, live_synthetic_speaker, write_wav
 
 
 def test_power_above_4_hz_of_known_sines():

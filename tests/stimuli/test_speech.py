@@ -16,7 +16,7 @@ from app.stimuli.speech import (
     smooth_1s,
     speaker_pitch_range,
 )
-from tests.conftest import harmonic_glide, write_wav
+from tests.stimuli.conftest import harmonic_glide, write_wav
 
 
 def test_f0_follows_a_known_glide_within_2_hz(tmp_path):

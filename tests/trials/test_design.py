@@ -11,7 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from app.trials import design
-from app.trials.design import PAIR_DESIGNS, Pair, build_pairs, stimulus_pairs
+from app.trials.design import PAIR_DESIGNS, ConditionPair, build_pairs, stimulus_pairs
 
 THESIS = ["none", "random", "speech_driven", "ground_truth"]
 names = st.lists(st.text("abcdefgh", min_size=1, max_size=3), min_size=2, max_size=8, unique=True)
@@ -25,9 +25,9 @@ def test_thesis_experiment_1_has_16_pairs_per_segment_like_table_3() -> None:
     pairs = build_pairs(THESIS, "all_ordered")
     assert len(pairs) == 16
     # TABLE 3 shows both RANDOM/SPEECH_DRIVEN and SPEECH_DRIVEN/RANDOM and SPEECH_DRIVEN twice
-    assert Pair("random", "speech_driven") in pairs
-    assert Pair("speech_driven", "random") in pairs
-    assert Pair("speech_driven", "speech_driven") in pairs
+    assert ConditionPair("random", "speech_driven") in pairs
+    assert ConditionPair("speech_driven", "random") in pairs
+    assert ConditionPair("speech_driven", "speech_driven") in pairs
     assert sum(p.is_same for p in pairs) == 4
     assert len(set(pairs)) == 16
 
@@ -44,7 +44,7 @@ def test_reference_design_matches_the_2012_study_counts() -> None:
 
 def test_unordered_design_lists_each_comparison_once_in_condition_order() -> None:
     pairs = build_pairs(["a", "b", "c"], "unordered_counterbalanced")
-    assert pairs == [Pair("a", "b"), Pair("a", "c"), Pair("b", "c")]
+    assert pairs == [ConditionPair("a", "b"), ConditionPair("a", "c"), ConditionPair("b", "c")]
 
 
 @given(names)
@@ -71,11 +71,11 @@ def test_stimulus_pairs_cover_both_orders_of_every_comparison(conditions: list[s
 
 
 def test_pair_is_frozen_and_flips() -> None:
-    pair = Pair("a", "b")
+    pair = ConditionPair("a", "b")
     with pytest.raises(AttributeError):
         pair.left = "c"  # type: ignore[misc]
-    assert pair.flipped() == Pair("b", "a") and pair.flipped().flipped() == pair
-    assert pair.conditions == Pair("b", "a").conditions
+    assert pair.flipped() == ConditionPair("b", "a") and pair.flipped().flipped() == pair
+    assert pair.conditions == ConditionPair("b", "a").conditions
 
 
 @pytest.mark.parametrize(

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import doctest
-import importlib.util
 
 import pytest
 from hypothesis import given
@@ -12,14 +11,17 @@ from hypothesis import strategies as st
 from app.trials import rules
 from app.trials.rules import (
     CHOICES,
-    KNOWN_CHOICES,
+    KEYS,
     REPLAY_KINDS,
     ReplayPolicy,
     VoteChoice,
     allowed_choices,
+    answers,
     check_choice,
     may_play,
     may_vote,
+    play_refusal,
+    vote_refusal,
 )
 
 
@@ -27,13 +29,11 @@ def test_docstring_examples() -> None:
     assert doctest.testmod(rules).failed == 0
 
 
-def test_choices_equal_the_analysis_votes_schema() -> None:
-    if importlib.util.find_spec("app.analysis.votes") is None:
-        pytest.skip("app.analysis.votes is not on this branch yet")
-    from app.analysis.votes import CHOICES as ANALYSIS_CHOICES
+def test_the_votes_schema_reads_its_choices_from_here() -> None:
+    from app.analysis import votes
 
-    assert tuple(ANALYSIS_CHOICES) == KNOWN_CHOICES
-    assert tuple(CHOICES) == tuple(ANALYSIS_CHOICES)
+    assert votes.CHOICES is CHOICES
+    assert CHOICES == ("left", "right", "undecided")
 
 
 def test_vote_choice_values_are_the_choices_in_order() -> None:
@@ -103,3 +103,48 @@ def test_undecided_only_when_allowed() -> None:
         check_choice("undecided", undecided_allowed=False)
     with pytest.raises(ValueError, match="got 'up'"):
         check_choice("up", undecided_allowed=True)
+
+
+@given(st.sampled_from(REPLAY_KINDS), st.integers(1, 9), st.integers(0, 20), st.booleans())
+def test_a_vote_is_refused_with_a_reason_exactly_when_the_rule_forbids_it(
+        kind: str, cap: int, plays: int, finished: bool) -> None:
+    policy = ReplayPolicy(kind, cap if kind == "max_plays" else None)
+    reason = vote_refusal(policy, plays, finished)
+    assert (reason is None) == may_vote(policy, plays, finished)
+    if reason is not None:
+        field = reason.split(":")[0]
+        assert field in ("plays", "watched_to_end") and "\n" not in reason
+
+
+def test_refusals_name_the_rule() -> None:
+    assert vote_refusal(ReplayPolicy(), 0, True) == "plays: the clip must be played before voting"
+    assert vote_refusal(ReplayPolicy("max_plays", max_plays=2), 3, True) == (
+        "plays: at most 2 plays are allowed")
+    assert play_refusal(ReplayPolicy("max_plays", max_plays=4)) == (
+        "plays: at most 4 plays are allowed")
+    assert ReplayPolicy("play_to_end").needs_end and not ReplayPolicy().needs_end
+
+
+@pytest.mark.parametrize("scale", [3, 5])
+@pytest.mark.parametrize("undecided", [True, False])
+def test_answer_buttons_cast_only_allowed_choices_with_distinct_keys(
+        scale: int, undecided: bool) -> None:
+    buttons = answers(scale=scale, undecided_allowed=undecided, undecided_label="Same")
+    assert {b.choice for b in buttons} == set(allowed_choices(undecided_allowed=undecided))
+    assert len({b.key for b in buttons}) == len(buttons)
+    assert buttons[0].choice == "left" and buttons[-1].choice == "right"
+    if scale == 3:
+        assert all(KEYS[b.key] == b.choice and b.strength is None for b in buttons)
+    else:
+        assert [b.strength for b in buttons if b.choice != "undecided"] == [2, 1, 1, 2]
+    assert ("Same" in [b.label for b in buttons]) == undecided
+
+
+@given(st.one_of(st.text(max_size=300), st.integers(), st.none(), st.lists(st.text())))
+def test_any_submitted_value_is_a_choice_or_one_line_refusal(value: object) -> None:
+    try:
+        assert check_choice(value, undecided_allowed=True) in CHOICES
+    except ValueError as exc:
+        message = str(exc)
+        assert message.startswith("expected one of left, right, undecided, got ")
+        assert len(message) < 100

@@ -11,10 +11,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from app.trials import schedule
-from app.trials.design import PAIR_DESIGNS, Pair, build_pairs, stimulus_pairs
+from app.trials.design import PAIR_DESIGNS, ConditionPair, build_pairs, stimulus_pairs
 from app.trials.schedule import (
     CATCH_KINDS,
-    Trial,
+    ScheduledTrial,
     balanced_orientation,
     make_schedule,
     n_lists_for,
@@ -34,7 +34,7 @@ def schedules(
     seed: int = 0,
     catch: int = 0,
     block: bool = True,
-) -> list[list[Trial]]:
+) -> list[list[ScheduledTrial]]:
     """One participant per list over a whole counterbalancing cycle."""
     reference = conditions[0] if design == "reference" else None
     pairs = build_pairs(conditions, design, reference=reference)
@@ -80,7 +80,7 @@ def test_same_seed_same_schedule_and_different_seeds_differ() -> None:
         list_index=1,
         n_lists=2,
         catch_trials=2,
-        practice_pair=Pair("none", "ground_truth"),
+        practice_pair=ConditionPair("none", "ground_truth"),
     )
     assert make_schedule(seed=11, **args) == make_schedule(seed=11, **args)  # type: ignore[arg-type]
     orders = {tuple(make_schedule(seed=s, **args)) for s in range(20)}  # type: ignore[arg-type]
@@ -216,7 +216,7 @@ def test_williams_square_is_a_balanced_latin_square(n: int) -> None:
 def test_balanced_orientation_keeps_edges_and_balances_every_vertex(
     edges: set[tuple[int, int]],
 ) -> None:
-    comparisons = [Pair(str(a), str(b)) for a, b in sorted(edges)]
+    comparisons = [ConditionPair(str(a), str(b)) for a, b in sorted(edges)]
     oriented = balanced_orientation(comparisons)
     assert [p.conditions for p in oriented] == [p.conditions for p in comparisons]
     left = Counter(p.left for p in oriented)
@@ -225,7 +225,8 @@ def test_balanced_orientation_keeps_edges_and_balances_every_vertex(
 
 
 def test_balanced_orientation_of_a_triangle_is_a_cycle() -> None:
-    oriented = balanced_orientation([Pair("a", "b"), Pair("a", "c"), Pair("b", "c")])
+    oriented = balanced_orientation([ConditionPair("a", "b"), ConditionPair("a", "c"),
+                                     ConditionPair("b", "c")])
     assert Counter(p.left for p in oriented) == Counter({"a": 1, "b": 1, "c": 1})
 
 
@@ -239,7 +240,7 @@ def test_identical_catch_trials_show_one_condition_twice_and_expect_undecided() 
         list_index=0,
         n_lists=4,
         catch_trials=3,
-        practice_pair=Pair("none", "ground_truth"),
+        practice_pair=ConditionPair("none", "ground_truth"),
     )
     assert len(trials) == 1 + 12 + 3
     assert trials[0].kind == "practice" and trials[0].expected is None
@@ -293,7 +294,7 @@ def test_practice_clip_defaults_to_the_first_block() -> None:
             seed=0,
             list_index=k,
             n_lists=2,
-            practice_pair=Pair("none", "random"),
+            practice_pair=ConditionPair("none", "random"),
         )
         assert (trials[0].clip, trials[1].clip) == (first, first)
     trials = make_schedule(
@@ -303,10 +304,10 @@ def test_practice_clip_defaults_to_the_first_block() -> None:
         seed=0,
         list_index=0,
         n_lists=2,
-        practice_pair=Pair("none", "random"),
+        practice_pair=ConditionPair("none", "random"),
         practice_clip="extra",
     )
-    assert trials[0].clip == "extra" and trials[0].pair == Pair("none", "random")
+    assert trials[0].clip == "extra" and trials[0].pair == ConditionPair("none", "random")
 
 
 def test_n_lists_for_known_answers() -> None:
@@ -339,7 +340,7 @@ def test_participant_seeds_are_stable_and_distinct() -> None:
         ({"clips": ["s2", "s2"]}, "distinct"),
         ({"pairs": []}, "no pairs"),
         ({"design": "foo"}, "expected one of"),
-        ({"pairs": [Pair("a", "a")]}, "no same-condition pairs"),
+        ({"pairs": [ConditionPair("a", "a")]}, "no same-condition pairs"),
     ],
 )
 def test_bad_arguments_are_refused(changes: dict[str, object], message: str) -> None:
@@ -368,7 +369,7 @@ def test_shown_stimuli_cover_every_schedule_and_nothing_more(
     reference = conditions[-1] if design == "reference" else None
     pairs = build_pairs(conditions, design, reference=reference)
     n_catch = min(n_catch, m * (n - 1))
-    practice = Pair(conditions[0], conditions[1])
+    practice = ConditionPair(conditions[0], conditions[1])
     practice_clip = clips[-1] if practice_on_clip else None
     options = dict(
         clips=clips,
@@ -382,7 +383,7 @@ def test_shown_stimuli_cover_every_schedule_and_nothing_more(
     stimuli = shown_stimuli(**options)  # type: ignore[arg-type]
     assert len(stimuli) == len(set(stimuli))
     n_lists = n_lists_for(design, n_clips=m)
-    seen: set[tuple[str, Pair]] = set()
+    seen: set[tuple[str, ConditionPair]] = set()
     for seed in range(6):
         for k in range(n_lists):
             trials = make_schedule(seed=seed, list_index=k, n_lists=n_lists, **options)  # type: ignore[arg-type]
@@ -404,7 +405,7 @@ def test_a_stored_seed_keeps_giving_the_same_schedule() -> None:
         list_index=3,
         n_lists=4,
         catch_trials=1,
-        practice_pair=Pair("none", "ground_truth"),
+        practice_pair=ConditionPair("none", "ground_truth"),
     )
     n, r, s, g = THESIS
     assert [(t.clip, t.left, t.right, t.kind) for t in trials] == [

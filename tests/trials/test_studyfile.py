@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from app.errors import InputError
-from app.trials.design import Pair
+from app.trials.design import ConditionPair
 from app.trials.rules import ReplayPolicy
 from app.trials.studyfile import load_study_file, loads_study, parse_study
 
@@ -42,7 +42,7 @@ def test_minimal_study_gets_the_documented_defaults(
     assert spec.replay == ReplayPolicy("unlimited")
     assert (spec.catch_trials, spec.catch_kind) == (0, "identical")
     assert spec.target_participants == 20 and spec.seed == 7
-    assert spec.practice == Pair("none", "ground_truth") and spec.practice_clip is None
+    assert spec.practice == ConditionPair("none", "ground_truth") and spec.practice_clip is None
     assert spec.block_by_clip and spec.redirect_url is None
     assert len(spec.pairs()) == 9 and spec.n_lists() == 2
     assert (spec.eyes, spec.normalize, dict(spec.render)) == ("still", False, {})

@@ -12,7 +12,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from app.trials import studyspec
-from app.trials.design import Pair
+from app.trials.design import ConditionPair
 from app.trials.studyfile import loads_study, parse_study
 from app.trials.studyspec import KNOWN_MODELS, MODELS, dump_toml
 
@@ -43,19 +43,19 @@ def test_derived_design_quantities(make_study_data: StudyData, study_dir: Path) 
     spec = parse_study(data, base_dir=study_dir)
     assert spec.clip_names == ["s2", "s7"]
     assert spec.pairs() == [
-        Pair("none", "ground_truth"),
-        Pair("ground_truth", "none"),
-        Pair("random", "ground_truth"),
-        Pair("ground_truth", "random"),
+        ConditionPair("none", "ground_truth"),
+        ConditionPair("ground_truth", "none"),
+        ConditionPair("random", "ground_truth"),
+        ConditionPair("ground_truth", "random"),
     ]
     assert spec.n_lists() == 4
     trials = spec.schedule(seed=3, list_index=2)
     assert len(trials) == 1 + 2 * 2 + 2
-    assert trials[0].pair == Pair("none", "ground_truth") and trials[0].clip == "s7"
+    assert trials[0].pair == ConditionPair("none", "ground_truth") and trials[0].clip == "s7"
     assert trials == spec.schedule(seed=3, list_index=2)
     stimuli = spec.stimuli()
-    assert ("s7", Pair("none", "ground_truth")) in stimuli
-    assert ("s2", Pair("random", "random")) in stimuli  # identical catch trials
+    assert ("s7", ConditionPair("none", "ground_truth")) in stimuli
+    assert ("s2", ConditionPair("random", "random")) in stimuli  # identical catch trials
     assert len(stimuli) == 2 * 4 + 2 * 3
     assert all(
         (t.clip, t.pair) in stimuli for k in range(4) for t in spec.schedule(seed=k, list_index=k)

@@ -23,7 +23,7 @@ import importlib
 from typing import Any
 
 from app.errors import InputError
-from app.stimuli.conditions.base import Condition
+from app.stimuli.conditions.base import ConditionModel
 
 #: Condition name -> "module:Class" (imported lazily by :func:`make_condition`).
 CONDITIONS: dict[str, str] = {
@@ -43,10 +43,10 @@ DISPLAY_NAMES: dict[str, str] = {
     "live_gmm": "LIVE_GMM",
 }
 
-__all__ = ["CONDITIONS", "DISPLAY_NAMES", "Condition", "condition_class", "make_condition"]
+__all__ = ["CONDITIONS", "DISPLAY_NAMES", "ConditionModel", "condition_class", "make_condition"]
 
 
-def condition_class(name: str) -> type[Condition]:
+def condition_class(name: str) -> type[ConditionModel]:
     """Import and return the class registered under ``name`` (InputError if unknown/absent)."""
     if name not in CONDITIONS:
         raise InputError(
@@ -67,7 +67,7 @@ def condition_class(name: str) -> type[Condition]:
                          field="conditions") from None
 
 
-def make_condition(name: str, **params: Any) -> Condition:
+def make_condition(name: str, **params: Any) -> ConditionModel:
     """A new condition model by registry name, with its parameters.
 
     Unknown names, missing modules and parameters the condition does not take give an

@@ -20,12 +20,12 @@ from app.stimuli.track import MotionTrack, align_to_features
 PROSODY: tuple[int, ...] = EYEBROWS + HEAD
 
 
-class Condition:
+class ConditionModel:
     """Base of the condition models (see :mod:`app.stimuli.conditions`)."""
 
     name: ClassVar[str] = ""
 
-    def fit(self, features: SpeechFeatures, ground_truth: MotionTrack | None) -> Condition:
+    def fit(self, features: SpeechFeatures, ground_truth: MotionTrack | None) -> ConditionModel:
         """Learn from speech and a ground truth aligned to it frame for frame
         (:func:`app.stimuli.track.align_to_features`); conditions that learn nothing return
         self."""

@@ -10,12 +10,12 @@ from __future__ import annotations
 from typing import Any
 
 from app.errors import InputError
-from app.stimuli.conditions.base import Condition
+from app.stimuli.conditions.base import ConditionModel
 from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack, align_to_features
 
 
-class GroundTruthCondition(Condition):
+class GroundTruthCondition(ConditionModel):
     """The captured (or synthetic reference) motion: the best case of the comparison."""
 
     name = "ground_truth"

@@ -6,12 +6,12 @@ Jaw and lips come from the ground truth when there is one; gaze and eyelids foll
 
 from __future__ import annotations
 
-from app.stimuli.conditions.base import Condition
+from app.stimuli.conditions.base import ConditionModel
 from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
 
-class NoProsodyCondition(Condition):
+class NoProsodyCondition(ConditionModel):
     """Neutral head and eyebrows: the floor of the comparison."""
 
     name = "none"

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from app.stimuli.conditions.base import Condition
+from app.stimuli.conditions.base import ConditionModel
 from app.stimuli.fap import HEAD
 from app.stimuli.perlin import frame_noise
 from app.stimuli.speech import SpeechFeatures
@@ -41,7 +41,7 @@ HEAD_OFFSETS = {48: 0, 49: 104_729, 50: 209_459}
 EYEBROW_OFFSET = 314_159
 
 
-class RandomCondition(Condition):
+class RandomCondition(ConditionModel):
     """Perlin-noise visual prosody: the baseline with natural frequency content."""
 
     name = "random"

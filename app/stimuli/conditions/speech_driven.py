@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from app.errors import InputError
-from app.stimuli.conditions.base import Condition
+from app.stimuli.conditions.base import ConditionModel
 from app.stimuli.conditions.eyebrow_rule import (
     MIN_HOLD_S,
     ONSET_FRAMES,
@@ -76,7 +76,7 @@ def resolve_threshold(value: float | str, kind: str, features: SpeechFeatures) -
     return float(np.median(level)) - RELEASE_BELOW_SPEECH_DB if len(level) else 0.0
 
 
-class SpeechDrivenCondition(Condition):
+class SpeechDrivenCondition(ConditionModel):
     """The thesis' speech-driven visual prosody."""
 
     name = "speech_driven"

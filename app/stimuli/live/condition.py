@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 from app.data import data_path
 from app.errors import InputError
-from app.stimuli.conditions.base import Condition
+from app.stimuli.conditions.base import ConditionModel
 from app.stimuli.live.stream import OUTPUT_CHANNELS
 from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 DEFAULT_MODEL_PATH = data_path("models", "live_gmm_default.npz")
 
 
-class LiveGmmCondition(Condition):
+class LiveGmmCondition(ConditionModel):
     """Speech-driven head (GMMs + gradient ascent), NDCCA gaze and eyelids, frame by frame.
 
     The track has the model's FAPs 19-26 and 48-50, the neutral eyebrows of every condition and,

@@ -1,6 +1,7 @@
-"""From a votes table to every statistic of a paired-comparison study, per clip and pooled.
+"""From a votes table to every statistic of a paired-comparison study, per clip and pooled:
+:func:`analyze` (also importable as ``app.analysis.analyze``).
 
-The layout is the one of issue 5: ``{"clips": {CLIP: SECTION}, "pooled": SECTION,
+The layout: ``{"clips": {CLIP: SECTION}, "pooled": SECTION,
 "participants": {ID: {...}}}`` plus ``"conditions"``, ``"input"`` (source, votes, skipped bad
 rows) and ``"options"`` (how undecided votes were treated, bootstrap settings). A SECTION holds
 ballots, undecided, confusion, scores, paired_t, agreement, sign_tests and scale; see
@@ -20,7 +21,14 @@ from app.analysis.agreement import coefficient_of_agreement
 from app.analysis.appropriateness import appropriateness, without_appropriateness
 from app.analysis.btd import btd_summary
 from app.analysis.consistence import consistence_p, consistence_row, consistence_table
-from app.analysis.counts import UNDECIDED_TREATMENTS, VoteCounts, ballots, count_votes
+from app.analysis.counts import (
+    UNDECIDED_TREATMENTS,
+    VoteCounts,
+    ballots,
+    count_votes,
+    undecided_pairs,
+    wins,
+)
 from app.analysis.json_values import json_number as _num
 from app.analysis.participant_level import one_judgement_per_participant, participant_level_tests
 from app.analysis.quality import (
@@ -47,9 +55,9 @@ def _section(t: np.ndarray, names: Sequence[str], *, undecided: str, bootstrap: 
     t = t[seen]
     total = t.sum(axis=0)
     n = len(names)
-    wins = t[..., 0] + np.swapaxes(t[..., 1], -1, -2)
-    und = t[..., 2] + np.swapaxes(t[..., 2], -1, -2)
-    judged = wins + 0.5 * und if undecided == "split" else wins.astype(float)
+    won = wins(t)
+    und = undecided_pairs(t)
+    judged = wins(t, undecided).astype(float)
     off = ~np.eye(n, dtype=bool)
     i, j = _pairs(n)
 
@@ -69,7 +77,7 @@ def _section(t: np.ndarray, names: Sequence[str], *, undecided: str, bootstrap: 
     agree["undecided"] = undecided
     agree["undecided_votes"] = int(total[..., 2][off].sum())
 
-    w_all, u_all = wins.sum(axis=0), und.sum(axis=0)
+    w_all, u_all = won.sum(axis=0), und.sum(axis=0)
     signs = []
     for a, b in zip(i, j, strict=True):
         win, loss, tie = int(w_all[a, b]), int(w_all[b, a]), int(u_all[a, b])
@@ -138,10 +146,10 @@ def _scale(per_participant: np.ndarray, names: Sequence[str], *, bootstrap: int,
 def _participants(counts: VoteCounts) -> dict[str, Any]:
     """Each participant's votes, scores per condition (pooled) and coefficient of consistence."""
     t = counts.tensor.sum(axis=1)  # (P, n, n, 3) pooled over clips
-    wins = t[..., 0] + np.swapaxes(t[..., 1], -1, -2)
-    beats = wins > np.swapaxes(wins, -1, -2)
+    won = wins(t)
+    beats = won > np.swapaxes(won, -1, -2)
     table = consistence_table(beats)
-    scores = wins.sum(axis=-1)
+    scores = won.sum(axis=-1)
     out: dict[str, Any] = {}
     for q, pid in enumerate(counts.participants):
         out[pid] = {
