@@ -302,8 +302,10 @@ def saturated_votes(args: argparse.Namespace, slug: str, url: str,
     with psycopg.connect(dsn) as conn:
         rows = conn.execute(
             "SELECT p.token, t.id FROM trial t JOIN participant p ON p.id = t.participant_id "
-            "WHERE p.token = ANY(%s) AND t.kind <> 'practice' ORDER BY t.id",
+            "WHERE p.token = ANY(%s) AND t.kind <> 'practice' ORDER BY t.position, p.id",
             (tokens,)).fetchall()
+    # Round robin over the participants, as in a study: concurrent votes come from different
+    # people, never 64 at once on one participant's row.
     rng = np.random.default_rng(1)
     bodies = []
     for token, trial in rows:
