@@ -344,6 +344,18 @@ def bare_baseline(args: argparse.Namespace, url: str, votes: int, media: Path) -
         stop_server(server)
 
 
+def participant_counts(text: str) -> list[int]:
+    """``"200,500,1000"`` -> ``[200, 500, 1000]``; ValueError naming the option otherwise."""
+    try:
+        counts = [int(n) for n in text.split(",")]
+    except ValueError:
+        counts = []
+    if not counts or not all(0 < n <= 100_000 for n in counts):
+        raise ValueError(f"--participants: expected counts from 1 to 100000 such as "
+                         f"200,500,1000, not {text!r}")
+    return counts
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mode", choices=("open", "closed"), default="open")
@@ -355,7 +367,7 @@ def main() -> int:
     parser.add_argument("--arrival-rate", type=float, default=0.0,
                         help="arrivals per second (open; default: all within 10 s)")
     parser.add_argument("--timeout", type=float, default=30.0, help="seconds per request")
-    parser.add_argument("--saturate", type=int, default=150,
+    parser.add_argument("--saturate", type=int, default=60,
                         help="participants whose votes drive the saturated run (open)")
     parser.add_argument("--baseline", action="store_true",
                         help="also drive the bare baseline and print the ratio")
@@ -364,10 +376,9 @@ def main() -> int:
     parser.add_argument("--keep", action="store_true", help="keep the database afterwards")
     args = parser.parse_args()
     try:
-        counts = [int(n) for n in args.participants.split(",")]
-    except ValueError:
-        parser.error(f"--participants: expected counts such as 200,500,1000, "
-                     f"not {args.participants!r}")
+        counts = participant_counts(args.participants)
+    except ValueError as exc:
+        parser.error(str(exc))
     if not ensure_services(redis=False):
         sys.exit("PostgreSQL is not reachable on 127.0.0.1:5432")
     import psycopg
