@@ -278,7 +278,7 @@ def run_open(args: argparse.Namespace, participants: int, slug: str,
         trials=args.trials, timeout=args.timeout, seed=participants))
     acknowledged.update(tally.acknowledged)
     votes = len(tally.ms.get("vote", []))
-    print(f"open loop: {participants} participants arriving at {rate:.0f}/s, {args.trials} "
+    print(f"open loop: {participants} participants arriving at {rate:.3g}/s, {args.trials} "
           f"trials each, {args.think:g} s clip; peak {tally.peak} present at once, "
           f"{tally.finished} finished, {elapsed:.1f} s, {votes / elapsed:.0f} vote requests/s "
           f"(load {os.getloadavg()[0]:.1f})")

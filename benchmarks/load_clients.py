@@ -26,6 +26,7 @@ from urllib.parse import urlencode
 
 import aiohttp
 import numpy as np
+from tqdm import tqdm
 
 CONSENT_TOKEN = re.compile(r'name="csrf_token"[^>]*value="([^"]+)"')
 TRIAL_ID = re.compile(r'data-trial-id="(\d+)"')
@@ -44,6 +45,8 @@ class Tally:
     active: int = 0
     peak: int = 0
     finished: int = 0
+    #: Votes answered so far, shown while the run lasts (on stderr).
+    bar: tqdm | None = None
 
     def latency(self, kind: str, ms: float) -> None:
         self.ms.setdefault(kind, []).append(ms)
@@ -153,6 +156,8 @@ async def take_part(session: aiohttp.ClientSession, base: str, slug: str, tally:
             key = secrets.token_hex(8)
             keys = [key] + ([key] if rng.random() < 0.1 else []) + (
                 [secrets.token_hex(8)] if rng.random() < 0.05 else [])
+            if tally.bar is not None:
+                tally.bar.update()
             for k in keys:
                 status = await _vote(session, base, tally, cookies,
                                      vote_body(token, trial, choice, k,
@@ -173,7 +178,8 @@ async def open_loop(base: str, slug: str, participants: int, *, rate: float, thi
     """``participants`` arriving at ``rate`` per second (Poisson); returns the tally and the
     seconds from the first arrival to the last vote."""
     rng = np.random.default_rng(seed)
-    tally = Tally()
+    tally = Tally(bar=tqdm(total=participants * trials, desc=f"{participants} participants",
+                           unit="vote", leave=False))
     async with new_session(timeout, participants + 16) as session:
         start = time.perf_counter()
         tasks = []
@@ -183,6 +189,7 @@ async def open_loop(base: str, slug: str, participants: int, *, rate: float, thi
                 rng=np.random.default_rng(rng.integers(2**32)))))
             await asyncio.sleep(rng.exponential(1 / rate))
         await asyncio.gather(*tasks)
+        tally.bar.close()
         return tally, time.perf_counter() - start
 
 
@@ -190,7 +197,7 @@ async def saturate(url: str, bodies: list[tuple[int, str, bytes]], *, concurrenc
                    timeout: float) -> tuple[Tally, float]:
     """Post every ``(trial, choice, body)`` to ``url`` from ``concurrency`` senders, each
     sending its next as soon as the last is answered; returns the tally and the seconds."""
-    tally = Tally()
+    tally = Tally(bar=tqdm(total=len(bodies), desc="saturated", unit="vote", leave=False))
     queue = list(reversed(bodies))
 
     async def sender(session: aiohttp.ClientSession) -> None:
@@ -200,10 +207,12 @@ async def saturate(url: str, bodies: list[tuple[int, str, bytes]], *, concurrenc
                                     headers={"Content-Type": "application/json"})
             if answer is not None and answer[0] in (200, 201):
                 tally.acknowledged[trial] = choice
+            tally.bar.update()  # type: ignore[union-attr]
 
     async with new_session(timeout, concurrency) as session:
         start = time.perf_counter()
         await asyncio.gather(*(sender(session) for _ in range(concurrency)))
+        tally.bar.close()  # type: ignore[union-attr]
         return tally, time.perf_counter() - start
 
 
