@@ -271,7 +271,7 @@ def run_closed(args: argparse.Namespace, participants: int, slug: str, url: str)
 
 
 def run_open(args: argparse.Namespace, participants: int, slug: str,
-             acknowledged: dict[int, str]) -> bool:
+             acknowledged: dict[int, str]) -> None:
     rate = args.arrival_rate or participants / 10
     tally, elapsed = asyncio.run(load_clients.open_loop(
         f"http://127.0.0.1:{args.port}", slug, participants, rate=rate, think=args.think,
@@ -287,7 +287,6 @@ def run_open(args: argparse.Namespace, participants: int, slug: str,
     print(f"  errors {len(tally.errors)}, statuses {dict(sorted(tally.statuses.items()))}")
     for e in tally.errors[:5]:
         print("  error:", e)
-    return not tally.errors
 
 
 def saturated_votes(args: argparse.Namespace, slug: str, url: str,
@@ -399,7 +398,8 @@ def main() -> int:
         if args.mode == "closed":
             return 0 if all(run_closed(args, n, slug, url) for n in counts) else 1
         acknowledged: dict[int, str] = {}
-        ok = all([run_open(args, n, slug, acknowledged) for n in counts])
+        for n in counts:
+            run_open(args, n, slug, acknowledged)
         facepair = saturated_votes(args, slug, url, acknowledged)
         stop_server(server)
         server = None
@@ -410,7 +410,9 @@ def main() -> int:
             print(f"facepair's saturated vote throughput: {facepair:.0f}/s = "
                   f"{facepair / bare:.0%} of the bare baseline's {bare:.0f}/s")
         print(f"load average after: {open('/proc/loadavg').read().strip()}")
-        return 0 if ok and stored_ok else 1
+        # Client errors (timeouts of an overloaded server) are reported above; the exit
+        # status is about the votes: none lost, none duplicated.
+        return 0 if stored_ok else 1
     finally:
         if server is not None:
             stop_server(server)

@@ -60,10 +60,14 @@ class Tally:
 
 
 def new_session(timeout_s: float, connections: int) -> aiohttp.ClientSession:
-    """One pool for every simulated participant; cookies are kept per participant by hand."""
+    """One pool for every simulated participant; cookies are kept per participant by hand.
+
+    Idle connections are dropped after 1 s, before gunicorn's 2 s keep-alive closes them:
+    otherwise a vote after a clip goes out on a connection the server is closing (a reset
+    that a browser would retry unseen)."""
     return aiohttp.ClientSession(
         timeout=aiohttp.ClientTimeout(total=timeout_s),
-        connector=aiohttp.TCPConnector(limit=connections, force_close=False),
+        connector=aiohttp.TCPConnector(limit=connections, keepalive_timeout=1.0),
         cookie_jar=aiohttp.DummyCookieJar())
 
 
