@@ -220,7 +220,8 @@ def check(url: str, acknowledged: dict[int, str]) -> tuple[str, bool]:
     unanswered = sum(1 for t in stored if t not in acknowledged)
     line = (f"database: {counts['participants']} participants, {counts['votes']} votes; "
             f"acknowledged {len(acknowledged)}: lost {lost}, duplicated {counts['duplicated']}, "
-            f"differing from the click {wrong}; stored without an acknowledgement {unanswered}")
+            f"differing from the acknowledged choice {wrong}; stored without an acknowledgement "
+            f"{unanswered}")
     return line, lost == 0 and wrong == 0 and counts["duplicated"] == 0
 
 
@@ -284,7 +285,8 @@ def run_open(args: argparse.Namespace, participants: int, slug: str,
           f"(load {os.getloadavg()[0]:.1f})")
     for kind in ("vote", "play", "page", "consent"):
         print(f"  {kind:8s} {tally.summary(kind)}")
-    print(f"  errors {len(tally.errors)}, statuses {dict(sorted(tally.statuses.items()))}")
+    print(f"  errors {len(tally.errors)}, statuses {dict(sorted(tally.statuses.items()))}, "
+          f"answered with an earlier vote's other choice {tally.superseded}")
     for e in tally.errors[:5]:
         print("  error:", e)
 

@@ -45,6 +45,8 @@ class Tally:
     active: int = 0
     peak: int = 0
     finished: int = 0
+    #: Votes answered with an earlier vote's other choice for the same trial (first one kept).
+    superseded: int = 0
     #: Votes answered so far, shown while the run lasts (on stderr).
     bar: tqdm | None = None
 
@@ -122,17 +124,20 @@ def vote_body(token: str, trial: int, choice: str, key: str, response_ms: int) -
 
 
 async def _vote(session: aiohttp.ClientSession, base: str, tally: Tally, cookies: dict[str, str],
-                body: bytes) -> int | None:
+                body: bytes) -> tuple[int | None, str | None]:
     """Post one vote, resent with the same body after a timeout or a 5xx (the browser keeps
-    it); returns the final status, None if no attempt got an answer."""
+    it); returns the final status (None if no attempt got an answer) and the choice the
+    server says it holds for the trial."""
     status = None
     for _ in range(VOTE_ATTEMPTS):
         answer = await _request(session, tally, "vote", "POST", f"{base}/api/v1/votes", cookies,
                                 data=body, headers={"Content-Type": "application/json"})
         status = answer[0] if answer else None
+        if answer is not None and status in (200, 201):
+            return status, json.loads(answer[2])["vote"]["choice"]
         if status is not None and status < 500:
-            return status
-    return status
+            return status, None
+    return status, None
 
 
 async def take_part(session: aiohttp.ClientSession, base: str, slug: str, tally: Tally, *,
@@ -163,11 +168,14 @@ async def take_part(session: aiohttp.ClientSession, base: str, slug: str, tally:
             if tally.bar is not None:
                 tally.bar.update()
             for k in keys:
-                status = await _vote(session, base, tally, cookies,
-                                     vote_body(token, trial, choice, k,
-                                               int(rng.integers(800, 4000))))
-                if status in (200, 201):
-                    tally.acknowledged[trial] = choice
+                status, stored = await _vote(session, base, tally, cookies,
+                                             vote_body(token, trial, choice, k,
+                                                       int(rng.integers(800, 4000))))
+                if stored is not None:
+                    # Another choice: a vote on this trial whose answer timed out was stored
+                    # first, and the page shown again before it was committed; it is kept.
+                    tally.superseded += stored != choice
+                    tally.acknowledged[trial] = stored
                 elif status is not None:
                     raise RuntimeError(f"vote: HTTP {status}")
         tally.finished += 1
