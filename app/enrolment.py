@@ -121,12 +121,18 @@ def enrol(study: Study, *, user_agent: str = "", prolific_pid: str | None = None
 
 def next_trial(participant: Participant) -> Trial | None:
     """The participant's first trial without a vote (where a reload resumes)."""
-    return db.session.scalar(
+    found = next_trials(participant, 1)
+    return found[0] if found else None
+
+
+def next_trials(participant: Participant, count: int) -> list[Trial]:
+    """The participant's first ``count`` trials without a vote, in schedule order."""
+    return list(db.session.scalars(
         sa.select(Trial)
         .outerjoin(Vote, Vote.trial_id == Trial.id)
         .where(Trial.participant_id == participant.id, Trial.kind != "practice",
                Vote.id.is_(None))
-        .order_by(Trial.position).limit(1))
+        .order_by(Trial.position).limit(count)))
 
 
 def practice_stimulus(participant: Participant) -> Stimulus | None:
@@ -200,32 +206,38 @@ def touch(participant: Participant) -> bool:
     exactly when ``dropped_at`` is empty. Not committed: the caller's unit of work decides.
     """
     now = utcnow()
-    present = db.session.execute(
+    # RETURNING the row refreshes ``participant`` in the same round trip as the UPDATE (the
+    # vote path's profile showed the separate refresh as one of its nine queries).
+    present = db.session.scalars(
         sa.update(Participant)
         .where(Participant.id == participant.id, Participant.dropped_at.is_(None))
-        .values(last_seen_at=now).execution_options(synchronize_session=False))
-    if present.rowcount == 0:
-        if rejoin_policy(participant.study) == "refuse":
-            db.session.refresh(participant)
-            return False
-        returned = db.session.execute(
-            sa.update(Participant)
-            # An excluded participant's or a pilot's slot stays given back.
-            .where(Participant.id == participant.id, Participant.dropped_at.is_not(None),
-                   Participant.excluded_at.is_(None), Participant.pilot.is_(False))
-            .values(last_seen_at=now, dropped_at=None)
-            .execution_options(synchronize_session=False))
-        if returned.rowcount == 1:
-            move_slot(participant.list_id, +1)
+        .values(last_seen_at=now).returning(Participant),
+        execution_options={"synchronize_session": False, "populate_existing": True}).all()
+    if present:
+        return True
+    if rejoin_policy(participant.study) == "refuse":
+        db.session.refresh(participant)
+        return False
+    returned = db.session.execute(
+        sa.update(Participant)
+        # An excluded participant's or a pilot's slot stays given back.
+        .where(Participant.id == participant.id, Participant.dropped_at.is_not(None),
+               Participant.excluded_at.is_(None), Participant.pilot.is_(False))
+        .values(last_seen_at=now, dropped_at=None)
+        .execution_options(synchronize_session=False))
+    if returned.rowcount == 1:
+        move_slot(participant.list_id, +1)
     db.session.refresh(participant)
     return True
 
 
 def progress(participant: Participant) -> tuple[int, int]:
     """(answered, total) over the participant's real and catch trials (not the practice)."""
-    answered = db.session.scalar(
-        sa.select(sa.func.count(Vote.id)).where(Vote.participant_id == participant.id))
-    total = db.session.scalar(
-        sa.select(sa.func.count(Trial.id)).where(Trial.participant_id == participant.id,
-                                                 Trial.kind != "practice"))
-    return int(answered or 0), int(total or 0)
+    answered = (sa.select(sa.func.count(Vote.id)).where(Vote.participant_id == participant.id)
+                .scalar_subquery())
+    total = (sa.select(sa.func.count(Trial.id))
+             .where(Trial.participant_id == participant.id, Trial.kind != "practice")
+             .scalar_subquery())
+    # One round trip for both counts: every vote and every trial page asks for them.
+    row = db.session.execute(sa.select(answered, total)).one()
+    return int(row[0] or 0), int(row[1] or 0)

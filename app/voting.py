@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import sqlalchemy as sa
+from sqlalchemy import orm as so
 from sqlalchemy.exc import IntegrityError
 
 from app import limits
@@ -101,7 +102,8 @@ def validate(participant: Participant, payload: dict[str, Any]) -> tuple[Trial, 
     if study.status not in ("open", "paused") and not piloting:
         raise VoteRejected("this study is closed", 409, closed=True)
     trial_id = _int_field(payload, "trial_id", Trial.id, required=True)
-    trial = db.session.get(Trial, trial_id)
+    # With its vote, if any: a resent or double-clicked vote is answered from it.
+    trial = db.session.get(Trial, trial_id, options=[so.joinedload(Trial.vote)])
     # Another participant's trial is reported exactly like a missing one: nothing leaks.
     if trial is None or trial.participant_id != participant.id:
         raise VoteRejected("no such trial", 404)
@@ -192,7 +194,8 @@ def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcom
         raise VoteRejected(SESSION_ENDED, 409, closed=True)
     participant_id, trial_id, key = participant.id, trial.id, fields["idempotency_key"]
     created = False
-    vote = _existing(participant, trial, key)
+    # A key already used on another trial fails the INSERT below and is found by _existing.
+    vote = trial.vote
     if vote is None:
         vote = Vote(participant_id=participant_id, trial_id=trial_id, **fields)
         db.session.add(vote)

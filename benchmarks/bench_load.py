@@ -1,30 +1,41 @@
-"""Load benchmark: 200 simulated participants voting at once against gunicorn + PostgreSQL.
+"""Load benchmark: simulated participants against gunicorn + PostgreSQL, and a bare baseline.
 
 Creates a fresh PostgreSQL database on 127.0.0.1:5432 (user postgres), migrates it, creates the
 example study (app/data/examples: 4 conditions, all ordered pairs, 2 catch trials = 18 trials
 per participant) with placeholder clips, and starts ``facepair serve`` (gunicorn, gthread) on it.
-Then every simulated participant, each in its own thread with its own keep-alive connection,
-does what the browser does: opens the study link, consents (CSRF form), and for each trial
-loads the trial page and posts its vote to ``/api/v1/votes``; one vote in ten is posted twice
-(a retried request with the same idempotency key) and one in twenty a third time with a new key
-(a double click). Afterwards the votes are counted in the database: every trial must hold
-exactly one vote - none lost, none duplicated.
 
-Prints vote requests per second over the voting phase, p50/p90/p99 latency of vote requests and
-of trial pages, and the database counts. Exits 1 if any vote is lost or duplicated.
+``--mode open`` (the default; ``benchmarks/load_clients.py``): for each count in
+``--participants``, participants arrive at ``--arrival-rate`` per second (Poisson; by default all
+within 10 s), each loads a trial page, asks for a play, watches the clip for ``--think`` seconds
+(the clip's length) and votes, for ``--trials`` trials: the request rate is the participants',
+as in a Prolific study, not the server's. Prints vote, play and trial-page latency p50/p99,
+errors and the peak number of participants present at once. Then the vote endpoint alone is
+driven saturated (64 senders, prepared votes of freshly consented participants); with
+``--baseline`` the bare baseline (``benchmarks/bare_baseline.py``: Flask + psycopg, one INSERT
+per request, the same gunicorn settings) is driven the same way, and facepair's saturated vote
+throughput is printed as a fraction of the baseline's.
 
-    python benchmarks/bench_load.py [--participants 200] [--workers 4] [--port 5077]
+``--mode closed`` (the earlier figure): every participant, in its own thread with its own
+keep-alive connection, sends its next request as soon as the last one returns.
+
+In both modes one vote in ten is posted twice (a retried request with the same idempotency key)
+and one in twenty a third time with a new key (a double click). Afterwards the votes are counted
+in the database: every acknowledged vote stored exactly once with the clicked choice. Exits 1
+if any vote is lost or duplicated.
+
+    python benchmarks/bench_load.py --mode open --participants 200,500,1000 --baseline
+    python benchmarks/bench_load.py --mode closed --participants 200
 """
 
 from __future__ import annotations
 
 import argparse
+import asyncio
 import http.client
 import json
 import os
 import re
 import secrets
-import socket
 import subprocess
 import sys
 import threading
@@ -35,27 +46,12 @@ from urllib.parse import urlencode
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from benchmarks import load_clients  # noqa: E402
+from tests.support.services import ensure_services, wait_for_port  # noqa: E402
+
 PG = "host=127.0.0.1 port=5432 user=postgres"
-
-
-def ensure_postgres() -> None:
-    """Start the local PostgreSQL cluster if it is down."""
-    if _port_open(5432):
-        return
-    version = sorted(p.name for p in Path("/etc/postgresql").iterdir())[-1]
-    subprocess.run(["pg_ctlcluster", "--skip-systemctl-redirect", version, "main", "start"],
-                   check=False)
-    for _ in range(100):
-        if _port_open(5432):
-            return
-        time.sleep(0.1)
-    sys.exit("PostgreSQL is not reachable on 127.0.0.1:5432")
-
-
-def _port_open(port: int) -> bool:
-    with socket.socket() as sock:
-        sock.settimeout(0.5)
-        return sock.connect_ex(("127.0.0.1", port)) == 0
 
 
 def prepare(url: str, media: Path) -> str:
@@ -215,14 +211,177 @@ def _pct(values: list[float]) -> str:
             f"p99 {np.percentile(v, 99):.1f} ms, max {v.max():.1f} ms")
 
 
+def check(url: str, acknowledged: dict[int, str]) -> tuple[str, bool]:
+    """Every acknowledged vote stored once with the clicked choice: a line and whether so."""
+    counts = count(url)
+    stored = stored_choices(url)
+    lost = sum(1 for t in acknowledged if t not in stored)
+    wrong = sum(1 for t, c in acknowledged.items() if t in stored and stored[t] != c)
+    unanswered = sum(1 for t in stored if t not in acknowledged)
+    line = (f"database: {counts['participants']} participants, {counts['votes']} votes; "
+            f"acknowledged {len(acknowledged)}: lost {lost}, duplicated {counts['duplicated']}, "
+            f"differing from the acknowledged choice {wrong}; stored without an acknowledgement "
+            f"{unanswered}")
+    return line, lost == 0 and wrong == 0 and counts["duplicated"] == 0
+
+
+def start_server(args: list[str], env: dict[str, str], port: int,
+                 log: Path) -> subprocess.Popen[bytes]:
+    with open(log, "ab") as out:
+        server = subprocess.Popen([sys.executable, *args], env=env, stdout=out,
+                                  stderr=subprocess.STDOUT, cwd=ROOT)
+    if not wait_for_port(port, 60):
+        server.terminate()
+        sys.exit(f"the server did not start; see {log}")
+    return server
+
+
+def stop_server(server: subprocess.Popen[bytes]) -> None:
+    server.terminate()
+    server.wait(timeout=30)
+
+
+def run_closed(args: argparse.Namespace, participants: int, slug: str, url: str) -> bool:
+    gate = threading.Barrier(participants + 1)
+    people = [Participant(args.port, slug, gate) for _ in range(participants)]
+    for p in people:
+        p.start()
+    gate.wait()
+    start = time.perf_counter()
+    for p in people:
+        p.join()
+    elapsed = time.perf_counter() - start
+    errors = [p.error for p in people if p.error]
+    vote_ms = [ms for p in people for ms in p.vote_ms]
+    page_ms = [ms for p in people for ms in p.page_ms]
+    statuses: dict[int, int] = {}
+    for p in people:
+        for code, n in p.statuses.items():
+            statuses[code] = statuses.get(code, 0) + n
+    print(f"closed loop: {participants} participants at once, gunicorn {args.workers} workers "
+          f"x 4 threads, PostgreSQL, {elapsed:.1f} s from first consent to last vote")
+    print(f"vote requests: {len(vote_ms)} ({statuses.get(201, 0)} stored, "
+          f"{statuses.get(200, 0)} repeats answered 'already stored'), "
+          f"{len(vote_ms) / elapsed:.0f} per s; {_pct(vote_ms)}")
+    print(f"trial pages: {len(page_ms)}, {_pct(page_ms)}")
+    line, ok = check(url, {trial: choice for p in people for trial, choice in p.votes})
+    print(f"{line}; client errors {len(errors)}")
+    for e in errors[:5]:
+        print("  error:", e)
+    return ok and not errors
+
+
+def run_open(args: argparse.Namespace, participants: int, slug: str,
+             acknowledged: dict[int, str]) -> None:
+    rate = args.arrival_rate or participants / 10
+    tally, elapsed = asyncio.run(load_clients.open_loop(
+        f"http://127.0.0.1:{args.port}", slug, participants, rate=rate, think=args.think,
+        trials=args.trials, timeout=args.timeout, seed=participants))
+    acknowledged.update(tally.acknowledged)
+    votes = len(tally.ms.get("vote", []))
+    print(f"open loop: {participants} participants arriving at {rate:.3g}/s, {args.trials} "
+          f"trials each, {args.think:g} s clip; peak {tally.peak} present at once, "
+          f"{tally.finished} finished, {elapsed:.1f} s, {votes / elapsed:.0f} vote requests/s "
+          f"(load {os.getloadavg()[0]:.1f})")
+    for kind in ("vote", "play", "page", "consent"):
+        print(f"  {kind:8s} {tally.summary(kind)}")
+    print(f"  errors {len(tally.errors)}, statuses {dict(sorted(tally.statuses.items()))}, "
+          f"answered with an earlier vote's other choice {tally.superseded}")
+    for e in tally.errors[:5]:
+        print("  error:", e)
+
+
+def saturated_votes(args: argparse.Namespace, slug: str, url: str,
+                    acknowledged: dict[int, str]) -> float:
+    """facepair's vote endpoint driven saturated; returns votes per second."""
+    import psycopg
+
+    base = f"http://127.0.0.1:{args.port}"
+    tokens = asyncio.run(load_clients.consent_many(base, slug, args.saturate,
+                                                   timeout=args.timeout))
+    dsn = url.replace("postgresql+psycopg://", "postgresql://")
+    with psycopg.connect(dsn) as conn:
+        rows = conn.execute(
+            "SELECT p.token, t.id FROM trial t JOIN participant p ON p.id = t.participant_id "
+            "WHERE p.token = ANY(%s) AND t.kind <> 'practice' ORDER BY t.position, p.id",
+            (tokens,)).fetchall()
+    # Round robin over the participants, as in a study: concurrent votes come from different
+    # people, never 64 at once on one participant's row.
+    rng = np.random.default_rng(1)
+    bodies = []
+    for token, trial in rows:
+        choice = str(rng.choice(["left", "right", "undecided"]))
+        bodies.append((trial, choice, load_clients.vote_body(token, trial, choice,
+                                                             secrets.token_hex(8), 1500)))
+    return _drive(f"{base}/api/v1/votes", bodies, "facepair", args, acknowledged)
+
+
+def _drive(url: str, bodies: list[tuple[int, str, bytes]], name: str,
+           args: argparse.Namespace, acknowledged: dict[int, str]) -> float:
+    tally, elapsed = asyncio.run(load_clients.saturate(url, bodies, concurrency=64,
+                                                       timeout=args.timeout))
+    acknowledged.update(tally.acknowledged)
+    rate = len(tally.acknowledged) / elapsed
+    print(f"saturated, {name}: {len(tally.acknowledged)} of {len(bodies)} votes stored in "
+          f"{elapsed:.1f} s by 64 senders, {rate:.0f} votes/s; vote {tally.summary('vote')}; "
+          f"errors {len(tally.errors)} (load {os.getloadavg()[0]:.1f})")
+    return rate
+
+
+def bare_baseline(args: argparse.Namespace, url: str, votes: int, media: Path) -> float:
+    """The bare baseline driven like facepair's vote endpoint; returns votes per second."""
+    dsn = url.replace("postgresql+psycopg://", "postgresql://")
+    port = args.port + 1
+    server = start_server([str(ROOT / "benchmarks" / "bare_baseline.py"), "--dsn", dsn,
+                           "--port", str(port), "--workers", str(args.workers)],
+                          dict(os.environ), port, media / "baseline.log")
+    try:
+        bodies = [(i, "left", json.dumps({"token": secrets.token_hex(11), "trial_id": i,
+                                          "choice": "left",
+                                          "idempotency_key": secrets.token_hex(8)}).encode())
+                  for i in range(votes)]
+        return _drive(f"http://127.0.0.1:{port}/votes", bodies, "bare baseline", args, {})
+    finally:
+        stop_server(server)
+
+
+def participant_counts(text: str) -> list[int]:
+    """``"200,500,1000"`` -> ``[200, 500, 1000]``; ValueError naming the option otherwise."""
+    try:
+        counts = [int(n) for n in text.split(",")]
+    except ValueError:
+        counts = []
+    if not counts or not all(0 < n <= 100_000 for n in counts):
+        raise ValueError(f"--participants: expected counts from 1 to 100000 such as "
+                         f"200,500,1000, not {text!r}")
+    return counts
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--participants", type=int, default=200)
+    parser.add_argument("--mode", choices=("open", "closed"), default="open")
+    parser.add_argument("--participants", default="200",
+                        help="comma-separated counts, one run each (open: 200,500,1000)")
+    parser.add_argument("--think", type=float, default=6.0,
+                        help="seconds each clip is watched before the vote (open loop)")
+    parser.add_argument("--trials", type=int, default=6, help="votes per participant (open)")
+    parser.add_argument("--arrival-rate", type=float, default=0.0,
+                        help="arrivals per second (open; default: all within 10 s)")
+    parser.add_argument("--timeout", type=float, default=30.0, help="seconds per request")
+    parser.add_argument("--saturate", type=int, default=60,
+                        help="participants whose votes drive the saturated run (open)")
+    parser.add_argument("--baseline", action="store_true",
+                        help="also drive the bare baseline and print the ratio")
     parser.add_argument("--workers", type=int, default=4, help="gunicorn worker processes")
     parser.add_argument("--port", type=int, default=5077)
     parser.add_argument("--keep", action="store_true", help="keep the database afterwards")
     args = parser.parse_args()
-    ensure_postgres()
+    try:
+        counts = participant_counts(args.participants)
+    except ValueError as exc:
+        parser.error(str(exc))
+    if not ensure_services(redis=False):
+        sys.exit("PostgreSQL is not reachable on 127.0.0.1:5432")
     import psycopg
 
     name = f"facepair_load_{secrets.token_hex(3)}"
@@ -231,59 +390,34 @@ def main() -> int:
     admin.execute(f'CREATE DATABASE "{name}"')
     media = Path(os.environ.get("TMPDIR", "/tmp")) / name
     server = None
+    print(f"load average before: {open('/proc/loadavg').read().strip()}")
     try:
         slug = prepare(url, media)
         env = {**os.environ, "DATABASE_URL": url, "MEDIA_ROOT": str(media),
                "SECRET_KEY": secrets.token_hex(16)}
-        log = open(media / "server.log", "wb")  # noqa: SIM115 (closed below)
-        server = subprocess.Popen([sys.executable, "-m", "app", "serve", "--port",
-                                   str(args.port), "--workers", str(args.workers)],
-                                  env=env, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT)
-        for _ in range(300):
-            if _port_open(args.port):
-                break
-            time.sleep(0.1)
-        else:
-            sys.exit("the server did not start; see " + str(media / "server.log"))
-        gate = threading.Barrier(args.participants + 1)
-        people = [Participant(args.port, slug, gate) for _ in range(args.participants)]
-        for p in people:
-            p.start()
-        gate.wait()
-        start = time.perf_counter()
-        for p in people:
-            p.join()
-        elapsed = time.perf_counter() - start
-        errors = [p.error for p in people if p.error]
-        counts = count(url)
-        stored = stored_choices(url)
-        clicked = {trial: choice for p in people for trial, choice in p.votes}
-        vote_ms = [ms for p in people for ms in p.vote_ms]
-        page_ms = [ms for p in people for ms in p.page_ms]
-        statuses: dict[int, int] = {}
-        for p in people:
-            for code, n in p.statuses.items():
-                statuses[code] = statuses.get(code, 0) + n
-        print(f"{args.participants} participants at once, gunicorn {args.workers} workers x 4 "
-              f"threads, PostgreSQL, {elapsed:.1f} s from first consent to last vote")
-        print(f"vote requests: {len(vote_ms)} ({statuses.get(201, 0)} stored, "
-              f"{statuses.get(200, 0)} repeats answered 'already stored'), "
-              f"{len(vote_ms) / elapsed:.0f} per s; {_pct(vote_ms)}")
-        print(f"trial pages: {len(page_ms)}, {_pct(page_ms)}")
-        lost = counts["unanswered"]
-        wrong = sum(1 for t, c in clicked.items() if stored.get(t) != c)
-        print(f"database: {counts['participants']} participants, {counts['trials']} trials, "
-              f"{counts['votes']} votes; lost {lost}, duplicated {counts['duplicated']}, "
-              f"differing from the click {wrong}; client errors {len(errors)}")
-        for e in errors[:5]:
-            print("  error:", e)
-        ok = not errors and lost == 0 and counts["duplicated"] == 0 and wrong == 0 \
-            and counts["votes"] == len(clicked)
-        return 0 if ok else 1
+        server = start_server(["-m", "app", "serve", "--port", str(args.port), "--workers",
+                               str(args.workers)], env, args.port, media / "server.log")
+        if args.mode == "closed":
+            return 0 if all(run_closed(args, n, slug, url) for n in counts) else 1
+        acknowledged: dict[int, str] = {}
+        for n in counts:
+            run_open(args, n, slug, acknowledged)
+        facepair = saturated_votes(args, slug, url, acknowledged)
+        stop_server(server)
+        server = None
+        line, stored_ok = check(url, acknowledged)
+        print(line)
+        if args.baseline:
+            bare = bare_baseline(args, url, args.saturate * 18, media)
+            print(f"facepair's saturated vote throughput: {facepair:.0f}/s = "
+                  f"{facepair / bare:.0%} of the bare baseline's {bare:.0f}/s")
+        print(f"load average after: {open('/proc/loadavg').read().strip()}")
+        # Client errors (timeouts of an overloaded server) are reported above; the exit
+        # status is about the votes: none lost, none duplicated.
+        return 0 if stored_ok else 1
     finally:
         if server is not None:
-            server.terminate()
-            server.wait(timeout=30)
+            stop_server(server)
         if not args.keep:
             admin.execute(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
         admin.close()

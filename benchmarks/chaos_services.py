@@ -12,8 +12,9 @@ import socket
 import subprocess
 import sys
 import threading
-import time
 from pathlib import Path
+
+from tests.support import services
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -25,14 +26,8 @@ def free_port() -> int:
 
 
 def wait_for_port(port: int, seconds: float = 60.0) -> None:
-    deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline:
-        with socket.socket() as sock:
-            sock.settimeout(0.5)
-            if sock.connect_ex(("127.0.0.1", port)) == 0:
-                return
-        time.sleep(0.1)
-    raise RuntimeError(f"nothing answers on 127.0.0.1:{port} after {seconds:.0f} s")
+    if not services.wait_for_port(port, seconds):
+        raise RuntimeError(f"nothing answers on 127.0.0.1:{port} after {seconds:.0f} s")
 
 
 def children(pid: int) -> list[int]:

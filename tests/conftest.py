@@ -8,13 +8,14 @@ from __future__ import annotations
 import re
 import secrets
 import shutil
-import socket
 import subprocess
 import textwrap
 import wave
 from pathlib import Path
 
 import pytest
+
+from tests.support.services import PG_HOST, PG_PORT, REDIS_PORT, ensure_services
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -48,31 +49,6 @@ def tone_wav(tmp_path: Path):
 # Every web test runs on SQLite (a file) and on the real PostgreSQL (a throwaway database per
 # run, so parallel runs never collide). The schema comes from the migrations, as in production.
 
-PG_HOST, PG_PORT, REDIS_PORT = "127.0.0.1", 5432, 6379
-
-
-def _port_open(port: int) -> bool:
-    with socket.socket() as sock:
-        sock.settimeout(0.5)
-        return sock.connect_ex(("127.0.0.1", port)) == 0
-
-
-def ensure_services() -> None:
-    """Start PostgreSQL and Redis if they are down (DEVELOPERS: the commands used here)."""
-    import time
-
-    if not _port_open(PG_PORT) and Path("/etc/postgresql").is_dir():
-        version = sorted(p.name for p in Path("/etc/postgresql").iterdir())[-1]
-        subprocess.run(["pg_ctlcluster", "--skip-systemctl-redirect", version, "main", "start"],
-                       check=False, capture_output=True)
-    if not _port_open(REDIS_PORT) and shutil.which("redis-server"):
-        subprocess.run(["redis-server", "--daemonize", "yes", "--bind", "127.0.0.1", "--port",
-                        str(REDIS_PORT), "--save", "", "--appendonly", "no"],
-                       check=False, capture_output=True)
-    for _ in range(50):
-        if _port_open(PG_PORT):
-            return
-        time.sleep(0.1)
 
 
 @pytest.fixture(scope="session")

@@ -8,10 +8,12 @@ owning experimenter's login.
 
 from __future__ import annotations
 
+from functools import cache
 from typing import Any
 
 import sqlalchemy as sa
 from flask import Blueprint, abort, jsonify, request, url_for
+from sqlalchemy import orm as so
 
 from app import limits
 from app.enrolment import progress as enrolment_progress
@@ -76,8 +78,16 @@ def post_vote():  # type: ignore[no-untyped-def]
 def _participant_of(payload: dict[str, Any]) -> Participant | None:
     token = payload.get("token")
     if isinstance(token, str) and fits(Participant.token, token):
-        return db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        return db.session.scalar(_by_token(), {"token": token})
     return None
+
+
+@cache
+def _by_token() -> sa.Select[tuple[Participant]]:
+    """The participant with their study (every caller reads its rules next: one query for
+    both), built once: building the eager-load option took 5 % of a vote in the profile."""
+    return (sa.select(Participant).where(Participant.token == sa.bindparam("token"))
+            .options(so.joinedload(Participant.study)))
 
 
 @bp.post("/plays")

@@ -131,6 +131,12 @@ def _create_study(path: Path, owner_email: str) -> int:
     return study.id
 
 
+def gunicorn_settings(host: str, port: int, workers: int) -> dict[str, object]:
+    """How ``facepair serve`` runs gunicorn (the load benchmark's bare baseline runs the same)."""
+    return {"bind": f"{host}:{port}", "workers": workers, "threads": 4,
+            "worker_class": "gthread", "accesslog": "-"}
+
+
 def _serve(app, host: str, port: int, workers: int, dev: bool) -> None:  # type: ignore[no-untyped-def]
     if dev:
         app.run(host=host, port=port, threaded=True, use_reloader=False)
@@ -139,11 +145,8 @@ def _serve(app, host: str, port: int, workers: int, dev: bool) -> None:  # type:
 
     class Server(BaseApplication):  # type: ignore[misc]
         def load_config(self) -> None:
-            self.cfg.set("bind", f"{host}:{port}")
-            self.cfg.set("workers", workers)
-            self.cfg.set("threads", 4)
-            self.cfg.set("worker_class", "gthread")
-            self.cfg.set("accesslog", "-")
+            for key, value in gunicorn_settings(host, port, workers).items():
+                self.cfg.set(key, value)
 
         def load(self):  # type: ignore[no-untyped-def]
             return app

@@ -14,6 +14,7 @@ import sqlalchemy as sa
 from flask import (
     Blueprint,
     abort,
+    g,
     make_response,
     redirect,
     render_template,
@@ -30,7 +31,7 @@ from app.enrolment import (
     SESSION_ENDED,
     dropped_after,
     enrol,
-    next_trial,
+    next_trials,
     practice_stimulus,
     progress,
     touch,
@@ -38,7 +39,7 @@ from app.enrolment import (
 from app.extensions import db
 from app.limits import fits
 from app.media import media_response
-from app.models import Participant, Study, Trial, Vote, utcnow
+from app.models import Participant, Study, Trial, utcnow
 from app.studies import participation
 from app.trials import rules
 from app.trials.participation import ParticipationSpec
@@ -73,6 +74,10 @@ def _study(slug: str) -> Study:
 
 
 def _participant(token: str) -> Participant:
+    # Already read by the questionnaire guard before this view (``questionnaire_first``).
+    found = g.get("participant")
+    if found is not None and found in db.session and found.token == token:
+        return found  # type: ignore[no-any-return]
     participant = db.session.scalar(sa.select(Participant).where(Participant.token == token))
     if participant is None:
         abort(404)
@@ -176,15 +181,6 @@ def _no_store(body: str):  # type: ignore[no-untyped-def]
     return response
 
 
-def _following(participant: Participant, trial: Trial) -> Trial | None:
-    """The unanswered trial after ``trial``: its clip is preloaded while this one is judged."""
-    return db.session.scalar(
-        sa.select(Trial).outerjoin(Vote, Vote.trial_id == Trial.id)
-        .where(Trial.participant_id == participant.id, Trial.kind != "practice",
-               Trial.position > trial.position, Vote.id.is_(None))
-        .order_by(Trial.position).limit(1))
-
-
 @bp.get("/p/<token>/trial")
 def trial(token: str):  # type: ignore[no-untyped-def]
     participant = _participant(token)
@@ -198,7 +194,9 @@ def trial(token: str):  # type: ignore[no-untyped-def]
     if spec.min_face_px and environment.get("viewing_ok") is False:
         return render_template("participant/unavailable.html", study=study,
                                viewing=spec.min_face_px), 409
-    upcoming = next_trial(participant)
+    # The unanswered trial after this one comes along: its clip is preloaded while this
+    # one is judged.
+    upcoming, following = (next_trials(participant, 2) + [None, None])[:2]
     if upcoming is None:
         return redirect(url_for(".done", token=token))
     if not touch(participant):
@@ -208,12 +206,14 @@ def trial(token: str):  # type: ignore[no-untyped-def]
     if participant.started_at is None:
         participant.started_at = utcnow()
     answered, total = progress(participant)
-    following = _following(participant, upcoming)
-    db.session.commit()
-    return _no_store(render_template(
+    # Rendered before the commit, which expires every loaded row: rendering after it read
+    # the participant, study and trials again (four queries per page in the profile).
+    page = render_template(
         "participant/trial.html", participant=participant, study=study, trial=upcoming,
         answered=answered, total=total, spec=spec, following=following,
-        **player_settings(study, spec)))
+        **player_settings(study, spec))
+    db.session.commit()
+    return _no_store(page)
 
 
 @bp.get("/p/<token>/video/<int:trial_id>")

@@ -8,7 +8,7 @@ is sent here first (:func:`questionnaire_first`, installed by ``app.web``).
 from __future__ import annotations
 
 import sqlalchemy as sa
-from flask import Blueprint, abort, redirect, render_template, request, url_for
+from flask import Blueprint, abort, g, redirect, render_template, request, url_for
 from flask_wtf import FlaskForm
 
 from app.errors import InputError
@@ -34,6 +34,7 @@ def questionnaire_first():  # type: ignore[no-untyped-def]
     participant = db.session.scalar(sa.select(Participant).where(Participant.token == token))
     if participant is None:
         return None
+    g.participant = participant  # the view reads it again otherwise (two queries a page)
     page = pending_page(participant)
     if page is None or (page == "after") != (wanted == "after"):
         return None

@@ -1,0 +1,47 @@
+"""Starting the development services, PostgreSQL and Redis on 127.0.0.1, when they are down.
+
+One place for the commands and ports that the tests (``tests/conftest.py``) and the benchmarks
+(``benchmarks/bench_load.py``, ``benchmarks/chaos_services.py``) rely on. Nothing here is part
+of the application.
+"""
+
+from __future__ import annotations
+
+import shutil
+import socket
+import subprocess
+import time
+from pathlib import Path
+
+PG_HOST, PG_PORT, REDIS_PORT = "127.0.0.1", 5432, 6379
+
+
+def port_open(port: int, host: str = "127.0.0.1") -> bool:
+    """Whether something accepts TCP connections on ``host:port``."""
+    with socket.socket() as sock:
+        sock.settimeout(0.5)
+        return sock.connect_ex((host, port)) == 0
+
+
+def wait_for_port(port: int, seconds: float = 60.0) -> bool:
+    """Poll ``127.0.0.1:port`` until it answers (True) or ``seconds`` pass (False)."""
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if port_open(port):
+            return True
+        time.sleep(0.1)
+    return False
+
+
+def ensure_services(*, redis: bool = True, seconds: float = 5.0) -> bool:
+    """Start the local PostgreSQL cluster (and Redis) if they are down; returns whether
+    PostgreSQL answers within ``seconds``. The commands are those DEVELOPERS use by hand."""
+    if not port_open(PG_PORT) and Path("/etc/postgresql").is_dir():
+        version = sorted(p.name for p in Path("/etc/postgresql").iterdir())[-1]
+        subprocess.run(["pg_ctlcluster", "--skip-systemctl-redirect", version, "main", "start"],
+                       check=False, capture_output=True)
+    if redis and not port_open(REDIS_PORT) and shutil.which("redis-server"):
+        subprocess.run(["redis-server", "--daemonize", "yes", "--bind", "127.0.0.1", "--port",
+                        str(REDIS_PORT), "--save", "", "--appendonly", "no"],
+                       check=False, capture_output=True)
+    return wait_for_port(PG_PORT, seconds)
