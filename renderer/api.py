@@ -48,6 +48,9 @@ class RenderSettings:
     face : a face JSON file (bring your own face) or a glTF 2.0 / VRM avatar with ARKit
         blendshapes (``.glb``, ``.gltf``, ``.vrm``; see docs/renderer.md); None = built-in head.
     background : RGB in 0..1, a neutral grey by default.
+    look : the built-in head's look: ``"textured"`` (skin texture, strand brows, eyelashes;
+        the default) or ``"plain"`` (per-vertex colour, the head before the texture); not
+        used with ``face``.
     crf, preset : libx264 quality (lower crf = better) and speed preset (superfast: about
         a quarter less CPU than veryfast for about twice the bytes at the same crf).
     encode_threads : libx264 threads (1, the least CPU per frame; 0 = one per core).
@@ -70,6 +73,7 @@ class RenderSettings:
     audio_bitrate: str = "128k"
     encode_threads: int = 1
     workers: int = 0
+    look: str = "textured"
 
     def drawing(self) -> dict[str, Any]:
         """The keyword arguments of :func:`renderer.pipeline.render_frames` these settings give."""
@@ -115,6 +119,9 @@ class RenderSettings:
                              field="encode_threads")
         if self.fps is not None and not self.fps > 0:
             raise InputError(f"must be positive, got {self.fps!r}", field="fps")
+        from renderer.headmodel import check_look
+
+        check_look(self.look)
 
 
 def load_face(settings: RenderSettings) -> Face:
@@ -123,7 +130,7 @@ def load_face(settings: RenderSettings) -> Face:
     if settings.face is None:
         from renderer.headmodel import builtin_face
 
-        return builtin_face()
+        return builtin_face(settings.look)
     if Path(settings.face).suffix.lower() in AVATAR_SUFFIXES:
         from renderer.avatar import load_avatar
 
