@@ -301,21 +301,27 @@ def project(vp: np.ndarray, points: np.ndarray, size: int) -> np.ndarray:
     return np.column_stack([(ndc[:, 0] + 1) * size / 2, (1 - ndc[:, 1]) * size / 2])
 
 
+#: Mipmap levels below the texture's own (:func:`albedo_texture`).
+MIPMAP_LEVELS = 3
+
+
 def albedo_texture(ctx, pixels: np.ndarray):
     """A mipmapped RGB texture of ``pixels`` (h, w, 3) uint8, row 0 at v = 0.
 
     Mipmaps, as the head's texels are finer than its pixels at 368 px (pores and brow hairs
     would shimmer as the head moves); bilinear within the nearest level, which llvmpipe
-    samples at nearly the cost of plain bilinear filtering.
+    samples at nearly the cost of plain bilinear filtering. Three levels at most: at a
+    grazing silhouette a coarser level would average texels from regions of the texture
+    that are far apart on the head (a hair outline flickered in skin colour). Repeats across
+    u (the head's azimuth wraps round), clamps in v.
     """
     import moderngl
 
     pixels = np.ascontiguousarray(pixels, dtype=np.uint8)
     texture = ctx.texture((pixels.shape[1], pixels.shape[0]), 3, pixels.tobytes())
-    texture.build_mipmaps()
+    texture.build_mipmaps(max_level=MIPMAP_LEVELS)
     texture.filter = (moderngl.LINEAR_MIPMAP_NEAREST, moderngl.LINEAR)
-    texture.repeat_x = True
-    texture.repeat_y = False
+    texture.repeat_x, texture.repeat_y = True, False
     return texture
 
 

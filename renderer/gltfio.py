@@ -65,6 +65,11 @@ class GltfScene:
     world: np.ndarray  # (k, 4, 4) node world transforms at rest
     humanoid: dict[str, int] = field(default_factory=dict)  # VRM bone name -> node
     extras: dict[str, Any] = field(default_factory=dict)  # the file's root extras
+    # one baseColor texture shared by every primitive, to sample per pixel: (n, 2) UVs, the
+    # (h, w, 3) uint8 image and the colours without the texture (else all three None)
+    uvs: np.ndarray | None = None
+    texture: np.ndarray | None = None
+    untextured_colors: np.ndarray | None = None
 
 
 def _load(path: Path):
@@ -164,9 +169,14 @@ def _texture_rgb(gltf, blob: bytes, texture_index: int, base: Path) -> np.ndarra
     return pixels[..., :3] / (65535.0 if pixels.max() > 255 else 255.0)
 
 
-def _colors(gltf, blob: bytes, prim, n: int, path: Path) -> np.ndarray:
-    """Per-vertex display RGB and specular strength of a primitive (PBR-lite)."""
+def _colors(gltf, blob: bytes, prim, n: int, path: Path
+            ) -> tuple[np.ndarray, np.ndarray, tuple[int, np.ndarray, np.ndarray] | None]:
+    """Per-vertex display RGB and specular strength of a primitive (PBR-lite): with the
+    baseColor texture sampled at each vertex, without it, and the texture (its index, the
+    UVs and the image) if there is one."""
     out = np.ones((n, 4))
+    texel = np.ones((n, 3))
+    texture = None
     out[:, 3] = 0.18
     mat = gltf.materials[prim.material] if prim.material is not None else None
     pbr = mat.pbrMetallicRoughness if mat is not None else None
@@ -183,17 +193,20 @@ def _colors(gltf, blob: bytes, prim, n: int, path: Path) -> np.ndarray:
             rgb = _texture_rgb(gltf, blob, info.index, path.parent)
             if rgb is not None:
                 uv = _accessor(gltf, blob, uv_index, path)[:, :2]
+                texture = (info.index, uv, rgb)
                 uv = np.where((uv >= 0) & (uv <= 1), uv, uv % 1.0)  # repeat, edges kept
                 h, w = rgb.shape[:2]
                 rows = np.clip((uv[:, 1] * h).astype(int), 0, h - 1)  # the nearest texel
-                out[:, :3] *= rgb[rows, np.clip((uv[:, 0] * w).astype(int), 0, w - 1)]
+                texel = rgb[rows, np.clip((uv[:, 0] * w).astype(int), 0, w - 1)]
     if prim.attributes.COLOR_0 is not None:
         c = _accessor(gltf, blob, prim.attributes.COLOR_0, path)
         out[:, :3] *= np.sqrt(np.clip(c[:, :3], 0, 1))
     spec = getattr(prim.attributes, SPECULAR_ATTRIBUTE, None)
     if spec is not None:
         out[:, 3] = _accessor(gltf, blob, spec, path)[:, 0]
-    return out
+    textured = out.copy()
+    textured[:, :3] *= texel
+    return textured, out, texture
 
 
 def _target_names(mesh, prim) -> list[str]:
@@ -301,8 +314,9 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
                     deltas[name] = (dp @ m[:3, :3].T, dn @ np.linalg.inv(m[:3, :3]))
                 nodes = np.tile([i, i, i, i], (n, 1))
                 weights = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+            col, plain, texture = _colors(gltf, blob, prim, n, path)
             parts.append({"pos": pos, "nrm": nrm, "tri": tri + offset, "deltas": deltas,
-                          "col": _colors(gltf, blob, prim, n, path), "nodes": nodes,
+                          "col": col, "plain": plain, "texture": texture, "nodes": nodes,
                           "weights": weights})
             offset += n
     if not parts or not sum(len(p["tri"]) for p in parts):
@@ -326,6 +340,12 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
         node_names=[str(node.name or f"node{i}") for i, node in enumerate(gltf.nodes)],
         parents=parents, world=world, humanoid=humanoid,
         extras=gltf.extras if isinstance(gltf.extras, dict) else {})
+    shared = {p["texture"][0] if p["texture"] else None for p in parts}
+    if len(shared) == 1 and None not in shared:
+        image = parts[0]["texture"][2]
+        scene.texture = np.clip(np.round(image * 255.0), 0, 255).astype(np.uint8)
+        scene.uvs = np.vstack([p["texture"][1] for p in parts]).astype(np.float32)
+        scene.untextured_colors = np.vstack([p["plain"] for p in parts])
     if turned:
         _turn_half_round(scene)
     return scene
@@ -354,6 +374,8 @@ class MeshOut:
     targets: dict[str, tuple[np.ndarray, np.ndarray]]
     joints: np.ndarray | None = None  # (n, 4) indices into ``bones``
     weights: np.ndarray | None = None  # (n, 4)
+    uvs: np.ndarray | None = None  # (n, 2) TEXCOORD_0, v = 0 at the image's first row
+    texture: np.ndarray | None = None  # (h, w, 3) uint8 baseColor image, display-referred
 
 
 def write_glb(path: str | Path, mesh: MeshOut, *, bones: list[tuple[str, int, np.ndarray]],
@@ -362,7 +384,9 @@ def write_glb(path: str | Path, mesh: MeshOut, *, bones: list[tuple[str, int, np
     (name, parent index or -1, world position), and ``extras`` on the root.
 
     Colours go to ``COLOR_0`` in linear light (glTF's convention: the display value squared,
-    the renderer's gamma), the specular strength to :data:`SPECULAR_ATTRIBUTE`.
+    the renderer's gamma), the specular strength to :data:`SPECULAR_ATTRIBUTE`; a texture with
+    UVs becomes the material's ``baseColorTexture`` (a PNG in the binary chunk) and
+    ``TEXCOORD_0``.
     """
     import pygltflib as g
 
@@ -400,6 +424,23 @@ def write_glb(path: str | Path, mesh: MeshOut, *, bones: list[tuple[str, int, np
                for dp, dn in mesh.targets.values()]
     indices = add(mesh.triangles.reshape(-1), "SCALAR", g.UNSIGNED_INT, g.ELEMENT_ARRAY_BUFFER)
     names = list(mesh.targets)
+    material = g.PbrMetallicRoughness(baseColorFactor=[1, 1, 1, 1], metallicFactor=0.0,
+                                      roughnessFactor=0.6)
+    images, textures, samplers = [], [], []
+    if mesh.uvs is not None and mesh.texture is not None:
+        import imageio.v3 as iio
+
+        attributes.TEXCOORD_0 = add(mesh.uvs, "VEC2", f32, vertex_buffer)
+        png = iio.imwrite("<bytes>", np.asarray(mesh.texture, np.uint8), extension=".png")
+        while len(blob) % 4:
+            blob.append(0)
+        views.append(g.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(png)))
+        blob.extend(png)
+        images.append(g.Image(bufferView=len(views) - 1, mimeType="image/png"))
+        samplers.append(g.Sampler(magFilter=g.LINEAR, minFilter=g.LINEAR_MIPMAP_NEAREST,
+                                  wrapS=g.REPEAT, wrapT=g.REPEAT))
+        textures.append(g.Texture(source=0, sampler=0))
+        material.baseColorTexture = g.TextureInfo(index=0)
     primitive = g.Primitive(attributes=attributes, indices=indices, material=0,
                             targets=targets)
     nodes = [g.Node(name="face", mesh=0, skin=0 if bones else None)]
@@ -422,9 +463,9 @@ def write_glb(path: str | Path, mesh: MeshOut, *, bones: list[tuple[str, int, np
         scene=0, scenes=[g.Scene(nodes=roots)], nodes=nodes, skins=skins,
         meshes=[g.Mesh(name="face", primitives=[primitive], weights=[0.0] * len(names),
                        extras={"targetNames": names})],
-        materials=[g.Material(name="skin", pbrMetallicRoughness=g.PbrMetallicRoughness(
-            baseColorFactor=[1, 1, 1, 1], metallicFactor=0.0, roughnessFactor=0.6))],
-        accessors=accessors, bufferViews=views, buffers=[g.Buffer(byteLength=len(blob))],
+        materials=[g.Material(name="skin", pbrMetallicRoughness=material)],
+        images=images, textures=textures, samplers=samplers, accessors=accessors,
+        bufferViews=views, buffers=[g.Buffer(byteLength=len(blob))],
         extras=extras)
     gltf.set_binary_blob(bytes(blob))
     out = Path(path)
