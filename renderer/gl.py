@@ -107,6 +107,19 @@ void main() {
 }
 """
 
+#: The textured head's triangles that show one texel (see :class:`FaceCanvas`): its colour is
+#: in the vertex colour, so no fetch.
+_FRAGMENT_FLAT = """
+#version 330
+in vec3 v_light;
+in vec3 v_spec;
+in vec2 v_uv;
+out vec4 f_color;
+void main() {
+    f_color = vec4(v_light + v_spec, 1.0);
+}
+"""
+
 _FRAGMENT_TEXTURED = """
 #version 330
 uniform sampler2D albedo;
@@ -198,6 +211,7 @@ def shaders(textured: bool) -> dict[str, str]:
                      .replace("COLOUR", colour))
     return {"vertex": _VERTEX_TEXTURED if textured else _VERTEX,
             "fragment": _FRAGMENT_TEXTURED if textured else _FRAGMENT,
+            "flat_fragment": _FRAGMENT_FLAT,
             "edge_geometry": geometry, "edge_fragment": edge_fragment}
 
 
@@ -301,6 +315,19 @@ def project(vp: np.ndarray, points: np.ndarray, size: int) -> np.ndarray:
     return np.column_stack([(ndc[:, 0] + 1) * size / 2, (1 - ndc[:, 1]) * size / 2])
 
 
+def flat_colors(face) -> np.ndarray:
+    """A textured face's vertex colours times the texel at each vertex's UV (the nearest, as
+    the texture's wrap takes it), for the triangles drawn without the texture."""
+    tex = np.asarray(face.texture, dtype=np.float32) / 255.0
+    h, w = tex.shape[:2]
+    uv = np.asarray(face.uvs, dtype=np.float64)
+    cols = np.floor(uv[:, 0] % 1.0 * w).astype(int) % w
+    rows = np.clip(np.floor(uv[:, 1] * h).astype(int), 0, h - 1)
+    out = np.array(face.colors, dtype=np.float32)
+    out[:, :3] *= tex[rows, cols]
+    return out
+
+
 #: Mipmap levels below the texture's own (:func:`albedo_texture`).
 MIPMAP_LEVELS = 3
 
@@ -358,14 +385,36 @@ class FaceCanvas:
         near = np.linalg.norm(face.vertices - mouth, axis=1) < 1.5 * face.fapu["MW0"]
         lower = near[face.triangles].any(axis=1)
         self.n_lower = int(lower.sum())
-        self.index = ctx.buffer(np.concatenate([face.triangles[lower], face.triangles[~lower]])
+        # a textured face's triangles whose corners share one UV (eyes, teeth, neck, clothes
+        # on the built-in head: half its pixels) show one texel: drawn without the texture
+        # fetch, which is most of what the texture costs on llvmpipe. Order: lower flat,
+        # lower textured, upper textured, upper flat, so each pass is at most three draws
+        flat = np.zeros(face.n_triangles, bool)
+        if face.textured:
+            uv = np.asarray(face.uvs)[face.triangles]
+            flat = (uv == uv[:, :1]).all(axis=(1, 2))
+        order = [lower & flat, lower & ~flat, ~lower & ~flat, ~lower & flat]
+        self.index = ctx.buffer(np.concatenate([face.triangles[m] for m in order])
                                 .astype("i4").tobytes())
+        ends = np.cumsum([int(m.sum()) for m in order])
         self.dynamic = [(ctx.buffer(reserve=face.n_vertices * 3 * 4),
                          ctx.buffer(reserve=face.n_vertices * 3 * 4)) for _ in range(n_faces)]
         self.vaos = [self._vertex_array(self.prog, pos, nrm, self.index)
                      for pos, nrm in self.dynamic]
-        self.edges = None
+        #: per face, (first, end, vertex array) runs of triangles in drawing order
+        self.runs = [[(0, face.n_triangles, vao)] for vao in self.vaos]
         programs = [self.prog]
+        if face.textured:
+            self.flat_static = ctx.buffer(flat_colors(face).astype("f4").tobytes())
+            self.flat_prog = ctx.program(vertex_shader=glsl["vertex"],
+                                         fragment_shader=glsl["flat_fragment"])
+            programs.append(self.flat_prog)
+            self.flat_vaos = [self._vertex_array(self.flat_prog, pos, nrm, self.index,
+                                                 colors=self.flat_static)
+                              for pos, nrm in self.dynamic]
+            self.runs = [[(0, ends[0], fv), (ends[0], ends[2], v), (ends[2], ends[3], fv)]
+                         for v, fv in zip(self.vaos, self.flat_vaos, strict=True)]
+        self.edges = None
         if antialias == "edges":
             hidden = np.zeros(face.n_vertices, bool)
             hidden[face.groups.get("hidden_outline", [])] = True
@@ -396,11 +445,19 @@ class FaceCanvas:
                        moderngl.DEPTH_TEST | moderngl.BLEND, moderngl.TRIANGLES)
         self.last_edges = [0] * n_faces  # edges overdrawn per face in the last draw
 
-    def _vertex_array(self, prog, pos, nrm, index):
-        content = [(pos, "3f", "in_pos"), (nrm, "3f", "in_norm"), (self.static, "4f", "in_color")]
-        if self.uv_buffer is not None:
+    def _vertex_array(self, prog, pos, nrm, index, colors=None):
+        content = [(pos, "3f", "in_pos"), (nrm, "3f", "in_norm"),
+                   (colors or self.static, "4f", "in_color")]
+        if self.uv_buffer is not None and "in_uv" in prog:
             content.append((self.uv_buffer, "2f", "in_uv"))
         return self.ctx.vertex_array(prog, content, index_buffer=index)
+
+    def _render(self, k: int, first: int, end: int) -> None:
+        """Draw face ``k``'s triangles ``first`` to ``end`` (in drawing order)."""
+        for a, b, vao in self.runs[k]:
+            lo, hi = max(a, first), min(b, end)
+            if hi > lo:
+                vao.render(self._modes[2], vertices=3 * (hi - lo), first=3 * lo)
 
     def draw(self, frames: list[FaceFrame], out: np.ndarray | None = None,
              references: list[tuple[FaceFrame | None, tuple[int, int, int, int]]] | None = None
@@ -432,14 +489,13 @@ class FaceCanvas:
             ctx.enable_only(solid)
             ctx.viewport = (0, 0, size, size)
             self.fbo.clear(*self.background, 1.0)
+            n = self.rig.face.n_triangles
             if reference is None and box is not None:  # the box's reference: the lower face
-                self.vaos[k].render(triangles, vertices=3 * self.n_lower)
+                self._render(k, 0, self.n_lower)
                 self.regions[k] = self._read_box(box)
-                self.vaos[k].render(triangles, vertices=3 * (self.rig.face.n_triangles
-                                                             - self.n_lower),
-                                    first=3 * self.n_lower)
+                self._render(k, self.n_lower, n)
             else:
-                self.vaos[k].render(triangles)
+                self._render(k, 0, n)
             if self.edges is not None:
                 self._overdraw_edges(k, positions, self.edges)
             if self.samples:
@@ -462,7 +518,7 @@ class FaceCanvas:
         self.ctx.viewport = (0, 0, self.size, self.size)
         self.ctx.scissor = self._gl_box(box)
         self.fbo.clear(*self.background, 1.0, viewport=self.ctx.scissor)
-        self.vaos[k].render(self._modes[2], vertices=3 * self.n_lower)
+        self._render(k, 0, self.n_lower)
         self.ctx.scissor = None
         return self._read_box(box)
 
@@ -499,7 +555,8 @@ class FaceCanvas:
         if self.edges is not None:
             objs += [*self.edge_vaos, self.edge_index, self.edge_prog]
         if self.texture is not None:
-            objs += [self.texture, self.uv_buffer]
+            objs += [self.texture, self.uv_buffer, *self.flat_vaos, self.flat_static,
+                     self.flat_prog]
         for obj in objs:
             obj.release()
         for fbo in {id(self.fbo): self.fbo, id(self.resolved): self.resolved}.values():

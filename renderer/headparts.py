@@ -332,6 +332,7 @@ def eyelid(centre: np.ndarray, radius: float, root_radius: float, *, upper: bool
     hidden = np.arange(len(alpha), len(verts))  # all but the margin
     if lashes:
         lash_v, lash_t = eyelash_fringe(centre, radius, alpha, margin, upper=upper)
+        hidden = np.concatenate([hidden, len(verts) + np.arange(len(lash_v) // 2)])
         tris = np.vstack([tris, lash_t + len(verts)])
         verts = np.vstack([verts, lash_v])
         lash = EYELASH if upper else 0.5 * EYELASH + 0.5 * np.append(margin_col, 0.05)
@@ -348,15 +349,19 @@ EYELASH = np.array([0.07, 0.05, 0.045, 0.05])
 
 def eyelash_fringe(centre: np.ndarray, radius: float, alpha: np.ndarray, margin: np.ndarray,
                    *, upper: bool) -> tuple[np.ndarray, np.ndarray]:
-    """A fringe of eyelashes on a lid margin: a strip of thin tapering spikes.
+    """A fringe of eyelashes on a lid margin: a strip whose free edge is a row of tufts.
 
-    Each lash leaves the margin outwards and curls away from the eye (up from the upper lid,
+    The lashes leave the margin outwards and curl away from the eye (up from the upper lid,
     down from the lower one): upper lashes 2.6 mm at the middle of the lid, shorter towards
-    the corners, lower ones 0.9 mm. ``alpha`` and ``margin`` (radians) are the margin's
-    azimuths and elevations about ``centre``, as in :func:`eyelid`. Roots sit 0.15 mm inside
-    the margin so no gap shows; triangles face forwards (the camera) at rest.
+    the corners, lower ones 0.9 mm. Lashes are a tenth of a pixel thick at 368 px, so what
+    shows is the fringe they make together, clumped into tufts (two per margin segment above,
+    one below); every free edge is a silhouette the edge overdraw draws again, which is what
+    a fringe of single spikes cost (four times the edges). ``alpha`` and ``margin`` (radians)
+    are the margin's azimuths and elevations about ``centre``, as in :func:`eyelid`. Roots
+    sit 0.15 mm inside the margin so no gap shows (the first ``len(verts) // 2`` vertices:
+    their edges lie under the margin); triangles face forwards (the camera) at rest.
     """
-    n = 6 * (len(alpha) - 1) + 1  # three lashes per margin segment
+    n = (4 if upper else 2) * (len(alpha) - 1) + 1  # a tuft and a dip per step
     a = np.interp(np.linspace(0, len(alpha) - 1, n), np.arange(len(alpha)), alpha)
     b = np.interp(np.linspace(0, len(alpha) - 1, n), np.arange(len(alpha)), margin)
     radial = np.stack([np.cos(b) * np.sin(a), np.sin(b), np.cos(b) * np.cos(a)], -1)
@@ -367,7 +372,7 @@ def eyelash_fringe(centre: np.ndarray, radius: float, alpha: np.ndarray, margin:
     root = centre + (radius - 0.15) * radial
     tip = root + length[:, None] * (0.55 * radial + 0.84 * away)
     # spikes: roots all along the margin, tips at every lash, a valley between lashes
-    valley = root + 0.6 * (tip - root)
+    valley = root + 0.7 * (tip - root)
     tips = np.where((np.arange(n) % 2 == 0)[:, None], tip, valley)
     verts = np.vstack([root, tips])
     i = np.arange(n - 1)
