@@ -294,8 +294,7 @@ def load_avatar(path: str | Path) -> AvatarFace:
         fp_vertices.update(mouth_points(v, targets["JawOpen"][0], pivots["l"], pivots["r"]))
         points.update({k: v[fp_vertices[k]].copy() for k in MOUTH_FEATURE_POINTS})
     # one texture for the whole avatar is sampled per pixel, as the built-in head's is
-    per_pixel = scene.texture is not None
-    colors = scene.untextured_colors if per_pixel else scene.colors
+    colors = scene.colors if scene.untextured_colors is None else scene.untextured_colors
     return AvatarFace(
         vertices=v.astype(np.float32), triangles=scene.triangles.astype(np.int32),
         colors=colors.astype(np.float32), feature_points=points,

@@ -158,9 +158,9 @@ class Face:
                 h.update(np.ascontiguousarray(store[name]).tobytes())
         if self.jaw_pivot is not None:
             h.update(np.asarray(self.jaw_pivot, dtype=np.float64).tobytes())
-        if self.textured:
-            for arr in (self.uvs, self.texture):
-                h.update(np.ascontiguousarray(arr).tobytes())
+        if self.uvs is not None and self.texture is not None:
+            h.update(np.ascontiguousarray(self.uvs).tobytes())
+            h.update(np.ascontiguousarray(self.texture).tobytes())
         return h.hexdigest()
 
     @property

@@ -186,27 +186,28 @@ void main() {
 }
 """
 
-_PLAIN = {"varyings": (("vec3", "color"),), "uniforms": "", "colour": "v_color"}
-_TEXTURED = {"varyings": (("vec3", "light"), ("vec3", "spec"), ("vec2", "uv")),
-             "uniforms": "uniform sampler2D albedo;",
-             "colour": "texture(albedo, v_uv).rgb * v_light + v_spec"}
+#: Per look: the vertex shader's outputs (GLSL type, name after ``v_``), the edge fragment
+#: shader's uniforms and its colour expression.
+_PLAIN: tuple[tuple[tuple[str, str], ...], str, str] = ((("vec3", "color"),), "", "v_color")
+_TEXTURED: tuple[tuple[tuple[str, str], ...], str, str] = (
+    (("vec3", "light"), ("vec3", "spec"), ("vec2", "uv")), "uniform sampler2D albedo;",
+    "texture(albedo, v_uv).rgb * v_light + v_spec")
 
 
 def shaders(textured: bool) -> dict[str, str]:
     """The GLSL of the face and of its edge overdraw, plain (per-vertex colour) or textured."""
-    kind = _TEXTURED if textured else _PLAIN
-    names = [name for _, name in kind["varyings"]]
+    varyings, uniforms, colour = _TEXTURED if textured else _PLAIN
+    names = [name for _, name in varyings]
 
     def declare(pattern: str) -> str:
-        return "\n".join(pattern.format(type=t, name=n) for t, n in kind["varyings"])
+        return "\n".join(pattern.format(type=t, name=n) for t, n in varyings)
 
     geometry = (_EDGE_GEOMETRY.replace("VARYINGS_IN", declare("in {type} v_{name}[];"))
                 .replace("VARYINGS_OUT", declare("out {type} g_{name};"))
                 .replace("VARYINGS_COPY", " ".join(f"g_{n} = v_{n}[k];" for n in names)))
-    colour = kind["colour"]
     for n in names:
         colour = colour.replace(f"v_{n}", f"g_{n}")
-    edge_fragment = (_EDGE_FRAGMENT.replace("UNIFORMS", kind["uniforms"])
+    edge_fragment = (_EDGE_FRAGMENT.replace("UNIFORMS", uniforms)
                      .replace("VARYINGS_IN", declare("in {type} g_{name};"))
                      .replace("COLOUR", colour))
     return {"vertex": _VERTEX_TEXTURED if textured else _VERTEX,
@@ -375,7 +376,7 @@ class FaceCanvas:
         self.prog = ctx.program(vertex_shader=glsl["vertex"], fragment_shader=glsl["fragment"])
         self.static = ctx.buffer(face.colors.astype("f4").tobytes())
         self.texture = self.uv_buffer = None
-        if face.textured:
+        if face.uvs is not None and face.texture is not None:
             self.uv_buffer = ctx.buffer(np.asarray(face.uvs, "f4").tobytes())
             self.texture = albedo_texture(ctx, face.texture)
         # the lower face (triangles within 1.5 MW0 of the mouth) first: drawn alone, it is what

@@ -55,7 +55,8 @@ def merge(parts: list[Part], default_uv: tuple[float, float] | None = None) -> P
         groups={k: np.concatenate(v).astype(np.int64) for k, v in groups.items()},
         layers=layers,
         uvs=None if default_uv is None else np.concatenate(
-            [p.uvs if p.uvs is not None else np.tile(np.float32(default_uv), (len(p.vertices), 1))
+            [p.uvs if p.uvs is not None else np.tile(np.asarray(default_uv, np.float32),
+                                                     (len(p.vertices), 1))
              for p in parts]).astype(np.float32),
     )
 
