@@ -7,9 +7,13 @@ ratio to real time (target: at least 4x faster than real time on a 2-core CPU ma
 CPU time per frame of this process and its children. Then the parts alone, in this process:
 deformation, drawing (GL + read-back), mosaic, and encoding of the same frames.
 
+The built-in head is measured in each of its looks in the same run (``--look``, default both:
+``plain``, the per-vertex colours, then ``textured``, the default), so the two compare on the
+same load; the runs of the looks alternate, and best and median are per look.
+
     python benchmarks/bench_renderer.py [--seconds 60] [--size 368] [--repeat 2]
                                         [--antialias edges] [--samples 4] [--workers 0]
-                                        [--face avatar.glb]
+                                        [--face avatar.glb] [--look plain,textured]
 
 ``--face`` measures a face file or glTF avatar instead of the built-in head (e.g. the head
 written by ``facepair face export``).
@@ -51,73 +55,86 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=RenderSettings.samples)
     parser.add_argument("--workers", type=int, default=RenderSettings.workers)
     parser.add_argument("--face", default=None)
+    parser.add_argument("--look", default="plain,textured",
+                        help="looks of the built-in head to measure, comma-separated")
     args = parser.parse_args()
-    settings = RenderSettings(size=args.size, antialias=args.antialias, samples=args.samples,
-                              workers=args.workers, face=args.face)
+    looks = args.look.split(",") if args.face is None else [RenderSettings.look]
     with tempfile.TemporaryDirectory() as d:
         wav = write_speech(Path(d) / "speech.wav", args.seconds)
         result = generate_conditions(wav, conditions=("speech_driven", "random"))
         left, right = align_tracks([result.tracks["speech_driven"], result.tracks["random"]],
                                    None)
-        n, fps = left.n_frames, left.fps
-        clip_seconds = n / fps
-        times, cpu = [], []
+        every = {look: RenderSettings(size=args.size, antialias=args.antialias,
+                                      samples=args.samples, workers=args.workers,
+                                      face=args.face, look=look) for look in looks}
+        runs: dict[str, tuple[list[float], list[list[float]]]] = {k: ([], []) for k in looks}
         for r in range(args.repeat):
-            before = _cpu_seconds()
-            start = time.perf_counter()
-            render_pair(left, right, wav, Path(d) / f"pair{r}.mp4", settings=settings)
-            times.append(time.perf_counter() - start)
-            cpu.append([b - a for a, b in zip(before, _cpu_seconds(), strict=True)])
-        best, median = min(times), float(np.median(times))
-        own, children = (1e3 * float(np.median(c)) / n for c in zip(*cpu, strict=True))
-        size_mb = (Path(d) / "pair0.mp4").stat().st_size / 1e6
+            for look, settings in every.items():
+                before = _cpu_seconds()
+                start = time.perf_counter()
+                render_pair(left, right, wav, Path(d) / f"pair{r}.mp4", settings=settings)
+                runs[look][0].append(time.perf_counter() - start)
+                runs[look][1].append([b - a for a, b in zip(before, _cpu_seconds(),
+                                                            strict=True)])
         print(f"device: {device_name()} (EGL; GLCONTEXT_DEVICE_INDEX="
               f"{os.environ.get('GLCONTEXT_DEVICE_INDEX', 'unset')})")
-        face_name = args.face or "built-in"
-        aa = settings.antialias + (f" x{settings.samples}" if settings.antialias == "msaa" else "")
-        print(f"face {face_name}, antialias {aa}, workers {settings.workers or 'auto'}, "
-              f"x264 {settings.preset}: "
-              f"pair clip {clip_seconds:.0f} s, {n} frames at {fps:g} fps, "
-              f"{2 * args.size}x{args.size}, with audio ({size_mb:.1f} MB): "
-              f"best {best:.2f} s = {n / best:.0f} fps = {clip_seconds / best:.1f}x real time; "
-              f"median {median:.2f} s = {clip_seconds / median:.1f}x real time (target >= 4x)")
-        print(f"CPU per pair frame: {own + children:.1f} ms ({own:.1f} this process, "
-              f"{children:.1f} workers + ffmpeg)")
+        for look, settings in every.items():
+            _report(args, left, right, wav, Path(d), look, settings, *runs[look])
 
-        # the parts alone, on the first 600 frames
-        k = min(n, 600)
-        face = load_face(settings)
-        rig = rig_for(face)
-        dense = [left.dense(), right.dense()]
-        start = time.perf_counter()
-        for i in range(k):
-            rig.deform(dense[0][i])
-            rig.deform(dense[1][i])
-        deform = (time.perf_counter() - start) / k
-        frames = []
-        start = time.perf_counter()
-        drawing = {**settings.drawing(), "mosaic_block": 0}
-        for frame in render_frames([left, right], face, **drawing, frames=range(k)):
-            frames.append(frame.image.copy())
-        draw = (time.perf_counter() - start) / k - deform
-        from renderer.mosaic import pixelate
 
-        image = frames[0].copy()
-        start = time.perf_counter()
-        for _ in range(k):
-            pixelate(image, (96, 216, 264, 312), settings.mosaic_block)
-            pixelate(image, (96 + args.size, 216, 264 + args.size, 312), settings.mosaic_block)
-        mosaic = (time.perf_counter() - start) / k
-        start = time.perf_counter()
-        with ClipWriter(Path(d) / "enc.mp4", 2 * args.size, args.size, fps, k, wav,
-                        crf=settings.crf, preset=settings.preset,
-                        threads=settings.encode_threads) as writer:
-            for image in frames:
-                writer.write(image)
-        encode = (time.perf_counter() - start) / k
-        print(f"parts per pair frame: deform {deform * 1e3:.2f} ms, draw + read-back "
-              f"{draw * 1e3:.2f} ms, mosaic {mosaic * 1e3:.2f} ms, encode alone "
-              f"{encode * 1e3:.2f} ms ({1 / encode:.0f} fps)")
+def _report(args, left, right, wav: Path, d: Path, look: str, settings: RenderSettings,
+            times: list[float], cpu: list[list[float]]) -> None:
+    """Print the figures of one look: the clip's, then its parts' alone."""
+    n, fps = left.n_frames, left.fps
+    clip_seconds = n / fps
+    best, median = min(times), float(np.median(times))
+    own, children = (1e3 * float(np.median(c)) / n for c in zip(*cpu, strict=True))
+    size_mb = (d / "pair0.mp4").stat().st_size / 1e6
+    face_name = args.face or f"built-in ({look})"
+    aa = settings.antialias + (f" x{settings.samples}" if settings.antialias == "msaa" else "")
+    print(f"face {face_name}, antialias {aa}, workers {settings.workers or 'auto'}, "
+          f"x264 {settings.preset}: "
+          f"pair clip {clip_seconds:.0f} s, {n} frames at {fps:g} fps, "
+          f"{2 * args.size}x{args.size}, with audio ({size_mb:.1f} MB): "
+          f"best {best:.2f} s = {n / best:.0f} fps = {clip_seconds / best:.1f}x real time; "
+          f"median {median:.2f} s = {clip_seconds / median:.1f}x real time (target >= 4x)")
+    print(f"CPU per pair frame: {own + children:.1f} ms ({own:.1f} this process, "
+          f"{children:.1f} workers + ffmpeg)")
+
+    # the parts alone, on the first 600 frames
+    k = min(n, 600)
+    face = load_face(settings)
+    rig = rig_for(face)
+    dense = [left.dense(), right.dense()]
+    start = time.perf_counter()
+    for i in range(k):
+        rig.deform(dense[0][i])
+        rig.deform(dense[1][i])
+    deform = (time.perf_counter() - start) / k
+    frames = []
+    start = time.perf_counter()
+    drawing = {**settings.drawing(), "mosaic_block": 0}
+    for frame in render_frames([left, right], face, **drawing, frames=range(k)):
+        frames.append(frame.image.copy())
+    draw = (time.perf_counter() - start) / k - deform
+    from renderer.mosaic import pixelate
+
+    image = frames[0].copy()
+    start = time.perf_counter()
+    for _ in range(k):
+        pixelate(image, (96, 216, 264, 312), settings.mosaic_block)
+        pixelate(image, (96 + args.size, 216, 264 + args.size, 312), settings.mosaic_block)
+    mosaic = (time.perf_counter() - start) / k
+    start = time.perf_counter()
+    with ClipWriter(Path(d) / "enc.mp4", 2 * args.size, args.size, fps, k, wav,
+                    crf=settings.crf, preset=settings.preset,
+                    threads=settings.encode_threads) as writer:
+        for image in frames:
+            writer.write(image)
+    encode = (time.perf_counter() - start) / k
+    print(f"parts per pair frame: deform {deform * 1e3:.2f} ms, draw + read-back "
+          f"{draw * 1e3:.2f} ms, mosaic {mosaic * 1e3:.2f} ms, encode alone "
+          f"{encode * 1e3:.2f} ms ({1 / encode:.0f} fps)")
 
 
 if __name__ == "__main__":

@@ -278,6 +278,11 @@ def run(options: Options, folder: Path, *, database_url: str | None = None,
                           options.stale_after)
         site = Site(env, folder / "gunicorn.log", options.web_workers)
         worker = JobWorker(env, folder / "worker.log")
+        # Paint the built-in head's texture once, as an install would: a job whose process
+        # paints it stays silent for seconds, longer than this run's short stale limit.
+        from renderer.headmodel import builtin_face
+
+        builtin_face()
         site.start()
         worker.start()
         echo(f"chaos: {options.participants} participants, gunicorn {options.web_workers} "

@@ -47,6 +47,9 @@ class RenderSettings:
     face : a face JSON file (bring your own face) or a glTF 2.0 / VRM avatar with ARKit
         blendshapes (``.glb``, ``.gltf``, ``.vrm``; see docs/renderer.md); None = built-in head.
     background : RGB in 0..1.
+    look : the built-in head's look: ``"textured"`` (skin texture, strand brows, eyelashes;
+        the default) or ``"plain"`` (per-vertex colour, the head before the texture); not
+        used with ``face``.
 
     The drawing defaults (size, mosaic, anti-aliasing, background) are those of
     :mod:`renderer.defaults`.
@@ -72,6 +75,7 @@ class RenderSettings:
     audio_bitrate: str = "128k"
     encode_threads: int = 1
     workers: int = 0
+    look: str = "textured"
 
     def drawing(self) -> dict[str, Any]:
         """The keyword arguments of :func:`renderer.pipeline.render_frames` these settings give."""
@@ -117,6 +121,9 @@ class RenderSettings:
                              field="encode_threads")
         if self.fps is not None and not self.fps > 0:
             raise InputError(f"must be positive, got {self.fps!r}", field="fps")
+        from renderer.headmodel import check_look
+
+        check_look(self.look)
 
 
 def load_face(settings: RenderSettings) -> Face:
@@ -125,7 +132,7 @@ def load_face(settings: RenderSettings) -> Face:
     if settings.face is None:
         from renderer.headmodel import builtin_face
 
-        return builtin_face()
+        return builtin_face(settings.look)
     if Path(settings.face).suffix.lower() in AVATAR_SUFFIXES:
         from renderer.avatar import load_avatar
 

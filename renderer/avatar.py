@@ -290,12 +290,14 @@ def load_avatar(path: str | Path) -> AvatarFace:
     if not all(k in fp_vertices for k in MOUTH_FEATURE_POINTS):
         fp_vertices.update(mouth_points(v, targets["JawOpen"][0], pivots["l"], pivots["r"]))
         points.update({k: v[fp_vertices[k]].copy() for k in MOUTH_FEATURE_POINTS})
+    # one texture for the whole avatar is sampled per pixel, as the built-in head's is
+    colors = scene.colors if scene.untextured_colors is None else scene.untextured_colors
     return AvatarFace(
         vertices=v.astype(np.float32), triangles=scene.triangles.astype(np.int32),
-        colors=scene.colors.astype(np.float32), feature_points=points,
+        colors=colors.astype(np.float32), feature_points=points,
         fp_vertices=fp_vertices, fapu=_fapu(points), groups=groups,
         weights={"head": head}, name=path.stem, targets=targets,  # type: ignore[arg-type]
-        eye_pivots=pivots, file_normals=scene.normals)
+        eye_pivots=pivots, file_normals=scene.normals, uvs=scene.uvs, texture=scene.texture)
 
 
 def _fapu(points: dict[str, np.ndarray]) -> dict[str, float]:

@@ -77,6 +77,9 @@ class Face:
     weights : optional per-vertex weight layers (see :data:`WEIGHT_LAYERS`).
     jaw_pivot : (3,) point on the jaw hinge axis (the axis is parallel to x).
     name : label for logs and cache keys.
+    uvs : optional float32 (n, 2) texture coordinates (u right, v up, as OpenGL samples).
+    texture : optional uint8 (h, w, 3) albedo, display-referred, row 0 at v = 0; with
+        ``uvs`` the renderer multiplies each pixel's colour by it (sampled per pixel).
     """
 
     vertices: np.ndarray
@@ -89,6 +92,8 @@ class Face:
     weights: dict[str, np.ndarray] = field(default_factory=dict)
     jaw_pivot: np.ndarray | None = None
     name: str = "face"
+    uvs: np.ndarray | None = None
+    texture: np.ndarray | None = None
 
     @property
     def n_vertices(self) -> int:
@@ -155,7 +160,15 @@ class Face:
                 h.update(np.ascontiguousarray(store[name]).tobytes())
         if self.jaw_pivot is not None:
             h.update(np.asarray(self.jaw_pivot, dtype=np.float64).tobytes())
+        if self.uvs is not None and self.texture is not None:
+            h.update(np.ascontiguousarray(self.uvs).tobytes())
+            h.update(np.ascontiguousarray(self.texture).tobytes())
         return h.hexdigest()
+
+    @property
+    def textured(self) -> bool:
+        """Whether the face carries an albedo texture and the coordinates to sample it."""
+        return self.uvs is not None and self.texture is not None
 
 
 def fapu_from_feature_points(fp: dict[str, np.ndarray]) -> dict[str, float]:

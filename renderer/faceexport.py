@@ -9,8 +9,9 @@ deltas. The skeleton carries the VRM humanoid names the avatar reader looks for:
 weighted by the head's ``head`` layer, so the neck blends as on the built-in head), and
 ``leftEye`` / ``rightEye`` at the eyeball centres. Feature points and the hidden-outline group
 go to the root ``extras.facepair`` (the sidecar schema), so the avatar frames and mosaics
-exactly as the built-in head. Units are metres, as glTF specifies; axes are glTF's (+y up, +z
-forward, +x the face's left), which are Xface's.
+exactly as the built-in head. The skin texture (:mod:`renderer.skintexture`) goes along as
+the ``baseColor`` texture with ``TEXCOORD_0``. Units are metres, as glTF specifies; axes are
+glTF's (+y up, +z forward, +x the face's left), which are Xface's.
 
 Example
 -------
@@ -67,5 +68,5 @@ def export_builtin_head(path: str | Path) -> Path:
                    if not k.startswith("eyeball")}}}
     mesh = MeshOut(vertices=face.vertices * METRES, normals=rig.n0,
                    triangles=face.triangles, colors=face.colors, targets=targets,
-                   joints=joints, weights=weights)
+                   joints=joints, weights=weights, uvs=face.uvs, texture=face.texture)
     return write_glb(path, mesh, bones=bones, extras=extras)

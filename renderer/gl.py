@@ -62,20 +62,92 @@ void main() {
 }
 """
 
+#: The textured head's lighting (:mod:`renderer.skintexture`), still per vertex: a warm key
+#: from above on the face's right, a cooler fill from its left at half the key, sky-over-
+#: ground ambient and a faint rim, with the diffuse terms wrapped past the terminator as light
+#: scattered in skin is. The albedo comes per pixel from the texture: in (gamma 2) linear light
+#: a pixel is (c t)^2 D + S for vertex colour c, texel t, diffuse light D and specular S, so
+#: its display value c t sqrt(D) is exact without the specular, which is added as the
+#: difference it makes at a typical texel (TEXEL) - one fetch and one multiply-add a pixel.
+_VERTEX_TEXTURED = """
+#version 330
+uniform mat4 mvp;
+uniform vec3 camera;
+in vec3 in_pos;
+in vec3 in_norm;
+in vec4 in_color;
+in vec2 in_uv;
+out vec3 v_light;
+out vec3 v_spec;
+out vec2 v_uv;
+const vec3 KEY = normalize(vec3(-0.5, 0.5, 0.75));
+const vec3 FILL = normalize(vec3(0.75, 0.1, 0.6));
+const vec3 KEY_RGB = vec3(1.0, 0.95, 0.88);
+const vec3 FILL_RGB = vec3(0.78, 0.84, 0.95);
+const float TEXEL = 0.72;
+void main() {
+    vec3 n = in_norm;
+    vec3 view = normalize(camera - in_pos);
+    float nv = max(dot(n, view), 0.0);
+    float key = max((dot(n, KEY) + 0.3) / 1.3, 0.0);
+    float fill = max((dot(n, FILL) + 0.4) / 1.4, 0.0);
+    float sky = 0.5 + 0.5 * n.y;
+    vec3 diffuse = mix(vec3(0.10, 0.09, 0.09), vec3(0.17, 0.18, 0.20), sky)
+                   + 0.95 * KEY_RGB * key * key + 0.55 * FILL_RGB * fill
+                   + vec3(0.07, 0.015, 0.0) * key * (1.0 - key);
+    float r = 1.0 - nv;
+    float s = max(dot(n, normalize(KEY + view)), 0.0);
+    s *= s; s *= s; s *= s; s *= s; s *= s;
+    vec3 spec = 0.07 * r * r * r * FILL_RGB + 0.30 * s * in_color.a * KEY_RGB;
+    vec3 d = sqrt(diffuse);
+    vec3 typical = in_color.rgb * TEXEL;
+    v_light = in_color.rgb * d;
+    v_spec = sqrt(typical * typical * diffuse + spec) - typical * d;
+    v_uv = in_uv;
+    gl_Position = mvp * vec4(in_pos, 1.0);
+}
+"""
+
+#: The textured head's triangles that show one texel (see :class:`FaceCanvas`): its colour is
+#: in the vertex colour, so no fetch.
+_FRAGMENT_FLAT = """
+#version 330
+in vec3 v_light;
+in vec3 v_spec;
+in vec2 v_uv;
+out vec4 f_color;
+void main() {
+    f_color = vec4(v_light + v_spec, 1.0);
+}
+"""
+
+_FRAGMENT_TEXTURED = """
+#version 330
+uniform sampler2D albedo;
+in vec3 v_light;
+in vec3 v_spec;
+in vec2 v_uv;
+out vec4 f_color;
+void main() {
+    f_color = vec4(texture(albedo, v_uv).rgb * v_light + v_spec, 1.0);
+}
+"""
+
 #: Discontinuity edge overdraw (see :mod:`renderer.edges`): each input triangle is an edge
 #: (a, b) plus the vertex opposite it in its front-facing triangle; out comes a strip reaching
 #: one pixel footprint outside the edge and half a footprint inside, 0.5 px past each end.
+#: The vertex shader's outputs (VARYINGS) pass through to the strip's ends.
 _EDGE_GEOMETRY = """
 #version 330
 layout(triangles) in;
 layout(triangle_strip, max_vertices = 4) out;
 uniform vec2 half_size;
-in vec3 v_color[];
-out vec3 g_color;
+VARYINGS_IN
+VARYINGS_OUT
 noperspective out float g_dist;
-void emit(vec4 clip, vec2 offset, float dist, vec3 color) {
+void emit(vec4 clip, vec2 offset, float dist, int k) {
     gl_Position = vec4(clip.xy + offset / half_size * clip.w, clip.zw);
-    g_color = color;
+    VARYINGS_COPY
     g_dist = dist;
     EmitVertex();
 }
@@ -93,10 +165,10 @@ void main() {
     // a pixel's footprint across the edge: 1 px for an axis-aligned edge, sqrt 2 at 45 degrees
     float k = abs(outside.x) + abs(outside.y);
     vec2 reach_out = k * outside, reach_in = -0.5 * k * outside, ext = 0.5 * along;
-    emit(a, reach_out - ext, 1.0, v_color[0]);
-    emit(a, reach_in - ext, -0.5, v_color[0]);
-    emit(b, reach_out + ext, 1.0, v_color[1]);
-    emit(b, reach_in + ext, -0.5, v_color[1]);
+    emit(a, reach_out - ext, 1.0, 0);
+    emit(a, reach_in - ext, -0.5, 0);
+    emit(b, reach_out + ext, 1.0, 1);
+    emit(b, reach_in + ext, -0.5, 1);
     EndPrimitive();
 }
 """
@@ -106,13 +178,44 @@ void main() {
 #: The surface grows by half a pixel; in exchange the ramp spans a whole pixel.
 _EDGE_FRAGMENT = """
 #version 330
-in vec3 g_color;
+UNIFORMS
+VARYINGS_IN
 noperspective in float g_dist;
 out vec4 f_color;
 void main() {
-    f_color = vec4(g_color, clamp(1.0 - g_dist, 0.0, 1.0));
+    f_color = vec4(COLOUR, clamp(1.0 - g_dist, 0.0, 1.0));
 }
 """
+
+#: Per look: the vertex shader's outputs (GLSL type, name after ``v_``), the edge fragment
+#: shader's uniforms and its colour expression.
+_PLAIN: tuple[tuple[tuple[str, str], ...], str, str] = ((("vec3", "color"),), "", "v_color")
+_TEXTURED: tuple[tuple[tuple[str, str], ...], str, str] = (
+    (("vec3", "light"), ("vec3", "spec"), ("vec2", "uv")), "uniform sampler2D albedo;",
+    "texture(albedo, v_uv).rgb * v_light + v_spec")
+
+
+def shaders(textured: bool) -> dict[str, str]:
+    """The GLSL of the face and of its edge overdraw, plain (per-vertex colour) or textured."""
+    varyings, uniforms, colour = _TEXTURED if textured else _PLAIN
+    names = [name for _, name in varyings]
+
+    def declare(pattern: str) -> str:
+        return "\n".join(pattern.format(type=t, name=n) for t, n in varyings)
+
+    geometry = (_EDGE_GEOMETRY.replace("VARYINGS_IN", declare("in {type} v_{name}[];"))
+                .replace("VARYINGS_OUT", declare("out {type} g_{name};"))
+                .replace("VARYINGS_COPY", " ".join(f"g_{n} = v_{n}[k];" for n in names)))
+    for n in names:
+        colour = colour.replace(f"v_{n}", f"g_{n}")
+    edge_fragment = (_EDGE_FRAGMENT.replace("UNIFORMS", uniforms)
+                     .replace("VARYINGS_IN", declare("in {type} g_{name};"))
+                     .replace("COLOUR", colour))
+    return {"vertex": _VERTEX_TEXTURED if textured else _VERTEX,
+            "fragment": _FRAGMENT_TEXTURED if textured else _FRAGMENT,
+            "flat_fragment": _FRAGMENT_FLAT,
+            "edge_geometry": geometry, "edge_fragment": edge_fragment}
+
 
 #: Anti-aliasing modes (see :class:`FaceCanvas`).
 ANTIALIAS_MODES: tuple[str, ...] = ("edges", "msaa", "none")
@@ -214,6 +317,43 @@ def project(vp: np.ndarray, points: np.ndarray, size: int) -> np.ndarray:
     return np.column_stack([(ndc[:, 0] + 1) * size / 2, (1 - ndc[:, 1]) * size / 2])
 
 
+def flat_colors(face) -> np.ndarray:
+    """A textured face's vertex colours times the texel at each vertex's UV (the nearest, as
+    the texture's wrap takes it), for the triangles drawn without the texture."""
+    tex = np.asarray(face.texture, dtype=np.float32) / 255.0
+    h, w = tex.shape[:2]
+    uv = np.asarray(face.uvs, dtype=np.float64)
+    cols = np.floor(uv[:, 0] % 1.0 * w).astype(int) % w
+    rows = np.clip(np.floor(uv[:, 1] * h).astype(int), 0, h - 1)
+    out = np.array(face.colors, dtype=np.float32)
+    out[:, :3] *= tex[rows, cols]
+    return out
+
+
+#: Mipmap levels below the texture's own (:func:`albedo_texture`).
+MIPMAP_LEVELS = 3
+
+
+def albedo_texture(ctx, pixels: np.ndarray):
+    """A mipmapped RGB texture of ``pixels`` (h, w, 3) uint8, row 0 at v = 0.
+
+    Mipmaps, as the head's texels are finer than its pixels at 368 px (pores and brow hairs
+    would shimmer as the head moves); bilinear within the nearest level, which llvmpipe
+    samples at nearly the cost of plain bilinear filtering. Three levels at most: at a
+    grazing silhouette a coarser level would average texels from regions of the texture
+    that are far apart on the head (a hair outline flickered in skin colour). Repeats across
+    u (the head's azimuth wraps round), clamps in v.
+    """
+    import moderngl
+
+    pixels = np.ascontiguousarray(pixels, dtype=np.uint8)
+    texture = ctx.texture((pixels.shape[1], pixels.shape[0]), 3, pixels.tobytes())
+    texture.build_mipmaps(max_level=MIPMAP_LEVELS)
+    texture.filter = (moderngl.LINEAR_MIPMAP_NEAREST, moderngl.LINEAR)
+    texture.repeat_x, texture.repeat_y = True, False
+    return texture
+
+
 class FaceCanvas:
     """Draws ``n_faces`` copies of one rigged face side by side and reads the frame back.
 
@@ -233,8 +373,13 @@ class FaceCanvas:
         self.background = background
         self.vp, self.camera = camera_for(rig)
         face = rig.face
-        self.prog = ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT)
+        glsl = shaders(face.textured)
+        self.prog = ctx.program(vertex_shader=glsl["vertex"], fragment_shader=glsl["fragment"])
         self.static = ctx.buffer(face.colors.astype("f4").tobytes())
+        self.texture = self.uv_buffer = None
+        if face.uvs is not None and face.texture is not None:
+            self.uv_buffer = ctx.buffer(np.asarray(face.uvs, "f4").tobytes())
+            self.texture = albedo_texture(ctx, face.texture)
         # the lower face (triangles within 1.5 MW0 of the mouth) first: drawn alone, it is what
         # a mosaic's reference shows (draw); the order changes no pixel, as adjacent triangles
         # never both fill a pixel of their shared edge
@@ -242,21 +387,44 @@ class FaceCanvas:
         near = np.linalg.norm(face.vertices - mouth, axis=1) < 1.5 * face.fapu["MW0"]
         lower = near[face.triangles].any(axis=1)
         self.n_lower = int(lower.sum())
-        self.index = ctx.buffer(np.concatenate([face.triangles[lower], face.triangles[~lower]])
+        # a textured face's triangles whose corners share one UV (eyes, teeth, neck, clothes
+        # on the built-in head: half its pixels) show one texel: drawn without the texture
+        # fetch, which is most of what the texture costs on llvmpipe. Order: lower flat,
+        # lower textured, upper textured, upper flat, so each pass is at most three draws
+        flat = np.zeros(face.n_triangles, bool)
+        if face.textured:
+            uv = np.asarray(face.uvs)[face.triangles]
+            flat = (uv == uv[:, :1]).all(axis=(1, 2))
+        order = [lower & flat, lower & ~flat, ~lower & ~flat, ~lower & flat]
+        self.index = ctx.buffer(np.concatenate([face.triangles[m] for m in order])
                                 .astype("i4").tobytes())
+        ends = np.cumsum([int(m.sum()) for m in order])
         self.dynamic = [(ctx.buffer(reserve=face.n_vertices * 3 * 4),
                          ctx.buffer(reserve=face.n_vertices * 3 * 4)) for _ in range(n_faces)]
         self.vaos = [self._vertex_array(self.prog, pos, nrm, self.index)
                      for pos, nrm in self.dynamic]
-        self.edges = None
+        #: per face, (first, end, vertex array) runs of triangles in drawing order
+        self.runs = [[(0, face.n_triangles, vao)] for vao in self.vaos]
         programs = [self.prog]
+        if face.textured:
+            self.flat_static = ctx.buffer(flat_colors(face).astype("f4").tobytes())
+            self.flat_prog = ctx.program(vertex_shader=glsl["vertex"],
+                                         fragment_shader=glsl["flat_fragment"])
+            programs.append(self.flat_prog)
+            self.flat_vaos = [self._vertex_array(self.flat_prog, pos, nrm, self.index,
+                                                 colors=self.flat_static)
+                              for pos, nrm in self.dynamic]
+            self.runs = [[(0, ends[0], fv), (ends[0], ends[2], v), (ends[2], ends[3], fv)]
+                         for v, fv in zip(self.vaos, self.flat_vaos, strict=True)]
+        self.edges = None
         if antialias == "edges":
             hidden = np.zeros(face.n_vertices, bool)
             hidden[face.groups.get("hidden_outline", [])] = True
             self.edges = edge_table(face.triangles, hidden)
             self.triangles = np.asfortranarray(face.triangles, dtype=np.intp)
-            self.edge_prog = ctx.program(vertex_shader=_VERTEX, geometry_shader=_EDGE_GEOMETRY,
-                                         fragment_shader=_EDGE_FRAGMENT)
+            self.edge_prog = ctx.program(vertex_shader=glsl["vertex"],
+                                         geometry_shader=glsl["edge_geometry"],
+                                         fragment_shader=glsl["edge_fragment"])
             self.edge_prog["half_size"].value = (size / 2.0, size / 2.0)
             programs.append(self.edge_prog)
             self.edge_index = ctx.buffer(reserve=max(len(self.edges.a), 1) * 3 * 4)
@@ -279,10 +447,19 @@ class FaceCanvas:
                        moderngl.DEPTH_TEST | moderngl.BLEND, moderngl.TRIANGLES)
         self.last_edges = [0] * n_faces  # edges overdrawn per face in the last draw
 
-    def _vertex_array(self, prog, pos, nrm, index):
-        return self.ctx.vertex_array(prog, [(pos, "3f", "in_pos"), (nrm, "3f", "in_norm"),
-                                            (self.static, "4f", "in_color")],
-                                     index_buffer=index)
+    def _vertex_array(self, prog, pos, nrm, index, colors=None):
+        content = [(pos, "3f", "in_pos"), (nrm, "3f", "in_norm"),
+                   (colors or self.static, "4f", "in_color")]
+        if self.uv_buffer is not None and "in_uv" in prog:
+            content.append((self.uv_buffer, "2f", "in_uv"))
+        return self.ctx.vertex_array(prog, content, index_buffer=index)
+
+    def _render(self, k: int, first: int, end: int) -> None:
+        """Draw face ``k``'s triangles ``first`` to ``end`` (in drawing order)."""
+        for a, b, vao in self.runs[k]:
+            lo, hi = max(a, first), min(b, end)
+            if hi > lo:
+                vao.render(self._modes[2], vertices=3 * (hi - lo), first=3 * lo)
 
     def draw(self, frames: list[FaceFrame], out: np.ndarray | None = None,
              references: list[tuple[FaceFrame | None, tuple[int, int, int, int]]] | None = None
@@ -300,6 +477,8 @@ class FaceCanvas:
         ctx, size = self.ctx, self.size
         solid, blended, triangles = self._modes
         out = self.buffer if out is None else out
+        if self.texture is not None:  # another canvas of this context may have bound its own
+            self.texture.use(location=0)
         self.regions: list[np.ndarray | None] = [None] * len(frames)
         for k, frame in enumerate(frames):
             reference, box = references[k] if references is not None else (frame, None)
@@ -312,14 +491,13 @@ class FaceCanvas:
             ctx.enable_only(solid)
             ctx.viewport = (0, 0, size, size)
             self.fbo.clear(*self.background, 1.0)
+            n = self.rig.face.n_triangles
             if reference is None and box is not None:  # the box's reference: the lower face
-                self.vaos[k].render(triangles, vertices=3 * self.n_lower)
+                self._render(k, 0, self.n_lower)
                 self.regions[k] = self._read_box(box)
-                self.vaos[k].render(triangles, vertices=3 * (self.rig.face.n_triangles
-                                                             - self.n_lower),
-                                    first=3 * self.n_lower)
+                self._render(k, self.n_lower, n)
             else:
-                self.vaos[k].render(triangles)
+                self._render(k, 0, n)
             if self.edges is not None:
                 self._overdraw_edges(k, positions, self.edges)
             if self.samples:
@@ -342,7 +520,7 @@ class FaceCanvas:
         self.ctx.viewport = (0, 0, self.size, self.size)
         self.ctx.scissor = self._gl_box(box)
         self.fbo.clear(*self.background, 1.0, viewport=self.ctx.scissor)
-        self.vaos[k].render(self._modes[2], vertices=3 * self.n_lower)
+        self._render(k, 0, self.n_lower)
         self.ctx.scissor = None
         return self._read_box(box)
 
@@ -378,6 +556,9 @@ class FaceCanvas:
         objs = [*self.vaos, *buffers, self.static, self.index, self.prog]
         if self.edges is not None:
             objs += [*self.edge_vaos, self.edge_index, self.edge_prog]
+        if self.texture is not None:
+            objs += [self.texture, self.uv_buffer, *self.flat_vaos, self.flat_static,
+                     self.flat_prog]
         for obj in objs:
             obj.release()
         for fbo in {id(self.fbo): self.fbo, id(self.resolved): self.resolved}.values():

@@ -67,6 +67,11 @@ class GltfScene:
     world: np.ndarray  # (k, 4, 4) node world transforms at rest
     humanoid: dict[str, int] = field(default_factory=dict)  # VRM bone name -> node
     extras: dict[str, Any] = field(default_factory=dict)  # the file's root extras
+    # one baseColor texture shared by every primitive, to sample per pixel: (n, 2) UVs, the
+    # (h, w, 3) uint8 image and the colours without the texture (else all three None)
+    uvs: np.ndarray | None = None
+    texture: np.ndarray | None = None
+    untextured_colors: np.ndarray | None = None
 
 
 def _load(path: Path):
@@ -166,9 +171,14 @@ def _texture_rgb(gltf, blob: bytes, texture_index: int, base: Path) -> np.ndarra
     return pixels[..., :3] / (65535.0 if pixels.max() > 255 else 255.0)
 
 
-def _colors(gltf, blob: bytes, prim, n: int, path: Path) -> np.ndarray:
-    """Per-vertex display RGB and specular strength of a primitive (PBR-lite)."""
+def _colors(gltf, blob: bytes, prim, n: int, path: Path
+            ) -> tuple[np.ndarray, np.ndarray, tuple[int, np.ndarray, np.ndarray] | None]:
+    """Per-vertex display RGB and specular strength of a primitive (PBR-lite): with the
+    baseColor texture sampled at each vertex, without it, and the texture (its index, the
+    UVs and the image) if there is one."""
     out = np.ones((n, 4))
+    texel = np.ones((n, 3))
+    texture = None
     out[:, 3] = 0.18
     mat = gltf.materials[prim.material] if prim.material is not None else None
     pbr = mat.pbrMetallicRoughness if mat is not None else None
@@ -185,17 +195,20 @@ def _colors(gltf, blob: bytes, prim, n: int, path: Path) -> np.ndarray:
             rgb = _texture_rgb(gltf, blob, info.index, path.parent)
             if rgb is not None:
                 uv = _accessor(gltf, blob, uv_index, path)[:, :2]
+                texture = (info.index, uv, rgb)
                 uv = np.where((uv >= 0) & (uv <= 1), uv, uv % 1.0)  # repeat, edges kept
                 h, w = rgb.shape[:2]
                 rows = np.clip((uv[:, 1] * h).astype(int), 0, h - 1)  # the nearest texel
-                out[:, :3] *= rgb[rows, np.clip((uv[:, 0] * w).astype(int), 0, w - 1)]
+                texel = rgb[rows, np.clip((uv[:, 0] * w).astype(int), 0, w - 1)]
     if prim.attributes.COLOR_0 is not None:
         c = _accessor(gltf, blob, prim.attributes.COLOR_0, path)
         out[:, :3] *= np.sqrt(np.clip(c[:, :3], 0, 1))
     spec = getattr(prim.attributes, SPECULAR_ATTRIBUTE, None)
     if spec is not None:
         out[:, 3] = _accessor(gltf, blob, spec, path)[:, 0]
-    return out
+    textured = out.copy()
+    textured[:, :3] *= texel
+    return textured, out, texture
 
 
 def _target_names(mesh, prim) -> list[str]:
@@ -303,8 +316,9 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
                     deltas[name] = (dp @ m[:3, :3].T, dn @ np.linalg.inv(m[:3, :3]))
                 nodes = np.tile([i, i, i, i], (n, 1))
                 weights = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+            col, plain, texture = _colors(gltf, blob, prim, n, path)
             parts.append({"pos": pos, "nrm": nrm, "tri": tri + offset, "deltas": deltas,
-                          "col": _colors(gltf, blob, prim, n, path), "nodes": nodes,
+                          "col": col, "plain": plain, "texture": texture, "nodes": nodes,
                           "weights": weights})
             offset += n
     if not parts or not sum(len(p["tri"]) for p in parts):
@@ -328,6 +342,12 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
         node_names=[str(node.name or f"node{i}") for i, node in enumerate(gltf.nodes)],
         parents=parents, world=world, humanoid=humanoid,
         extras=gltf.extras if isinstance(gltf.extras, dict) else {})
+    shared = {p["texture"][0] if p["texture"] else None for p in parts}
+    if len(shared) == 1 and None not in shared:
+        image = parts[0]["texture"][2]
+        scene.texture = np.clip(np.round(image * 255.0), 0, 255).astype(np.uint8)
+        scene.uvs = np.vstack([p["texture"][1] for p in parts]).astype(np.float32)
+        scene.untextured_colors = np.vstack([p["plain"] for p in parts])
     if turned:
         _turn_half_round(scene)
     return scene

@@ -40,6 +40,8 @@ class MeshOut:
     targets: dict[str, tuple[np.ndarray, np.ndarray]]
     joints: np.ndarray | None = None  # (n, 4) indices into ``bones``
     weights: np.ndarray | None = None  # (n, 4)
+    uvs: np.ndarray | None = None  # (n, 2) TEXCOORD_0, v = 0 at the image's first row
+    texture: np.ndarray | None = None  # (h, w, 3) uint8 baseColor image, display-referred
 
 
 def write_glb(path: str | Path, mesh: MeshOut, *, bones: list[tuple[str, int, np.ndarray]],
@@ -48,7 +50,9 @@ def write_glb(path: str | Path, mesh: MeshOut, *, bones: list[tuple[str, int, np
     (name, parent index or -1, world position), and ``extras`` on the root.
 
     Colours go to ``COLOR_0`` in linear light (glTF's convention: the display value squared,
-    the renderer's gamma), the specular strength to :data:`SPECULAR_ATTRIBUTE`.
+    the renderer's gamma), the specular strength to :data:`SPECULAR_ATTRIBUTE`; a texture with
+    UVs becomes the material's ``baseColorTexture`` (a PNG in the binary chunk) and
+    ``TEXCOORD_0``.
     """
     import pygltflib as g
 
@@ -86,6 +90,23 @@ def write_glb(path: str | Path, mesh: MeshOut, *, bones: list[tuple[str, int, np
                for dp, dn in mesh.targets.values()]
     indices = add(mesh.triangles.reshape(-1), "SCALAR", g.UNSIGNED_INT, g.ELEMENT_ARRAY_BUFFER)
     names = list(mesh.targets)
+    material = g.PbrMetallicRoughness(baseColorFactor=[1, 1, 1, 1], metallicFactor=0.0,
+                                      roughnessFactor=0.6)
+    images, textures, samplers = [], [], []
+    if mesh.uvs is not None and mesh.texture is not None:
+        import imageio.v3 as iio
+
+        attributes.TEXCOORD_0 = add(mesh.uvs, "VEC2", f32, vertex_buffer)
+        png = iio.imwrite("<bytes>", np.asarray(mesh.texture, np.uint8), extension=".png")
+        while len(blob) % 4:
+            blob.append(0)
+        views.append(g.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(png)))
+        blob.extend(png)
+        images.append(g.Image(bufferView=len(views) - 1, mimeType="image/png"))
+        samplers.append(g.Sampler(magFilter=g.LINEAR, minFilter=g.LINEAR_MIPMAP_NEAREST,
+                                  wrapS=g.REPEAT, wrapT=g.REPEAT))
+        textures.append(g.Texture(source=0, sampler=0))
+        material.baseColorTexture = g.TextureInfo(index=0)
     primitive = g.Primitive(attributes=attributes, indices=indices, material=0,
                             targets=targets)
     nodes = [g.Node(name="face", mesh=0, skin=0 if bones else None)]
@@ -108,9 +129,9 @@ def write_glb(path: str | Path, mesh: MeshOut, *, bones: list[tuple[str, int, np
         scene=0, scenes=[g.Scene(nodes=roots)], nodes=nodes, skins=skins,
         meshes=[g.Mesh(name="face", primitives=[primitive], weights=[0.0] * len(names),
                        extras={"targetNames": names})],
-        materials=[g.Material(name="skin", pbrMetallicRoughness=g.PbrMetallicRoughness(
-            baseColorFactor=[1, 1, 1, 1], metallicFactor=0.0, roughnessFactor=0.6))],
-        accessors=accessors, bufferViews=views, buffers=[g.Buffer(byteLength=len(blob))],
+        materials=[g.Material(name="skin", pbrMetallicRoughness=material)],
+        images=images, textures=textures, samplers=samplers, accessors=accessors,
+        bufferViews=views, buffers=[g.Buffer(byteLength=len(blob))],
         extras=extras)
     gltf.set_binary_blob(bytes(blob))
     out = Path(path)

@@ -86,20 +86,46 @@ def _lid_cover(q: np.ndarray) -> np.ndarray:
     return np.maximum(ball, np.radians(opening) * COVER_RADIUS)
 
 
-@lru_cache(maxsize=1)
-def builtin_face() -> Face:
-    """Build (once per process) the built-in head as a :class:`Face`."""
+#: Looks of the built-in head: ``textured`` (skin texture, strand brows, eyelashes; the
+#: default) and ``plain`` (per-vertex colour only, the head before the texture).
+LOOKS: tuple[str, ...] = ("textured", "plain")
+
+
+def check_look(look: str) -> None:
+    """An InputError naming the ``look`` field unless ``look`` is one of :data:`LOOKS`."""
+    if look not in LOOKS:
+        from app.errors import InputError
+
+        raise InputError(f"must be one of {', '.join(LOOKS)}, got {look!r}", field="look")
+
+
+@lru_cache(maxsize=2)
+def builtin_face(look: str = "textured") -> Face:
+    """Build (once per process and look) the built-in head as a :class:`Face`.
+
+    ``look``: ``"textured"`` adds the skin texture (:mod:`renderer.skintexture`) and the
+    eyelashes; ``"plain"`` is the same mesh without lashes, coloured per vertex.
+    """
+    check_look(look)
+    textured = look == "textured"
     parts = [hp.skin_grid(_skin_sdf, CENTRE, ray_surface, N_AZIMUTH, N_ELEVATION,
-                          MOUTH_Y, MOUTH_HALF_WIDTH)]
+                          MOUTH_Y, MOUTH_HALF_WIDTH, textured=textured)]
     for side, sx in (("l", 1.0), ("r", -1.0)):
         centre = np.array([sx * EYE_X, EYE_Y, EYE_Z])
         parts.append(hp.eyeball(centre, EYE_RADIUS, f"eyeball_{side}"))
         for upper, radius in ((True, EYE_RADIUS + 1.0), (False, EYE_RADIUS + 0.8)):
-            parts.append(hp.eyelid(centre, radius, EYE_RADIUS + 0.25, upper=upper, side=side))
+            parts.append(hp.eyelid(centre, radius, EYE_RADIUS + 0.25, upper=upper, side=side,
+                                   lashes=textured))
         parts.append(hp.ear(np.array([sx * 73.0, 2.0, -4.0]), sx))
     parts.append(hp.mouth_cavity(MOUTH_Y))
     parts.append(hp.neck_and_shoulders())
-    mesh = hp.merge(parts)
+    texture = None
+    if textured:
+        from renderer.skintexture import cached_skin_texture, white_uv
+
+        grid = parts[0].vertices[:N_ELEVATION * N_AZIMUTH].reshape(N_ELEVATION, N_AZIMUTH, 3)
+        texture = cached_skin_texture(grid, MOUTH_Y, MOUTH_HALF_WIDTH)
+    mesh = hp.merge(parts, white_uv(N_ELEVATION) if textured else None)
 
     fp_vertices = {k[3:]: int(v[0]) for k, v in mesh.groups.items() if k.startswith("fp:")}
     feature_points = {k: mesh.vertices[i].astype(np.float64) for k, i in fp_vertices.items()}
@@ -114,5 +140,7 @@ def builtin_face() -> Face:
         groups={k: v for k, v in mesh.groups.items() if k in REQUIRED_GROUPS + OPTIONAL_GROUPS},
         weights={k: v.astype(np.float32) for k, v in mesh.layers.items()},
         jaw_pivot=np.array(JAW_HINGE),
-        name="builtin",
+        name="builtin" if textured else "builtin-plain",
+        uvs=mesh.uvs,
+        texture=texture,
     )

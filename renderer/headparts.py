@@ -29,10 +29,15 @@ class Part:
     colors: np.ndarray
     groups: dict[str, np.ndarray] = field(default_factory=dict)
     layers: dict[str, np.ndarray] = field(default_factory=dict)
+    uvs: np.ndarray | None = None  # (n, 2) texture coordinates, if the part is textured
 
 
-def merge(parts: list[Part]) -> Part:
-    """Concatenate parts, offsetting indices; missing layers get their default (head 1, else 0)."""
+def merge(parts: list[Part], default_uv: tuple[float, float] | None = None) -> Part:
+    """Concatenate parts, offsetting indices; missing layers get their default (head 1, else 0).
+
+    With ``default_uv``, the merged part has texture coordinates: each part's own, or
+    ``default_uv`` on a part without them.
+    """
     offsets = np.cumsum([0] + [len(p.vertices) for p in parts])
     names = sorted({k for p in parts for k in p.layers})
     layers = {k: np.concatenate([p.layers.get(k, np.full(len(p.vertices),
@@ -49,6 +54,10 @@ def merge(parts: list[Part]) -> Part:
         colors=np.concatenate([p.colors for p in parts]),
         groups={k: np.concatenate(v).astype(np.int64) for k, v in groups.items()},
         layers=layers,
+        uvs=None if default_uv is None else np.concatenate(
+            [p.uvs if p.uvs is not None else np.tile(np.asarray(default_uv, np.float32),
+                                                     (len(p.vertices), 1))
+             for p in parts]).astype(np.float32),
     )
 
 
@@ -98,37 +107,60 @@ def hair_mask(p: np.ndarray) -> np.ndarray:
     return smoothstep(line - 4.0, line + 7.0, p[:, 1])
 
 
-def paint_skin(p: np.ndarray, mouth_y: float, half_width: float) -> np.ndarray:
-    """Skin colour with lips, eyebrows, cheeks and hair painted on (RGB + specular)."""
+def cheek_mask(p: np.ndarray) -> np.ndarray:
+    """0..1 where the cheeks flush, on the front of the face."""
     x, y, z = np.abs(p[:, 0]), p[:, 1], p[:, 2]
-    col = np.tile(SKIN, (len(p), 1))
-    cheek = np.exp(-(((x - 40) / 18) ** 2 + ((y + 25) / 16) ** 2)) * smoothstep(40, 60, z)
-    col = col + 0.5 * cheek[:, None] * (np.array([0.84, 0.50, 0.45]) - SKIN)
-    # vermilion: upper lip with a cupid's bow, fuller lower lip
+    return np.exp(-(((x - 40) / 18) ** 2 + ((y + 25) / 16) ** 2)) * smoothstep(40, 60, z)
+
+
+def lip_mask(p: np.ndarray, mouth_y: float, half_width: float) -> np.ndarray:
+    """0..1 on the vermilion: upper lip with a cupid's bow, fuller lower lip."""
+    x, y, z = np.abs(p[:, 0]), p[:, 1], p[:, 2]
     prof = np.sqrt(np.clip(1 - (x / half_width) ** 2, 0, 1))
     upper = mouth_y + 8.0 * prof ** 0.7 - 1.6 * np.exp(-((x / 4.0) ** 2)) + 0.6
     lower = mouth_y - 10.0 * np.sqrt(np.clip(1 - (x / (half_width - 1)) ** 2, 0, 1)) ** 0.8
     lip = smoothstep(upper + 1.0, upper - 1.0, y) * smoothstep(lower - 1.0, lower + 1.0, y)
-    lip = lip * smoothstep(70, 80, z) * smoothstep(half_width + 0.5, half_width - 2.0, x)
-    col = col + lip[:, None] * (LIPS - col)
-    # eyebrows: an arch from beside the nose bridge to the temple
+    return lip * smoothstep(70, 80, z) * smoothstep(half_width + 0.5, half_width - 2.0, x)
+
+
+def brow_arch(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centre height and half height (mm) of the eyebrow's arch at ``|x|``: from beside the
+    nose bridge (x = 13) to the temple (x = 53)."""
     t = (x - 13.0) / 40.0
     centre = 29.0 + 6.5 * np.sin(np.pi * np.clip(t, 0, 1) * 0.85) - 2.5 * t
-    half = 3.6 * (1 - t) + 1.6 * t
-    brow = (smoothstep(half + 1.8, half - 1.2, np.abs(y - centre)) * smoothstep(-0.05, 0.05, t)
+    return centre, 3.6 * (1 - t) + 1.6 * t
+
+
+def brow_mask(p: np.ndarray) -> np.ndarray:
+    """0..1 over the eyebrows (:func:`brow_arch`), on the front of the face."""
+    x, y, z = np.abs(p[:, 0]), p[:, 1], p[:, 2]
+    t = (x - 13.0) / 40.0
+    centre, half = brow_arch(x)
+    return (smoothstep(half + 1.8, half - 1.2, np.abs(y - centre)) * smoothstep(-0.05, 0.05, t)
             * smoothstep(1.05, 0.9, t) * smoothstep(45, 60, z))
-    col = col + 0.92 * brow[:, None] * (BROW - col)
+
+
+def paint_skin(p: np.ndarray, mouth_y: float, half_width: float) -> np.ndarray:
+    """Skin colour with lips, eyebrows, cheeks and hair painted on (RGB + specular)."""
+    col = np.tile(SKIN, (len(p), 1))
+    col = col + 0.5 * cheek_mask(p)[:, None] * (np.array([0.84, 0.50, 0.45]) - SKIN)
+    lip = lip_mask(p, mouth_y, half_width)
+    col = col + lip[:, None] * (LIPS - col)
+    col = col + 0.92 * brow_mask(p)[:, None] * (BROW - col)
     col = col + hair_mask(p)[:, None] * (HAIR - col)
     spec = 0.18 + 0.15 * lip
     return np.column_stack([col, spec])
 
 
 def skin_grid(sdf: Callable[[np.ndarray], np.ndarray], centre: np.ndarray, solve,
-              n_azimuth: int, n_elevation: int, mouth_y: float, half_width: float) -> Part:
+              n_azimuth: int, n_elevation: int, mouth_y: float, half_width: float,
+              textured: bool = False) -> Part:
     """The skin sampled on a ray grid about ``centre``, with the lips cut apart at the mouth.
 
     Rows are elevations (one row passes exactly through the mouth line), columns azimuths
-    (column ``n_azimuth // 2`` is the midline); both are denser over the face.
+    (column ``n_azimuth // 2`` is the midline); both are denser over the face. ``textured``:
+    the colour comes from a texture (:mod:`renderer.skintexture`) at the grid's texture
+    coordinates, the vertices keep a white colour (the inner lip edge a dark one).
     """
     az = np.radians(_warp(n_azimuth, -180, 180, -62, 62, 5.0, endpoint=False))
     az = az - az[n_azimuth // 2]  # exact midline column
@@ -166,7 +198,16 @@ def skin_grid(sdf: Callable[[np.ndarray], np.ndarray], centre: np.ndarray, solve
     verts = np.vstack([verts, verts[slit]])
     n = len(verts)
     colors = paint_skin(verts, mouth_y, half_width)
-    colors[np.concatenate([slit, lower_copy]), :3] = [0.32, 0.13, 0.13]
+    uvs = None
+    if textured:
+        from renderer.skintexture import grid_uvs, pole_uv
+
+        uvs = np.vstack([grid_uvs(n_elevation, n_azimuth), [pole_uv(n_elevation)]])
+        uvs = np.vstack([uvs, uvs[slit]]).astype(np.float32)
+        colors[:, :3] = 1.0
+        colors[np.concatenate([slit, lower_copy]), :3] = [0.5, 0.4, 0.4]  # x the lips' colour
+    else:
+        colors[np.concatenate([slit, lower_copy]), :3] = [0.32, 0.13, 0.13]
 
     # jaw weight: lower face follows the jaw; the cheeks beside the corners blend
     el_v = np.concatenate([E.ravel(), [np.pi / 2], np.full(len(slit), el[m])])
@@ -215,7 +256,7 @@ def skin_grid(sdf: Callable[[np.ndarray], np.ndarray], centre: np.ndarray, solve
     fps["9.3"] = front[[int(np.argmax(verts[front, 2]))]]
     groups = {f"fp:{k}": v for k, v in fps.items()}
     layers = {"jaw": jaw, "lower_lip": lower_lip, "upper_lip": upper_lip}
-    return Part(verts, tris, colors, groups, layers)
+    return Part(verts, tris, colors, groups, layers, uvs)
 
 
 def _lathe(polar: np.ndarray, colours: np.ndarray, n_seg: int) -> tuple[np.ndarray, ...]:
@@ -260,7 +301,7 @@ def lid_margin(lateral: np.ndarray, *, upper: bool) -> np.ndarray:
 
 
 def eyelid(centre: np.ndarray, radius: float, root_radius: float, *, upper: bool,
-           side: str) -> Part:
+           side: str, lashes: bool = False) -> Part:
     """An eyelid shell over the eyeball: margin arc to a root that dives under the skin.
 
     The shell has ``radius`` at the margin and sinks to ``root_radius`` (between the eyeball
@@ -289,9 +330,59 @@ def eyelid(centre: np.ndarray, radius: float, root_radius: float, *, upper: bool
     name = f"eyelid_{'upper' if upper else 'lower'}_{side}"
     k = {"l": 0, "r": 1}[side]
     fp = f"fp:3.{(1 if upper else 3) + k}"
+    hidden = np.arange(len(alpha), len(verts))  # all but the margin
+    if lashes:
+        lash_v, lash_t = eyelash_fringe(centre, radius, alpha, margin, upper=upper)
+        hidden = np.concatenate([hidden, len(verts) + np.arange(len(lash_v) // 2)])
+        tris = np.vstack([tris, lash_t + len(verts)])
+        verts = np.vstack([verts, lash_v])
+        lash = EYELASH if upper else 0.5 * EYELASH + 0.5 * np.append(margin_col, 0.05)
+        col = np.vstack([col, np.tile(lash, (len(lash_v), 1))])
+        w = np.concatenate([w, np.ones(len(lash_v))])  # the lashes ride on the margin
     groups = {name: np.arange(len(verts)), fp: np.array([len(alpha) // 2]),
-              "hidden_outline": np.arange(len(alpha), len(verts))}  # all but the margin
+              "hidden_outline": hidden}
     return Part(verts, tris, col, groups, {name: w})
+
+
+#: Eyelash colour (RGB + specular).
+EYELASH = np.array([0.07, 0.05, 0.045, 0.05])
+
+
+def eyelash_fringe(centre: np.ndarray, radius: float, alpha: np.ndarray, margin: np.ndarray,
+                   *, upper: bool) -> tuple[np.ndarray, np.ndarray]:
+    """A fringe of eyelashes on a lid margin: a strip whose free edge is a row of tufts.
+
+    The lashes leave the margin outwards and curl away from the eye (up from the upper lid,
+    down from the lower one): upper lashes 2.6 mm at the middle of the lid, shorter towards
+    the corners, lower ones 0.9 mm. Lashes are a tenth of a pixel thick at 368 px, so what
+    shows is the fringe they make together, clumped into tufts (two per margin segment above,
+    one below); every free edge is a silhouette the edge overdraw draws again, which is what
+    a fringe of single spikes cost (four times the edges). ``alpha`` and ``margin`` (radians)
+    are the margin's azimuths and elevations about ``centre``, as in :func:`eyelid`. Roots
+    sit 0.15 mm inside the margin so no gap shows (the first ``len(verts) // 2`` vertices:
+    their edges lie under the margin); triangles face forwards (the camera) at rest.
+    """
+    n = (4 if upper else 2) * (len(alpha) - 1) + 1  # a tuft and a dip per step
+    a = np.interp(np.linspace(0, len(alpha) - 1, n), np.arange(len(alpha)), alpha)
+    b = np.interp(np.linspace(0, len(alpha) - 1, n), np.arange(len(alpha)), margin)
+    radial = np.stack([np.cos(b) * np.sin(a), np.sin(b), np.cos(b) * np.cos(a)], -1)
+    away = np.stack([-np.sin(b) * np.sin(a), np.cos(b), -np.sin(b) * np.cos(a)], -1)
+    away = away if upper else -away
+    rel = np.abs(a / np.abs(alpha).max())
+    length = (2.6 if upper else 0.9) * (1.0 - 0.55 * rel ** 2)
+    root = centre + (radius - 0.15) * radial
+    tip = root + length[:, None] * (0.55 * radial + 0.84 * away)
+    # spikes: roots all along the margin, tips at every lash, a valley between lashes
+    valley = root + 0.7 * (tip - root)
+    tips = np.where((np.arange(n) % 2 == 0)[:, None], tip, valley)
+    verts = np.vstack([root, tips])
+    i = np.arange(n - 1)
+    tris = np.concatenate([np.stack([i, i + 1, n + i + 1], -1),
+                           np.stack([i, n + i + 1, n + i], -1)])
+    e1, e2 = verts[tris[:, 1]] - verts[tris[:, 0]], verts[tris[:, 2]] - verts[tris[:, 0]]
+    backwards = np.cross(e1, e2)[:, 2] < 0
+    tris[backwards] = tris[backwards][:, ::-1]
+    return verts, tris
 
 
 def ellipsoid_mesh(centre, radii, colour, n_rings: int = 12, n_seg: int = 24) -> Part:

@@ -51,6 +51,10 @@ def _common(fn: Callable) -> Callable:
                       default="edges", show_default=True,
                       help="edges: silhouette edge overdraw (fast on a CPU); msaa: "
                            "multisampling (for a GPU); none.")(fn)
+    fn = click.option("--look", type=click.Choice(["textured", "plain"]), default="textured",
+                      show_default=True,
+                      help="The built-in head's look: textured skin, brows and lashes, or "
+                           "plain (per-vertex colour, the earlier head).")(fn)
     return fn
 
 
@@ -77,14 +81,14 @@ def render() -> None:
 @_common
 @_clip_options
 def pair(left: str, right: str, audio: str, out: str, face: str | None, size: int,
-         mosaic_block: int, antialias: str, samples: str, fps: float | None,
+         mosaic_block: int, antialias: str, samples: str, look: str, fps: float | None,
          cache_dir: str | None, workers: int) -> None:
     """Side-by-side clip LEFT | RIGHT over AUDIO, mouths hidden by a mosaic."""
     from app.stimuli.io import load_track
     from renderer import render_pair
 
     settings = _settings(size, mosaic_block, face, antialias=antialias, samples=int(samples),
-                         fps=fps, workers=workers)
+                         fps=fps, workers=workers, look=look)
     tracks = load_track(left), load_track(right)
     with _progress_bar("render pair") as progress:
         path = render_pair(*tracks, audio, out, settings=settings, cache_dir=cache_dir,
@@ -99,14 +103,14 @@ def pair(left: str, right: str, audio: str, out: str, face: str | None, size: in
 @_common
 @_clip_options
 def single(track_path: str, audio: str, out: str, face: str | None, size: int,
-           mosaic_block: int, antialias: str, samples: str, fps: float | None,
+           mosaic_block: int, antialias: str, samples: str, look: str, fps: float | None,
            cache_dir: str | None, workers: int) -> None:
     """Single-face clip of TRACK over AUDIO."""
     from app.stimuli.io import load_track
     from renderer import render_single
 
     settings = _settings(size, mosaic_block, face, antialias=antialias, samples=int(samples),
-                         fps=fps, workers=workers)
+                         fps=fps, workers=workers, look=look)
     track = load_track(track_path)
     with _progress_bar("render single") as progress:
         path = render_single(track, audio, out, settings=settings, cache_dir=cache_dir,
@@ -123,12 +127,14 @@ def single(track_path: str, audio: str, out: str, face: str | None, size: int,
 @click.option("--no-mosaic", is_flag=True, help="Show the mouth.")
 @_common
 def still(track_path: str, right_path: str | None, frame: int, out: str, face: str | None,
-          size: int, mosaic_block: int, antialias: str, samples: str, no_mosaic: bool) -> None:
+          size: int, mosaic_block: int, antialias: str, samples: str, look: str,
+          no_mosaic: bool) -> None:
     """PNG still of frame FRAME of TRACK."""
     from app.stimuli.io import load_track
     from renderer import render_still
 
-    settings = _settings(size, mosaic_block, face, antialias=antialias, samples=int(samples))
+    settings = _settings(size, mosaic_block, face, antialias=antialias, samples=int(samples),
+                         look=look)
     right = load_track(right_path) if right_path else None
     path = render_still(load_track(track_path), frame, out, right=right, settings=settings,
                         mosaic=not no_mosaic)

@@ -2,6 +2,8 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from app.cli import main
 from app.stimuli.io import save_track
@@ -43,6 +45,24 @@ def test_render_pair_single_and_still(tmp_path, fap_files, tone_wav):
     assert np.array_equal(stills["edges"], iio.imread(tmp_path / "s.png"))  # the default
     assert not np.array_equal(stills["edges"], stills["none"])
     assert not np.array_equal(stills["msaa"], stills["none"])
+    for look in ("textured", "plain"):  # --look reaches the renderer; textured the default
+        out = tmp_path / f"{look}.png"
+        res = runner.invoke(main, ["render", "still", "--track", str(a), "--frame", "5",
+                                   "--out", str(out), "--size", "96", "--look", look])
+        assert res.exit_code == 0, res.output
+        stills[look] = iio.imread(out)
+    assert np.array_equal(stills["textured"], stills["edges"])
+    assert not np.array_equal(stills["textured"], stills["plain"])
+
+
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(look=st.text(min_size=1, max_size=12).filter(lambda t: t not in ("textured", "plain")))
+def test_an_unknown_look_is_one_line_and_exit_2(tmp_path, fap_files, look):
+    res = CliRunner().invoke(main, ["render", "still", "--track", str(fap_files[0]),
+                                    "--out", str(tmp_path / "s.png"), "--look", look])
+    assert res.exit_code == 2 and "Traceback" not in res.output
+    assert "--look" in res.output
 
 
 def test_bad_input_is_one_line_and_exit_2(tmp_path, fap_files):

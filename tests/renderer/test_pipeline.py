@@ -51,7 +51,7 @@ def test_head_yaw_turns_the_head_to_its_own_left_while_the_other_face_stays(tmp_
 def test_eyebrow_raise_moves_brow_pixels_up():
     neutral, _ = _frame([_track()])
     raised, _ = _frame([_track(f31=250, f32=250, f33=250, f34=250, f35=250, f36=250)])
-    band = slice(int(SIZE * 0.2), int(SIZE * 0.42))
+    band = slice(int(SIZE * 0.2), int(SIZE * 0.36))  # above the lashes and pupils
 
     def brow(img):
         region = img[band]
@@ -63,7 +63,7 @@ def test_eyebrow_raise_moves_brow_pixels_up():
 def test_gaze_moves_the_pupils():
     neutral, _ = _frame([_track()])
     looked, _ = _frame([_track(f23=25000, f24=25000)])  # 0.25 rad: the pupils move ~2.4 px
-    eyes = slice(int(SIZE * 0.3), int(SIZE * 0.45))
+    eyes = slice(int(SIZE * 0.392), int(SIZE * 0.45))  # below the lashes, which stay
     for half in (slice(0, SIZE // 2), slice(SIZE // 2, SIZE)):  # each eye on its own
         pupils_n, pupils_l = _dark(neutral[eyes, half], 40), _dark(looked[eyes, half], 40)
         assert pupils_n.sum() > 4 and pupils_l.sum() > 4
