@@ -55,6 +55,7 @@ demo: $(STAMP_RUN) debs-demo
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/mypy app/stimuli app/analysis app/trials renderer
 
 bench: $(STAMP)

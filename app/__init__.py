@@ -42,8 +42,9 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
     from app.security import init_security
     from app.web import init_web
 
-    app = Flask(__name__, instance_relative_config=True,
-                instance_path=os.environ.get("FACEPAIR_INSTANCE"))
+    app = Flask(
+        __name__, instance_relative_config=True, instance_path=os.environ.get("FACEPAIR_INSTANCE")
+    )
     os.makedirs(app.instance_path, exist_ok=True)
     app.config.from_mapping(
         # None: refused outside tests (app.security.check_secret_key).

@@ -22,8 +22,10 @@ from app.trials import schedule as schedules
 
 MAX_ATTEMPTS = 20
 #: What a dropped participant reads when the study's ``rejoin`` policy refuses their return.
-SESSION_ENDED = ("your session ended after a long pause, and your place was given to another "
-                 "participant; thank you for your time")
+SESSION_ENDED = (
+    "your session ended after a long pause, and your place was given to another "
+    "participant; thank you for your time"
+)
 
 
 class EnrolmentBusy(RuntimeError):
@@ -35,10 +37,16 @@ def schedule(study: Study, *, seed: int, list_index: int) -> list[schedules.Sche
     order."""
     settings = study.settings or {}
     return schedules.make_schedule(
-        clips=[c.name for c in study.clips], pairs=design_pairs(study), design=study.design,
-        seed=seed, list_index=list_index, n_lists=len(study.lists),
-        catch_trials=study.catch_trials, catch_kind=study.catch_kind,
-        practice_pair=practice_pair(study), practice_clip=settings.get("practice_clip"),
+        clips=[c.name for c in study.clips],
+        pairs=design_pairs(study),
+        design=study.design,
+        seed=seed,
+        list_index=list_index,
+        n_lists=len(study.lists),
+        catch_trials=study.catch_trials,
+        catch_kind=study.catch_kind,
+        practice_pair=practice_pair(study),
+        practice_clip=settings.get("practice_clip"),
         block_by_clip=settings.get("block_by_clip", True),
         mismatched=participation(study).mismatched,
     )
@@ -59,26 +67,38 @@ def _take_list(study: Study) -> tuple[StudyList, int]:
     """Raise the count of the least-filled list; returns it and its arrivals before."""
     for _ in range(MAX_ATTEMPTS):
         rows = db.session.execute(
-            sa.select(StudyList.id, StudyList.index, StudyList.n_assigned, StudyList.n_arrived)
-            .where(StudyList.study_id == study.id)).all()
+            sa.select(
+                StudyList.id, StudyList.index, StudyList.n_assigned, StudyList.n_arrived
+            ).where(StudyList.study_id == study.id)
+        ).all()
         counts = {row.index: row.n_assigned for row in rows}
         index = choose_list(study, counts)
         row = next(r for r in rows if r.index == index)
         # n_arrived only grows, so this guard cannot be fooled by a release in between.
         result = db.session.execute(
             sa.update(StudyList)
-            .where(StudyList.id == row.id, StudyList.n_assigned == row.n_assigned,
-                   StudyList.n_arrived == row.n_arrived)
+            .where(
+                StudyList.id == row.id,
+                StudyList.n_assigned == row.n_assigned,
+                StudyList.n_arrived == row.n_arrived,
+            )
             .values(n_assigned=StudyList.n_assigned + 1, n_arrived=StudyList.n_arrived + 1)
-            .execution_options(synchronize_session=False))
+            .execution_options(synchronize_session=False)
+        )
         if result.rowcount == 1:
             return db.session.get(StudyList, row.id), row.n_arrived  # type: ignore[return-value]
     raise EnrolmentBusy("too many participants arriving at once; please reload the page")
 
 
-def enrol(study: Study, *, user_agent: str = "", prolific_pid: str | None = None,
-          prolific_study_id: str | None = None, prolific_session_id: str | None = None,
-          dropped_after: dt.timedelta | None = None) -> Participant:
+def enrol(
+    study: Study,
+    *,
+    user_agent: str = "",
+    prolific_pid: str | None = None,
+    prolific_study_id: str | None = None,
+    prolific_session_id: str | None = None,
+    dropped_after: dt.timedelta | None = None,
+) -> Participant:
     """Create a participant with a list, a seed and a schedule (not committed).
 
     With ``dropped_after``, participants idle longer than that give their slots back first
@@ -91,16 +111,23 @@ def enrol(study: Study, *, user_agent: str = "", prolific_pid: str | None = None
     number = before * len(study.lists) + study_list.index
     seed = participant_seed(study, number)
     participant = Participant(
-        study_id=study.id, list_id=study_list.id, number=number, seed=seed,
-        user_agent=user_agent, prolific_pid=prolific_pid, prolific_study_id=prolific_study_id,
-        prolific_session_id=prolific_session_id)
+        study_id=study.id,
+        list_id=study_list.id,
+        number=number,
+        seed=seed,
+        user_agent=user_agent,
+        prolific_pid=prolific_pid,
+        prolific_study_id=prolific_study_id,
+        prolific_session_id=prolific_session_id,
+    )
     db.session.add(participant)
     db.session.flush()
     clips = {c.name: c.id for c in study.clips}
     conditions = {c.name: c.id for c in study.conditions}
-    stimuli = {(s.clip_id, s.left_id, s.right_id, s.instruction, s.foreign_side): s.id
-               for s in db.session.scalars(
-                   sa.select(Stimulus).where(Stimulus.study_id == study.id))}
+    stimuli = {
+        (s.clip_id, s.left_id, s.right_id, s.instruction, s.foreign_side): s.id
+        for s in db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id))
+    }
     pairs: dict[tuple[int, int], int] = {}
     for pair in study.pairs:
         pairs.setdefault((pair.first_id, pair.second_id), pair.id)
@@ -109,12 +136,18 @@ def enrol(study: Study, *, user_agent: str = "", prolific_pid: str | None = None
     rows = []
     for item in schedule(study, seed=seed, list_index=study_list.index):
         left, right = conditions[item.left], conditions[item.right]
-        rows.append({
-            "participant_id": participant.id, "position": item.position, "kind": item.kind,
-            "expected": item.expected, "pair_id": pairs.get((left, right)),
-            "stimulus_id": stimuli[(clips[item.clip], left, right, item.instruction,
-                                    item.foreign)],
-        })
+        rows.append(
+            {
+                "participant_id": participant.id,
+                "position": item.position,
+                "kind": item.kind,
+                "expected": item.expected,
+                "pair_id": pairs.get((left, right)),
+                "stimulus_id": stimuli[
+                    (clips[item.clip], left, right, item.instruction, item.foreign)
+                ],
+            }
+        )
     db.session.execute(sa.insert(Trial), rows)
     return participant
 
@@ -127,27 +160,40 @@ def next_trial(participant: Participant) -> Trial | None:
 
 def next_trials(participant: Participant, count: int) -> list[Trial]:
     """The participant's first ``count`` trials without a vote, in schedule order."""
-    return list(db.session.scalars(
-        sa.select(Trial)
-        .outerjoin(Vote, Vote.trial_id == Trial.id)
-        .where(Trial.participant_id == participant.id, Trial.kind != "practice",
-               Vote.id.is_(None))
-        .order_by(Trial.position).limit(count)))
+    return list(
+        db.session.scalars(
+            sa.select(Trial)
+            .outerjoin(Vote, Vote.trial_id == Trial.id)
+            .where(
+                Trial.participant_id == participant.id, Trial.kind != "practice", Vote.id.is_(None)
+            )
+            .order_by(Trial.position)
+            .limit(count)
+        )
+    )
 
 
 def practice_stimulus(participant: Participant) -> Stimulus | None:
     """The clip of the practice pair on the instructions page (votes on it are never stored):
     the schedule's practice trial, else the study's first rendered pair of two conditions."""
-    practice = db.session.scalar(sa.select(Trial).where(
-        Trial.participant_id == participant.id, Trial.kind == "practice").limit(1))
+    practice = db.session.scalar(
+        sa.select(Trial)
+        .where(Trial.participant_id == participant.id, Trial.kind == "practice")
+        .limit(1)
+    )
     if practice is not None:
         return practice.stimulus
     study = participant.study
     return db.session.scalar(
-        sa.select(Stimulus).where(Stimulus.study_id == study.id,
-                                  Stimulus.video_path.is_not(None),
-                                  Stimulus.left_id != Stimulus.right_id)
-        .order_by(Stimulus.id).limit(1))
+        sa.select(Stimulus)
+        .where(
+            Stimulus.study_id == study.id,
+            Stimulus.video_path.is_not(None),
+            Stimulus.left_id != Stimulus.right_id,
+        )
+        .order_by(Stimulus.id)
+        .limit(1)
+    )
 
 
 def release_dropped(study: Study, *, after: dt.timedelta) -> int:
@@ -159,16 +205,27 @@ def release_dropped(study: Study, *, after: dt.timedelta) -> int:
     two releases never give one slot back twice.
     """
     cutoff = utcnow() - after
-    stale = db.session.execute(sa.select(Participant.id, Participant.list_id).where(
-        Participant.study_id == study.id, Participant.finished_at.is_(None),
-        Participant.dropped_at.is_(None), Participant.last_seen_at < cutoff)).all()
+    stale = db.session.execute(
+        sa.select(Participant.id, Participant.list_id).where(
+            Participant.study_id == study.id,
+            Participant.finished_at.is_(None),
+            Participant.dropped_at.is_(None),
+            Participant.last_seen_at < cutoff,
+        )
+    ).all()
     released = 0
     for participant_id, list_id in stale:
         result = db.session.execute(
             sa.update(Participant)
-            .where(Participant.id == participant_id, Participant.finished_at.is_(None),
-                   Participant.dropped_at.is_(None), Participant.last_seen_at < cutoff)
-            .values(dropped_at=utcnow()).execution_options(synchronize_session=False))
+            .where(
+                Participant.id == participant_id,
+                Participant.finished_at.is_(None),
+                Participant.dropped_at.is_(None),
+                Participant.last_seen_at < cutoff,
+            )
+            .values(dropped_at=utcnow())
+            .execution_options(synchronize_session=False)
+        )
         if result.rowcount == 1:
             move_slot(list_id, -1)
             released += 1
@@ -179,9 +236,12 @@ def release_dropped(study: Study, *, after: dt.timedelta) -> int:
 
 def move_slot(list_id: int, change: int) -> None:
     """Raise (+1, a participant takes a slot) or lower (-1, gives it back) a list's count."""
-    db.session.execute(sa.update(StudyList).where(StudyList.id == list_id)
-                       .values(n_assigned=StudyList.n_assigned + change)
-                       .execution_options(synchronize_session=False))
+    db.session.execute(
+        sa.update(StudyList)
+        .where(StudyList.id == list_id)
+        .values(n_assigned=StudyList.n_assigned + change)
+        .execution_options(synchronize_session=False)
+    )
 
 
 def dropped_after() -> dt.timedelta:
@@ -211,8 +271,10 @@ def touch(participant: Participant) -> bool:
     present = db.session.scalars(
         sa.update(Participant)
         .where(Participant.id == participant.id, Participant.dropped_at.is_(None))
-        .values(last_seen_at=now).returning(Participant),
-        execution_options={"synchronize_session": False, "populate_existing": True}).all()
+        .values(last_seen_at=now)
+        .returning(Participant),
+        execution_options={"synchronize_session": False, "populate_existing": True},
+    ).all()
     if present:
         return True
     if rejoin_policy(participant.study) == "refuse":
@@ -221,10 +283,15 @@ def touch(participant: Participant) -> bool:
     returned = db.session.execute(
         sa.update(Participant)
         # An excluded participant's or a pilot's slot stays given back.
-        .where(Participant.id == participant.id, Participant.dropped_at.is_not(None),
-               Participant.excluded_at.is_(None), Participant.pilot.is_(False))
+        .where(
+            Participant.id == participant.id,
+            Participant.dropped_at.is_not(None),
+            Participant.excluded_at.is_(None),
+            Participant.pilot.is_(False),
+        )
         .values(last_seen_at=now, dropped_at=None)
-        .execution_options(synchronize_session=False))
+        .execution_options(synchronize_session=False)
+    )
     if returned.rowcount == 1:
         move_slot(participant.list_id, +1)
     db.session.refresh(participant)
@@ -233,11 +300,16 @@ def touch(participant: Participant) -> bool:
 
 def progress(participant: Participant) -> tuple[int, int]:
     """(answered, total) over the participant's real and catch trials (not the practice)."""
-    answered = (sa.select(sa.func.count(Vote.id)).where(Vote.participant_id == participant.id)
-                .scalar_subquery())
-    total = (sa.select(sa.func.count(Trial.id))
-             .where(Trial.participant_id == participant.id, Trial.kind != "practice")
-             .scalar_subquery())
+    answered = (
+        sa.select(sa.func.count(Vote.id))
+        .where(Vote.participant_id == participant.id)
+        .scalar_subquery()
+    )
+    total = (
+        sa.select(sa.func.count(Trial.id))
+        .where(Trial.participant_id == participant.id, Trial.kind != "practice")
+        .scalar_subquery()
+    )
     # One round trip for both counts: every vote and every trial page asks for them.
     row = db.session.execute(sa.select(answered, total)).one()
     return int(row[0] or 0), int(row[1] or 0)

@@ -43,42 +43,77 @@ def vote_rows(study: Study, *, pilot: str = "without") -> list[dict[str, Any]]:
     from app.participants import participant_rows
     from app.privacy import pseudonym
 
-    people = {row.id: row for row in participant_rows(study, dropped_after=dropped_after())
-              if (pilot == "with") or (row.pilot == (pilot == "only"))}
+    people = {
+        row.id: row
+        for row in participant_rows(study, dropped_after=dropped_after())
+        if (pilot == "with") or (row.pilot == (pilot == "only"))
+    }
     left = sa.orm.aliased(Condition)
     right = sa.orm.aliased(Condition)
     query = (
-        sa.select(Vote, Trial.position, Trial.kind, Participant.id, Participant.number,
-                  Participant.prolific_pid, Clip.name, left.name, right.name,
-                  Stimulus.foreign_side)
+        sa.select(
+            Vote,
+            Trial.position,
+            Trial.kind,
+            Participant.id,
+            Participant.number,
+            Participant.prolific_pid,
+            Clip.name,
+            left.name,
+            right.name,
+            Stimulus.foreign_side,
+        )
         .join(Trial, Vote.trial_id == Trial.id)
         .join(Participant, Vote.participant_id == Participant.id)
         .join(Stimulus, Trial.stimulus_id == Stimulus.id)
         .join(Clip, Stimulus.clip_id == Clip.id)
         .join(left, Stimulus.left_id == left.id)
         .join(right, Stimulus.right_id == right.id)
-        .where(Participant.study_id == study.id,
-               Trial.kind.in_(("trial", "mismatch", "catch")))
+        .where(Participant.study_id == study.id, Trial.kind.in_(("trial", "mismatch", "catch")))
         .order_by(Participant.number, Trial.position)
     )
     rows = []
-    for (vote, position, kind, person, number, pid, clip, left_name, right_name,
-         foreign) in db.session.execute(query):
+    for (
+        vote,
+        position,
+        kind,
+        person,
+        number,
+        pid,
+        clip,
+        left_name,
+        right_name,
+        foreign,
+    ) in db.session.execute(query):
         if person not in people:
             continue
-        rows.append({
-            "participant": participant_label(number), "clip": clip, "left": left_name,
-            "right": right_name, "choice": vote.choice, "study": study.title,
-            "trial": position, "response_ms": vote.response_ms, "plays": vote.plays,
-            "presented_at": _iso(vote.presented_at), "voted_at": _iso(vote.voted_at),
-            "strength": vote.strength, "reasons": ";".join(vote.reasons or []),
-            "mismatched": foreign, "watched_ms": vote.watched_ms,
-            "played_to_end": vote.played_to_end, "stalls": vote.stalls,
-            "stall_ms": vote.stall_ms, "focus_lost": vote.focus_lost,
-            "kind": kind, "status": people[person].status,
-            "excluded": people[person].excluded,
-            "prolific_id": pseudonym(study.pseudonym_key, pid),
-        })
+        rows.append(
+            {
+                "participant": participant_label(number),
+                "clip": clip,
+                "left": left_name,
+                "right": right_name,
+                "choice": vote.choice,
+                "study": study.title,
+                "trial": position,
+                "response_ms": vote.response_ms,
+                "plays": vote.plays,
+                "presented_at": _iso(vote.presented_at),
+                "voted_at": _iso(vote.voted_at),
+                "strength": vote.strength,
+                "reasons": ";".join(vote.reasons or []),
+                "mismatched": foreign,
+                "watched_ms": vote.watched_ms,
+                "played_to_end": vote.played_to_end,
+                "stalls": vote.stalls,
+                "stall_ms": vote.stall_ms,
+                "focus_lost": vote.focus_lost,
+                "kind": kind,
+                "status": people[person].status,
+                "excluded": people[person].excluded,
+                "prolific_id": pseudonym(study.pseudonym_key, pid),
+            }
+        )
     return rows
 
 
@@ -128,25 +163,47 @@ def report_head(study: Study, results: dict[str, Any], *, exclude: str | None) -
     from app.analysis.document import counted
 
     left_out = results["input"]["left_out"]
-    design = (f"Design: {study.design}"
-              + (f" against {study.reference}" if study.reference else "")
-              + f"; conditions {', '.join(c.name for c in study.conditions)}; clips "
-              f"{', '.join(c.name for c in study.clips)}; question: {study.question!r}; "
-              + ("undecided answers allowed" if study.allow_undecided else "no undecided answer")
-              + f"; {counted(study.catch_trials, 'catch trial')} per participant; replay "
-              f"{study.replay}; target {counted(study.target_participants, 'participant')}.")
+    design = (
+        f"Design: {study.design}"
+        + (f" against {study.reference}" if study.reference else "")
+        + f"; conditions {', '.join(c.name for c in study.conditions)}; clips "
+        f"{', '.join(c.name for c in study.clips)}; question: {study.question!r}; "
+        + ("undecided answers allowed" if study.allow_undecided else "no undecided answer")
+        + f"; {counted(study.catch_trials, 'catch trial')} per participant; replay "
+        f"{study.replay}; target {counted(study.target_participants, 'participant')}."
+    )
     included = results["input"]["participants"]
-    who = (f"{counted(included, 'participant')} included, {len(left_out)} left out"
-           + (" (" + "; ".join(f"{p}: {why}" for p, why in sorted(left_out.items())) + ")"
-              if left_out else "") + ".")
-    command = ["facepair", "analyze", "votes.csv", "--report", "report.html", "--pdf",
-               "report.pdf", "--conditions", ",".join(c.name for c in study.conditions)]
+    who = (
+        f"{counted(included, 'participant')} included, {len(left_out)} left out"
+        + (
+            " (" + "; ".join(f"{p}: {why}" for p, why in sorted(left_out.items())) + ")"
+            if left_out
+            else ""
+        )
+        + "."
+    )
+    command = [
+        "facepair",
+        "analyze",
+        "votes.csv",
+        "--report",
+        "report.html",
+        "--pdf",
+        "report.pdf",
+        "--conditions",
+        ",".join(c.name for c in study.conditions),
+    ]
     if exclude:
         command += ["--exclude", exclude]
     from app.questionnaires import answers_summary
 
     kept = {str(p) for p in results["participants"]}
-    return {"title": study.title, "design": design, "participants": who,
-            "questionnaire": answers_summary(study, included=kept),
-            "date": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
-            "command": shlex.join(command), "votes_file": "votes.csv"}
+    return {
+        "title": study.title,
+        "design": design,
+        "participants": who,
+        "questionnaire": answers_summary(study, included=kept),
+        "date": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+        "command": shlex.join(command),
+        "votes_file": "votes.csv",
+    }

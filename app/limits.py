@@ -73,8 +73,11 @@ def _json_problem(value: Any, depth: int = 0) -> str | None:
         return text_problem(value, MAX_TEXT)
     if isinstance(value, float) and not math.isfinite(value):
         return "must not hold NaN or infinity"
-    if isinstance(value, int) and not isinstance(value, bool) and not (
-            INT64[0] <= value <= INT64[1]):
+    if (
+        isinstance(value, int)
+        and not isinstance(value, bool)
+        and not (INT64[0] <= value <= INT64[1])
+    ):
         return "holds an integer beyond 64 bits"
     if isinstance(value, dict):
         items = list(value.keys()) + list(value.values())

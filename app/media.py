@@ -73,8 +73,9 @@ def _store(action: str) -> Iterator[None]:
         yield
     except (BotoCoreError, ClientError) as exc:
         where = current_app.config.get("MEDIA_S3_ENDPOINT") or current_app.config["MEDIA_URL"]
-        raise MediaStoreError(f"the media store (MEDIA_URL, {where}) could not {action}: "
-                              f"{str(exc).splitlines()[0]}") from None
+        raise MediaStoreError(
+            f"the media store (MEDIA_URL, {where}) could not {action}: {str(exc).splitlines()[0]}"
+        ) from None
 
 
 def init_media(app: Flask) -> None:
@@ -94,8 +95,9 @@ def check_media_settings(app: Flask) -> None:
     """Refuse a backend that cannot work, naming the setting (called by the factory)."""
     backend = app.config["MEDIA_BACKEND"]
     if backend not in BACKENDS:
-        raise InputError(f"expected one of {', '.join(BACKENDS)}, got {backend!r}",
-                         field="MEDIA_BACKEND")
+        raise InputError(
+            f"expected one of {', '.join(BACKENDS)}, got {backend!r}", field="MEDIA_BACKEND"
+        )
     try:
         ttl = int(app.config["MEDIA_URL_TTL"])
     except (TypeError, ValueError):
@@ -147,11 +149,18 @@ def s3_client(*, public: bool = False) -> Any:
         # Path-style addressing: MinIO and other self-hosted stores serve no bucket subdomains.
         # Short connect timeout and few retries: a store that is away fails the job in
         # seconds, with a reason, instead of holding a worker for minutes.
-        _clients[key] = boto3.client("s3", endpoint_url=endpoint, region_name=region,
-                                     config=Config(signature_version="s3v4",
-                                                   s3={"addressing_style": "path"},
-                                                   connect_timeout=5, read_timeout=60,
-                                                   retries={"max_attempts": 3}))
+        _clients[key] = boto3.client(
+            "s3",
+            endpoint_url=endpoint,
+            region_name=region,
+            config=Config(
+                signature_version="s3v4",
+                s3={"addressing_style": "path"},
+                connect_timeout=5,
+                read_timeout=60,
+                retries={"max_attempts": 3},
+            ),
+        )
     return _clients[key]
 
 
@@ -159,9 +168,14 @@ def _backend() -> str:
     return str(current_app.config.get("MEDIA_BACKEND") or "local")
 
 
-def media_response(study: Study, rel: str | None, *, mimetype: str | None = None,
-                   cache_seconds: int = 0, headers: dict[str, str] | None = None,
-                   ) -> Response:
+def media_response(
+    study: Study,
+    rel: str | None,
+    *,
+    mimetype: str | None = None,
+    cache_seconds: int = 0,
+    headers: dict[str, str] | None = None,
+) -> Response:
     """Answer with the study's file ``rel`` through the configured backend; the caller has
     already checked that the asker may have it. 404 when there is no such file.
 
@@ -183,7 +197,8 @@ def media_response(study: Study, rel: str | None, *, mimetype: str | None = None
         if cache_seconds:
             params["ResponseCacheControl"] = f"private, max-age={cache_seconds}"
         url = s3_client(public=True).generate_presigned_url(
-            "get_object", Params=params, ExpiresIn=int(current_app.config["MEDIA_URL_TTL"]))
+            "get_object", Params=params, ExpiresIn=int(current_app.config["MEDIA_URL_TTL"])
+        )
         response = redirect(url, 302)
         # The redirect itself must not outlive its signature in any cache.
         response.headers["Cache-Control"] = "no-store"
@@ -199,12 +214,14 @@ def media_response(study: Study, rel: str | None, *, mimetype: str | None = None
         root = Path(current_app.config["MEDIA_ROOT"]).resolve()
         prefix = current_app.config["MEDIA_ACCEL_PREFIX"].rstrip("/")
         response.headers["X-Accel-Redirect"] = (
-            f"{prefix}/{quote(path.relative_to(root).as_posix())}")
+            f"{prefix}/{quote(path.relative_to(root).as_posix())}"
+        )
     else:
         # Range requests (conditional) let the browser seek and replay without refetching.
         response = send_file(path, mimetype=mimetype, conditional=True, max_age=cache_seconds)
-    response.headers["Cache-Control"] = (f"private, max-age={cache_seconds}" if cache_seconds
-                                         else "no-cache")
+    response.headers["Cache-Control"] = (
+        f"private, max-age={cache_seconds}" if cache_seconds else "no-cache"
+    )
     response.headers.update(headers or {})
     return response
 
@@ -223,8 +240,9 @@ def publish(study: Study, rel: str) -> None:
     bucket, _ = bucket_and_prefix(current_app.config.get("MEDIA_URL"))
     path = media_file(study, rel)
     with _store(f"take {rel}"):
-        s3_client().upload_file(str(path), bucket, object_key(study, rel),
-                                ExtraArgs={"ContentType": _guess_type(path)})
+        s3_client().upload_file(
+            str(path), bucket, object_key(study, rel), ExtraArgs={"ContentType": _guess_type(path)}
+        )
 
 
 def publish_folder(study: Study, folder: str) -> int:
@@ -248,8 +266,7 @@ def forget(study: Study, folder: str = "") -> int:
     client = s3_client()
     removed = 0
     with _store(f"delete {under}"):
-        for page in client.get_paginator("list_objects_v2").paginate(Bucket=bucket,
-                                                                     Prefix=under):
+        for page in client.get_paginator("list_objects_v2").paginate(Bucket=bucket, Prefix=under):
             keys = [{"Key": found["Key"]} for found in page.get("Contents", [])]
             if keys:  # at most 1,000 a page, as delete_objects takes
                 client.delete_objects(Bucket=bucket, Delete={"Objects": keys, "Quiet": True})

@@ -22,16 +22,24 @@ import re
 from typing import Any, Final
 
 #: Summary fields stored as vote columns (and exported), with their upper bounds.
-MEDIA_COUNTS: Final = {"watched_ms": 86_400_000, "stalls": 100_000, "stall_ms": 86_400_000,
-                       "focus_lost": 100_000}
+MEDIA_COUNTS: Final = {
+    "watched_ms": 86_400_000,
+    "stalls": 100_000,
+    "stall_ms": 86_400_000,
+    "focus_lost": 100_000,
+}
 #: Further fields kept in the vote's JSON media log.
-MEDIA_EXTRA: Final = {"pauses": 100_000, "seeks": 100_000, "width": 100_000,
-                      "height": 100_000}
+MEDIA_EXTRA: Final = {"pauses": 100_000, "seeks": 100_000, "width": 100_000, "height": 100_000}
 MAX_STALLS_KEPT: Final = 50
 
 #: Environment fields (whole numbers with their upper bounds), reported once per participant.
-ENVIRONMENT_COUNTS: Final = {"screen_w": 100_000, "screen_h": 100_000, "viewport_w": 100_000,
-                             "viewport_h": 100_000, "face_px": 100_000}
+ENVIRONMENT_COUNTS: Final = {
+    "screen_w": 100_000,
+    "screen_h": 100_000,
+    "viewport_w": 100_000,
+    "viewport_h": 100_000,
+    "face_px": 100_000,
+}
 
 # Order matters: Edge and Opera announce Chrome too, Chrome announces Safari.
 _BROWSERS: Final = (
@@ -71,8 +79,7 @@ def media_fields(media: Any) -> tuple[dict[str, Any], dict[str, Any]]:
         return {}, {}
     if not isinstance(media, dict):
         raise MediaLogError("media: expected an object")
-    columns: dict[str, Any] = {name: _whole(media, name, top)
-                               for name, top in MEDIA_COUNTS.items()}
+    columns: dict[str, Any] = {name: _whole(media, name, top) for name, top in MEDIA_COUNTS.items()}
     ended = media.get("played_to_end")
     if ended is not None and not isinstance(ended, bool):
         raise MediaLogError("played_to_end: expected true or false")
@@ -83,7 +90,8 @@ def media_fields(media: Any) -> tuple[dict[str, Any], dict[str, Any]]:
         raise MediaLogError("stall_durations: expected a list of milliseconds")
     log["stall_durations"] = [
         _whole({"stall_durations": d}, "stall_durations", MEDIA_COUNTS["stall_ms"])
-        for d in durations[:MAX_STALLS_KEPT]]
+        for d in durations[:MAX_STALLS_KEPT]
+    ]
     return columns, {k: v for k, v in log.items() if v is not None}
 
 
@@ -109,11 +117,13 @@ def environment_fields(payload: Any, user_agent: str, *, min_face_px: int) -> di
     """
     if not isinstance(payload, dict):
         raise MediaLogError("body: expected a JSON object")
-    out: dict[str, Any] = {name: _whole(payload, name, top)
-                           for name, top in ENVIRONMENT_COUNTS.items()}
+    out: dict[str, Any] = {
+        name: _whole(payload, name, top) for name, top in ENVIRONMENT_COUNTS.items()
+    }
     dpr = payload.get("dpr")
-    if dpr is not None and (isinstance(dpr, bool) or not isinstance(dpr, int | float)
-                            or not 0 < dpr <= 16):
+    if dpr is not None and (
+        isinstance(dpr, bool) or not isinstance(dpr, int | float) or not 0 < dpr <= 16
+    ):
         raise MediaLogError("dpr: expected a number above 0 and at most 16")
     touch = payload.get("touch")
     if touch is not None and not isinstance(touch, bool):

@@ -63,8 +63,9 @@ class Study(db.Model):
     design: so.Mapped[str] = so.mapped_column(sa.String(40))
     reference: so.Mapped[str | None] = so.mapped_column(sa.String(80))
     allow_undecided: so.Mapped[bool] = so.mapped_column(default=True)
-    undecided_label: so.Mapped[str] = so.mapped_column(sa.String(80), default="Undecided",
-                                                       info={"field": "undecided.label"})
+    undecided_label: so.Mapped[str] = so.mapped_column(
+        sa.String(80), default="Undecided", info={"field": "undecided.label"}
+    )
     #: Replay policy (``app.trials.rules``): "unlimited", "max_plays" or "play_to_end".
     replay: so.Mapped[str] = so.mapped_column(sa.String(20), default="unlimited")
     max_plays: so.Mapped[int | None] = so.mapped_column(info={"field": "replay.max_plays"})
@@ -84,22 +85,24 @@ class Study(db.Model):
     created_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
     report_at: so.Mapped[dt.datetime | None]
     #: Secret of the pseudonymised Prolific IDs in this study's exports (``app.privacy``).
-    pseudonym_key: so.Mapped[str] = so.mapped_column(
-        sa.String(64), default=lambda: new_token(32))
+    pseudonym_key: so.Mapped[str] = so.mapped_column(sa.String(64), default=lambda: new_token(32))
     #: The pilot link is ``/experimenter/pilot/<pilot_token>``: it enrols pilot participants
     #: before recruitment opens (their votes are flagged and kept out of the analysis).
-    pilot_token: so.Mapped[str] = so.mapped_column(sa.String(64), unique=True,
-                                                   default=new_token)
+    pilot_token: so.Mapped[str] = so.mapped_column(sa.String(64), unique=True, default=new_token)
 
     owner: so.Mapped[User] = so.relationship()
     conditions: so.Mapped[list[Condition]] = so.relationship(
-        back_populates="study", order_by="Condition.position", cascade="all, delete-orphan")
+        back_populates="study", order_by="Condition.position", cascade="all, delete-orphan"
+    )
     clips: so.Mapped[list[Clip]] = so.relationship(
-        back_populates="study", order_by="Clip.position", cascade="all, delete-orphan")
+        back_populates="study", order_by="Clip.position", cascade="all, delete-orphan"
+    )
     pairs: so.Mapped[list[Pair]] = so.relationship(
-        back_populates="study", order_by="Pair.position", cascade="all, delete-orphan")
+        back_populates="study", order_by="Pair.position", cascade="all, delete-orphan"
+    )
     lists: so.Mapped[list[StudyList]] = so.relationship(
-        back_populates="study", order_by="StudyList.index", cascade="all, delete-orphan")
+        back_populates="study", order_by="StudyList.index", cascade="all, delete-orphan"
+    )
 
 
 #: What a collaborator may do with a shared study: look (read) or everything but delete (full).
@@ -128,8 +131,9 @@ class Condition(db.Model):
     name: so.Mapped[str] = so.mapped_column(sa.String(80), info={"field": "conditions.name"})
     #: Registry name in ``app.stimuli.conditions`` or "upload" for an uploaded track.
     model: so.Mapped[str] = so.mapped_column(sa.String(80), info={"field": "conditions.model"})
-    params: so.Mapped[dict[str, Any]] = so.mapped_column(sa.JSON, default=dict,
-                                                         info={"field": "conditions.settings"})
+    params: so.Mapped[dict[str, Any]] = so.mapped_column(
+        sa.JSON, default=dict, info={"field": "conditions.settings"}
+    )
     #: Uploaded tracks by clip name (relative to the study's media folder).
     uploads: so.Mapped[dict[str, str]] = so.mapped_column(sa.JSON, default=dict)
     position: so.Mapped[int] = so.mapped_column(default=0)
@@ -192,8 +196,9 @@ class Stimulus(db.Model):
     clip's speech.
     """
 
-    __table_args__ = (sa.UniqueConstraint("clip_id", "left_id", "right_id", "instruction",
-                                          "foreign_side"),)
+    __table_args__ = (
+        sa.UniqueConstraint("clip_id", "left_id", "right_id", "instruction", "foreign_side"),
+    )
     id: so.Mapped[int] = so.mapped_column(primary_key=True)
     study_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study.id"), index=True)
     clip_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("clip.id"))
@@ -235,8 +240,10 @@ class StudyList(db.Model):
 class Participant(db.Model):
     #: One Prolific ID enrols once per study: a second arrival resumes the first (NULLs, i.e.
     #: arrivals without an ID, are distinct in both SQLite and PostgreSQL).
-    __table_args__ = (sa.UniqueConstraint("study_id", "number"),
-                      sa.UniqueConstraint("study_id", "prolific_pid"))
+    __table_args__ = (
+        sa.UniqueConstraint("study_id", "number"),
+        sa.UniqueConstraint("study_id", "prolific_pid"),
+    )
     id: so.Mapped[int] = so.mapped_column(primary_key=True)
     study_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study.id"), index=True)
     #: The participant's only credential: in their URL and a cookie.
@@ -246,12 +253,15 @@ class Participant(db.Model):
     number: so.Mapped[int]
     #: Seed of this participant's schedule (trial order, sides, catch positions).
     seed: so.Mapped[int] = so.mapped_column(sa.BigInteger)
-    prolific_pid: so.Mapped[str | None] = so.mapped_column(sa.String(64),
-                                                           info={"field": "PROLIFIC_PID"})
-    prolific_study_id: so.Mapped[str | None] = so.mapped_column(sa.String(64),
-                                                                info={"field": "STUDY_ID"})
-    prolific_session_id: so.Mapped[str | None] = so.mapped_column(sa.String(64),
-                                                                  info={"field": "SESSION_ID"})
+    prolific_pid: so.Mapped[str | None] = so.mapped_column(
+        sa.String(64), info={"field": "PROLIFIC_PID"}
+    )
+    prolific_study_id: so.Mapped[str | None] = so.mapped_column(
+        sa.String(64), info={"field": "STUDY_ID"}
+    )
+    prolific_session_id: so.Mapped[str | None] = so.mapped_column(
+        sa.String(64), info={"field": "SESSION_ID"}
+    )
     user_agent: so.Mapped[str] = so.mapped_column(sa.String(300), default="")
     consented_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
     started_at: so.Mapped[dt.datetime | None]
@@ -268,8 +278,9 @@ class Participant(db.Model):
     pilot: so.Mapped[bool] = so.mapped_column(default=False, server_default=sa.false())
     #: Excluded by the experimenter (with ``exclusion_reason``); their list slot went back.
     excluded_at: so.Mapped[dt.datetime | None]
-    exclusion_reason: so.Mapped[str] = so.mapped_column(sa.String(300), default="",
-                                                        server_default="")
+    exclusion_reason: so.Mapped[str] = so.mapped_column(
+        sa.String(300), default="", server_default=""
+    )
     #: Questionnaire answers by page and question name (``app.questionnaires``); a page
     #: answered is a key, so an empty page of optional questions still counts as done.
     answers: so.Mapped[dict[str, Any] | None] = so.mapped_column(sa.JSON, default=dict)
@@ -277,7 +288,8 @@ class Participant(db.Model):
     study: so.Mapped[Study] = so.relationship()
     study_list: so.Mapped[StudyList] = so.relationship()
     trials: so.Mapped[list[Trial]] = so.relationship(
-        back_populates="participant", order_by="Trial.position", cascade="all, delete-orphan")
+        back_populates="participant", order_by="Trial.position", cascade="all, delete-orphan"
+    )
 
 
 class Trial(db.Model):
@@ -306,11 +318,12 @@ class Trial(db.Model):
 class Vote(db.Model):
     """A participant's answer to one trial: stored exactly once."""
 
-    __table_args__ = (sa.UniqueConstraint("participant_id", "trial_id"),
-                      sa.CheckConstraint(sa.column("choice").in_(CHOICES), name="choice"))
+    __table_args__ = (
+        sa.UniqueConstraint("participant_id", "trial_id"),
+        sa.CheckConstraint(sa.column("choice").in_(CHOICES), name="choice"),
+    )
     id: so.Mapped[int] = so.mapped_column(primary_key=True)
-    participant_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("participant.id"),
-                                                      index=True)
+    participant_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("participant.id"), index=True)
     trial_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("trial.id"), index=True)
     #: Chosen by the browser per trial; a retried request carries the same key.
     idempotency_key: so.Mapped[str] = so.mapped_column(sa.String(64), unique=True)
@@ -358,6 +371,12 @@ class Job(db.Model):
     study: so.Mapped[Study] = so.relationship()
 
     def as_dict(self) -> dict[str, Any]:
-        return {"id": self.id, "kind": self.kind, "status": self.status, "done": self.done,
-                "total": self.total, "message": self.message,
-                "fraction": (self.done / self.total) if self.total else 0.0}
+        return {
+            "id": self.id,
+            "kind": self.kind,
+            "status": self.status,
+            "done": self.done,
+            "total": self.total,
+            "message": self.message,
+            "fraction": (self.done / self.total) if self.total else 0.0,
+        }

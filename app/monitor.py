@@ -31,25 +31,37 @@ def study_monitor(study: Study, *, dropped_after: dt.timedelta) -> dict[str, Any
     participant table lists them)."""
     now = utcnow()
     participants = db.session.scalars(
-        sa.select(Participant).where(Participant.study_id == study.id,
-                                     Participant.pilot.is_(False))).all()
+        sa.select(Participant).where(Participant.study_id == study.id, Participant.pilot.is_(False))
+    ).all()
     finished = sum(p.finished_at is not None for p in participants)
-    dropped = sum(p.finished_at is None and (p.dropped_at is not None
-                                             or now - p.last_seen_at > dropped_after)
-                  for p in participants)
+    dropped = sum(
+        p.finished_at is None and (p.dropped_at is not None or now - p.last_seen_at > dropped_after)
+        for p in participants
+    )
     started = len(participants)
     pairs = {p.id: PairStats(p.label) for p in study.pairs}
     first_of = {p.id: p.first_id for p in study.pairs}
     times: dict[int, list[int]] = {pid: [] for pid in pairs}
     all_times: list[int] = []
     catch_total = catch_passed = 0
-    query = (sa.select(Vote.choice, Vote.response_ms, Trial.pair_id, Trial.kind, Trial.expected,
-                       Trial.stimulus_id)
-             .join(Trial, Vote.trial_id == Trial.id)
-             .join(Participant, Vote.participant_id == Participant.id)
-             .where(Participant.study_id == study.id, Participant.pilot.is_(False)))
-    left_of = dict(db.session.execute(sa.select(Stimulus.id, Stimulus.left_id)
-                                      .where(Stimulus.study_id == study.id)).all())
+    query = (
+        sa.select(
+            Vote.choice,
+            Vote.response_ms,
+            Trial.pair_id,
+            Trial.kind,
+            Trial.expected,
+            Trial.stimulus_id,
+        )
+        .join(Trial, Vote.trial_id == Trial.id)
+        .join(Participant, Vote.participant_id == Participant.id)
+        .where(Participant.study_id == study.id, Participant.pilot.is_(False))
+    )
+    left_of = dict(
+        db.session.execute(
+            sa.select(Stimulus.id, Stimulus.left_id).where(Stimulus.study_id == study.id)
+        ).all()
+    )
     for choice, response_ms, pair_id, kind, expected, stimulus_id in db.session.execute(query):
         if response_ms is not None:
             all_times.append(response_ms)
@@ -74,11 +86,15 @@ def study_monitor(study: Study, *, dropped_after: dt.timedelta) -> dict[str, Any
     for pair_id, values in times.items():
         if values:
             pairs[pair_id].median_ms = statistics.median(values)
-    lists = db.session.execute(sa.select(StudyList.index, StudyList.n_assigned)
-                               .where(StudyList.study_id == study.id)
-                               .order_by(StudyList.index)).all()
+    lists = db.session.execute(
+        sa.select(StudyList.index, StudyList.n_assigned)
+        .where(StudyList.study_id == study.id)
+        .order_by(StudyList.index)
+    ).all()
     return {
-        "started": started, "finished": finished, "dropped": dropped,
+        "started": started,
+        "finished": finished,
+        "dropped": dropped,
         "in_progress": started - finished - dropped,
         "target": study.target_participants,
         "votes": sum(s.votes for s in pairs.values()),

@@ -34,8 +34,7 @@ STATUSES = ("started", "finished", "dropped", "excluded", "returned")
 REMOVALS = ("excluded", "returned")
 #: Rules the report applies by itself (the study file's ``auto_exclude`` chooses among them),
 #: with the reason the report prints.
-AUTO_RULES = dict(zip(AUTO_EXCLUDE_RULES, ("failed a catch trial", "did not finish"),
-                      strict=True))
+AUTO_RULES = dict(zip(AUTO_EXCLUDE_RULES, ("failed a catch trial", "did not finish"), strict=True))
 
 
 @dataclass
@@ -60,8 +59,7 @@ class ParticipantRow:
     excluded: str = ""
 
 
-def status_of(participant: Participant, *, now: dt.datetime, dropped_after: dt.timedelta
-              ) -> str:
+def status_of(participant: Participant, *, now: dt.datetime, dropped_after: dt.timedelta) -> str:
     """The participant's status (one of :data:`STATUSES`)."""
     if participant.excluded_at is not None:
         return "returned" if participant.exclusion_reason == RETURNED else "excluded"
@@ -109,15 +107,18 @@ def participant_rows(study: Study, *, dropped_after: dt.timedelta) -> list[Parti
     now = utcnow()
     rules = auto_rules(study)
     people = db.session.execute(
-        sa.select(Participant, StudyList.index).join(StudyList)
-        .where(Participant.study_id == study.id).order_by(Participant.number)).all()
+        sa.select(Participant, StudyList.index)
+        .join(StudyList)
+        .where(Participant.study_id == study.id)
+        .order_by(Participant.number)
+    ).all()
     votes: dict[int, list[Any]] = {}
     for row in db.session.execute(
-            sa.select(Vote.participant_id, Vote.choice, Vote.response_ms, Trial.kind,
-                      Trial.expected)
-            .join(Trial, Vote.trial_id == Trial.id)
-            .join(Participant, Vote.participant_id == Participant.id)
-            .where(Participant.study_id == study.id)):
+        sa.select(Vote.participant_id, Vote.choice, Vote.response_ms, Trial.kind, Trial.expected)
+        .join(Trial, Vote.trial_id == Trial.id)
+        .join(Participant, Vote.participant_id == Participant.id)
+        .where(Participant.study_id == study.id)
+    ):
         votes.setdefault(row.participant_id, []).append(row)
     out = []
     for person, list_index in people:
@@ -126,15 +127,20 @@ def participant_rows(study: Study, *, dropped_after: dt.timedelta) -> list[Parti
         decided = [v.choice for v in mine if v.kind == "trial" and v.choice != "undecided"]
         times = [v.response_ms for v in mine if v.response_ms is not None]
         row = ParticipantRow(
-            id=person.id, label=participant_label(person.number),
+            id=person.id,
+            label=participant_label(person.number),
             prolific_pid=person.prolific_pid,
             status=status_of(person, now=now, dropped_after=dropped_after),
-            list_index=list_index, pilot=person.pilot,
-            catch_passed=sum(v.choice == v.expected for v in catch), catch_total=len(catch),
+            list_index=list_index,
+            pilot=person.pilot,
+            catch_passed=sum(v.choice == v.expected for v in catch),
+            catch_total=len(catch),
             left_share=decided.count("left") / len(decided) if decided else None,
             median_ms=statistics.median(times) if times else None,
-            started_at=person.started_at, finished_at=person.finished_at,
-            reason=person.exclusion_reason)
+            started_at=person.started_at,
+            finished_at=person.finished_at,
+            reason=person.exclusion_reason,
+        )
         row.excluded = exclusion_reason(row, rules)
         out.append(row)
     return out
@@ -160,7 +166,9 @@ def _give_back_slot(participant: Participant) -> None:
     released = db.session.execute(
         sa.update(Participant)
         .where(Participant.id == participant.id, Participant.dropped_at.is_(None))
-        .values(dropped_at=utcnow()).execution_options(synchronize_session=False))
+        .values(dropped_at=utcnow())
+        .execution_options(synchronize_session=False)
+    )
     if released.rowcount == 1:
         move_slot(participant.list_id, -1)
     db.session.refresh(participant)
@@ -173,9 +181,15 @@ def release_if_left_out(participant: Participant) -> bool:
     if participant.pilot or "catch_failed" not in auto_rules(participant.study):
         return False
     failed = db.session.scalar(
-        sa.select(Vote.id).join(Trial, Vote.trial_id == Trial.id)
-        .where(Vote.participant_id == participant.id, Trial.kind == "catch",
-               Vote.choice != Trial.expected).limit(1))
+        sa.select(Vote.id)
+        .join(Trial, Vote.trial_id == Trial.id)
+        .where(
+            Vote.participant_id == participant.id,
+            Trial.kind == "catch",
+            Vote.choice != Trial.expected,
+        )
+        .limit(1)
+    )
     if failed is None:
         return False
     _give_back_slot(participant)
@@ -185,9 +199,13 @@ def release_if_left_out(participant: Participant) -> bool:
 def release_pilots(study: Study) -> int:
     """Give back the list slots of ``study``'s pilot participants (recruitment opens: the real
     participants are balanced among themselves). Not committed."""
-    pilots = db.session.scalars(sa.select(Participant).where(
-        Participant.study_id == study.id, Participant.pilot.is_(True),
-        Participant.dropped_at.is_(None))).all()
+    pilots = db.session.scalars(
+        sa.select(Participant).where(
+            Participant.study_id == study.id,
+            Participant.pilot.is_(True),
+            Participant.dropped_at.is_(None),
+        )
+    ).all()
     for pilot in pilots:
         _give_back_slot(pilot)
     return len(pilots)

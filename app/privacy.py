@@ -30,11 +30,28 @@ from app.models import Participant, Stimulus, Study, Trial, Vote
 from app.trials.rules import CHOICES
 
 #: Columns of the participants export, in order.
-PARTICIPANT_COLUMNS = ("participant", "prolific_pid", "prolific_study_id", "prolific_session_id",
-                       "status", "answered", "catch_passed", "catch_total", "consented_at",
-                       "started_at", "finished_at", "identical_left", "identical_right",
-                       "identical_undecided", "browser", "screen", "viewport", "dpr", "touch",
-                       "face_px")
+PARTICIPANT_COLUMNS = (
+    "participant",
+    "prolific_pid",
+    "prolific_study_id",
+    "prolific_session_id",
+    "status",
+    "answered",
+    "catch_passed",
+    "catch_total",
+    "consented_at",
+    "started_at",
+    "finished_at",
+    "identical_left",
+    "identical_right",
+    "identical_undecided",
+    "browser",
+    "screen",
+    "viewport",
+    "dpr",
+    "touch",
+    "face_px",
+)
 #: Columns holding personal identifiers: pseudonymised unless the raw IDs are asked for.
 PERSONAL_COLUMNS = ("prolific_pid", "prolific_session_id")
 
@@ -62,29 +79,49 @@ def participant_rows(study: Study, *, raw_ids: bool = False) -> list[dict[str, A
     arrival; Prolific IDs pseudonymised unless ``raw_ids``."""
     answered = sa.func.count(Vote.id)
     catch_total = sa.func.count(sa.case((Trial.kind == "catch", Vote.id)))
-    catch_passed = sa.func.count(sa.case(
-        (sa.and_(Trial.kind == "catch", Vote.choice == Trial.expected), Vote.id)))
+    catch_passed = sa.func.count(
+        sa.case((sa.and_(Trial.kind == "catch", Vote.choice == Trial.expected), Vote.id))
+    )
     same = sa.and_(Stimulus.left_id == Stimulus.right_id, Trial.kind != "mismatch")
     # Pairs without a difference measure the side bias: an unbiased participant answers
     # undecided, or left and right about equally often.
-    identical = {choice: sa.func.count(sa.case((sa.and_(same, Vote.choice == choice),
-                                                Vote.id))).label(f"identical_{choice}")
-                 for choice in CHOICES}
-    counts = {row.participant_id: row for row in db.session.execute(
-        sa.select(Vote.participant_id, answered.label("answered"),
-                  catch_total.label("catch_total"), catch_passed.label("catch_passed"),
-                  *identical.values())
-        .join(Trial, Vote.trial_id == Trial.id)
-        .join(Stimulus, Trial.stimulus_id == Stimulus.id)
-        .join(Participant, Vote.participant_id == Participant.id)
-        .where(Participant.study_id == study.id).group_by(Vote.participant_id))}
+    identical = {
+        choice: sa.func.count(sa.case((sa.and_(same, Vote.choice == choice), Vote.id))).label(
+            f"identical_{choice}"
+        )
+        for choice in CHOICES
+    }
+    counts = {
+        row.participant_id: row
+        for row in db.session.execute(
+            sa.select(
+                Vote.participant_id,
+                answered.label("answered"),
+                catch_total.label("catch_total"),
+                catch_passed.label("catch_passed"),
+                *identical.values(),
+            )
+            .join(Trial, Vote.trial_id == Trial.id)
+            .join(Stimulus, Trial.stimulus_id == Stimulus.id)
+            .join(Participant, Vote.participant_id == Participant.id)
+            .where(Participant.study_id == study.id)
+            .group_by(Vote.participant_id)
+        )
+    }
     rows = []
-    for person in db.session.scalars(sa.select(Participant).where(
-            Participant.study_id == study.id).order_by(Participant.number)):
+    for person in db.session.scalars(
+        sa.select(Participant).where(Participant.study_id == study.id).order_by(Participant.number)
+    ):
         tally = counts.get(person.id)
-        status = ("screened_out" if person.screened_out_at else
-                  "finished" if person.finished_at else
-                  "dropped" if person.dropped_at else "in_progress")
+        status = (
+            "screened_out"
+            if person.screened_out_at
+            else "finished"
+            if person.finished_at
+            else "dropped"
+            if person.dropped_at
+            else "in_progress"
+        )
         env = person.environment or {}
         row = {
             "participant": participant_label(person.number),
@@ -95,13 +132,15 @@ def participant_rows(study: Study, *, raw_ids: bool = False) -> list[dict[str, A
             "answered": tally.answered if tally else 0,
             "catch_passed": tally.catch_passed if tally else 0,
             "catch_total": tally.catch_total if tally else 0,
-            "consented_at": _iso(person.consented_at), "started_at": _iso(person.started_at),
+            "consented_at": _iso(person.consented_at),
+            "started_at": _iso(person.started_at),
             "finished_at": _iso(person.finished_at),
-            **{f"identical_{c}": getattr(tally, f"identical_{c}") if tally else 0
-               for c in CHOICES},
+            **{f"identical_{c}": getattr(tally, f"identical_{c}") if tally else 0 for c in CHOICES},
             "browser": " ".join(filter(None, (env.get("browser"), env.get("browser_version")))),
-            "screen": _size(env, "screen"), "viewport": _size(env, "viewport"),
-            "dpr": env.get("dpr", ""), "touch": env.get("touch", ""),
+            "screen": _size(env, "screen"),
+            "viewport": _size(env, "viewport"),
+            "dpr": env.get("dpr", ""),
+            "touch": env.get("touch", ""),
             "face_px": env.get("face_px", ""),
         }
         if not raw_ids:
@@ -139,13 +178,19 @@ def find_participants(study: Study, identifier: str) -> list[Participant]:
     identifier = identifier.strip()
     if not identifier:
         return []
-    people = db.session.scalars(sa.select(Participant).where(
-        Participant.study_id == study.id).order_by(Participant.number)).all()
+    people = db.session.scalars(
+        sa.select(Participant).where(Participant.study_id == study.id).order_by(Participant.number)
+    ).all()
     label = re.fullmatch(r"[Pp]0*(\d{1,9})", identifier)
-    return [p for p in people
-            if (label is not None and p.number == int(label.group(1)))
-            or (p.prolific_pid and identifier in (
-                p.prolific_pid, pseudonym(study.pseudonym_key, p.prolific_pid)))]
+    return [
+        p
+        for p in people
+        if (label is not None and p.number == int(label.group(1)))
+        or (
+            p.prolific_pid
+            and identifier in (p.prolific_pid, pseudonym(study.pseudonym_key, p.prolific_pid))
+        )
+    ]
 
 
 def delete_participants(study: Study, identifier: str) -> Deleted:
@@ -159,14 +204,23 @@ def delete_participants(study: Study, identifier: str) -> Deleted:
     ids = [p.id for p in people]
     labels = tuple(participant_label(p.number) for p in people)
     holding = [p.list_id for p in people if p.dropped_at is None]
-    votes = db.session.execute(sa.delete(Vote).where(Vote.participant_id.in_(ids))
-                               .execution_options(synchronize_session=False)).rowcount
-    db.session.execute(sa.delete(Trial).where(Trial.participant_id.in_(ids))
-                       .execution_options(synchronize_session=False))
+    votes = db.session.execute(
+        sa.delete(Vote)
+        .where(Vote.participant_id.in_(ids))
+        .execution_options(synchronize_session=False)
+    ).rowcount
+    db.session.execute(
+        sa.delete(Trial)
+        .where(Trial.participant_id.in_(ids))
+        .execution_options(synchronize_session=False)
+    )
     for list_id in holding:
         move_slot(list_id, -1)
-    db.session.execute(sa.delete(Participant).where(Participant.id.in_(ids))
-                       .execution_options(synchronize_session=False))
+    db.session.execute(
+        sa.delete(Participant)
+        .where(Participant.id.in_(ids))
+        .execution_options(synchronize_session=False)
+    )
     db.session.expire_all()
     folder = report_path(study).parent
     media.forget(study, folder.name)  # the report's votes.csv names them

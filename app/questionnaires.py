@@ -59,22 +59,31 @@ def answers_csv(study: Study, *, pilot: bool = False) -> str:
     from app.privacy import pseudonym
 
     questions = study_questions(study)
-    rows = {r.id: r for r in participant_rows(study, dropped_after=dropped_after())
-            if r.pilot == pilot}
+    rows = {
+        r.id: r for r in participant_rows(study, dropped_after=dropped_after()) if r.pilot == pilot
+    }
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(["participant", "status", "excluded", "prolific_id",
-                     *(q.name for q in questions)])
-    people = db.session.scalars(sa.select(Participant).where(Participant.study_id == study.id)
-                                .order_by(Participant.number))
+    writer.writerow(
+        ["participant", "status", "excluded", "prolific_id", *(q.name for q in questions)]
+    )
+    people = db.session.scalars(
+        sa.select(Participant).where(Participant.study_id == study.id).order_by(Participant.number)
+    )
     for person in people:
         if person.id not in rows or not person.answers:
             continue
         given = {k: v for page in person.answers.values() for k, v in page.items()}
         row = rows[person.id]
-        writer.writerow([row.label, row.status, row.excluded,
-                         pseudonym(study.pseudonym_key, person.prolific_pid),
-                         *(_cell(given.get(q.name)) for q in questions)])
+        writer.writerow(
+            [
+                row.label,
+                row.status,
+                row.excluded,
+                pseudonym(study.pseudonym_key, person.prolific_pid),
+                *(_cell(given.get(q.name)) for q in questions),
+            ]
+        )
     return buffer.getvalue()
 
 
@@ -91,8 +100,9 @@ def answers_summary(study: Study, included: set[str] | None = None) -> list[dict
     answered: counts per option, median and range of numbers, the texts."""
     from app.exports import participant_label
 
-    people = db.session.scalars(sa.select(Participant).where(
-        Participant.study_id == study.id, Participant.pilot.is_(False)))
+    people = db.session.scalars(
+        sa.select(Participant).where(Participant.study_id == study.id, Participant.pilot.is_(False))
+    )
     given: list[dict[str, Any]] = []
     for person in people:
         if included is not None and participant_label(person.number) not in included:
@@ -101,14 +111,18 @@ def answers_summary(study: Study, included: set[str] | None = None) -> list[dict
     out = []
     for q in study_questions(study):
         values = [g[q.name] for g in given if g.get(q.name) is not None]
-        entry: dict[str, Any] = {"name": q.name, "text": q.text, "kind": q.kind,
-                                 "answered": len(values), "asked": len(given)}
+        entry: dict[str, Any] = {
+            "name": q.name,
+            "text": q.text,
+            "kind": q.kind,
+            "answered": len(values),
+            "asked": len(given),
+        }
         if q.kind == "choice":
             counts = Counter(values)
             entry["counts"] = {c: counts.get(c, 0) for c in q.choices}
         elif q.kind == "number" and values:
-            entry |= {"median": statistics.median(values), "min": min(values),
-                      "max": max(values)}
+            entry |= {"median": statistics.median(values), "min": min(values), "max": max(values)}
         elif q.kind == "text":
             entry["texts"] = [str(v) for v in values]
         out.append(entry)

@@ -53,12 +53,17 @@ def check_secret_key(app: Flask) -> None:
             app.config["SECRET_KEY"] = secrets.token_hex(32)
         return
     if not key:
-        raise InputError("not set; generate one with: python -c 'import secrets; "
-                         "print(secrets.token_hex(32))'", field="SECRET_KEY")
+        raise InputError(
+            "not set; generate one with: python -c 'import secrets; print(secrets.token_hex(32))'",
+            field="SECRET_KEY",
+        )
     text = key.decode("latin-1") if isinstance(key, bytes) else str(key)
     if text in KNOWN_KEYS or len(text) < MIN_KEY_LENGTH:
-        raise InputError(f"a publicly known or short key (fewer than {MIN_KEY_LENGTH} "
-                         "characters); generate a random one", field="SECRET_KEY")
+        raise InputError(
+            f"a publicly known or short key (fewer than {MIN_KEY_LENGTH} "
+            "characters); generate a random one",
+            field="SECRET_KEY",
+        )
 
 
 def stored_secret_key(instance: Path) -> str:
@@ -125,8 +130,13 @@ def init_security(app: Flask) -> None:
         from werkzeug.middleware.proxy_fix import ProxyFix
 
         app.wsgi_app = ProxyFix(  # type: ignore[method-assign]
-            app.wsgi_app, x_for=proxies, x_proto=proxies, x_host=proxies, x_port=proxies,
-            x_prefix=proxies)
+            app.wsgi_app,
+            x_for=proxies,
+            x_proto=proxies,
+            x_host=proxies,
+            x_port=proxies,
+            x_prefix=proxies,
+        )
     app.after_request(_security_headers)
     from app.extensions import limiter
 

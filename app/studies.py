@@ -69,16 +69,26 @@ def stimulus_combinations(study: Study) -> list[tuple[str, str, str, str, str]]:
     displayed pairs (:func:`app.trials.schedule.shown_stimuli`), then the attention-check and
     appropriateness variants (:func:`app.trials.schedule.variant_stimuli`)."""
     clips, pairs = [c.name for c in study.clips], design_pairs(study)
-    plain = shown_stimuli(clips=clips, pairs=pairs, design=study.design,
-                          catch_trials=study.catch_trials, catch_kind=study.catch_kind,
-                          practice_pair=practice_pair(study),
-                          practice_clip=(study.settings or {}).get("practice_clip"))
-    variants = variant_stimuli(clips=clips, pairs=pairs, design=study.design,
-                               catch_trials=study.catch_trials, catch_kind=study.catch_kind,
-                               mismatched=participation(study).mismatched)
-    return ([(clip, p.left, p.right, "", "") for clip, p in plain]
-            + [(clip, p.left, p.right, instruction, foreign)
-               for clip, p, instruction, foreign in variants])
+    plain = shown_stimuli(
+        clips=clips,
+        pairs=pairs,
+        design=study.design,
+        catch_trials=study.catch_trials,
+        catch_kind=study.catch_kind,
+        practice_pair=practice_pair(study),
+        practice_clip=(study.settings or {}).get("practice_clip"),
+    )
+    variants = variant_stimuli(
+        clips=clips,
+        pairs=pairs,
+        design=study.design,
+        catch_trials=study.catch_trials,
+        catch_kind=study.catch_kind,
+        mismatched=participation(study).mismatched,
+    )
+    return [(clip, p.left, p.right, "", "") for clip, p in plain] + [
+        (clip, p.left, p.right, instruction, foreign) for clip, p, instruction, foreign in variants
+    ]
 
 
 def _copy(study: Study, source: Path, rel: str) -> str:
@@ -89,22 +99,34 @@ def _copy(study: Study, source: Path, rel: str) -> str:
     return rel
 
 
-def create_study(owner: User, spec: StudySpec, *, source_toml: str = "",
-                 render: dict[str, Any] | None = None) -> Study:
+def create_study(
+    owner: User, spec: StudySpec, *, source_toml: str = "", render: dict[str, Any] | None = None
+) -> Study:
     """Rows for ``spec`` (study, conditions, clips, pairs, lists, stimuli); media copied into
     the study's folder. ``render`` overrides the study file's ``[render]`` settings. The
     study file's ``exclude`` rules are checked here (:func:`app.analysis.quality.parse_rules`).
     Not committed: the caller's unit of work decides."""
     parse_rules(spec.exclude)  # a bad rule: one line naming the field, before any row exists
     study = Study(
-        owner_id=owner.id, title=spec.title, question=spec.question,
-        instructions=spec.instructions, consent=spec.consent, design=spec.design,
-        reference=spec.reference, allow_undecided=spec.undecided_allowed,
-        undecided_label=spec.undecided_label, replay=spec.replay.kind,
-        max_plays=spec.replay.max_plays, catch_trials=spec.catch_trials,
-        catch_kind=spec.catch_kind, target_participants=spec.target_participants,
-        completion_code=spec.completion_code, redirect_url=spec.redirect_url or "",
-        seed=spec.seed, source_toml=source_toml, status="draft",
+        owner_id=owner.id,
+        title=spec.title,
+        question=spec.question,
+        instructions=spec.instructions,
+        consent=spec.consent,
+        design=spec.design,
+        reference=spec.reference,
+        allow_undecided=spec.undecided_allowed,
+        undecided_label=spec.undecided_label,
+        replay=spec.replay.kind,
+        max_plays=spec.replay.max_plays,
+        catch_trials=spec.catch_trials,
+        catch_kind=spec.catch_kind,
+        target_participants=spec.target_participants,
+        completion_code=spec.completion_code,
+        redirect_url=spec.redirect_url or "",
+        seed=spec.seed,
+        source_toml=source_toml,
+        status="draft",
         settings={
             "practice": [spec.practice.left, spec.practice.right] if spec.practice else None,
             "practice_clip": spec.practice_clip,
@@ -138,17 +160,28 @@ def _media_rows(study: Study, spec: StudySpec) -> None:
         audio = _copy(study, clip.audio, f"clips/{clip.name}/audio{clip.audio.suffix.lower()}")
         truth = None
         if clip.ground_truth is not None:
-            truth = _copy(study, clip.ground_truth,
-                          f"clips/{clip.name}/ground_truth{clip.ground_truth.suffix.lower()}")
-        study.clips.append(Clip(name=clip.name, audio_path=audio, ground_truth_path=truth,
-                                position=position))
+            truth = _copy(
+                study,
+                clip.ground_truth,
+                f"clips/{clip.name}/ground_truth{clip.ground_truth.suffix.lower()}",
+            )
+        study.clips.append(
+            Clip(name=clip.name, audio_path=audio, ground_truth_path=truth, position=position)
+        )
     for position, cond in enumerate(spec.conditions):
-        uploads = {clip: _copy(study, Path(path), f"uploads/{cond.name}/{clip}"
-                               f"{Path(path).suffix.lower()}")
-                   for clip, path in cond.tracks.items()}
-        study.conditions.append(Condition(name=cond.name, model=cond.model or "upload",
-                                          params=dict(cond.settings), uploads=uploads,
-                                          position=position))
+        uploads = {
+            clip: _copy(study, Path(path), f"uploads/{cond.name}/{clip}{Path(path).suffix.lower()}")
+            for clip, path in cond.tracks.items()
+        }
+        study.conditions.append(
+            Condition(
+                name=cond.name,
+                model=cond.model or "upload",
+                params=dict(cond.settings),
+                uploads=uploads,
+                position=position,
+            )
+        )
     db.session.flush()
 
 
@@ -156,8 +189,9 @@ def _design_rows(study: Study, spec: StudySpec) -> None:
     """Pairs, balancing lists and the stimuli to render."""
     by_name = {c.name: c for c in study.conditions}
     for position, pair in enumerate(spec.pairs()):
-        study.pairs.append(Pair(first=by_name[pair.left], second=by_name[pair.right],
-                                position=position))
+        study.pairs.append(
+            Pair(first=by_name[pair.left], second=by_name[pair.right], position=position)
+        )
     for index in range(spec.n_lists()):
         study.lists.append(StudyList(index=index))
     db.session.flush()
@@ -165,10 +199,17 @@ def _design_rows(study: Study, spec: StudySpec) -> None:
     names = list(clips)
     for clip, left, right, instruction, foreign in stimulus_combinations(study):
         lender = clips[foreign_clip(names, clip)].id if foreign else None
-        db.session.add(Stimulus(study_id=study.id, clip_id=clips[clip].id,
-                                left_id=by_name[left].id, right_id=by_name[right].id,
-                                instruction=instruction, foreign_side=foreign,
-                                foreign_clip_id=lender))
+        db.session.add(
+            Stimulus(
+                study_id=study.id,
+                clip_id=clips[clip].id,
+                left_id=by_name[left].id,
+                right_id=by_name[right].id,
+                instruction=instruction,
+                foreign_side=foreign,
+                foreign_clip_id=lender,
+            )
+        )
     db.session.flush()
 
 
@@ -185,9 +226,15 @@ def change_status(study: Study, action: str) -> str:
 
 def has_votes(study: Study) -> bool:
     """Whether any participant (pilot included) has voted in ``study``."""
-    return db.session.scalar(
-        sa.select(Vote.id).join(Participant, Vote.participant_id == Participant.id)
-        .where(Participant.study_id == study.id).limit(1)) is not None
+    return (
+        db.session.scalar(
+            sa.select(Vote.id)
+            .join(Participant, Vote.participant_id == Participant.id)
+            .where(Participant.study_id == study.id)
+            .limit(1)
+        )
+        is not None
+    )
 
 
 def stimuli_locked(study: Study) -> str | None:
@@ -204,8 +251,17 @@ def stimuli_locked(study: Study) -> str | None:
 
 
 #: Study columns a copy does not take over: its identity, links, secrets, state and history.
-_NOT_COPIED = {"id", "owner_id", "slug", "pilot_token", "pseudonym_key", "status", "created_at",
-               "report_at", "title"}
+_NOT_COPIED = {
+    "id",
+    "owner_id",
+    "slug",
+    "pilot_token",
+    "pseudonym_key",
+    "status",
+    "created_at",
+    "report_at",
+    "title",
+}
 
 
 def duplicate_study(study: Study, owner: User, *, with_clips: bool) -> Study:
@@ -213,9 +269,16 @@ def duplicate_study(study: Study, owner: User, *, with_clips: bool) -> Study:
     links and secrets, no participants. ``with_clips`` also copies the generated tracks and the
     rendered videos (the copy is then ready to open); without, they are generated again.
     Not committed."""
-    copy = Study(owner_id=owner.id, title=f"{study.title} (copy)"[:200], status="draft",
-                 **{c.key: getattr(study, c.key) for c in Study.__table__.columns
-                    if c.key not in _NOT_COPIED})
+    copy = Study(
+        owner_id=owner.id,
+        title=f"{study.title} (copy)"[:200],
+        status="draft",
+        **{
+            c.key: getattr(study, c.key)
+            for c in Study.__table__.columns
+            if c.key not in _NOT_COPIED
+        },
+    )
     db.session.add(copy)
     db.session.flush()
     source, target = media_dir(study), media_dir(copy)
@@ -224,30 +287,60 @@ def duplicate_study(study: Study, owner: User, *, with_clips: bool) -> Study:
         if (source / folder).is_dir():
             shutil.copytree(source / folder, target / folder, dirs_exist_ok=True)
             media.publish_folder(copy, folder)
-    conditions = {c.id: Condition(name=c.name, model=c.model, params=dict(c.params),
-                                  uploads=dict(c.uploads), position=c.position)
-                  for c in study.conditions}
-    clips = {c.id: Clip(name=c.name, audio_path=c.audio_path,
-                        ground_truth_path=c.ground_truth_path, position=c.position)
-             for c in study.clips}
+    conditions = {
+        c.id: Condition(
+            name=c.name,
+            model=c.model,
+            params=dict(c.params),
+            uploads=dict(c.uploads),
+            position=c.position,
+        )
+        for c in study.conditions
+    }
+    clips = {
+        c.id: Clip(
+            name=c.name,
+            audio_path=c.audio_path,
+            ground_truth_path=c.ground_truth_path,
+            position=c.position,
+        )
+        for c in study.clips
+    }
     copy.conditions.extend(conditions.values())
     copy.clips.extend(clips.values())
-    copy.pairs.extend(Pair(first=conditions[p.first_id], second=conditions[p.second_id],
-                           position=p.position) for p in study.pairs)
+    copy.pairs.extend(
+        Pair(first=conditions[p.first_id], second=conditions[p.second_id], position=p.position)
+        for p in study.pairs
+    )
     copy.lists.extend(StudyList(index=sl.index) for sl in study.lists)
     db.session.flush()
     stimuli = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id))
-    db.session.add_all(Stimulus(study_id=copy.id, clip_id=clips[s.clip_id].id,
-                                left_id=conditions[s.left_id].id,
-                                right_id=conditions[s.right_id].id,
-                                video_path=s.video_path if with_clips else None)
-                       for s in stimuli)
+    db.session.add_all(
+        Stimulus(
+            study_id=copy.id,
+            clip_id=clips[s.clip_id].id,
+            left_id=conditions[s.left_id].id,
+            right_id=conditions[s.right_id].id,
+            video_path=s.video_path if with_clips else None,
+        )
+        for s in stimuli
+    )
     if with_clips:
         tracks = db.session.scalars(sa.select(Track).where(Track.clip_id.in_(list(clips))))
-        db.session.add_all(Track(condition_id=conditions[t.condition_id].id,
-                                 clip_id=clips[t.clip_id].id, path=t.path) for t in tracks)
-        rendered = db.session.scalar(sa.select(sa.func.count(Stimulus.id)).where(
-            Stimulus.study_id == study.id, Stimulus.video_path.is_(None))) == 0
+        db.session.add_all(
+            Track(
+                condition_id=conditions[t.condition_id].id, clip_id=clips[t.clip_id].id, path=t.path
+            )
+            for t in tracks
+        )
+        rendered = (
+            db.session.scalar(
+                sa.select(sa.func.count(Stimulus.id)).where(
+                    Stimulus.study_id == study.id, Stimulus.video_path.is_(None)
+                )
+            )
+            == 0
+        )
         copy.status = "ready" if rendered else "draft"
     db.session.flush()
     return copy
@@ -275,6 +368,7 @@ def delete_study(study: Study) -> None:
         sa.delete(StudyShare).where(StudyShare.study_id == study.id),
     ):
         db.session.execute(statement.execution_options(synchronize_session=False))
-    db.session.execute(sa.delete(Study).where(Study.id == study.id)
-                       .execution_options(synchronize_session=False))
+    db.session.execute(
+        sa.delete(Study).where(Study.id == study.id).execution_options(synchronize_session=False)
+    )
     db.session.expire_all()

@@ -26,8 +26,9 @@ from app.studies import participation
 from app.trials import rules
 
 #: What a participant reads when the attention stop rule has ended their session.
-SCREENED_OUT = ("your session has ended because several attention checks were missed; "
-                "thank you for your time")
+SCREENED_OUT = (
+    "your session has ended because several attention checks were missed; thank you for your time"
+)
 
 
 class VoteRejected(Exception):
@@ -52,8 +53,9 @@ class VoteOutcome:
 
 def replay_policy(study: Study) -> rules.ReplayPolicy:
     """The study's replay policy (:class:`app.trials.rules.ReplayPolicy`)."""
-    return rules.ReplayPolicy(study.replay,
-                              max_plays=study.max_plays if study.replay == "max_plays" else None)
+    return rules.ReplayPolicy(
+        study.replay, max_plays=study.max_plays if study.replay == "max_plays" else None
+    )
 
 
 def may_vote(study: Study, *, plays: int, watched_to_end: bool) -> str | None:
@@ -76,8 +78,9 @@ def _parse_time(value: Any) -> dt.datetime | None:
     return stamp
 
 
-def _int_field(payload: dict[str, Any], name: str, column: Any, *,
-               required: bool = False) -> int | None:
+def _int_field(
+    payload: dict[str, Any], name: str, column: Any, *, required: bool = False
+) -> int | None:
     """A non-negative whole number that fits ``column`` (JSON may spell it 3.0)."""
     value = payload.get(name)
     if value is None:
@@ -110,14 +113,18 @@ def validate(participant: Participant, payload: dict[str, Any]) -> tuple[Trial, 
     if trial.kind == "practice":
         raise VoteRejected("the practice pair is not recorded", 422)
     try:
-        choice = str(rules.check_choice(payload.get("choice"),
-                                        undecided_allowed=study.allow_undecided))
+        choice = str(
+            rules.check_choice(payload.get("choice"), undecided_allowed=study.allow_undecided)
+        )
     except ValueError as exc:
         raise VoteRejected(f"choice: {exc}") from None
     key = payload.get("idempotency_key")
     longest = limits.column_of(Vote.idempotency_key).type.length
-    if (not isinstance(key, str) or not 8 <= len(key) <= longest
-            or not limits.fits(Vote.idempotency_key, key)):
+    if (
+        not isinstance(key, str)
+        or not 8 <= len(key) <= longest
+        or not limits.fits(Vote.idempotency_key, key)
+    ):
         raise VoteRejected(f"idempotency_key: expected text of 8 to {longest} characters")
     claimed = _int_field(payload, "plays", Vote.plays, required=True) or 0
     # The server's count wins: a reload cannot give plays back. The page's own count is the
@@ -165,8 +172,13 @@ def _reasons(value: Any, offered: tuple[str, ...]) -> list[str] | None:
     """The ticked reason tags: distinct, each one of the study's ``reasons``."""
     if value is None or value == []:
         return [] if offered else None
-    if (not offered or not isinstance(value, list) or len(value) > len(offered)
-            or len(set(map(repr, value))) != len(value) or any(v not in offered for v in value)):
+    if (
+        not offered
+        or not isinstance(value, list)
+        or len(value) > len(offered)
+        or len(set(map(repr, value))) != len(value)
+        or any(v not in offered for v in value)
+    ):
         allowed = ", ".join(offered) if offered else "none in this study"
         raise VoteRejected(f"reasons: expected distinct tags from: {allowed}")
     return [str(v) for v in value]
@@ -175,8 +187,10 @@ def _reasons(value: Any, offered: tuple[str, ...]) -> list[str] | None:
 def _existing(participant: Participant, trial: Trial, key: str) -> Vote | None:
     return db.session.scalar(
         sa.select(Vote).where(
-            sa.or_(Vote.idempotency_key == key,
-                   sa.and_(Vote.participant_id == participant.id, Vote.trial_id == trial.id))
+            sa.or_(
+                Vote.idempotency_key == key,
+                sa.and_(Vote.participant_id == participant.id, Vote.trial_id == trial.id),
+            )
         )
     )
 
@@ -215,8 +229,11 @@ def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcom
     if created and trial.kind == "catch" and vote.choice != trial.expected:
         screen_out(participant)
     answered, total = progress(participant)
-    if (answered >= total and participant.finished_at is None
-            and participant.screened_out_at is None):
+    if (
+        answered >= total
+        and participant.finished_at is None
+        and participant.screened_out_at is None
+    ):
         participant.finished_at = utcnow()
         release_if_left_out(participant)
     return VoteOutcome(vote=vote, created=created, answered=answered, total=total)
@@ -224,10 +241,18 @@ def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcom
 
 def failed_checks(participant: Participant) -> int:
     """Attention checks (catch trials) ``participant`` answered otherwise than expected."""
-    return int(db.session.scalar(
-        sa.select(sa.func.count(Vote.id)).join(Trial, Vote.trial_id == Trial.id)
-        .where(Vote.participant_id == participant.id, Trial.kind == "catch",
-               Vote.choice != Trial.expected)) or 0)
+    return int(
+        db.session.scalar(
+            sa.select(sa.func.count(Vote.id))
+            .join(Trial, Vote.trial_id == Trial.id)
+            .where(
+                Vote.participant_id == participant.id,
+                Trial.kind == "catch",
+                Vote.choice != Trial.expected,
+            )
+        )
+        or 0
+    )
 
 
 def screen_out(participant: Participant) -> bool:

@@ -67,7 +67,8 @@ def _database_unavailable(exc: Exception):  # type: ignore[no-untyped-def]
         response = jsonify({"error": message})
     else:
         response = current_app.make_response(
-            render_template("error.html", message=message, status=503))
+            render_template("error.html", message=message, status=503)
+        )
     response.status_code = 503
     response.headers["Retry-After"] = seconds
     return response
@@ -97,8 +98,9 @@ def init_web(app: Flask) -> None:
     from app.recruitment import REDIRECT_SECONDS, participant_completion_url
 
     # The completion page sends a finished participant on (``app.recruitment``).
-    app.jinja_env.globals.update(participant_completion_url=participant_completion_url,
-                                 redirect_seconds=REDIRECT_SECONDS)
+    app.jinja_env.globals.update(
+        participant_completion_url=participant_completion_url, redirect_seconds=REDIRECT_SECONDS
+    )
 
     limits.install(db.session)
     app.register_error_handler(InputError, _bad_input)

@@ -38,8 +38,8 @@ def bare_app(dsn: str) -> Flask:
         row = local.conn.execute(
             "INSERT INTO bare_vote (token, trial_id, choice, idempotency_key) "
             "VALUES (%s, %s, %s, %s) RETURNING id",
-            (payload["token"], payload["trial_id"], payload["choice"],
-             payload["idempotency_key"])).fetchone()
+            (payload["token"], payload["trial_id"], payload["choice"], payload["idempotency_key"]),
+        ).fetchone()
         return jsonify({"id": row[0], "choice": payload["choice"]}), 201
 
     return app

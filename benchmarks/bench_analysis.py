@@ -38,16 +38,17 @@ def main() -> None:
         t_plain, _ = _best(lambda: analyze(table, conditions=list(TRUTH), bootstrap=0))
         t_stats, results = _best(lambda: analyze(table, conditions=list(TRUTH)))
         t_html, _ = _best(lambda: write_report(results, Path(tmp) / "r.html"))
-        t_both, _ = _best(lambda: write_report(results, Path(tmp) / "r.html",
-                                               Path(tmp) / "r.pdf"))
+        t_both, _ = _best(lambda: write_report(results, Path(tmp) / "r.html", Path(tmp) / "r.pdf"))
         size_html = (Path(tmp) / "r.html").stat().st_size / 1e6
         size_pdf = (Path(tmp) / "r.pdf").stat().st_size / 1e6
     print(f"votes: {len(votes):,} (1,000 participants x 10 clips x 16 ordered pairs)")
     print(f"write votes CSV        {t_write:6.2f} s")
     print(f"read + validate CSV    {t_read:6.2f} s  (best of 3)")
     print(f"statistics, no boot.   {t_plain:6.2f} s  (best of 3; target < 1 s)")
-    print(f"statistics (analyze)   {t_stats:6.2f} s  (best of 3; target < 10 s; "
-          f"bootstrap {results['options']['bootstrap']} replicates per clip and pooled)")
+    print(
+        f"statistics (analyze)   {t_stats:6.2f} s  (best of 3; target < 10 s; "
+        f"bootstrap {results['options']['bootstrap']} replicates per clip and pooled)"
+    )
     print(f"report HTML            {t_html:6.2f} s  ({size_html:.1f} MB)")
     print(f"report HTML + PDF      {t_both:6.2f} s  (target < 5 s; PDF {size_pdf:.1f} MB)")
     plan = StudyPlan(tuple(TRUTH), tuple(TRUTH.values()))

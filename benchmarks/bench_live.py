@@ -27,9 +27,11 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def _figures(name: str, seconds: list[float]) -> None:
     ms = np.array(seconds) * 1e3
-    print(f"{name:<28} frames {len(ms):6d}  median {np.median(ms):.3f} ms  "
-          f"p90 {np.percentile(ms, 90):.3f} ms  p99 {np.percentile(ms, 99):.3f} ms  "
-          f"max {ms.max():.3f} ms  mean {ms.mean():.3f} ms")
+    print(
+        f"{name:<28} frames {len(ms):6d}  median {np.median(ms):.3f} ms  "
+        f"p90 {np.percentile(ms, 90):.3f} ms  p99 {np.percentile(ms, 99):.3f} ms  "
+        f"max {ms.max():.3f} ms  mean {ms.mean():.3f} ms"
+    )
 
 
 def main() -> None:
@@ -52,10 +54,12 @@ def main() -> None:
     reps = int(np.ceil(args.frames / feats.n_frames))
     f0 = np.tile(feats.f0, reps)[: args.frames]
     intensity = np.tile(feats.intensity, reps)[: args.frames]
-    print(f"model: {args.model or DEFAULT_MODEL_PATH.relative_to(ROOT)} "
-          f"({model.head.voiced.lam00.shape[1]} components x 5 GMMs, "
-          f"{model.head.n_iter} Langevin steps), fps {model.fps:g}, one core (#{args.core}), "
-          f"numpy {np.__version__}")
+    print(
+        f"model: {args.model or DEFAULT_MODEL_PATH.relative_to(ROOT)} "
+        f"({model.head.voiced.lam00.shape[1]} components x 5 GMMs, "
+        f"{model.head.n_iter} Langevin steps), fps {model.fps:g}, one core (#{args.core}), "
+        f"numpy {np.__version__}"
+    )
 
     gen = LiveGenerator(model, seed=0)
     for t in range(200):  # warm-up
@@ -76,7 +80,7 @@ def main() -> None:
     times = []
     for start in range(0, min(len(audio), args.frames * hop), hop):
         a = clock()
-        gen.push_audio(audio[start:start + hop], sr)
+        gen.push_audio(audio[start : start + hop], sr)
         times.append(clock() - a)
     _figures(f"audio block ({hop} samples)", times)
 

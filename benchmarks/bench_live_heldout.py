@@ -31,15 +31,21 @@ def main() -> None:
     from app.stimuli.speech import load_sound
 
     sound, _ = load_sound(ROOT / "app" / "data" / "demo" / "speech.wav")
-    split = held_out_split(sound, train_takes=args.train_takes, test_takes=args.test_takes,
-                           seconds=args.seconds)
-    print(f"train {len(split.train)} x {args.seconds:g} s, test {len(split.test)} x "
-          f"{args.seconds:g} s, {args.seeds} generation seeds")
-    for label, weights in (("paper: equal weights", (1.0, 1.0, 1.0, 1.0, 1.0)),
-                           ("weights 1, 1, 1, 1/8, 1/16", (1.0, 1.0, 1.0, 0.125, 0.0625))):
+    split = held_out_split(
+        sound, train_takes=args.train_takes, test_takes=args.test_takes, seconds=args.seconds
+    )
+    print(
+        f"train {len(split.train)} x {args.seconds:g} s, test {len(split.test)} x "
+        f"{args.seconds:g} s, {args.seeds} generation seeds"
+    )
+    for label, weights in (
+        ("paper: equal weights", (1.0, 1.0, 1.0, 1.0, 1.0)),
+        ("weights 1, 1, 1, 1/8, 1/16", (1.0, 1.0, 1.0, 0.125, 0.0625)),
+    ):
         start = time.perf_counter()
-        model = train_live_model([f for f, _ in split.train], [t for _, t in split.train],
-                                 head_weights=weights)
+        model = train_live_model(
+            [f for f, _ in split.train], [t for _, t in split.train], head_weights=weights
+        )
         figures = evaluate_held_out(model, split.test, seeds=range(args.seeds))
         print(f"\n{label} ({time.perf_counter() - start:.1f} s)")
         print(figures.table())

@@ -67,20 +67,26 @@ def prepare(url: str, media: Path) -> str:
     from app.studies import create_study
     from app.trials.studyfile import loads_study
 
-    app = create_app({"SQLALCHEMY_DATABASE_URI": url, "MEDIA_ROOT": str(media),
-                      "JOB_RUNNER": "inline", "REQUIRE_SECRET_KEY": False})
+    app = create_app(
+        {
+            "SQLALCHEMY_DATABASE_URI": url,
+            "MEDIA_ROOT": str(media),
+            "JOB_RUNNER": "inline",
+            "REQUIRE_SECRET_KEY": False,
+        }
+    )
     with app.app_context():
         upgrade()
         owner = create_user("load@example.org", "load benchmark")
         db.session.commit()
         study_file = ROOT / "app" / "data" / "examples" / "study.toml"
         text = study_file.read_text(encoding="utf-8")
-        study = create_study(owner, loads_study(text, base_dir=study_file.parent),
-                             source_toml=text)
+        study = create_study(owner, loads_study(text, base_dir=study_file.parent), source_toml=text)
         folder = media_dir(study) / "videos"
         folder.mkdir(parents=True, exist_ok=True)
-        for stimulus in db.session.scalars(sa.select(Stimulus)
-                                           .where(Stimulus.study_id == study.id)):
+        for stimulus in db.session.scalars(
+            sa.select(Stimulus).where(Stimulus.study_id == study.id)
+        ):
             (folder / f"{stimulus.id}.mp4").write_bytes(b"\0" * 1024)  # never played here
             stimulus.video_path = f"videos/{stimulus.id}.mp4"
         study.status = "open"
@@ -104,8 +110,13 @@ class Participant(threading.Thread):
         self.statuses: dict[int, int] = {}
         self.error: str | None = None
 
-    def request(self, method: str, path: str, body: bytes | None = None,
-                headers: dict[str, str] | None = None) -> tuple[int, dict[str, str], bytes]:
+    def request(
+        self,
+        method: str,
+        path: str,
+        body: bytes | None = None,
+        headers: dict[str, str] | None = None,
+    ) -> tuple[int, dict[str, str], bytes]:
         head = dict(headers or {})
         if self.cookies:
             head["Cookie"] = "; ".join(f"{k}={v}" for k, v in self.cookies.items())
@@ -145,8 +156,11 @@ class Participant(threading.Thread):
             raise RuntimeError(f"consent page: HTTP {status}")
         form = urlencode({"csrf_token": token.group(1).decode(), "agree": "1"}).encode()
         status, head, _ = self.request(
-            "POST", f"/s/{self.slug}{query}", form,
-            {"Content-Type": "application/x-www-form-urlencoded"})
+            "POST",
+            f"/s/{self.slug}{query}",
+            form,
+            {"Content-Type": "application/x-www-form-urlencoded"},
+        )
         if status != 302:
             raise RuntimeError(f"consent: HTTP {status}")
         who = head["location"].split("/p/")[1].split("/")[0]
@@ -162,16 +176,27 @@ class Participant(threading.Thread):
             trial = int(found.group(1))
             choice = str(rng.choice(["left", "right", "undecided"]))
             key = secrets.token_hex(8)
-            repeats = [key] + ([key] if rng.random() < 0.1 else []) + (
-                [secrets.token_hex(8)] if rng.random() < 0.05 else [])
+            repeats = (
+                [key]
+                + ([key] if rng.random() < 0.1 else [])
+                + ([secrets.token_hex(8)] if rng.random() < 0.05 else [])
+            )
             for k in repeats:
-                body = json.dumps({"token": who, "trial_id": trial, "choice": choice,
-                                   "plays": 1, "watched_to_end": True,
-                                   "response_ms": int(rng.integers(800, 4000)),
-                                   "idempotency_key": k}).encode()
+                body = json.dumps(
+                    {
+                        "token": who,
+                        "trial_id": trial,
+                        "choice": choice,
+                        "plays": 1,
+                        "watched_to_end": True,
+                        "response_ms": int(rng.integers(800, 4000)),
+                        "idempotency_key": k,
+                    }
+                ).encode()
                 start = time.perf_counter()
-                status, _, _ = self.request("POST", "/api/v1/votes", body,
-                                            {"Content-Type": "application/json"})
+                status, _, _ = self.request(
+                    "POST", "/api/v1/votes", body, {"Content-Type": "application/json"}
+                )
                 self.vote_ms.append((time.perf_counter() - start) * 1e3)
                 self.statuses[status] = self.statuses.get(status, 0) + 1
                 if status not in (200, 201):
@@ -189,11 +214,14 @@ def count(url: str) -> dict[str, int]:
             "participants": one("SELECT count(*) FROM participant").fetchone()[0],
             "trials": one("SELECT count(*) FROM trial WHERE kind <> 'practice'").fetchone()[0],
             "votes": one("SELECT count(*) FROM vote").fetchone()[0],
-            "unanswered": one("SELECT count(*) FROM trial t WHERE t.kind <> 'practice' AND "
-                              "NOT EXISTS (SELECT 1 FROM vote v WHERE v.trial_id = t.id)"
-                              ).fetchone()[0],
-            "duplicated": one("SELECT count(*) FROM (SELECT trial_id FROM vote GROUP BY "
-                              "trial_id HAVING count(*) > 1) d").fetchone()[0],
+            "unanswered": one(
+                "SELECT count(*) FROM trial t WHERE t.kind <> 'practice' AND "
+                "NOT EXISTS (SELECT 1 FROM vote v WHERE v.trial_id = t.id)"
+            ).fetchone()[0],
+            "duplicated": one(
+                "SELECT count(*) FROM (SELECT trial_id FROM vote GROUP BY "
+                "trial_id HAVING count(*) > 1) d"
+            ).fetchone()[0],
         }
 
 
@@ -207,8 +235,10 @@ def stored_choices(url: str) -> dict[int, str]:
 
 def _pct(values: list[float]) -> str:
     v = np.asarray(values)
-    return (f"p50 {np.percentile(v, 50):.1f} ms, p90 {np.percentile(v, 90):.1f} ms, "
-            f"p99 {np.percentile(v, 99):.1f} ms, max {v.max():.1f} ms")
+    return (
+        f"p50 {np.percentile(v, 50):.1f} ms, p90 {np.percentile(v, 90):.1f} ms, "
+        f"p99 {np.percentile(v, 99):.1f} ms, max {v.max():.1f} ms"
+    )
 
 
 def check(url: str, acknowledged: dict[int, str]) -> tuple[str, bool]:
@@ -218,18 +248,22 @@ def check(url: str, acknowledged: dict[int, str]) -> tuple[str, bool]:
     lost = sum(1 for t in acknowledged if t not in stored)
     wrong = sum(1 for t, c in acknowledged.items() if t in stored and stored[t] != c)
     unanswered = sum(1 for t in stored if t not in acknowledged)
-    line = (f"database: {counts['participants']} participants, {counts['votes']} votes; "
-            f"acknowledged {len(acknowledged)}: lost {lost}, duplicated {counts['duplicated']}, "
-            f"differing from the acknowledged choice {wrong}; stored without an acknowledgement "
-            f"{unanswered}")
+    line = (
+        f"database: {counts['participants']} participants, {counts['votes']} votes; "
+        f"acknowledged {len(acknowledged)}: lost {lost}, duplicated {counts['duplicated']}, "
+        f"differing from the acknowledged choice {wrong}; stored without an acknowledgement "
+        f"{unanswered}"
+    )
     return line, lost == 0 and wrong == 0 and counts["duplicated"] == 0
 
 
-def start_server(args: list[str], env: dict[str, str], port: int,
-                 log: Path) -> subprocess.Popen[bytes]:
+def start_server(
+    args: list[str], env: dict[str, str], port: int, log: Path
+) -> subprocess.Popen[bytes]:
     with open(log, "ab") as out:
-        server = subprocess.Popen([sys.executable, *args], env=env, stdout=out,
-                                  stderr=subprocess.STDOUT, cwd=ROOT)
+        server = subprocess.Popen(
+            [sys.executable, *args], env=env, stdout=out, stderr=subprocess.STDOUT, cwd=ROOT
+        )
     if not wait_for_port(port, 60):
         server.terminate()
         sys.exit(f"the server did not start; see {log}")
@@ -258,11 +292,15 @@ def run_closed(args: argparse.Namespace, participants: int, slug: str, url: str)
     for p in people:
         for code, n in p.statuses.items():
             statuses[code] = statuses.get(code, 0) + n
-    print(f"closed loop: {participants} participants at once, gunicorn {args.workers} workers "
-          f"x 4 threads, PostgreSQL, {elapsed:.1f} s from first consent to last vote")
-    print(f"vote requests: {len(vote_ms)} ({statuses.get(201, 0)} stored, "
-          f"{statuses.get(200, 0)} repeats answered 'already stored'), "
-          f"{len(vote_ms) / elapsed:.0f} per s; {_pct(vote_ms)}")
+    print(
+        f"closed loop: {participants} participants at once, gunicorn {args.workers} workers "
+        f"x 4 threads, PostgreSQL, {elapsed:.1f} s from first consent to last vote"
+    )
+    print(
+        f"vote requests: {len(vote_ms)} ({statuses.get(201, 0)} stored, "
+        f"{statuses.get(200, 0)} repeats answered 'already stored'), "
+        f"{len(vote_ms) / elapsed:.0f} per s; {_pct(vote_ms)}"
+    )
     print(f"trial pages: {len(page_ms)}, {_pct(page_ms)}")
     line, ok = check(url, {trial: choice for p in people for trial, choice in p.votes})
     print(f"{line}; client errors {len(errors)}")
@@ -271,60 +309,88 @@ def run_closed(args: argparse.Namespace, participants: int, slug: str, url: str)
     return ok and not errors
 
 
-def run_open(args: argparse.Namespace, participants: int, slug: str,
-             acknowledged: dict[int, str]) -> None:
+def run_open(
+    args: argparse.Namespace, participants: int, slug: str, acknowledged: dict[int, str]
+) -> None:
     rate = args.arrival_rate or participants / 10
-    tally, elapsed = asyncio.run(load_clients.open_loop(
-        f"http://127.0.0.1:{args.port}", slug, participants, rate=rate, think=args.think,
-        trials=args.trials, timeout=args.timeout, seed=participants))
+    tally, elapsed = asyncio.run(
+        load_clients.open_loop(
+            f"http://127.0.0.1:{args.port}",
+            slug,
+            participants,
+            rate=rate,
+            think=args.think,
+            trials=args.trials,
+            timeout=args.timeout,
+            seed=participants,
+        )
+    )
     acknowledged.update(tally.acknowledged)
     votes = len(tally.ms.get("vote", []))
-    print(f"open loop: {participants} participants arriving at {rate:.3g}/s, {args.trials} "
-          f"trials each, {args.think:g} s clip; peak {tally.peak} present at once, "
-          f"{tally.finished} finished, {elapsed:.1f} s, {votes / elapsed:.0f} vote requests/s "
-          f"(load {os.getloadavg()[0]:.1f})")
+    print(
+        f"open loop: {participants} participants arriving at {rate:.3g}/s, {args.trials} "
+        f"trials each, {args.think:g} s clip; peak {tally.peak} present at once, "
+        f"{tally.finished} finished, {elapsed:.1f} s, {votes / elapsed:.0f} vote requests/s "
+        f"(load {os.getloadavg()[0]:.1f})"
+    )
     for kind in ("vote", "play", "page", "consent"):
         print(f"  {kind:8s} {tally.summary(kind)}")
-    print(f"  errors {len(tally.errors)}, statuses {dict(sorted(tally.statuses.items()))}, "
-          f"answered with an earlier vote's other choice {tally.superseded}")
+    print(
+        f"  errors {len(tally.errors)}, statuses {dict(sorted(tally.statuses.items()))}, "
+        f"answered with an earlier vote's other choice {tally.superseded}"
+    )
     for e in tally.errors[:5]:
         print("  error:", e)
 
 
-def saturated_votes(args: argparse.Namespace, slug: str, url: str,
-                    acknowledged: dict[int, str]) -> float:
+def saturated_votes(
+    args: argparse.Namespace, slug: str, url: str, acknowledged: dict[int, str]
+) -> float:
     """facepair's vote endpoint driven saturated; returns votes per second."""
     import psycopg
 
     base = f"http://127.0.0.1:{args.port}"
-    tokens = asyncio.run(load_clients.consent_many(base, slug, args.saturate,
-                                                   timeout=args.timeout))
+    tokens = asyncio.run(load_clients.consent_many(base, slug, args.saturate, timeout=args.timeout))
     dsn = url.replace("postgresql+psycopg://", "postgresql://")
     with psycopg.connect(dsn) as conn:
         rows = conn.execute(
             "SELECT p.token, t.id FROM trial t JOIN participant p ON p.id = t.participant_id "
             "WHERE p.token = ANY(%s) AND t.kind <> 'practice' ORDER BY t.position, p.id",
-            (tokens,)).fetchall()
+            (tokens,),
+        ).fetchall()
     # Round robin over the participants, as in a study: concurrent votes come from different
     # people, never 64 at once on one participant's row.
     rng = np.random.default_rng(1)
     bodies = []
     for token, trial in rows:
         choice = str(rng.choice(["left", "right", "undecided"]))
-        bodies.append((trial, choice, load_clients.vote_body(token, trial, choice,
-                                                             secrets.token_hex(8), 1500)))
+        bodies.append(
+            (
+                trial,
+                choice,
+                load_clients.vote_body(token, trial, choice, secrets.token_hex(8), 1500),
+            )
+        )
     return _drive(f"{base}/api/v1/votes", bodies, "facepair", args, acknowledged)
 
 
-def _drive(url: str, bodies: list[tuple[int, str, bytes]], name: str,
-           args: argparse.Namespace, acknowledged: dict[int, str]) -> float:
-    tally, elapsed = asyncio.run(load_clients.saturate(url, bodies, concurrency=64,
-                                                       timeout=args.timeout))
+def _drive(
+    url: str,
+    bodies: list[tuple[int, str, bytes]],
+    name: str,
+    args: argparse.Namespace,
+    acknowledged: dict[int, str],
+) -> float:
+    tally, elapsed = asyncio.run(
+        load_clients.saturate(url, bodies, concurrency=64, timeout=args.timeout)
+    )
     acknowledged.update(tally.acknowledged)
     rate = len(tally.acknowledged) / elapsed
-    print(f"saturated, {name}: {len(tally.acknowledged)} of {len(bodies)} votes stored in "
-          f"{elapsed:.1f} s by 64 senders, {rate:.0f} votes/s; vote {tally.summary('vote')}; "
-          f"errors {len(tally.errors)} (load {os.getloadavg()[0]:.1f})")
+    print(
+        f"saturated, {name}: {len(tally.acknowledged)} of {len(bodies)} votes stored in "
+        f"{elapsed:.1f} s by 64 senders, {rate:.0f} votes/s; vote {tally.summary('vote')}; "
+        f"errors {len(tally.errors)} (load {os.getloadavg()[0]:.1f})"
+    )
     return rate
 
 
@@ -332,14 +398,36 @@ def bare_baseline(args: argparse.Namespace, url: str, votes: int, media: Path) -
     """The bare baseline driven like facepair's vote endpoint; returns votes per second."""
     dsn = url.replace("postgresql+psycopg://", "postgresql://")
     port = args.port + 1
-    server = start_server([str(ROOT / "benchmarks" / "bare_baseline.py"), "--dsn", dsn,
-                           "--port", str(port), "--workers", str(args.workers)],
-                          dict(os.environ), port, media / "baseline.log")
+    server = start_server(
+        [
+            str(ROOT / "benchmarks" / "bare_baseline.py"),
+            "--dsn",
+            dsn,
+            "--port",
+            str(port),
+            "--workers",
+            str(args.workers),
+        ],
+        dict(os.environ),
+        port,
+        media / "baseline.log",
+    )
     try:
-        bodies = [(i, "left", json.dumps({"token": secrets.token_hex(11), "trial_id": i,
-                                          "choice": "left",
-                                          "idempotency_key": secrets.token_hex(8)}).encode())
-                  for i in range(votes)]
+        bodies = [
+            (
+                i,
+                "left",
+                json.dumps(
+                    {
+                        "token": secrets.token_hex(11),
+                        "trial_id": i,
+                        "choice": "left",
+                        "idempotency_key": secrets.token_hex(8),
+                    }
+                ).encode(),
+            )
+            for i in range(votes)
+        ]
         return _drive(f"http://127.0.0.1:{port}/votes", bodies, "bare baseline", args, {})
     finally:
         stop_server(server)
@@ -352,26 +440,43 @@ def participant_counts(text: str) -> list[int]:
     except ValueError:
         counts = []
     if not counts or not all(0 < n <= 100_000 for n in counts):
-        raise ValueError(f"--participants: expected counts from 1 to 100000 such as "
-                         f"200,500,1000, not {text!r}")
+        raise ValueError(
+            f"--participants: expected counts from 1 to 100000 such as 200,500,1000, not {text!r}"
+        )
     return counts
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mode", choices=("open", "closed"), default="open")
-    parser.add_argument("--participants", default="200",
-                        help="comma-separated counts, one run each (open: 200,500,1000)")
-    parser.add_argument("--think", type=float, default=6.0,
-                        help="seconds each clip is watched before the vote (open loop)")
+    parser.add_argument(
+        "--participants",
+        default="200",
+        help="comma-separated counts, one run each (open: 200,500,1000)",
+    )
+    parser.add_argument(
+        "--think",
+        type=float,
+        default=6.0,
+        help="seconds each clip is watched before the vote (open loop)",
+    )
     parser.add_argument("--trials", type=int, default=6, help="votes per participant (open)")
-    parser.add_argument("--arrival-rate", type=float, default=0.0,
-                        help="arrivals per second (open; default: all within 10 s)")
+    parser.add_argument(
+        "--arrival-rate",
+        type=float,
+        default=0.0,
+        help="arrivals per second (open; default: all within 10 s)",
+    )
     parser.add_argument("--timeout", type=float, default=30.0, help="seconds per request")
-    parser.add_argument("--saturate", type=int, default=60,
-                        help="participants whose votes drive the saturated run (open)")
-    parser.add_argument("--baseline", action="store_true",
-                        help="also drive the bare baseline and print the ratio")
+    parser.add_argument(
+        "--saturate",
+        type=int,
+        default=60,
+        help="participants whose votes drive the saturated run (open)",
+    )
+    parser.add_argument(
+        "--baseline", action="store_true", help="also drive the bare baseline and print the ratio"
+    )
     parser.add_argument("--workers", type=int, default=4, help="gunicorn worker processes")
     parser.add_argument("--port", type=int, default=5077)
     parser.add_argument("--keep", action="store_true", help="keep the database afterwards")
@@ -393,10 +498,18 @@ def main() -> int:
     print(f"load average before: {open('/proc/loadavg').read().strip()}")
     try:
         slug = prepare(url, media)
-        env = {**os.environ, "DATABASE_URL": url, "MEDIA_ROOT": str(media),
-               "SECRET_KEY": secrets.token_hex(16)}
-        server = start_server(["-m", "app", "serve", "--port", str(args.port), "--workers",
-                               str(args.workers)], env, args.port, media / "server.log")
+        env = {
+            **os.environ,
+            "DATABASE_URL": url,
+            "MEDIA_ROOT": str(media),
+            "SECRET_KEY": secrets.token_hex(16),
+        }
+        server = start_server(
+            ["-m", "app", "serve", "--port", str(args.port), "--workers", str(args.workers)],
+            env,
+            args.port,
+            media / "server.log",
+        )
         if args.mode == "closed":
             return 0 if all(run_closed(args, n, slug, url) for n in counts) else 1
         acknowledged: dict[int, str] = {}
@@ -409,8 +522,10 @@ def main() -> int:
         print(line)
         if args.baseline:
             bare = bare_baseline(args, url, args.saturate * 18, media)
-            print(f"facepair's saturated vote throughput: {facepair:.0f}/s = "
-                  f"{facepair / bare:.0%} of the bare baseline's {bare:.0f}/s")
+            print(
+                f"facepair's saturated vote throughput: {facepair:.0f}/s = "
+                f"{facepair / bare:.0%} of the bare baseline's {bare:.0f}/s"
+            )
         print(f"load average after: {open('/proc/loadavg').read().strip()}")
         # Client errors (timeouts of an overloaded server) are reported above; the exit
         # status is about the votes: none lost, none duplicated.

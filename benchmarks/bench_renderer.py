@@ -40,8 +40,10 @@ from renderer.pipeline import align_tracks, render_frames, rig_for
 
 def _cpu_seconds() -> tuple[float, float]:
     """User + system CPU seconds of this process and of its finished children."""
-    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(
-        resource.RUSAGE_CHILDREN)
+    me, kids = (
+        resource.getrusage(resource.RUSAGE_SELF),
+        resource.getrusage(resource.RUSAGE_CHILDREN),
+    )
     return me.ru_utime + me.ru_stime, kids.ru_utime + kids.ru_stime
 
 
@@ -50,23 +52,32 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--size", type=int, default=368)
     parser.add_argument("--repeat", type=int, default=2)
-    parser.add_argument("--antialias", choices=ANTIALIAS_MODES,
-                        default=RenderSettings.antialias)
+    parser.add_argument("--antialias", choices=ANTIALIAS_MODES, default=RenderSettings.antialias)
     parser.add_argument("--samples", type=int, default=RenderSettings.samples)
     parser.add_argument("--workers", type=int, default=RenderSettings.workers)
     parser.add_argument("--face", default=None)
-    parser.add_argument("--look", default="plain,textured",
-                        help="looks of the built-in head to measure, comma-separated")
+    parser.add_argument(
+        "--look",
+        default="plain,textured",
+        help="looks of the built-in head to measure, comma-separated",
+    )
     args = parser.parse_args()
     looks = args.look.split(",") if args.face is None else [RenderSettings.look]
     with tempfile.TemporaryDirectory() as d:
         wav = write_speech(Path(d) / "speech.wav", args.seconds)
         result = generate_conditions(wav, conditions=("speech_driven", "random"))
-        left, right = align_tracks([result.tracks["speech_driven"], result.tracks["random"]],
-                                   None)
-        every = {look: RenderSettings(size=args.size, antialias=args.antialias,
-                                      samples=args.samples, workers=args.workers,
-                                      face=args.face, look=look) for look in looks}
+        left, right = align_tracks([result.tracks["speech_driven"], result.tracks["random"]], None)
+        every = {
+            look: RenderSettings(
+                size=args.size,
+                antialias=args.antialias,
+                samples=args.samples,
+                workers=args.workers,
+                face=args.face,
+                look=look,
+            )
+            for look in looks
+        }
         runs: dict[str, tuple[list[float], list[list[float]]]] = {k: ([], []) for k in looks}
         for r in range(args.repeat):
             for look, settings in every.items():
@@ -74,16 +85,26 @@ def main() -> None:
                 start = time.perf_counter()
                 render_pair(left, right, wav, Path(d) / f"pair{r}.mp4", settings=settings)
                 runs[look][0].append(time.perf_counter() - start)
-                runs[look][1].append([b - a for a, b in zip(before, _cpu_seconds(),
-                                                            strict=True)])
-        print(f"device: {device_name()} (EGL; GLCONTEXT_DEVICE_INDEX="
-              f"{os.environ.get('GLCONTEXT_DEVICE_INDEX', 'unset')})")
+                runs[look][1].append([b - a for a, b in zip(before, _cpu_seconds(), strict=True)])
+        print(
+            f"device: {device_name()} (EGL; GLCONTEXT_DEVICE_INDEX="
+            f"{os.environ.get('GLCONTEXT_DEVICE_INDEX', 'unset')})"
+        )
         for look, settings in every.items():
             _report(args, left, right, wav, Path(d), look, settings, *runs[look])
 
 
-def _report(args, left, right, wav: Path, d: Path, look: str, settings: RenderSettings,
-            times: list[float], cpu: list[list[float]]) -> None:
+def _report(
+    args,
+    left,
+    right,
+    wav: Path,
+    d: Path,
+    look: str,
+    settings: RenderSettings,
+    times: list[float],
+    cpu: list[list[float]],
+) -> None:
     """Print the figures of one look: the clip's, then its parts' alone."""
     n, fps = left.n_frames, left.fps
     clip_seconds = n / fps
@@ -92,14 +113,18 @@ def _report(args, left, right, wav: Path, d: Path, look: str, settings: RenderSe
     size_mb = (d / "pair0.mp4").stat().st_size / 1e6
     face_name = args.face or f"built-in ({look})"
     aa = settings.antialias + (f" x{settings.samples}" if settings.antialias == "msaa" else "")
-    print(f"face {face_name}, antialias {aa}, workers {settings.workers or 'auto'}, "
-          f"x264 {settings.preset}: "
-          f"pair clip {clip_seconds:.0f} s, {n} frames at {fps:g} fps, "
-          f"{2 * args.size}x{args.size}, with audio ({size_mb:.1f} MB): "
-          f"best {best:.2f} s = {n / best:.0f} fps = {clip_seconds / best:.1f}x real time; "
-          f"median {median:.2f} s = {clip_seconds / median:.1f}x real time (target >= 4x)")
-    print(f"CPU per pair frame: {own + children:.1f} ms ({own:.1f} this process, "
-          f"{children:.1f} workers + ffmpeg)")
+    print(
+        f"face {face_name}, antialias {aa}, workers {settings.workers or 'auto'}, "
+        f"x264 {settings.preset}: "
+        f"pair clip {clip_seconds:.0f} s, {n} frames at {fps:g} fps, "
+        f"{2 * args.size}x{args.size}, with audio ({size_mb:.1f} MB): "
+        f"best {best:.2f} s = {n / best:.0f} fps = {clip_seconds / best:.1f}x real time; "
+        f"median {median:.2f} s = {clip_seconds / median:.1f}x real time (target >= 4x)"
+    )
+    print(
+        f"CPU per pair frame: {own + children:.1f} ms ({own:.1f} this process, "
+        f"{children:.1f} workers + ffmpeg)"
+    )
 
     # the parts alone, on the first 600 frames
     k = min(n, 600)
@@ -126,15 +151,25 @@ def _report(args, left, right, wav: Path, d: Path, look: str, settings: RenderSe
         pixelate(image, (96 + args.size, 216, 264 + args.size, 312), settings.mosaic_block)
     mosaic = (time.perf_counter() - start) / k
     start = time.perf_counter()
-    with ClipWriter(Path(d) / "enc.mp4", 2 * args.size, args.size, fps, k, wav,
-                    crf=settings.crf, preset=settings.preset,
-                    threads=settings.encode_threads) as writer:
+    with ClipWriter(
+        Path(d) / "enc.mp4",
+        2 * args.size,
+        args.size,
+        fps,
+        k,
+        wav,
+        crf=settings.crf,
+        preset=settings.preset,
+        threads=settings.encode_threads,
+    ) as writer:
         for image in frames:
             writer.write(image)
     encode = (time.perf_counter() - start) / k
-    print(f"parts per pair frame: deform {deform * 1e3:.2f} ms, draw + read-back "
-          f"{draw * 1e3:.2f} ms, mosaic {mosaic * 1e3:.2f} ms, encode alone "
-          f"{encode * 1e3:.2f} ms ({1 / encode:.0f} fps)")
+    print(
+        f"parts per pair frame: deform {deform * 1e3:.2f} ms, draw + read-back "
+        f"{draw * 1e3:.2f} ms, mosaic {mosaic * 1e3:.2f} ms, encode alone "
+        f"{encode * 1e3:.2f} ms ({1 / encode:.0f} fps)"
+    )
 
 
 if __name__ == "__main__":

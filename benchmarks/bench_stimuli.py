@@ -23,8 +23,10 @@ def main() -> None:
             start = time.perf_counter()
             generate_conditions(wav, ground_truth=gt, normalize=True)
             times.append(time.perf_counter() - start)
-    print(f"all four conditions, 60 s of speech (F0, fit, measures): "
-          f"best {min(times):.3f} s, median {np.median(times):.3f} s (target < 2 s)")
+    print(
+        f"all four conditions, 60 s of speech (F0, fit, measures): "
+        f"best {min(times):.3f} s, median {np.median(times):.3f} s (target < 2 s)"
+    )
 
 
 if __name__ == "__main__":

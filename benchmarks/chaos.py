@@ -130,8 +130,14 @@ def prepare(database_url: str, media: Path, folder: Path) -> tuple[str, int, int
     from app.studies import create_study
     from app.trials.studyfile import loads_study
 
-    app = create_app({"SQLALCHEMY_DATABASE_URI": database_url, "MEDIA_ROOT": str(media),
-                      "JOB_RUNNER": "inline", "REQUIRE_SECRET_KEY": False})
+    app = create_app(
+        {
+            "SQLALCHEMY_DATABASE_URI": database_url,
+            "MEDIA_ROOT": str(media),
+            "JOB_RUNNER": "inline",
+            "REQUIRE_SECRET_KEY": False,
+        }
+    )
     with app.app_context():
         upgrade()
         owner = create_user(*EXPERIMENTER)
@@ -139,8 +145,9 @@ def prepare(database_url: str, media: Path, folder: Path) -> tuple[str, int, int
         example = ROOT / "app" / "data" / "examples" / "study.toml"
         text = example.read_text(encoding="utf-8")
         voting = create_study(owner, loads_study(text, base_dir=example.parent), source_toml=text)
-        for stimulus in db.session.scalars(sa.select(Stimulus)
-                                           .where(Stimulus.study_id == voting.id)):
+        for stimulus in db.session.scalars(
+            sa.select(Stimulus).where(Stimulus.study_id == voting.id)
+        ):
             path = media_dir(voting) / "videos" / f"{stimulus.id}.mp4"
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_bytes(b"\0" * 1024)  # never played here
@@ -155,25 +162,31 @@ def prepare(database_url: str, media: Path, folder: Path) -> tuple[str, int, int
     return ids
 
 
-def count_votes(database_url: str, study_id: int,
-                acknowledged: dict[int, str]) -> tuple[int, int, int, int]:
+def count_votes(
+    database_url: str, study_id: int, acknowledged: dict[int, str]
+) -> tuple[int, int, int, int]:
     """(stored, lost, duplicated, wrong): votes of the study's participants against the
     acknowledged clicks (trial id -> choice)."""
     import sqlalchemy as sa
 
     engine = sa.create_engine(database_url)
     with engine.connect() as conn:
-        rows = conn.execute(sa.text(
-            "SELECT v.trial_id, v.choice FROM vote v JOIN participant p ON p.id = "
-            "v.participant_id WHERE p.study_id = :study"), {"study": study_id}).all()
+        rows = conn.execute(
+            sa.text(
+                "SELECT v.trial_id, v.choice FROM vote v JOIN participant p ON p.id = "
+                "v.participant_id WHERE p.study_id = :study"
+            ),
+            {"study": study_id},
+        ).all()
     engine.dispose()
     stored: dict[int, list[str]] = {}
     for trial_id, choice in rows:
         stored.setdefault(trial_id, []).append(choice)
     lost = sum(trial not in stored for trial in acknowledged)
     duplicated = sum(len(choices) - 1 for choices in stored.values())
-    wrong = sum(trial in stored and stored[trial][0] != choice
-                for trial, choice in acknowledged.items())
+    wrong = sum(
+        trial in stored and stored[trial][0] != choice for trial, choice in acknowledged.items()
+    )
     return len(rows), lost, duplicated, wrong
 
 
@@ -182,8 +195,9 @@ def stuck_jobs(database_url: str) -> int:
 
     engine = sa.create_engine(database_url)
     with engine.connect() as conn:
-        found = conn.execute(sa.text(
-            "SELECT count(*) FROM job WHERE status IN ('queued', 'running')")).scalar_one()
+        found = conn.execute(
+            sa.text("SELECT count(*) FROM job WHERE status IN ('queued', 'running')")
+        ).scalar_one()
     engine.dispose()
     return int(found)
 
@@ -192,9 +206,17 @@ class Injector(threading.Thread):
     """Runs the faults on a timeline; restarts the job worker if it dies on its own (as a
     process supervisor would)."""
 
-    def __init__(self, options: Options, site: Site, worker: JobWorker,
-                 postgres: PrivatePostgres | None, redis: PrivateRedis | None,
-                 port: int, study_id: int, result: Result) -> None:
+    def __init__(
+        self,
+        options: Options,
+        site: Site,
+        worker: JobWorker,
+        postgres: PrivatePostgres | None,
+        redis: PrivateRedis | None,
+        port: int,
+        study_id: int,
+        result: Result,
+    ) -> None:
         super().__init__(daemon=True)
         self.options, self.site, self.worker = options, site, worker
         self.postgres, self.redis, self.port = postgres, redis, port
@@ -251,14 +273,21 @@ class Injector(threading.Thread):
             self.result.outage.append(
                 f"login answered {status}; report job: "
                 f"{refused.group(0)[:90] + '...' if refused else 'NOT REFUSED'}; "
-                f"rows left behind: {orphans}")
+                f"rows left behind: {orphans}"
+            )
             time.sleep(max(0.0, self.options.redis_down - 1.0))
         finally:
             self.redis.start()
 
 
-def run(options: Options, folder: Path, *, database_url: str | None = None,
-        redis_url: str | None = None, echo=print) -> Result:  # type: ignore[no-untyped-def]
+def run(
+    options: Options,
+    folder: Path,
+    *,
+    database_url: str | None = None,
+    redis_url: str | None = None,
+    echo=print,
+) -> Result:  # type: ignore[no-untyped-def]
     """The whole check; private PostgreSQL and Redis unless URLs are given (then the
     database must be empty and the faults needing a private server are skipped)."""
     postgres = redis = None
@@ -274,8 +303,7 @@ def run(options: Options, folder: Path, *, database_url: str | None = None,
     site = worker = injector = None
     try:
         slug, voting_id, render_id = prepare(database_url, media, folder)
-        env = environment(database_url, redis_url, media, folder / "instance",
-                          options.stale_after)
+        env = environment(database_url, redis_url, media, folder / "instance", options.stale_after)
         site = Site(env, folder / "gunicorn.log", options.web_workers)
         worker = JobWorker(env, folder / "worker.log")
         # Paint the built-in head's texture once, as an install would: a job whose process
@@ -285,17 +313,26 @@ def run(options: Options, folder: Path, *, database_url: str | None = None,
         builtin_face()
         site.start()
         worker.start()
-        echo(f"chaos: {options.participants} participants, gunicorn {options.web_workers} "
-             f"workers x 4 threads on :{site.port}, PostgreSQL "
-             f"{'private' if postgres else database_url.rsplit('@', 1)[-1]}, Redis "
-             f"{'private' if redis else redis_url}")
-        people = [Participant(site.port, slug, result.tally, options.think,
-                              delay=options.span * 0.4 * k / max(options.participants, 1))
-                  for k in range(options.participants)]
-        experimenter = Experimenter(site.port, render_id, worker, options.job_kills,
-                                    EXPERIMENTER, result)
-        injector = Injector(options, site, worker, postgres, redis, site.port, render_id,
-                            result)
+        echo(
+            f"chaos: {options.participants} participants, gunicorn {options.web_workers} "
+            f"workers x 4 threads on :{site.port}, PostgreSQL "
+            f"{'private' if postgres else database_url.rsplit('@', 1)[-1]}, Redis "
+            f"{'private' if redis else redis_url}"
+        )
+        people = [
+            Participant(
+                site.port,
+                slug,
+                result.tally,
+                options.think,
+                delay=options.span * 0.4 * k / max(options.participants, 1),
+            )
+            for k in range(options.participants)
+        ]
+        experimenter = Experimenter(
+            site.port, render_id, worker, options.job_kills, EXPERIMENTER, result
+        )
+        injector = Injector(options, site, worker, postgres, redis, site.port, render_id, result)
         for thread in (*people, experimenter, injector):
             thread.start()
         for thread in (*people, experimenter):
@@ -306,7 +343,8 @@ def run(options: Options, folder: Path, *, database_url: str | None = None,
         acknowledged = {trial: choice for p in people for trial, choice in p.acknowledged}
         result.acknowledged = len(acknowledged)
         result.stored, result.lost, result.duplicated, result.wrong = count_votes(
-            database_url, voting_id, acknowledged)
+            database_url, voting_id, acknowledged
+        )
         result.stuck = stuck_jobs(database_url)
         for person in people:
             if person.error:
@@ -328,14 +366,18 @@ def run(options: Options, folder: Path, *, database_url: str | None = None,
 def report(result: Result, echo=print) -> None:  # type: ignore[no-untyped-def]
     tally = result.tally
     echo(f"faults: {dict(result.faults)}; job kills: {[k for k, _ in result.kills]}")
-    echo(f"votes acknowledged {result.acknowledged} / stored {result.stored} / lost "
-         f"{result.lost} / duplicated {result.duplicated} / stored choice differs "
-         f"{result.wrong}")
+    echo(
+        f"votes acknowledged {result.acknowledged} / stored {result.stored} / lost "
+        f"{result.lost} / duplicated {result.duplicated} / stored choice differs "
+        f"{result.wrong}"
+    )
     echo(f"responses >= 500: {sum(tally.server_errors.values())}")
     for cause, n in tally.server_errors.most_common():
         echo(f"  {n:5d}  {cause}")
-    echo(f"network errors (connection refused or reset): {tally.network_errors}; "
-         f"requests resent: {tally.resent}; 4xx on a vote: {dict(tally.refused)}")
+    echo(
+        f"network errors (connection refused or reset): {tally.network_errors}; "
+        f"requests resent: {tally.resent}; 4xx on a vote: {dict(tally.refused)}"
+    )
     for kill, message in result.kills:
         echo(f"job kill ({kill}): row ended failed: {message}")
     for line in result.jobs:
@@ -344,8 +386,10 @@ def report(result: Result, echo=print) -> None:  # type: ignore[no-untyped-def]
         echo(f"redis outage: {line}")
     for failure, n in tally.failures.items():
         echo(f"participant gave up ({n}): {failure}")
-    echo(f"jobs stuck queued or running: {result.stuck}; render resumed after kills: "
-         f"{'yes' if result.resumed else 'NO'}")
+    echo(
+        f"jobs stuck queued or running: {result.stuck}; render resumed after kills: "
+        f"{'yes' if result.resumed else 'NO'}"
+    )
     echo("result: " + ("OK" if result.ok else "FAILED"))
 
 
@@ -359,9 +403,14 @@ def main() -> None:
     parser.add_argument("--span", type=float, default=40.0)
     parser.add_argument("--keep", type=Path, help="work in this folder and keep it (logs)")
     args = parser.parse_args()
-    options = Options(participants=args.participants, web_workers=args.workers,
-                      worker_kills=args.worker_kills, db_down=args.db_down,
-                      redis_down=args.redis_down, span=args.span)
+    options = Options(
+        participants=args.participants,
+        web_workers=args.workers,
+        worker_kills=args.worker_kills,
+        db_down=args.db_down,
+        redis_down=args.redis_down,
+        span=args.span,
+    )
     if args.keep:
         args.keep.mkdir(parents=True, exist_ok=False)
         result = run(options, args.keep.resolve())

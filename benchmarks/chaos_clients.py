@@ -59,15 +59,20 @@ class Browser:
     def __exit__(self, *exc: object) -> None:
         self.conn.close()
 
-    def request(self, method: str, path: str, body: bytes | None = None,
-                headers: dict[str, str] | None = None) -> tuple[int, dict[str, str], bytes]:
+    def request(
+        self,
+        method: str,
+        path: str,
+        body: bytes | None = None,
+        headers: dict[str, str] | None = None,
+    ) -> tuple[int, dict[str, str], bytes]:
         deadline = time.monotonic() + self.give_up_after
         attempt = 0
         while True:
             head = dict(headers or {})
             if self.cookies:
                 head["Cookie"] = "; ".join(f"{k}={v}" for k, v in self.cookies.items())
-            wait = min(8.0, 0.25 * 2 ** attempt)
+            wait = min(8.0, 0.25 * 2**attempt)
             try:
                 self.conn.request(method, path, body=body, headers=head)
                 response = self.conn.getresponse()
@@ -83,16 +88,16 @@ class Browser:
                         key, _, rest = value.partition("=")
                         self.cookies[key] = rest.split(";", 1)[0]
                 if response.status < 500:
-                    return response.status, {k.lower(): v for k, v in
-                                             response.getheaders()}, data
+                    return response.status, {k.lower(): v for k, v in response.getheaders()}, data
                 with self.tally.lock:
                     self.tally.server_errors[cause(response.status, data)] += 1
                 retry_after = response.getheader("Retry-After")
                 if retry_after and retry_after.isdigit():
                     wait = max(1.0, float(retry_after))
             if time.monotonic() + wait > deadline:
-                raise RuntimeError(f"{method} {path}: no answer below 500 after "
-                                   f"{self.give_up_after:.0f} s")
+                raise RuntimeError(
+                    f"{method} {path}: no answer below 500 after {self.give_up_after:.0f} s"
+                )
             attempt += 1
             with self.tally.lock:
                 self.tally.resent += 1
@@ -105,14 +110,14 @@ class Browser:
             raise RuntimeError(f"{path}: HTTP {status}, no form")
         return found.group(1).decode()
 
-    def post_form(self, path: str, fields: dict[str, str], page: str | None = None
-                  ) -> tuple[int, dict[str, str], bytes]:
+    def post_form(
+        self, path: str, fields: dict[str, str], page: str | None = None
+    ) -> tuple[int, dict[str, str], bytes]:
         data = {"csrf_token": self.csrf(page or path), **fields}
         return self.request("POST", path, urlencode(data).encode(), FORM)
 
     def login(self, email: str, password: str) -> int:
-        status, _, _ = self.post_form("/experimenter/login",
-                                      {"email": email, "password": password})
+        status, _, _ = self.post_form("/experimenter/login", {"email": email, "password": password})
         return status
 
     def job_ids(self, study_id: int) -> set[int]:
@@ -137,8 +142,9 @@ class Participant(threading.Thread):
     """Consent, then trial page and vote until done; one vote in ten sent twice (a retried
     request with the same key)."""
 
-    def __init__(self, port: int, slug: str, tally: Tally, think: tuple[float, float], *,
-                 delay: float = 0.0) -> None:
+    def __init__(
+        self, port: int, slug: str, tally: Tally, think: tuple[float, float], *, delay: float = 0.0
+    ) -> None:
         super().__init__(daemon=True)
         self.port, self.slug, self.tally, self.think, self.delay = port, slug, tally, think, delay
         self.acknowledged: list[tuple[int, str]] = []
@@ -172,12 +178,21 @@ class Participant(threading.Thread):
             trial = int(found.group(1))
             self._pause()
             choice = secrets.choice(["left", "right", "undecided"])
-            body = json.dumps({"token": token, "trial_id": trial, "choice": choice, "plays": 1,
-                               "watched_to_end": True, "response_ms": 1500,
-                               "idempotency_key": secrets.token_hex(8)}).encode()
+            body = json.dumps(
+                {
+                    "token": token,
+                    "trial_id": trial,
+                    "choice": choice,
+                    "plays": 1,
+                    "watched_to_end": True,
+                    "response_ms": 1500,
+                    "idempotency_key": secrets.token_hex(8),
+                }
+            ).encode()
             for _ in range(2 if secrets.randbelow(10) == 0 else 1):
-                status, _, _ = browser.request("POST", "/api/v1/votes", body,
-                                               {"Content-Type": "application/json"})
+                status, _, _ = browser.request(
+                    "POST", "/api/v1/votes", body, {"Content-Type": "application/json"}
+                )
                 if status not in (200, 201):
                     with self.tally.lock:
                         self.tally.refused[status] += 1
@@ -189,8 +204,15 @@ class Experimenter(threading.Thread):
     """Generates and renders a study from the web while its render job is killed: each kill
     must leave the row failed with a reason, and the retry must resume."""
 
-    def __init__(self, port: int, study_id: int, worker: JobWorker, kills: tuple[str, ...],
-                 login: tuple[str, str], result: Result) -> None:
+    def __init__(
+        self,
+        port: int,
+        study_id: int,
+        worker: JobWorker,
+        kills: tuple[str, ...],
+        login: tuple[str, str],
+        result: Result,
+    ) -> None:
         super().__init__(daemon=True)
         self.port, self.study_id, self.worker, self.kills = port, study_id, worker, kills
         self.login, self.result = login, result
@@ -233,8 +255,12 @@ class Experimenter(threading.Thread):
         job_id, kills, failures, reached = self._start("render"), list(self.kills), 0, 0
         while True:
             # Each kill comes two clips after the last one reached: mid-job, with work kept.
-            job = self._wait(job_id, lambda j, floor=reached + 2: bool(kills)
-                             and j["status"] == "running" and j["done"] >= floor)
+            job = self._wait(
+                job_id,
+                lambda j, floor=reached + 2: (
+                    bool(kills) and j["status"] == "running" and j["done"] >= floor
+                ),
+            )
             if job["status"] == "running":
                 kill = kills.pop(0)
                 if kill == "horse":
@@ -250,8 +276,9 @@ class Experimenter(threading.Thread):
                         self.worker.start()
                 reached = job["done"]
                 job = self._wait(job_id, lambda j: False)
-                self.result.kills.append((kill, f"{job['status']} at {job['done']}/"
-                                                f"{job['total']}: {job['message']}"))
+                self.result.kills.append(
+                    (kill, f"{job['status']} at {job['done']}/{job['total']}: {job['message']}")
+                )
             elif job["status"] == "failed":  # failed by another fault: retried as well
                 failures += 1
                 self.result.jobs.append(f"render failed by another fault: {job['message']}")
@@ -259,8 +286,11 @@ class Experimenter(threading.Thread):
                 break
             job_id = self._start("render", retry_of=job_id)
         self.result.jobs.append(f"render {job['status']}: {job['message']}")
-        self.result.resumed = (job["status"] == "done" and len(self.result.kills) ==
-                               len(self.kills) and "kept from before" in job["message"])
+        self.result.resumed = (
+            job["status"] == "done"
+            and len(self.result.kills) == len(self.kills)
+            and "kept from before" in job["message"]
+        )
         if self.kills and not all(m.startswith("failed") for _, m in self.result.kills):
             self.result.resumed = False
 

@@ -68,8 +68,17 @@ class PrivatePostgres:
 
     def start(self) -> None:
         options = f"-p {self.port} -k {self.data} -c listen_addresses=127.0.0.1"
-        self._run("pg_ctl", "-D", str(self.data), "-o", options, "-l",
-                  str(self.data / "server.log"), "-w", "start")
+        self._run(
+            "pg_ctl",
+            "-D",
+            str(self.data),
+            "-o",
+            options,
+            "-l",
+            str(self.data / "server.log"),
+            "-w",
+            "start",
+        )
 
     def stop(self) -> None:
         self._run("pg_ctl", "-D", str(self.data), "-m", "fast", "-w", "stop")
@@ -86,9 +95,22 @@ class PrivateRedis:
     def start(self) -> None:
         self.folder.mkdir(parents=True, exist_ok=True)
         self.process = subprocess.Popen(
-            ["redis-server", "--bind", "127.0.0.1", "--port", str(self.port), "--dir",
-             str(self.folder), "--save", "", "--appendonly", "yes"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            [
+                "redis-server",
+                "--bind",
+                "127.0.0.1",
+                "--port",
+                str(self.port),
+                "--dir",
+                str(self.folder),
+                "--save",
+                "",
+                "--appendonly",
+                "yes",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
         wait_for_port(self.port)
 
     def stop(self) -> None:
@@ -112,8 +134,13 @@ class Command:
             if self.alive():
                 return
             self.process = subprocess.Popen(
-                [sys.executable, "-m", "app", *self.args], cwd=ROOT, env=self.env,
-                stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
+                [sys.executable, "-m", "app", *self.args],
+                cwd=ROOT,
+                env=self.env,
+                stdout=out,
+                stderr=subprocess.STDOUT,
+                start_new_session=True,
+            )
 
     @property
     def pid(self) -> int:
@@ -154,15 +181,23 @@ class Command:
             self.process = None
 
 
-def environment(database_url: str, redis_url: str, media: Path, instance: Path,
-                stale_after: int) -> dict[str, str]:
+def environment(
+    database_url: str, redis_url: str, media: Path, instance: Path, stale_after: int
+) -> dict[str, str]:
     """The deployment's environment, with a private instance folder holding its config."""
     instance.mkdir(parents=True, exist_ok=True)
-    (instance / "config.py").write_text(f"JOB_STALE_AFTER_SECONDS = {stale_after}\n"
-                                        "RETRY_AFTER_SECONDS = 1\n")
-    return {**os.environ, "DATABASE_URL": database_url, "REDIS_URL": redis_url,
-            "MEDIA_ROOT": str(media), "FACEPAIR_INSTANCE": str(instance),
-            "SECRET_KEY": "chaos-" + os.urandom(16).hex(), "PYTHONPATH": str(ROOT)}
+    (instance / "config.py").write_text(
+        f"JOB_STALE_AFTER_SECONDS = {stale_after}\nRETRY_AFTER_SECONDS = 1\n"
+    )
+    return {
+        **os.environ,
+        "DATABASE_URL": database_url,
+        "REDIS_URL": redis_url,
+        "MEDIA_ROOT": str(media),
+        "FACEPAIR_INSTANCE": str(instance),
+        "SECRET_KEY": "chaos-" + os.urandom(16).hex(),
+        "PYTHONPATH": str(ROOT),
+    }
 
 
 class Site(Command):
@@ -170,8 +205,7 @@ class Site(Command):
 
     def __init__(self, env: dict[str, str], log: Path, workers: int) -> None:
         self.port = free_port()
-        super().__init__(["serve", "--port", str(self.port), "--workers", str(workers)],
-                         env, log)
+        super().__init__(["serve", "--port", str(self.port), "--workers", str(workers)], env, log)
 
     def start(self) -> None:
         super().start()

@@ -57,8 +57,10 @@ class Tally:
         values = np.asarray(self.ms.get(kind, []))
         if values.size == 0:
             return "none"
-        return (f"{values.size}, p50 {np.percentile(values, 50):.1f} ms, "
-                f"p99 {np.percentile(values, 99):.1f} ms, max {values.max():.1f} ms")
+        return (
+            f"{values.size}, p50 {np.percentile(values, 50):.1f} ms, "
+            f"p99 {np.percentile(values, 99):.1f} ms, max {values.max():.1f} ms"
+        )
 
 
 def new_session(timeout_s: float, connections: int) -> aiohttp.ClientSession:
@@ -70,12 +72,19 @@ def new_session(timeout_s: float, connections: int) -> aiohttp.ClientSession:
     return aiohttp.ClientSession(
         timeout=aiohttp.ClientTimeout(total=timeout_s),
         connector=aiohttp.TCPConnector(limit=connections, keepalive_timeout=1.0),
-        cookie_jar=aiohttp.DummyCookieJar())
+        cookie_jar=aiohttp.DummyCookieJar(),
+    )
 
 
-async def _request(session: aiohttp.ClientSession, tally: Tally, kind: str, method: str,
-                   url: str, cookies: dict[str, str], **kwargs: Any
-                   ) -> tuple[int, dict[str, str], str] | None:
+async def _request(
+    session: aiohttp.ClientSession,
+    tally: Tally,
+    kind: str,
+    method: str,
+    url: str,
+    cookies: dict[str, str],
+    **kwargs: Any,
+) -> tuple[int, dict[str, str], str] | None:
     """One request; its latency is recorded under ``kind``; None (an error counted) when it
     timed out or the connection failed."""
     headers = dict(kwargs.pop("headers", {}))
@@ -83,8 +92,9 @@ async def _request(session: aiohttp.ClientSession, tally: Tally, kind: str, meth
         headers["Cookie"] = "; ".join(f"{k}={v}" for k, v in cookies.items())
     start = time.perf_counter()
     try:
-        async with session.request(method, url, headers=headers, allow_redirects=False,
-                                   **kwargs) as response:
+        async with session.request(
+            method, url, headers=headers, allow_redirects=False, **kwargs
+        ) as response:
             body = await response.text()
             for value in response.headers.getall("Set-Cookie", []):
                 key, _, rest = value.partition("=")
@@ -100,8 +110,9 @@ async def _request(session: aiohttp.ClientSession, tally: Tally, kind: str, meth
     return status, head, body
 
 
-async def consent(session: aiohttp.ClientSession, base: str, slug: str,
-                  tally: Tally) -> tuple[str, dict[str, str]]:
+async def consent(
+    session: aiohttp.ClientSession, base: str, slug: str, tally: Tally
+) -> tuple[str, dict[str, str]]:
     """Open the study link and consent; returns the participant's token and cookies."""
     cookies: dict[str, str] = {}
     link = f"{base}/s/{slug}?PROLIFIC_PID=load{secrets.token_hex(6)}&STUDY_ID=load&SESSION_ID=s"
@@ -110,28 +121,53 @@ async def consent(session: aiohttp.ClientSession, base: str, slug: str,
     if answer is None or answer[0] != 200 or token is None:
         raise RuntimeError(f"consent page: {answer[0] if answer else 'no answer'}")
     form = urlencode({"csrf_token": token.group(1), "agree": "1"})
-    answer = await _request(session, tally, "consent", "POST", link, cookies, data=form,
-                            headers={"Content-Type": "application/x-www-form-urlencoded"})
+    answer = await _request(
+        session,
+        tally,
+        "consent",
+        "POST",
+        link,
+        cookies,
+        data=form,
+        headers={"Content-Type": "application/x-www-form-urlencoded"},
+    )
     if answer is None or answer[0] != 302:
         raise RuntimeError(f"consent: {answer[0] if answer else 'no answer'}")
     return answer[1]["location"].split("/p/")[1].split("/")[0], cookies
 
 
 def vote_body(token: str, trial: int, choice: str, key: str, response_ms: int) -> bytes:
-    return json.dumps({"token": token, "trial_id": trial, "choice": choice, "plays": 1,
-                       "watched_to_end": True, "response_ms": response_ms,
-                       "idempotency_key": key}).encode()
+    return json.dumps(
+        {
+            "token": token,
+            "trial_id": trial,
+            "choice": choice,
+            "plays": 1,
+            "watched_to_end": True,
+            "response_ms": response_ms,
+            "idempotency_key": key,
+        }
+    ).encode()
 
 
-async def _vote(session: aiohttp.ClientSession, base: str, tally: Tally, cookies: dict[str, str],
-                body: bytes) -> tuple[int | None, str | None]:
+async def _vote(
+    session: aiohttp.ClientSession, base: str, tally: Tally, cookies: dict[str, str], body: bytes
+) -> tuple[int | None, str | None]:
     """Post one vote, resent with the same body after a timeout or a 5xx (the browser keeps
     it); returns the final status (None if no attempt got an answer) and the choice the
     server says it holds for the trial."""
     status = None
     for _ in range(VOTE_ATTEMPTS):
-        answer = await _request(session, tally, "vote", "POST", f"{base}/api/v1/votes", cookies,
-                                data=body, headers={"Content-Type": "application/json"})
+        answer = await _request(
+            session,
+            tally,
+            "vote",
+            "POST",
+            f"{base}/api/v1/votes",
+            cookies,
+            data=body,
+            headers={"Content-Type": "application/json"},
+        )
         status = answer[0] if answer else None
         if answer is not None and status in (200, 201):
             return status, json.loads(answer[2])["vote"]["choice"]
@@ -140,16 +176,25 @@ async def _vote(session: aiohttp.ClientSession, base: str, tally: Tally, cookies
     return status, None
 
 
-async def take_part(session: aiohttp.ClientSession, base: str, slug: str, tally: Tally, *,
-                    think: float, trials: int, rng: np.random.Generator) -> None:
+async def take_part(
+    session: aiohttp.ClientSession,
+    base: str,
+    slug: str,
+    tally: Tally,
+    *,
+    think: float,
+    trials: int,
+    rng: np.random.Generator,
+) -> None:
     """One participant's browser: consent, then page, play, clip, vote per trial."""
     tally.active += 1
     tally.peak = max(tally.peak, tally.active)
     try:
         token, cookies = await consent(session, base, slug, tally)
         for _ in range(trials):
-            answer = await _request(session, tally, "page", "GET", f"{base}/p/{token}/trial",
-                                    cookies)
+            answer = await _request(
+                session, tally, "page", "GET", f"{base}/p/{token}/trial", cookies
+            )
             if answer is None:
                 continue  # the participant reloads the page
             if answer[0] == 302:
@@ -158,19 +203,33 @@ async def take_part(session: aiohttp.ClientSession, base: str, slug: str, tally:
             if answer[0] != 200 or found is None:
                 raise RuntimeError(f"trial page: HTTP {answer[0]}")
             trial = int(found.group(1))
-            await _request(session, tally, "play", "POST", f"{base}/api/v1/plays", cookies,
-                           json={"token": token, "trial_id": trial})
+            await _request(
+                session,
+                tally,
+                "play",
+                "POST",
+                f"{base}/api/v1/plays",
+                cookies,
+                json={"token": token, "trial_id": trial},
+            )
             await asyncio.sleep(think * rng.uniform(0.9, 1.1))
             choice = str(rng.choice(["left", "right", "undecided"]))
             key = secrets.token_hex(8)
-            keys = [key] + ([key] if rng.random() < 0.1 else []) + (
-                [secrets.token_hex(8)] if rng.random() < 0.05 else [])
+            keys = (
+                [key]
+                + ([key] if rng.random() < 0.1 else [])
+                + ([secrets.token_hex(8)] if rng.random() < 0.05 else [])
+            )
             if tally.bar is not None:
                 tally.bar.update()
             for k in keys:
-                status, stored = await _vote(session, base, tally, cookies,
-                                             vote_body(token, trial, choice, k,
-                                                       int(rng.integers(800, 4000))))
+                status, stored = await _vote(
+                    session,
+                    base,
+                    tally,
+                    cookies,
+                    vote_body(token, trial, choice, k, int(rng.integers(800, 4000))),
+                )
                 if stored is not None:
                     # Another choice: a vote on this trial whose answer timed out was stored
                     # first, and the page shown again before it was committed; it is kept.
@@ -185,28 +244,54 @@ async def take_part(session: aiohttp.ClientSession, base: str, slug: str, tally:
         tally.active -= 1
 
 
-async def open_loop(base: str, slug: str, participants: int, *, rate: float, think: float,
-                    trials: int, timeout: float, seed: int = 0) -> tuple[Tally, float]:
+async def open_loop(
+    base: str,
+    slug: str,
+    participants: int,
+    *,
+    rate: float,
+    think: float,
+    trials: int,
+    timeout: float,
+    seed: int = 0,
+) -> tuple[Tally, float]:
     """``participants`` arriving at ``rate`` per second (Poisson); returns the tally and the
     seconds from the first arrival to the last vote."""
     rng = np.random.default_rng(seed)
-    tally = Tally(bar=tqdm(total=participants * trials, desc=f"{participants} participants",
-                           unit="vote", leave=False))
+    tally = Tally(
+        bar=tqdm(
+            total=participants * trials,
+            desc=f"{participants} participants",
+            unit="vote",
+            leave=False,
+        )
+    )
     async with new_session(timeout, participants + 16) as session:
         start = time.perf_counter()
         tasks = []
         for _ in range(participants):
-            tasks.append(asyncio.create_task(take_part(
-                session, base, slug, tally, think=think, trials=trials,
-                rng=np.random.default_rng(rng.integers(2**32)))))
+            tasks.append(
+                asyncio.create_task(
+                    take_part(
+                        session,
+                        base,
+                        slug,
+                        tally,
+                        think=think,
+                        trials=trials,
+                        rng=np.random.default_rng(rng.integers(2**32)),
+                    )
+                )
+            )
             await asyncio.sleep(rng.exponential(1 / rate))
         await asyncio.gather(*tasks)
         tally.bar.close()
         return tally, time.perf_counter() - start
 
 
-async def saturate(url: str, bodies: list[tuple[int, str, bytes]], *, concurrency: int,
-                   timeout: float) -> tuple[Tally, float]:
+async def saturate(
+    url: str, bodies: list[tuple[int, str, bytes]], *, concurrency: int, timeout: float
+) -> tuple[Tally, float]:
     """Post every ``(trial, choice, body)`` to ``url`` from ``concurrency`` senders, each
     sending its next as soon as the last is answered; returns the tally and the seconds."""
     tally = Tally(bar=tqdm(total=len(bodies), desc="saturated", unit="vote", leave=False))
@@ -215,8 +300,16 @@ async def saturate(url: str, bodies: list[tuple[int, str, bytes]], *, concurrenc
     async def sender(session: aiohttp.ClientSession) -> None:
         while queue:
             trial, choice, body = queue.pop()
-            answer = await _request(session, tally, "vote", "POST", url, {}, data=body,
-                                    headers={"Content-Type": "application/json"})
+            answer = await _request(
+                session,
+                tally,
+                "vote",
+                "POST",
+                url,
+                {},
+                data=body,
+                headers={"Content-Type": "application/json"},
+            )
             if answer is not None and answer[0] in (200, 201):
                 tally.acknowledged[trial] = choice
             tally.bar.update()  # type: ignore[union-attr]
@@ -228,12 +321,12 @@ async def saturate(url: str, bodies: list[tuple[int, str, bytes]], *, concurrenc
         return tally, time.perf_counter() - start
 
 
-async def consent_many(base: str, slug: str, participants: int, *,
-                       timeout: float) -> list[str]:
+async def consent_many(base: str, slug: str, participants: int, *, timeout: float) -> list[str]:
     """Enrol ``participants`` through the consent form (32 at a time); returns their tokens."""
     tally = Tally()
     limit = asyncio.Semaphore(32)
     async with new_session(timeout, 32) as session:
+
         async def one() -> str:
             async with limit:
                 return (await consent(session, base, slug, tally))[0]

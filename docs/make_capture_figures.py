@@ -35,40 +35,49 @@ LOOK = MarkerLook(noise=2.0)
 
 def main() -> None:
     face = builtin_face()
-    base = MarkerConstants(squash=False, fapu_mm={k: face.fapu[k] for k in ("ENS0", "MNS0",
-                                                                             "MW0")})
+    base = MarkerConstants(squash=False, fapu_mm={k: face.fapu[k] for k in ("ENS0", "MNS0", "MW0")})
     known, truth = calibration_motion(seconds=SECONDS), known_motion(seconds=SECONDS)
     with tempfile.TemporaryDirectory() as tmp:
-        cal_clip = write_marker_clip(known, Path(tmp) / "cal.mp4", SIZE,
-                                     look=replace(LOOK, seed=1))
-        test_clip = write_marker_clip(truth, Path(tmp) / "test.mp4", SIZE,
-                                      look=replace(LOOK, seed=2))
+        cal_clip = write_marker_clip(known, Path(tmp) / "cal.mp4", SIZE, look=replace(LOOK, seed=1))
+        test_clip = write_marker_clip(
+            truth, Path(tmp) / "test.mp4", SIZE, look=replace(LOOK, seed=2)
+        )
         calibrated = calibrate(label_frames(read_grey_frames(cal_clip)), known, base)
         start = time.perf_counter()
         tracks = label_frames(read_grey_frames(test_clip))
         seconds = time.perf_counter() - start
         binary = label_frames(read_grey_frames(test_clip), weights="binary")
         frames = [g for _, g in read_grey_frames(test_clip)]
-    print(f"capture: {len(tracks.times) / seconds:.0f} frames/s at {SIZE} px (decode, "
-          "segment, label)")
-    print(f"calibrated: kp {calibrated.kp:.4f} (thesis 0.15), ky {calibrated.ky:.4f} "
-          f"(thesis 0.05), eyebrow pitch coupling {calibrated.brow_pitch_inner:.0f} / "
-          f"{calibrated.brow_pitch_middle:.0f} ENS units per radian")
-    runs = {"thesis constants": (tracks, base), "calibrated": (tracks, calibrated),
-            "calibrated + squashing": (tracks, replace(calibrated, squash=True)),
-            "calibrated, binary centres": (binary, calibrated)}
+    print(
+        f"capture: {len(tracks.times) / seconds:.0f} frames/s at {SIZE} px (decode, segment, label)"
+    )
+    print(
+        f"calibrated: kp {calibrated.kp:.4f} (thesis 0.15), ky {calibrated.ky:.4f} "
+        f"(thesis 0.05), eyebrow pitch coupling {calibrated.brow_pitch_inner:.0f} / "
+        f"{calibrated.brow_pitch_middle:.0f} ENS units per radian"
+    )
+    runs = {
+        "thesis constants": (tracks, base),
+        "calibrated": (tracks, calibrated),
+        "calibrated + squashing": (tracks, replace(calibrated, squash=True)),
+        "calibrated, binary centres": (binary, calibrated),
+    }
     header = "| channel | " + " | ".join(runs) + " |"
     print(header + "\n|" + "---|" * (len(runs) + 1))
     recovered = {}
     for name, (t, c) in runs.items():
         recovered[name] = tracks_to_faps(t, constants=c)
-    for fap, label, scale in ((48, "pitch (deg)", np.degrees(1e-5)),
-                              (49, "yaw (deg)", np.degrees(1e-5)),
-                              (50, "roll (deg)", np.degrees(1e-5)),
-                              (31, "inner brows 31/32 (ENS)", 1.0),
-                              (33, "middle brows 33/34 (ENS)", 1.0)):
-        cells = [f"{scale * np.sqrt(np.mean((r[fap] - truth[fap]) ** 2)):.2f}"
-                 for r in recovered.values()]
+    for fap, label, scale in (
+        (48, "pitch (deg)", np.degrees(1e-5)),
+        (49, "yaw (deg)", np.degrees(1e-5)),
+        (50, "roll (deg)", np.degrees(1e-5)),
+        (31, "inner brows 31/32 (ENS)", 1.0),
+        (33, "middle brows 33/34 (ENS)", 1.0),
+    ):
+        cells = [
+            f"{scale * np.sqrt(np.mean((r[fap] - truth[fap]) ** 2)):.2f}"
+            for r in recovered.values()
+        ]
         print(f"| {label} | " + " | ".join(cells) + " |")
     figures(frames, truth, recovered["calibrated"], recovered["thesis constants"])
 
@@ -85,13 +94,14 @@ def figures(frames, truth, rec, thesis) -> None:
     fig, axes = plt.subplots(2, 1, figsize=(6.4, 4.8), sharex=True)
     t = truth.times
     for fap, name in ((48, "pitch"), (49, "yaw"), (50, "roll")):
-        line, = axes[0].plot(t, np.degrees(truth[fap] * 1e-5), lw=2.5, alpha=0.35)
+        (line,) = axes[0].plot(t, np.degrees(truth[fap] * 1e-5), lw=2.5, alpha=0.35)
         axes[0].plot(t, np.degrees(rec[fap] * 1e-5), lw=1, color=line.get_color(), label=name)
-    axes[0].plot(t, np.degrees(thesis[48] * 1e-5), lw=1, ls=":", color="C0",
-                 label="pitch, thesis kp")
+    axes[0].plot(
+        t, np.degrees(thesis[48] * 1e-5), lw=1, ls=":", color="C0", label="pitch, thesis kp"
+    )
     axes[0].set_ylabel("degrees")
     for fap, name in ((31, "inner brows"), (33, "middle brows")):
-        line, = axes[1].plot(t, truth[fap], lw=2.5, alpha=0.35)
+        (line,) = axes[1].plot(t, truth[fap], lw=2.5, alpha=0.35)
         axes[1].plot(t, rec[fap], lw=1, color=line.get_color(), label=name)
     axes[1].set_ylabel("ENS units")
     axes[1].set_xlabel("seconds (wide: true, thin: recovered)")

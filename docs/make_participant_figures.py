@@ -28,12 +28,24 @@ def main() -> None:
     speech = ROOT / "app" / "data" / "demo" / "speech.wav"
     result = generate_conditions(speech, conditions=("speech_driven", "random"))
     with tempfile.TemporaryDirectory() as tmp:
-        clip = render_pair(result.tracks["speech_driven"], result.tracks["random"], speech,
-                           Path(tmp) / "pair.mp4")
+        clip = render_pair(
+            result.tracks["speech_driven"], result.tracks["random"], speech, Path(tmp) / "pair.mp4"
+        )
         env = {**os.environ, "FACEPAIR_DEMO_CLIP": str(clip), "FACEPAIR_SCREENSHOTS": str(OUT)}
-        subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
-                        "tests/test_browser_participant.py::test_trial_page_layout_and_screenshots"],
-                       cwd=ROOT, env=env, check=True)
+        subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "pytest",
+                "-q",
+                "-p",
+                "no:cacheprovider",
+                "tests/test_browser_participant.py::test_trial_page_layout_and_screenshots",
+            ],
+            cwd=ROOT,
+            env=env,
+            check=True,
+        )
     print(OUT / "participant-trial-desktop.png")
     print(OUT / "participant-trial-phone.png")
 

@@ -37,14 +37,20 @@ def looks_side_by_side() -> list[Path]:
     for size in (368, 736):
         for look in ("plain", "textured"):
             with tempfile.TemporaryDirectory() as tmp:
-                path = render_still(MotionTrack.zeros(30.0, 1), 0, Path(tmp) / "a.png",
-                                    settings=RenderSettings(size=size, look=look),
-                                    mosaic=False)
+                path = render_still(
+                    MotionTrack.zeros(30.0, 1),
+                    0,
+                    Path(tmp) / "a.png",
+                    settings=RenderSettings(size=size, look=look),
+                    mosaic=False,
+                )
                 still[size, look] = iio.imread(path)
     gap = np.full((368, 8, 3), 255, np.uint8)
     whole = np.hstack([still[368, "plain"], gap, still[368, "textured"]])
-    eyes = [still[736, look][196:346, 196:540].repeat(2, 0).repeat(2, 1)
-            for look in ("plain", "textured")]
+    eyes = [
+        still[736, look][196:346, 196:540].repeat(2, 0).repeat(2, 1)
+        for look in ("plain", "textured")
+    ]
     close = np.vstack([eyes[0], np.full((8, eyes[0].shape[1], 3), 255, np.uint8), eyes[1]])
     out = [FIGURES / "head-plain-textured.png", FIGURES / "head-plain-textured-eyes.png"]
     iio.imwrite(out[0], whole)
@@ -55,16 +61,28 @@ def looks_side_by_side() -> list[Path]:
 def main() -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     settings = RenderSettings()
-    face = render_still(MotionTrack.zeros(30.0, 1), 0, OUT / "face.png", settings=settings,
-                        mosaic=False)
-    result = generate_conditions(ROOT / "app" / "data" / "demo" / "speech.wav",
-                                 conditions=("speech_driven", "random"))
-    pair = render_still(result.tracks["speech_driven"], 45, OUT / "pair.png",
-                        right=result.tracks["random"], settings=settings)
+    face = render_still(
+        MotionTrack.zeros(30.0, 1), 0, OUT / "face.png", settings=settings, mosaic=False
+    )
+    result = generate_conditions(
+        ROOT / "app" / "data" / "demo" / "speech.wav", conditions=("speech_driven", "random")
+    )
+    pair = render_still(
+        result.tracks["speech_driven"],
+        45,
+        OUT / "pair.png",
+        right=result.tracks["random"],
+        settings=settings,
+    )
     with tempfile.TemporaryDirectory() as tmp:
         avatar = RenderSettings(face=str(export_builtin_head(Path(tmp) / "head.glb")))
-        on_avatar = render_still(result.tracks["speech_driven"], 45, OUT / "avatar-pair.png",
-                                 right=result.tracks["random"], settings=avatar)
+        on_avatar = render_still(
+            result.tracks["speech_driven"],
+            45,
+            OUT / "avatar-pair.png",
+            right=result.tracks["random"],
+            settings=avatar,
+        )
     print(face)
     print(pair)
     print(on_avatar)

@@ -24,18 +24,48 @@ OUT = ROOT / "docs" / "img"
 DEMO = ROOT / "app" / "data" / "demo"
 #: Thesis Table 8 (experiment 1): (sd, mean) of inner eyebrow, middle eyebrow, pitch, yaw, roll.
 TABLE_8 = {
-    ("S2", "GROUND_TRUTH"): ((5.54, -2.38), (2.75, -0.96), (2803.69, -916.94),
-                             (3482.31, 5061.64), (1743.25, -1741.52)),
-    ("S2", "RANDOM"): ((11.60, 5.32), (11.60, 5.32), (3644.63, -961.85), (4431.30, -2260.03),
-                       (3052.26, -814.10)),
-    ("S2", "SPEECH_DRIVEN"): ((21.78, 15.10), (21.78, 15.10), (1441.66, -1544.10),
-                              (1573.01, 4613.23), (1039.17, -2722.44)),
-    ("S7", "GROUND_TRUTH"): ((17.05, 15.45), (6.51, 2.82), (1563.21, 491.78),
-                             (1560.67, -1843.58), (1589.00, -865.86)),
-    ("S7", "RANDOM"): ((13.47, 6.75), (13.47, 6.75), (3534.11, -1648.90), (4276.10, -1524.91),
-                       (3047.89, -92.81)),
-    ("S7", "SPEECH_DRIVEN"): ((17.18, 10.70), (17.18, 10.70), (666.93, 2034.31),
-                              (1049.36, -1823.35), (665.11, -1281.07)),
+    ("S2", "GROUND_TRUTH"): (
+        (5.54, -2.38),
+        (2.75, -0.96),
+        (2803.69, -916.94),
+        (3482.31, 5061.64),
+        (1743.25, -1741.52),
+    ),
+    ("S2", "RANDOM"): (
+        (11.60, 5.32),
+        (11.60, 5.32),
+        (3644.63, -961.85),
+        (4431.30, -2260.03),
+        (3052.26, -814.10),
+    ),
+    ("S2", "SPEECH_DRIVEN"): (
+        (21.78, 15.10),
+        (21.78, 15.10),
+        (1441.66, -1544.10),
+        (1573.01, 4613.23),
+        (1039.17, -2722.44),
+    ),
+    ("S7", "GROUND_TRUTH"): (
+        (17.05, 15.45),
+        (6.51, 2.82),
+        (1563.21, 491.78),
+        (1560.67, -1843.58),
+        (1589.00, -865.86),
+    ),
+    ("S7", "RANDOM"): (
+        (13.47, 6.75),
+        (13.47, 6.75),
+        (3534.11, -1648.90),
+        (4276.10, -1524.91),
+        (3047.89, -92.81),
+    ),
+    ("S7", "SPEECH_DRIVEN"): (
+        (17.18, 10.70),
+        (17.18, 10.70),
+        (666.93, 2034.31),
+        (1049.36, -1823.35),
+        (665.11, -1281.07),
+    ),
 }
 CHANNELS = (31, 33, 48, 49, 50)
 
@@ -46,14 +76,20 @@ def _row(label: str, stats: tuple[tuple[float, float], ...]) -> str:
 
 def table() -> str:
     """Markdown: the thesis' rows, then facepair's on the demo for experiments 1 and 2."""
-    lines = ["| condition | inner eyebrow | middle eyebrow | head pitch | head yaw | head roll |",
-             "|---|---|---|---|---|---|"]
+    lines = [
+        "| condition | inner eyebrow | middle eyebrow | head pitch | head yaw | head roll |",
+        "|---|---|---|---|---|---|",
+    ]
     for (subject, name), stats in TABLE_8.items():
         lines.append(_row(f"thesis {subject} {name}", stats))
     for normalize in (False, True):
-        result = generate_conditions(DEMO / "speech.wav", ground_truth=DEMO / "ground_truth.fap",
-                                     conditions=("random", "speech_driven", "ground_truth"),
-                                     normalize=normalize, seed=1)
+        result = generate_conditions(
+            DEMO / "speech.wav",
+            ground_truth=DEMO / "ground_truth.fap",
+            conditions=("random", "speech_driven", "ground_truth"),
+            normalize=normalize,
+            seed=1,
+        )
         for track in result.tracks.values():
             stats = tuple((float(track[c].std()), float(track[c].mean())) for c in CHANNELS)
             label = f"facepair demo {track.name}" + (" (--normalize)" if normalize else "")
@@ -64,8 +100,13 @@ def table() -> str:
 def brow_raise_still() -> Path:
     result = generate_conditions(DEMO / "speech.wav", conditions=("none", "speech_driven"))
     frame = int(np.argmax(result.tracks["speech_driven"][31]))
-    return render_still(result.tracks["none"], frame, OUT / "brow-raise.png",
-                        right=result.tracks["speech_driven"], settings=RenderSettings())
+    return render_still(
+        result.tracks["none"],
+        frame,
+        OUT / "brow-raise.png",
+        right=result.tracks["speech_driven"],
+        settings=RenderSettings(),
+    )
 
 
 def main() -> None:

@@ -79,9 +79,14 @@ class RenderSettings:
 
     def drawing(self) -> dict[str, Any]:
         """The keyword arguments of :func:`renderer.pipeline.render_frames` these settings give."""
-        return {"size": self.size, "antialias": self.antialias, "samples": self.samples,
-                "background": self.background, "mosaic_block": self.mosaic_block,
-                "mosaic_margin": self.mosaic_margin}
+        return {
+            "size": self.size,
+            "antialias": self.antialias,
+            "samples": self.samples,
+            "background": self.background,
+            "mosaic_block": self.mosaic_block,
+            "mosaic_margin": self.mosaic_margin,
+        }
 
     def output_fields(self) -> dict[str, Any]:
         """The settings that change the clip's bytes (the cache key's share).
@@ -99,26 +104,30 @@ class RenderSettings:
 
     def __post_init__(self) -> None:
         if not isinstance(self.size, int) or self.size < 64 or self.size % 16:
-            raise InputError(f"must be a multiple of 16 and at least 64, got {self.size!r}",
-                             field="size")
+            raise InputError(
+                f"must be a multiple of 16 and at least 64, got {self.size!r}", field="size"
+            )
         if not isinstance(self.mosaic_block, int) or self.mosaic_block < 0:
-            raise InputError(f"must be a whole number of pixels >= 0, got {self.mosaic_block!r}",
-                             field="mosaic_block")
+            raise InputError(
+                f"must be a whole number of pixels >= 0, got {self.mosaic_block!r}",
+                field="mosaic_block",
+            )
         if self.mosaic_block > self.size // 2:
-            raise InputError(f"must be at most half the face size ({self.size // 2}), got "
-                             f"{self.mosaic_block}", field="mosaic_block")
+            raise InputError(
+                f"must be at most half the face size ({self.size // 2}), got {self.mosaic_block}",
+                field="mosaic_block",
+            )
         if not 0 <= self.mosaic_margin <= 2:
-            raise InputError(f"must be in 0..2, got {self.mosaic_margin!r}",
-                             field="mosaic_margin")
+            raise InputError(f"must be in 0..2, got {self.mosaic_margin!r}", field="mosaic_margin")
         check_antialias(self.antialias)
         if self.samples not in (0, 1, 2, 4, 8):
             raise InputError(f"must be 0, 1, 2, 4 or 8, got {self.samples!r}", field="samples")
         if type(self.workers) is not int or self.workers < 0:
-            raise InputError(f"must be a whole number >= 0, got {self.workers!r}",
-                             field="workers")
+            raise InputError(f"must be a whole number >= 0, got {self.workers!r}", field="workers")
         if type(self.encode_threads) is not int or self.encode_threads < 0:
-            raise InputError(f"must be a whole number >= 0, got {self.encode_threads!r}",
-                             field="encode_threads")
+            raise InputError(
+                f"must be a whole number >= 0, got {self.encode_threads!r}", field="encode_threads"
+            )
         if self.fps is not None and not self.fps > 0:
             raise InputError(f"must be positive, got {self.fps!r}", field="fps")
         from renderer.headmodel import check_look
@@ -142,10 +151,16 @@ def load_face(settings: RenderSettings) -> Face:
     return load_face_file(settings.face)
 
 
-def _render_clip(kind: str, tracks: list[MotionTrack], audio_path: str | Path | None,
-                 out_path: str | Path, settings: RenderSettings | None,
-                 cache_dir: str | Path | None, progress: Progress | None,
-                 caption: str | None = None) -> Path:
+def _render_clip(
+    kind: str,
+    tracks: list[MotionTrack],
+    audio_path: str | Path | None,
+    out_path: str | Path,
+    settings: RenderSettings | None,
+    cache_dir: str | Path | None,
+    progress: Progress | None,
+    caption: str | None = None,
+) -> Path:
     settings = settings or RenderSettings()
     stamp = None
     if caption:
@@ -169,12 +184,21 @@ def _render_clip(kind: str, tracks: list[MotionTrack], audio_path: str | Path | 
     out.parent.mkdir(parents=True, exist_ok=True)
     n = tracks[0].n_frames
     partial = target.with_name(target.stem + ".part.mp4")
-    frames = render_frames(tracks, face, **settings.drawing(),
-                           workers=settings.workers or os.cpu_count() or 1)
-    with ClipWriter(partial, settings.size * len(tracks), settings.size, tracks[0].fps, n,
-                    audio, crf=settings.crf, preset=settings.preset,
-                    audio_bitrate=settings.audio_bitrate,
-                    threads=settings.encode_threads) as writer:
+    frames = render_frames(
+        tracks, face, **settings.drawing(), workers=settings.workers or os.cpu_count() or 1
+    )
+    with ClipWriter(
+        partial,
+        settings.size * len(tracks),
+        settings.size,
+        tracks[0].fps,
+        n,
+        audio,
+        crf=settings.crf,
+        preset=settings.preset,
+        audio_bitrate=settings.audio_bitrate,
+        threads=settings.encode_threads,
+    ) as writer:
         for frame in frames:
             writer.write(frame.image if stamp is None else stamp(frame.image))
             if progress:
@@ -183,10 +207,17 @@ def _render_clip(kind: str, tracks: list[MotionTrack], audio_path: str | Path | 
     return deliver(target, out) if target != out else out
 
 
-def render_pair(left: MotionTrack, right: MotionTrack, audio_path: str | Path | None,
-                out_path: str | Path, *, settings: RenderSettings | None = None,
-                cache_dir: str | Path | None = None, progress: Progress | None = None,
-                caption: str | None = None) -> Path:
+def render_pair(
+    left: MotionTrack,
+    right: MotionTrack,
+    audio_path: str | Path | None,
+    out_path: str | Path,
+    *,
+    settings: RenderSettings | None = None,
+    cache_dir: str | Path | None = None,
+    progress: Progress | None = None,
+    caption: str | None = None,
+) -> Path:
     """Render ``left`` | ``right`` side by side over ``audio_path`` into an MP4.
 
     Both faces come from the same timeline, frame for frame; swap the arguments for B|A.
@@ -197,20 +228,33 @@ def render_pair(left: MotionTrack, right: MotionTrack, audio_path: str | Path | 
     of every frame (:mod:`renderer.caption`: an attention check's "PRESS LEFT"). Returns
     ``out_path``.
     """
-    return _render_clip("pair", [left, right], audio_path, out_path, settings, cache_dir,
-                        progress, caption)
+    return _render_clip(
+        "pair", [left, right], audio_path, out_path, settings, cache_dir, progress, caption
+    )
 
 
-def render_single(track: MotionTrack, audio_path: str | Path | None, out_path: str | Path, *,
-                  settings: RenderSettings | None = None, cache_dir: str | Path | None = None,
-                  progress: Progress | None = None) -> Path:
+def render_single(
+    track: MotionTrack,
+    audio_path: str | Path | None,
+    out_path: str | Path,
+    *,
+    settings: RenderSettings | None = None,
+    cache_dir: str | Path | None = None,
+    progress: Progress | None = None,
+) -> Path:
     """Render one face over ``audio_path`` into an MP4 (as :func:`render_pair`)."""
     return _render_clip("single", [track], audio_path, out_path, settings, cache_dir, progress)
 
 
-def render_still(track: MotionTrack, frame: int, out_path: str | Path, *,
-                 right: MotionTrack | None = None, settings: RenderSettings | None = None,
-                 mosaic: bool = True) -> Path:
+def render_still(
+    track: MotionTrack,
+    frame: int,
+    out_path: str | Path,
+    *,
+    right: MotionTrack | None = None,
+    settings: RenderSettings | None = None,
+    mosaic: bool = True,
+) -> Path:
     """Write frame ``frame`` of ``track`` (and of ``right`` beside it, if given) as a PNG.
 
     ``mosaic=False`` shows the mouth (for previews of the face itself).

@@ -43,9 +43,15 @@ from renderer.skin import ZoneNormals, one_ring
 #: Avatar file suffixes ``RenderSettings.face`` accepts.
 AVATAR_SUFFIXES: tuple[str, ...] = (".glb", ".gltf", ".vrm")
 #: The bones the rotations of the ARKit table turn (VRM humanoid names).
-BONE_OF_ROTATION = {"HeadPitch": "head", "HeadYaw": "head", "HeadRoll": "head",
-                    "LeftEyeYaw": "leftEye", "LeftEyePitch": "leftEye",
-                    "RightEyeYaw": "rightEye", "RightEyePitch": "rightEye"}
+BONE_OF_ROTATION = {
+    "HeadPitch": "head",
+    "HeadYaw": "head",
+    "HeadRoll": "head",
+    "LeftEyeYaw": "leftEye",
+    "LeftEyePitch": "leftEye",
+    "RightEyeYaw": "rightEye",
+    "RightEyePitch": "rightEye",
+}
 
 
 def driven() -> tuple[dict[str, list[int]], dict[str, list[int]]]:
@@ -54,8 +60,9 @@ def driven() -> tuple[dict[str, list[int]], dict[str, list[int]]]:
     bones: dict[str, list[int]] = {}
     for fap in ARKIT_MAP.faps:
         for name in ARKIT_MAP.columns_of(fap):
-            store, key = ((bones, BONE_OF_ROTATION[name]) if name in BONE_OF_ROTATION
-                          else (shapes, name))
+            store, key = (
+                (bones, BONE_OF_ROTATION[name]) if name in BONE_OF_ROTATION else (shapes, name)
+            )
             if fap not in store.setdefault(key, []):
                 store[key].append(fap)
     return shapes, bones
@@ -124,10 +131,15 @@ class AvatarRig(Rig):
         self.zone = np.flatnonzero((np.abs(dpos) > 0).any(axis=(0, 2)))
         self.dpos, self.dnrm = dpos[:, self.zone], dnrm[:, self.zone]
         # normals from the targets where the file gives them, else recomputed on the zone
-        self.zone_normals = (None if np.abs(dnrm).any()
-                             else ZoneNormals(face.triangles, one_ring(face.triangles, self.zone,
-                                                                       face.n_vertices),
-                                              face.n_vertices))
+        self.zone_normals = (
+            None
+            if np.abs(dnrm).any()
+            else ZoneNormals(
+                face.triangles,
+                one_ring(face.triangles, self.zone, face.n_vertices),
+                face.n_vertices,
+            )
+        )
         self._set_pose({s: face.eye_pivots.get(s, face.eye_centre(s)) for s in ("l", "r")})
         self.rest_mouth_vertices = None
 
@@ -148,14 +160,17 @@ class AvatarRig(Rig):
                 nrm[z] = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
             else:
                 nrm[self.zone_normals.zone] = self.zone_normals(pos)
-        eyes = {side: about(fap_rotation(f, turns), self.eye_centres[side])
-                for side, turns in EYE_TURNS.items()}
+        eyes = {
+            side: about(fap_rotation(f, turns), self.eye_centres[side])
+            for side, turns in EYE_TURNS.items()
+        }
         head = fap_rotation(f, HEAD_TURNS)
         return FaceFrame(pos, nrm, about(head, self.pivot), eyes["l"], eyes["r"])
 
 
-def mouth_points(vertices: np.ndarray, jaw: np.ndarray, eye_l: np.ndarray,
-                 eye_r: np.ndarray) -> dict[str, int]:
+def mouth_points(
+    vertices: np.ndarray, jaw: np.ndarray, eye_l: np.ndarray, eye_r: np.ndarray
+) -> dict[str, int]:
     """Mouth feature points (2.2-2.9, 8.1-8.8) of an avatar as vertex indices, from the
     displacement ``jaw`` (n, 3) of its ``JawOpen`` shape and its eye positions.
 
@@ -173,23 +188,37 @@ def mouth_points(vertices: np.ndarray, jaw: np.ndarray, eye_l: np.ndarray,
     near_mid = (np.abs(v[:, 0] - mid[0]) < 0.15 * es) & (v[:, 1] < mid[1] - 0.3 * es)
     moved = near_mid & (disp >= 0.5 * disp.max())
     if not moved.any():
-        raise InputError("JawOpen moves no vertex below the eyes near the midline: the mouth "
-                         "cannot be found (give its feature points in the sidecar)",
-                         field="feature_points")
+        raise InputError(
+            "JawOpen moves no vertex below the eyes near the midline: the mouth "
+            "cannot be found (give its feature points in the sidecar)",
+            field="feature_points",
+        )
     front = moved & (v[:, 2] > v[moved, 2].max() - 0.25 * es)
     central = front & (np.abs(v[:, 0] - mid[0]) < 0.05 * es)
     front = central if central.any() else front
     lower = int(np.flatnonzero(front)[np.argmax(v[front, 1])])
-    above = (near_mid & (disp < 0.15 * disp.max()) & (v[:, 1] >= v[lower, 1])
-             & (v[:, 1] < v[lower, 1] + 0.5 * es) & (v[:, 2] > v[lower, 2] - 0.1 * es))
-    upper = (int(np.flatnonzero(above)[np.argmin(np.linalg.norm(v[above] - v[lower], axis=1))])
-             if above.any() else _nearest(v, v[lower] + [0.0, 0.05 * es, 0.0]))
+    above = (
+        near_mid
+        & (disp < 0.15 * disp.max())
+        & (v[:, 1] >= v[lower, 1])
+        & (v[:, 1] < v[lower, 1] + 0.5 * es)
+        & (v[:, 2] > v[lower, 2] - 0.1 * es)
+    )
+    upper = (
+        int(np.flatnonzero(above)[np.argmin(np.linalg.norm(v[above] - v[lower], axis=1))])
+        if above.any()
+        else _nearest(v, v[lower] + [0.0, 0.05 * es, 0.0])
+    )
     centre = (v[upper] + v[lower]) / 2.0
     centre[0] = mid[0]
     corner = {s: _nearest(v, centre + [s * 0.4 * es, 0.0, -0.12 * es]) for s in (1, -1)}
     out = {"2.2": upper, "2.3": lower, "2.4": corner[1], "2.5": corner[-1]}
-    for name, a, b in (("2.6", upper, corner[1]), ("2.7", upper, corner[-1]),
-                       ("2.8", lower, corner[1]), ("2.9", lower, corner[-1])):
+    for name, a, b in (
+        ("2.6", upper, corner[1]),
+        ("2.7", upper, corner[-1]),
+        ("2.8", lower, corner[1]),
+        ("2.9", lower, corner[-1]),
+    ):
         out[name] = _nearest(v, (v[a] + v[b]) / 2.0)
     for inner, outer in zip(MOUTH_FEATURE_POINTS[:8], MOUTH_FEATURE_POINTS[8:], strict=True):
         out[outer] = out[inner]
@@ -249,18 +278,34 @@ def load_avatar(path: str | Path) -> AvatarFace:
     shapes_needed, bones_needed = driven()
     names = list(scene.targets)
     found = {k: _find(k, names, spec.get("blendshapes", {})) for k in shapes_needed}
-    nodes = {k: (spec["bones"][k] if isinstance(spec.get("bones", {}).get(k), int)
-                 else scene.humanoid.get(k, _find(k, scene.node_names, spec.get("bones", {}))))
-             for k in bones_needed}
-    lacking = [f"blendshape {k} (FAP {', '.join(map(str, shapes_needed[k]))})"
-               for k, i in found.items() if i is None]
-    lacking += [f"bone {k} (FAP {', '.join(map(str, bones_needed[k]))})"
-                for k, i in nodes.items() if i is None or not 0 <= i < len(scene.parents)]
+    nodes = {
+        k: (
+            spec["bones"][k]
+            if isinstance(spec.get("bones", {}).get(k), int)
+            else scene.humanoid.get(k, _find(k, scene.node_names, spec.get("bones", {})))
+        )
+        for k in bones_needed
+    }
+    lacking = [
+        f"blendshape {k} (FAP {', '.join(map(str, shapes_needed[k]))})"
+        for k, i in found.items()
+        if i is None
+    ]
+    lacking += [
+        f"bone {k} (FAP {', '.join(map(str, bones_needed[k]))})"
+        for k, i in nodes.items()
+        if i is None or not 0 <= i < len(scene.parents)
+    ]
     if lacking:
-        raise InputError("missing " + "; ".join(lacking) + " (rename them in "
-                         f"{path.stem}.avatar.json, see docs/renderer.md)", path=path)
-    targets = {k: tuple(a.astype(np.float32) for a in scene.targets[names[i]])  # type: ignore[index]
-               for k, i in found.items()}
+        raise InputError(
+            "missing " + "; ".join(lacking) + " (rename them in "
+            f"{path.stem}.avatar.json, see docs/renderer.md)",
+            path=path,
+        )
+    targets = {
+        k: tuple(a.astype(np.float32) for a in scene.targets[names[i]])  # type: ignore[index]
+        for k, i in found.items()
+    }
     total = np.maximum(scene.influence_weights.sum(axis=1), 1e-12)
 
     def share(node: int) -> np.ndarray:
@@ -268,16 +313,23 @@ def load_avatar(path: str | Path) -> AvatarFace:
         return (scene.influence_weights * inside).sum(axis=1) / total
 
     head = share(nodes["head"])  # type: ignore[arg-type]
-    groups = {f"eyeball_{s}": np.flatnonzero(share(nodes[b]) > 0.5)  # type: ignore[arg-type]
-              for s, b in (("l", "leftEye"), ("r", "rightEye"))}
+    groups = {
+        f"eyeball_{s}": np.flatnonzero(share(nodes[b]) > 0.5)  # type: ignore[arg-type]
+        for s, b in (("l", "leftEye"), ("r", "rightEye"))
+    }
     for name, value in spec.get("groups", {}).items():
         groups[name] = np.asarray(value, dtype=np.int64)
-    pivots = {s: scene.world[nodes[b], :3, 3].copy()  # type: ignore[index]
-              for s, b in (("l", "leftEye"), ("r", "rightEye"))}
+    pivots = {
+        s: scene.world[nodes[b], :3, 3].copy()  # type: ignore[index]
+        for s, b in (("l", "leftEye"), ("r", "rightEye"))
+    }
     v = scene.vertices
     fp_vertices: dict[str, int] = {}
-    points: dict[str, np.ndarray] = {"3.5": pivots["l"], "3.6": pivots["r"],
-                                     "7.1": scene.world[nodes["head"], :3, 3].copy()}  # type: ignore[index]
+    points: dict[str, np.ndarray] = {
+        "3.5": pivots["l"],
+        "3.6": pivots["r"],
+        "7.1": scene.world[nodes["head"], :3, 3].copy(),
+    }  # type: ignore[index]
     for name, value in spec.get("feature_points", {}).items():
         if isinstance(value, int) and 0 <= value < len(v):
             fp_vertices[name] = value
@@ -285,19 +337,30 @@ def load_avatar(path: str | Path) -> AvatarFace:
         elif isinstance(value, list) and len(value) == 3:
             points[name] = np.array(value, dtype=np.float64)
         else:
-            raise InputError("expected a vertex index or [x, y, z]", path=path,
-                             field=f"feature_points.{name}")
+            raise InputError(
+                "expected a vertex index or [x, y, z]", path=path, field=f"feature_points.{name}"
+            )
     if not all(k in fp_vertices for k in MOUTH_FEATURE_POINTS):
         fp_vertices.update(mouth_points(v, targets["JawOpen"][0], pivots["l"], pivots["r"]))
         points.update({k: v[fp_vertices[k]].copy() for k in MOUTH_FEATURE_POINTS})
     # one texture for the whole avatar is sampled per pixel, as the built-in head's is
     colors = scene.colors if scene.untextured_colors is None else scene.untextured_colors
     return AvatarFace(
-        vertices=v.astype(np.float32), triangles=scene.triangles.astype(np.int32),
-        colors=colors.astype(np.float32), feature_points=points,
-        fp_vertices=fp_vertices, fapu=_fapu(points), groups=groups,
-        weights={"head": head}, name=path.stem, targets=targets,  # type: ignore[arg-type]
-        eye_pivots=pivots, file_normals=scene.normals, uvs=scene.uvs, texture=scene.texture)
+        vertices=v.astype(np.float32),
+        triangles=scene.triangles.astype(np.int32),
+        colors=colors.astype(np.float32),
+        feature_points=points,
+        fp_vertices=fp_vertices,
+        fapu=_fapu(points),
+        groups=groups,
+        weights={"head": head},
+        name=path.stem,
+        targets=targets,  # type: ignore[arg-type]
+        eye_pivots=pivots,
+        file_normals=scene.normals,
+        uvs=scene.uvs,
+        texture=scene.texture,
+    )
 
 
 def _fapu(points: dict[str, np.ndarray]) -> dict[str, float]:

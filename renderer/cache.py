@@ -36,8 +36,14 @@ def file_digest(path: str | Path | None) -> str:
     return h.hexdigest()
 
 
-def cache_key(kind: str, tracks: list[MotionTrack], audio_path: str | Path | None,
-              face_hash: str, settings: Any, version: str) -> str:
+def cache_key(
+    kind: str,
+    tracks: list[MotionTrack],
+    audio_path: str | Path | None,
+    face_hash: str,
+    settings: Any,
+    version: str,
+) -> str:
     """The cache key of one clip (hex); ``settings`` gives the fields that change the output
     through ``output_fields()`` (see :class:`renderer.api.RenderSettings`)."""
     settings_dict = settings.output_fields()

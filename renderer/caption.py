@@ -65,8 +65,12 @@ def text_mask(text: str) -> np.ndarray:
     upper = text.upper()
     unknown = sorted({c for c in upper if c not in _GLYPHS})
     if unknown or not upper:
-        raise InputError(f"caption: cannot draw {''.join(unknown)!r} (letters, spaces and ':' "
-                         "only)" if unknown else "caption: empty text", field="caption")
+        raise InputError(
+            f"caption: cannot draw {''.join(unknown)!r} (letters, spaces and ':' only)"
+            if unknown
+            else "caption: empty text",
+            field="caption",
+        )
     columns = []
     for char in upper:
         rows = _GLYPHS[char]
@@ -90,12 +94,13 @@ class CaptionStamp:
         pad = max(2, scale * GLYPH_H // 4)
         box_h, box_w = big.shape[0] + 2 * pad, big.shape[1] + 2 * pad
         if box_w > width or box_h > height:
-            raise InputError(f"caption: {text!r} does not fit a {width}x{height} frame",
-                             field="caption")
+            raise InputError(
+                f"caption: {text!r} does not fit a {width}x{height} frame", field="caption"
+            )
         top, left = pad, (width - box_w) // 2
         self.box = (slice(top, top + box_h), slice(left, left + box_w))
         self.ink = np.zeros((box_h, box_w), dtype=bool)
-        self.ink[pad:pad + big.shape[0], pad:pad + big.shape[1]] = big
+        self.ink[pad : pad + big.shape[0], pad : pad + big.shape[1]] = big
 
     def __call__(self, frame: np.ndarray) -> np.ndarray:
         out = np.array(frame, copy=True)

@@ -87,8 +87,10 @@ _OUTER_FAP = dict(zip(INNER_LIPS, OUTER_LIPS, strict=True))
 _OUTER_OF = {FEATURE_POINT[i]: FEATURE_POINT[o] for i, o in _OUTER_FAP.items()}
 #: Lip zones whose weights are normalised together (vertical motion of one lip): the feature
 #: points along each inner lip, corners included.
-_CHAINS = {"upper": ("2.2", "2.6", "2.7", "2.4", "2.5"),
-           "lower": ("2.3", "2.8", "2.9", "2.4", "2.5")}
+_CHAINS = {
+    "upper": ("2.2", "2.6", "2.7", "2.4", "2.5"),
+    "lower": ("2.3", "2.8", "2.9", "2.4", "2.5"),
+}
 
 #: The FAPs of the jaw and lips (set to zero for the mouth at rest that the mosaic shows).
 MOUTH_FAPS: tuple[int, ...] = tuple(sorted(JAW_LIPS))
@@ -122,8 +124,9 @@ def _chain_weights(v: np.ndarray, points: list[np.ndarray]) -> np.ndarray:
     gaps = np.linalg.norm(pts[:, None] - pts[None], axis=2)
     np.fill_diagonal(gaps, np.inf)
     reach = np.maximum(gaps.min(axis=1), 1e-6)
-    return np.stack([raised_cosine(np.linalg.norm(v - p, axis=1), r)
-                     for p, r in zip(pts, reach, strict=True)])
+    return np.stack(
+        [raised_cosine(np.linalg.norm(v - p, axis=1), r) for p, r in zip(pts, reach, strict=True)]
+    )
 
 
 _IDENTITY = np.eye(4)
@@ -133,8 +136,9 @@ MOUTH_FAPS_INDEX = np.array(MOUTH_FAPS) - 1
 
 #: The rotation FAPs of each eyeball (yaw, then pitch) and of the head (yaw, pitch, roll), in
 #: the order their rotations compose.
-EYE_TURNS = {side: tuple(sorted(_on_side(GAZE, side), key=lambda f: AXIS[f] != "y"))
-             for side in ("l", "r")}
+EYE_TURNS = {
+    side: tuple(sorted(_on_side(GAZE, side), key=lambda f: AXIS[f] != "y")) for side in ("l", "r")
+}
 HEAD_TURNS = (HEAD_YAW, HEAD_PITCH, HEAD_ROLL)
 
 
@@ -195,8 +199,7 @@ class Rig:
 
         columns: dict[int, np.ndarray] = {}  # fap -> (n, 3) displacement per unit FAP value
         for name, chain in _CHAINS.items():
-            for layer_fps, tag in ((chain, "inner"), (tuple(_OUTER_OF[c] for c in chain),
-                                                      "outer")):
+            for layer_fps, tag in ((chain, "inner"), (tuple(_OUTER_OF[c] for c in chain), "outer")):
                 norm = _chain_weights(v, [fp[c] for c in layer_fps])
                 norm *= self.weights[f"{name}_lip"] * ~eyeball
                 for fap in INNER_LIPS:  # vertical ones; a corner FAP moves both lips
@@ -205,16 +208,16 @@ class Rig:
                         continue
                     f = fap if tag == "inner" else _OUTER_FAP[fap]
                     w = norm[chain.index(pt)] * self._pair_share(v, pt, tag)
-                    columns[f] = (columns.get(f, 0)
-                                  + w[:, None] * direction * fu[FAPS[fap].unit])
+                    columns[f] = columns.get(f, 0) + w[:, None] * direction * fu[FAPS[fap].unit]
         for fap in INNER_LIPS:  # horizontal ones: the corners stretch
             pt, direction = FEATURE_POINT[fap], _direction(fap)
             if direction[0] == 0:
                 continue
             for f, p, tag in ((fap, pt, "inner"), (_OUTER_FAP[fap], _OUTER_OF[pt], "outer")):
                 w = raised_cosine(np.linalg.norm(v - fp[p], axis=1), 0.5 * mw0) * ~eyeball
-                columns[f] = ((w * self._pair_share(v, pt, tag))[:, None] * direction
-                              * fu[FAPS[fap].unit])
+                columns[f] = (
+                    (w * self._pair_share(v, pt, tag))[:, None] * direction * fu[FAPS[fap].unit]
+                )
         for fap in LIP_PUSH_CHIN:  # the chin (2.10) moves with the lower lip
             pt = FEATURE_POINT[fap]
             lip = "upper" if pt in _CHAINS["upper"] else "lower"
@@ -230,22 +233,26 @@ class Rig:
             field = brow_field(v, pts, lid, face.fapu["ENS0"]) * ~eyeball
             ens = fu[FAPS[faps[0]].unit]
             room = float(np.min(pts[:, 1] - BROW_RAMP_END * face.fapu["ENS0"] - lid[1]))
-            self.brow_lower_limit = min(self.brow_lower_limit,
-                                        BROW_LOWER_ROOM * max(room, 0.0) / 1.5 / ens)
+            self.brow_lower_limit = min(
+                self.brow_lower_limit, BROW_LOWER_ROOM * max(room, 0.0) / 1.5 / ens
+            )
             for j, f in enumerate(faps):
                 columns[f] = field[j][:, None] * _direction(f) * fu[FAPS[f].unit]
             mask = field.sum(axis=0)
             (f,) = _on_side(EYEBROW_SQUEEZE, side)
-            squeeze = raised_cosine(np.linalg.norm(v - fp[FEATURE_POINT[f]], axis=1),
-                                    0.5 * es0) * mask
+            squeeze = (
+                raised_cosine(np.linalg.norm(v - fp[FEATURE_POINT[f]], axis=1), 0.5 * es0) * mask
+            )
             columns[f] = squeeze[:, None] * _direction(f) * fu[FAPS[f].unit]
 
         self.basis_faps = np.array(sorted(columns))
         self._brow_columns = np.isin(self.basis_faps, EYEBROW_RAISE)
         stacked = np.stack([columns[f] for f in self.basis_faps])  # (k, n, 3)
         of_mouth = np.isin(self.basis_faps, MOUTH_FAPS)
-        self.mouth, self.brows = (SkinPart(np.flatnonzero(cols), stacked, face.triangles)
-                                  for cols in (of_mouth, ~of_mouth))
+        self.mouth, self.brows = (
+            SkinPart(np.flatnonzero(cols), stacked, face.triangles)
+            for cols in (of_mouth, ~of_mouth)
+        )
 
         hinge = face.hinge()
         self.hinge = hinge
@@ -307,8 +314,7 @@ class Rig:
         jaw, thrust, shift = f[OPEN_JAW - 1], f[THRUST_JAW - 1], f[SHIFT_JAW - 1]
         if jaw > 0.0 or thrust > 0.0 or shift:
             jaw_open = max(jaw, 0.0) * self.jaw_rad_per_unit
-            move = (shift * self.jaw_shift[SHIFT_JAW]
-                    + max(thrust, 0.0) * self.jaw_shift[THRUST_JAW])
+            move = shift * self.jaw_shift[SHIFT_JAW] + max(thrust, 0.0) * self.jaw_shift[THRUST_JAW]
             self._rotate_x(pos, nrm, self.jaw_zone, self.jaw_w * jaw_open, self.hinge)
             pos[self.jaw_zone] += (self.jaw_w[:, None] * move).astype(np.float32)
         for fap, zone, w, centre, rad_per_unit in self.lids:
@@ -322,8 +328,9 @@ class Rig:
         return FaceFrame(pos, nrm, about(head, self.pivot), eyes["l"], eyes["r"])
 
     @staticmethod
-    def _rotate_x(pos: np.ndarray, nrm: np.ndarray, zone: np.ndarray, angle: np.ndarray,
-                  pivot: np.ndarray) -> None:
+    def _rotate_x(
+        pos: np.ndarray, nrm: np.ndarray, zone: np.ndarray, angle: np.ndarray, pivot: np.ndarray
+    ) -> None:
         """Rotate ``zone`` vertices about the x-parallel axis through ``pivot``, per-vertex angle
         (positive moves points in front of the axis down)."""
         c, s = np.cos(angle), np.sin(angle)
@@ -383,16 +390,18 @@ class Rig:
         parts and their one-ring), or None if other FAPs move any of their triangles."""
         triangles, n = self.face.triangles, self.face.n_vertices
         mouth = one_ring(triangles, np.union1d(self.mouth.zone, self.jaw_zone), n)
-        others = np.concatenate([self.brows.zone, *(zone for _, zone, *_ in self.lids),
-                                 *self.eye_vertices.values()])
+        others = np.concatenate(
+            [self.brows.zone, *(zone for _, zone, *_ in self.lids), *self.eye_vertices.values()]
+        )
         return None if np.isin(mouth, one_ring(triangles, others, n)).any() else mouth
 
     @staticmethod
     def _eyes_turned(frame: FaceFrame) -> bool:
         if frame.eye_l is _IDENTITY and frame.eye_r is _IDENTITY:
             return False
-        return not (np.array_equal(frame.eye_l, _IDENTITY)
-                    and np.array_equal(frame.eye_r, _IDENTITY))
+        return not (
+            np.array_equal(frame.eye_l, _IDENTITY) and np.array_equal(frame.eye_r, _IDENTITY)
+        )
 
     def world_points(self, frame: FaceFrame, names: tuple[str, ...]) -> np.ndarray:
         """Deformed positions of mesh feature points after the head rotation, (k, 3)."""

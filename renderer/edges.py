@@ -51,8 +51,10 @@ class EdgeTable:
     @cached_property
     def rows(self) -> tuple[np.ndarray, np.ndarray]:
         """int32 ``(a, b, o0)`` and ``(a, b, o1)`` rows, ready to upload."""
-        return (np.column_stack([self.a, self.b, self.o0]).astype(np.int32),
-                np.column_stack([self.a, self.b, self.o1]).astype(np.int32))
+        return (
+            np.column_stack([self.a, self.b, self.o0]).astype(np.int32),
+            np.column_stack([self.a, self.b, self.o1]).astype(np.int32),
+        )
 
 
 def edge_table(triangles: np.ndarray, hidden: np.ndarray | None = None) -> EdgeTable:
@@ -116,5 +118,6 @@ def overdraw_edges(table: EdgeTable, triangles: np.ndarray, xyw: np.ndarray) -> 
     front = np.append(front_facing(triangles, xyw), False)  # t1 = -1 (no second) reads False
     f0, f1 = front.take(table.t0), front.take(table.t1)
     rows0, rows1 = table.rows
-    return np.concatenate([rows0.take(np.flatnonzero(f0 & ~f1), axis=0),
-                           rows1.take(np.flatnonzero(f1 & ~f0), axis=0)])
+    return np.concatenate(
+        [rows0.take(np.flatnonzero(f0 & ~f1), axis=0), rows1.take(np.flatnonzero(f1 & ~f0), axis=0)]
+    )

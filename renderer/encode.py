@@ -54,23 +54,77 @@ class ClipWriter:
     a few hundred frames per second, keeps ahead of the renderer.
     """
 
-    def __init__(self, path: str | Path, width: int, height: int, fps: float, n_frames: int,
-                 audio_path: str | Path | None = None, *, crf: int = 20,
-                 preset: str = "superfast", audio_bitrate: str = "128k",
-                 threads: int = 1) -> None:
+    def __init__(
+        self,
+        path: str | Path,
+        width: int,
+        height: int,
+        fps: float,
+        n_frames: int,
+        audio_path: str | Path | None = None,
+        *,
+        crf: int = 20,
+        preset: str = "superfast",
+        audio_bitrate: str = "128k",
+        threads: int = 1,
+    ) -> None:
         self.path = Path(path)
         self.n_frames = n_frames
         duration = n_frames / fps
-        cmd = [ffmpeg_exe(), "-y", "-hide_banner", "-loglevel", "error", "-nostdin",
-               "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{width}x{height}",
-               "-r", fps_arg(fps), "-i", "-"]
+        cmd = [
+            ffmpeg_exe(),
+            "-y",
+            "-hide_banner",
+            "-loglevel",
+            "error",
+            "-nostdin",
+            "-f",
+            "rawvideo",
+            "-pix_fmt",
+            "rgb24",
+            "-s",
+            f"{width}x{height}",
+            "-r",
+            fps_arg(fps),
+            "-i",
+            "-",
+        ]
         if audio_path is not None:
-            cmd += ["-i", str(audio_path), "-map", "0:v:0", "-map", "1:a:0",
-                    "-af", "apad", "-c:a", "aac", "-b:a", audio_bitrate, "-ac", "1"]
-        cmd += ["-c:v", "libx264", "-threads", str(threads), "-preset", preset,
-                "-crf", str(crf), "-pix_fmt", "yuv420p",
-                "-frames:v", str(n_frames), "-t", f"{duration:.6f}",
-                "-movflags", "+faststart", str(self.path)]
+            cmd += [
+                "-i",
+                str(audio_path),
+                "-map",
+                "0:v:0",
+                "-map",
+                "1:a:0",
+                "-af",
+                "apad",
+                "-c:a",
+                "aac",
+                "-b:a",
+                audio_bitrate,
+                "-ac",
+                "1",
+            ]
+        cmd += [
+            "-c:v",
+            "libx264",
+            "-threads",
+            str(threads),
+            "-preset",
+            preset,
+            "-crf",
+            str(crf),
+            "-pix_fmt",
+            "yuv420p",
+            "-frames:v",
+            str(n_frames),
+            "-t",
+            f"{duration:.6f}",
+            "-movflags",
+            "+faststart",
+            str(self.path),
+        ]
         self._stderr = tempfile.TemporaryFile()
         self._proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stderr=self._stderr)
         self._queue: queue.Queue[bytes | None] = queue.Queue(maxsize=16)
@@ -107,8 +161,10 @@ class ClipWriter:
         err = self._stderr.read().decode(errors="replace").strip()
         self._stderr.close()
         if rc != 0 or self._error is not None:
-            raise RuntimeError(f"ffmpeg failed (exit {rc}) writing {self.path}: "
-                               f"{err.splitlines()[-1] if err else self._error}")
+            raise RuntimeError(
+                f"ffmpeg failed (exit {rc}) writing {self.path}: "
+                f"{err.splitlines()[-1] if err else self._error}"
+            )
         return self.path
 
     def abort(self) -> None:

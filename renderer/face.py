@@ -28,18 +28,58 @@ from app.stimuli.fap import FAPU_DISTANCE
 
 #: Feature points every face must define (the ones the deformation and the mosaic use).
 REQUIRED_FEATURE_POINTS: tuple[str, ...] = (
-    "2.1", "2.2", "2.3", "2.4", "2.5", "2.6", "2.7", "2.8", "2.9", "2.10",
-    "3.1", "3.2", "3.3", "3.4", "3.5", "3.6",
-    "4.1", "4.2", "4.3", "4.4", "4.5", "4.6",
+    "2.1",
+    "2.2",
+    "2.3",
+    "2.4",
+    "2.5",
+    "2.6",
+    "2.7",
+    "2.8",
+    "2.9",
+    "2.10",
+    "3.1",
+    "3.2",
+    "3.3",
+    "3.4",
+    "3.5",
+    "3.6",
+    "4.1",
+    "4.2",
+    "4.3",
+    "4.4",
+    "4.5",
+    "4.6",
     "7.1",
-    "8.1", "8.2", "8.3", "8.4", "8.5", "8.6", "8.7", "8.8",
+    "8.1",
+    "8.2",
+    "8.3",
+    "8.4",
+    "8.5",
+    "8.6",
+    "8.7",
+    "8.8",
     "9.15",
 )
 
 #: Feature points whose projected box is the mouth region hidden by the mosaic.
 MOUTH_FEATURE_POINTS: tuple[str, ...] = (
-    "2.2", "2.3", "2.4", "2.5", "2.6", "2.7", "2.8", "2.9",
-    "8.1", "8.2", "8.3", "8.4", "8.5", "8.6", "8.7", "8.8",
+    "2.2",
+    "2.3",
+    "2.4",
+    "2.5",
+    "2.6",
+    "2.7",
+    "2.8",
+    "2.9",
+    "8.1",
+    "8.2",
+    "8.3",
+    "8.4",
+    "8.5",
+    "8.6",
+    "8.7",
+    "8.8",
 )
 
 FAPU_NAMES: tuple[str, ...] = tuple(FAPU_DISTANCE.values())
@@ -54,8 +94,14 @@ OPTIONAL_GROUPS: tuple[str, ...] = ("hidden_outline",)
 
 #: Optional per-vertex weight layers (0..1) a face may supply instead of the derived defaults.
 WEIGHT_LAYERS: tuple[str, ...] = (
-    "head", "jaw", "upper_lip", "lower_lip",
-    "eyelid_upper_l", "eyelid_upper_r", "eyelid_lower_l", "eyelid_lower_r",
+    "head",
+    "jaw",
+    "upper_lip",
+    "lower_lip",
+    "eyelid_upper_l",
+    "eyelid_upper_r",
+    "eyelid_lower_l",
+    "eyelid_lower_r",
 )
 
 
@@ -122,9 +168,12 @@ class Face:
         coef, _, rank, _ = np.linalg.lstsq(a, (q * q).sum(axis=1), rcond=None)
         centre = box + coef[:3]
         radius2 = coef[3] + coef[:3] @ coef[:3]
-        fits = (rank == 4 and radius2 > 0
-                and np.abs(np.linalg.norm(v - centre, axis=1) - np.sqrt(radius2)).max()
-                < 0.05 * np.sqrt(radius2))
+        fits = (
+            rank == 4
+            and radius2 > 0
+            and np.abs(np.linalg.norm(v - centre, axis=1) - np.sqrt(radius2)).max()
+            < 0.05 * np.sqrt(radius2)
+        )
         return centre if fits else box
 
     def pivot(self) -> np.ndarray:

@@ -55,18 +55,39 @@ def export_builtin_head(path: str | Path) -> Path:
         eye = rig.eye_vertices[side]
         joints[eye, 0], weights[eye] = k, (1.0, 0.0, 0.0, 0.0)
     low = float(face.vertices[:, 1].min())
-    bones = [("upperChest", -1, np.array([0.0, low, 0.0]) * METRES),
-             ("head", 0, face.pivot() * METRES),
-             ("leftEye", 1, rig.eye_centres["l"] * METRES),
-             ("rightEye", 1, rig.eye_centres["r"] * METRES)]
-    points = {k: (face.fp_vertices[k] if k in face.fp_vertices
-                  else [float(x) * METRES for x in face.feature_points[k]])
-              for k in sorted(face.feature_points)}
-    extras = {"facepair": {
-        "feature_points": points,
-        "groups": {k: [int(i) for i in v] for k, v in face.groups.items()
-                   if not k.startswith("eyeball")}}}
-    mesh = MeshOut(vertices=face.vertices * METRES, normals=rig.n0,
-                   triangles=face.triangles, colors=face.colors, targets=targets,
-                   joints=joints, weights=weights, uvs=face.uvs, texture=face.texture)
+    bones = [
+        ("upperChest", -1, np.array([0.0, low, 0.0]) * METRES),
+        ("head", 0, face.pivot() * METRES),
+        ("leftEye", 1, rig.eye_centres["l"] * METRES),
+        ("rightEye", 1, rig.eye_centres["r"] * METRES),
+    ]
+    points = {
+        k: (
+            face.fp_vertices[k]
+            if k in face.fp_vertices
+            else [float(x) * METRES for x in face.feature_points[k]]
+        )
+        for k in sorted(face.feature_points)
+    }
+    extras = {
+        "facepair": {
+            "feature_points": points,
+            "groups": {
+                k: [int(i) for i in v]
+                for k, v in face.groups.items()
+                if not k.startswith("eyeball")
+            },
+        }
+    }
+    mesh = MeshOut(
+        vertices=face.vertices * METRES,
+        normals=rig.n0,
+        triangles=face.triangles,
+        colors=face.colors,
+        targets=targets,
+        joints=joints,
+        weights=weights,
+        uvs=face.uvs,
+        texture=face.texture,
+    )
     return write_glb(path, mesh, bones=bones, extras=extras)

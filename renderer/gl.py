@@ -191,8 +191,10 @@ void main() {
 #: shader's uniforms and its colour expression.
 _PLAIN: tuple[tuple[tuple[str, str], ...], str, str] = ((("vec3", "color"),), "", "v_color")
 _TEXTURED: tuple[tuple[tuple[str, str], ...], str, str] = (
-    (("vec3", "light"), ("vec3", "spec"), ("vec2", "uv")), "uniform sampler2D albedo;",
-    "texture(albedo, v_uv).rgb * v_light + v_spec")
+    (("vec3", "light"), ("vec3", "spec"), ("vec2", "uv")),
+    "uniform sampler2D albedo;",
+    "texture(albedo, v_uv).rgb * v_light + v_spec",
+)
 
 
 def shaders(textured: bool) -> dict[str, str]:
@@ -203,18 +205,25 @@ def shaders(textured: bool) -> dict[str, str]:
     def declare(pattern: str) -> str:
         return "\n".join(pattern.format(type=t, name=n) for t, n in varyings)
 
-    geometry = (_EDGE_GEOMETRY.replace("VARYINGS_IN", declare("in {type} v_{name}[];"))
-                .replace("VARYINGS_OUT", declare("out {type} g_{name};"))
-                .replace("VARYINGS_COPY", " ".join(f"g_{n} = v_{n}[k];" for n in names)))
+    geometry = (
+        _EDGE_GEOMETRY.replace("VARYINGS_IN", declare("in {type} v_{name}[];"))
+        .replace("VARYINGS_OUT", declare("out {type} g_{name};"))
+        .replace("VARYINGS_COPY", " ".join(f"g_{n} = v_{n}[k];" for n in names))
+    )
     for n in names:
         colour = colour.replace(f"v_{n}", f"g_{n}")
-    edge_fragment = (_EDGE_FRAGMENT.replace("UNIFORMS", uniforms)
-                     .replace("VARYINGS_IN", declare("in {type} g_{name};"))
-                     .replace("COLOUR", colour))
-    return {"vertex": _VERTEX_TEXTURED if textured else _VERTEX,
-            "fragment": _FRAGMENT_TEXTURED if textured else _FRAGMENT,
-            "flat_fragment": _FRAGMENT_FLAT,
-            "edge_geometry": geometry, "edge_fragment": edge_fragment}
+    edge_fragment = (
+        _EDGE_FRAGMENT.replace("UNIFORMS", uniforms)
+        .replace("VARYINGS_IN", declare("in {type} g_{name};"))
+        .replace("COLOUR", colour)
+    )
+    return {
+        "vertex": _VERTEX_TEXTURED if textured else _VERTEX,
+        "fragment": _FRAGMENT_TEXTURED if textured else _FRAGMENT,
+        "flat_fragment": _FRAGMENT_FLAT,
+        "edge_geometry": geometry,
+        "edge_fragment": edge_fragment,
+    }
 
 
 #: Anti-aliasing modes (see :class:`FaceCanvas`).
@@ -224,8 +233,10 @@ ANTIALIAS_MODES: tuple[str, ...] = ("edges", "msaa", "none")
 def check_antialias(mode: str) -> None:
     """An InputError naming the ``antialias`` field unless ``mode`` is one of the modes."""
     if mode not in ANTIALIAS_MODES:
-        raise InputError(f"must be one of {', '.join(ANTIALIAS_MODES)}, got {mode!r}",
-                         field="antialias")
+        raise InputError(
+            f"must be one of {', '.join(ANTIALIAS_MODES)}, got {mode!r}", field="antialias"
+        )
+
 
 _CONTEXTS: dict[int, object] = {}
 
@@ -305,8 +316,9 @@ def camera_for(rig: Rig) -> tuple[np.ndarray, np.ndarray]:
     target = np.array([eyes[0], eyes[1] - 0.42 * unit, eyes[2] - unit])
     eye = target + np.array([0.0, 0.03 * unit, 10.5 * unit])
     fov = 2.0 * np.arctan(2.2 / 10.5)
-    vp = perspective(fov, 1.0, 8.0 * unit, 14.0 * unit) @ look_at(eye, target,
-                                                                 np.array([0.0, 1.0, 0.0]))
+    vp = perspective(fov, 1.0, 8.0 * unit, 14.0 * unit) @ look_at(
+        eye, target, np.array([0.0, 1.0, 0.0])
+    )
     return vp, eye
 
 
@@ -362,9 +374,16 @@ class FaceCanvas:
     better choice on a GPU) or ``"none"``.
     """
 
-    def __init__(self, rig: Rig, size: int, n_faces: int = 1, *,
-                 antialias: str = defaults.ANTIALIAS, samples: int = defaults.SAMPLES,
-                 background: tuple[float, float, float] = defaults.BACKGROUND) -> None:
+    def __init__(
+        self,
+        rig: Rig,
+        size: int,
+        n_faces: int = 1,
+        *,
+        antialias: str = defaults.ANTIALIAS,
+        samples: int = defaults.SAMPLES,
+        background: tuple[float, float, float] = defaults.BACKGROUND,
+    ) -> None:
         import moderngl
 
         check_antialias(antialias)
@@ -396,60 +415,84 @@ class FaceCanvas:
             uv = np.asarray(face.uvs)[face.triangles]
             flat = (uv == uv[:, :1]).all(axis=(1, 2))
         order = [lower & flat, lower & ~flat, ~lower & ~flat, ~lower & flat]
-        self.index = ctx.buffer(np.concatenate([face.triangles[m] for m in order])
-                                .astype("i4").tobytes())
+        self.index = ctx.buffer(
+            np.concatenate([face.triangles[m] for m in order]).astype("i4").tobytes()
+        )
         ends = np.cumsum([int(m.sum()) for m in order])
-        self.dynamic = [(ctx.buffer(reserve=face.n_vertices * 3 * 4),
-                         ctx.buffer(reserve=face.n_vertices * 3 * 4)) for _ in range(n_faces)]
-        self.vaos = [self._vertex_array(self.prog, pos, nrm, self.index)
-                     for pos, nrm in self.dynamic]
+        self.dynamic = [
+            (
+                ctx.buffer(reserve=face.n_vertices * 3 * 4),
+                ctx.buffer(reserve=face.n_vertices * 3 * 4),
+            )
+            for _ in range(n_faces)
+        ]
+        self.vaos = [
+            self._vertex_array(self.prog, pos, nrm, self.index) for pos, nrm in self.dynamic
+        ]
         #: per face, (first, end, vertex array) runs of triangles in drawing order
         self.runs = [[(0, face.n_triangles, vao)] for vao in self.vaos]
         programs = [self.prog]
         if face.textured:
             self.flat_static = ctx.buffer(flat_colors(face).astype("f4").tobytes())
-            self.flat_prog = ctx.program(vertex_shader=glsl["vertex"],
-                                         fragment_shader=glsl["flat_fragment"])
+            self.flat_prog = ctx.program(
+                vertex_shader=glsl["vertex"], fragment_shader=glsl["flat_fragment"]
+            )
             programs.append(self.flat_prog)
-            self.flat_vaos = [self._vertex_array(self.flat_prog, pos, nrm, self.index,
-                                                 colors=self.flat_static)
-                              for pos, nrm in self.dynamic]
-            self.runs = [[(0, ends[0], fv), (ends[0], ends[2], v), (ends[2], ends[3], fv)]
-                         for v, fv in zip(self.vaos, self.flat_vaos, strict=True)]
+            self.flat_vaos = [
+                self._vertex_array(self.flat_prog, pos, nrm, self.index, colors=self.flat_static)
+                for pos, nrm in self.dynamic
+            ]
+            self.runs = [
+                [(0, ends[0], fv), (ends[0], ends[2], v), (ends[2], ends[3], fv)]
+                for v, fv in zip(self.vaos, self.flat_vaos, strict=True)
+            ]
         self.edges = None
         if antialias == "edges":
             hidden = np.zeros(face.n_vertices, bool)
             hidden[face.groups.get("hidden_outline", [])] = True
             self.edges = edge_table(face.triangles, hidden)
             self.triangles = np.asfortranarray(face.triangles, dtype=np.intp)
-            self.edge_prog = ctx.program(vertex_shader=glsl["vertex"],
-                                         geometry_shader=glsl["edge_geometry"],
-                                         fragment_shader=glsl["edge_fragment"])
+            self.edge_prog = ctx.program(
+                vertex_shader=glsl["vertex"],
+                geometry_shader=glsl["edge_geometry"],
+                fragment_shader=glsl["edge_fragment"],
+            )
             self.edge_prog["half_size"].value = (size / 2.0, size / 2.0)
             programs.append(self.edge_prog)
             self.edge_index = ctx.buffer(reserve=max(len(self.edges.a), 1) * 3 * 4)
-            self.edge_vaos = [self._vertex_array(self.edge_prog, pos, nrm, self.edge_index)
-                              for pos, nrm in self.dynamic]
+            self.edge_vaos = [
+                self._vertex_array(self.edge_prog, pos, nrm, self.edge_index)
+                for pos, nrm in self.dynamic
+            ]
             # clip-space x, y, w of world points: rows 0, 1 and 3 of the view-projection
             self._xyw = self.vp[[0, 1, 3]].T.astype(np.float32)
         for prog in programs:
             prog["mvp"].write(self.vp.T.astype("f4").tobytes())
             prog["camera"].value = tuple(self.camera)
         self.samples = samples if antialias == "msaa" and samples > 1 else 0
-        self.fbo = ctx.framebuffer(ctx.renderbuffer((size, size), 3, samples=self.samples),
-                                   ctx.depth_renderbuffer((size, size), samples=self.samples))
-        self.resolved = (ctx.framebuffer(ctx.renderbuffer((size, size), 3)) if self.samples
-                         else self.fbo)
+        self.fbo = ctx.framebuffer(
+            ctx.renderbuffer((size, size), 3, samples=self.samples),
+            ctx.depth_renderbuffer((size, size), samples=self.samples),
+        )
+        self.resolved = (
+            ctx.framebuffer(ctx.renderbuffer((size, size), 3)) if self.samples else self.fbo
+        )
         self.face_buffer = np.empty((size, size, 3), np.uint8)
         self.background_u8 = np.round(np.asarray(background) * 255).astype(np.uint8)
         self.buffer = np.empty((size, size * n_faces, 3), np.uint8)
-        self._modes = (moderngl.DEPTH_TEST | moderngl.CULL_FACE,
-                       moderngl.DEPTH_TEST | moderngl.BLEND, moderngl.TRIANGLES)
+        self._modes = (
+            moderngl.DEPTH_TEST | moderngl.CULL_FACE,
+            moderngl.DEPTH_TEST | moderngl.BLEND,
+            moderngl.TRIANGLES,
+        )
         self.last_edges = [0] * n_faces  # edges overdrawn per face in the last draw
 
     def _vertex_array(self, prog, pos, nrm, index, colors=None):
-        content = [(pos, "3f", "in_pos"), (nrm, "3f", "in_norm"),
-                   (colors or self.static, "4f", "in_color")]
+        content = [
+            (pos, "3f", "in_pos"),
+            (nrm, "3f", "in_norm"),
+            (colors or self.static, "4f", "in_color"),
+        ]
         if self.uv_buffer is not None and "in_uv" in prog:
             content.append((self.uv_buffer, "2f", "in_uv"))
         return self.ctx.vertex_array(prog, content, index_buffer=index)
@@ -461,9 +504,12 @@ class FaceCanvas:
             if hi > lo:
                 vao.render(self._modes[2], vertices=3 * (hi - lo), first=3 * lo)
 
-    def draw(self, frames: list[FaceFrame], out: np.ndarray | None = None,
-             references: list[tuple[FaceFrame | None, tuple[int, int, int, int]]] | None = None
-             ) -> np.ndarray:
+    def draw(
+        self,
+        frames: list[FaceFrame],
+        out: np.ndarray | None = None,
+        references: list[tuple[FaceFrame | None, tuple[int, int, int, int]]] | None = None,
+    ) -> np.ndarray:
         """Draw one frame per face (left to right) into ``out`` (default: a buffer reused by the
         next draw); returns the (H, W, 3) uint8 frame, top row first.
 
@@ -503,11 +549,12 @@ class FaceCanvas:
             if self.samples:
                 ctx.copy_framebuffer(self.resolved, self.fbo)
             self.resolved.read_into(self.face_buffer, components=3)
-            out[:, k * size:(k + 1) * size] = self.face_buffer[::-1]
+            out[:, k * size : (k + 1) * size] = self.face_buffer[::-1]
         return out
 
-    def _draw_box(self, k: int, frame: FaceFrame,
-                  box: tuple[int, int, int, int]) -> np.ndarray | None:
+    def _draw_box(
+        self, k: int, frame: FaceFrame, box: tuple[int, int, int, int]
+    ) -> np.ndarray | None:
         """Draw the lower face of ``frame`` inside ``box`` only (with face ``k``'s buffers);
         the box's pixels."""
         if box[2] <= box[0] or box[3] <= box[1]:
@@ -557,8 +604,13 @@ class FaceCanvas:
         if self.edges is not None:
             objs += [*self.edge_vaos, self.edge_index, self.edge_prog]
         if self.texture is not None:
-            objs += [self.texture, self.uv_buffer, *self.flat_vaos, self.flat_static,
-                     self.flat_prog]
+            objs += [
+                self.texture,
+                self.uv_buffer,
+                *self.flat_vaos,
+                self.flat_static,
+                self.flat_prog,
+            ]
         for obj in objs:
             obj.release()
         for fbo in {id(self.fbo): self.fbo, id(self.resolved): self.resolved}.values():

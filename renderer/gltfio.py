@@ -40,8 +40,14 @@ import numpy as np
 from app.errors import InputError
 
 #: glTF accessor component type -> numpy dtype (glTF 2.0 sec. 3.6.2.2).
-COMPONENT_TYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16,
-               5125: np.uint32, 5126: np.float32}
+COMPONENT_TYPES = {
+    5120: np.int8,
+    5121: np.uint8,
+    5122: np.int16,
+    5123: np.uint16,
+    5125: np.uint32,
+    5126: np.float32,
+}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
 #: Specular strength of a fully smooth dielectric (the renderer's 4th colour column).
 SPECULAR_SMOOTH = 0.5
@@ -90,8 +96,7 @@ def _load(path: Path):
     except InputError:
         raise
     except Exception as exc:  # pygltflib raises assorted types on malformed files
-        reason = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else type(
-            exc).__name__
+        reason = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else type(exc).__name__
         raise InputError(f"not a readable glTF 2.0 / VRM file: {reason}", path=path) from None
     return gltf, gltf.binary_blob() or b""
 
@@ -113,17 +118,30 @@ def _accessor(gltf, blob: bytes, index: int, path: Path) -> np.ndarray:
             if acc.count and need > len(blob):
                 raise ValueError("accessor reaches past its buffer")
             raw = np.frombuffer(blob, np.uint8, count=max(need - start, 0), offset=start)
-            rows = np.lib.stride_tricks.as_strided(
-                raw, (acc.count, dtype.itemsize * width), (stride, 1)) if acc.count else raw
+            rows = (
+                np.lib.stride_tricks.as_strided(
+                    raw, (acc.count, dtype.itemsize * width), (stride, 1)
+                )
+                if acc.count
+                else raw
+            )
             out = np.ascontiguousarray(rows).view(dtype).reshape(acc.count, width)
         if acc.sparse is not None and acc.sparse.count:
             sp = acc.sparse
-            idx = np.frombuffer(blob, COMPONENT_TYPES[sp.indices.componentType], sp.count,
-                                (gltf.bufferViews[sp.indices.bufferView].byteOffset or 0)
-                                + (sp.indices.byteOffset or 0))
-            vals = np.frombuffer(blob, dtype, sp.count * width,
-                                 (gltf.bufferViews[sp.values.bufferView].byteOffset or 0)
-                                 + (sp.values.byteOffset or 0)).reshape(sp.count, width)
+            idx = np.frombuffer(
+                blob,
+                COMPONENT_TYPES[sp.indices.componentType],
+                sp.count,
+                (gltf.bufferViews[sp.indices.bufferView].byteOffset or 0)
+                + (sp.indices.byteOffset or 0),
+            )
+            vals = np.frombuffer(
+                blob,
+                dtype,
+                sp.count * width,
+                (gltf.bufferViews[sp.values.bufferView].byteOffset or 0)
+                + (sp.values.byteOffset or 0),
+            ).reshape(sp.count, width)
             out = out.copy()
             out[idx.astype(np.int64)] = vals
     except (IndexError, KeyError, ValueError, TypeError, AttributeError) as exc:
@@ -135,9 +153,13 @@ def _accessor(gltf, blob: bytes, index: int, path: Path) -> np.ndarray:
 
 def _quat_matrix(q: list[float]) -> np.ndarray:
     x, y, z, w = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def _local(node) -> np.ndarray:
@@ -157,7 +179,7 @@ def _texture_rgb(gltf, blob: bytes, texture_index: int, base: Path) -> np.ndarra
         image = gltf.images[gltf.textures[texture_index].source]
         if image.bufferView is not None:
             view = gltf.bufferViews[image.bufferView]
-            data = blob[view.byteOffset or 0:(view.byteOffset or 0) + view.byteLength]
+            data = blob[view.byteOffset or 0 : (view.byteOffset or 0) + view.byteLength]
             pixels = iio.imread(io.BytesIO(data))
         elif image.uri and not image.uri.startswith("data:"):
             pixels = iio.imread(base / image.uri)
@@ -171,8 +193,9 @@ def _texture_rgb(gltf, blob: bytes, texture_index: int, base: Path) -> np.ndarra
     return pixels[..., :3] / (65535.0 if pixels.max() > 255 else 255.0)
 
 
-def _colors(gltf, blob: bytes, prim, n: int, path: Path
-            ) -> tuple[np.ndarray, np.ndarray, tuple[int, np.ndarray, np.ndarray] | None]:
+def _colors(
+    gltf, blob: bytes, prim, n: int, path: Path
+) -> tuple[np.ndarray, np.ndarray, tuple[int, np.ndarray, np.ndarray] | None]:
     """Per-vertex display RGB and specular strength of a primitive (PBR-lite): with the
     baseColor texture sampled at each vertex, without it, and the texture (its index, the
     UVs and the image) if there is one."""
@@ -224,12 +247,18 @@ def _humanoid(gltf) -> tuple[dict[str, int], bool]:
     ext = gltf.extensions or {}
     if isinstance(ext.get("VRMC_vrm"), dict):  # VRM 1.0
         bones = ext["VRMC_vrm"].get("humanoid", {}).get("humanBones", {})
-        return {k: int(v["node"]) for k, v in bones.items()
-                if isinstance(v, dict) and isinstance(v.get("node"), int)}, False
+        return {
+            k: int(v["node"])
+            for k, v in bones.items()
+            if isinstance(v, dict) and isinstance(v.get("node"), int)
+        }, False
     if isinstance(ext.get("VRM"), dict):  # VRM 0.x
         bones = ext["VRM"].get("humanoid", {}).get("humanBones", [])
-        return {str(b["bone"]): int(b["node"]) for b in bones
-                if isinstance(b, dict) and isinstance(b.get("node"), int) and "bone" in b}, True
+        return {
+            str(b["bone"]): int(b["node"])
+            for b in bones
+            if isinstance(b, dict) and isinstance(b.get("node"), int) and "bone" in b
+        }, True
     return {}, False
 
 
@@ -242,8 +271,7 @@ def read_gltf(path: str | Path) -> GltfScene:
     except (IndexError, KeyError, TypeError, ValueError, AttributeError) as exc:
         if isinstance(exc, InputError):
             raise
-        reason = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else type(
-            exc).__name__
+        reason = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else type(exc).__name__
         raise InputError(f"malformed glTF: {reason}", path=path) from None
 
 
@@ -282,29 +310,40 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
                 continue  # points and lines are not drawn
             pos = _accessor(gltf, blob, prim.attributes.POSITION, path)[:, :3]
             n = len(pos)
-            nrm = (_accessor(gltf, blob, prim.attributes.NORMAL, path)[:, :3]
-                   if prim.attributes.NORMAL is not None else None)
-            flat = (_accessor(gltf, blob, prim.indices, path).astype(np.int64).reshape(-1)
-                    if prim.indices is not None else np.arange(n))
-            tri = flat[:len(flat) // 3 * 3].reshape(-1, 3)
+            nrm = (
+                _accessor(gltf, blob, prim.attributes.NORMAL, path)[:, :3]
+                if prim.attributes.NORMAL is not None
+                else None
+            )
+            flat = (
+                _accessor(gltf, blob, prim.indices, path).astype(np.int64).reshape(-1)
+                if prim.indices is not None
+                else np.arange(n)
+            )
+            tri = flat[: len(flat) // 3 * 3].reshape(-1, 3)
             if len(tri) and (tri.min() < 0 or tri.max() >= n):
-                raise InputError(f"mesh {node.mesh}: indices beyond its {n} vertices",
-                                 path=path)
+                raise InputError(f"mesh {node.mesh}: indices beyond its {n} vertices", path=path)
             deltas = {}
             for name, t in zip(_target_names(mesh, prim), prim.targets or [], strict=True):
-                dp = (_accessor(gltf, blob, t["POSITION"], path)[:, :3]
-                      if isinstance(t, dict) and t.get("POSITION") is not None
-                      else np.zeros((n, 3)))
-                dn = (_accessor(gltf, blob, t["NORMAL"], path)[:, :3]
-                      if isinstance(t, dict) and t.get("NORMAL") is not None
-                      else np.zeros((n, 3)))
+                dp = (
+                    _accessor(gltf, blob, t["POSITION"], path)[:, :3]
+                    if isinstance(t, dict) and t.get("POSITION") is not None
+                    else np.zeros((n, 3))
+                )
+                dn = (
+                    _accessor(gltf, blob, t["NORMAL"], path)[:, :3]
+                    if isinstance(t, dict) and t.get("NORMAL") is not None
+                    else np.zeros((n, 3))
+                )
                 deltas[name] = (dp, dn)
-            if skin is not None and prim.attributes.JOINTS_0 is not None \
-                    and prim.attributes.WEIGHTS_0 is not None:
+            if (
+                skin is not None
+                and prim.attributes.JOINTS_0 is not None
+                and prim.attributes.WEIGHTS_0 is not None
+            ):
                 joints = _accessor(gltf, blob, prim.attributes.JOINTS_0, path).astype(int)
                 if joints.max(initial=0) >= len(skin.joints):
-                    raise InputError(f"skin {node.skin}: joint index beyond its joints",
-                                     path=path)
+                    raise InputError(f"skin {node.skin}: joint index beyond its joints", path=path)
                 nodes = np.asarray(skin.joints)[joints]
                 weights = _accessor(gltf, blob, prim.attributes.WEIGHTS_0, path)
             else:
@@ -317,31 +356,49 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
                 nodes = np.tile([i, i, i, i], (n, 1))
                 weights = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
             col, plain, texture = _colors(gltf, blob, prim, n, path)
-            parts.append({"pos": pos, "nrm": nrm, "tri": tri + offset, "deltas": deltas,
-                          "col": col, "plain": plain, "texture": texture, "nodes": nodes,
-                          "weights": weights})
+            parts.append(
+                {
+                    "pos": pos,
+                    "nrm": nrm,
+                    "tri": tri + offset,
+                    "deltas": deltas,
+                    "col": col,
+                    "plain": plain,
+                    "texture": texture,
+                    "nodes": nodes,
+                    "weights": weights,
+                }
+            )
             offset += n
     if not parts or not sum(len(p["tri"]) for p in parts):
         raise InputError("no triangle mesh in the scene", path=path)
     names = list(dict.fromkeys(name for p in parts for name in p["deltas"]))
     zeros = [np.zeros((len(p["pos"]), 3)) for p in parts]
-    targets = {name: tuple(np.vstack([p["deltas"].get(name, (z, z))[j]
-                                      for p, z in zip(parts, zeros, strict=True)])
-                           for j in (0, 1))
-               for name in names}
+    targets = {
+        name: tuple(
+            np.vstack([p["deltas"].get(name, (z, z))[j] for p, z in zip(parts, zeros, strict=True)])
+            for j in (0, 1)
+        )
+        for name in names
+    }
     vertices = np.vstack([p["pos"] for p in parts])
-    normals = (None if any(p["nrm"] is None for p in parts)
-               else np.vstack([p["nrm"] for p in parts]))
+    normals = None if any(p["nrm"] is None for p in parts) else np.vstack([p["nrm"] for p in parts])
     if not np.isfinite(vertices).all():
         raise InputError("vertex positions must be finite numbers", path=path)
     scene = GltfScene(
-        vertices=vertices, normals=normals, triangles=np.vstack([p["tri"] for p in parts]),
-        colors=np.vstack([p["col"] for p in parts]), targets=targets,  # type: ignore[arg-type]
+        vertices=vertices,
+        normals=normals,
+        triangles=np.vstack([p["tri"] for p in parts]),
+        colors=np.vstack([p["col"] for p in parts]),
+        targets=targets,  # type: ignore[arg-type]
         influence_nodes=np.vstack([p["nodes"] for p in parts]),
         influence_weights=np.vstack([p["weights"] for p in parts]),
         node_names=[str(node.name or f"node{i}") for i, node in enumerate(gltf.nodes)],
-        parents=parents, world=world, humanoid=humanoid,
-        extras=gltf.extras if isinstance(gltf.extras, dict) else {})
+        parents=parents,
+        world=world,
+        humanoid=humanoid,
+        extras=gltf.extras if isinstance(gltf.extras, dict) else {},
+    )
     shared = {p["texture"][0] if p["texture"] else None for p in parts}
     if len(shared) == 1 and None not in shared:
         image = parts[0]["texture"][2]

@@ -44,8 +44,13 @@ class MeshOut:
     texture: np.ndarray | None = None  # (h, w, 3) uint8 baseColor image, display-referred
 
 
-def write_glb(path: str | Path, mesh: MeshOut, *, bones: list[tuple[str, int, np.ndarray]],
-              extras: dict[str, Any]) -> Path:
+def write_glb(
+    path: str | Path,
+    mesh: MeshOut,
+    *,
+    bones: list[tuple[str, int, np.ndarray]],
+    extras: dict[str, Any],
+) -> Path:
     """Write ``mesh`` as a binary glTF: one node with the mesh, skinned to ``bones``
     (name, parent index or -1, world position), and ``extras`` on the root.
 
@@ -60,38 +65,55 @@ def write_glb(path: str | Path, mesh: MeshOut, *, bones: list[tuple[str, int, np
     views: list[g.BufferView] = []
     accessors: list[g.Accessor] = []
 
-    def add(array: np.ndarray, kind: str, component: int, target: int | None = None,
-            bounds: bool = False) -> int:
+    def add(
+        array: np.ndarray,
+        kind: str,
+        component: int,
+        target: int | None = None,
+        bounds: bool = False,
+    ) -> int:
         data = np.ascontiguousarray(array, dtype=COMPONENT_TYPES[component])
         while len(blob) % 4:
             blob.append(0)
-        views.append(g.BufferView(buffer=0, byteOffset=len(blob), byteLength=data.nbytes,
-                                  target=target))
+        views.append(
+            g.BufferView(buffer=0, byteOffset=len(blob), byteLength=data.nbytes, target=target)
+        )
         blob.extend(data.tobytes())
         flat = data.reshape(len(data), -1)
-        accessors.append(g.Accessor(
-            bufferView=len(views) - 1, componentType=component, count=len(data), type=kind,
-            min=flat.min(axis=0).tolist() if bounds else None,
-            max=flat.max(axis=0).tolist() if bounds else None))
+        accessors.append(
+            g.Accessor(
+                bufferView=len(views) - 1,
+                componentType=component,
+                count=len(data),
+                type=kind,
+                min=flat.min(axis=0).tolist() if bounds else None,
+                max=flat.max(axis=0).tolist() if bounds else None,
+            )
+        )
         return len(accessors) - 1
 
     f32, vertex_buffer = g.FLOAT, g.ARRAY_BUFFER
     attributes = g.Attributes(
         POSITION=add(mesh.vertices, "VEC3", f32, vertex_buffer, bounds=True),
         NORMAL=add(mesh.normals, "VEC3", f32, vertex_buffer),
-        COLOR_0=add(np.clip(mesh.colors[:, :3], 0, 1) ** 2, "VEC3", f32, vertex_buffer))
-    setattr(attributes, SPECULAR_ATTRIBUTE, add(mesh.colors[:, 3], "SCALAR", f32,
-                                                vertex_buffer))
+        COLOR_0=add(np.clip(mesh.colors[:, :3], 0, 1) ** 2, "VEC3", f32, vertex_buffer),
+    )
+    setattr(attributes, SPECULAR_ATTRIBUTE, add(mesh.colors[:, 3], "SCALAR", f32, vertex_buffer))
     if bones and mesh.joints is not None and mesh.weights is not None:
         attributes.JOINTS_0 = add(mesh.joints, "VEC4", g.UNSIGNED_BYTE, vertex_buffer)
         attributes.WEIGHTS_0 = add(mesh.weights, "VEC4", f32, vertex_buffer)
-    targets = [{"POSITION": add(dp, "VEC3", f32, vertex_buffer, bounds=True),
-                "NORMAL": add(dn, "VEC3", f32, vertex_buffer)}
-               for dp, dn in mesh.targets.values()]
+    targets = [
+        {
+            "POSITION": add(dp, "VEC3", f32, vertex_buffer, bounds=True),
+            "NORMAL": add(dn, "VEC3", f32, vertex_buffer),
+        }
+        for dp, dn in mesh.targets.values()
+    ]
     indices = add(mesh.triangles.reshape(-1), "SCALAR", g.UNSIGNED_INT, g.ELEMENT_ARRAY_BUFFER)
     names = list(mesh.targets)
-    material = g.PbrMetallicRoughness(baseColorFactor=[1, 1, 1, 1], metallicFactor=0.0,
-                                      roughnessFactor=0.6)
+    material = g.PbrMetallicRoughness(
+        baseColorFactor=[1, 1, 1, 1], metallicFactor=0.0, roughnessFactor=0.6
+    )
     images, textures, samplers = [], [], []
     if mesh.uvs is not None and mesh.texture is not None:
         import imageio.v3 as iio
@@ -103,12 +125,17 @@ def write_glb(path: str | Path, mesh: MeshOut, *, bones: list[tuple[str, int, np
         views.append(g.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(png)))
         blob.extend(png)
         images.append(g.Image(bufferView=len(views) - 1, mimeType="image/png"))
-        samplers.append(g.Sampler(magFilter=g.LINEAR, minFilter=g.LINEAR_MIPMAP_NEAREST,
-                                  wrapS=g.REPEAT, wrapT=g.REPEAT))
+        samplers.append(
+            g.Sampler(
+                magFilter=g.LINEAR,
+                minFilter=g.LINEAR_MIPMAP_NEAREST,
+                wrapS=g.REPEAT,
+                wrapT=g.REPEAT,
+            )
+        )
         textures.append(g.Texture(source=0, sampler=0))
         material.baseColorTexture = g.TextureInfo(index=0)
-    primitive = g.Primitive(attributes=attributes, indices=indices, material=0,
-                            targets=targets)
+    primitive = g.Primitive(attributes=attributes, indices=indices, material=0, targets=targets)
     nodes = [g.Node(name="face", mesh=0, skin=0 if bones else None)]
     first_bone = len(nodes)
     for k, (name, parent, position) in enumerate(bones):
@@ -120,19 +147,36 @@ def write_glb(path: str | Path, mesh: MeshOut, *, bones: list[tuple[str, int, np
     if bones:
         inverse = np.tile(np.eye(4), (len(bones), 1, 1))
         inverse[:, :3, 3] = -np.array([b[2] for b in bones])
-        skins.append(g.Skin(joints=list(range(first_bone, first_bone + len(bones))),
-                            inverseBindMatrices=add(inverse.transpose(0, 2, 1).reshape(-1, 16),
-                                                    "MAT4", f32)))
+        skins.append(
+            g.Skin(
+                joints=list(range(first_bone, first_bone + len(bones))),
+                inverseBindMatrices=add(inverse.transpose(0, 2, 1).reshape(-1, 16), "MAT4", f32),
+            )
+        )
     roots = [0] + [first_bone + k for k, b in enumerate(bones) if b[1] < 0]
     gltf = g.GLTF2(
         asset=g.Asset(version="2.0", generator="facepair"),
-        scene=0, scenes=[g.Scene(nodes=roots)], nodes=nodes, skins=skins,
-        meshes=[g.Mesh(name="face", primitives=[primitive], weights=[0.0] * len(names),
-                       extras={"targetNames": names})],
+        scene=0,
+        scenes=[g.Scene(nodes=roots)],
+        nodes=nodes,
+        skins=skins,
+        meshes=[
+            g.Mesh(
+                name="face",
+                primitives=[primitive],
+                weights=[0.0] * len(names),
+                extras={"targetNames": names},
+            )
+        ],
         materials=[g.Material(name="skin", pbrMetallicRoughness=material)],
-        images=images, textures=textures, samplers=samplers, accessors=accessors,
-        bufferViews=views, buffers=[g.Buffer(byteLength=len(blob))],
-        extras=extras)
+        images=images,
+        textures=textures,
+        samplers=samplers,
+        accessors=accessors,
+        bufferViews=views,
+        buffers=[g.Buffer(byteLength=len(blob))],
+        extras=extras,
+    )
     gltf.set_binary_blob(bytes(blob))
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)

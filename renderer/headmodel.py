@@ -79,9 +79,13 @@ def _lid_cover(q: np.ndarray) -> np.ndarray:
     az = np.degrees(np.arctan2(e[:, 0], e[:, 2]))
     el = np.degrees(np.arctan2(e[:, 1], np.hypot(e[:, 0], e[:, 2])))
     lateral = az / hp.LID_HALF_WIDTH
-    opening = np.minimum.reduce([hp.lid_margin(lateral, upper=True) - 3.0 - el,
-                                 el - hp.lid_margin(lateral, upper=False) - 3.0,
-                                 hp.LID_HALF_WIDTH + 3.0 - np.abs(az)])
+    opening = np.minimum.reduce(
+        [
+            hp.lid_margin(lateral, upper=True) - 3.0 - el,
+            el - hp.lid_margin(lateral, upper=False) - 3.0,
+            hp.LID_HALF_WIDTH + 3.0 - np.abs(az),
+        ]
+    )
     # degrees inside the opening -> millimetres on the ball
     return np.maximum(ball, np.radians(opening) * COVER_RADIUS)
 
@@ -108,14 +112,27 @@ def builtin_face(look: str = "textured") -> Face:
     """
     check_look(look)
     textured = look == "textured"
-    parts = [hp.skin_grid(_skin_sdf, CENTRE, ray_surface, N_AZIMUTH, N_ELEVATION,
-                          MOUTH_Y, MOUTH_HALF_WIDTH, textured=textured)]
+    parts = [
+        hp.skin_grid(
+            _skin_sdf,
+            CENTRE,
+            ray_surface,
+            N_AZIMUTH,
+            N_ELEVATION,
+            MOUTH_Y,
+            MOUTH_HALF_WIDTH,
+            textured=textured,
+        )
+    ]
     for side, sx in (("l", 1.0), ("r", -1.0)):
         centre = np.array([sx * EYE_X, EYE_Y, EYE_Z])
         parts.append(hp.eyeball(centre, EYE_RADIUS, f"eyeball_{side}"))
         for upper, radius in ((True, EYE_RADIUS + 1.0), (False, EYE_RADIUS + 0.8)):
-            parts.append(hp.eyelid(centre, radius, EYE_RADIUS + 0.25, upper=upper, side=side,
-                                   lashes=textured))
+            parts.append(
+                hp.eyelid(
+                    centre, radius, EYE_RADIUS + 0.25, upper=upper, side=side, lashes=textured
+                )
+            )
         parts.append(hp.ear(np.array([sx * 73.0, 2.0, -4.0]), sx))
     parts.append(hp.mouth_cavity(MOUTH_Y))
     parts.append(hp.neck_and_shoulders())
@@ -123,7 +140,7 @@ def builtin_face(look: str = "textured") -> Face:
     if textured:
         from renderer.skintexture import cached_skin_texture, white_uv
 
-        grid = parts[0].vertices[:N_ELEVATION * N_AZIMUTH].reshape(N_ELEVATION, N_AZIMUTH, 3)
+        grid = parts[0].vertices[: N_ELEVATION * N_AZIMUTH].reshape(N_ELEVATION, N_AZIMUTH, 3)
         texture = cached_skin_texture(grid, MOUTH_Y, MOUTH_HALF_WIDTH)
     mesh = hp.merge(parts, white_uv(N_ELEVATION) if textured else None)
 

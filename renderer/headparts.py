@@ -40,29 +40,40 @@ def merge(parts: list[Part], default_uv: tuple[float, float] | None = None) -> P
     """
     offsets = np.cumsum([0] + [len(p.vertices) for p in parts])
     names = sorted({k for p in parts for k in p.layers})
-    layers = {k: np.concatenate([p.layers.get(k, np.full(len(p.vertices),
-                                                         LAYER_DEFAULTS.get(k, 0.0)))
-                                 for p in parts]) for k in names}
+    layers = {
+        k: np.concatenate(
+            [p.layers.get(k, np.full(len(p.vertices), LAYER_DEFAULTS.get(k, 0.0))) for p in parts]
+        )
+        for k in names
+    }
     groups: dict[str, list[np.ndarray]] = {}
     for off, p in zip(offsets, parts, strict=False):
         for k, idx in p.groups.items():
             groups.setdefault(k, []).append(np.asarray(idx) + off)
     return Part(
         vertices=np.concatenate([p.vertices for p in parts]),
-        triangles=np.concatenate([p.triangles + off for off, p in zip(offsets, parts,
-                                                                       strict=False)]),
+        triangles=np.concatenate(
+            [p.triangles + off for off, p in zip(offsets, parts, strict=False)]
+        ),
         colors=np.concatenate([p.colors for p in parts]),
         groups={k: np.concatenate(v).astype(np.int64) for k, v in groups.items()},
         layers=layers,
-        uvs=None if default_uv is None else np.concatenate(
-            [p.uvs if p.uvs is not None else np.tile(np.asarray(default_uv, np.float32),
-                                                     (len(p.vertices), 1))
-             for p in parts]).astype(np.float32),
+        uvs=None
+        if default_uv is None
+        else np.concatenate(
+            [
+                p.uvs
+                if p.uvs is not None
+                else np.tile(np.asarray(default_uv, np.float32), (len(p.vertices), 1))
+                for p in parts
+            ]
+        ).astype(np.float32),
     )
 
 
-def _grid_triangles(rows: int, cols: int, wrap: bool,
-                    vertices: np.ndarray | None = None) -> np.ndarray:
+def _grid_triangles(
+    rows: int, cols: int, wrap: bool, vertices: np.ndarray | None = None
+) -> np.ndarray:
     """Two triangles per cell of a rows x cols vertex grid (row-major), optionally wrapping.
 
     With ``vertices``, each cell is split along its shorter diagonal. A fixed diagonal makes a
@@ -73,30 +84,47 @@ def _grid_triangles(rows: int, cols: int, wrap: bool,
     r, c = np.meshgrid(np.arange(rows - 1), np.arange(cols if wrap else cols - 1), indexing="ij")
     a = r * cols + c
     b = r * cols + (c + 1) % cols
-    one = np.concatenate([np.stack([a, b, b + cols], -1).reshape(-1, 3),
-                          np.stack([a, b + cols, a + cols], -1).reshape(-1, 3)])
+    one = np.concatenate(
+        [
+            np.stack([a, b, b + cols], -1).reshape(-1, 3),
+            np.stack([a, b + cols, a + cols], -1).reshape(-1, 3),
+        ]
+    )
     if vertices is None:
         return one
-    other = np.concatenate([np.stack([a, b, a + cols], -1).reshape(-1, 3),
-                            np.stack([b, b + cols, a + cols], -1).reshape(-1, 3)])
+    other = np.concatenate(
+        [
+            np.stack([a, b, a + cols], -1).reshape(-1, 3),
+            np.stack([b, b + cols, a + cols], -1).reshape(-1, 3),
+        ]
+    )
     a, b = a.ravel(), b.ravel()
-    flip = (np.linalg.norm(vertices[b] - vertices[a + cols], axis=1)
-            < np.linalg.norm(vertices[a] - vertices[b + cols], axis=1))
+    flip = np.linalg.norm(vertices[b] - vertices[a + cols], axis=1) < np.linalg.norm(
+        vertices[a] - vertices[b + cols], axis=1
+    )
     return np.where(np.tile(flip, 2)[:, None], other, one)
 
 
-def _warp(n: int, lo: float, hi: float, dense_lo: float, dense_hi: float,
-          gain: float, endpoint: bool = True,
-          bands: tuple[tuple[float, float, float], ...] = ()) -> np.ndarray:
+def _warp(
+    n: int,
+    lo: float,
+    hi: float,
+    dense_lo: float,
+    dense_hi: float,
+    gain: float,
+    endpoint: bool = True,
+    bands: tuple[tuple[float, float, float], ...] = (),
+) -> np.ndarray:
     """``n`` samples of [lo, hi] whose density is ``1 + gain`` inside [dense_lo, dense_hi],
     plus ``g`` more inside each ``(a, b, g)`` of ``bands``."""
     x = np.linspace(lo, hi, 4001)
-    dens = 1.0 + gain * smoothstep(dense_lo - 8, dense_lo, x) * smoothstep(dense_hi + 8,
-                                                                             dense_hi, x)
+    dens = 1.0 + gain * smoothstep(dense_lo - 8, dense_lo, x) * smoothstep(
+        dense_hi + 8, dense_hi, x
+    )
     for a, b, g in bands:
         dens = dens + g * smoothstep(a - 4, a, x) * smoothstep(b + 4, b, x)
     cdf = np.concatenate([[0.0], np.cumsum((dens[1:] + dens[:-1]) / 2 * np.diff(x))])
-    u = np.linspace(0.0, cdf[-1], n + (0 if endpoint else 1))[: n]
+    u = np.linspace(0.0, cdf[-1], n + (0 if endpoint else 1))[:n]
     return np.interp(u, cdf, x)
 
 
@@ -117,7 +145,7 @@ def lip_mask(p: np.ndarray, mouth_y: float, half_width: float) -> np.ndarray:
     """0..1 on the vermilion: upper lip with a cupid's bow, fuller lower lip."""
     x, y, z = np.abs(p[:, 0]), p[:, 1], p[:, 2]
     prof = np.sqrt(np.clip(1 - (x / half_width) ** 2, 0, 1))
-    upper = mouth_y + 8.0 * prof ** 0.7 - 1.6 * np.exp(-((x / 4.0) ** 2)) + 0.6
+    upper = mouth_y + 8.0 * prof**0.7 - 1.6 * np.exp(-((x / 4.0) ** 2)) + 0.6
     lower = mouth_y - 10.0 * np.sqrt(np.clip(1 - (x / (half_width - 1)) ** 2, 0, 1)) ** 0.8
     lip = smoothstep(upper + 1.0, upper - 1.0, y) * smoothstep(lower - 1.0, lower + 1.0, y)
     return lip * smoothstep(70, 80, z) * smoothstep(half_width + 0.5, half_width - 2.0, x)
@@ -136,8 +164,12 @@ def brow_mask(p: np.ndarray) -> np.ndarray:
     x, y, z = np.abs(p[:, 0]), p[:, 1], p[:, 2]
     t = (x - 13.0) / 40.0
     centre, half = brow_arch(x)
-    return (smoothstep(half + 1.8, half - 1.2, np.abs(y - centre)) * smoothstep(-0.05, 0.05, t)
-            * smoothstep(1.05, 0.9, t) * smoothstep(45, 60, z))
+    return (
+        smoothstep(half + 1.8, half - 1.2, np.abs(y - centre))
+        * smoothstep(-0.05, 0.05, t)
+        * smoothstep(1.05, 0.9, t)
+        * smoothstep(45, 60, z)
+    )
 
 
 def paint_skin(p: np.ndarray, mouth_y: float, half_width: float) -> np.ndarray:
@@ -152,9 +184,16 @@ def paint_skin(p: np.ndarray, mouth_y: float, half_width: float) -> np.ndarray:
     return np.column_stack([col, spec])
 
 
-def skin_grid(sdf: Callable[[np.ndarray], np.ndarray], centre: np.ndarray, solve,
-              n_azimuth: int, n_elevation: int, mouth_y: float, half_width: float,
-              textured: bool = False) -> Part:
+def skin_grid(
+    sdf: Callable[[np.ndarray], np.ndarray],
+    centre: np.ndarray,
+    solve,
+    n_azimuth: int,
+    n_elevation: int,
+    mouth_y: float,
+    half_width: float,
+    textured: bool = False,
+) -> Part:
     """The skin sampled on a ray grid about ``centre``, with the lips cut apart at the mouth.
 
     Rows are elevations (one row passes exactly through the mouth line), columns azimuths
@@ -184,8 +223,13 @@ def skin_grid(sdf: Callable[[np.ndarray], np.ndarray], centre: np.ndarray, solve
     # pole cap
     pole = len(verts)
     top = (n_elevation - 1) * n_azimuth + np.arange(n_azimuth)
-    verts = np.vstack([verts, centre + solve(sdf, centre, np.array([[0.0, 1.0, 0.0]]), 260.0)
-                       * np.array([0.0, 1.0, 0.0])])
+    verts = np.vstack(
+        [
+            verts,
+            centre
+            + solve(sdf, centre, np.array([[0.0, 1.0, 0.0]]), 260.0) * np.array([0.0, 1.0, 0.0]),
+        ]
+    )
     tris = np.vstack([tris, np.column_stack([top, np.roll(top, -1), np.full(n_azimuth, pole)])])
     # the slit: duplicate the mouth-row vertices between the corners for the lower lip
     row_m = m * n_azimuth + np.arange(n_azimuth)
@@ -217,8 +261,9 @@ def skin_grid(sdf: Callable[[np.ndarray], np.ndarray], centre: np.ndarray, solve
     lateral = 0.5 * (1 - np.sin(np.pi / 2 * tt))
     span = (el_v < el[m]).astype(float)
     span[lower_copy] = 1.0
-    jaw = ((1 - side) * span + side * lateral) * smoothstep(np.radians(100), np.radians(70),
-                                                            np.abs(az_v))
+    jaw = ((1 - side) * span + side * lateral) * smoothstep(
+        np.radians(100), np.radians(70), np.abs(az_v)
+    )
     lower_lip = (el_v < el[m]).astype(float)
     lower_lip[lower_copy] = 1.0
     upper_lip = 1.0 - lower_lip
@@ -270,18 +315,34 @@ def _lathe(polar: np.ndarray, colours: np.ndarray, n_seg: int) -> tuple[np.ndarr
 
 def eyeball(centre: np.ndarray, radius: float, name: str) -> Part:
     """Eyeball with sclera, iris (with a darker limbus) and pupil; the pupil faces +z."""
-    sclera, iris, limbus, pupil = ([0.93, 0.91, 0.87, 0.9], [0.36, 0.27, 0.18, 0.9],
-                                   [0.14, 0.11, 0.09, 0.9], [0.03, 0.03, 0.03, 0.2])
-    spec = [(0.0, pupil), (0.10, pupil), (0.19, pupil), (0.19, iris), (0.33, iris),
-            (0.44, limbus), (0.48, limbus), (0.48, sclera), (0.7, sclera), (1.0, sclera),
-            (1.4, sclera), (1.9, sclera)]  # the back, always inside the head, is left open
+    sclera, iris, limbus, pupil = (
+        [0.93, 0.91, 0.87, 0.9],
+        [0.36, 0.27, 0.18, 0.9],
+        [0.14, 0.11, 0.09, 0.9],
+        [0.03, 0.03, 0.03, 0.2],
+    )
+    spec = [
+        (0.0, pupil),
+        (0.10, pupil),
+        (0.19, pupil),
+        (0.19, iris),
+        (0.33, iris),
+        (0.44, limbus),
+        (0.48, limbus),
+        (0.48, sclera),
+        (0.7, sclera),
+        (1.0, sclera),
+        (1.4, sclera),
+        (1.9, sclera),
+    ]  # the back, always inside the head, is left open
     polar = np.array([a for a, _ in spec])
     v, t, c = _lathe(polar, np.array([c for _, c in spec]), 20)
     verts = centre + radius * v
     idx = np.arange(len(verts))
     side = name[-1]
-    return Part(verts, t, c, {name: idx, f"fp:3.{5 if side == 'l' else 6}": idx[[0]],
-                              "hidden_outline": idx})
+    return Part(
+        verts, t, c, {name: idx, f"fp:3.{5 if side == 'l' else 6}": idx[[0]], "hidden_outline": idx}
+    )
 
 
 #: Half the angular width of the eye opening about the eyeball centre (degrees of azimuth).
@@ -296,12 +357,19 @@ def lid_margin(lateral: np.ndarray, *, upper: bool) -> np.ndarray:
     """
     a = np.clip(lateral, -1.0, 1.0)
     if upper:
-        return 3 + 20 * (1 - a ** 2) + 3 * a
-    return 1 - 19 * (1 - a ** 2) + 3 * a
+        return 3 + 20 * (1 - a**2) + 3 * a
+    return 1 - 19 * (1 - a**2) + 3 * a
 
 
-def eyelid(centre: np.ndarray, radius: float, root_radius: float, *, upper: bool,
-           side: str, lashes: bool = False) -> Part:
+def eyelid(
+    centre: np.ndarray,
+    radius: float,
+    root_radius: float,
+    *,
+    upper: bool,
+    side: str,
+    lashes: bool = False,
+) -> Part:
     """An eyelid shell over the eyeball: margin arc to a root that dives under the skin.
 
     The shell has ``radius`` at the margin and sinks to ``root_radius`` (between the eyeball
@@ -318,7 +386,7 @@ def eyelid(centre: np.ndarray, radius: float, root_radius: float, *, upper: bool
     B = margin[None, :] + s[:, None] * (root - margin)[None, :]
     A = np.broadcast_to(alpha, B.shape)
     v = np.stack([np.cos(B) * np.sin(A), np.sin(B), np.cos(B) * np.cos(A)], -1).reshape(-1, 3)
-    sink = np.repeat((radius - root_radius) * s ** 2, len(alpha))[:, None]
+    sink = np.repeat((radius - root_radius) * s**2, len(alpha))[:, None]
     verts = centre + (radius - sink) * v
     tris = _grid_triangles(len(s), len(alpha), wrap=False)
     if not upper:  # rows run downwards: keep the outside counter-clockwise
@@ -339,8 +407,11 @@ def eyelid(centre: np.ndarray, radius: float, root_radius: float, *, upper: bool
         lash = EYELASH if upper else 0.5 * EYELASH + 0.5 * np.append(margin_col, 0.05)
         col = np.vstack([col, np.tile(lash, (len(lash_v), 1))])
         w = np.concatenate([w, np.ones(len(lash_v))])  # the lashes ride on the margin
-    groups = {name: np.arange(len(verts)), fp: np.array([len(alpha) // 2]),
-              "hidden_outline": hidden}
+    groups = {
+        name: np.arange(len(verts)),
+        fp: np.array([len(alpha) // 2]),
+        "hidden_outline": hidden,
+    }
     return Part(verts, tris, col, groups, {name: w})
 
 
@@ -348,8 +419,9 @@ def eyelid(centre: np.ndarray, radius: float, root_radius: float, *, upper: bool
 EYELASH = np.array([0.07, 0.05, 0.045, 0.05])
 
 
-def eyelash_fringe(centre: np.ndarray, radius: float, alpha: np.ndarray, margin: np.ndarray,
-                   *, upper: bool) -> tuple[np.ndarray, np.ndarray]:
+def eyelash_fringe(
+    centre: np.ndarray, radius: float, alpha: np.ndarray, margin: np.ndarray, *, upper: bool
+) -> tuple[np.ndarray, np.ndarray]:
     """A fringe of eyelashes on a lid margin: a strip whose free edge is a row of tufts.
 
     The lashes leave the margin outwards and curl away from the eye (up from the upper lid,
@@ -369,7 +441,7 @@ def eyelash_fringe(centre: np.ndarray, radius: float, alpha: np.ndarray, margin:
     away = np.stack([-np.sin(b) * np.sin(a), np.cos(b), -np.sin(b) * np.cos(a)], -1)
     away = away if upper else -away
     rel = np.abs(a / np.abs(alpha).max())
-    length = (2.6 if upper else 0.9) * (1.0 - 0.55 * rel ** 2)
+    length = (2.6 if upper else 0.9) * (1.0 - 0.55 * rel**2)
     root = centre + (radius - 0.15) * radial
     tip = root + length[:, None] * (0.55 * radial + 0.84 * away)
     # spikes: roots all along the margin, tips at every lash, a valley between lashes
@@ -377,8 +449,9 @@ def eyelash_fringe(centre: np.ndarray, radius: float, alpha: np.ndarray, margin:
     tips = np.where((np.arange(n) % 2 == 0)[:, None], tip, valley)
     verts = np.vstack([root, tips])
     i = np.arange(n - 1)
-    tris = np.concatenate([np.stack([i, i + 1, n + i + 1], -1),
-                           np.stack([i, n + i + 1, n + i], -1)])
+    tris = np.concatenate(
+        [np.stack([i, i + 1, n + i + 1], -1), np.stack([i, n + i + 1, n + i], -1)]
+    )
     e1, e2 = verts[tris[:, 1]] - verts[tris[:, 0]], verts[tris[:, 2]] - verts[tris[:, 0]]
     backwards = np.cross(e1, e2)[:, 2] < 0
     tris[backwards] = tris[backwards][:, ::-1]
@@ -409,13 +482,19 @@ def mouth_cavity(mouth_y: float) -> Part:
     parts = [cav]
     for upper in (True, False):
         ang = np.radians(np.linspace(-62, 62, 15))
-        ys = np.array([mouth_y + 7.5, mouth_y + 0.6]) if upper else np.array(
-            [mouth_y - 0.6, mouth_y - 6.5])
+        ys = (
+            np.array([mouth_y + 7.5, mouth_y + 0.6])
+            if upper
+            else np.array([mouth_y - 0.6, mouth_y - 6.5])
+        )
         rad = 19.5 if upper else 18.5
         Y, A = np.meshgrid(ys, ang, indexing="ij")
         v = np.stack([rad * np.sin(A), Y, 68.0 + rad * np.cos(A)], -1).reshape(-1, 3)
-        tooth = Part(v, _grid_triangles(2, len(ang), wrap=False)[:, ::-1],
-                     np.tile([0.90, 0.88, 0.80, 0.4], (len(v), 1)))
+        tooth = Part(
+            v,
+            _grid_triangles(2, len(ang), wrap=False)[:, ::-1],
+            np.tile([0.90, 0.88, 0.80, 0.4], (len(v), 1)),
+        )
         if not upper:
             tooth.layers["jaw"] = np.ones(len(v))
         parts.append(tooth)
@@ -430,9 +509,12 @@ def neck_and_shoulders() -> Part:
     ang = np.linspace(0, 2 * np.pi, 28, endpoint=False)
     Y, A = np.meshgrid(ys, ang, indexing="ij")
     v = np.stack([50 * np.sin(A), Y, -6 + 54 * np.cos(A)], -1).reshape(-1, 3)
-    neck = Part(v, _grid_triangles(len(ys), len(ang), wrap=True),
-                np.tile(np.append(SKIN * 0.92, 0.12), (len(v), 1)),
-                layers={"head": smoothstep(-160, -70, v[:, 1])})
+    neck = Part(
+        v,
+        _grid_triangles(len(ys), len(ang), wrap=True),
+        np.tile(np.append(SKIN * 0.92, 0.12), (len(v), 1)),
+        layers={"head": smoothstep(-160, -70, v[:, 1])},
+    )
     torso = ellipsoid_mesh((0, -224, -10), (190, 70, 95), (0.27, 0.31, 0.40, 0.05), 10, 24)
     torso.layers["head"] = np.zeros(len(torso.vertices))
     return merge([neck, torso])

@@ -115,8 +115,7 @@ class MarkerCamera:
         visible = np.r_[np.ones(len(POSTS), bool), facing]
         px = project(self.vp, world, self.size)
         across = project(self.vp, world + [self.look.marker_mm / 2.0, 0.0, 0.0], self.size)
-        diameter = np.maximum(2.0 * np.linalg.norm(across - px, axis=1),
-                              self.look.min_diameter_px)
+        diameter = np.maximum(2.0 * np.linalg.norm(across - px, axis=1), self.look.min_diameter_px)
         return px, visible, diameter, project(self.vp, positions, self.size)
 
 
@@ -135,10 +134,16 @@ def silhouette(vertices_px: np.ndarray, triangles: np.ndarray, size: int) -> np.
     return ndimage.binary_fill_holes(ndimage.binary_closing(mask, iterations=2))
 
 
-def draw_marker_frame(px: np.ndarray, visible: np.ndarray, diameter: np.ndarray,
-                      outline: np.ndarray, triangles: np.ndarray, size: int,
-                      look: MarkerLook = MarkerLook(),
-                      rng: np.random.Generator | None = None) -> np.ndarray:
+def draw_marker_frame(
+    px: np.ndarray,
+    visible: np.ndarray,
+    diameter: np.ndarray,
+    outline: np.ndarray,
+    triangles: np.ndarray,
+    size: int,
+    look: MarkerLook = MarkerLook(),
+    rng: np.random.Generator | None = None,
+) -> np.ndarray:
     """One (size, size) uint8 IR frame: dark silhouette, anti-aliased marker discs, blur,
     noise."""
     img = np.where(silhouette(outline, triangles, size), look.face_level, 0.0)
@@ -162,9 +167,13 @@ def draw_marker_frame(px: np.ndarray, visible: np.ndarray, diameter: np.ndarray,
     return np.clip(np.round(img), 0, 255).astype(np.uint8)
 
 
-def marker_frames(track: MotionTrack, size: int, face: Face | None = None,
-                  look: MarkerLook = MarkerLook(),
-                  hidden: Mapping[str, np.ndarray] | None = None) -> Iterator[np.ndarray]:
+def marker_frames(
+    track: MotionTrack,
+    size: int,
+    face: Face | None = None,
+    look: MarkerLook = MarkerLook(),
+    hidden: Mapping[str, np.ndarray] | None = None,
+) -> Iterator[np.ndarray]:
     """The marker clip of ``track`` frame by frame, (size, size) uint8 grey.
 
     ``hidden`` maps a marker name to the frame numbers in which it is not seen (a marker
@@ -181,13 +190,20 @@ def marker_frames(track: MotionTrack, size: int, face: Face | None = None,
         for k, frames in hide.items():
             if t in frames:
                 visible[k] = False
-        yield draw_marker_frame(px, visible, diameter, outline, camera.rig.face.triangles, size,
-                                look, rng)
+        yield draw_marker_frame(
+            px, visible, diameter, outline, camera.rig.face.triangles, size, look, rng
+        )
 
 
-def write_marker_clip(track: MotionTrack, path: str | Path, size: int,
-                      face: Face | None = None, look: MarkerLook = MarkerLook(),
-                      hidden: Mapping[str, np.ndarray] | None = None, crf: int = 12) -> Path:
+def write_marker_clip(
+    track: MotionTrack,
+    path: str | Path,
+    size: int,
+    face: Face | None = None,
+    look: MarkerLook = MarkerLook(),
+    hidden: Mapping[str, np.ndarray] | None = None,
+    crf: int = 12,
+) -> Path:
     """Encode the marker clip of ``track`` as an H.264 MP4 at the track's frame rate."""
     from renderer.encode import ClipWriter
 
@@ -204,9 +220,11 @@ def calibration_motion(fps: float = 30.0, seconds: float = 4.0) -> MotionTrack:
     half = seconds / 2.0
     nod = np.where(t < half, np.radians(17.0) * np.sin(2 * np.pi * t / half), 0.0)
     turn = np.where(t >= half, np.radians(8.0) * np.sin(2 * np.pi * (t - half) / half), 0.0)
-    return MotionTrack.from_channels(fps, {HEAD_PITCH: nod / AU_RADIANS,
-                                           HEAD_YAW: turn / AU_RADIANS},
-                                     source="marker calibration motion")
+    return MotionTrack.from_channels(
+        fps,
+        {HEAD_PITCH: nod / AU_RADIANS, HEAD_YAW: turn / AU_RADIANS},
+        source="marker calibration motion",
+    )
 
 
 def known_motion(fps: float = 30.0, seconds: float = 4.0) -> MotionTrack:
@@ -215,10 +233,15 @@ def known_motion(fps: float = 30.0, seconds: float = 4.0) -> MotionTrack:
     0.25 s), all from a neutral first half second: the closed-loop test's known motion."""
     t = np.arange(int(round(seconds * fps))) / fps
     ramp = np.clip((t - 0.5) / 0.5, 0.0, 1.0)
-    angles = {HEAD_PITCH: (12.0, 0.45, 0.0), HEAD_YAW: (6.0, 0.31, 0.7),
-              HEAD_ROLL: (8.0, 0.53, 1.9)}
-    cols = {f: np.radians(a) * np.sin(2 * np.pi * hz * (t - 0.5) + ph) * ramp / AU_RADIANS
-            for f, (a, hz, ph) in angles.items()}
+    angles = {
+        HEAD_PITCH: (12.0, 0.45, 0.0),
+        HEAD_YAW: (6.0, 0.31, 0.7),
+        HEAD_ROLL: (8.0, 0.53, 1.9),
+    }
+    cols = {
+        f: np.radians(a) * np.sin(2 * np.pi * hz * (t - 0.5) + ph) * ramp / AU_RADIANS
+        for f, (a, hz, ph) in angles.items()
+    }
     raise_ = np.zeros_like(t)
     for start, hold in ((1.0, 0.5), (2.4, 0.8)):
         up = np.clip((t - start) / 0.25, 0, 1) - np.clip((t - start - 0.25 - hold) / 0.25, 0, 1)

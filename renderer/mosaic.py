@@ -32,8 +32,9 @@ from __future__ import annotations
 import numpy as np
 
 
-def mouth_box(points: np.ndarray, width: int, height: int, *, block: int,
-              margin: float) -> tuple[int, int, int, int]:
+def mouth_box(
+    points: np.ndarray, width: int, height: int, *, block: int, margin: float
+) -> tuple[int, int, int, int]:
     """Mosaic box ``(x0, y0, x1, y1)`` (pixels, end-exclusive) around projected points.
 
     The box is the points' bounding box grown by ``margin`` times its larger side, snapped
@@ -69,8 +70,13 @@ def pixelate(image: np.ndarray, box: tuple[int, int, int, int], block: int) -> n
     return image
 
 
-def pixelate_reference(image: np.ndarray, reference: np.ndarray, box: tuple[int, int, int, int],
-                       block: int, background: np.ndarray) -> np.ndarray:
+def pixelate_reference(
+    image: np.ndarray,
+    reference: np.ndarray,
+    box: tuple[int, int, int, int],
+    block: int,
+    background: np.ndarray,
+) -> np.ndarray:
     """Fill each ``block`` cell of ``box`` in ``image`` with the mean face colour of
     ``reference`` in that cell, on face pixels only.
 
@@ -101,19 +107,26 @@ def pixelate_reference(image: np.ndarray, reference: np.ndarray, box: tuple[int,
         mean = np.where((counts == 0)[..., None], own, mean)
     # whole pixels as 3-byte items: a masked copy of bytes is three times slower
     colours = np.ascontiguousarray(mean, dtype=np.uint8).view("V3")[..., 0]
-    np.copyto(region.view("V3")[..., 0].reshape(ny, block, nx, block),
-              colours[:, None, :, None], where=face.reshape(ny, block, nx, block))
+    np.copyto(
+        region.view("V3")[..., 0].reshape(ny, block, nx, block),
+        colours[:, None, :, None],
+        where=face.reshape(ny, block, nx, block),
+    )
     return image
 
 
 def _face_mask(pixels: np.ndarray, background: np.ndarray) -> np.ndarray:
     """(h, w) True where ``pixels`` (h, w, 3) are not exactly ``background``."""
-    return ((pixels[..., 0] != background[0]) | (pixels[..., 1] != background[1])
-            | (pixels[..., 2] != background[2]))
+    return (
+        (pixels[..., 0] != background[0])
+        | (pixels[..., 1] != background[1])
+        | (pixels[..., 2] != background[2])
+    )
 
 
-def _face_means(pixels: np.ndarray, face: np.ndarray, block: int, background: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray]:
+def _face_means(
+    pixels: np.ndarray, face: np.ndarray, block: int, background: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Per ``block`` cell of ``pixels`` (h, w, 3) uint8: the rounded mean colour of its
     ``face`` pixels (0 where there are none) and their count.
 

@@ -64,11 +64,15 @@ def read_obj(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | Non
                 try:
                     nums = [float(x) for x in parts[1:]]
                 except ValueError:
-                    raise InputError(f"vertex coordinates must be numbers: {line.strip()!r}",
-                                     path=p, line=lineno) from None
+                    raise InputError(
+                        f"vertex coordinates must be numbers: {line.strip()!r}", path=p, line=lineno
+                    ) from None
                 if len(nums) not in (3, 4, 6, 7) or not np.all(np.isfinite(nums)):
-                    raise InputError("a vertex needs 3 finite coordinates (optionally r g b)",
-                                     path=p, line=lineno)
+                    raise InputError(
+                        "a vertex needs 3 finite coordinates (optionally r g b)",
+                        path=p,
+                        line=lineno,
+                    )
                 verts.append(nums[:3])
                 if len(nums) >= 6:
                     colours.append(nums[-3:])
@@ -80,13 +84,17 @@ def read_obj(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | Non
                     try:
                         k = int(token.split("/")[0])
                     except ValueError:
-                        raise InputError(f"bad face vertex {token!r}", path=p,
-                                         line=lineno) from None
+                        raise InputError(
+                            f"bad face vertex {token!r}", path=p, line=lineno
+                        ) from None
                     k = k - 1 if k > 0 else len(verts) + k
                     if not 0 <= k < len(verts):
-                        raise InputError(f"face refers to vertex {token.split('/')[0]}, but "
-                                         f"only {len(verts)} are defined so far", path=p,
-                                         line=lineno)
+                        raise InputError(
+                            f"face refers to vertex {token.split('/')[0]}, but "
+                            f"only {len(verts)} are defined so far",
+                            path=p,
+                            line=lineno,
+                        )
                     idx.append(k)
                 tris.extend((idx[0], idx[i], idx[i + 1]) for i in range(1, len(idx) - 1))
     if len(verts) < 3 or not tris:
@@ -110,22 +118,31 @@ def _vertex_list(value: Any, n: int, path: Path, field: str) -> np.ndarray:
     return idx
 
 
-def _point(value: Any, vertices: np.ndarray, path: Path,
-           name: str) -> tuple[np.ndarray, int | None]:
+def _point(
+    value: Any, vertices: np.ndarray, path: Path, name: str
+) -> tuple[np.ndarray, int | None]:
     field = f"feature_points.{name}"
     if isinstance(value, int) and not isinstance(value, bool):
         if not 0 <= value < len(vertices):
-            raise InputError(f"vertex index {value} out of range 0..{len(vertices) - 1}",
-                             path=path, field=field)
+            raise InputError(
+                f"vertex index {value} out of range 0..{len(vertices) - 1}", path=path, field=field
+            )
         return vertices[value].astype(np.float64), value
-    if (isinstance(value, list) and len(value) == 3
-            and all(isinstance(x, int | float) and not isinstance(x, bool) for x in value)):
+    if (
+        isinstance(value, list)
+        and len(value) == 3
+        and all(isinstance(x, int | float) and not isinstance(x, bool) for x in value)
+    ):
         return np.array(value, dtype=np.float64), None
     raise InputError("expected a vertex index or [x, y, z]", path=path, field=field)
 
 
-def paint_eyes(colors: np.ndarray, vertices: np.ndarray, groups: dict[str, np.ndarray],
-               pupils: dict[str, np.ndarray]) -> None:
+def paint_eyes(
+    colors: np.ndarray,
+    vertices: np.ndarray,
+    groups: dict[str, np.ndarray],
+    pupils: dict[str, np.ndarray],
+) -> None:
     """Colour eyeball vertices as sclera, iris and pupil by their angle from the pupil point."""
     for side, key in (("l", "3.5"), ("r", "3.6")):
         idx = groups[f"eyeball_{side}"]
@@ -135,8 +152,11 @@ def paint_eyes(colors: np.ndarray, vertices: np.ndarray, groups: dict[str, np.nd
         axis /= max(np.linalg.norm(axis), 1e-12)
         d = v - centre
         ang = np.arccos(np.clip(d @ axis / np.maximum(np.linalg.norm(d, axis=1), 1e-12), -1, 1))
-        rgb = np.where(ang[:, None] < 0.19, [0.03, 0.03, 0.03],
-                       np.where(ang[:, None] < 0.47, [0.30, 0.24, 0.17], [0.93, 0.91, 0.87]))
+        rgb = np.where(
+            ang[:, None] < 0.19,
+            [0.03, 0.03, 0.03],
+            np.where(ang[:, None] < 0.47, [0.30, 0.24, 0.17], [0.93, 0.91, 0.87]),
+        )
         colors[idx, :3] = rgb
         colors[idx, 3] = 0.9
 
@@ -153,8 +173,9 @@ def load_face(json_path: str | Path) -> Face:
     if not isinstance(spec, dict):
         raise InputError("expected a JSON object", path=path)
     if spec.get("format", FORMAT) != FORMAT:
-        raise InputError(f"unknown format {spec.get('format')!r}, expected {FORMAT!r}",
-                         path=path, field="format")
+        raise InputError(
+            f"unknown format {spec.get('format')!r}, expected {FORMAT!r}", path=path, field="format"
+        )
     if not isinstance(spec.get("mesh"), str):
         raise InputError("missing: the OBJ file name", path=path, field="mesh")
     vertices, triangles, rgb = read_obj(path.parent / spec["mesh"])
@@ -162,12 +183,14 @@ def load_face(json_path: str | Path) -> Face:
 
     fps_in = spec.get("feature_points")
     if not isinstance(fps_in, dict):
-        raise InputError("missing: an object of feature point -> vertex index",
-                         path=path, field="feature_points")
+        raise InputError(
+            "missing: an object of feature point -> vertex index", path=path, field="feature_points"
+        )
     missing = [k for k in REQUIRED_FEATURE_POINTS if k not in fps_in]
     if missing:
-        raise InputError(f"missing feature points: {', '.join(missing)}", path=path,
-                         field="feature_points")
+        raise InputError(
+            f"missing feature points: {', '.join(missing)}", path=path, field="feature_points"
+        )
     feature_points: dict[str, np.ndarray] = {}
     fp_vertices: dict[str, int] = {}
     for name, value in fps_in.items():
@@ -176,18 +199,25 @@ def load_face(json_path: str | Path) -> Face:
             fp_vertices[name] = vid
     not_vertices = [k for k in MOUTH_FEATURE_POINTS if k not in fp_vertices]
     if not_vertices:
-        raise InputError(f"mouth points must be vertex indices: {', '.join(not_vertices)}",
-                         path=path, field="feature_points")
+        raise InputError(
+            f"mouth points must be vertex indices: {', '.join(not_vertices)}",
+            path=path,
+            field="feature_points",
+        )
 
     groups_in = spec.get("groups")
     if not isinstance(groups_in, dict):
-        raise InputError("missing: vertex groups eyeball_l and eyeball_r", path=path,
-                         field="groups")
+        raise InputError(
+            "missing: vertex groups eyeball_l and eyeball_r", path=path, field="groups"
+        )
     missing = [name for name in REQUIRED_GROUPS if name not in groups_in]
     if missing:
         raise InputError("missing group", path=path, field=f"groups.{missing[0]}")
-    groups = {name: _vertex_list(groups_in[name], n, path, f"groups.{name}")
-              for name in REQUIRED_GROUPS + OPTIONAL_GROUPS if name in groups_in}
+    groups = {
+        name: _vertex_list(groups_in[name], n, path, f"groups.{name}")
+        for name in REQUIRED_GROUPS + OPTIONAL_GROUPS
+        if name in groups_in
+    }
 
     fapu = fapu_from_feature_points(feature_points)
     given = spec.get("fapu", {})
@@ -195,33 +225,44 @@ def load_face(json_path: str | Path) -> Face:
         raise InputError("expected an object of FAPU name -> distance", path=path, field="fapu")
     for name, value in given.items():
         if name not in FAPU_NAMES:
-            raise InputError(f"unknown FAPU (expected one of {', '.join(FAPU_NAMES)})",
-                             path=path, field=f"fapu.{name}")
+            raise InputError(
+                f"unknown FAPU (expected one of {', '.join(FAPU_NAMES)})",
+                path=path,
+                field=f"fapu.{name}",
+            )
         if not isinstance(value, int | float) or isinstance(value, bool) or not value > 0:
             raise InputError("must be a positive number", path=path, field=f"fapu.{name}")
         fapu[name] = float(value)
     bad = [k for k, v in fapu.items() if not v > 0]
     if bad:
-        raise InputError(f"FAPU {', '.join(bad)} measured from the feature points is not "
-                         "positive: check the axes (+y up, +x the face's left) and the points",
-                         path=path, field="feature_points")
+        raise InputError(
+            f"FAPU {', '.join(bad)} measured from the feature points is not "
+            "positive: check the axes (+y up, +x the face's left) and the points",
+            path=path,
+            field="feature_points",
+        )
 
     weights = {}
     for name, pairs in (spec.get("weights") or {}).items():
         field = f"weights.{name}"
         if name not in WEIGHT_LAYERS:
-            raise InputError(f"unknown layer (expected one of {', '.join(WEIGHT_LAYERS)})",
-                             path=path, field=field)
+            raise InputError(
+                f"unknown layer (expected one of {', '.join(WEIGHT_LAYERS)})",
+                path=path,
+                field=field,
+            )
         arr = np.full(n, 1.0 if name == "head" else 0.0)
         try:
             idx = np.array([int(i) for i, _ in pairs])
             w = np.array([float(x) for _, x in pairs])
         except (TypeError, ValueError):
-            raise InputError("expected a list of [vertex index, weight] pairs", path=path,
-                             field=field) from None
+            raise InputError(
+                "expected a list of [vertex index, weight] pairs", path=path, field=field
+            ) from None
         if len(idx) and (idx.min() < 0 or idx.max() >= n or w.min() < 0 or w.max() > 1):
-            raise InputError("indices must be vertices and weights within 0..1", path=path,
-                             field=field)
+            raise InputError(
+                "indices must be vertices and weights within 0..1", path=path, field=field
+            )
         arr[idx] = w
         weights[name] = arr
     pivot = spec.get("jaw_pivot")
@@ -250,17 +291,24 @@ def write_face(face: Face, json_path: str | Path) -> Path:
     """Write ``face`` as an OBJ + face JSON pair (``<name>.obj`` beside the JSON file)."""
     path = Path(json_path)
     obj = path.with_suffix(".obj")
-    lines = [f"v {x:.5f} {y:.5f} {z:.5f} {r:.4f} {g:.4f} {b:.4f}"
-             for (x, y, z), (r, g, b) in zip(face.vertices, face.colors[:, :3], strict=True)]
+    lines = [
+        f"v {x:.5f} {y:.5f} {z:.5f} {r:.4f} {g:.4f} {b:.4f}"
+        for (x, y, z), (r, g, b) in zip(face.vertices, face.colors[:, :3], strict=True)
+    ]
     lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in face.triangles]
     obj.write_text("\n".join(lines) + "\n", encoding="utf-8")
     spec: dict[str, Any] = {
         "format": FORMAT,
         "mesh": obj.name,
         "name": face.name,
-        "feature_points": {k: (face.fp_vertices[k] if k in face.fp_vertices
-                               else [float(x) for x in face.feature_points[k]])
-                           for k in sorted(face.feature_points)},
+        "feature_points": {
+            k: (
+                face.fp_vertices[k]
+                if k in face.fp_vertices
+                else [float(x) for x in face.feature_points[k]]
+            )
+            for k in sorted(face.feature_points)
+        },
         "groups": {k: [int(i) for i in v] for k, v in face.groups.items()},
         "fapu": {k: float(v) for k, v in face.fapu.items()},
     }

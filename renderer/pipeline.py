@@ -78,14 +78,23 @@ CHUNK_FRAMES = 6
 class _Drawer:
     """Draws frames of fixed tracks: deform, GL draw, mouth mosaic."""
 
-    def __init__(self, dense: list[np.ndarray], face: Face, size: int, antialias: str,
-                 samples: int, background: tuple[float, float, float],
-                 mosaic_block: int | None, mosaic_margin: float) -> None:
+    def __init__(
+        self,
+        dense: list[np.ndarray],
+        face: Face,
+        size: int,
+        antialias: str,
+        samples: int,
+        background: tuple[float, float, float],
+        mosaic_block: int | None,
+        mosaic_margin: float,
+    ) -> None:
         self.rig = rig_for(face)
         self.dense, self.size = dense, size
         self.mosaic_block, self.mosaic_margin = mosaic_block, mosaic_margin
-        self.canvas = FaceCanvas(self.rig, size, len(dense), antialias=antialias,
-                                 samples=samples, background=background)
+        self.canvas = FaceCanvas(
+            self.rig, size, len(dense), antialias=antialias, samples=samples, background=background
+        )
 
     def draw(self, i: int, out: np.ndarray | None = None) -> RenderedFrame:
         rig, size, block = self.rig, self.size, self.mosaic_block
@@ -98,8 +107,9 @@ class _Drawer:
         for d, frame in zip(self.dense, deformed, strict=True):
             moving = d[i][MOUTH_FAPS_INDEX].any()
             rest = rig.mouth_at_rest(frame, d[i]) if moving else frame
-            box = mouth_box(self._mouth_pixels(rest), size, size, block=block,
-                            margin=self.mosaic_margin)
+            box = mouth_box(
+                self._mouth_pixels(rest), size, size, block=block, margin=self.mosaic_margin
+            )
             references.append((rest if moving else None, box))
         image = self.canvas.draw(deformed, out, references)
         boxes = []
@@ -147,12 +157,19 @@ def _worker_draw(jobs: list[tuple[int, int]]) -> list[tuple[int, int, list]]:
     return out
 
 
-def render_frames(tracks: list[MotionTrack], face: Face, *, size: int,
-                  antialias: str = defaults.ANTIALIAS, samples: int = defaults.SAMPLES,
-                  background: tuple[float, float, float] = defaults.BACKGROUND,
-                  mosaic_block: int | None = defaults.MOSAIC_BLOCK,
-                  mosaic_margin: float = defaults.MOSAIC_MARGIN,
-                  frames: range | None = None, workers: int = 1) -> Iterator[RenderedFrame]:
+def render_frames(
+    tracks: list[MotionTrack],
+    face: Face,
+    *,
+    size: int,
+    antialias: str = defaults.ANTIALIAS,
+    samples: int = defaults.SAMPLES,
+    background: tuple[float, float, float] = defaults.BACKGROUND,
+    mosaic_block: int | None = defaults.MOSAIC_BLOCK,
+    mosaic_margin: float = defaults.MOSAIC_MARGIN,
+    frames: range | None = None,
+    workers: int = 1,
+) -> Iterator[RenderedFrame]:
     """Yield the side-by-side frames of ``tracks`` (one face per track, left to right).
 
     ``antialias`` and ``samples``: see :class:`renderer.gl.FaceCanvas`. ``mosaic_block`` None
@@ -180,8 +197,9 @@ def render_frames(tracks: list[MotionTrack], face: Face, *, size: int,
 RING_BYTES = 32 * 2**20
 
 
-def _render_parallel(args: tuple, indices: list[int], workers: int,
-                     shape: tuple[int, int, int]) -> Iterator[RenderedFrame]:
+def _render_parallel(
+    args: tuple, indices: list[int], workers: int, shape: tuple[int, int, int]
+) -> Iterator[RenderedFrame]:
     """Frames drawn by ``workers`` processes, yielded in order.
 
     Frames come back through a shared-memory ring rather than pickled through a pipe (two
@@ -203,10 +221,11 @@ def _render_parallel(args: tuple, indices: list[int], workers: int,
     try:
         ring = np.ndarray(ring_shape, np.uint8, buffer=shm.buf)
         jobs = [(i, p % n_slots) for p, i in enumerate(indices)]
-        chunks = [jobs[k:k + chunk] for k in range(0, len(jobs), chunk)]
+        chunks = [jobs[k : k + chunk] for k in range(0, len(jobs), chunk)]
         ctx = multiprocessing.get_context("spawn")
-        with ctx.Pool(workers, initializer=_worker_start,
-                      initargs=(args, shm.name, ring_shape)) as pool:
+        with ctx.Pool(
+            workers, initializer=_worker_start, initargs=(args, shm.name, ring_shape)
+        ) as pool:
             pending: deque = deque()
             todo = iter(chunks)
             for job in todo:

@@ -11,8 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 
-def ellipsoid(p: np.ndarray, centre: tuple[float, float, float],
-              radii: tuple[float, float, float]) -> np.ndarray:
+def ellipsoid(
+    p: np.ndarray, centre: tuple[float, float, float], radii: tuple[float, float, float]
+) -> np.ndarray:
     """Approximate signed distance to an axis-aligned ellipsoid (negative inside)."""
     q = (p - np.asarray(centre)) / np.asarray(radii)
     k0 = np.linalg.norm(q, axis=-1)
@@ -20,8 +21,13 @@ def ellipsoid(p: np.ndarray, centre: tuple[float, float, float],
     return k0 * (k0 - 1.0) / np.maximum(k1, 1e-9)
 
 
-def capsule(p: np.ndarray, a: tuple[float, float, float], b: tuple[float, float, float],
-            ra: float, rb: float) -> np.ndarray:
+def capsule(
+    p: np.ndarray,
+    a: tuple[float, float, float],
+    b: tuple[float, float, float],
+    ra: float,
+    rb: float,
+) -> np.ndarray:
     """Signed distance to a capsule from ``a`` to ``b`` whose radius goes ``ra`` -> ``rb``."""
     a_ = np.asarray(a, dtype=np.float64)
     ab = np.asarray(b, dtype=np.float64) - a_
@@ -42,14 +48,15 @@ def smax(a: np.ndarray, b: np.ndarray, k: float) -> np.ndarray:
     return -smin(-a, -b, k)
 
 
-def smoothstep(e0: float, e1: float, x: np.ndarray) -> np.ndarray:
+def smoothstep(e0: float | np.ndarray, e1: float | np.ndarray, x: np.ndarray) -> np.ndarray:
     """Hermite step from 0 at ``e0`` to 1 at ``e1`` (either order)."""
     t = np.clip((x - e0) / (e1 - e0), 0.0, 1.0)
     return t * t * (3.0 - 2.0 * t)
 
 
-def ray_surface(sdf, origin: np.ndarray, directions: np.ndarray, t_max: float,
-                iterations: int = 40) -> np.ndarray:
+def ray_surface(
+    sdf, origin: np.ndarray, directions: np.ndarray, t_max: float, iterations: int = 40
+) -> np.ndarray:
     """Distance along each ray from ``origin`` to the surface ``sdf = 0`` (bisection).
 
     The shape must be star-shaped about ``origin`` (inside at the origin, outside at

@@ -49,9 +49,10 @@ class ZoneNormals:
         rows = row_of[self.triangles].ravel()
         cols = np.repeat(np.arange(len(self.triangles)), 3)
         keep = rows >= 0
-        self.gather = sparse.csr_matrix((np.ones(int(keep.sum()), np.float32),
-                                         (rows[keep], cols[keep])),
-                                        shape=(len(zone), len(self.triangles)))
+        self.gather = sparse.csr_matrix(
+            (np.ones(int(keep.sum()), np.float32), (rows[keep], cols[keep])),
+            shape=(len(zone), len(self.triangles)),
+        )
 
     def __call__(self, positions: np.ndarray) -> np.ndarray:
         # np.take of whole rows and a written-out cross product: a third of the time of
@@ -62,9 +63,13 @@ class ZoneNormals:
         e1 -= p0
         e2 = np.take(positions, c, axis=0)
         e2 -= p0
-        face_normals = np.column_stack([e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1],
-                                        e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2],
-                                        e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]])
+        face_normals = np.column_stack(
+            [
+                e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1],
+                e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2],
+                e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0],
+            ]
+        )
         n = self.gather @ face_normals
         length = np.sqrt(np.einsum("ij,ij->i", n, n))[:, None]
         out = (n / np.maximum(length, 1e-12)).astype(np.float32)
@@ -86,8 +91,9 @@ class SkinPart:
         part = basis[self.columns]
         self.zone = np.flatnonzero(np.abs(part).sum(axis=(0, 2)) > 1e-9)
         self.basis = part[:, self.zone, :].reshape(len(self.columns), -1).astype(np.float32)
-        self.normals = ZoneNormals(triangles, one_ring(triangles, self.zone, n_vertices),
-                                   n_vertices)
+        self.normals = ZoneNormals(
+            triangles, one_ring(triangles, self.zone, n_vertices), n_vertices
+        )
 
     def move(self, coeff: np.ndarray, positions: np.ndarray) -> bool:
         """Add the part's displacement for FAP values ``coeff`` (all columns of the basis) to

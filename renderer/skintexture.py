@@ -56,8 +56,9 @@ _NOISE_MM = 0.25
 def grid_uvs(n_elevation: int, n_azimuth: int) -> np.ndarray:
     """(n_elevation * n_azimuth, 2) texture coordinates of the skin grid's vertices (row-major)."""
     i, j = np.meshgrid(np.arange(n_elevation), np.arange(n_azimuth), indexing="ij")
-    return np.column_stack([(j.ravel() + 0.5) / n_azimuth,
-                            (i.ravel() + 0.5) / (n_elevation + 2)]).astype(np.float32)
+    return np.column_stack(
+        [(j.ravel() + 0.5) / n_azimuth, (i.ravel() + 0.5) / (n_elevation + 2)]
+    ).astype(np.float32)
 
 
 def pole_uv(n_elevation: int) -> tuple[float, float]:
@@ -104,8 +105,12 @@ def _cavity(grid: np.ndarray, size: int) -> np.ndarray:
     The umbrella Laplacian of the grid (mean of the four neighbours minus the vertex) along
     the outward normal: positive where the surface curves inwards.
     """
-    lap = (np.roll(grid, 1, axis=1) + np.roll(grid, -1, axis=1)
-           + np.vstack([grid[:1], grid[:-1]]) + np.vstack([grid[1:], grid[-1:]])) / 4 - grid
+    lap = (
+        np.roll(grid, 1, axis=1)
+        + np.roll(grid, -1, axis=1)
+        + np.vstack([grid[:1], grid[:-1]])
+        + np.vstack([grid[1:], grid[-1:]])
+    ) / 4 - grid
     d_az = np.roll(grid, -1, axis=1) - np.roll(grid, 1, axis=1)
     normal = np.cross(d_az, np.gradient(grid, axis=0))
     normal /= np.maximum(np.linalg.norm(normal, axis=2, keepdims=True), 1e-9)
@@ -113,8 +118,9 @@ def _cavity(grid: np.ndarray, size: int) -> np.ndarray:
     return _texel_surface(np.concatenate([concave, concave, concave], axis=2), size)[0][..., 0]
 
 
-def _noise_map(rng: np.random.Generator, shape: tuple[int, int], sigma: tuple[float, float]
-               ) -> np.ndarray:
+def _noise_map(
+    rng: np.random.Generator, shape: tuple[int, int], sigma: tuple[float, float]
+) -> np.ndarray:
     """White noise low-passed by a Gaussian of ``sigma`` texels (rows, columns), unit std."""
     from scipy.ndimage import gaussian_filter
 
@@ -126,10 +132,13 @@ def _pores(rng: np.random.Generator, shape: tuple[int, int], per_mm2: float) -> 
     """Small soft dots (0..1) scattered with ``per_mm2`` on a map of :data:`_NOISE_MM`."""
     from scipy.ndimage import gaussian_filter
 
-    count = int(per_mm2 * shape[0] * shape[1] * _NOISE_MM ** 2)
+    count = int(per_mm2 * shape[0] * shape[1] * _NOISE_MM**2)
     dots = np.zeros(shape)
-    np.add.at(dots, (rng.integers(0, shape[0], count), rng.integers(0, shape[1], count)),
-              rng.uniform(0.5, 1.0, count))
+    np.add.at(
+        dots,
+        (rng.integers(0, shape[0], count), rng.integers(0, shape[1], count)),
+        rng.uniform(0.5, 1.0, count),
+    )
     dots = gaussian_filter(dots, 1.1, mode="wrap")
     return np.clip(dots / max(float(np.percentile(dots, 99.5)), 1e-12), 0, 1)
 
@@ -175,9 +184,12 @@ def brow_strands(rng: np.random.Generator, n_hairs: int = 1100) -> np.ndarray:
     y = centre + 1.05 * half * across
     rise = np.radians(75.0) * smoothstep(0.35, 0.0, t)
     slope = np.arctan(np.gradient(centre, x) if n_hairs > 1 else 0.0)
-    angle = (np.arctan2(np.sin(slope), np.cos(slope)) * (1 - smoothstep(0.35, 0.0, t))
-             + rise - 0.45 * across * (1 - smoothstep(0.3, 0.0, t))
-             + rng.normal(0.0, 0.12, n_hairs))
+    angle = (
+        np.arctan2(np.sin(slope), np.cos(slope)) * (1 - smoothstep(0.35, 0.0, t))
+        + rise
+        - 0.45 * across * (1 - smoothstep(0.3, 0.0, t))
+        + rng.normal(0.0, 0.12, n_hairs)
+    )
     length = (4.0 + 5.0 * smoothstep(0.0, 0.5, t)) * rng.uniform(0.7, 1.1, n_hairs)
     curl = rng.normal(0.0, 0.06, n_hairs) - 0.04
     s = np.linspace(0.0, 1.0, int(12 / _BROW_MM))[None, :]
@@ -197,8 +209,14 @@ def brow_strands(rng: np.random.Generator, n_hairs: int = 1100) -> np.ndarray:
     return 1.0 - np.exp(-2.5 * density)
 
 
-def skin_texture(grid: np.ndarray, mouth_y: float, half_width: float, *,
-                 size: int = TEXTURE_SIZE, seed: int = TEXTURE_SEED) -> np.ndarray:
+def skin_texture(
+    grid: np.ndarray,
+    mouth_y: float,
+    half_width: float,
+    *,
+    size: int = TEXTURE_SIZE,
+    seed: int = TEXTURE_SEED,
+) -> np.ndarray:
     """The albedo (size, size, 3) uint8 of the skin grid ``grid`` (n_el, n_az, 3 positions).
 
     Parameters
@@ -235,16 +253,22 @@ def skin_texture(grid: np.ndarray, mouth_y: float, half_width: float, *,
     col = np.broadcast_to(hp.SKIN, pos.shape).copy()
     face = smoothstep(40.0, 70.0, z)
     # redness where the skin is thin or flushed: cheeks, nose tip and wings, chin, lids
-    flush = (hp.cheek_mask(flat).reshape(x.shape)
-             + 0.7 * np.exp(-((x / 14.0) ** 2 + ((y + 27.0) / 9.0) ** 2)) * face
-             + 0.35 * np.exp(-((x / 16.0) ** 2 + ((y + 95.0) / 10.0) ** 2)) * face)
+    flush = (
+        hp.cheek_mask(flat).reshape(x.shape)
+        + 0.7 * np.exp(-((x / 14.0) ** 2 + ((y + 27.0) / 9.0) ** 2)) * face
+        + 0.35 * np.exp(-((x / 16.0) ** 2 + ((y + 95.0) / 10.0) ** 2)) * face
+    )
     col += 0.55 * np.clip(flush, 0, 1)[..., None] * (np.array([0.84, 0.49, 0.44]) - hp.SKIN)
     # darker, cooler skin under the eyes
     under = np.exp(-(((x - 30.0) / 11.0) ** 2 + ((y + 2.0) / 4.5) ** 2)) * face
     col *= 1.0 - 0.10 * under[..., None] * np.array([0.8, 1.0, 0.9])
     cavity = np.clip(_cavity(grid, size) / 1.4, 0.0, 1.0)
-    detail = ((1.0 + 0.025 * mottle) * (1.0 + 0.025 * grain) * (1.0 - 0.3 * cavity)
-              * (1.0 - 0.08 * pores * (0.5 + 0.5 * face)))
+    detail = (
+        (1.0 + 0.025 * mottle)
+        * (1.0 + 0.025 * grain)
+        * (1.0 - 0.3 * cavity)
+        * (1.0 - 0.08 * pores * (0.5 + 0.5 * face))
+    )
     detail /= detail[face > 0.5].mean()  # detail, not a darker skin: the tone stays SKIN's
     col *= detail[..., None]
     col += 0.1 * np.clip(blotch, 0, None)[..., None] * (np.array([0.84, 0.49, 0.44]) - hp.SKIN)
@@ -282,9 +306,15 @@ def cache_dir() -> Path:
     return Path(base) / "facepair"
 
 
-def cached_skin_texture(grid: np.ndarray, mouth_y: float, half_width: float, *,
-                        size: int = TEXTURE_SIZE, seed: int = TEXTURE_SEED,
-                        directory: Path | None = None) -> np.ndarray:
+def cached_skin_texture(
+    grid: np.ndarray,
+    mouth_y: float,
+    half_width: float,
+    *,
+    size: int = TEXTURE_SIZE,
+    seed: int = TEXTURE_SEED,
+    directory: Path | None = None,
+) -> np.ndarray:
     """:func:`skin_texture`, painted once per machine: painting takes seconds (longer than a
     render job may stay silent), reading the stored texels milliseconds.
 

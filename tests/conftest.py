@@ -50,7 +50,6 @@ def tone_wav(tmp_path: Path):
 # run, so parallel runs never collide). The schema comes from the migrations, as in production.
 
 
-
 @pytest.fixture(scope="session")
 def postgres_url():
     """A fresh PostgreSQL database for this run, dropped at the end."""
@@ -59,8 +58,9 @@ def postgres_url():
 
     name = f"facepair_test_{secrets.token_hex(4)}"
     try:
-        admin = psycopg.connect(f"host={PG_HOST} port={PG_PORT} user=postgres dbname=postgres",
-                                autocommit=True)
+        admin = psycopg.connect(
+            f"host={PG_HOST} port={PG_PORT} user=postgres dbname=postgres", autocommit=True
+        )
     except psycopg.OperationalError as exc:
         pytest.skip(f"PostgreSQL is not reachable on {PG_HOST}:{PG_PORT}: {exc}")
     with admin:
@@ -97,9 +97,17 @@ _MIGRATED: set[str] = set()
 def make_app(url: str, media: Path, **config):
     from app import create_app
 
-    return create_app({
-        "TESTING": True, "SECRET_KEY": "test-secret", "SQLALCHEMY_DATABASE_URI": url,
-        "MEDIA_ROOT": str(media), "JOB_RUNNER": "inline", "REDIS_URL": None, **config})
+    return create_app(
+        {
+            "TESTING": True,
+            "SECRET_KEY": "test-secret",
+            "SQLALCHEMY_DATABASE_URI": url,
+            "MEDIA_ROOT": str(media),
+            "JOB_RUNNER": "inline",
+            "REDIS_URL": None,
+            **config,
+        }
+    )
 
 
 def upgrade_database(url: str, media: Path) -> None:
@@ -157,7 +165,8 @@ def csrf_token(client, url: str) -> str:
     """The CSRF token of the form on ``url`` (every form carries one)."""
     page = client.get(url).get_data(as_text=True)
     found = re.search(r'name="csrf_token"[^>]*value="([^"]+)"', page) or re.search(
-        r'id="[^"]*csrf_token"[^>]*value="([^"]+)"', page)
+        r'id="[^"]*csrf_token"[^>]*value="([^"]+)"', page
+    )
     assert found, f"no CSRF token on {url}"
     return found.group(1)
 
@@ -175,17 +184,42 @@ def write_tone_wav(path: Path, seconds: float = 0.5, rate: int = 16000) -> Path:
     return path
 
 
-def make_clip(path: Path, seconds: float = 0.6, size: str = "128x64",
-              bitrate: str | None = None) -> Path:
+def make_clip(
+    path: Path, seconds: float = 0.6, size: str = "128x64", bitrate: str | None = None
+) -> Path:
     """An H.264 + AAC test-pattern clip in the stimuli's format (streamable: +faststart)."""
     import imageio_ffmpeg
 
     rate = ["-b:v", bitrate] if bitrate else []
-    subprocess.run([
-        imageio_ffmpeg.get_ffmpeg_exe(), "-v", "error", "-f", "lavfi",
-        "-i", f"testsrc=size={size}:rate=25", "-f", "lavfi", "-i", "sine=frequency=440",
-        "-t", str(seconds), "-c:v", "libx264", *rate, "-pix_fmt", "yuv420p", "-c:a", "aac",
-        "-shortest", "-movflags", "+faststart", str(path)], check=True)
+    subprocess.run(
+        [
+            imageio_ffmpeg.get_ffmpeg_exe(),
+            "-v",
+            "error",
+            "-f",
+            "lavfi",
+            "-i",
+            f"testsrc=size={size}:rate=25",
+            "-f",
+            "lavfi",
+            "-i",
+            "sine=frequency=440",
+            "-t",
+            str(seconds),
+            "-c:v",
+            "libx264",
+            *rate,
+            "-pix_fmt",
+            "yuv420p",
+            "-c:a",
+            "aac",
+            "-shortest",
+            "-movflags",
+            "+faststart",
+            str(path),
+        ],
+        check=True,
+    )
     return path
 
 
@@ -230,13 +264,25 @@ audio = "s1.wav"
 """
 
 
-def study_toml(*, design: str = "unordered_counterbalanced", replay: str = "unlimited",
-               max_plays: int | None = None, catch: int = 0, catch_kind: str = "identical",
-               undecided: bool = True, extra: str = "") -> str:
+def study_toml(
+    *,
+    design: str = "unordered_counterbalanced",
+    replay: str = "unlimited",
+    max_plays: int | None = None,
+    catch: int = 0,
+    catch_kind: str = "identical",
+    undecided: bool = True,
+    extra: str = "",
+) -> str:
     return textwrap.dedent(STUDY_TOML).format(
-        design=design, replay=replay, catch=catch, catch_kind=catch_kind,
+        design=design,
+        replay=replay,
+        catch=catch,
+        catch_kind=catch_kind,
         undecided=str(undecided).lower(),
-        max_plays=f"max_plays = {max_plays}" if max_plays else "", extra=extra)
+        max_plays=f"max_plays = {max_plays}" if max_plays else "",
+        extra=extra,
+    )
 
 
 def create_test_user(email: str = "exp@example.org", password: str = "correct horse"):
@@ -248,8 +294,15 @@ def create_test_user(email: str = "exp@example.org", password: str = "correct ho
     return user
 
 
-def create_test_study(app, tmp_path: Path, video: Path | None, *, owner_email: str =
-                      "exp@example.org", status: str = "open", **toml) -> int:
+def create_test_study(
+    app,
+    tmp_path: Path,
+    video: Path | None,
+    *,
+    owner_email: str = "exp@example.org",
+    status: str = "open",
+    **toml,
+) -> int:
     """A study from a TOML file; with ``video`` every stimulus 'rendered' as that file."""
     import sqlalchemy as sa
 
@@ -269,8 +322,9 @@ def create_test_study(app, tmp_path: Path, video: Path | None, *, owner_email: s
             owner = create_test_user(owner_email)
         study = create_study(owner, loads_study(text, base_dir=folder), source_toml=text)
         if video is not None:
-            for stimulus in db.session.scalars(sa.select(Stimulus)
-                                               .where(Stimulus.study_id == study.id)):
+            for stimulus in db.session.scalars(
+                sa.select(Stimulus).where(Stimulus.study_id == study.id)
+            ):
                 rel = f"videos/{stimulus.id}.mp4"
                 (media_dir(study) / "videos").mkdir(parents=True, exist_ok=True)
                 shutil.copyfile(video, media_dir(study) / rel)
@@ -308,12 +362,26 @@ class ParticipantActions:
         assert found
         return int(found.group(1))
 
-    def vote(self, trial_id: int, choice: str = "left", *, key: str | None = None,
-             plays: int = 1, **extra):
-        payload = {"token": self.token, "trial_id": trial_id, "choice": choice, "plays": plays,
-                   "watched_to_end": True, "response_ms": 1234,
-                   "presented_at": "2026-01-01T10:00:00.000Z",
-                   "idempotency_key": key or secrets.token_hex(8), **extra}
+    def vote(
+        self,
+        trial_id: int,
+        choice: str = "left",
+        *,
+        key: str | None = None,
+        plays: int = 1,
+        **extra,
+    ):
+        payload = {
+            "token": self.token,
+            "trial_id": trial_id,
+            "choice": choice,
+            "plays": plays,
+            "watched_to_end": True,
+            "response_ms": 1234,
+            "presented_at": "2026-01-01T10:00:00.000Z",
+            "idempotency_key": key or secrets.token_hex(8),
+            **extra,
+        }
         return self.client.post("/api/v1/votes", json=payload)
 
 
@@ -324,8 +392,9 @@ def participant(client, app) -> ParticipantActions:
 
 def login(client, email: str = "exp@example.org", password: str = "correct horse"):
     token = csrf_token(client, "/experimenter/login")
-    return client.post("/experimenter/login", data={"csrf_token": token, "email": email,
-                                                    "password": password})
+    return client.post(
+        "/experimenter/login", data={"csrf_token": token, "email": email, "password": password}
+    )
 
 
 @pytest.fixture
@@ -341,8 +410,15 @@ def web(app, tmp_path, tiny_video):
         with app.app_context():
             return create_test_user(email, password).id
 
-    return SimpleNamespace(study=study, user=user, login=login, csrf=csrf_token,
-                           write_wav=write_tone_wav, toml=study_toml, tiny_video=tiny_video)
+    return SimpleNamespace(
+        study=study,
+        user=user,
+        login=login,
+        csrf=csrf_token,
+        write_wav=write_tone_wav,
+        toml=study_toml,
+        tiny_video=tiny_video,
+    )
 
 
 @pytest.fixture
@@ -362,11 +438,15 @@ def live_server(tmp_path, tiny_video):
     thread.start()
     try:
         yield SimpleNamespace(
-            app=app, url=f"http://127.0.0.1:{server.port}",
+            app=app,
+            url=f"http://127.0.0.1:{server.port}",
             study=lambda video=True, **toml: create_test_study(
-                app, tmp_path, tiny_video if video else None, **toml),
-            user=lambda: _in_context(app, create_test_user), write_wav=write_tone_wav,
-            toml=study_toml)
+                app, tmp_path, tiny_video if video else None, **toml
+            ),
+            user=lambda: _in_context(app, create_test_user),
+            write_wav=write_tone_wav,
+            toml=study_toml,
+        )
     finally:
         server.shutdown()
         server.server_close()

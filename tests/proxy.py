@@ -11,9 +11,11 @@ def nginx_conf(folder: Path, *, upstream: str, media: Path, port: int) -> Path:
     """Write ``folder/nginx.conf`` and return it: deploy/nginx.conf with only the addresses
     changed (the app, the media volume, the port)."""
     server = (ROOT / "deploy" / "nginx.conf").read_text(encoding="utf-8")
-    for old, new in (("server web:8000;", f"server {upstream};"),
-                     ("alias /srv/media/;", f"alias {media.resolve()}/;"),
-                     ("listen 80;", f"listen 127.0.0.1:{port};")):
+    for old, new in (
+        ("server web:8000;", f"server {upstream};"),
+        ("alias /srv/media/;", f"alias {media.resolve()}/;"),
+        ("listen 80;", f"listen 127.0.0.1:{port};"),
+    ):
         assert old in server, old
         server = server.replace(old, new)
     temp = folder / "temp"
@@ -25,7 +27,12 @@ def nginx_conf(folder: Path, *, upstream: str, media: Path, port: int) -> Path:
         f"{user}worker_processes 1;\npid {folder / 'nginx.pid'};\n"
         f"error_log {folder / 'error.log'} warn;\nevents {{ worker_connections 64; }}\n"
         "http {\n    include /etc/nginx/mime.types;\n    access_log off;\n"
-        + "".join(f"    {kind}_temp_path {temp / kind};\n"
-                  for kind in ("client_body", "proxy", "fastcgi", "uwsgi", "scgi"))
-        + server + "\n}\n", encoding="utf-8")
+        + "".join(
+            f"    {kind}_temp_path {temp / kind};\n"
+            for kind in ("client_body", "proxy", "fastcgi", "uwsgi", "scgi")
+        )
+        + server
+        + "\n}\n",
+        encoding="utf-8",
+    )
     return conf

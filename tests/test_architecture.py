@@ -17,10 +17,27 @@ PURE = ("app/stimuli", "app/trials", "app/analysis", "renderer")
 #: What the pure packages may import from the project besides each other: the package root
 #: (its version; Flask is imported inside ``create_app`` only), errors and shipped data.
 SHARED = ("app", "app.errors", "app.data")
-WEB_FRAMEWORKS = ("flask", "flask_sqlalchemy", "flask_migrate", "flask_wtf", "flask_limiter",
-                  "werkzeug", "wtforms", "sqlalchemy", "rq", "redis", "gunicorn")
-WEB = ("app/*.py", "app/api", "app/participant", "app/experimenter", "app/questionnaire",
-       "app/jobs")
+WEB_FRAMEWORKS = (
+    "flask",
+    "flask_sqlalchemy",
+    "flask_migrate",
+    "flask_wtf",
+    "flask_limiter",
+    "werkzeug",
+    "wtforms",
+    "sqlalchemy",
+    "rq",
+    "redis",
+    "gunicorn",
+)
+WEB = (
+    "app/*.py",
+    "app/api",
+    "app/participant",
+    "app/experimenter",
+    "app/questionnaire",
+    "app/jobs",
+)
 GL = ("moderngl", "renderer.gl")
 
 
@@ -41,14 +58,16 @@ def imports(path: Path) -> list[tuple[str, bool]]:
     """Every module ``path`` imports, absolute, with whether the import is at module level
     (run on import) rather than inside a function or an ``if TYPE_CHECKING`` block."""
     tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-    package = _module_name(path) if path.name == "__init__.py" else \
-        _module_name(path).rpartition(".")[0]
+    package = (
+        _module_name(path) if path.name == "__init__.py" else _module_name(path).rpartition(".")[0]
+    )
     found: list[tuple[str, bool]] = []
 
     def visit(node: ast.AST, top: bool) -> None:
         for child in ast.iter_child_nodes(node):
-            inner = top and not isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef,
-                                                   ast.Lambda))
+            inner = top and not isinstance(
+                child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)
+            )
             if isinstance(child, ast.If) and "TYPE_CHECKING" in ast.unparse(child.test):
                 inner = False
             if isinstance(child, ast.Import):
@@ -56,7 +75,7 @@ def imports(path: Path) -> list[tuple[str, bool]]:
             elif isinstance(child, ast.ImportFrom):
                 base = child.module or ""
                 if child.level:
-                    anchor = package.split(".")[:len(package.split(".")) - child.level + 1]
+                    anchor = package.split(".")[: len(package.split(".")) - child.level + 1]
                     base = ".".join([*anchor, base] if base else anchor)
                 found.append((base, top))
                 # ``from app import design`` imports the module app.design.
@@ -82,8 +101,12 @@ def test_pure_packages_import_no_web(package: str) -> None:
     bad = []
     for path in _files(package):
         for name, _ in imports(path):
-            web_module = (_is(name, ("app",)) and not _is(name, pure) and name not in SHARED
-                          and _project_module_exists(name))
+            web_module = (
+                _is(name, ("app",))
+                and not _is(name, pure)
+                and name not in SHARED
+                and _project_module_exists(name)
+            )
             if _is(name, WEB_FRAMEWORKS) or web_module:
                 bad.append(f"{path.relative_to(REPO)}: {name}")
     assert not bad, bad
@@ -104,9 +127,11 @@ def test_the_check_sees_a_forbidden_import(tmp_path: Path) -> None:
     """The checks above can fail: a function-level Flask import and a relative web import
     are both found."""
     source = tmp_path / "mod.py"
-    source.write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import moderngl\n"
-                      "def f():\n    from flask import g\n    from ..models import Vote\n",
-                      encoding="utf-8")
+    source.write_text(
+        "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import moderngl\n"
+        "def f():\n    from flask import g\n    from ..models import Vote\n",
+        encoding="utf-8",
+    )
     names = imports(source)
     assert ("moderngl", False) in names
     assert ("flask", False) in names

@@ -20,8 +20,12 @@ from app.models import Participant, Study, Trial, Vote
 pytestmark = pytest.mark.browser
 
 CHROMIUM = Path("/usr/bin/chromium")
-ARGS = ["--no-sandbox", "--disable-dev-shm-usage", "--disable-background-networking",
-        "--autoplay-policy=no-user-gesture-required"]
+ARGS = [
+    "--no-sandbox",
+    "--disable-dev-shm-usage",
+    "--disable-background-networking",
+    "--autoplay-policy=no-user-gesture-required",
+]
 PHONE = {"width": 390, "height": 844}
 DESKTOP = {"width": 1280, "height": 860}
 
@@ -34,8 +38,7 @@ def browser():
 
     manager = sync_playwright().start()
     try:
-        browser = manager.chromium.launch(executable_path=str(CHROMIUM), headless=True,
-                                          args=ARGS)
+        browser = manager.chromium.launch(executable_path=str(CHROMIUM), headless=True, args=ARGS)
         try:
             yield browser
         finally:
@@ -58,8 +61,7 @@ def _trial_id(page) -> int:
 def _gone(page, trial: int, timeout: float = 30000) -> None:
     """Wait until the trial's player has left the page (a selector wait: the pages' CSP
     forbids the eval a wait_for_function string needs)."""
-    page.wait_for_selector(f'.player[data-trial-id="{trial}"]', state="detached",
-                           timeout=timeout)
+    page.wait_for_selector(f'.player[data-trial-id="{trial}"]', state="detached", timeout=timeout)
 
 
 def _ready_to_vote(page) -> None:
@@ -121,8 +123,9 @@ def test_participant_walks_through_a_whole_study(live_server, browser, shots):
                 page.screenshot(path=shots / "participant-offline.png")
                 context.set_offline(False)
             elif step % 2:
-                page.keyboard.press({"left": "ArrowLeft", "right": "ArrowRight",
-                                     "undecided": "ArrowDown"}[choice])
+                page.keyboard.press(
+                    {"left": "ArrowLeft", "right": "ArrowRight", "undecided": "ArrowDown"}[choice]
+                )
             else:
                 page.click(f'.vote[data-choice="{choice}"]')
             clicked[trial] = choice
@@ -140,8 +143,7 @@ def test_participant_walks_through_a_whole_study(live_server, browser, shots):
         votes = db.session.scalars(sa.select(Vote)).all()
         assert {v.trial_id: v.choice for v in votes} == clicked
         assert len(votes) == len(clicked) == 5  # 4 ordered pairs + 1 catch trial
-        assert all(v.plays >= 1 and v.response_ms is not None and v.response_ms >= 0
-                   for v in votes)
+        assert all(v.plays >= 1 and v.response_ms is not None and v.response_ms >= 0 for v in votes)
         person = db.session.scalar(sa.select(Participant))
         assert person.prolific_pid == "pp-9" and person.finished_at is not None
 
@@ -171,11 +173,13 @@ def test_trial_page_on_a_phone(live_server, browser, shots):
         context.close()
     with live_server.app.app_context():
         assert [(v.trial_id, v.choice) for v in db.session.scalars(sa.select(Vote))] == [
-            (trial, "right")]
+            (trial, "right")
+        ]
 
 
-def test_experimenter_creates_a_study_and_downloads_votes(live_server, browser, shots,
-                                                          tmp_path, stub_pipeline):
+def test_experimenter_creates_a_study_and_downloads_votes(
+    live_server, browser, shots, tmp_path, stub_pipeline
+):
     live_server.user()
     toml = tmp_path / "study.toml"
     toml.write_text(live_server.toml(design="unordered_counterbalanced"))
@@ -232,6 +236,8 @@ def test_experimenter_creates_a_study_and_downloads_votes(live_server, browser, 
         stored = db.session.execute(
             sa.select(Participant.number, Trial.position, Vote.choice)
             .join(Trial, Vote.trial_id == Trial.id)
-            .join(Participant, Vote.participant_id == Participant.id)).all()
+            .join(Participant, Vote.participant_id == Participant.id)
+        ).all()
     assert sorted((f"P{n:04d}", str(p), c) for n, p, c in stored) == sorted(
-        (r["participant"], r["trial"], r["choice"]) for r in rows)
+        (r["participant"], r["trial"], r["choice"]) for r in rows
+    )

@@ -52,8 +52,9 @@ def _take_part(browser, app, url: str, *, catch_answer: str) -> None:
         context.close()
 
 
-def test_an_experimenter_runs_a_study_from_start_to_end(live_server, browser, shots, tmp_path,
-                                                        stub_pipeline, repo_root):
+def test_an_experimenter_runs_a_study_from_start_to_end(
+    live_server, browser, shots, tmp_path, stub_pipeline, repo_root
+):
     live_server.user()
     wav = live_server.write_wav(tmp_path / "s1.wav")
     context = browser.new_context(viewport=DESKTOP, accept_downloads=True)
@@ -65,11 +66,17 @@ def test_an_experimenter_runs_a_study_from_start_to_end(live_server, browser, sh
 
         # The shipped example, uploaded as it is with the two files it names.
         page.click("text=New study")
-        page.set_input_files("input[name=file-study_file]",
-                             str(repo_root / "app" / "data" / "examples" / "study.toml"))
-        page.set_input_files("input[name=file-media]",
-                             [str(repo_root / "app" / "data" / "demo" / n)
-                              for n in ("speech.wav", "ground_truth.fap")])
+        page.set_input_files(
+            "input[name=file-study_file]",
+            str(repo_root / "app" / "data" / "examples" / "study.toml"),
+        )
+        page.set_input_files(
+            "input[name=file-media]",
+            [
+                str(repo_root / "app" / "data" / "demo" / n)
+                for n in ("speech.wav", "ground_truth.fap")
+            ],
+        )
         page.click("input[name=file-submit]")
         page.wait_for_selector("text=Study created")
         assert "Head and eyebrow motion of a talking face" in page.inner_text("h1")
@@ -90,8 +97,9 @@ def test_an_experimenter_runs_a_study_from_start_to_end(live_server, browser, sh
         page.wait_for_selector("text=clips rendered (stub)")
 
         # A pilot before opening: counted apart, and it freezes the stimuli.
-        _take_part(browser, live_server.app, page.inner_text("#pilot-link"),
-                   catch_answer="undecided")
+        _take_part(
+            browser, live_server.app, page.inner_text("#pilot-link"), catch_answer="undecided"
+        )
         page.reload()
         assert page.locator("text=2. Render clips").is_disabled()
         page.click("text=Open recruitment")
@@ -99,7 +107,8 @@ def test_an_experimenter_runs_a_study_from_start_to_end(live_server, browser, sh
         link = page.inner_text("#participant-link")
         assert page.input_value("#prolific-url") == (
             link + "?PROLIFIC_PID={{%PROLIFIC_PID%}}&STUDY_ID={{%STUDY_ID%}}"
-            "&SESSION_ID={{%SESSION_ID%}}")
+            "&SESSION_ID={{%SESSION_ID%}}"
+        )
         page.screenshot(path=shots / "experimenter-study-open.png", full_page=True)
 
         _take_part(browser, live_server.app, link, catch_answer="undecided")
@@ -115,11 +124,13 @@ def test_an_experimenter_runs_a_study_from_start_to_end(live_server, browser, sh
         page.click("text=Close study")
         page.wait_for_selector(".badge-closed")
         response = page.request.get(
-            f"{live_server.url}/experimenter/studies/{study_id}/report/report.pdf")
+            f"{live_server.url}/experimenter/studies/{study_id}/report/report.pdf"
+        )
         assert response.ok and response.body().startswith(b"%PDF")
         (shots / "experimenter-report.pdf").write_bytes(response.body())
         report = page.request.get(
-            f"{live_server.url}/experimenter/studies/{study_id}/report/").text()
+            f"{live_server.url}/experimenter/studies/{study_id}/report/"
+        ).text()
         assert "<h1>Form study</h1>" in report
         assert "1 participant cast" in report and "failed a catch trial" in report
 

@@ -53,8 +53,9 @@ HELD_MS = 2500  # how long the stalled clip's second half is held back (its firs
 def stall_clip(tmp_path_factory) -> bytes:
     """A 3 s clip of about 100 kB: its first half holds more than the browser's demuxer reads
     before it starts, so playback can begin on that half and run dry."""
-    return make_clip(tmp_path_factory.mktemp("stall") / "stall.mp4", seconds=3,
-                     size="320x180", bitrate="500k").read_bytes()
+    return make_clip(
+        tmp_path_factory.mktemp("stall") / "stall.mp4", seconds=3, size="320x180", bitrate="500k"
+    ).read_bytes()
 
 
 class StalledClip:
@@ -77,16 +78,28 @@ class StalledClip:
         if start >= cut:
             self.held.append((route, start))
             return
-        route.fulfill(status=206, body=self.clip[start:cut], headers={
-            "Content-Type": "video/mp4", "Accept-Ranges": "bytes",
-            "Content-Range": f"bytes {start}-{cut - 1}/{len(self.clip)}"})
+        route.fulfill(
+            status=206,
+            body=self.clip[start:cut],
+            headers={
+                "Content-Type": "video/mp4",
+                "Accept-Ranges": "bytes",
+                "Content-Range": f"bytes {start}-{cut - 1}/{len(self.clip)}",
+            },
+        )
 
     def release(self) -> None:
         while self.held:
             route, start = self.held.pop(0)
-            route.fulfill(status=206, body=self.clip[start:], headers={
-                "Content-Type": "video/mp4", "Accept-Ranges": "bytes",
-                "Content-Range": f"bytes {start}-{len(self.clip) - 1}/{len(self.clip)}"})
+            route.fulfill(
+                status=206,
+                body=self.clip[start:],
+                headers={
+                    "Content-Type": "video/mp4",
+                    "Accept-Ranges": "bytes",
+                    "Content-Range": f"bytes {start}-{len(self.clip) - 1}/{len(self.clip)}",
+                },
+            )
 
 
 def _expected(app, trial_id: int) -> tuple[str, str | None]:
@@ -99,8 +112,9 @@ def _press(page, selector: str, touch: bool) -> None:
     (page.tap if touch else page.click)(selector)
 
 
-def _take_part(live_server, chromium, slug: str, pid: str, viewport: dict, clip: bytes,
-               touch: bool) -> dict[int, dict]:
+def _take_part(
+    live_server, chromium, slug: str, pid: str, viewport: dict, clip: bytes, touch: bool
+) -> dict[int, dict]:
     """One participant from consent to the completion code; returns what was done per
     trial (choice, strength, reasons, plays, stalled)."""
     context = chromium.new_context(viewport=viewport, is_mobile=touch, has_touch=touch)
@@ -152,11 +166,17 @@ def _take_part(live_server, chromium, slug: str, pid: str, viewport: dict, clip:
             for tag in tags:
                 page.check(f'.reasons input[value="{tag}"]')
             _press(page, ".reasons .confirm", touch)
-            done[trial] = {"kind": kind, "choice": side, "strength": strength,
-                           "reasons": ";".join(tags), "plays": plays,
-                           "stalled": step == STALL_STEP}
-            page.wait_for_selector(f'.player[data-trial-id="{trial}"]', state="detached",
-                                   timeout=30000)
+            done[trial] = {
+                "kind": kind,
+                "choice": side,
+                "strength": strength,
+                "reasons": ";".join(tags),
+                "plays": plays,
+                "stalled": step == STALL_STEP,
+            }
+            page.wait_for_selector(
+                f'.player[data-trial-id="{trial}"]', state="detached", timeout=30000
+            )
             step += 1
         assert page.inner_text("#completion-code") == "DONE-123"
     finally:
@@ -165,11 +185,18 @@ def _take_part(live_server, chromium, slug: str, pid: str, viewport: dict, clip:
     return done
 
 
-def test_participants_take_a_full_study_on_desktop_and_phone(live_server, browser,  # noqa: F811
-                                                             stall_clip):
-    study_id = live_server.study(design="unordered_counterbalanced", replay="play_to_end",
-                                 catch=1,
-                                 catch_kind="onscreen", extra=EXTRA)
+def test_participants_take_a_full_study_on_desktop_and_phone(
+    live_server,
+    browser,  # noqa: F811
+    stall_clip,
+):
+    study_id = live_server.study(
+        design="unordered_counterbalanced",
+        replay="play_to_end",
+        catch=1,
+        catch_kind="onscreen",
+        extra=EXTRA,
+    )
     with live_server.app.app_context():
         study = db.session.get(Study, study_id)
         slug = study.slug
@@ -186,8 +213,10 @@ def test_participants_take_a_full_study_on_desktop_and_phone(live_server, browse
     with live_server.app.app_context():
         people = {p.prolific_pid: p.number for p in db.session.scalars(sa.select(Participant))}
         positions = {t.id: t.position for t in db.session.scalars(sa.select(Trial))}
-        assert all(p.finished_at is not None and p.screened_out_at is None
-                   for p in db.session.scalars(sa.select(Participant)))
+        assert all(
+            p.finished_at is not None and p.screened_out_at is None
+            for p in db.session.scalars(sa.select(Participant))
+        )
     by_key = {(r["participant"], int(r["trial"])): r for r in rows}
     kinds = set()
     incidental = 0  # stalls of trials nothing held back: a busy machine may cause one
@@ -199,7 +228,11 @@ def test_participants_take_a_full_study_on_desktop_and_phone(live_server, browse
                 assert row["kind"] == "catch", row
                 continue
             assert (row["choice"], int(row["strength"]), row["reasons"], int(row["plays"])) == (
-                did["choice"], did["strength"], did["reasons"], did["plays"]), row
+                did["choice"],
+                did["strength"],
+                did["reasons"],
+                did["plays"],
+            ), row
             assert row["played_to_end"] == "true" and int(row["watched_ms"]) > 0, (did, row)
             # The held-back half is a stall of about HELD_MS; the start of a play, its seek
             # to the beginning included, is none.
@@ -217,8 +250,14 @@ def test_participants_take_a_full_study_on_desktop_and_phone(live_server, browse
 
 
 @pytest.mark.parametrize("name, viewport", [("desktop", DESKTOP), ("phone", PHONE)])
-def test_trial_page_layout_and_screenshots(live_server, browser, tiny_video,  # noqa: F811
-                                           tmp_path, name, viewport):
+def test_trial_page_layout_and_screenshots(
+    live_server,
+    browser,  # noqa: F811
+    tiny_video,
+    tmp_path,
+    name,
+    viewport,
+):
     """The trial page of the five-level scale: both faces in view without scrolling, every
     answer a 44 px touch target, mirror-image buttons, and no shift when the clip loads.
     With ``$FACEPAIR_DEMO_CLIP`` (docs/make_participant_figures.py) the page shows that clip
@@ -251,6 +290,7 @@ def test_trial_page_layout_and_screenshots(live_server, browser, tiny_video,  # 
         # Mirror images: clearly left and clearly right, slightly left and slightly right.
         for left, right in ((0, 4), (1, 3)):
             assert (boxes[left]["width"], boxes[left]["height"]) == pytest.approx(
-                (boxes[right]["width"], boxes[right]["height"]), abs=0.5)  # subpixel rounding
+                (boxes[right]["width"], boxes[right]["height"]), abs=0.5
+            )  # subpixel rounding
     finally:
         context.close()

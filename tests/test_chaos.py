@@ -29,17 +29,25 @@ def empty_database(postgres_url):
 
 
 @pytest.mark.postgres
-def test_votes_and_jobs_survive_a_worker_kill_and_job_kills(empty_database, redis_url,
-                                                            tmp_path):
-    options = Options(participants=4, web_workers=2, worker_kills=1, db_down=0, redis_down=0,
-                      job_kills=("horse", "worker"), think=(0.05, 0.15), stale_after=4,
-                      span=6.0)
+def test_votes_and_jobs_survive_a_worker_kill_and_job_kills(empty_database, redis_url, tmp_path):
+    options = Options(
+        participants=4,
+        web_workers=2,
+        worker_kills=1,
+        db_down=0,
+        redis_down=0,
+        job_kills=("horse", "worker"),
+        think=(0.05, 0.15),
+        stale_after=4,
+        span=6.0,
+    )
     from redis import Redis
 
     with Redis.from_url(redis_url) as connection:
         connection.flushdb()  # no queued job or result of another run
-    result = run(options, tmp_path, database_url=empty_database, redis_url=redis_url,
-                 echo=lambda *args: None)
+    result = run(
+        options, tmp_path, database_url=empty_database, redis_url=redis_url, echo=lambda *args: None
+    )
     assert result.faults["web-worker"] == 1
     assert not result.tally.failures, result.tally.failures
     assert result.acknowledged == result.stored == 4 * 18  # every trial of every participant

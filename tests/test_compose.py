@@ -18,8 +18,16 @@ def _compose() -> dict:
 
 def test_services_and_their_order():
     services = _compose()["services"]
-    assert set(services) == {"postgres", "redis", "migrate", "web", "worker", "nginx", "minio",
-                             "minio-bucket"}
+    assert set(services) == {
+        "postgres",
+        "redis",
+        "migrate",
+        "web",
+        "worker",
+        "nginx",
+        "minio",
+        "minio-bucket",
+    }
     for name in ("postgres", "redis", "web", "nginx", "minio"):
         assert "healthcheck" in services[name], name
     assert services["migrate"]["command"][-2:] == ["db", "upgrade"]
@@ -36,8 +44,13 @@ def test_services_and_their_order():
 def test_the_web_health_check_hits_a_real_route(tmp_path):
     from app import create_app
 
-    app = create_app({"TESTING": True, "SQLALCHEMY_DATABASE_URI":
-                      f"sqlite:///{tmp_path / 'h.sqlite'}", "MEDIA_ROOT": str(tmp_path)})
+    app = create_app(
+        {
+            "TESTING": True,
+            "SQLALCHEMY_DATABASE_URI": f"sqlite:///{tmp_path / 'h.sqlite'}",
+            "MEDIA_ROOT": str(tmp_path),
+        }
+    )
     check = " ".join(_compose()["services"]["web"]["healthcheck"]["test"])
     path = check.split("127.0.0.1:8000", 1)[1].split("'", 1)[0]
     assert app.test_client().get(path).status_code == 200
@@ -72,8 +85,9 @@ def test_the_proxy_fronts_the_app_and_serves_the_media_volume():
     assert re.search(r"^\s*internal;", internal, re.M)
     alias = re.search(r"alias (\S+);", internal).group(1)
     assert alias.rstrip("/") == env["MEDIA_ROOT"]
-    assert mounts[env["MEDIA_ROOT"]] == next(v.split(":")[0] for v in web["volumes"]
-                                             if v.split(":")[1] == env["MEDIA_ROOT"])
+    assert mounts[env["MEDIA_ROOT"]] == next(
+        v.split(":")[0] for v in web["volumes"] if v.split(":")[1] == env["MEDIA_ROOT"]
+    )
     from app.security import REPORT_CONTENT_SECURITY_POLICY
 
     assert f'Content-Security-Policy "{REPORT_CONTENT_SECURITY_POLICY}" always' in internal
@@ -83,8 +97,13 @@ def test_the_proxy_sets_every_forwarded_header_the_app_trusts():
     """TRUST_PROXY=1 makes the app believe X-Forwarded-For/Proto/Host/Port/Prefix from one
     proxy: nginx must set each itself, or a client could pass its own through."""
     app_location = _location(_nginx(), "/")
-    for header in ("X-Forwarded-For", "X-Forwarded-Proto", "X-Forwarded-Host",
-                   "X-Forwarded-Port", "X-Forwarded-Prefix"):
+    for header in (
+        "X-Forwarded-For",
+        "X-Forwarded-Proto",
+        "X-Forwarded-Host",
+        "X-Forwarded-Port",
+        "X-Forwarded-Prefix",
+    ):
         assert re.search(rf"proxy_set_header {header} ", app_location), header
     assert "$proxy_add_x_forwarded_for" not in app_location  # never the client's own list
     assert "client_max_body_size 200m;" in _nginx()
@@ -108,6 +127,10 @@ def test_nginx_accepts_the_configuration(tmp_path):
     from tests.proxy import nginx_conf
 
     conf = nginx_conf(tmp_path, upstream="127.0.0.1:9", media=tmp_path / "media", port=8089)
-    checked = subprocess.run(["nginx", "-t", "-p", str(tmp_path), "-c", str(conf)],
-                             capture_output=True, text=True, timeout=30)
+    checked = subprocess.run(
+        ["nginx", "-t", "-p", str(tmp_path), "-c", str(conf)],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
     assert checked.returncode == 0, checked.stderr

@@ -135,10 +135,13 @@ def test_schedule_is_reproducible_from_the_stored_seed(app, participant, web):
     token = participant.join(slug)
     with app.app_context():
         person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
-        stored = [(t.position, t.kind, t.stimulus.left.name, t.stimulus.right.name)
-                  for t in person.trials]
-        rebuilt = [(t.position, t.kind, t.left, t.right) for t in schedule(
-            person.study, seed=person.seed, list_index=person.study_list.index)]
+        stored = [
+            (t.position, t.kind, t.stimulus.left.name, t.stimulus.right.name) for t in person.trials
+        ]
+        rebuilt = [
+            (t.position, t.kind, t.left, t.right)
+            for t in schedule(person.study, seed=person.seed, list_index=person.study_list.index)
+        ]
         assert stored == rebuilt
         assert [t.kind for t in person.trials].count("catch") == 1
         assert person.trials[0].kind == "practice"
@@ -160,6 +163,10 @@ def test_lists_are_balanced_from_the_assignment_table(app, client, web):
         people = db.session.scalars(sa.select(Participant)).all()
         assert sorted(p.number for p in people) == [0, 1, 2, 3]
         # Each pair is shown in both orders across the two lists.
-        orders = {(p.study_list.index, t.stimulus.left.name) for p in people for t in p.trials
-                  if t.kind == "trial"}
+        orders = {
+            (p.study_list.index, t.stimulus.left.name)
+            for p in people
+            for t in p.trials
+            if t.kind == "trial"
+        }
         assert {o for _, o in orders} == {"none", "random"}

@@ -58,7 +58,8 @@ def test_the_closing_report(app, client, web, participant, tmp_path, monkeypatch
     (tmp_path / "again").mkdir()
     monkeypatch.chdir(tmp_path / "again")
     (tmp_path / "again" / "votes.csv").write_bytes(
-        client.get(f"/experimenter/studies/{study_id}/votes.csv").data)
+        client.get(f"/experimenter/studies/{study_id}/votes.csv").data
+    )
     result = CliRunner().invoke(main, [*shlex.split(command)[1:], "--json", "again.json"])
     assert result.exit_code == 0, result.output
     again = json.loads((tmp_path / "again" / "again.json").read_text())

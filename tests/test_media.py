@@ -42,8 +42,11 @@ def s3_server():
 @pytest.fixture
 def s3_env(s3_server, monkeypatch):
     """Credentials as a deployment sets them: in the environment, never in the config."""
-    for key, value in {"AWS_ACCESS_KEY_ID": "testing", "AWS_SECRET_ACCESS_KEY": "testing",
-                       "AWS_DEFAULT_REGION": "us-east-1"}.items():
+    for key, value in {
+        "AWS_ACCESS_KEY_ID": "testing",
+        "AWS_SECRET_ACCESS_KEY": "testing",
+        "AWS_DEFAULT_REGION": "us-east-1",
+    }.items():
         monkeypatch.setenv(key, value)
     media._clients.clear()
     yield s3_server
@@ -67,8 +70,13 @@ def use_backend(app, backend: str, request) -> None:
 
 def _trials_of(app, token: str) -> list[int]:
     with app.app_context():
-        return list(db.session.scalars(sa.select(Trial.id).join(Participant).where(
-            Participant.token == token, Trial.stimulus_id.is_not(None))))
+        return list(
+            db.session.scalars(
+                sa.select(Trial.id)
+                .join(Participant)
+                .where(Participant.token == token, Trial.stimulus_id.is_not(None))
+            )
+        )
 
 
 def _bytes_of(response) -> bytes:
@@ -84,7 +92,8 @@ def _bytes_of(response) -> bytes:
 
 @pytest.mark.parametrize("backend", ["local", "accel", "s3"])
 def test_a_participant_gets_only_the_clips_of_their_own_schedule(
-        app, client, web, participant, backend, request):
+    app, client, web, participant, backend, request
+):
     slug = _slug(app, web.study())
     other = type(participant)(app.test_client(), app)
     other.join(slug)
@@ -119,11 +128,13 @@ def _slug(app, study_id: int) -> str:
 
 
 @pytest.mark.parametrize("backend", ["local", "accel", "s3"])
-@settings(max_examples=25, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(trial_id=st.integers(min_value=0, max_value=2**63), token=st.text(max_size=80))
-def test_any_token_and_trial_answer_without_a_leak_or_a_5xx(app, client, web, backend,
-                                                              request, trial_id, token):
+def test_any_token_and_trial_answer_without_a_leak_or_a_5xx(
+    app, client, web, backend, request, trial_id, token
+):
     if not db_has_study(app):
         web.study()
         use_backend(app, backend, request)
@@ -159,14 +170,25 @@ def test_the_experimenter_report_and_preview_go_through_the_proxy(app, client, w
     assert client.get(f"/experimenter/studies/{study_id}/report/../../x").status_code == 404
 
 
-@pytest.mark.parametrize(("setting", "value"), [
-    ("MEDIA_BACKEND", "ftp"), ("MEDIA_URL_TTL", "soon"), ("MEDIA_URL_TTL", 0),
-    ("MEDIA_ACCEL_PREFIX", "_protected")])
+@pytest.mark.parametrize(
+    ("setting", "value"),
+    [
+        ("MEDIA_BACKEND", "ftp"),
+        ("MEDIA_URL_TTL", "soon"),
+        ("MEDIA_URL_TTL", 0),
+        ("MEDIA_ACCEL_PREFIX", "_protected"),
+    ],
+)
 def test_a_media_setting_that_cannot_work_is_refused_by_name(tmp_path, setting, value):
     from app import create_app
 
-    config = {"TESTING": True, "MEDIA_ROOT": str(tmp_path), "MEDIA_BACKEND": "accel",
-              "SQLALCHEMY_DATABASE_URI": f"sqlite:///{tmp_path / 'm.sqlite'}", setting: value}
+    config = {
+        "TESTING": True,
+        "MEDIA_ROOT": str(tmp_path),
+        "MEDIA_BACKEND": "accel",
+        "SQLALCHEMY_DATABASE_URI": f"sqlite:///{tmp_path / 'm.sqlite'}",
+        setting: value,
+    }
     with pytest.raises(InputError) as refused:
         create_app(config)
     assert setting in str(refused.value)
@@ -197,15 +219,20 @@ def test_a_worker_without_the_files_reads_and_writes_through_the_bucket(app, web
         folder = media.media_dir(study)
         shutil.rmtree(folder)  # this machine never saw the upload
         assert generate_tracks(study, lambda done, total: None) == "2 tracks generated"
-        keys = {o["Key"] for o in media.s3_client().list_objects_v2(
-            Bucket=BUCKET, Prefix=f"media/study-{study_id}/")["Contents"]}
+        keys = {
+            o["Key"]
+            for o in media.s3_client().list_objects_v2(
+                Bucket=BUCKET, Prefix=f"media/study-{study_id}/"
+            )["Contents"]
+        }
     assert f"media/study-{study_id}/clips/s1/audio.wav" in keys
     assert {f"media/study-{study_id}/tracks/s1/{c}.fap" for c in ("none", "random")} <= keys
     assert (folder / "clips" / "s1" / "audio.wav").is_file()  # fetched for the job
 
 
-@settings(max_examples=40, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(name=st.text(max_size=60))
 def test_a_report_name_never_sends_a_file_outside_the_studys_report(app, client, web, name):
     """``accel``: whatever the name, the proxy is pointed only inside the report folder."""
@@ -217,15 +244,17 @@ def test_a_report_name_never_sends_a_file_outside_the_studys_report(app, client,
         study = db.session.scalars(sa.select(Study)).first()
         (media.media_dir(study) / "report").mkdir(exist_ok=True)
         (media.media_dir(study) / "report" / "votes.csv").write_text("a,b\n", encoding="utf-8")
-    response = client.get(f"/experimenter/studies/{study.id}/report/"
-                          + urllib.request.quote(name, safe="/"))
+    response = client.get(
+        f"/experimenter/studies/{study.id}/report/" + urllib.request.quote(name, safe="/")
+    )
     assert response.status_code < 500
     accel = response.headers.get("X-Accel-Redirect")
     assert accel is None or accel.startswith(f"/_protected/study-{study.id}/report/")
 
 
-def test_deleted_participants_and_studies_leave_nothing_in_the_bucket(app, web, participant,
-                                                                       request):
+def test_deleted_participants_and_studies_leave_nothing_in_the_bucket(
+    app, web, participant, request
+):
     from app.privacy import delete_participants
     from app.studies import delete_study
 
@@ -248,8 +277,9 @@ def test_deleted_participants_and_studies_leave_nothing_in_the_bucket(app, web, 
         assert f"{prefix}report/votes.csv" in keys()
         from app.exports import participant_label
 
-        number = db.session.scalar(sa.select(Participant.number).where(
-            Participant.token == participant.token))
+        number = db.session.scalar(
+            sa.select(Participant.number).where(Participant.token == participant.token)
+        )
         label = participant_label(number)
         assert delete_participants(study, label).labels == (label,)
         db.session.commit()
@@ -259,8 +289,9 @@ def test_deleted_participants_and_studies_leave_nothing_in_the_bucket(app, web, 
         assert keys() == set()
 
 
-def test_a_store_that_is_away_fails_the_job_and_the_request_with_one_line(app, client, web,
-                                                                           request):
+def test_a_store_that_is_away_fails_the_job_and_the_request_with_one_line(
+    app, client, web, request
+):
     """``s3`` with the bucket unreachable: a job fails naming MEDIA_URL (no minutes of
     retries), and a page that writes to the bucket answers 503 with that line, not a 500."""
     from app.jobs.tasks import run_job
@@ -270,8 +301,11 @@ def test_a_store_that_is_away_fails_the_job_and_the_request_with_one_line(app, c
     study_id = web.study()
     web.login(client)
     request.getfixturevalue("s3_env")
-    app.config.update(MEDIA_BACKEND="s3", MEDIA_URL=f"s3://{BUCKET}",
-                      MEDIA_S3_ENDPOINT=f"http://127.0.0.1:{_free_port()}")  # nobody listens
+    app.config.update(
+        MEDIA_BACKEND="s3",
+        MEDIA_URL=f"s3://{BUCKET}",
+        MEDIA_S3_ENDPOINT=f"http://127.0.0.1:{_free_port()}",
+    )  # nobody listens
     with app.app_context():
         job = Job(study_id=study_id, kind="generate")
         db.session.add(job)
@@ -281,7 +315,8 @@ def test_a_store_that_is_away_fails_the_job_and_the_request_with_one_line(app, c
     assert message.startswith("MediaStoreError: the media store (MEDIA_URL, http://127.0.0.1:")
     assert "could not take tracks/s1/" in message and "\n" not in message
     token = csrf_token(client, f"/experimenter/studies/{study_id}")
-    copied = client.post(f"/experimenter/studies/{study_id}/duplicate",
-                         data={"csrf_token": token, "with_clips": "y"})
+    copied = client.post(
+        f"/experimenter/studies/{study_id}/duplicate", data={"csrf_token": token, "with_clips": "y"}
+    )
     assert copied.status_code == 503
     assert "the media store (MEDIA_URL" in copied.get_data(as_text=True)

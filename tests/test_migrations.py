@@ -20,8 +20,9 @@ def empty_database(request, tmp_path):
         return
     server_url = request.getfixturevalue("postgres_url")
     name = f"facepair_migrate_{secrets.token_hex(4)}"
-    admin = sa.create_engine(server_url.rsplit("/", 1)[0] + "/postgres",
-                             isolation_level="AUTOCOMMIT")
+    admin = sa.create_engine(
+        server_url.rsplit("/", 1)[0] + "/postgres", isolation_level="AUTOCOMMIT"
+    )
     with admin.connect() as conn:
         conn.execute(sa.text(f'CREATE DATABASE "{name}"'))
     try:
@@ -37,8 +38,13 @@ def _tables(engine) -> set[str]:
 
 
 def test_upgrade_downgrade_upgrade(empty_database, tmp_path):
-    app = create_app({"SQLALCHEMY_DATABASE_URI": empty_database, "TESTING": True,
-                      "MEDIA_ROOT": str(tmp_path / "media")})
+    app = create_app(
+        {
+            "SQLALCHEMY_DATABASE_URI": empty_database,
+            "TESTING": True,
+            "MEDIA_ROOT": str(tmp_path / "media"),
+        }
+    )
     with app.app_context():
         assert _tables(db.engine) == set()
         upgrade()
@@ -54,9 +60,13 @@ def test_upgrade_downgrade_upgrade(empty_database, tmp_path):
 
 
 def test_the_app_never_creates_tables(tmp_path):
-    app = create_app({"SQLALCHEMY_DATABASE_URI": f"sqlite:///{tmp_path / 'fresh.sqlite'}",
-                      "TESTING": True,
-                      "MEDIA_ROOT": str(tmp_path / "media")})
+    app = create_app(
+        {
+            "SQLALCHEMY_DATABASE_URI": f"sqlite:///{tmp_path / 'fresh.sqlite'}",
+            "TESTING": True,
+            "MEDIA_ROOT": str(tmp_path / "media"),
+        }
+    )
     with app.app_context():
         assert app.test_client().get("/healthz").status_code == 200  # a request creates nothing
         assert _tables(db.engine) == set()

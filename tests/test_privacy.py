@@ -74,7 +74,8 @@ def test_exports_are_pseudonymised_unless_raw_ids_are_asked_for(app, client, web
     assert [r["status"] for r in rows] == ["finished", "in_progress"]
     assert [r["answered"] for r in rows] == ["4", "2"]
     assert PID not in client.get(f"/experimenter/studies/{study_id}/votes.csv").get_data(
-        as_text=True)
+        as_text=True
+    )
     raw = _csv(client.get(url + "?ids=raw"))
     assert raw[0]["prolific_pid"] == PID and raw[0]["prolific_session_id"] == f"session-{PID}"
     # Pseudonyms link exports of one study, never two studies.
@@ -105,14 +106,18 @@ def _delete(client, web, study_id: int, who: str, confirm: bool = True):
 
 def _counts(app, study_id: int) -> tuple[int, int, int, int]:
     with app.app_context():
-        people = db.session.scalars(sa.select(Participant.id).where(
-            Participant.study_id == study_id)).all()
-        votes = db.session.scalar(sa.select(sa.func.count(Vote.id)).where(
-            Vote.participant_id.in_(people)))
-        trials = db.session.scalar(sa.select(sa.func.count(Trial.id)).where(
-            Trial.participant_id.in_(people)))
-        slots = db.session.scalar(sa.select(sa.func.sum(StudyList.n_assigned)).where(
-            StudyList.study_id == study_id))
+        people = db.session.scalars(
+            sa.select(Participant.id).where(Participant.study_id == study_id)
+        ).all()
+        votes = db.session.scalar(
+            sa.select(sa.func.count(Vote.id)).where(Vote.participant_id.in_(people))
+        )
+        trials = db.session.scalar(
+            sa.select(sa.func.count(Trial.id)).where(Trial.participant_id.in_(people))
+        )
+        slots = db.session.scalar(
+            sa.select(sa.func.sum(StudyList.n_assigned)).where(StudyList.study_id == study_id)
+        )
         return len(people), votes, trials, slots
 
 
@@ -150,12 +155,15 @@ def test_nothing_is_deleted_without_a_match_or_confirmation(app, client, web):
     study_id = web.study()
     _join(app, _slug(app, study_id), PID)
     web.login(client)
-    assert "Nothing deleted: no participant" in _delete(
-        client, web, study_id, "P0042").get_data(as_text=True)
+    assert "Nothing deleted: no participant" in _delete(client, web, study_id, "P0042").get_data(
+        as_text=True
+    )
     assert "Nothing deleted (confirm" in _delete(
-        client, web, study_id, PID, confirm=False).get_data(as_text=True)
-    assert "Nothing deleted (participant" in _delete(
-        client, web, study_id, "x" * 201).get_data(as_text=True)
+        client, web, study_id, PID, confirm=False
+    ).get_data(as_text=True)
+    assert "Nothing deleted (participant" in _delete(client, web, study_id, "x" * 201).get_data(
+        as_text=True
+    )
     assert _counts(app, study_id)[0] == 1
 
 
@@ -185,13 +193,20 @@ def test_the_personal_data_routes_never_answer_5xx(app, web):
     token = web.csrf(client, page)
     text = st.text(st.characters(blacklist_categories=("Cs",)), max_size=300)
 
-    @settings(max_examples=300, deadline=None, database=None,
-              suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
-    @given(who=st.one_of(text, st.just(PID), st.from_regex(r"[Pp]0*\d{1,12}", fullmatch=True)),
-           ids=text)
+    @settings(
+        max_examples=300,
+        deadline=None,
+        database=None,
+        suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+    )
+    @given(
+        who=st.one_of(text, st.just(PID), st.from_regex(r"[Pp]0*\d{1,12}", fullmatch=True)),
+        ids=text,
+    )
     def hostile(who, ids):
-        deleted = client.post(f"{page}/participants/delete",
-                              data={"csrf_token": token, "participant": who})
+        deleted = client.post(
+            f"{page}/participants/delete", data={"csrf_token": token, "participant": who}
+        )
         assert deleted.status_code == 302, deleted.get_data(as_text=True)
         export = client.get(f"{page}/participants.csv", query_string={"ids": ids})
         assert export.status_code == 200

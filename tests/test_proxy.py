@@ -18,8 +18,9 @@ from app.models import Participant, Study, Trial
 from tests.conftest import ParticipantActions
 from tests.proxy import nginx_conf
 
-pytestmark = pytest.mark.skipif(shutil.which("nginx") is None,
-                                reason="nginx is not installed (make test installs it)")
+pytestmark = pytest.mark.skipif(
+    shutil.which("nginx") is None, reason="nginx is not installed (make test installs it)"
+)
 
 
 def _free_port() -> int:
@@ -34,10 +35,12 @@ def proxy(live_server, tmp_path):
     live_server.app.config["MEDIA_BACKEND"] = "accel"
     port = _free_port()
     folder = tmp_path / "nginx"
-    conf = nginx_conf(folder, upstream=live_server.url.split("//")[1],
-                      media=tmp_path / "media", port=port)
-    process = subprocess.Popen(["nginx", "-p", str(folder), "-c", str(conf), "-g",
-                                "daemon off;"], stderr=subprocess.PIPE)
+    conf = nginx_conf(
+        folder, upstream=live_server.url.split("//")[1], media=tmp_path / "media", port=port
+    )
+    process = subprocess.Popen(
+        ["nginx", "-p", str(folder), "-c", str(conf), "-g", "daemon off;"], stderr=subprocess.PIPE
+    )
     try:
         deadline = time.monotonic() + 10
         while time.monotonic() < deadline:
@@ -66,8 +69,13 @@ def _get(url: str, **headers: str) -> tuple[int, dict[str, str], bytes]:
 
 def _trials(app, token: str) -> list[int]:
     with app.app_context():
-        return list(db.session.scalars(sa.select(Trial.id).join(Participant).where(
-            Participant.token == token, Trial.stimulus_id.is_not(None))))
+        return list(
+            db.session.scalars(
+                sa.select(Trial.id)
+                .join(Participant)
+                .where(Participant.token == token, Trial.stimulus_id.is_not(None))
+            )
+        )
 
 
 def test_nginx_delivers_the_checked_clip_and_refuses_the_rest(live_server, proxy):

@@ -11,9 +11,11 @@ from app.recruitment import prolific_study_url
 def test_prolific_study_url_keeps_the_link_and_adds_the_placeholders():
     assert prolific_study_url("https://x.org/s/abc") == (
         "https://x.org/s/abc?PROLIFIC_PID={{%PROLIFIC_PID%}}&STUDY_ID={{%STUDY_ID%}}"
-        "&SESSION_ID={{%SESSION_ID%}}")
+        "&SESSION_ID={{%SESSION_ID%}}"
+    )
     assert prolific_study_url("https://x.org/s/abc?lang=en").startswith(
-        "https://x.org/s/abc?lang=en&PROLIFIC_PID=")
+        "https://x.org/s/abc?lang=en&PROLIFIC_PID="
+    )
 
 
 def _code_only(app, study_id):
@@ -39,25 +41,30 @@ def test_study_page_shows_both_urls(app, client, web):
     web.login(client)
     page = client.get(f"/experimenter/studies/{study_id}").get_data(as_text=True)
     found = re.search(r'id="prolific-url" value="([^"]+)"', page).group(1)
-    assert found.endswith("?PROLIFIC_PID={{%PROLIFIC_PID%}}&amp;STUDY_ID={{%STUDY_ID%}}"
-                          "&amp;SESSION_ID={{%SESSION_ID%}}")
+    assert found.endswith(
+        "?PROLIFIC_PID={{%PROLIFIC_PID%}}&amp;STUDY_ID={{%STUDY_ID%}}"
+        "&amp;SESSION_ID={{%SESSION_ID%}}"
+    )
     assert "/s/" in found
-    assert ('id="completion-url" value="https://app.prolific.com/submissions/complete?cc=C0DE"'
-            in page)
+    assert (
+        'id="completion-url" value="https://app.prolific.com/submissions/complete?cc=C0DE"' in page
+    )
 
 
 def test_a_prolific_participant_is_sent_back_with_the_code(app, web, participant):
     study_id = _code_only(app, web.study(design="all_ordered"))
     done = _finish(app, participant, study_id, "PROLIFIC_PID=5f01&STUDY_ID=s&SESSION_ID=x")
-    assert ('<meta http-equiv="refresh" content="5;url=https://app.prolific.com/submissions/'
-            'complete?cc=C0DE">') in done
+    assert (
+        '<meta http-equiv="refresh" content="5;url=https://app.prolific.com/submissions/'
+        'complete?cc=C0DE">'
+    ) in done
     assert 'id="completion-code">C0DE<' in done
 
 
 def test_without_prolific_nor_redirect_only_the_code_is_shown(app, web, participant):
     study_id = _code_only(app, web.study(design="all_ordered"))
     done = _finish(app, participant, study_id)
-    assert "http-equiv=\"refresh\"" not in done and "C0DE" in done
+    assert 'http-equiv="refresh"' not in done and "C0DE" in done
 
 
 def test_the_study_redirect_url_goes_first(app, web, participant):

@@ -26,31 +26,50 @@ def test_a_real_secret_key_is_accepted(tmp_path, monkeypatch):
     assert _bare(tmp_path).secret_key == "f" * 64
 
 
-@pytest.mark.parametrize("target", [
-    "/%09/evil.example/path", "/\t/evil.example/path", "//evil.example", "/\\evil.example",
-    "\\\\evil.example", " //evil.example", "/\r\n/evil.example", "https://evil.example/",
-    "javascript:alert(1)", "/\x00/evil.example", "evil.example", "///evil.example",
-])
+@pytest.mark.parametrize(
+    "target",
+    [
+        "/%09/evil.example/path",
+        "/\t/evil.example/path",
+        "//evil.example",
+        "/\\evil.example",
+        "\\\\evil.example",
+        " //evil.example",
+        "/\r\n/evil.example",
+        "https://evil.example/",
+        "javascript:alert(1)",
+        "/\x00/evil.example",
+        "evil.example",
+        "///evil.example",
+    ],
+)
 def test_safe_next_keeps_only_paths_on_this_site(target):
     from urllib.parse import unquote
 
     for value in (target, unquote(target)):
         result = safe_next(value, "/home")
-        assert result == "/home" or (result.startswith("/") and not result.startswith("//")
-                                     and "evil.example" not in result.split("/")[1])
+        assert result == "/home" or (
+            result.startswith("/")
+            and not result.startswith("//")
+            and "evil.example" not in result.split("/")[1]
+        )
 
 
 def test_safe_next_keeps_a_local_path():
     assert safe_next("/experimenter/studies/4?x=1", "/") == "/experimenter/studies/4?x=1"
 
 
-@pytest.mark.parametrize("query", ["/%09/evil.example/path", "/%5C/evil.example",
-                                   "%20//evil.example", "/%0D%0A/evil.example"])
+@pytest.mark.parametrize(
+    "query",
+    ["/%09/evil.example/path", "/%5C/evil.example", "%20//evil.example", "/%0D%0A/evil.example"],
+)
 def test_login_never_redirects_off_site(client, web, query):
     web.user()
     token = web.csrf(client, "/experimenter/login")
-    response = client.post(f"/experimenter/login?next={query}", data={
-        "csrf_token": token, "email": "exp@example.org", "password": "correct horse"})
+    response = client.post(
+        f"/experimenter/login?next={query}",
+        data={"csrf_token": token, "email": "exp@example.org", "password": "correct horse"},
+    )
     assert response.status_code == 302
     location = response.headers["Location"]
     assert location.startswith("/") and not location.startswith("//"), location
@@ -74,10 +93,16 @@ def test_session_cookie_is_secure_over_https(app, web):
     page = client.get("/experimenter/login", base_url="https://study.example")
     token = re.search(r'name="csrf_token"[^>]*value="([^"]+)"', page.get_data(as_text=True))
     # Flask-WTF checks the Referer of a form posted over HTTPS.
-    response = client.post("/experimenter/login", base_url="https://study.example",
-                           headers={"Referer": "https://study.example/experimenter/login"},
-                           data={
-        "csrf_token": token.group(1), "email": "exp@example.org", "password": "correct horse"})
+    response = client.post(
+        "/experimenter/login",
+        base_url="https://study.example",
+        headers={"Referer": "https://study.example/experimenter/login"},
+        data={
+            "csrf_token": token.group(1),
+            "email": "exp@example.org",
+            "password": "correct horse",
+        },
+    )
     assert response.status_code == 302
     assert "Secure" in _session_cookie(response)
     assert "max-age=" in response.headers["Strict-Transport-Security"]
@@ -85,8 +110,14 @@ def test_session_cookie_is_secure_over_https(app, web):
 
 @pytest.mark.parametrize("trusted", [0, 1])
 def test_https_behind_a_trusted_proxy(app, trusted):
-    proxied = create_app({"TESTING": True, "SECRET_KEY": "k" * 32, "TRUST_PROXY": trusted,
-                          "SQLALCHEMY_DATABASE_URI": app.config["SQLALCHEMY_DATABASE_URI"]})
+    proxied = create_app(
+        {
+            "TESTING": True,
+            "SECRET_KEY": "k" * 32,
+            "TRUST_PROXY": trusted,
+            "SQLALCHEMY_DATABASE_URI": app.config["SQLALCHEMY_DATABASE_URI"],
+        }
+    )
     client = proxied.test_client()
     response = client.get("/experimenter/login", headers={"X-Forwarded-Proto": "https"})
     cookie = _session_cookie(response)  # the CSRF token lives in the session
@@ -94,8 +125,16 @@ def test_https_behind_a_trusted_proxy(app, trusted):
     assert ("Strict-Transport-Security" in response.headers) == bool(trusted)
 
 
-@pytest.mark.parametrize("path", ["/experimenter/login", "/healthz", "/s/nothing-here",
-                                  "/static/participant.js", "/api/v1/participants/x/progress"])
+@pytest.mark.parametrize(
+    "path",
+    [
+        "/experimenter/login",
+        "/healthz",
+        "/s/nothing-here",
+        "/static/participant.js",
+        "/api/v1/participants/x/progress",
+    ],
+)
 def test_security_headers_on_every_response(client, path):
     response = client.get(path)
     response.close()  # a static file's handle

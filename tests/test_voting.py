@@ -24,8 +24,14 @@ def _person(app, participant, web, **toml) -> tuple[str, int]:
 
 
 def _payload(trial_id: int, choice: object = "left", **extra) -> dict:
-    return {"trial_id": trial_id, "choice": choice, "plays": 1, "watched_to_end": True,
-            "idempotency_key": "vote-key-0001", **extra}
+    return {
+        "trial_id": trial_id,
+        "choice": choice,
+        "plays": 1,
+        "watched_to_end": True,
+        "idempotency_key": "vote-key-0001",
+        **extra,
+    }
 
 
 def _record(app, token: str, payload: dict):
@@ -65,26 +71,39 @@ def test_the_replay_refusals_come_from_the_rules(app, participant, web):
         study = db.session.scalar(sa.select(Study))
         assert replay_policy(study) == ReplayPolicy("max_plays", max_plays=2)
         assert may_vote(study, plays=0, watched_to_end=True) == (
-            "plays: the clip must be played before voting")
+            "plays: the clip must be played before voting"
+        )
         assert may_vote(study, plays=3, watched_to_end=True) == (
-            "plays: at most 2 plays are allowed")
+            "plays: at most 2 plays are allowed"
+        )
         assert may_vote(study, plays=2, watched_to_end=False) is None
         study.replay, study.max_plays = "play_to_end", None
         assert may_vote(study, plays=1, watched_to_end=False).startswith("watched_to_end:")
 
 
-@settings(max_examples=25, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
-@given(choice=st.one_of(st.sampled_from(CHOICES), st.text(max_size=60), st.integers(),
-                        st.none(), st.lists(st.sampled_from(CHOICES), max_size=2)))
+@settings(
+    max_examples=25,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+@given(
+    choice=st.one_of(
+        st.sampled_from(CHOICES),
+        st.text(max_size=60),
+        st.integers(),
+        st.none(),
+        st.lists(st.sampled_from(CHOICES), max_size=2),
+    )
+)
 def test_any_choice_is_stored_or_refused_with_one_line(app, participant, web, choice):
     if participant.token is None:
         _person(app, participant, web)
     trial = participant.current_trial()
     if trial is None:
         return
-    result = _record(app, participant.token, _payload(trial, choice,
-                                                          idempotency_key=secrets.token_hex(8)))
+    result = _record(
+        app, participant.token, _payload(trial, choice, idempotency_key=secrets.token_hex(8))
+    )
     if isinstance(result, VoteRejected):
         assert result.status < 500 and "\n" not in result.message
         assert result.message.startswith("choice: ")

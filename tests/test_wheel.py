@@ -23,16 +23,33 @@ import pytest
 
 REPO = Path(__file__).resolve().parent.parent
 #: Files the installed package reads at run time; each must be in the wheel.
-PACKAGE_DATA = ("app/static/participant.js", "app/static/style.css", "app/templates/base.html",
-                "app/migrations/env.py", "app/migrations/alembic.ini",
-                "app/migrations/script.py.mako", "app/migrations/versions/0001_initial_schema.py",
-                "app/data/demo/speech.wav", "app/data/demo/ground_truth.fap",
-                "app/data/demo/COPYING.cmu_arctic", "app/data/examples/study.toml",
-                "app/data/examples/votes.csv", "app/data/models/head_arx_default.json",
-                "app/data/models/live_gmm_default.npz")
+PACKAGE_DATA = (
+    "app/static/participant.js",
+    "app/static/style.css",
+    "app/templates/base.html",
+    "app/migrations/env.py",
+    "app/migrations/alembic.ini",
+    "app/migrations/script.py.mako",
+    "app/migrations/versions/0001_initial_schema.py",
+    "app/data/demo/speech.wav",
+    "app/data/demo/ground_truth.fap",
+    "app/data/demo/COPYING.cmu_arctic",
+    "app/data/examples/study.toml",
+    "app/data/examples/votes.csv",
+    "app/data/models/head_arx_default.json",
+    "app/data/models/live_gmm_default.npz",
+)
 #: Settings of the checkout's test run that must not reach the installed copy.
-LEAKS = ("PYTHONPATH", "DATABASE_URL", "SECRET_KEY", "MEDIA_ROOT", "REDIS_URL", "FLASK_APP",
-         "FACEPAIR_INSTANCE", "VIRTUAL_ENV")
+LEAKS = (
+    "PYTHONPATH",
+    "DATABASE_URL",
+    "SECRET_KEY",
+    "MEDIA_ROOT",
+    "REDIS_URL",
+    "FLASK_APP",
+    "FACEPAIR_INSTANCE",
+    "VIRTUAL_ENV",
+)
 
 pytestmark = pytest.mark.slow
 
@@ -40,8 +57,11 @@ pytestmark = pytest.mark.slow
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
     dist = tmp_path_factory.mktemp("dist")
-    _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(dist), str(REPO)],
-         dict(os.environ), dist)
+    _run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(dist), str(REPO)],
+        dict(os.environ),
+        dist,
+    )
     (built,) = dist.glob("facepair-*.whl")
     return built
 
@@ -54,8 +74,11 @@ def installed(wheel: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str
     # unpacks numpy, scipy, pandas and matplotlib again for a minute and a half.
     uv = [sys.executable, "-m", "uv", "--quiet"]
     _run([*uv, "venv", "--python", sys.executable, str(root / "venv")], dict(os.environ), root)
-    _run([*uv, "pip", "install", "--python", str(root / "venv" / "bin" / "python"), str(wheel)],
-         dict(os.environ), root)
+    _run(
+        [*uv, "pip", "install", "--python", str(root / "venv" / "bin" / "python"), str(wheel)],
+        dict(os.environ),
+        root,
+    )
     env = {k: v for k, v in os.environ.items() if k not in LEAKS}
     env["PATH"] = f"{root / 'venv' / 'bin'}{os.pathsep}{env.get('PATH', '')}"
     return env
@@ -86,7 +109,8 @@ def test_the_dockerfile_installs_the_wheel_not_the_source_tree() -> None:
 
 
 def test_the_installed_package_imports_from_the_venv_with_its_version(
-        installed: dict[str, str], tmp_path: Path) -> None:
+    installed: dict[str, str], tmp_path: Path
+) -> None:
     code = "import app, app.data; print(app.__file__); print(app.__version__)"
     where, version = _run(["python", "-c", code], installed, tmp_path).stdout.split()
     assert "site-packages" in where and not Path(where).is_relative_to(REPO)
@@ -94,8 +118,9 @@ def test_the_installed_package_imports_from_the_venv_with_its_version(
         assert version == tomllib.load(f)["project"]["version"]
 
 
-def test_demo_migrates_generates_renders_and_exits(installed: dict[str, str],
-                                                   tmp_path: Path) -> None:
+def test_demo_migrates_generates_renders_and_exits(
+    installed: dict[str, str], tmp_path: Path
+) -> None:
     env = {**installed, "FACEPAIR_INSTANCE": str(tmp_path / "instance")}
     out = _run(["facepair", "demo", "--no-serve"], env, tmp_path).stdout
     assert "/s/" in out and "login:" in out
@@ -108,25 +133,55 @@ def test_demo_migrates_generates_renders_and_exits(installed: dict[str, str],
     assert "creating the demo study" not in again.stderr
 
 
-def test_stimuli_generate_uses_the_shipped_default_models(installed: dict[str, str],
-                                                          tmp_path: Path) -> None:
-    speech = _run(["python", "-c", "from app.data import data_path; "
-                   "print(data_path('demo', 'speech.wav'))"], installed, tmp_path).stdout.strip()
+def test_stimuli_generate_uses_the_shipped_default_models(
+    installed: dict[str, str], tmp_path: Path
+) -> None:
+    speech = _run(
+        ["python", "-c", "from app.data import data_path; print(data_path('demo', 'speech.wav'))"],
+        installed,
+        tmp_path,
+    ).stdout.strip()
     assert not Path(speech).is_relative_to(REPO)
-    _run(["facepair", "stimuli", "generate", "--audio", speech, "--conditions",
-          "none,random,speech_driven,live_gmm", "--out", "gen", "--no-plot"],
-         installed, tmp_path)
+    _run(
+        [
+            "facepair",
+            "stimuli",
+            "generate",
+            "--audio",
+            speech,
+            "--conditions",
+            "none,random,speech_driven,live_gmm",
+            "--out",
+            "gen",
+            "--no-plot",
+        ],
+        installed,
+        tmp_path,
+    )
     for name in ("none", "random", "speech_driven", "live_gmm"):
         assert (tmp_path / "gen" / f"{name}.fap").stat().st_size > 1000, name
     summary = (tmp_path / "gen" / "summary.json").read_text(encoding="utf-8")
     assert "head_arx_default.json" in summary and "live_gmm_default.npz" in summary
 
 
-def test_analyze_reads_votes_and_writes_the_report(installed: dict[str, str],
-                                                   tmp_path: Path) -> None:
+def test_analyze_reads_votes_and_writes_the_report(
+    installed: dict[str, str], tmp_path: Path
+) -> None:
     _run(["python", "-m", "app.analysis.example", "votes.csv"], installed, tmp_path)
-    _run(["facepair", "analyze", "votes.csv", "--json", "out.json", "--report", "report.html",
-          "--bootstrap", "100"],
-         installed, tmp_path)
+    _run(
+        [
+            "facepair",
+            "analyze",
+            "votes.csv",
+            "--json",
+            "out.json",
+            "--report",
+            "report.html",
+            "--bootstrap",
+            "100",
+        ],
+        installed,
+        tmp_path,
+    )
     result = json.loads((tmp_path / "out.json").read_text(encoding="utf-8"))
     assert result and (tmp_path / "report.html").stat().st_size > 1000

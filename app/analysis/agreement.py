@@ -86,8 +86,9 @@ def coefficient_of_agreement(counts: ArrayLike) -> Agreement:
     p_c = float(stats.chi2.sf(chi2_c, df))
     whole = bool(np.all(m == np.round(m)))
     lo, hi = (int(m.min()), int(m.max())) if whole else (float(m.min()), float(m.max()))
-    return Agreement(float(u), sigma, chi2, chi2_c, df, p, p_c, float(m.mean()), lo, hi,
-                     int(m.size), dropped)
+    return Agreement(
+        float(u), sigma, chi2, chi2_c, df, p, p_c, float(m.mean()), lo, hi, int(m.size), dropped
+    )
 
 
 def agreement_bounds(judges: int) -> tuple[float, float]:

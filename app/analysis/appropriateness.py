@@ -36,8 +36,9 @@ def _is_pair(frame: pd.DataFrame) -> pd.Series:
 def without_appropriateness(table: VotesTable) -> VotesTable:
     """The table without appropriateness pairs (for the pair comparisons)."""
     keep = ~_is_pair(table.frame)
-    return VotesTable(table.frame[keep].reset_index(drop=True), table.skipped, table.problems,
-                      table.source)
+    return VotesTable(
+        table.frame[keep].reset_index(drop=True), table.skipped, table.problems, table.source
+    )
 
 
 def appropriateness(frame: pd.DataFrame) -> dict[str, dict[str, Any]]:
@@ -46,13 +47,19 @@ def appropriateness(frame: pd.DataFrame) -> dict[str, dict[str, Any]]:
     pairs = frame[_is_pair(frame)]
     out: dict[str, dict[str, Any]] = {}
     for condition, rows in pairs.groupby("left", sort=True):
-        matched = int(((rows["choice"] != rows["mismatched"].str.strip())
-                       & rows["choice"].isin(("left", "right"))).sum())
+        matched = int(
+            (
+                (rows["choice"] != rows["mismatched"].str.strip())
+                & rows["choice"].isin(("left", "right"))
+            ).sum()
+        )
         undecided = int((rows["choice"] == "undecided").sum())
         mismatched = len(rows) - matched - undecided
         decided = matched + mismatched
         out[str(condition)] = {
-            "matched": matched, "mismatched": mismatched, "undecided": undecided,
+            "matched": matched,
+            "mismatched": mismatched,
+            "undecided": undecided,
             "matched_share": json_number(matched / decided) if decided else None,
             "p": json_number(float(sign_test_p(matched, mismatched))) if decided else None,
         }

@@ -70,8 +70,9 @@ def _cells(counts: np.ndarray, ties: bool) -> np.ndarray:
     return c if ties else c[..., :2]
 
 
-def _terms(beta: np.ndarray, cells: np.ndarray, x: np.ndarray, penalty: bool = True
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _terms(
+    beta: np.ndarray, cells: np.ndarray, x: np.ndarray, penalty: bool = True
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Objective (negative log-likelihood plus (sum theta)^2 / 2), gradient and Hessian, batched.
 
     The penalty fixes the mean of theta at 0 without moving the maximum (the likelihood does not
@@ -87,7 +88,8 @@ def _terms(beta: np.ndarray, cells: np.ndarray, x: np.ndarray, penalty: bool = T
     grad = -np.einsum("bco,cok->bk", cells - total[..., None] * p, x)
     mean_x = np.einsum("bco,cok->bck", p, x)
     second = (total[..., None] * p).reshape(len(beta), -1) @ np.einsum(
-        "cok,col->cokl", x, x).reshape(n_cells * n_out, k * k)
+        "cok,col->cokl", x, x
+    ).reshape(n_cells * n_out, k * k)
     weighted = np.swapaxes(total[..., None] * mean_x, 1, 2)
     hess = second.reshape(-1, k, k) - weighted @ mean_x
     if penalty:
@@ -150,8 +152,15 @@ def fit_btd(counts: np.ndarray) -> BTDFit:
     nan = np.full(n, np.nan)
     decided = counts[..., 0] + np.swapaxes(counts[..., 1], 0, 1) + counts[..., 2]
     if votes == 0 or not connected(np.where(off, decided, 0.0)):
-        return BTDFit(nan, np.nan, np.nan, np.nan, votes, False,
-                      "the compared pairs do not link all conditions")
+        return BTDFit(
+            nan,
+            np.nan,
+            np.nan,
+            np.nan,
+            votes,
+            False,
+            "the compared pairs do not link all conditions",
+        )
     ties, x = _setup(counts)
     cells = _cells(counts[None], ties)
 
@@ -162,25 +171,39 @@ def fit_btd(counts: np.ndarray) -> BTDFit:
     def hessian(beta: np.ndarray) -> np.ndarray:
         return _terms(beta[None], cells, x)[2][0]
 
-    res = optimize.minimize(objective, np.zeros(x.shape[-1]), jac=True, hess=hessian,
-                            method="trust-exact", options={"gtol": 1e-10, "maxiter": 300})
+    res = optimize.minimize(
+        objective,
+        np.zeros(x.shape[-1]),
+        jac=True,
+        hess=hessian,
+        method="trust-exact",
+        options={"gtol": 1e-10, "maxiter": 300},
+    )
     beta = res.x
     # trust-exact may stop short of its gtol on rounding ("failure to predict improvement")
     # with the maximum found; judge the result by its gradient, relative to the votes.
     stationary = np.abs(objective(beta)[1]).max() < 1e-7 * max(1.0, votes)
     ok = bool(stationary) and bool(_finite(beta[None], ties)[0])
     if not ok:
-        return BTDFit(nan, np.nan, np.nan, np.nan, votes, False,
-                      "no finite maximum-likelihood estimate (a condition won or lost every "
-                      "comparison, or every decided vote went to one side)")
+        return BTDFit(
+            nan,
+            np.nan,
+            np.nan,
+            np.nan,
+            votes,
+            False,
+            "no finite maximum-likelihood estimate (a condition won or lost every "
+            "comparison, or every decided vote went to one side)",
+        )
     theta = beta[:n] - beta[:n].mean()
     nu = float(np.exp(beta[n + 1])) if ties else 0.0
     gamma = float(np.exp(beta[n]))
     return BTDFit(theta, gamma, nu, log_likelihood(counts, theta, gamma, nu), votes, True)
 
 
-def fit_btd_many(counts: np.ndarray, *, max_iter: int = 60,
-                 start: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def fit_btd_many(
+    counts: np.ndarray, *, max_iter: int = 60, start: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Fit every (n, n, 3) array of ``counts`` (B, n, n, 3) at once by damped Newton steps.
 
     Returns (beta (B, k), converged (B,)); beta = theta_1..theta_n, log g[, log nu] where the
@@ -216,8 +239,9 @@ def fit_btd_many(counts: np.ndarray, *, max_iter: int = 60,
     return beta, done & _finite(beta, ties)
 
 
-def bootstrap_btd(per_participant: np.ndarray, weights: np.ndarray, confidence: float
-                  ) -> tuple[np.ndarray, int]:
+def bootstrap_btd(
+    per_participant: np.ndarray, weights: np.ndarray, confidence: float
+) -> tuple[np.ndarray, int]:
     """Percentile intervals (k, 2) of (theta..., g, nu) and the replicates that converged.
 
     ``per_participant`` is (P, n, n, 3); ``weights`` (B, P) from
@@ -259,13 +283,24 @@ def side_check(t: np.ndarray) -> dict[str, float | int | None]:
     n = t.shape[-2]
     same = t[..., np.arange(n), np.arange(n), :].reshape(-1, 3).sum(axis=0)
     left, right, und = (int(v) for v in same)
-    return {"votes": left + right + und, "left": left, "right": right, "undecided": und,
-            "share_left": json_number(left / (left + right)) if left + right else None,
-            "p": json_number(sign_test_p(left, right)) if left + right else None}
+    return {
+        "votes": left + right + und,
+        "left": left,
+        "right": right,
+        "undecided": und,
+        "share_left": json_number(left / (left + right)) if left + right else None,
+        "p": json_number(sign_test_p(left, right)) if left + right else None,
+    }
 
 
-def btd_summary(t: np.ndarray, names: Sequence[str], *, bootstrap: int = 1000, seed: int = 0,
-                confidence: float = 0.95) -> dict[str, Any]:
+def btd_summary(
+    t: np.ndarray,
+    names: Sequence[str],
+    *,
+    bootstrap: int = 1000,
+    seed: int = 0,
+    confidence: float = 0.95,
+) -> dict[str, Any]:
     """The model for one clip (or pooled) as JSON: scores (log worth, mean 0), nu, gamma,
     percentile intervals over participants, the log-likelihood, votes, JOD and the check of
     identical pairs. ``t`` is (P, n, n, 3). Conditions without any vote get null."""
@@ -276,16 +311,25 @@ def btd_summary(t: np.ndarray, names: Sequence[str], *, bootstrap: int = 1000, s
     pooled = t.sum(axis=0)
     on_pair = np.where(off, pooled.sum(axis=-1), 0.0)
     active = np.flatnonzero((on_pair + on_pair.T).sum(axis=1) > 0)
-    fit = fit_btd(pooled[np.ix_(active, active)]) if active.size >= 2 else BTDFit(
-        np.full(active.size, np.nan), np.nan, np.nan, np.nan, 0, False,
-        "fewer than two conditions were compared")
+    fit = (
+        fit_btd(pooled[np.ix_(active, active)])
+        if active.size >= 2
+        else BTDFit(
+            np.full(active.size, np.nan),
+            np.nan,
+            np.nan,
+            np.nan,
+            0,
+            False,
+            "fewer than two conditions were compared",
+        )
+    )
     ci = np.full((active.size + 2, 2), np.nan)
     used = 0
     if fit.converged and bootstrap > 0 and t.shape[0] > 1:
         sub = t[:, active][:, :, active]
         sub = sub[canonical_participant_order(sub)]
-        ci, used = bootstrap_btd(sub, bootstrap_weights(sub.shape[0], bootstrap, seed),
-                                 confidence)
+        ci, used = bootstrap_btd(sub, bootstrap_weights(sub.shape[0], bootstrap, seed), confidence)
     scores: dict[str, Any] = {c: None for c in names}
     intervals: dict[str, Any] = {c: [None, None] for c in names}
     for q, c in enumerate(active.tolist()):
@@ -294,12 +338,20 @@ def btd_summary(t: np.ndarray, names: Sequence[str], *, bootstrap: int = 1000, s
     missing = [names[c] for c in range(n) if c not in set(active.tolist())]
     note = fit.note or (f"never compared: {', '.join(missing)}" if missing else None)
     return {
-        "scores": scores, "nu": json_number(fit.nu), "gamma": json_number(fit.gamma),
-        "ci": intervals, "loglik": json_number(fit.loglik), "n": fit.votes,
+        "scores": scores,
+        "nu": json_number(fit.nu),
+        "gamma": json_number(fit.gamma),
+        "ci": intervals,
+        "loglik": json_number(fit.loglik),
+        "n": fit.votes,
         "gamma_ci": [json_number(v) for v in ci[-2]],
         "nu_ci": [json_number(v) for v in ci[-1]],
         "jod": {c: None if v is None else v * JOD_PER_LOG_WORTH for c, v in scores.items()},
-        "jod_ci": {c: [None if v is None else v * JOD_PER_LOG_WORTH for v in iv]
-                   for c, iv in intervals.items()},
-        "replicates": used, "note": note, "identical_pairs": side_check(t),
+        "jod_ci": {
+            c: [None if v is None else v * JOD_PER_LOG_WORTH for v in iv]
+            for c, iv in intervals.items()
+        },
+        "replicates": used,
+        "note": note,
+        "identical_pairs": side_check(t),
     }

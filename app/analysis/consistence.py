@@ -106,7 +106,7 @@ def _average_over_ties(strict: np.ndarray, n: int) -> tuple[float, float]:
     iu, ju = np.triu_indices(n, 1)
     tied = ~(strict[iu, ju] | strict[ju, iu])
     ti, tj = iu[tied], ju[tied]
-    codes = np.arange(2 ** ti.size)
+    codes = np.arange(2**ti.size)
     bits = ((codes[:, None] >> np.arange(ti.size)) & 1).astype(bool)
     full = np.repeat(strict[None], codes.size, axis=0)
     full[:, ti, tj] = bits
@@ -137,10 +137,17 @@ def consistence_table(beats: ArrayLike) -> dict[str, np.ndarray | float | int | 
     if n >= 3:
         for q in np.flatnonzero((undetermined > 0) & (undetermined <= MAX_TIES)):
             d[q], p[q] = _average_over_ties(strict[q], n)
-    return {"n": n, "d": d, "zeta": zeta(d, n) if n >= 3 else np.full(d.shape, np.nan),
-            "p": p, "undetermined": undetermined, "complete": complete,
-            "d_max": max_circular_triads(n), "expected_d": n * (n - 1) * (n - 2) / 24.0,
-            "method": method}
+    return {
+        "n": n,
+        "d": d,
+        "zeta": zeta(d, n) if n >= 3 else np.full(d.shape, np.nan),
+        "p": p,
+        "undetermined": undetermined,
+        "complete": complete,
+        "d_max": max_circular_triads(n),
+        "expected_d": n * (n - 1) * (n - 2) / 24.0,
+        "method": method,
+    }
 
 
 def coefficient_of_consistence(beats: ArrayLike) -> dict[str, float | int | str | None]:
@@ -172,7 +179,13 @@ def consistence_row(table: dict[str, Any], q: int) -> dict[str, float | int | st
     else:
         method = f"{table['method']}, {ties} tied pair{'s' if ties > 1 else ''} averaged"
     zeta_q = float(table["zeta"][q])
-    return {"n": n, "d": float(table["d"][q]), "d_max": float(table["d_max"]),
-            "expected_d": float(table["expected_d"]),
-            "zeta": None if np.isnan(zeta_q) else zeta_q,
-            "p": None if np.isnan(p) else p, "method": method, "undetermined_pairs": ties}
+    return {
+        "n": n,
+        "d": float(table["d"][q]),
+        "d_max": float(table["d_max"]),
+        "expected_d": float(table["expected_d"]),
+        "zeta": None if np.isnan(zeta_q) else zeta_q,
+        "p": None if np.isnan(p) else p,
+        "method": method,
+        "undetermined_pairs": ties,
+    }

@@ -60,8 +60,10 @@ def wins(tensor: np.ndarray, undecided: str = "exclude") -> np.ndarray:
     if undecided == "split":
         return w + 0.5 * undecided_pairs(tensor)
     if undecided != "exclude":
-        raise InputError(f"undecided must be one of {', '.join(UNDECIDED_TREATMENTS)}, "
-                         f"got {undecided!r}", field="undecided")
+        raise InputError(
+            f"undecided must be one of {', '.join(UNDECIDED_TREATMENTS)}, got {undecided!r}",
+            field="undecided",
+        )
     return w
 
 
@@ -85,8 +87,11 @@ def count_votes(votes: VotesTable, conditions: Sequence[str] | None = None) -> V
             raise InputError("give at least one non-empty condition name", field="conditions")
         unknown = sorted((set(frame["left"]) | set(frame["right"])) - set(names))
         if unknown:
-            raise InputError(f"votes name conditions not in the list: {', '.join(unknown)}",
-                             path=votes.source, field="conditions")
+            raise InputError(
+                f"votes name conditions not in the list: {', '.join(unknown)}",
+                path=votes.source,
+                field="conditions",
+            )
     people = pd.Categorical(frame["participant"])
     clip_cat = pd.Categorical(frame["clip"])
     cond_index = {c: i for i, c in enumerate(names)}
@@ -94,12 +99,13 @@ def count_votes(votes: VotesTable, conditions: Sequence[str] | None = None) -> V
     right = frame["right"].map(cond_index).to_numpy(dtype=np.int64)
     choice = pd.Categorical(frame["choice"], categories=CHOICES).codes.astype(np.int64)
     n_p, n_k, n_c = len(people.categories), len(clip_cat.categories), len(names)
-    flat = (((people.codes.astype(np.int64) * n_k + clip_cat.codes) * n_c + left) * n_c
-            + right) * 3 + choice
-    tensor = np.bincount(flat, minlength=n_p * n_k * n_c * n_c * 3).reshape(
-        n_p, n_k, n_c, n_c, 3)
-    return VoteCounts(tuple(map(str, people.categories)), tuple(map(str, clip_cat.categories)),
-                      names, tensor)
+    flat = (
+        ((people.codes.astype(np.int64) * n_k + clip_cat.codes) * n_c + left) * n_c + right
+    ) * 3 + choice
+    tensor = np.bincount(flat, minlength=n_p * n_k * n_c * n_c * 3).reshape(n_p, n_k, n_c, n_c, 3)
+    return VoteCounts(
+        tuple(map(str, people.categories)), tuple(map(str, clip_cat.categories)), names, tensor
+    )
 
 
 def ballots(tensor: np.ndarray) -> np.ndarray:

@@ -105,27 +105,39 @@ def _p_eq(p: float | None) -> str:
 def _summary_text(r: dict[str, Any]) -> list[str]:
     """The results paragraphs: the statistics in words, strongest findings first."""
     pooled, info, opts = r["pooled"], r["input"], r["options"]
-    und_rule = ("undecided votes excluded" if opts["undecided"] == "exclude"
-                else "undecided votes split half to each side")
+    und_rule = (
+        "undecided votes excluded"
+        if opts["undecided"] == "exclude"
+        else "undecided votes split half to each side"
+    )
     n_clips = len(info["clips"])
-    out = [f"{counted(info['participants'], 'participant')} cast "
-           f"{counted(info['votes'], 'vote')} on {counted(n_clips, 'clip')} "
-           f"({pooled['undecided']} undecided, "
-           f"{100.0 * pooled['undecided'] / max(pooled['votes'], 1):.1f} %; "
-           f"{pooled['same_condition_votes']} votes on same-condition pairs)."
-           + (f" {info['skipped_rows']} bad rows of the votes file were skipped and are not "
-              "part of any statistic." if info["skipped_rows"] else
-              " No rows of the votes file were skipped.")]
+    out = [
+        f"{counted(info['participants'], 'participant')} cast "
+        f"{counted(info['votes'], 'vote')} on {counted(n_clips, 'clip')} "
+        f"({pooled['undecided']} undecided, "
+        f"{100.0 * pooled['undecided'] / max(pooled['votes'], 1):.1f} %; "
+        f"{pooled['same_condition_votes']} votes on same-condition pairs)."
+        + (
+            f" {info['skipped_rows']} bad rows of the votes file were skipped and are not "
+            "part of any statistic."
+            if info["skipped_rows"]
+            else " No rows of the votes file were skipped."
+        )
+    ]
     ag = pooled["agreement"]
     if ag["u"] is not None:
         verdict = "agreed beyond chance" if ag["p"] < ALPHA else "did not agree beyond chance"
-        spread = (f"{ag['judges_min']}" if ag["judges_min"] == ag["judges_max"]
-                  else f"{ag['judges_min']}-{ag['judges_max']}")
+        spread = (
+            f"{ag['judges_min']}"
+            if ag["judges_min"] == ag["judges_max"]
+            else f"{ag['judges_min']}-{ag['judges_max']}"
+        )
         out.append(
             f"Pooled over clips, the judgements {verdict} (Kendall & Babington Smith "
             f"u = {ag['u']:.3f}, χ²({ag['df']:.2f}) = {ag['chi2']:.2f}, {_p_eq(ag['p'])}; "
             f"continuity-corrected {_p_eq(ag['p_corrected'])}; {spread} judgements per pair, "
-            f"{und_rule}).")
+            f"{und_rule})."
+        )
     names = sorted(r["conditions"], key=lambda c: -pooled["ballots"][c])
     listing = ", ".join(f"{c} ({pooled['ballots'][c]})" for c in names)
     out.append(f"Ballots per condition, pooled over clips, in decreasing order: {listing}.")
@@ -136,41 +148,59 @@ def _summary_text(r: dict[str, Any]) -> list[str]:
         for s in sig:
             better, worse = (s["a"], s["b"]) if s["wins"] > s["losses"] else (s["b"], s["a"])
             hi, lo = max(s["wins"], s["losses"]), min(s["wins"], s["losses"])
-            parts.append(f"{better} over {worse} ({hi} vs {lo}, {s['undecided']} undecided, "
-                         f"Holm-adjusted {_p_eq(s['p_holm'])})")
-        text = (f"Exact sign tests (undecided votes excluded, Holm-adjusted over "
-                f"{counted(len(signs), 'pair')}) found {len(sig)} of "
-                f"{counted(len(signs), 'pair')} different")
+            parts.append(
+                f"{better} over {worse} ({hi} vs {lo}, {s['undecided']} undecided, "
+                f"Holm-adjusted {_p_eq(s['p_holm'])})"
+            )
+        text = (
+            f"Exact sign tests (undecided votes excluded, Holm-adjusted over "
+            f"{counted(len(signs), 'pair')}) found {len(sig)} of "
+            f"{counted(len(signs), 'pair')} different"
+        )
         out.append(text + (": " + "; ".join(parts) + "." if parts else "."))
     tt = [t for t in pooled["paired_t"] if t["p_holm"] is not None and t["p_holm"] < ALPHA]
     if pooled["paired_t"]:
-        parts = [f"{t['a']} − {t['b']}: M = {t['mean']:.2f}, SD = {t['sd']:.2f}, "
-                 f"t({t['df']}) = {t['t']:.2f}, Holm {_p_eq(t['p_holm'])}, 95 % CI "
-                 f"[{t['ci_low']:.2f}, {t['ci_high']:.2f}]" for t in tt]
-        out.append("Paired t-tests on each participant's ballots per condition "
-                   f"({len(tt)} of {counted(len(pooled['paired_t']), 'pair')} significant "
-                   "after Holm)"
-                   + (": " + "; ".join(parts) + "." if parts else "."))
+        parts = [
+            f"{t['a']} − {t['b']}: M = {t['mean']:.2f}, SD = {t['sd']:.2f}, "
+            f"t({t['df']}) = {t['t']:.2f}, Holm {_p_eq(t['p_holm'])}, 95 % CI "
+            f"[{t['ci_low']:.2f}, {t['ci_high']:.2f}]"
+            for t in tt
+        ]
+        out.append(
+            "Paired t-tests on each participant's ballots per condition "
+            f"({len(tt)} of {counted(len(pooled['paired_t']), 'pair')} significant "
+            "after Holm)" + (": " + "; ".join(parts) + "." if parts else ".")
+        )
     scale = [s for s in pooled["scale"] if s["score"] is not None]
     if scale:
         scale.sort(key=lambda s: -s["score"])
         ci = int(round(100 * opts["confidence"]))
-        listed = ", ".join(f"{s['condition']} {s['score']:.2f} [{fmt(s['ci_low'])}, "
-                           f"{fmt(s['ci_high'])}]" for s in scale)
+        listed = ", ".join(
+            f"{s['condition']} {s['score']:.2f} [{fmt(s['ci_low'])}, {fmt(s['ci_high'])}]"
+            for s in scale
+        )
         origin = f"{opts['anchor']} fixed at 0" if opts["anchor"] else "mean fixed at 0"
-        out.append(f"On the Thurstone Case V scale (JOD, {origin}; {ci} % bootstrap intervals "
-                   f"over participants, {opts['bootstrap']} replicates): {listed}.")
+        out.append(
+            f"On the Thurstone Case V scale (JOD, {origin}; {ci} % bootstrap intervals "
+            f"over participants, {opts['bootstrap']} replicates): {listed}."
+        )
     cs = pooled.get("consistence")
     if cs and cs["median_zeta"] is not None:
-        out.append(f"The participants' median coefficient of consistence was "
-                   f"ζ = {cs['median_zeta']:.2f} (mean {cs['mean_zeta']:.2f}; 1 = no circular "
-                   f"triad). The test of consistence could be run for {cs['tested']} of "
-                   f"{counted(cs['participants'], 'participant')} and rejected random choice at "
-                   ".05 for "
-                   f"{cs['significant_05']}"
-                   + (f" (with {cs['conditions']} conditions even a perfectly consistent judge "
-                      f"reaches only P = {cs['min_p']:.3f})" if cs.get("min_p", 0) >= 0.05
-                      else "") + ".")
+        out.append(
+            f"The participants' median coefficient of consistence was "
+            f"ζ = {cs['median_zeta']:.2f} (mean {cs['mean_zeta']:.2f}; 1 = no circular "
+            f"triad). The test of consistence could be run for {cs['tested']} of "
+            f"{counted(cs['participants'], 'participant')} and rejected random choice at "
+            ".05 for "
+            f"{cs['significant_05']}"
+            + (
+                f" (with {cs['conditions']} conditions even a perfectly consistent judge "
+                f"reaches only P = {cs['min_p']:.3f})"
+                if cs.get("min_p", 0) >= 0.05
+                else ""
+            )
+            + "."
+        )
     return out
 
 
@@ -178,52 +208,112 @@ def _ballot_table(r: dict[str, Any]) -> Table:
     names = r["conditions"]
     rows = []
     for label, s in [*r["clips"].items(), ("pooled", r["pooled"])]:
-        rows.append([label, str(s["votes"])] + [str(s["ballots"][c]) for c in names]
-                    + [str(s["undecided"])])
-    return Table("Table 1. Ballots: times each condition was chosen, whichever side it was on "
-                 "(same-condition pairs count for that condition), and undecided votes.",
-                 ["clip", "votes", *names, "undecided"], rows,
-                 numeric=[False] + [True] * (len(names) + 2))
+        rows.append(
+            [label, str(s["votes"])] + [str(s["ballots"][c]) for c in names] + [str(s["undecided"])]
+        )
+    return Table(
+        "Table 1. Ballots: times each condition was chosen, whichever side it was on "
+        "(same-condition pairs count for that condition), and undecided votes.",
+        ["clip", "votes", *names, "undecided"],
+        rows,
+        numeric=[False] + [True] * (len(names) + 2),
+    )
 
 
 def _sign_table(section: dict[str, Any], caption: str, clip: str | None = None) -> Table:
-    rows = [([clip] if clip else []) + [f"{s['a']} vs {s['b']}", str(s["wins"]),
-            str(s["undecided"]), str(s["losses"]), fmt_p(s["p"]), fmt_p(s["p_holm"]),
-            fmt_p(s["p_split"]), fmt_p(s["p_undecided_as_losses"])]
-            for s in section["sign_tests"]]
-    head = ["pair (a vs b)", "for a", "undecided", "for b", "p", "p Holm", "p split",
-            "p und.=loss"]
-    return Table(caption, (["clip"] if clip else []) + head, rows,
-                 note="Exact two-sided binomial sign test on decisive votes; 'p split' gives "
-                      "half of the undecided votes to each side, 'p und.=loss' counts them "
-                      "against a.", numeric=([False] if clip else []) + [False] + [True] * 7)
+    rows = [
+        ([clip] if clip else [])
+        + [
+            f"{s['a']} vs {s['b']}",
+            str(s["wins"]),
+            str(s["undecided"]),
+            str(s["losses"]),
+            fmt_p(s["p"]),
+            fmt_p(s["p_holm"]),
+            fmt_p(s["p_split"]),
+            fmt_p(s["p_undecided_as_losses"]),
+        ]
+        for s in section["sign_tests"]
+    ]
+    head = ["pair (a vs b)", "for a", "undecided", "for b", "p", "p Holm", "p split", "p und.=loss"]
+    return Table(
+        caption,
+        (["clip"] if clip else []) + head,
+        rows,
+        note="Exact two-sided binomial sign test on decisive votes; 'p split' gives "
+        "half of the undecided votes to each side, 'p und.=loss' counts them "
+        "against a.",
+        numeric=([False] if clip else []) + [False] + [True] * 7,
+    )
 
 
 def _t_table(section: dict[str, Any], caption: str) -> Table:
-    rows = [[f"{t['a']} − {t['b']}", fmt(t["mean"], 3), fmt(t["sd"], 3), fmt(t["sem"], 3),
-             fmt(t["ci_low"], 3), fmt(t["ci_high"], 3), fmt(t["t"], 3), fmt(t["df"], 0),
-             fmt_p(t["p"]), fmt_p(t["p_holm"])] for t in section["paired_t"]]
-    return Table(caption, ["pair", "mean", "SD", "SEM", "95% CI lower", "95% CI upper", "t",
-                           "df", "p (2-tailed)", "p Holm"], rows,
-                 numeric=[False] + [True] * 9)
+    rows = [
+        [
+            f"{t['a']} − {t['b']}",
+            fmt(t["mean"], 3),
+            fmt(t["sd"], 3),
+            fmt(t["sem"], 3),
+            fmt(t["ci_low"], 3),
+            fmt(t["ci_high"], 3),
+            fmt(t["t"], 3),
+            fmt(t["df"], 0),
+            fmt_p(t["p"]),
+            fmt_p(t["p_holm"]),
+        ]
+        for t in section["paired_t"]
+    ]
+    return Table(
+        caption,
+        [
+            "pair",
+            "mean",
+            "SD",
+            "SEM",
+            "95% CI lower",
+            "95% CI upper",
+            "t",
+            "df",
+            "p (2-tailed)",
+            "p Holm",
+        ],
+        rows,
+        numeric=[False] + [True] * 9,
+    )
 
 
 def _agreement_table(r: dict[str, Any]) -> Table:
     rows = []
     for label, s in [*r["clips"].items(), ("pooled", r["pooled"])]:
         a = s["agreement"]
-        m = (f"{a['judges_min']}" if a["judges_min"] == a["judges_max"]
-             else f"{a['judges_min']}-{a['judges_max']}")
-        rows.append([label, m, fmt(a["u"], 3), fmt(a["chi2"]), fmt(a["df"]), fmt_p(a["p"]),
-                     fmt(a["chi2_corrected"]), fmt_p(a["p_corrected"])])
+        m = (
+            f"{a['judges_min']}"
+            if a["judges_min"] == a["judges_max"]
+            else f"{a['judges_min']}-{a['judges_max']}"
+        )
+        rows.append(
+            [
+                label,
+                m,
+                fmt(a["u"], 3),
+                fmt(a["chi2"]),
+                fmt(a["df"]),
+                fmt_p(a["p"]),
+                fmt(a["chi2_corrected"]),
+                fmt_p(a["p_corrected"]),
+            ]
+        )
     rule = r["options"]["undecided"]
-    return Table("Table 4. Coefficient of agreement u (Kendall & Babington Smith 1940) with its "
-                 f"chi-square test; undecided votes: {rule}.",
-                 ["clip", "judgements per pair", "u", "χ²", "df", "p", "χ² corr.",
-                  "p corr."], rows, note="Each presentation is one judgement (a pair shown in "
-                 "both side orders counts twice); same-condition pairs are left out; 'corr.' "
-                 "subtracts 1 from Σ (continuity correction).",
-                 numeric=[False] + [True] * 7)
+    return Table(
+        "Table 4. Coefficient of agreement u (Kendall & Babington Smith 1940) with its "
+        f"chi-square test; undecided votes: {rule}.",
+        ["clip", "judgements per pair", "u", "χ²", "df", "p", "χ² corr.", "p corr."],
+        rows,
+        note="Each presentation is one judgement (a pair shown in "
+        "both side orders counts twice); same-condition pairs are left out; 'corr.' "
+        "subtracts 1 from Σ (continuity correction).",
+        numeric=[False] + [True] * 7,
+    )
 
 
 def _scale_table(r: dict[str, Any]) -> Table:
@@ -232,30 +322,46 @@ def _scale_table(r: dict[str, Any]) -> Table:
     rows = []
     for q, s in enumerate(r["pooled"]["scale"]):
         per_clip = [fmt(r["clips"][c]["scale"][q]["score"]) for c in clips]
-        rows.append([s["condition"], fmt(s["score"]), fmt(s["ci_low"]), fmt(s["ci_high"]),
-                     *per_clip])
-    return Table(f"Table 6. Thurstone Case V scale (JOD) with {ci} % bootstrap intervals over "
-                 "participants, pooled, and the scale of each clip.",
-                 ["condition", "pooled", f"{ci}% low", f"{ci}% high", *clips], rows,
-                 note=r["pooled"].get("scale_note") or "",
-                 numeric=[False] + [True] * (3 + len(clips)))
+        rows.append(
+            [s["condition"], fmt(s["score"]), fmt(s["ci_low"]), fmt(s["ci_high"]), *per_clip]
+        )
+    return Table(
+        f"Table 6. Thurstone Case V scale (JOD) with {ci} % bootstrap intervals over "
+        "participants, pooled, and the scale of each clip.",
+        ["condition", "pooled", f"{ci}% low", f"{ci}% high", *clips],
+        rows,
+        note=r["pooled"].get("scale_note") or "",
+        numeric=[False] + [True] * (3 + len(clips)),
+    )
 
 
 def _participant_table(r: dict[str, Any]) -> Table:
     rows = []
     for pid, p in list(r["participants"].items())[:MAX_LISTED_PARTICIPANTS]:
         c = p["consistence"]
-        rows.append([pid, str(p["votes"]), str(p["undecided"]), fmt(c["d"]), fmt(c["zeta"]),
-                     fmt_p(c["p"]), c["method"]])
+        rows.append(
+            [
+                pid,
+                str(p["votes"]),
+                str(p["undecided"]),
+                fmt(c["d"]),
+                fmt(c["zeta"]),
+                fmt_p(c["p"]),
+                c["method"],
+            ]
+        )
     more = len(r["participants"]) - len(rows)
-    return Table("Table 5. Coefficient of consistence ζ per participant (circular triads d "
-                 "of the preference tournament pooled over clips; P = P(d <= observed) under "
-                 "random choice).", ["participant", "votes", "undecided", "d", "ζ", "P",
-                                     "test"], rows,
-                 note=(f"{more} more participants are in the JSON output." if more > 0 else "")
-                 + " A tied pair (no majority preference) is resolved both ways and d and P "
-                 "are averaged; with more than 10 tied pairs the test is not run ('incomplete').",
-                 numeric=[False] + [True] * 5 + [False])
+    return Table(
+        "Table 5. Coefficient of consistence ζ per participant (circular triads d "
+        "of the preference tournament pooled over clips; P = P(d <= observed) under "
+        "random choice).",
+        ["participant", "votes", "undecided", "d", "ζ", "P", "test"],
+        rows,
+        note=(f"{more} more participants are in the JSON output." if more > 0 else "")
+        + " A tied pair (no majority preference) is resolved both ways and d and P "
+        "are averaged; with more than 10 tied pairs the test is not run ('incomplete').",
+        numeric=[False] + [True] * 5 + [False],
+    )
 
 
 def _study_blocks(study: dict[str, Any]) -> list[Block]:
@@ -267,8 +373,12 @@ def _study_blocks(study: dict[str, Any]) -> list[Block]:
         blocks.append(Paragraph(study["participants"]))
     blocks += _questionnaire_blocks(study.get("questionnaire") or [])
     if study.get("command"):
-        blocks.append(Paragraph("To reproduce this report from the exported votes "
-                                f"({study.get('votes_file', 'votes.csv')}): {study['command']}"))
+        blocks.append(
+            Paragraph(
+                "To reproduce this report from the exported votes "
+                f"({study.get('votes_file', 'votes.csv')}): {study['command']}"
+            )
+        )
     return blocks
 
 
@@ -282,41 +392,67 @@ def _questionnaire_blocks(summary: list[dict[str, Any]]) -> list[Block]:
         if q["kind"] == "choice":
             given = "; ".join(f"{c}: {n}" for c, n in q["counts"].items() if n)
         elif q["kind"] == "number":
-            given = (f"median {q['median']:g}, range {q['min']:g}-{q['max']:g}"
-                     if q["answered"] else "")
+            given = (
+                f"median {q['median']:g}, range {q['min']:g}-{q['max']:g}" if q["answered"] else ""
+            )
         else:
             given = " | ".join(q["texts"])
         rows.append([q["text"], f"{q['answered']} of {q['asked']}", given or "-"])
-    return [Heading("Questionnaire", 2),
-            Table("Answers of the included participants.", ["Question", "Answered", "Answers"],
-                  rows, numeric=[False, True, False])]
+    return [
+        Heading("Questionnaire", 2),
+        Table(
+            "Answers of the included participants.",
+            ["Question", "Answered", "Answers"],
+            rows,
+            numeric=[False, True, False],
+        ),
+    ]
 
 
 def _left_out_table(left_out: dict[str, str]) -> Table:
     rows = [[pid, why] for pid, why in sorted(left_out.items())]
-    return Table(f"Table 0. Participants left out of every statistic ({len(rows)}).",
-                 ["Participant", "Reason"], rows,
-                 note="Catch trials are attention checks and are never part of a statistic.",
-                 numeric=[False, False])
+    return Table(
+        f"Table 0. Participants left out of every statistic ({len(rows)}).",
+        ["Participant", "Reason"],
+        rows,
+        note="Catch trials are attention checks and are never part of a statistic.",
+        numeric=[False, False],
+    )
 
 
 def _appropriateness_blocks(appropriate: dict[str, dict[str, Any]]) -> list[Block]:
     """The appropriateness test (``app.analysis.appropriateness``), when the study had it."""
     if not appropriate:
         return []
-    rows = [[name, str(a["matched"]), str(a["mismatched"]), str(a["undecided"]),
-             fmt(a["matched_share"]), fmt_p(a["p"])] for name, a in appropriate.items()]
-    return [Heading("Appropriateness"),
-            Paragraph("Appropriateness pairs show one condition twice under one clip's speech: "
-                      "one face moves with the motion made for this speech, the other with the "
-                      "motion made for another clip. A matched share above 1/2 says "
-                      "participants could tell which motion belongs to the speech; these votes "
-                      "are kept out of every other statistic."),
-            Table("Appropriateness per condition: votes for the face moving with its own "
-                  "speech, for the mismatched face, undecided; the matched share of decided "
-                  "votes and its exact two-sided sign test against 1/2.",
-                  ["Condition", "Matched", "Mismatched", "Undecided", "Share", "p"], rows,
-                  numeric=[False, True, True, True, True, True])]
+    rows = [
+        [
+            name,
+            str(a["matched"]),
+            str(a["mismatched"]),
+            str(a["undecided"]),
+            fmt(a["matched_share"]),
+            fmt_p(a["p"]),
+        ]
+        for name, a in appropriate.items()
+    ]
+    return [
+        Heading("Appropriateness"),
+        Paragraph(
+            "Appropriateness pairs show one condition twice under one clip's speech: "
+            "one face moves with the motion made for this speech, the other with the "
+            "motion made for another clip. A matched share above 1/2 says "
+            "participants could tell which motion belongs to the speech; these votes "
+            "are kept out of every other statistic."
+        ),
+        Table(
+            "Appropriateness per condition: votes for the face moving with its own "
+            "speech, for the mismatched face, undecided; the matched share of decided "
+            "votes and its exact two-sided sign test against 1/2.",
+            ["Condition", "Matched", "Mismatched", "Undecided", "Share", "p"],
+            rows,
+            numeric=[False, True, True, True, True, True],
+        ),
+    ]
 
 
 def build_document(r: dict[str, Any]) -> list[Block]:
@@ -326,43 +462,79 @@ def build_document(r: dict[str, Any]) -> list[Block]:
     doc.append(Heading("Results", 1))
     # the file's name only: a report shared from a server never shows the server's folders
     source = Path(r["input"]["source"]).name if r["input"]["source"] else "in-memory votes"
-    doc.append(Paragraph(f"Source: {source}. Conditions: {', '.join(r['conditions'])}. "
-                         f"Undecided votes: {r['options']['undecided']}. Skipped bad rows: "
-                         f"{r['input']['skipped_rows']}."))
+    doc.append(
+        Paragraph(
+            f"Source: {source}. Conditions: {', '.join(r['conditions'])}. "
+            f"Undecided votes: {r['options']['undecided']}. Skipped bad rows: "
+            f"{r['input']['skipped_rows']}."
+        )
+    )
     doc += [Paragraph(t) for t in _summary_text(r)]
     if r["input"].get("left_out"):
         doc.append(_left_out_table(r["input"]["left_out"]))
     doc.append(Heading("Ballots"))
-    doc.append(Plot("Figure 1. Ballots per condition pooled over clips (hatched: undecided), "
-                    "and each clip's share of votes.", figures.ballots_figure(r)))
+    doc.append(
+        Plot(
+            "Figure 1. Ballots per condition pooled over clips (hatched: undecided), "
+            "and each clip's share of votes.",
+            figures.ballots_figure(r),
+        )
+    )
     doc.append(_ballot_table(r))
     doc.append(Heading("Pairwise preferences"))
-    doc.append(Plot("Figure 2. Votes on each pair of different conditions, pooled over clips: "
-                    "black for the first condition, grey undecided, white for the second "
-                    "(after Le, Ma & Deng 2012, Fig. 9); * Holm-adjusted sign test p < .05.",
-                    figures.preference_bars_figure(pooled)))
+    doc.append(
+        Plot(
+            "Figure 2. Votes on each pair of different conditions, pooled over clips: "
+            "black for the first condition, grey undecided, white for the second "
+            "(after Le, Ma & Deng 2012, Fig. 9); * Holm-adjusted sign test p < .05.",
+            figures.preference_bars_figure(pooled),
+        )
+    )
     doc.append(_sign_table(pooled, "Table 2. Sign tests per pair, pooled over clips."))
-    doc.append(Plot("Figure 3. Confusion matrix pooled over clips: rows are the condition on "
-                    "the left panel, columns the one on the right; each cell gives votes "
-                    "left / undecided / right, coloured by the share of decisive votes for the "
-                    "left panel (blue: left preferred).", figures.confusion_figure(pooled)))
+    doc.append(
+        Plot(
+            "Figure 3. Confusion matrix pooled over clips: rows are the condition on "
+            "the left panel, columns the one on the right; each cell gives votes "
+            "left / undecided / right, coloured by the share of decisive votes for the "
+            "left panel (blue: left preferred).",
+            figures.confusion_figure(pooled),
+        )
+    )
     doc.append(Heading("Per-participant scores"))
-    doc.append(Paragraph("A participant's score for a condition is the number of ballots they "
-                         "gave it" + (" (each undecided vote adds 1/2 to both conditions)"
-                                      if r["options"]["undecided"] == "split" else "")
-                         + ". Conditions are compared by paired t-tests across participants, "
-                         "reported as SPSS reports them, with Holm's adjustment over all pairs."))
-    doc.append(_t_table(pooled, "Table 3. Paired samples test, pooled over clips "
-                        "(mean = a minus b)."))
+    doc.append(
+        Paragraph(
+            "A participant's score for a condition is the number of ballots they "
+            "gave it"
+            + (
+                " (each undecided vote adds 1/2 to both conditions)"
+                if r["options"]["undecided"] == "split"
+                else ""
+            )
+            + ". Conditions are compared by paired t-tests across participants, "
+            "reported as SPSS reports them, with Holm's adjustment over all pairs."
+        )
+    )
+    doc.append(
+        _t_table(pooled, "Table 3. Paired samples test, pooled over clips (mean = a minus b).")
+    )
     doc.append(Heading("Agreement and consistence"))
     doc.append(_agreement_table(r))
     if any(p["consistence"]["zeta"] is not None for p in r["participants"].values()):
-        doc.append(Plot("Figure 4. Coefficients of consistence of the participants.",
-                        figures.consistence_figure(r)))
+        doc.append(
+            Plot(
+                "Figure 4. Coefficients of consistence of the participants.",
+                figures.consistence_figure(r),
+            )
+        )
     doc.append(_participant_table(r))
     doc.append(Heading("Scale"))
-    doc.append(Plot("Figure 5. Thurstone Case V scale with bootstrap intervals: pooled (black) "
-                    "and per clip (coloured).", figures.scale_figure(r)))
+    doc.append(
+        Plot(
+            "Figure 5. Thurstone Case V scale with bootstrap intervals: pooled (black) "
+            "and per clip (coloured).",
+            figures.scale_figure(r),
+        )
+    )
     doc.append(_scale_table(r))
     from app.analysis.inference_document import inference_blocks
 
@@ -376,6 +548,7 @@ def build_document(r: dict[str, Any]) -> list[Block]:
     from app.analysis.inference_document import METHOD_TEXT as MODEL_TEXT
 
     for text in (*METHOD_TEXT, *MODEL_TEXT):
-        doc.append(Paragraph(text.format(seed=r["options"]["seed"],
-                                         boot=r["options"]["bootstrap"])))
+        doc.append(
+            Paragraph(text.format(seed=r["options"]["seed"], boot=r["options"]["bootstrap"]))
+        )
     return doc

@@ -13,8 +13,13 @@ from app.analysis.votes import write_votes_csv
 
 #: True Case V scale (JOD) of the simulated study; thesis condition names (app.stimuli).
 TRUE_SCALE = {"none": -0.8, "random": 0.1, "speech_driven": 0.35, "ground_truth": 0.6}
-EXAMPLE: dict[str, Any] = {"participants": 14, "clips": ("s2", "s7"), "undecided_width": 0.3,
-                           "seed": 2005, "study": "example"}
+EXAMPLE: dict[str, Any] = {
+    "participants": 14,
+    "clips": ("s2", "s7"),
+    "undecided_width": 0.3,
+    "seed": 2005,
+    "study": "example",
+}
 
 
 def main(path: str) -> None:

@@ -38,8 +38,10 @@ from app.analysis.scaling import bootstrap_weights, canonical_participant_order
 from app.analysis.signtest import sign_test_p
 from app.analysis.ttest import holm
 
-ONE_PER_PARTICIPANT_RULE = ("one judgement per participant and pair: the majority of that "
-                            "participant's votes on the pair, a tie counting 1/2 to each side")
+ONE_PER_PARTICIPANT_RULE = (
+    "one judgement per participant and pair: the majority of that "
+    "participant's votes on the pair, a tie counting 1/2 to each side"
+)
 
 
 def pair_counts(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -114,8 +116,14 @@ def _percentile_ci(values: np.ndarray, confidence: float) -> list[float | None]:
     return [_num(low), _num(high)]
 
 
-def participant_level_tests(t: np.ndarray, names: Sequence[str], *, bootstrap: int = 1000,
-                            seed: int = 0, confidence: float = 0.95) -> list[dict[str, Any]]:
+def participant_level_tests(
+    t: np.ndarray,
+    names: Sequence[str],
+    *,
+    bootstrap: int = 1000,
+    seed: int = 0,
+    confidence: float = 0.95,
+) -> list[dict[str, Any]]:
     """Wilcoxon signed-rank test of d_p per pair, rank-biserial r with bootstrap CI, Holm.
 
     ``t`` is (P, n, n, 3) for one clip (or pooled over clips). Participants are put in an order
@@ -128,23 +136,34 @@ def participant_level_tests(t: np.ndarray, names: Sequence[str], *, bootstrap: i
         t = t[canonical_participant_order(t)]
     d = net_preference(t)
     i, j = np.triu_indices(len(names), 1)
-    weights = (bootstrap_weights(t.shape[0], bootstrap, seed) if bootstrap > 0 and t.shape[0] > 1
-               else np.zeros((0, t.shape[0]), dtype=np.int64))
+    weights = (
+        bootstrap_weights(t.shape[0], bootstrap, seed)
+        if bootstrap > 0 and t.shape[0] > 1
+        else np.zeros((0, t.shape[0]), dtype=np.int64)
+    )
     rows = []
     for q, (a, b) in enumerate(zip(i, j, strict=True)):
         col = d[:, q]
         judged = col[~np.isnan(col)]
         if judged.size == 0:
             continue
-        row: dict[str, Any] = {"a": names[int(a)], "b": names[int(b)],
-                               "n_participants": int(judged.size),
-                               "median_d": _num(np.median(judged)), "W": None, "p": None}
+        row: dict[str, Any] = {
+            "a": names[int(a)],
+            "b": names[int(b)],
+            "n_participants": int(judged.size),
+            "median_d": _num(np.median(judged)),
+            "W": None,
+            "p": None,
+        }
         if np.any(judged != 0):
             res = stats.wilcoxon(judged, zero_method="wilcox", alternative="two-sided")
             row["W"], row["p"] = _num(res.statistic), _num(res.pvalue)
         row["effect"] = rank_biserial(judged)
-        row["effect_ci"] = (_percentile_ci(bootstrap_rank_biserial(col, weights), confidence)
-                            if weights.shape[0] else [None, None])
+        row["effect_ci"] = (
+            _percentile_ci(bootstrap_rank_biserial(col, weights), confidence)
+            if weights.shape[0]
+            else [None, None]
+        )
         rows.append(row)
     adjusted = holm([np.nan if r["p"] is None else r["p"] for r in rows])
     for r, ph in zip(rows, adjusted, strict=True):
@@ -168,17 +187,26 @@ def one_judgement_per_participant(t: np.ndarray, names: Sequence[str]) -> dict[s
     a = np.zeros((n, n))
     a[i, j] = for_a.sum(axis=0) + 0.5 * tied.sum(axis=0)
     a[j, i] = for_b.sum(axis=0) + 0.5 * tied.sum(axis=0)
-    agree: dict[str, Any] = {k: (v if isinstance(v, int) or v is None else _num(v))
-                             for k, v in coefficient_of_agreement(a).as_dict().items()}
+    agree: dict[str, Any] = {
+        k: (v if isinstance(v, int) or v is None else _num(v))
+        for k, v in coefficient_of_agreement(a).as_dict().items()
+    }
     signs = []
     for q, (x, y) in enumerate(zip(i, j, strict=True)):
         win, loss, tie = int(for_a[:, q].sum()), int(for_b[:, q].sum()), int(tied[:, q].sum())
         if win + loss + tie == 0:
             continue
-        signs.append({"a": names[int(x)], "b": names[int(y)], "participants_for_a": win,
-                      "participants_for_b": loss, "participants_tied": tie,
-                      "p": _num(sign_test_p(win, loss, tie)),
-                      "p_split": _num(sign_test_p(win, loss, tie, undecided_rule="split"))})
+        signs.append(
+            {
+                "a": names[int(x)],
+                "b": names[int(y)],
+                "participants_for_a": win,
+                "participants_for_b": loss,
+                "participants_tied": tie,
+                "p": _num(sign_test_p(win, loss, tie)),
+                "p_split": _num(sign_test_p(win, loss, tie, undecided_rule="split")),
+            }
+        )
     for s, ph in zip(signs, holm([s["p"] for s in signs]) if signs else [], strict=True):
         s["p_holm"] = _num(ph)
     return {"rule": ONE_PER_PARTICIPANT_RULE, "agreement": agree, "sign_tests": signs}

@@ -62,20 +62,25 @@ class StudyPlan:
         if len(self.conditions) < 2 or len(self.jod) != len(self.conditions):
             raise InputError("give a score for each of at least two conditions", field="effects")
         if self.design not in PLAN_DESIGNS:
-            raise InputError(f"expected one of {', '.join(PLAN_DESIGNS)}, got {self.design!r}",
-                             field="design")
+            raise InputError(
+                f"expected one of {', '.join(PLAN_DESIGNS)}, got {self.design!r}", field="design"
+            )
         if not (self.gamma > 0 and np.isfinite(self.gamma)):
             raise InputError(f"must be a number > 0, got {self.gamma}", field="gamma")
         if not (self.nu >= 0 and np.isfinite(self.nu)):
             raise InputError(f"must be a number >= 0, got {self.nu}", field="nu")
         pairs = len(self.trials()[0])
         if self.votes is not None and self.votes < pairs:
-            raise InputError(f"{self.votes} votes per participant do not reach every pair of the "
-                             f"design once ({pairs} needed)", field="votes-per-participant")
+            raise InputError(
+                f"{self.votes} votes per participant do not reach every pair of the "
+                f"design once ({pairs} needed)",
+                field="votes-per-participant",
+            )
 
 
-def simulate_counts(plan: StudyPlan, participants: int, simulations: int,
-                    rng: np.random.Generator) -> np.ndarray:
+def simulate_counts(
+    plan: StudyPlan, participants: int, simulations: int, rng: np.random.Generator
+) -> np.ndarray:
     """(simulations, participants, n, n, 3) vote counts drawn from the model."""
     n = len(plan.conditions)
     left, right = plan.trials()
@@ -94,7 +99,8 @@ def simulate_counts(plan: StudyPlan, participants: int, simulations: int,
     unit = np.arange(simulations * participants).reshape(simulations, participants, 1)
     flat = ((unit * n + li) * n + ri) * 3 + outcome
     return np.bincount(flat.ravel(), minlength=simulations * participants * n * n * 3).reshape(
-        simulations, participants, n, n, 3)
+        simulations, participants, n, n, 3
+    )
 
 
 def signed_rank_p(d: np.ndarray) -> np.ndarray:
@@ -118,9 +124,11 @@ def signed_rank_p(d: np.ndarray) -> np.ndarray:
     dist[:, 0] = 1.0
     index = np.arange(top)
     for k in range(d.shape[1]):
-        shifted = np.where(index >= doubled[:, k:k + 1],
-                           np.take_along_axis(dist, np.maximum(index - doubled[:, k:k + 1], 0),
-                                              axis=1), 0.0)
+        shifted = np.where(
+            index >= doubled[:, k : k + 1],
+            np.take_along_axis(dist, np.maximum(index - doubled[:, k : k + 1], 0), axis=1),
+            0.0,
+        )
         dist = 0.5 * (dist + shifted)  # a zero d shifts by 0: the distribution is unchanged
     observed = np.where(d > 0, doubled, 0).sum(axis=1)
     below = np.where(index <= observed[:, None], dist, 0.0).sum(axis=1)
@@ -149,8 +157,15 @@ def _powers(counts: np.ndarray, alpha: float) -> dict[str, np.ndarray]:
     return out
 
 
-def plan_study(plan: StudyPlan, participants: Sequence[int], *, simulations: int = 1000,
-               alpha: float = 0.05, confidence: float = 0.95, seed: int = 0) -> dict[str, Any]:
+def plan_study(
+    plan: StudyPlan,
+    participants: Sequence[int],
+    *,
+    simulations: int = 1000,
+    alpha: float = 0.05,
+    confidence: float = 0.95,
+    seed: int = 0,
+) -> dict[str, Any]:
     """Power of each planned test per pair, and expected interval widths, per participant count.
 
     >>> r = plan_study(StudyPlan(("a", "b"), (0.0, 1.0), votes=10), [20], simulations=200)
@@ -179,26 +194,55 @@ def plan_study(plan: StudyPlan, participants: Sequence[int], *, simulations: int
             widths = {c: float(w) for c, w in zip(names, high - low, strict=True)}
         else:
             widths = {c: None for c in names}
-        levels.append({"participants": count,
-                       "power": {t: dict(zip(labels, map(float, power[t]), strict=True))
-                                 for t in PLANNED_TESTS},
-                       "ci_width_jod": widths, "fits_converged": int(ok.sum())})
+        levels.append(
+            {
+                "participants": count,
+                "power": {
+                    t: dict(zip(labels, map(float, power[t]), strict=True)) for t in PLANNED_TESTS
+                },
+                "ci_width_jod": widths,
+                "fits_converged": int(ok.sum()),
+            }
+        )
     truth = np.asarray(plan.jod) - np.mean(plan.jod)
-    return {"conditions": list(names), "jod": dict(zip(names, map(float, truth), strict=True)),
-            "gamma": plan.gamma, "nu": plan.nu, "design": plan.design,
-            "votes_per_participant": plan.votes or len(plan.trials()[0]),
-            "simulations": simulations, "alpha": alpha, "confidence": confidence, "seed": seed,
-            "source": plan.source, "notes": list(plan.notes), "levels": levels}
+    return {
+        "conditions": list(names),
+        "jod": dict(zip(names, map(float, truth), strict=True)),
+        "gamma": plan.gamma,
+        "nu": plan.nu,
+        "design": plan.design,
+        "votes_per_participant": plan.votes or len(plan.trials()[0]),
+        "simulations": simulations,
+        "alpha": alpha,
+        "confidence": confidence,
+        "seed": seed,
+        "source": plan.source,
+        "notes": list(plan.notes),
+        "levels": levels,
+    }
 
 
-def plan_from_pilot(counts: np.ndarray, conditions: Sequence[str], *, design: str = "all_ordered",
-                    votes: int | None = None, source: str = "pilot") -> StudyPlan:
+def plan_from_pilot(
+    counts: np.ndarray,
+    conditions: Sequence[str],
+    *,
+    design: str = "all_ordered",
+    votes: int | None = None,
+    source: str = "pilot",
+) -> StudyPlan:
     """A plan whose scores, g and nu are the model fitted to pilot votes (n, n, 3) pooled."""
     from app.analysis.btd import fit_btd
 
     fit = fit_btd(counts)
     if not fit.converged:
         raise InputError(f"the pilot votes give no model to plan from: {fit.note}", path=source)
-    return StudyPlan(tuple(conditions), tuple(float(v) for v in fit.theta * JOD_PER_LOG_WORTH),
-                     gamma=fit.gamma, nu=fit.nu, design=design, votes=votes, source=source,
-                     notes=[f"fitted to {fit.votes} pilot votes (identical pairs left out)"])
+    return StudyPlan(
+        tuple(conditions),
+        tuple(float(v) for v in fit.theta * JOD_PER_LOG_WORTH),
+        gamma=fit.gamma,
+        nu=fit.nu,
+        design=design,
+        votes=votes,
+        source=source,
+        notes=[f"fitted to {fit.votes} pilot votes (identical pairs left out)"],
+    )

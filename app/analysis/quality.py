@@ -47,15 +47,16 @@ QUALITY_FIELDS: dict[str, str] = {
     "catch": "share of identical pairs answered undecided",
     "median_ms": "median response time (ms)",
     "same_left": "share of left among decided identical-pair votes (side bias on pairs "
-                 "without a difference)",
+    "without a difference)",
     "unfinished": "share of votes whose clip did not play to its end (media log)",
     "stall_ms": "total milliseconds the clips stalled (media log)",
     "focus_lost": "times the window lost focus during trials (media log)",
     "outlier": "pwcmp outlier distance (IQRs below the first quartile of log-likelihood)",
 }
 _OPS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
-_RULE = re.compile(r"^\s*([a-z_]+)\s*(<=|>=|<|>)\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?)\s*$",
-                   re.IGNORECASE)
+_RULE = re.compile(
+    r"^\s*([a-z_]+)\s*(<=|>=|<|>)\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?)\s*$", re.IGNORECASE
+)
 
 
 @dataclass(frozen=True)
@@ -89,12 +90,17 @@ def parse_rules(text: str | Sequence[str] | None) -> list[ExclusionRule]:
             continue
         m = _RULE.match(part)
         if m is None:
-            raise InputError(f"cannot read rule {part.strip()!r}: expected FIELD OP NUMBER "
-                             "such as catch<1.0", field="exclude")
+            raise InputError(
+                f"cannot read rule {part.strip()!r}: expected FIELD OP NUMBER such as catch<1.0",
+                field="exclude",
+            )
         name = m.group(1).lower()
         if name not in QUALITY_FIELDS:
-            raise InputError(f"unknown field {name!r} in rule {part.strip()!r} (expected one "
-                             f"of {', '.join(QUALITY_FIELDS)})", field="exclude")
+            raise InputError(
+                f"unknown field {name!r} in rule {part.strip()!r} (expected one "
+                f"of {', '.join(QUALITY_FIELDS)})",
+                field="exclude",
+            )
         rules.append(ExclusionRule(name, m.group(2), float(m.group(3))))
     return rules
 
@@ -152,7 +158,8 @@ def participant_quality(counts: VoteCounts, frame: pd.DataFrame) -> dict[str, di
             "median_ms": json_number(median_ms.get(pid, np.nan)),
             "outlier": json_number(outlier[q]),
             "same_left": json_number(same[q, :, 0].sum() / same[q, :, :2].sum())
-            if same[q, :, :2].sum() else None,
+            if same[q, :, :2].sum()
+            else None,
             **{name: json_number(media[name].get(pid, np.nan)) for name in media},
         }
     return out
@@ -164,14 +171,18 @@ def _media_measures(frame: pd.DataFrame) -> dict[str, pd.Series]:
     ended = frame["played_to_end"].astype("Float64") if "played_to_end" in frame else None
     out = {"unfinished": (1 - ended).groupby(by).mean() if ended is not None else pd.Series()}
     for name in ("stall_ms", "focus_lost"):
-        values = pd.to_numeric(frame[name], errors="coerce").astype(float) \
-            if name in frame else pd.Series(np.nan, index=frame.index)
+        values = (
+            pd.to_numeric(frame[name], errors="coerce").astype(float)
+            if name in frame
+            else pd.Series(np.nan, index=frame.index)
+        )
         out[name] = values.groupby(by).sum(min_count=1)
     return {k: v.astype(float) for k, v in out.items()}
 
 
-def excluded_participants(quality: dict[str, dict[str, Any]], rules: Sequence[ExclusionRule]
-                          ) -> dict[str, list[str]]:
+def excluded_participants(
+    quality: dict[str, dict[str, Any]], rules: Sequence[ExclusionRule]
+) -> dict[str, list[str]]:
     """Participant -> the rules they match (only those matching at least one)."""
     out = {}
     for pid, q in quality.items():

@@ -48,8 +48,16 @@ def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
     return np.triu_indices(n, 1)
 
 
-def _section(t: np.ndarray, names: Sequence[str], *, undecided: str, bootstrap: int,
-             seed: int, confidence: float, anchor: int | None) -> dict[str, Any]:
+def _section(
+    t: np.ndarray,
+    names: Sequence[str],
+    *,
+    undecided: str,
+    bootstrap: int,
+    seed: int,
+    confidence: float,
+    anchor: int | None,
+) -> dict[str, Any]:
     """Statistics of one clip (or the pool): ``t`` is (P, n, n, 3) for that clip."""
     seen = t.sum(axis=(1, 2, 3)) > 0
     t = t[seen]
@@ -66,10 +74,17 @@ def _section(t: np.ndarray, names: Sequence[str], *, undecided: str, bootstrap: 
     scores = np.where(shown, judged.sum(axis=-1), np.nan)
     tt = paired_t_many(scores[:, i], scores[:, j], confidence=confidence)
     p_holm = holm(tt["p"])
-    paired = [{"a": names[a], "b": names[b], **{k: _num(tt[k][q]) for k in
-               ("mean", "sd", "sem", "ci_low", "ci_high", "t", "p")},
-               "n": int(tt["n"][q]), "df": None if np.isnan(tt["df"][q]) else int(tt["df"][q]),
-               "p_holm": _num(p_holm[q])} for q, (a, b) in enumerate(zip(i, j, strict=True))]
+    paired = [
+        {
+            "a": names[a],
+            "b": names[b],
+            **{k: _num(tt[k][q]) for k in ("mean", "sd", "sem", "ci_low", "ci_high", "t", "p")},
+            "n": int(tt["n"][q]),
+            "df": None if np.isnan(tt["df"][q]) else int(tt["df"][q]),
+            "p_holm": _num(p_holm[q]),
+        }
+        for q, (a, b) in enumerate(zip(i, j, strict=True))
+    ]
 
     pooled_judged = np.where(off, judged.sum(axis=0), 0.0)
     raw_agree = coefficient_of_agreement(pooled_judged).as_dict()
@@ -83,17 +98,30 @@ def _section(t: np.ndarray, names: Sequence[str], *, undecided: str, bootstrap: 
         win, loss, tie = int(w_all[a, b]), int(w_all[b, a]), int(u_all[a, b])
         if win + loss + tie == 0:
             continue
-        signs.append({"a": names[a], "b": names[b], "wins": win, "losses": loss,
-                      "undecided": tie, "p": _num(sign_test_p(win, loss, tie)),
-                      "p_split": _num(sign_test_p(win, loss, tie, undecided_rule="split")),
-                      "p_undecided_as_losses": _num(sign_test_p(win, loss, tie,
-                                                                undecided_rule="loss"))})
+        signs.append(
+            {
+                "a": names[a],
+                "b": names[b],
+                "wins": win,
+                "losses": loss,
+                "undecided": tie,
+                "p": _num(sign_test_p(win, loss, tie)),
+                "p_split": _num(sign_test_p(win, loss, tie, undecided_rule="split")),
+                "p_undecided_as_losses": _num(sign_test_p(win, loss, tie, undecided_rule="loss")),
+            }
+        )
     holm_signs = holm([s["p"] for s in signs]) if signs else np.zeros(0)
     for s, ph in zip(signs, holm_signs, strict=True):
         s["p_holm"] = _num(ph)
 
-    scale_rows, note = _scale(np.where(off, judged, 0.0), names, bootstrap=bootstrap,
-                              seed=seed, confidence=confidence, anchor=anchor)
+    scale_rows, note = _scale(
+        np.where(off, judged, 0.0),
+        names,
+        bootstrap=bootstrap,
+        seed=seed,
+        confidence=confidence,
+        anchor=anchor,
+    )
     ballot_counts = ballots(total)
     return {
         "votes": int(total.sum()),
@@ -101,25 +129,41 @@ def _section(t: np.ndarray, names: Sequence[str], *, undecided: str, bootstrap: 
         "ballots": {c: int(v) for c, v in zip(names, ballot_counts, strict=True)},
         "undecided": int(total[..., 2].sum()),
         "same_condition_votes": int(np.trace(total.sum(axis=-1))),
-        "confusion": {"conditions": list(names), "left": total[..., 0].tolist(),
-                      "right": total[..., 1].tolist(), "undecided": total[..., 2].tolist()},
-        "scores": {c: {"mean": _num(np.nanmean(scores[:, q])) if shown[:, q].any() else None,
-                       "sd": _num(np.nanstd(scores[:, q], ddof=1)) if shown[:, q].sum() > 1
-                       else None} for q, c in enumerate(names)},
+        "confusion": {
+            "conditions": list(names),
+            "left": total[..., 0].tolist(),
+            "right": total[..., 1].tolist(),
+            "undecided": total[..., 2].tolist(),
+        },
+        "scores": {
+            c: {
+                "mean": _num(np.nanmean(scores[:, q])) if shown[:, q].any() else None,
+                "sd": _num(np.nanstd(scores[:, q], ddof=1)) if shown[:, q].sum() > 1 else None,
+            }
+            for q, c in enumerate(names)
+        },
         "paired_t": paired,
         "agreement": agree,
         "sign_tests": signs,
         "scale": scale_rows,
         "scale_note": note,
-        "participant_level": participant_level_tests(t, names, bootstrap=bootstrap, seed=seed,
-                                                     confidence=confidence),
+        "participant_level": participant_level_tests(
+            t, names, bootstrap=bootstrap, seed=seed, confidence=confidence
+        ),
         "one_per_participant": one_judgement_per_participant(t, names),
         "btd": btd_summary(t, names, bootstrap=bootstrap, seed=seed, confidence=confidence),
     }
 
 
-def _scale(per_participant: np.ndarray, names: Sequence[str], *, bootstrap: int, seed: int,
-           confidence: float, anchor: int | None) -> tuple[list[dict[str, Any]], str | None]:
+def _scale(
+    per_participant: np.ndarray,
+    names: Sequence[str],
+    *,
+    bootstrap: int,
+    seed: int,
+    confidence: float,
+    anchor: int | None,
+) -> tuple[list[dict[str, Any]], str | None]:
     """Case V rows for the conditions that were compared; others (and a split graph) get None."""
     pooled = per_participant.sum(axis=0)
     active = np.flatnonzero((pooled + pooled.T).sum(axis=1) > 0)
@@ -134,11 +178,16 @@ def _scale(per_participant: np.ndarray, names: Sequence[str], *, bootstrap: int,
         if anchor not in active:
             return empty, f"anchor {names[anchor]!r} was never compared"
         sub_anchor = int(np.flatnonzero(active == anchor)[0])
-    scale, low, high = bootstrap_scale(sub, replicates=bootstrap, seed=seed,
-                                       confidence=confidence, anchor=sub_anchor)
+    scale, low, high = bootstrap_scale(
+        sub, replicates=bootstrap, seed=seed, confidence=confidence, anchor=sub_anchor
+    )
     for q, c in enumerate(active.tolist()):
-        empty[c] = {"condition": names[c], "score": _num(scale[q]), "ci_low": _num(low[q]),
-                    "ci_high": _num(high[q])}
+        empty[c] = {
+            "condition": names[c],
+            "score": _num(scale[q]),
+            "ci_low": _num(low[q]),
+            "ci_high": _num(high[q]),
+        }
     missing = [names[c] for c in range(len(names)) if c not in set(active.tolist())]
     return empty, (f"never compared: {', '.join(missing)}" if missing else None)
 
@@ -164,14 +213,22 @@ def _participants(counts: VoteCounts) -> dict[str, Any]:
 
 def _consistence_summary(participants: dict[str, Any], n: int) -> dict[str, Any]:
     z = np.array([p["consistence"]["zeta"] for p in participants.values()], dtype=float)
-    p = np.array([np.nan if p["consistence"]["p"] is None else p["consistence"]["p"]
-                  for p in participants.values()])
+    p = np.array(
+        [
+            np.nan if p["consistence"]["p"] is None else p["consistence"]["p"]
+            for p in participants.values()
+        ]
+    )
     smallest = consistence_p(np.zeros(1), n)[0][0] if n >= 3 else np.nan
-    return {"participants": len(z), "conditions": n, "min_p": _num(smallest),
-            "tested": int((~np.isnan(p)).sum()),
-            "significant_05": int((p < 0.05).sum()),
-            "median_zeta": _num(np.nanmedian(z)) if (~np.isnan(z)).any() else None,
-            "mean_zeta": _num(np.nanmean(z)) if (~np.isnan(z)).any() else None}
+    return {
+        "participants": len(z),
+        "conditions": n,
+        "min_p": _num(smallest),
+        "tested": int((~np.isnan(p)).sum()),
+        "significant_05": int((p < 0.05).sum()),
+        "median_zeta": _num(np.nanmedian(z)) if (~np.isnan(z)).any() else None,
+        "mean_zeta": _num(np.nanmean(z)) if (~np.isnan(z)).any() else None,
+    }
 
 
 def _analysed_rows(table: VotesTable) -> tuple[VotesTable, int, dict[str, str]]:
@@ -183,21 +240,33 @@ def _analysed_rows(table: VotesTable) -> tuple[VotesTable, int, dict[str, str]]:
         return table, 0, {}
     catch = ~frame["kind"].isin(ANALYSED_KINDS).to_numpy()
     excluded = (frame["excluded"] != "").to_numpy()
-    left_out = (frame.loc[excluded].drop_duplicates("participant")
-                .set_index("participant")["excluded"].to_dict())
+    left_out = (
+        frame.loc[excluded]
+        .drop_duplicates("participant")
+        .set_index("participant")["excluded"]
+        .to_dict()
+    )
     keep = ~catch & ~excluded
     if keep.all():
         return table, 0, {}
-    kept = VotesTable(frame[keep].reset_index(drop=True), table.skipped, table.problems,
-                      table.source)
+    kept = VotesTable(
+        frame[keep].reset_index(drop=True), table.skipped, table.problems, table.source
+    )
     return kept, int((catch & ~excluded).sum()), {str(k): str(v) for k, v in left_out.items()}
 
 
-def analyze(votes: VotesTable | pd.DataFrame | str | Path, *,
-            conditions: Sequence[str] | None = None, undecided: str = "exclude",
-            skip_bad_rows: bool = False, bootstrap: int = 1000, seed: int = 0,
-            confidence: float = 0.95, anchor: str | None = None,
-            exclude: str | Sequence[str] | None = None) -> dict[str, Any]:
+def analyze(
+    votes: VotesTable | pd.DataFrame | str | Path,
+    *,
+    conditions: Sequence[str] | None = None,
+    undecided: str = "exclude",
+    skip_bad_rows: bool = False,
+    bootstrap: int = 1000,
+    seed: int = 0,
+    confidence: float = 0.95,
+    anchor: str | None = None,
+    exclude: str | Sequence[str] | None = None,
+) -> dict[str, Any]:
     """Every statistic for a votes table (or a votes CSV path / frame).
 
     ``undecided`` is "exclude" (default: undecided votes count in ballots' undecided column
@@ -209,12 +278,17 @@ def analyze(votes: VotesTable | pd.DataFrame | str | Path, *,
     left out of every statistic and listed under ``quality.excluded``.
     """
     if undecided not in UNDECIDED_TREATMENTS:
-        raise InputError(f"must be one of {', '.join(UNDECIDED_TREATMENTS)}, got {undecided!r}",
-                         field="undecided")
+        raise InputError(
+            f"must be one of {', '.join(UNDECIDED_TREATMENTS)}, got {undecided!r}",
+            field="undecided",
+        )
     if not 0.0 < confidence < 1.0:
         raise InputError(f"must lie between 0 and 1, got {confidence}", field="confidence")
-    table = votes if isinstance(votes, VotesTable) else read_votes(
-        votes, skip_bad_rows=skip_bad_rows, conditions=conditions)
+    table = (
+        votes
+        if isinstance(votes, VotesTable)
+        else read_votes(votes, skip_bad_rows=skip_bad_rows, conditions=conditions)
+    )
     table, catch_votes, left_out = _analysed_rows(table)
     if len(table) == 0:
         raise InputError("no valid votes to analyse", path=table.source)
@@ -232,37 +306,62 @@ def analyze(votes: VotesTable | pd.DataFrame | str | Path, *,
     if excluded:
         kept = ~table.frame["participant"].isin(list(excluded))
         if not kept.any():
-            raise InputError(f"the rules {', '.join(map(str, rules))} exclude every participant",
-                             field="exclude")
-        table = VotesTable(table.frame[kept].reset_index(drop=True), table.skipped,
-                           table.problems, table.source)
+            raise InputError(
+                f"the rules {', '.join(map(str, rules))} exclude every participant", field="exclude"
+            )
+        table = VotesTable(
+            table.frame[kept].reset_index(drop=True), table.skipped, table.problems, table.source
+        )
         counts = count_votes(table, names)
     anchor_idx = None
     if anchor is not None:
         if anchor not in names:
             raise InputError(f"unknown condition {anchor!r}", field="anchor")
         anchor_idx = names.index(anchor)
-    kw: dict[str, Any] = {"undecided": undecided, "bootstrap": bootstrap, "seed": seed,
-          "confidence": confidence, "anchor": anchor_idx}
-    clips = {clip: _section(counts.tensor[:, k], names, **kw)
-             for k, clip in enumerate(counts.clips)}
+    kw: dict[str, Any] = {
+        "undecided": undecided,
+        "bootstrap": bootstrap,
+        "seed": seed,
+        "confidence": confidence,
+        "anchor": anchor_idx,
+    }
+    clips = {
+        clip: _section(counts.tensor[:, k], names, **kw) for k, clip in enumerate(counts.clips)
+    }
     pooled = _section(counts.tensor.sum(axis=1), names, **kw)
     participants = _participants(counts)
     pooled["consistence"] = _consistence_summary(participants, len(names))
     return {
         "conditions": list(names),
-        "input": {"source": table.source, "votes": len(table), "skipped_rows": table.skipped,
-                  "problems": list(table.problems), "participants": len(counts.participants),
-                  "clips": list(counts.clips), "excluded_participants": len(excluded),
-                  "catch_votes": catch_votes, "left_out": left_out},
-        "options": {"undecided": undecided, "bootstrap": bootstrap, "seed": seed,
-                    "confidence": confidence, "anchor": anchor,
-                    "scale": "Thurstone Case V, least squares, JOD units",
-                    "jod_sigma": JOD_SIGMA, "exclude": [str(r) for r in rules]},
+        "input": {
+            "source": table.source,
+            "votes": len(table),
+            "skipped_rows": table.skipped,
+            "problems": list(table.problems),
+            "participants": len(counts.participants),
+            "clips": list(counts.clips),
+            "excluded_participants": len(excluded),
+            "catch_votes": catch_votes,
+            "left_out": left_out,
+        },
+        "options": {
+            "undecided": undecided,
+            "bootstrap": bootstrap,
+            "seed": seed,
+            "confidence": confidence,
+            "anchor": anchor,
+            "scale": "Thurstone Case V, least squares, JOD units",
+            "jod_sigma": JOD_SIGMA,
+            "exclude": [str(r) for r in rules],
+        },
         "clips": clips,
         "pooled": pooled,
         "participants": participants,
-        "quality": {"rules": [str(r) for r in rules], "excluded": excluded,
-                    "fields": dict(QUALITY_FIELDS), "participants": quality},
+        "quality": {
+            "rules": [str(r) for r in rules],
+            "excluded": excluded,
+            "fields": dict(QUALITY_FIELDS),
+            "participants": quality,
+        },
         "appropriateness": appropriate,
     }

@@ -44,8 +44,9 @@ def connected(counts: ArrayLike) -> bool:
     return bool(k == 1)
 
 
-def thurstone_case_v(counts: ArrayLike, *, anchor: int | None = None,
-                     sigma: float = JOD_SIGMA) -> np.ndarray:
+def thurstone_case_v(
+    counts: ArrayLike, *, anchor: int | None = None, sigma: float = JOD_SIGMA
+) -> np.ndarray:
     """Case V scale values; ``counts[..., i, j]`` = judgements of i over j (batched allowed).
 
     Returns NaN where the comparison graph is not connected.
@@ -98,9 +99,15 @@ def bootstrap_weights(n_part: int, replicates: int, seed: int) -> np.ndarray:
     return np.bincount(flat_draws, minlength=replicates * n_part).reshape(replicates, n_part)
 
 
-def bootstrap_scale(per_participant: np.ndarray, *, replicates: int = 1000, seed: int = 0,
-                    confidence: float = 0.95, anchor: int | None = None,
-                    sigma: float = JOD_SIGMA) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def bootstrap_scale(
+    per_participant: np.ndarray,
+    *,
+    replicates: int = 1000,
+    seed: int = 0,
+    confidence: float = 0.95,
+    anchor: int | None = None,
+    sigma: float = JOD_SIGMA,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Scale and percentile CI from participants resampled with replacement.
 
     ``per_participant[p, i, j]``: participant p's judgements of i over j. Participants are put

@@ -17,8 +17,9 @@ from scipy import stats
 UNDECIDED_RULES = ("exclude", "split", "loss")
 
 
-def sign_test_p(wins: ArrayLike, losses: ArrayLike, undecided: ArrayLike = 0, *,
-                undecided_rule: str = "exclude") -> np.ndarray:
+def sign_test_p(
+    wins: ArrayLike, losses: ArrayLike, undecided: ArrayLike = 0, *, undecided_rule: str = "exclude"
+) -> np.ndarray:
     """Exact two-sided binomial p-values, element-wise.
 
     >>> float(sign_test_p(14, 4, 2).round(6)), float(sign_test_p(14, 4, 2,

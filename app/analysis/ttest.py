@@ -42,14 +42,20 @@ def paired_t(a: ArrayLike, b: ArrayLike, *, confidence: float = 0.95) -> dict[st
     >>> round(r["t"], 6), r["df"], round(r["p"], 7)
     (-4.062128, 9, 0.0028329)
     """
-    res = paired_t_many(np.asarray(a, dtype=float)[:, None], np.asarray(b, dtype=float)[:, None],
-                        confidence=confidence)
-    return {k: (None if np.isnan(v[0]) else (int(v[0]) if k in ("n", "df") else float(v[0])))
-            for k, v in res.items()}
+    res = paired_t_many(
+        np.asarray(a, dtype=float)[:, None],
+        np.asarray(b, dtype=float)[:, None],
+        confidence=confidence,
+    )
+    return {
+        k: (None if np.isnan(v[0]) else (int(v[0]) if k in ("n", "df") else float(v[0])))
+        for k, v in res.items()
+    }
 
 
-def paired_t_many(a: np.ndarray, b: np.ndarray, *,
-                  confidence: float = 0.95) -> dict[str, np.ndarray]:
+def paired_t_many(
+    a: np.ndarray, b: np.ndarray, *, confidence: float = 0.95
+) -> dict[str, np.ndarray]:
     """Column-wise :func:`paired_t`: ``a`` and ``b`` shape (participants, tests), NaN = absent.
 
     Where the differences have no spread (SD 0) or fewer than two pairs, t, p and the interval
@@ -68,10 +74,18 @@ def paired_t_many(a: np.ndarray, b: np.ndarray, *,
         df = np.where(n >= 2, n - 1, np.nan)
         t = np.where(usable, mean / np.where(usable, sem, 1.0), np.nan)
         p = np.where(usable, 2.0 * stats.t.sf(np.abs(t), np.where(usable, df, 1.0)), np.nan)
-        q = np.where(usable, stats.t.ppf(0.5 + confidence / 2.0, np.where(usable, df, 1.0)),
-                     np.nan)
+        q = np.where(usable, stats.t.ppf(0.5 + confidence / 2.0, np.where(usable, df, 1.0)), np.nan)
     mean = np.where(n >= 1, mean, np.nan)
     sd = np.where(n >= 2, sd, np.nan)
     sem = np.where(n >= 2, sem, np.nan)
-    return {"n": n, "mean": mean, "sd": sd, "sem": sem, "ci_low": mean - q * sem,
-            "ci_high": mean + q * sem, "t": t, "df": df, "p": p}
+    return {
+        "n": n,
+        "mean": mean,
+        "sd": sd,
+        "sem": sem,
+        "ci_low": mean - q * sem,
+        "ci_high": mean + q * sem,
+        "t": t,
+        "df": df,
+        "p": p,
+    }

@@ -30,8 +30,14 @@ from app.errors import InputError
 from app.trials.rules import CHOICES
 
 #: How a true/false column may be spelt (case-insensitive); written as true/false.
-FLAGS: dict[str, bool] = {"true": True, "1": True, "yes": True,
-                          "false": False, "0": False, "no": False}
+FLAGS: dict[str, bool] = {
+    "true": True,
+    "1": True,
+    "yes": True,
+    "false": False,
+    "0": False,
+    "no": False,
+}
 
 
 @dataclass(frozen=True)
@@ -57,23 +63,45 @@ COLUMN_SPECS: tuple[VoteColumn, ...] = (
     VoteColumn("presented_at", "time", False, "ISO 8601 time the pair was shown"),
     VoteColumn("voted_at", "time", False, "ISO 8601 time of the vote"),
     # The participant's side (HEMVIP2's 5-level scale, reason tags, the media log):
-    VoteColumn("strength", "count", False,
-               "on a 5-level scale: 2 clearly, 1 slightly, 0 cannot decide (empty: 3 levels)"),
+    VoteColumn(
+        "strength",
+        "count",
+        False,
+        "on a 5-level scale: 2 clearly, 1 slightly, 0 cannot decide (empty: 3 levels)",
+    ),
     VoteColumn("reasons", "text", False, "reason tags ticked after the choice, ';'-separated"),
-    VoteColumn("mismatched", "text", False,
-               "appropriateness pair: the side showing another clip's motion (else empty)"),
+    VoteColumn(
+        "mismatched",
+        "text",
+        False,
+        "appropriateness pair: the side showing another clip's motion (else empty)",
+    ),
     VoteColumn("watched_ms", "number", False, "milliseconds of the clip actually played"),
     VoteColumn("played_to_end", "flag", False, "whether the clip played to its end"),
     VoteColumn("stalls", "count", False, "times playback waited for data"),
     VoteColumn("stall_ms", "number", False, "milliseconds playback waited for data"),
     VoteColumn("focus_lost", "count", False, "times the window lost focus during the trial"),
-    VoteColumn("kind", "text", False, "trial (a pair of the design), mismatch (an "
-               "appropriateness pair) or catch (an attention check, left out of every "
-               "statistic); empty means trial"),
-    VoteColumn("status", "text", False, "the participant's status when exported: started, "
-               "finished, dropped, excluded or returned"),
-    VoteColumn("excluded", "text", False, "why the participant is left out of the analysis "
-               "(pilot, excluded, a failed catch trial, unfinished); empty: included"),
+    VoteColumn(
+        "kind",
+        "text",
+        False,
+        "trial (a pair of the design), mismatch (an "
+        "appropriateness pair) or catch (an attention check, left out of every "
+        "statistic); empty means trial",
+    ),
+    VoteColumn(
+        "status",
+        "text",
+        False,
+        "the participant's status when exported: started, finished, dropped, excluded or returned",
+    ),
+    VoteColumn(
+        "excluded",
+        "text",
+        False,
+        "why the participant is left out of the analysis "
+        "(pilot, excluded, a failed catch trial, unfinished); empty: included",
+    ),
     VoteColumn("prolific_id", "text", False, "the participant's Prolific ID, pseudonymised"),
 )
 #: Values of ``kind`` whose rows are analysed (the others are attention checks); mismatch rows
@@ -109,8 +137,13 @@ def _read_fast(path: Path) -> tuple[list[str], pd.DataFrame] | None:
     """The C parser's reading when the file is plain (one line per row, equal field counts)."""
     try:
         raw = path.read_bytes()
-        frame = pd.read_csv(io.BytesIO(raw), dtype=str, keep_default_na=False,
-                            skip_blank_lines=False, encoding="utf-8-sig")
+        frame = pd.read_csv(
+            io.BytesIO(raw),
+            dtype=str,
+            keep_default_na=False,
+            skip_blank_lines=False,
+            encoding="utf-8-sig",
+        )
     except (OSError, ValueError, pd.errors.ParserError, UnicodeDecodeError):
         return None
     lines = raw.count(b"\n") + (0 if raw.endswith(b"\n") else 1)
@@ -150,9 +183,13 @@ def _read_rows(path: Path) -> tuple[list[str], list[list[str]], list[int], list[
                 if not row or all(not cell.strip() for cell in row):
                     continue  # blank lines carry no vote
                 if len(row) != width:
-                    count_errors.append(InputError(
-                        f"expected {width} fields like the header, got {len(row)}",
-                        path=path, line=reader.line_num))
+                    count_errors.append(
+                        InputError(
+                            f"expected {width} fields like the header, got {len(row)}",
+                            path=path,
+                            line=reader.line_num,
+                        )
+                    )
                     row = (row + [""] * width)[:width]
                     lines.append(-reader.line_num)  # negative: already known bad
                 else:
@@ -178,8 +215,13 @@ def _check_header(columns: Sequence[str], path: str | None, *, writing: bool = F
             parts.append("unknown " + ", ".join(repr(c) for c in unknown))
         if dup:
             parts.append("repeated " + ", ".join(dup))
-        raise InputError("header does not match the votes format: " + "; ".join(parts)
-                         + f" (columns: {', '.join(VOTE_COLUMNS)})", path=path, line=1)
+        raise InputError(
+            "header does not match the votes format: "
+            + "; ".join(parts)
+            + f" (columns: {', '.join(VOTE_COLUMNS)})",
+            path=path,
+            line=1,
+        )
 
 
 def _validate(raw: pd.DataFrame) -> tuple[pd.DataFrame, list[tuple[int, str, str]]]:
@@ -194,17 +236,24 @@ def _validate(raw: pd.DataFrame) -> tuple[pd.DataFrame, list[tuple[int, str, str
                 bad[int(pos)] = (name, message_of(int(pos)))
 
     for spec in COLUMN_SPECS:
-        col = (raw[spec.name].astype(str).str.strip() if spec.name in raw
-               else pd.Series([""] * n, index=raw.index, dtype=str))
+        col = (
+            raw[spec.name].astype(str).str.strip()
+            if spec.name in raw
+            else pd.Series([""] * n, index=raw.index, dtype=str)
+        )
         empty = (col == "").to_numpy()
         if spec.required:
             flag(empty, spec.name, lambda _p: "missing value")
         if spec.kind == "choice":
             low = col.str.lower()
             wrong = ~low.isin(CHOICES).to_numpy() & ~empty
-            flag(wrong, spec.name,
-                 lambda p, c=col: f"unknown choice {c.iloc[p]!r} (expected left, right or "
-                                  "undecided)")
+            flag(
+                wrong,
+                spec.name,
+                lambda p, c=col: (
+                    f"unknown choice {c.iloc[p]!r} (expected left, right or undecided)"
+                ),
+            )
             out[spec.name] = low.to_numpy(dtype=object)
         elif spec.kind == "text":
             out[spec.name] = col.to_numpy(dtype=object)
@@ -212,8 +261,7 @@ def _validate(raw: pd.DataFrame) -> tuple[pd.DataFrame, list[tuple[int, str, str
             low = col.str.lower()
             truth = low.map(FLAGS)
             wrong = (truth.isna().to_numpy()) & ~empty
-            flag(wrong, spec.name,
-                 lambda p, c=col: f"expected true or false, got {c.iloc[p]!r}")
+            flag(wrong, spec.name, lambda p, c=col: f"expected true or false, got {c.iloc[p]!r}")
             out[spec.name] = truth.astype("boolean")
         elif spec.kind in ("count", "number"):
             num = pd.to_numeric(col.where(~empty), errors="coerce")
@@ -226,17 +274,24 @@ def _validate(raw: pd.DataFrame) -> tuple[pd.DataFrame, list[tuple[int, str, str
         else:  # time
             when = pd.to_datetime(col.where(~empty), errors="coerce", utc=True, format="ISO8601")
             wrong = (~empty) & when.isna().to_numpy()
-            flag(wrong, spec.name,
-                 lambda p, c=col: f"expected an ISO 8601 time, got {c.iloc[p]!r}")
+            flag(wrong, spec.name, lambda p, c=col: f"expected an ISO 8601 time, got {c.iloc[p]!r}")
             out[spec.name] = when
-    frame = pd.DataFrame({k: (v if isinstance(v, pd.Series) else pd.Series(v, index=raw.index))
-                          for k, v in out.items()})
+    frame = pd.DataFrame(
+        {
+            k: (v if isinstance(v, pd.Series) else pd.Series(v, index=raw.index))
+            for k, v in out.items()
+        }
+    )
     problems = [(pos, f, m) for pos, (f, m) in sorted(bad.items())]
     return frame, problems
 
 
-def read_votes(source: str | Path | pd.DataFrame, *, skip_bad_rows: bool = False,
-               conditions: Sequence[str] | None = None) -> VotesTable:
+def read_votes(
+    source: str | Path | pd.DataFrame,
+    *,
+    skip_bad_rows: bool = False,
+    conditions: Sequence[str] | None = None,
+) -> VotesTable:
     """Read and validate a votes CSV file (or an in-memory frame with the same columns).
 
     A bad row (unknown choice, missing participant, wrong field count, a value of the wrong
@@ -267,13 +322,18 @@ def read_votes(source: str | Path | pd.DataFrame, *, skip_bad_rows: bool = False
         else:
             header, rows, lines, count_errors = _read_rows(Path(source))
             _check_header(header, path)
-            raw = pd.DataFrame(rows, columns=header, dtype=object) if rows else pd.DataFrame(
-                {h: pd.Series([], dtype=object) for h in header})
+            raw = (
+                pd.DataFrame(rows, columns=header, dtype=object)
+                if rows
+                else pd.DataFrame({h: pd.Series([], dtype=object) for h in header})
+            )
     raw = raw.loc[:, [c for c in raw.columns if c in _SPEC]]  # extra columns are ignored
     frame, problems = _validate(raw.reset_index(drop=True))
     line_arr = np.abs(np.asarray(lines, dtype=np.int64))
-    messages = {int(pos): InputError(m, path=path, line=int(line_arr[pos]), field=f)
-                for pos, f, m in problems}
+    messages = {
+        int(pos): InputError(m, path=path, line=int(line_arr[pos]), field=f)
+        for pos, f, m in problems
+    }
     known_bad = [i for i, ln in enumerate(lines) if ln < 0]
     for i, msg in zip(known_bad, count_errors, strict=True):
         messages[i] = msg
@@ -282,21 +342,33 @@ def read_votes(source: str | Path | pd.DataFrame, *, skip_bad_rows: bool = False
         for name in ("left", "right"):
             outside = ~frame[name].isin(allowed).to_numpy()
             for pos in np.flatnonzero(outside):
-                messages.setdefault(int(pos), InputError(
-                    f"unknown condition {frame[name].iloc[pos]!r} (expected one of "
-                    f"{', '.join(conditions)})", path=path, line=int(line_arr[pos]),
-                    field=name))
+                messages.setdefault(
+                    int(pos),
+                    InputError(
+                        f"unknown condition {frame[name].iloc[pos]!r} (expected one of "
+                        f"{', '.join(conditions)})",
+                        path=path,
+                        line=int(line_arr[pos]),
+                        field=name,
+                    ),
+                )
     if messages and not skip_bad_rows:
         first = messages[min(messages)]
-        more = (f" (and {len(messages) - 1} more bad rows; --skip-bad-rows drops them)"
-                if len(messages) > 1 else "")
-        raise InputError(first.message + more, path=first.path, line=first.line,
-                         field=first.field)
+        more = (
+            f" (and {len(messages) - 1} more bad rows; --skip-bad-rows drops them)"
+            if len(messages) > 1
+            else ""
+        )
+        raise InputError(first.message + more, path=first.path, line=first.line, field=first.field)
     keep = np.ones(len(frame), dtype=bool)
     keep[list(messages)] = False
     ordered = [str(messages[k]) for k in sorted(messages)]
-    return VotesTable(frame[keep].reset_index(drop=True), skipped=len(messages),
-                      problems=ordered[:_MAX_PROBLEMS_KEPT], source=path)
+    return VotesTable(
+        frame[keep].reset_index(drop=True),
+        skipped=len(messages),
+        problems=ordered[:_MAX_PROBLEMS_KEPT],
+        source=path,
+    )
 
 
 def _column_text(values: pd.Series, kind: str) -> list[str]:
@@ -314,15 +386,21 @@ def _column_text(values: pd.Series, kind: str) -> list[str]:
     elif kind == "number":
         num = values.astype(float).to_numpy()
         whole = np.isfinite(num) & (num == np.round(num)) & (np.abs(num) < 2**53)
-        text = pd.Series(np.where(whole, np.round(np.nan_to_num(num)).astype(np.int64).astype(str),
-                                  num.astype(str)), dtype=object)
+        text = pd.Series(
+            np.where(
+                whole, np.round(np.nan_to_num(num)).astype(np.int64).astype(str), num.astype(str)
+            ),
+            dtype=object,
+        )
     else:
         text = values.astype(str)
     return np.where(missing, "", text.to_numpy(dtype=object)).tolist()
 
 
-def write_votes_csv(rows: Iterable[Mapping[str, Any]] | pd.DataFrame | VotesTable,
-                    path_or_file: str | Path | IO[str]) -> int:
+def write_votes_csv(
+    rows: Iterable[Mapping[str, Any]] | pd.DataFrame | VotesTable,
+    path_or_file: str | Path | IO[str],
+) -> int:
     """Write votes in the one CSV format :func:`read_votes` reads; returns the number written.
 
     ``rows`` are mappings with at least the required columns (extra keys are an error, absent

@@ -66,9 +66,15 @@ def post_vote():  # type: ignore[no-untyped-def]
     vote = outcome.vote
     body = {
         "status": "recorded" if outcome.created else "duplicate",
-        "vote": {"trial_id": vote.trial_id, "choice": vote.choice, "plays": vote.plays,
-                 "response_ms": vote.response_ms, "strength": vote.strength},
-        "answered": outcome.answered, "total": outcome.total,
+        "vote": {
+            "trial_id": vote.trial_id,
+            "choice": vote.choice,
+            "plays": vote.plays,
+            "response_ms": vote.response_ms,
+            "strength": vote.strength,
+        },
+        "answered": outcome.answered,
+        "total": outcome.total,
         "next": url_for("participant.resume", token=participant.token),
     }
     db.session.commit()
@@ -86,8 +92,11 @@ def _participant_of(payload: dict[str, Any]) -> Participant | None:
 def _by_token() -> sa.Select[tuple[Participant]]:
     """The participant with their study (every caller reads its rules next: one query for
     both), built once: building the eager-load option took 5 % of a vote in the profile."""
-    return (sa.select(Participant).where(Participant.token == sa.bindparam("token"))
-            .options(so.joinedload(Participant.study)))
+    return (
+        sa.select(Participant)
+        .where(Participant.token == sa.bindparam("token"))
+        .options(so.joinedload(Participant.study))
+    )
 
 
 @bp.post("/plays")
@@ -101,8 +110,7 @@ def post_play():  # type: ignore[no-untyped-def]
     if participant is None:
         return _error("unknown participant", 403)
     trial_id = payload.get("trial_id")
-    if isinstance(trial_id, bool) or not isinstance(trial_id, int) or not fits(Trial.id,
-                                                                             trial_id):
+    if isinstance(trial_id, bool) or not isinstance(trial_id, int) or not fits(Trial.id, trial_id):
         return _error("trial_id: expected a whole number", 400)
     trial = db.session.get(Trial, trial_id)
     if trial is None or trial.participant_id != participant.id or trial.kind == "practice":
@@ -110,15 +118,16 @@ def post_play():  # type: ignore[no-untyped-def]
     policy = replay_policy(participant.study)
     limit = policy.max_plays
     granted = db.session.execute(
-        sa.update(Trial).where(Trial.id == trial.id,
-                               sa.true() if limit is None else Trial.plays < limit)
-        .values(plays=Trial.plays + 1).execution_options(synchronize_session=False)).rowcount
+        sa.update(Trial)
+        .where(Trial.id == trial.id, sa.true() if limit is None else Trial.plays < limit)
+        .values(plays=Trial.plays + 1)
+        .execution_options(synchronize_session=False)
+    ).rowcount
     db.session.commit()
     db.session.refresh(trial)
     left = None if limit is None else max(0, limit - trial.plays)
     if not granted:
-        return jsonify({"error": play_refusal(policy), "plays": trial.plays,
-                        "plays_left": 0}), 409
+        return jsonify({"error": play_refusal(policy), "plays": trial.plays, "plays_left": 0}), 409
     return jsonify({"plays": trial.plays, "plays_left": left}), 200
 
 
@@ -126,8 +135,11 @@ def post_play():  # type: ignore[no-untyped-def]
 def post_environment(token: str):  # type: ignore[no-untyped-def]
     """The device and the viewing check, reported once before the first trial (a later
     report replaces it until the first trial is shown)."""
-    participant = db.session.scalar(sa.select(Participant).where(Participant.token == token)) \
-        if fits(Participant.token, token) else None
+    participant = (
+        db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        if fits(Participant.token, token)
+        else None
+    )
     if participant is None:
         return _error("unknown participant", 404)
     payload = _json_object()
@@ -135,8 +147,9 @@ def post_environment(token: str):  # type: ignore[no-untyped-def]
         return _error(payload, 400)
     agent = limits.printable(request.user_agent.string)[:300]
     try:
-        found = environment_fields(payload, agent,
-                                   min_face_px=participation(participant.study).min_face_px)
+        found = environment_fields(
+            payload, agent, min_face_px=participation(participant.study).min_face_px
+        )
     except MediaLogError as exc:
         return _error(str(exc), 400)
     if participant.started_at is None or participant.environment is None:
@@ -151,8 +164,9 @@ def progress(token: str):  # type: ignore[no-untyped-def]
     if participant is None:
         return _error("unknown participant", 404)
     answered, total = enrolment_progress(participant)
-    return jsonify({"answered": answered, "total": total,
-                    "finished": participant.finished_at is not None})
+    return jsonify(
+        {"answered": answered, "total": total, "finished": participant.finished_at is not None}
+    )
 
 
 @bp.get("/jobs/<int:job_id>")

@@ -14,58 +14,105 @@ def _summary(results: dict[str, Any]) -> str:
     pooled, info = results["pooled"], results["input"]
     scale = {s["condition"]: s for s in pooled["scale"]}
     width = max(len(c) for c in [*results["conditions"], "condition"])
-    lines = [f"{info['votes']} votes, {info['participants']} participants, "
-             f"{len(info['clips'])} clips; skipped bad rows: {info['skipped_rows']}; "
-             f"undecided: {results['options']['undecided']}",
-             f"{'condition':<{width}}  ballots  scale (JOD)  95% CI"]
+    lines = [
+        f"{info['votes']} votes, {info['participants']} participants, "
+        f"{len(info['clips'])} clips; skipped bad rows: {info['skipped_rows']}; "
+        f"undecided: {results['options']['undecided']}",
+        f"{'condition':<{width}}  ballots  scale (JOD)  95% CI",
+    ]
     for c in results["conditions"]:
         s = scale[c]
         value = "-" if s["score"] is None else f"{s['score']:+.2f}"
-        ci = ("-" if s["ci_low"] is None else f"[{s['ci_low']:+.2f}, {s['ci_high']:+.2f}]")
+        ci = "-" if s["ci_low"] is None else f"[{s['ci_low']:+.2f}, {s['ci_high']:+.2f}]"
         lines.append(f"{c:<{width}}  {pooled['ballots'][c]:>7}  {value:>11}  {ci}")
     lines.append(f"{'undecided':<{width}}  {pooled['undecided']:>7}")
     ag = pooled["agreement"]
     if ag["u"] is not None:
-        lines.append(f"agreement u = {ag['u']:.3f}, chi2({ag['df']:.2f}) = {ag['chi2']:.2f}, "
-                     f"p = {ag['p']:.3g} (corrected p = {ag['p_corrected']:.3g})")
+        lines.append(
+            f"agreement u = {ag['u']:.3f}, chi2({ag['df']:.2f}) = {ag['chi2']:.2f}, "
+            f"p = {ag['p']:.3g} (corrected p = {ag['p_corrected']:.3g})"
+        )
     sig = [s for s in pooled["sign_tests"] if s["p_holm"] is not None and s["p_holm"] < 0.05]
-    lines.append(f"sign tests: {len(sig)} of {len(pooled['sign_tests'])} pairs differ "
-                 "(Holm p < .05)")
-    wil = [w for w in pooled["participant_level"] if w["p_holm"] is not None
-           and w["p_holm"] < 0.05]
-    lines.append(f"participant-level Wilcoxon tests: {len(wil)} of "
-                 f"{len(pooled['participant_level'])} pairs differ (Holm p < .05)")
+    lines.append(
+        f"sign tests: {len(sig)} of {len(pooled['sign_tests'])} pairs differ (Holm p < .05)"
+    )
+    wil = [w for w in pooled["participant_level"] if w["p_holm"] is not None and w["p_holm"] < 0.05]
+    lines.append(
+        f"participant-level Wilcoxon tests: {len(wil)} of "
+        f"{len(pooled['participant_level'])} pairs differ (Holm p < .05)"
+    )
     excluded = results["quality"]["excluded"]
     if results["quality"]["rules"]:
-        lines.append(f"excluded by {', '.join(results['quality']['rules'])}: "
-                     + (", ".join(excluded) if excluded else "nobody"))
+        lines.append(
+            f"excluded by {', '.join(results['quality']['rules'])}: "
+            + (", ".join(excluded) if excluded else "nobody")
+        )
     return "\n".join(lines)
 
 
 @click.command("analyze")
 @click.argument("votes", type=click.Path(dir_okay=False))
-@click.option("--json", "json_path", type=click.Path(dir_okay=False),
-              help="Write every statistic as JSON here.")
-@click.option("--report", "html_path", type=click.Path(dir_okay=False),
-              help="Write the self-contained HTML report here.")
-@click.option("--pdf", "pdf_path", type=click.Path(dir_okay=False),
-              help="Also write the report as PDF.")
-@click.option("--undecided", type=click.Choice(["exclude", "split"]), default="exclude",
-              show_default=True, help="Undecided votes: left out, or half to each side.")
-@click.option("--skip-bad-rows", is_flag=True,
-              help="Drop invalid rows (their count is reported) instead of stopping.")
-@click.option("--conditions", default=None,
-              help="Comma-separated condition names, in the order to report them.")
-@click.option("--bootstrap", type=click.IntRange(0, 100000), default=1000, show_default=True,
-              help="Bootstrap replicates for the scale's intervals (0: none).")
+@click.option(
+    "--json",
+    "json_path",
+    type=click.Path(dir_okay=False),
+    help="Write every statistic as JSON here.",
+)
+@click.option(
+    "--report",
+    "html_path",
+    type=click.Path(dir_okay=False),
+    help="Write the self-contained HTML report here.",
+)
+@click.option(
+    "--pdf", "pdf_path", type=click.Path(dir_okay=False), help="Also write the report as PDF."
+)
+@click.option(
+    "--undecided",
+    type=click.Choice(["exclude", "split"]),
+    default="exclude",
+    show_default=True,
+    help="Undecided votes: left out, or half to each side.",
+)
+@click.option(
+    "--skip-bad-rows",
+    is_flag=True,
+    help="Drop invalid rows (their count is reported) instead of stopping.",
+)
+@click.option(
+    "--conditions",
+    default=None,
+    help="Comma-separated condition names, in the order to report them.",
+)
+@click.option(
+    "--bootstrap",
+    type=click.IntRange(0, 100000),
+    default=1000,
+    show_default=True,
+    help="Bootstrap replicates for the scale's intervals (0: none).",
+)
 @click.option("--seed", type=int, default=0, show_default=True, help="Bootstrap seed.")
 @click.option("--anchor", default=None, help="Fix this condition at 0 on the scale.")
-@click.option("--exclude", default=None, metavar="RULES",
-              help="Leave out participants matching any rule, e.g. 'catch<1.0,side_p<0.001' "
-                   "(fields: side_left, side_p, undecided, tau, catch, median_ms, outlier).")
-def analyze(votes: str, json_path: str | None, html_path: str | None, pdf_path: str | None,
-            undecided: str, skip_bad_rows: bool, conditions: str | None, bootstrap: int,
-            seed: int, anchor: str | None, exclude: str | None) -> None:
+@click.option(
+    "--exclude",
+    default=None,
+    metavar="RULES",
+    help="Leave out participants matching any rule, e.g. 'catch<1.0,side_p<0.001' "
+    "(fields: side_left, side_p, undecided, tau, catch, median_ms, outlier).",
+)
+def analyze(
+    votes: str,
+    json_path: str | None,
+    html_path: str | None,
+    pdf_path: str | None,
+    undecided: str,
+    skip_bad_rows: bool,
+    conditions: str | None,
+    bootstrap: int,
+    seed: int,
+    anchor: str | None,
+    exclude: str | None,
+) -> None:
     """Analyse the votes of a paired-comparison study (CSV) and report the results."""
     from tqdm import tqdm
 
@@ -75,22 +122,29 @@ def analyze(votes: str, json_path: str | None, html_path: str | None, pdf_path: 
 
     if pdf_path is not None and html_path is None:
         raise click.UsageError("--pdf needs --report (both come from the same content)")
-    names = None if conditions is None else [c.strip() for c in conditions.split(",")
-                                             if c.strip()]
+    names = None if conditions is None else [c.strip() for c in conditions.split(",") if c.strip()]
     steps = 2 + (html_path is not None) + (pdf_path is not None and html_path is not None)
     with tqdm(total=steps, desc="analyze", unit="step", disable=None) as bar:
         table = read_votes(votes, skip_bad_rows=skip_bad_rows, conditions=names)
         bar.update()
         if table.skipped:
-            click.echo(f"facepair: skipped {table.skipped} bad rows; first: "
-                       f"{table.problems[0]}", err=True)
-        results = run_analysis(table, conditions=names, undecided=undecided,
-                               bootstrap=bootstrap, seed=seed, anchor=anchor,
-                               exclude=exclude)
+            click.echo(
+                f"facepair: skipped {table.skipped} bad rows; first: {table.problems[0]}", err=True
+            )
+        results = run_analysis(
+            table,
+            conditions=names,
+            undecided=undecided,
+            bootstrap=bootstrap,
+            seed=seed,
+            anchor=anchor,
+            exclude=exclude,
+        )
         bar.update()
         if json_path is not None:
-            Path(json_path).write_text(json.dumps(results, indent=1, allow_nan=False) + "\n",
-                                       encoding="utf-8")
+            Path(json_path).write_text(
+                json.dumps(results, indent=1, allow_nan=False) + "\n", encoding="utf-8"
+            )
         if html_path is not None:
             write_report(results, html_path, pdf_path)
             bar.update(steps - bar.n)

@@ -16,29 +16,62 @@ def _save(track, out: str, samples: str) -> dict:
 
     save_track(track, out)
     report = track.metadata["capture"]
-    click.echo(f"{out}: {track.n_frames} frames at {track.fps:g} fps from {report['samples']} "
-               f"{samples} at {report['capture_fps']:g} fps; FAPs "
-               f"{', '.join(map(str, track.channels))}")
+    click.echo(
+        f"{out}: {track.n_frames} frames at {track.fps:g} fps from {report['samples']} "
+        f"{samples} at {report['capture_fps']:g} fps; FAPs "
+        f"{', '.join(map(str, track.channels))}"
+    )
     return report
 
 
 @capture.command("import")
 @click.argument("source", type=click.Path(dir_okay=False))
-@click.option("--from", "kind", type=click.Choice(["openface", "arkit", "auto"]),
-              default="auto", show_default=True,
-              help="The tracker that wrote SOURCE (auto: from its header).")
-@click.option("--out", required=True, type=click.Path(dir_okay=False),
-              help="Track to write (.fap, .csv, or an ARKit .csv with --to-arkit).")
-@click.option("--fps", type=float, default=30.0, show_default=True,
-              help="Frame rate of the written track.")
-@click.option("--max-gap", type=float, default=0.5, show_default=True,
-              help="Longest run of lost frames filled by interpolation, seconds.")
-@click.option("--min-confidence", type=float, default=0.75, show_default=True,
-              help="OpenFace: frames under this landmark confidence count as lost.")
-@click.option("--flip", multiple=True, metavar="COLUMN",
-              help="ARKit: turn the sign of a rotation column (e.g. HeadPitch); repeatable.")
-def import_(source: str, kind: str, out: str, fps: float, max_gap: float,
-            min_confidence: float, flip: tuple[str, ...]) -> None:
+@click.option(
+    "--from",
+    "kind",
+    type=click.Choice(["openface", "arkit", "auto"]),
+    default="auto",
+    show_default=True,
+    help="The tracker that wrote SOURCE (auto: from its header).",
+)
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Track to write (.fap, .csv, or an ARKit .csv with --to-arkit).",
+)
+@click.option(
+    "--fps", type=float, default=30.0, show_default=True, help="Frame rate of the written track."
+)
+@click.option(
+    "--max-gap",
+    type=float,
+    default=0.5,
+    show_default=True,
+    help="Longest run of lost frames filled by interpolation, seconds.",
+)
+@click.option(
+    "--min-confidence",
+    type=float,
+    default=0.75,
+    show_default=True,
+    help="OpenFace: frames under this landmark confidence count as lost.",
+)
+@click.option(
+    "--flip",
+    multiple=True,
+    metavar="COLUMN",
+    help="ARKit: turn the sign of a rotation column (e.g. HeadPitch); repeatable.",
+)
+def import_(
+    source: str,
+    kind: str,
+    out: str,
+    fps: float,
+    max_gap: float,
+    min_confidence: float,
+    flip: tuple[str, ...],
+) -> None:
     """Import SOURCE (a tracker's CSV) as a FAP track, reporting lost frames and gaps."""
     from app.errors import InputError
     from app.stimuli.capture import sniff_csv
@@ -48,12 +81,14 @@ def import_(source: str, kind: str, out: str, fps: float, max_gap: float,
     if kind == "auto":
         kind = sniff_csv(source) or ""
         if not kind:
-            raise InputError("not an OpenFace or Live Link Face CSV (give --from)",
-                             path=source, line=1)
+            raise InputError(
+                "not an OpenFace or Live Link Face CSV (give --from)", path=source, line=1
+            )
     unknown = [f for f in flip if f.lower() not in {r.lower() for r in ROTATIONS}]
     if unknown or (flip and kind != "arkit"):
-        raise InputError(f"--flip takes ARKit rotation columns ({', '.join(ROTATIONS)})",
-                         field="--flip")
+        raise InputError(
+            f"--flip takes ARKit rotation columns ({', '.join(ROTATIONS)})", field="--flip"
+        )
     if kind == "openface":
         track = read_openface(source, fps, min_confidence=min_confidence, max_gap_s=max_gap)
     else:
@@ -61,17 +96,23 @@ def import_(source: str, kind: str, out: str, fps: float, max_gap: float,
     report = _save(track, out, "samples")
     if report["invalid_samples"] or report["filled_frames"]:
         spans = ", ".join(f"{a:.2f}-{b:.2f} s" for a, b in report["gaps"][:5])
-        click.echo(f"  {report['invalid_samples']} lost samples; {report['filled_frames']} "
-                   f"frames filled by interpolation ({spans}"
-                   f"{', ...' if len(report['gaps']) > 5 else ''})")
+        click.echo(
+            f"  {report['invalid_samples']} lost samples; {report['filled_frames']} "
+            f"frames filled by interpolation ({spans}"
+            f"{', ...' if len(report['gaps']) > 5 else ''})"
+        )
     for column, faps in report["missing"].items():
         click.echo(f"  no column {column}: FAP {', '.join(map(str, faps))} not imported")
 
 
 @capture.command("export")
 @click.argument("track_path", metavar="TRACK", type=click.Path(dir_okay=False))
-@click.option("--out", required=True, type=click.Path(dir_okay=False),
-              help="ARKit blendshape CSV to write (Live Link Face's layout).")
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="ARKit blendshape CSV to write (Live Link Face's layout).",
+)
 def export(track_path: str, out: str) -> None:
     """Write a FAP track (.fap or .csv) as an ARKit blendshape CSV for ARKit rigs."""
     from app.stimuli.capture.arkit import write_arkit_csv
@@ -99,28 +140,53 @@ def _constants(constants_path: str | None, fapu: str | None, squash: bool):
             except ValueError:
                 number = float("nan")
             if key.strip() not in values or not number > 0 or number == float("inf"):
-                raise InputError(f"expected ENS0=mm,MNS0=mm,MW0=mm with positive numbers, got "
-                                 f"{item!r}", field="--fapu")
+                raise InputError(
+                    f"expected ENS0=mm,MNS0=mm,MW0=mm with positive numbers, got {item!r}",
+                    field="--fapu",
+                )
             values[key.strip()] = number
         c = replace(c, fapu_mm=values)
     return c if squash else replace(c, squash=False)
 
 
 def _marker_options(fn):
-    for option in reversed([
-        click.option("--constants", "constants_path", type=click.Path(dir_okay=False),
-                     help="JSON of marker constants (kp, ky, apexes, ...; see docs/capture.md)"
-                     ", e.g. written by `capture calibrate`."),
-        click.option("--fapu", metavar="ENS0=MM,MNS0=MM,MW0=MM",
-                     help="The subject's FAPU in mm, measured in the neutral pose."),
-        click.option("--threshold", type=click.FloatRange(1, 255), default=128.0,
-                     show_default=True, help="Segmentation threshold (grey level)."),
-        click.option("--weights", type=click.Choice(["grey", "binary"]), default="grey",
-                     show_default=True, help="Centre-of-gravity weights."),
-        click.option("--max-gap", type=click.FloatRange(0, None), default=0.5,
-                     show_default=True,
-                     help="Longest time a marker may be lost (recovered by interpolation)."),
-    ]):
+    for option in reversed(
+        [
+            click.option(
+                "--constants",
+                "constants_path",
+                type=click.Path(dir_okay=False),
+                help="JSON of marker constants (kp, ky, apexes, ...; see docs/capture.md)"
+                ", e.g. written by `capture calibrate`.",
+            ),
+            click.option(
+                "--fapu",
+                metavar="ENS0=MM,MNS0=MM,MW0=MM",
+                help="The subject's FAPU in mm, measured in the neutral pose.",
+            ),
+            click.option(
+                "--threshold",
+                type=click.FloatRange(1, 255),
+                default=128.0,
+                show_default=True,
+                help="Segmentation threshold (grey level).",
+            ),
+            click.option(
+                "--weights",
+                type=click.Choice(["grey", "binary"]),
+                default="grey",
+                show_default=True,
+                help="Centre-of-gravity weights.",
+            ),
+            click.option(
+                "--max-gap",
+                type=click.FloatRange(0, None),
+                default=0.5,
+                show_default=True,
+                help="Longest time a marker may be lost (recovered by interpolation).",
+            ),
+        ]
+    ):
         fn = option(fn)
     return fn
 
@@ -132,22 +198,43 @@ def _label(video: str, threshold: float, weights: str, max_gap: float):
 
     info = video_info(video)
     with _progress_bar("markers") as progress:
-        return label_frames(read_grey_frames(video, info), threshold=threshold,
-                            weights=weights, max_gap_s=max_gap, path=video,
-                            progress=lambda k: progress(k, max(info["n_frames"], k)))
+        return label_frames(
+            read_grey_frames(video, info),
+            threshold=threshold,
+            weights=weights,
+            max_gap_s=max_gap,
+            path=video,
+            progress=lambda k: progress(k, max(info["n_frames"], k)),
+        )
 
 
 @capture.command("markers")
 @click.argument("video", type=click.Path(dir_okay=False))
-@click.option("--out", required=True, type=click.Path(dir_okay=False),
-              help="Track to write (.fap or .csv).")
-@click.option("--fps", type=click.FloatRange(1, 1000), default=30.0, show_default=True,
-              help="Frame rate of the written track.")
-@click.option("--no-squash", is_flag=True,
-              help="Skip the thesis' Gaussian squashing: FAPs as measured.")
+@click.option(
+    "--out", required=True, type=click.Path(dir_okay=False), help="Track to write (.fap or .csv)."
+)
+@click.option(
+    "--fps",
+    type=click.FloatRange(1, 1000),
+    default=30.0,
+    show_default=True,
+    help="Frame rate of the written track.",
+)
+@click.option(
+    "--no-squash", is_flag=True, help="Skip the thesis' Gaussian squashing: FAPs as measured."
+)
 @_marker_options
-def markers(video: str, out: str, fps: float, no_squash: bool, constants_path: str | None,
-            fapu: str | None, threshold: float, weights: str, max_gap: float) -> None:
+def markers(
+    video: str,
+    out: str,
+    fps: float,
+    no_squash: bool,
+    constants_path: str | None,
+    fapu: str | None,
+    threshold: float,
+    weights: str,
+    max_gap: float,
+) -> None:
     """Capture FAPs from an IR video of the thesis' 17 markers (head frame, brows, lips)."""
     from pathlib import Path
 
@@ -155,32 +242,54 @@ def markers(video: str, out: str, fps: float, no_squash: bool, constants_path: s
 
     c = _constants(constants_path, fapu, not no_squash)
     tracks = _label(video, threshold, weights, max_gap)
-    track = tracks_to_faps(tracks, fps=fps, constants=c, max_gap_s=max_gap, path=video,
-                           name=Path(video).stem)
+    track = tracks_to_faps(
+        tracks, fps=fps, constants=c, max_gap_s=max_gap, path=video, name=Path(video).stem
+    )
     report = _save(track, out, "video frames")
     if report["filled_frames"] or report["duplicates"]:
-        click.echo(f"  {report['filled_frames']} dropped frames filled, "
-                   f"{report['duplicates']} duplicated frames dropped")
+        click.echo(
+            f"  {report['filled_frames']} dropped frames filled, "
+            f"{report['duplicates']} duplicated frames dropped"
+        )
     for name, a, b in report["marker_gaps"]:
         click.echo(f"  marker {name} lost in frames {a}-{b}: recovered by interpolation")
 
 
 @capture.command("calibrate")
 @click.argument("video", type=click.Path(dir_okay=False))
-@click.option("--truth", required=True, type=click.Path(dir_okay=False),
-              help="The head's known motion (.fap or .csv): FAPs 48 (pitch) and 49 (yaw).")
-@click.option("--out", required=True, type=click.Path(dir_okay=False),
-              help="JSON of constants to write (for `capture markers --constants`).")
+@click.option(
+    "--truth",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="The head's known motion (.fap or .csv): FAPs 48 (pitch) and 49 (yaw).",
+)
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="JSON of constants to write (for `capture markers --constants`).",
+)
 @_marker_options
-def calibrate(video: str, truth: str, out: str, constants_path: str | None, fapu: str | None,
-              threshold: float, weights: str, max_gap: float) -> None:
+def calibrate(
+    video: str,
+    truth: str,
+    out: str,
+    constants_path: str | None,
+    fapu: str | None,
+    threshold: float,
+    weights: str,
+    max_gap: float,
+) -> None:
     """Measure kp, ky and the eyebrows' pitch coupling on a neutral face of known pose."""
     from app.stimuli.capture.calibration import calibrate as fit
     from app.stimuli.io import load_track
 
     known = load_track(truth)
-    c = fit(_label(video, threshold, weights, max_gap), known,
-            _constants(constants_path, fapu, True))
+    c = fit(
+        _label(video, threshold, weights, max_gap), known, _constants(constants_path, fapu, True)
+    )
     c.to_json(out)
-    click.echo(f"{out}: kp {c.kp:.4f} (thesis 0.15), ky {c.ky:.4f} (thesis 0.05), eyebrow "
-               f"pitch coupling {c.brow_pitch_inner:.1f} / {c.brow_pitch_middle:.1f} ENS/rad")
+    click.echo(
+        f"{out}: kp {c.kp:.4f} (thesis 0.15), ky {c.ky:.4f} (thesis 0.05), eyebrow "
+        f"pitch coupling {c.brow_pitch_inner:.1f} / {c.brow_pitch_middle:.1f} ENS/rad"
+    )

@@ -11,8 +11,9 @@ def face() -> None:
 
 
 @face.command("export")
-@click.option("--out", required=True, type=click.Path(dir_okay=False),
-              help="Output .glb (binary glTF 2.0).")
+@click.option(
+    "--out", required=True, type=click.Path(dir_okay=False), help="Output .glb (binary glTF 2.0)."
+)
 def export(out: str) -> None:
     """Write the built-in head as a glTF avatar: ARKit-named morph targets, a head and two
     eye bones, feature points in its extras (docs/renderer.md, "Avatars")."""

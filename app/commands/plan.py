@@ -23,14 +23,17 @@ def parse_participants(text: str) -> list[int]:
         low, high = int(m.group(1)), int(m.group(2))
         step = int(m.group(3)) if m.group(3) else 10
         if low > high or step < 1:
-            raise InputError(f"expected LOW-HIGH[:STEP] with LOW <= HIGH, got {text!r}",
-                             field="participants")
+            raise InputError(
+                f"expected LOW-HIGH[:STEP] with LOW <= HIGH, got {text!r}", field="participants"
+            )
         counts = list(range(low, high + 1, step))
         return counts if counts[-1] == high else [*counts, high]
     parts = [p.strip() for p in text.split(",")]
     if not all(p.isdigit() for p in parts):
-        raise InputError(f"expected LOW-HIGH[:STEP] or a list such as 10,20,40, got {text!r}",
-                         field="participants")
+        raise InputError(
+            f"expected LOW-HIGH[:STEP] or a list such as 10,20,40, got {text!r}",
+            field="participants",
+        )
     return [int(p) for p in parts]
 
 
@@ -54,10 +57,12 @@ def parse_effects(text: str) -> tuple[list[str], list[float]]:
 
 def _print(result: dict[str, Any]) -> str:
     names = result["conditions"]
-    lines = [f"{result['simulations']} simulated studies per row; {result['design']} design, "
-             f"{result['votes_per_participant']} votes per participant; scores (JOD) "
-             + ", ".join(f"{c} {v:+.2f}" for c, v in result["jod"].items())
-             + f"; g = {result['gamma']:.3f}, nu = {result['nu']:.3f} ({result['source']})"]
+    lines = [
+        f"{result['simulations']} simulated studies per row; {result['design']} design, "
+        f"{result['votes_per_participant']} votes per participant; scores (JOD) "
+        + ", ".join(f"{c} {v:+.2f}" for c, v in result["jod"].items())
+        + f"; g = {result['gamma']:.3f}, nu = {result['nu']:.3f} ({result['source']})"
+    ]
     pairs = list(result["levels"][0]["power"]["wilcoxon"])
     width = max(len(p) for p in pairs)
     for lv in result["levels"]:
@@ -67,38 +72,95 @@ def _print(result: dict[str, Any]) -> str:
             pw = [lv["power"][t][p] for t in ("wilcoxon", "sign_per_participant", "sign_pooled")]
             lines.append(f"  {p:<{width}}  {pw[0]:8.3f}  {pw[1]:16.3f}  {pw[2]:11.3f}")
         ci = int(round(100 * result["confidence"]))
-        widths = ", ".join(f"{c} " + ("-" if lv["ci_width_jod"][c] is None
-                                      else f"{lv['ci_width_jod'][c]:.2f}") for c in names)
+        widths = ", ".join(
+            f"{c} " + ("-" if lv["ci_width_jod"][c] is None else f"{lv['ci_width_jod'][c]:.2f}")
+            for c in names
+        )
         lines.append(f"  expected {ci}% interval width of the scores (JOD): {widths}")
     return "\n".join(lines)
 
 
 @click.command("plan")
-@click.option("--effects", default=None, metavar="C=JOD,...",
-              help="Assumed scores in JOD per condition, e.g. 'none=-0.8,random=0.1,gt=0.6'.")
-@click.option("--pilot", type=click.Path(dir_okay=False), default=None,
-              help="Pilot votes CSV: fit the model (scores, g, nu) to it instead of --effects.")
+@click.option(
+    "--effects",
+    default=None,
+    metavar="C=JOD,...",
+    help="Assumed scores in JOD per condition, e.g. 'none=-0.8,random=0.1,gt=0.6'.",
+)
+@click.option(
+    "--pilot",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Pilot votes CSV: fit the model (scores, g, nu) to it instead of --effects.",
+)
 @click.option("--conditions", default=None, help="With --pilot: the conditions, in order.")
-@click.option("--design", type=click.Choice(["all_ordered", "unordered"]), default="all_ordered",
-              show_default=True, help="Every ordered pair, or every pair once (random side).")
-@click.option("--participants", "participants_text", default="10-50", show_default=True,
-              help="Participant counts: LOW-HIGH[:STEP] or a list such as 10,20,40.")
-@click.option("--votes-per-participant", "votes", type=click.IntRange(1, 100000), default=None,
-              help="Trials per participant (default: one pass through the design's pairs).")
-@click.option("--gamma", type=float, default=1.0, show_default=True,
-              help="Side factor g (left worth multiplied by g); ignored with --pilot.")
-@click.option("--nu", type=float, default=0.4, show_default=True,
-              help="Tie parameter nu (undecided votes); ignored with --pilot.")
+@click.option(
+    "--design",
+    type=click.Choice(["all_ordered", "unordered"]),
+    default="all_ordered",
+    show_default=True,
+    help="Every ordered pair, or every pair once (random side).",
+)
+@click.option(
+    "--participants",
+    "participants_text",
+    default="10-50",
+    show_default=True,
+    help="Participant counts: LOW-HIGH[:STEP] or a list such as 10,20,40.",
+)
+@click.option(
+    "--votes-per-participant",
+    "votes",
+    type=click.IntRange(1, 100000),
+    default=None,
+    help="Trials per participant (default: one pass through the design's pairs).",
+)
+@click.option(
+    "--gamma",
+    type=float,
+    default=1.0,
+    show_default=True,
+    help="Side factor g (left worth multiplied by g); ignored with --pilot.",
+)
+@click.option(
+    "--nu",
+    type=float,
+    default=0.4,
+    show_default=True,
+    help="Tie parameter nu (undecided votes); ignored with --pilot.",
+)
 @click.option("--simulations", type=click.IntRange(10, 1000000), default=1000, show_default=True)
 @click.option("--alpha", type=float, default=0.05, show_default=True)
 @click.option("--seed", type=int, default=0, show_default=True)
-@click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None,
-              help="Write the result as JSON here.")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default=None,
-              help="Write the power-against-participants plot (PNG) here.")
-def plan(effects: str | None, pilot: str | None, conditions: str | None, design: str,
-         participants_text: str, votes: int | None, gamma: float, nu: float, simulations: int,
-         alpha: float, seed: int, json_path: str | None, plot_path: str | None) -> None:
+@click.option(
+    "--json",
+    "json_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Write the result as JSON here.",
+)
+@click.option(
+    "--plot",
+    "plot_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Write the power-against-participants plot (PNG) here.",
+)
+def plan(
+    effects: str | None,
+    pilot: str | None,
+    conditions: str | None,
+    design: str,
+    participants_text: str,
+    votes: int | None,
+    gamma: float,
+    nu: float,
+    simulations: int,
+    alpha: float,
+    seed: int,
+    json_path: str | None,
+    plot_path: str | None,
+) -> None:
     """Simulate studies: power of each planned test and expected CI widths by participants."""
     from app.analysis.counts import count_votes
     from app.analysis.plan import StudyPlan, plan_from_pilot, plan_study
@@ -108,23 +170,27 @@ def plan(effects: str | None, pilot: str | None, conditions: str | None, design:
         raise InputError("give either --effects or --pilot", field="effects")
     counts = parse_participants(participants_text)
     if pilot is not None:
-        names = None if conditions is None else [c.strip() for c in conditions.split(",")
-                                                 if c.strip()]
+        names = (
+            None if conditions is None else [c.strip() for c in conditions.split(",") if c.strip()]
+        )
         vc = count_votes(read_votes(pilot, conditions=names), names)
-        spec = plan_from_pilot(vc.tensor.sum(axis=(0, 1)), vc.conditions, design=design,
-                               votes=votes, source=str(pilot))
+        spec = plan_from_pilot(
+            vc.tensor.sum(axis=(0, 1)), vc.conditions, design=design, votes=votes, source=str(pilot)
+        )
     else:
         assert effects is not None
         names, values = parse_effects(effects)
-        spec = StudyPlan(tuple(names), tuple(values), gamma=gamma, nu=nu, design=design,
-                         votes=votes)
+        spec = StudyPlan(
+            tuple(names), tuple(values), gamma=gamma, nu=nu, design=design, votes=votes
+        )
     for target in (json_path, plot_path):
         if target is not None and not Path(target).resolve().parent.is_dir():
             raise InputError("folder does not exist", path=Path(target).parent)
     result = plan_study(spec, counts, simulations=simulations, alpha=alpha, seed=seed)
     if json_path is not None:
-        Path(json_path).write_text(json.dumps(result, indent=1, allow_nan=False) + "\n",
-                                   encoding="utf-8")
+        Path(json_path).write_text(
+            json.dumps(result, indent=1, allow_nan=False) + "\n", encoding="utf-8"
+        )
     if plot_path is not None:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
 

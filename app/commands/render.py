@@ -22,8 +22,7 @@ def _settings(size: int, mosaic_block: int, face: str | None, **extra: Any):
 def _progress_bar(label: str):
     from tqdm import tqdm
 
-    bar = tqdm(total=0, desc=label, unit="frame", file=sys.stderr,
-               dynamic_ncols=True, leave=True)
+    bar = tqdm(total=0, desc=label, unit="frame", file=sys.stderr, dynamic_ncols=True, leave=True)
 
     def update(done: int, total: int) -> None:
         if bar.total != total:
@@ -37,34 +36,70 @@ def _progress_bar(label: str):
 
 
 def _common(fn: Callable) -> Callable:
-    fn = click.option("--face", type=click.Path(dir_okay=False), default=None,
-                      help="Face JSON file (bring your own face) or glTF/VRM avatar "
-                           "(.glb, .gltf, .vrm); default: built-in head.")(fn)
-    fn = click.option("--size", type=int, default=368, show_default=True,
-                      help="Pixels per face (square, a multiple of 16).")(fn)
-    fn = click.option("--mosaic-block", type=int, default=24, show_default=True,
-                      help="Mouth mosaic block size in pixels (0: no mosaic).")(fn)
-    fn = click.option("--samples", type=click.Choice(["0", "2", "4", "8"]), default="4",
-                      show_default=True,
-                      help="Multisample anti-aliasing samples for --antialias msaa.")(fn)
-    fn = click.option("--antialias", type=click.Choice(["edges", "msaa", "none"]),
-                      default="edges", show_default=True,
-                      help="edges: silhouette edge overdraw (fast on a CPU); msaa: "
-                           "multisampling (for a GPU); none.")(fn)
-    fn = click.option("--look", type=click.Choice(["textured", "plain"]), default="textured",
-                      show_default=True,
-                      help="The built-in head's look: textured skin, brows and lashes, or "
-                           "plain (per-vertex colour, the earlier head).")(fn)
+    fn = click.option(
+        "--face",
+        type=click.Path(dir_okay=False),
+        default=None,
+        help="Face JSON file (bring your own face) or glTF/VRM avatar "
+        "(.glb, .gltf, .vrm); default: built-in head.",
+    )(fn)
+    fn = click.option(
+        "--size",
+        type=int,
+        default=368,
+        show_default=True,
+        help="Pixels per face (square, a multiple of 16).",
+    )(fn)
+    fn = click.option(
+        "--mosaic-block",
+        type=int,
+        default=24,
+        show_default=True,
+        help="Mouth mosaic block size in pixels (0: no mosaic).",
+    )(fn)
+    fn = click.option(
+        "--samples",
+        type=click.Choice(["0", "2", "4", "8"]),
+        default="4",
+        show_default=True,
+        help="Multisample anti-aliasing samples for --antialias msaa.",
+    )(fn)
+    fn = click.option(
+        "--antialias",
+        type=click.Choice(["edges", "msaa", "none"]),
+        default="edges",
+        show_default=True,
+        help="edges: silhouette edge overdraw (fast on a CPU); msaa: "
+        "multisampling (for a GPU); none.",
+    )(fn)
+    fn = click.option(
+        "--look",
+        type=click.Choice(["textured", "plain"]),
+        default="textured",
+        show_default=True,
+        help="The built-in head's look: textured skin, brows and lashes, or "
+        "plain (per-vertex colour, the earlier head).",
+    )(fn)
     return fn
 
 
 def _clip_options(fn: Callable) -> Callable:
-    fn = click.option("--cache-dir", type=click.Path(file_okay=False), default=None,
-                      help="Reuse clips rendered before from this folder (content hash).")(fn)
-    fn = click.option("--fps", type=float, default=None,
-                      help="Output frame rate (default: the track's).")(fn)
-    fn = click.option("--workers", type=int, default=0, show_default=True,
-                      help="Processes drawing frames (0: one per CPU core).")(fn)
+    fn = click.option(
+        "--cache-dir",
+        type=click.Path(file_okay=False),
+        default=None,
+        help="Reuse clips rendered before from this folder (content hash).",
+    )(fn)
+    fn = click.option(
+        "--fps", type=float, default=None, help="Output frame rate (default: the track's)."
+    )(fn)
+    fn = click.option(
+        "--workers",
+        type=int,
+        default=0,
+        show_default=True,
+        help="Processes drawing frames (0: one per CPU core).",
+    )(fn)
     return fn
 
 
@@ -80,19 +115,40 @@ def render() -> None:
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output .mp4.")
 @_common
 @_clip_options
-def pair(left: str, right: str, audio: str, out: str, face: str | None, size: int,
-         mosaic_block: int, antialias: str, samples: str, look: str, fps: float | None,
-         cache_dir: str | None, workers: int) -> None:
+def pair(
+    left: str,
+    right: str,
+    audio: str,
+    out: str,
+    face: str | None,
+    size: int,
+    mosaic_block: int,
+    antialias: str,
+    samples: str,
+    look: str,
+    fps: float | None,
+    cache_dir: str | None,
+    workers: int,
+) -> None:
     """Side-by-side clip LEFT | RIGHT over AUDIO, mouths hidden by a mosaic."""
     from app.stimuli.io import load_track
     from renderer import render_pair
 
-    settings = _settings(size, mosaic_block, face, antialias=antialias, samples=int(samples),
-                         fps=fps, workers=workers, look=look)
+    settings = _settings(
+        size,
+        mosaic_block,
+        face,
+        antialias=antialias,
+        samples=int(samples),
+        fps=fps,
+        workers=workers,
+        look=look,
+    )
     tracks = load_track(left), load_track(right)
     with _progress_bar("render pair") as progress:
-        path = render_pair(*tracks, audio, out, settings=settings, cache_dir=cache_dir,
-                           progress=progress)
+        path = render_pair(
+            *tracks, audio, out, settings=settings, cache_dir=cache_dir, progress=progress
+        )
     click.echo(f"{path}: {size * 2}x{size}, {tracks[0].n_frames} frames")
 
 
@@ -102,40 +158,77 @@ def pair(left: str, right: str, audio: str, out: str, face: str | None, size: in
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output .mp4.")
 @_common
 @_clip_options
-def single(track_path: str, audio: str, out: str, face: str | None, size: int,
-           mosaic_block: int, antialias: str, samples: str, look: str, fps: float | None,
-           cache_dir: str | None, workers: int) -> None:
+def single(
+    track_path: str,
+    audio: str,
+    out: str,
+    face: str | None,
+    size: int,
+    mosaic_block: int,
+    antialias: str,
+    samples: str,
+    look: str,
+    fps: float | None,
+    cache_dir: str | None,
+    workers: int,
+) -> None:
     """Single-face clip of TRACK over AUDIO."""
     from app.stimuli.io import load_track
     from renderer import render_single
 
-    settings = _settings(size, mosaic_block, face, antialias=antialias, samples=int(samples),
-                         fps=fps, workers=workers, look=look)
+    settings = _settings(
+        size,
+        mosaic_block,
+        face,
+        antialias=antialias,
+        samples=int(samples),
+        fps=fps,
+        workers=workers,
+        look=look,
+    )
     track = load_track(track_path)
     with _progress_bar("render single") as progress:
-        path = render_single(track, audio, out, settings=settings, cache_dir=cache_dir,
-                             progress=progress)
+        path = render_single(
+            track, audio, out, settings=settings, cache_dir=cache_dir, progress=progress
+        )
     click.echo(f"{path}: {size}x{size}, {track.n_frames} frames")
 
 
 @render.command("still")
 @click.option("--track", "track_path", required=True, type=_track, help="Motion track.")
-@click.option("--right", "right_path", type=_track, default=None,
-              help="Second track: a side-by-side still (track left, this right).")
+@click.option(
+    "--right",
+    "right_path",
+    type=_track,
+    default=None,
+    help="Second track: a side-by-side still (track left, this right).",
+)
 @click.option("--frame", type=int, default=0, show_default=True, help="Frame index.")
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output .png.")
 @click.option("--no-mosaic", is_flag=True, help="Show the mouth.")
 @_common
-def still(track_path: str, right_path: str | None, frame: int, out: str, face: str | None,
-          size: int, mosaic_block: int, antialias: str, samples: str, look: str,
-          no_mosaic: bool) -> None:
+def still(
+    track_path: str,
+    right_path: str | None,
+    frame: int,
+    out: str,
+    face: str | None,
+    size: int,
+    mosaic_block: int,
+    antialias: str,
+    samples: str,
+    look: str,
+    no_mosaic: bool,
+) -> None:
     """PNG still of frame FRAME of TRACK."""
     from app.stimuli.io import load_track
     from renderer import render_still
 
-    settings = _settings(size, mosaic_block, face, antialias=antialias, samples=int(samples),
-                         look=look)
+    settings = _settings(
+        size, mosaic_block, face, antialias=antialias, samples=int(samples), look=look
+    )
     right = load_track(right_path) if right_path else None
-    path = render_still(load_track(track_path), frame, out, right=right, settings=settings,
-                        mosaic=not no_mosaic)
+    path = render_still(
+        load_track(track_path), frame, out, right=right, settings=settings, mosaic=not no_mosaic
+    )
     click.echo(str(path))

@@ -13,15 +13,21 @@ def stimuli() -> None:
 
 
 _greta_option = click.option(
-    "--greta", is_flag=True,
-    help="Write .fap files in Greta's dialect (69-value masks) instead of Xface's (68).")
+    "--greta",
+    is_flag=True,
+    help="Write .fap files in Greta's dialect (69-value masks) instead of Xface's (68).",
+)
 
 
 @stimuli.command("convert")
 @click.argument("source", type=click.Path(dir_okay=False))
 @click.argument("target", type=click.Path(dir_okay=False))
-@click.option("--fps", type=float, default=None,
-              help="Frame rate of a CSV source without a '# fps=' line; or resample to it.")
+@click.option(
+    "--fps",
+    type=float,
+    default=None,
+    help="Frame rate of a CSV source without a '# fps=' line; or resample to it.",
+)
 @_greta_option
 def convert(source: str, target: str, fps: float | None, greta: bool) -> None:
     """Convert a motion track between .fap and .csv (by extension), optionally resampling.
@@ -34,32 +40,48 @@ def convert(source: str, target: str, fps: float | None, greta: bool) -> None:
     if fps is not None and fps != track.fps:
         track = track.resample(fps)
     save_track(track, target, greta=greta)
-    click.echo(f"{target}: {track.n_frames} frames at {track.fps:g} fps, "
-               f"FAPs {', '.join(map(str, track.channels)) or 'none'}")
+    click.echo(
+        f"{target}: {track.n_frames} frames at {track.fps:g} fps, "
+        f"FAPs {', '.join(map(str, track.channels)) or 'none'}"
+    )
 
 
 def _speech_options(f):
     """Options shared by the commands that analyse speech."""
-    f = click.option("--fps", type=float, default=30.0, show_default=True,
-                     help="Video frame rate of the tracks.")(f)
-    f = click.option("--pitch-floor", type=float, default=None,
-                     help="Lowest F0 of the speaker, Hz [default: estimated from the "
-                          "recording in two passes, 0.75 x first quartile].")(f)
-    f = click.option("--pitch-ceiling", type=float, default=None,
-                     help="Highest F0 of the speaker, Hz [default: estimated, 1.5 x third "
-                          "quartile].")(f)
+    f = click.option(
+        "--fps", type=float, default=30.0, show_default=True, help="Video frame rate of the tracks."
+    )(f)
+    f = click.option(
+        "--pitch-floor",
+        type=float,
+        default=None,
+        help="Lowest F0 of the speaker, Hz [default: estimated from the "
+        "recording in two passes, 0.75 x first quartile].",
+    )(f)
+    f = click.option(
+        "--pitch-ceiling",
+        type=float,
+        default=None,
+        help="Highest F0 of the speaker, Hz [default: estimated, 1.5 x third quartile].",
+    )(f)
     return f
 
 
 @stimuli.command("reference")
-@click.option("--audio", required=True, type=click.Path(dir_okay=False),
-              help="Speech recording (WAV or FLAC).")
-@click.option("--out", required=True, type=click.Path(dir_okay=False),
-              help="Track to write (.fap or .csv).")
+@click.option(
+    "--audio",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Speech recording (WAV or FLAC).",
+)
+@click.option(
+    "--out", required=True, type=click.Path(dir_okay=False), help="Track to write (.fap or .csv)."
+)
 @click.option("--seed", type=int, default=0, show_default=True)
 @_speech_options
-def reference(audio: str, out: str, seed: int, fps: float, pitch_floor: float,
-              pitch_ceiling: float) -> None:
+def reference(
+    audio: str, out: str, seed: int, fps: float, pitch_floor: float, pitch_ceiling: float
+) -> None:
     """Write the SYNTHETIC reference speaker's motion for a recording (a ground-truth stand-in)."""
     from app.stimuli.io import save_track
     from app.stimuli.reference_speaker import synthesize_reference
@@ -68,23 +90,47 @@ def reference(audio: str, out: str, seed: int, fps: float, pitch_floor: float,
     feats = extract_features(audio, fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling)
     track = synthesize_reference(feats, seed=seed)
     save_track(track, out)
-    click.echo(f"{out}: {track.n_frames} frames at {track.fps:g} fps of the SYNTHETIC "
-               f"reference speaker (seed {seed}); not a recording")
+    click.echo(
+        f"{out}: {track.n_frames} frames at {track.fps:g} fps of the SYNTHETIC "
+        f"reference speaker (seed {seed}); not a recording"
+    )
 
 
 @stimuli.command("fit-head-model")
 @click.option("--audio", required=True, type=click.Path(dir_okay=False))
-@click.option("--ground-truth", "ground_truth", required=True, type=click.Path(dir_okay=False),
-              help="Head motion to learn from (.fap or .csv).")
-@click.option("--out", required=True, type=click.Path(dir_okay=False),
-              help="Model file to write (JSON).")
-@click.option("--ridge", type=float, default=0.0, show_default=True,
-              help="Ridge penalty, relative to the regressors' energy.")
-@click.option("--label", default=None,
-              help="What the model was fitted on, kept in the model file and shown in summaries.")
+@click.option(
+    "--ground-truth",
+    "ground_truth",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Head motion to learn from (.fap or .csv).",
+)
+@click.option(
+    "--out", required=True, type=click.Path(dir_okay=False), help="Model file to write (JSON)."
+)
+@click.option(
+    "--ridge",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Ridge penalty, relative to the regressors' energy.",
+)
+@click.option(
+    "--label",
+    default=None,
+    help="What the model was fitted on, kept in the model file and shown in summaries.",
+)
 @_speech_options
-def fit_head_model(audio: str, ground_truth: str, out: str, ridge: float, label: str | None,
-                   fps: float, pitch_floor: float, pitch_ceiling: float) -> None:
+def fit_head_model(
+    audio: str,
+    ground_truth: str,
+    out: str,
+    ridge: float,
+    label: str | None,
+    fps: float,
+    pitch_floor: float,
+    pitch_ceiling: float,
+) -> None:
     """Fit the speech-driven head ARX model (na=4, nb=4, nk=1) and save it as JSON.
 
     This is how app/data/models/head_arx_default.json is made from the demo data.
@@ -99,53 +145,112 @@ def fit_head_model(audio: str, ground_truth: str, out: str, ridge: float, label:
     model = HeadPoseArx.fit(feats, align_to_features(gt, feats), ridge=ridge)
     synthetic = "synthetic" in gt.source.lower()
     model.provenance.update(
-        fitted_on=label or (f"{Path(audio).name} with {Path(ground_truth).name}"
-                            + (" (synthetic reference speaker)" if synthetic else "")),
-        audio=Path(audio).name, ground_truth=Path(ground_truth).name,
-        ridge=ridge, fps=fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling)
+        fitted_on=label
+        or (
+            f"{Path(audio).name} with {Path(ground_truth).name}"
+            + (" (synthetic reference speaker)" if synthetic else "")
+        ),
+        audio=Path(audio).name,
+        ground_truth=Path(ground_truth).name,
+        ridge=ridge,
+        fps=fps,
+        pitch_floor=pitch_floor,
+        pitch_ceiling=pitch_ceiling,
+    )
     model.save(out)
     info = model.arx.info
-    click.echo(f"{out}: head ARX model from {feats.n_frames} frames; spectral radius "
-               f"{info['spectral_radius']:.3f}; free-run RMSE (AU) "
-               + ", ".join(f"{v:.0f}" for v in info["free_run_rmse"]))
+    click.echo(
+        f"{out}: head ARX model from {feats.n_frames} frames; spectral radius "
+        f"{info['spectral_radius']:.3f}; free-run RMSE (AU) "
+        + ", ".join(f"{v:.0f}" for v in info["free_run_rmse"])
+    )
 
 
 @stimuli.command("generate")
-@click.option("--audio", required=True, type=click.Path(dir_okay=False),
-              help="Speech recording (WAV or FLAC).")
-@click.option("--ground-truth", "ground_truth", type=click.Path(dir_okay=False), default=None,
-              help="Captured motion (.fap or .csv), aligned and resampled to the audio.")
-@click.option("--conditions", default=None,
-              help="Comma-separated condition names [default: none,random,speech_driven and, "
-                   "with --ground-truth, ground_truth].")
-@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
-              help="Folder for <condition>.fap, summary.json and summary.png.")
-@click.option("--normalize", is_flag=True,
-              help="Scale and offset every condition's head angles (FAP 48-50) to the ground "
-                   "truth's mean and sd; eyebrows keep their own (thesis sec. 5.3, "
-                   "experiment 2).")
-@click.option("--eyes", type=click.Choice(["still", "ground_truth", "generated"]),
-              default="still", show_default=True,
-              help="Gaze and eyelids of every condition alike: still, the ground truth's, or "
-                   "generated by the live model.")
+@click.option(
+    "--audio",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Speech recording (WAV or FLAC).",
+)
+@click.option(
+    "--ground-truth",
+    "ground_truth",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Captured motion (.fap or .csv), aligned and resampled to the audio.",
+)
+@click.option(
+    "--conditions",
+    default=None,
+    help="Comma-separated condition names [default: none,random,speech_driven and, "
+    "with --ground-truth, ground_truth].",
+)
+@click.option(
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Folder for <condition>.fap, summary.json and summary.png.",
+)
+@click.option(
+    "--normalize",
+    is_flag=True,
+    help="Scale and offset every condition's head angles (FAP 48-50) to the ground "
+    "truth's mean and sd; eyebrows keep their own (thesis sec. 5.3, "
+    "experiment 2).",
+)
+@click.option(
+    "--eyes",
+    type=click.Choice(["still", "ground_truth", "generated"]),
+    default="still",
+    show_default=True,
+    help="Gaze and eyelids of every condition alike: still, the ground truth's, or "
+    "generated by the live model.",
+)
 @click.option("--seed", type=int, default=0, show_default=True)
-@click.option("--f0-threshold", default="auto", show_default=True,
-              help="Eyebrow rule F0 threshold in Hz (the thesis: 207), or 'auto' (75th "
-                   "percentile of the speaker's voiced F0).")
-@click.option("--intensity-threshold", default="auto", show_default=True,
-              help="Eyebrow release threshold in dB (the thesis: 45), or 'auto' (20 dB below "
-                   "the speech level of this recording).")
-@click.option("--model", "models", multiple=True, metavar="CONDITION=PATH",
-              help="A fitted model file for one condition (head ARX JSON for speech_driven, "
-                   ".npz for live_gmm), used instead of fitting; repeat per condition.")
-@click.option("--plot/--no-plot", default=True, show_default=True,
-              help="Also draw summary.png.")
+@click.option(
+    "--f0-threshold",
+    default="auto",
+    show_default=True,
+    help="Eyebrow rule F0 threshold in Hz (the thesis: 207), or 'auto' (75th "
+    "percentile of the speaker's voiced F0).",
+)
+@click.option(
+    "--intensity-threshold",
+    default="auto",
+    show_default=True,
+    help="Eyebrow release threshold in dB (the thesis: 45), or 'auto' (20 dB below "
+    "the speech level of this recording).",
+)
+@click.option(
+    "--model",
+    "models",
+    multiple=True,
+    metavar="CONDITION=PATH",
+    help="A fitted model file for one condition (head ARX JSON for speech_driven, "
+    ".npz for live_gmm), used instead of fitting; repeat per condition.",
+)
+@click.option("--plot/--no-plot", default=True, show_default=True, help="Also draw summary.png.")
 @_greta_option
 @_speech_options
-def generate(audio: str, ground_truth: str | None, conditions: str | None, out_dir: str,
-             normalize: bool, eyes: str, seed: int, f0_threshold: str,
-             intensity_threshold: str, models: tuple[str, ...], plot: bool, greta: bool,
-             fps: float, pitch_floor: float | None, pitch_ceiling: float | None) -> None:
+def generate(
+    audio: str,
+    ground_truth: str | None,
+    conditions: str | None,
+    out_dir: str,
+    normalize: bool,
+    eyes: str,
+    seed: int,
+    f0_threshold: str,
+    intensity_threshold: str,
+    models: tuple[str, ...],
+    plot: bool,
+    greta: bool,
+    fps: float,
+    pitch_floor: float | None,
+    pitch_ceiling: float | None,
+) -> None:
     """Generate the motion track of each condition for a recording, with objective measures.
 
     Demo: facepair stimuli generate --audio app/data/demo/speech.wav
@@ -170,8 +275,9 @@ def generate(audio: str, ground_truth: str | None, conditions: str | None, out_d
 
     def progress(done: int, total: int) -> None:
         if not bars:
-            bars.append(tqdm(total=total, desc="stimuli", unit="step", file=sys.stderr,
-                             leave=False))
+            bars.append(
+                tqdm(total=total, desc="stimuli", unit="step", file=sys.stderr, leave=False)
+            )
         bars[0].update(done - bars[0].n)
 
     from app.stimuli.generate import parse_conditions
@@ -180,48 +286,95 @@ def generate(audio: str, ground_truth: str | None, conditions: str | None, out_d
     sd_params = {"f0_threshold": f0_threshold, "intensity_threshold": intensity_threshold}
     try:
         result = generate_conditions(
-            audio, conditions=requests, ground_truth=ground_truth, fps=fps, seed=seed,
-            normalize=normalize, eyes=eyes, models=model_files, progress=progress,
-            pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling,
-            condition_params={n: sd_params for n, (m, _) in requests.items()
-                              if m == "speech_driven"})
+            audio,
+            conditions=requests,
+            ground_truth=ground_truth,
+            fps=fps,
+            seed=seed,
+            normalize=normalize,
+            eyes=eyes,
+            models=model_files,
+            progress=progress,
+            pitch_floor=pitch_floor,
+            pitch_ceiling=pitch_ceiling,
+            condition_params={
+                n: sd_params for n, (m, _) in requests.items() if m == "speech_driven"
+            },
+        )
         written = write_outputs(result, out_dir, plot=plot, greta=greta)
     finally:
         for bar in bars:
             bar.close()
     feats = result.features
-    click.echo(f"{audio}: {feats.n_frames} frames at {feats.fps:g} fps, "
-               f"{feats.voiced.mean():.0%} voiced")
+    click.echo(
+        f"{audio}: {feats.n_frames} frames at {feats.fps:g} fps, {feats.voiced.mean():.0%} voiced"
+    )
     for path in written:
         click.echo(f"  wrote {path}")
     for note in result.summary["notes"]:
         click.echo(f"  note: {note}")
 
+
 # -- live head-and-eye model (app/stimuli/live) --------------------------------------------------
 
+
 @stimuli.command("train-live")
-@click.option("--audio", "audio", multiple=True, required=True,
-              type=click.Path(dir_okay=False),
-              help="Speech recording (.wav); repeat the option for several takes.")
-@click.option("--ground-truth", "ground_truth", multiple=True, type=click.Path(dir_okay=False),
-              help="Motion of each --audio take (.fap or .csv), in the same order: head 48-50 "
-                   "required, gaze 23-26 and eyelids 19-22 used when present.")
-@click.option("--reference", is_flag=True,
-              help="Instead of --ground-truth: the synthetic reference speaker's motion for "
-                   "each take (app.stimuli.reference_speaker).")
+@click.option(
+    "--audio",
+    "audio",
+    multiple=True,
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Speech recording (.wav); repeat the option for several takes.",
+)
+@click.option(
+    "--ground-truth",
+    "ground_truth",
+    multiple=True,
+    type=click.Path(dir_okay=False),
+    help="Motion of each --audio take (.fap or .csv), in the same order: head 48-50 "
+    "required, gaze 23-26 and eyelids 19-22 used when present.",
+)
+@click.option(
+    "--reference",
+    is_flag=True,
+    help="Instead of --ground-truth: the synthetic reference speaker's motion for "
+    "each take (app.stimuli.reference_speaker).",
+)
 @click.option("--reference-seed", type=int, default=0, show_default=True)
-@click.option("--repeat", type=click.IntRange(min=1), default=1, show_default=True,
-              help="With --reference: play each audio file N times in a row as one take "
-                   "(more motion, blinks and gaze shifts to learn from a short file).")
-@click.option("--out", required=True, type=click.Path(dir_okay=False),
-              help="Model file to write (.npz).")
+@click.option(
+    "--repeat",
+    type=click.IntRange(min=1),
+    default=1,
+    show_default=True,
+    help="With --reference: play each audio file N times in a row as one take "
+    "(more motion, blinks and gaze shifts to learn from a short file).",
+)
+@click.option(
+    "--out", required=True, type=click.Path(dir_okay=False), help="Model file to write (.npz)."
+)
 @_speech_options
-@click.option("--components", type=click.IntRange(min=1), default=10, show_default=True,
-              help="Gaussian components per mixture (sec. 5.1).")
+@click.option(
+    "--components",
+    type=click.IntRange(min=1),
+    default=10,
+    show_default=True,
+    help="Gaussian components per mixture (sec. 5.1).",
+)
 @click.option("--seed", type=int, default=0, show_default=True, help="EM initialisation seed.")
-def train_live(audio: tuple[str, ...], ground_truth: tuple[str, ...], reference: bool,
-               reference_seed: int, repeat: int, out: str, fps: float, pitch_floor: float,
-               pitch_ceiling: float, components: int, seed: int) -> None:
+def train_live(
+    audio: tuple[str, ...],
+    ground_truth: tuple[str, ...],
+    reference: bool,
+    reference_seed: int,
+    repeat: int,
+    out: str,
+    fps: float,
+    pitch_floor: float,
+    pitch_ceiling: float,
+    components: int,
+    seed: int,
+) -> None:
     """Train the live speech-driven head-and-eye model (Le, Ma & Deng 2012) and save it."""
     import sys
 
@@ -234,24 +387,31 @@ def train_live(audio: tuple[str, ...], ground_truth: tuple[str, ...], reference:
     from app.stimuli.speech import SpeechFeatures, extract_features
 
     if reference and ground_truth:
-        raise InputError("give either --ground-truth or --reference, not both",
-                         field="--reference")
+        raise InputError("give either --ground-truth or --reference, not both", field="--reference")
     if not reference and len(ground_truth) != len(audio):
-        raise InputError(f"give one --ground-truth per --audio ({len(audio)} audio, "
-                         f"{len(ground_truth)} ground truth), or --reference",
-                         field="--ground-truth")
+        raise InputError(
+            f"give one --ground-truth per --audio ({len(audio)} audio, "
+            f"{len(ground_truth)} ground truth), or --reference",
+            field="--ground-truth",
+        )
     if repeat > 1 and not reference:
-        raise InputError("--repeat needs --reference (a recorded ground truth does not repeat)",
-                         field="--repeat")
+        raise InputError(
+            "--repeat needs --reference (a recorded ground truth does not repeat)", field="--repeat"
+        )
     feats, truths = [], []
-    with tqdm(total=len(audio) + 12, desc="train-live", unit="step", file=sys.stderr,
-              disable=None) as bar:
+    with tqdm(
+        total=len(audio) + 12, desc="train-live", unit="step", file=sys.stderr, disable=None
+    ) as bar:
         for i, path in enumerate(audio):
             f = extract_features(path, fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling)
             if repeat > 1:
-                f = SpeechFeatures(f.fps, np.tile(f.f0, repeat), np.tile(f.intensity, repeat),
-                                   np.tile(f.f0_conditioned, repeat),
-                                   {**f.metadata, "repeated": repeat})
+                f = SpeechFeatures(
+                    f.fps,
+                    np.tile(f.f0, repeat),
+                    np.tile(f.intensity, repeat),
+                    np.tile(f.f0_conditioned, repeat),
+                    {**f.metadata, "repeated": repeat},
+                )
             feats.append(f)
             if reference:
                 from app.stimuli.reference_speaker import synthesize_reference
@@ -260,38 +420,81 @@ def train_live(audio: tuple[str, ...], ground_truth: tuple[str, ...], reference:
             else:
                 truths.append(load_track(ground_truth[i]))
             bar.update()
-        model = train_live_model(feats, truths, n_components=components, seed=seed,
-                                 progress=bar.update)
+        model = train_live_model(
+            feats, truths, n_components=components, seed=seed, progress=bar.update
+        )
     save_model(model, out)
     s = model.summary
-    click.echo(f"{out}: {s['takes']} take(s), {s['frames']} frames at {s['fps']:g} fps, "
-               f"{s['eyelids']['blinks']} blinks, gaze "
-               f"{'on' if s['gaze_enabled'] else 'off (no gaze in the ground truth)'}")
+    click.echo(
+        f"{out}: {s['takes']} take(s), {s['frames']} frames at {s['fps']:g} fps, "
+        f"{s['eyelids']['blinks']} blinks, gaze "
+        f"{'on' if s['gaze_enabled'] else 'off (no gaze in the ground truth)'}"
+    )
 
 
 @stimuli.command("evaluate")
-@click.option("--audio", "audio", multiple=True, type=click.Path(dir_okay=False),
-              help="A test recording; repeat for several (with --ground-truth in the same order).")
-@click.option("--ground-truth", "ground_truth", multiple=True, type=click.Path(dir_okay=False),
-              help="The captured motion of each --audio.")
-@click.option("--train-audio", multiple=True, type=click.Path(dir_okay=False),
-              help="A training recording (never measured); repeat for several.")
-@click.option("--train-ground-truth", multiple=True, type=click.Path(dir_okay=False),
-              help="The captured motion of each --train-audio.")
-@click.option("--split", type=float, default=None,
-              help="Without --train-*: train on this leading fraction of each recording and "
-                   "test on the rest (e.g. 0.5).")
-@click.option("--conditions", default="none,random,speech_driven,ground_truth",
-              show_default=True, help="Comma-separated condition names.")
-@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
-              help="Folder for evaluation.json and evaluation.png; a summary.json there gains "
-                   "an 'evaluation' section.")
+@click.option(
+    "--audio",
+    "audio",
+    multiple=True,
+    type=click.Path(dir_okay=False),
+    help="A test recording; repeat for several (with --ground-truth in the same order).",
+)
+@click.option(
+    "--ground-truth",
+    "ground_truth",
+    multiple=True,
+    type=click.Path(dir_okay=False),
+    help="The captured motion of each --audio.",
+)
+@click.option(
+    "--train-audio",
+    multiple=True,
+    type=click.Path(dir_okay=False),
+    help="A training recording (never measured); repeat for several.",
+)
+@click.option(
+    "--train-ground-truth",
+    multiple=True,
+    type=click.Path(dir_okay=False),
+    help="The captured motion of each --train-audio.",
+)
+@click.option(
+    "--split",
+    type=float,
+    default=None,
+    help="Without --train-*: train on this leading fraction of each recording and "
+    "test on the rest (e.g. 0.5).",
+)
+@click.option(
+    "--conditions",
+    default="none,random,speech_driven,ground_truth",
+    show_default=True,
+    help="Comma-separated condition names.",
+)
+@click.option(
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Folder for evaluation.json and evaluation.png; a summary.json there gains "
+    "an 'evaluation' section.",
+)
 @click.option("--seed", type=int, default=0, show_default=True)
 @_speech_options
-def evaluate(audio: tuple[str, ...], ground_truth: tuple[str, ...],
-             train_audio: tuple[str, ...], train_ground_truth: tuple[str, ...],
-             split: float | None, conditions: str, out_dir: str, seed: int, fps: float,
-             pitch_floor: float | None, pitch_ceiling: float | None) -> None:
+def evaluate(
+    audio: tuple[str, ...],
+    ground_truth: tuple[str, ...],
+    train_audio: tuple[str, ...],
+    train_ground_truth: tuple[str, ...],
+    split: float | None,
+    conditions: str,
+    out_dir: str,
+    seed: int,
+    fps: float,
+    pitch_floor: float | None,
+    pitch_ceiling: float | None,
+) -> None:
     """Measure every condition on held-out speech: coupling with F0 and intensity, correlation
     with the held-out ground truth, kinematics and jitter, against null baselines."""
     import json
@@ -303,16 +506,21 @@ def evaluate(audio: tuple[str, ...], ground_truth: tuple[str, ...],
     from app.stimuli.evaluate import evaluate_conditions, load_takes, plot_evaluation, split_take
     from app.stimuli.generate import _jsonable
 
-    for given, truths, flag in ((audio, ground_truth, "--ground-truth"),
-                                (train_audio, train_ground_truth, "--train-ground-truth")):
+    for given, truths, flag in (
+        (audio, ground_truth, "--ground-truth"),
+        (train_audio, train_ground_truth, "--train-ground-truth"),
+    ):
         if len(given) != len(truths):
-            raise InputError(f"give one {flag} per recording ({len(given)} audio, "
-                             f"{len(truths)} ground truth)", field=flag)
+            raise InputError(
+                f"give one {flag} per recording ({len(given)} audio, {len(truths)} ground truth)",
+                field=flag,
+            )
     if not audio:
         raise InputError("give at least one --audio with its --ground-truth", field="--audio")
     if bool(train_audio) == (split is not None):
-        raise InputError("give either --train-audio/--train-ground-truth or --split",
-                         field="--split")
+        raise InputError(
+            "give either --train-audio/--train-ground-truth or --split", field="--split"
+        )
     opts = dict(fps=fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling)
     test = load_takes(list(zip(audio, ground_truth, strict=True)), **opts)
     if split is not None:
@@ -320,11 +528,22 @@ def evaluate(audio: tuple[str, ...], ground_truth: tuple[str, ...],
         train, test = [h[0] for h in halves], [h[1] for h in halves]
     else:
         train = load_takes(list(zip(train_audio, train_ground_truth, strict=True)), **opts)
-    with tqdm(total=len(conditions.split(",")) + 2, desc="evaluate", unit="step",
-              file=sys.stderr, disable=None) as bar:
-        report = _jsonable(evaluate_conditions(
-            train, test, conditions=conditions, seed=seed,
-            progress=lambda done, total: bar.update(done - bar.n)))
+    with tqdm(
+        total=len(conditions.split(",")) + 2,
+        desc="evaluate",
+        unit="step",
+        file=sys.stderr,
+        disable=None,
+    ) as bar:
+        report = _jsonable(
+            evaluate_conditions(
+                train,
+                test,
+                conditions=conditions,
+                seed=seed,
+                progress=lambda done, total: bar.update(done - bar.n),
+            )
+        )
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     (out / "evaluation.json").write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
@@ -334,14 +553,18 @@ def evaluate(audio: tuple[str, ...], ground_truth: tuple[str, ...],
         data = json.loads(summary.read_text(encoding="utf-8"))
         data["evaluation"] = report
         summary.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
-    click.echo(f"trained on {report['train']['frames']} frames, tested on "
-               f"{report['test']['frames']}; wrote {out / 'evaluation.json'} and "
-               f"{out / 'evaluation.png'}")
+    click.echo(
+        f"trained on {report['train']['frames']} frames, tested on "
+        f"{report['test']['frames']}; wrote {out / 'evaluation.json'} and "
+        f"{out / 'evaluation.png'}"
+    )
     for name, row in report["conditions"].items():
         head, yaw = row["coupling"]["head"]["mean"], row["channels"]["49"]
-        click.echo(f"  {name:14s} head-speech CCA {_fmt(head)}  yaw r(truth) "
-                   f"{_fmt(yaw['r_truth']['mean'])}  yaw sd {_fmt(yaw['sd']['mean'], 0)} AU  "
-                   f">4 Hz {_fmt(yaw['power_above_4hz']['mean'])}")
+        click.echo(
+            f"  {name:14s} head-speech CCA {_fmt(head)}  yaw r(truth) "
+            f"{_fmt(yaw['r_truth']['mean'])}  yaw sd {_fmt(yaw['sd']['mean'], 0)} AU  "
+            f">4 Hz {_fmt(yaw['power_above_4hz']['mean'])}"
+        )
 
 
 def _fmt(x: float | None, digits: int = 2) -> str:

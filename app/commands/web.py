@@ -41,8 +41,11 @@ def _demo_app():  # type: ignore[no-untyped-def]
 
     probe = _offline_app()
     if probe.config["SQLALCHEMY_DATABASE_URI"] != embedded_database_uri(probe.instance_path):
-        raise InputError("the demo runs only on its embedded SQLite file (it creates the "
-                         "public demo login); unset DATABASE_URL", field="DATABASE_URL")
+        raise InputError(
+            "the demo runs only on its embedded SQLite file (it creates the "
+            "public demo login); unset DATABASE_URL",
+            field="DATABASE_URL",
+        )
     if os.environ.get("SECRET_KEY"):
         return _app()
     return _app(SECRET_KEY=stored_secret_key(Path(probe.instance_path)))
@@ -74,6 +77,7 @@ def _run_jobs(study_id: int, kinds: tuple[str, ...]) -> None:
             job = Job(study_id=study_id, kind=kind)
             session.add(job)
         with tqdm(desc=kind, unit="step", file=None, leave=True) as bar:
+
             def echo(done: int, total: int, bar: tqdm = bar) -> None:
                 bar.total = total
                 bar.n = done
@@ -102,15 +106,20 @@ def _run_jobs_apart(app, study_id: int, kinds: tuple[str, ...]) -> None:  # type
     gunicorn workers) must never hold a GL context, or the forked workers hang in it."""
     import multiprocessing
 
-    config = {"REQUIRE_SECRET_KEY": False, "SQLALCHEMY_DATABASE_URI":
-              app.config["SQLALCHEMY_DATABASE_URI"], "MEDIA_ROOT": app.config["MEDIA_ROOT"]}
+    config = {
+        "REQUIRE_SECRET_KEY": False,
+        "SQLALCHEMY_DATABASE_URI": app.config["SQLALCHEMY_DATABASE_URI"],
+        "MEDIA_ROOT": app.config["MEDIA_ROOT"],
+    }
     process = multiprocessing.get_context("spawn").Process(
-        target=_jobs_child, args=(study_id, kinds, config), name="facepair-demo-jobs")
+        target=_jobs_child, args=(study_id, kinds, config), name="facepair-demo-jobs"
+    )
     process.start()
     process.join()
     if process.exitcode != 0:
-        raise click.ClickException(f"{' and '.join(kinds)} of study {study_id} failed "
-                                   f"(exit code {process.exitcode})")
+        raise click.ClickException(
+            f"{' and '.join(kinds)} of study {study_id} failed (exit code {process.exitcode})"
+        )
 
 
 def _create_study(path: Path, owner_email: str) -> int:
@@ -123,8 +132,10 @@ def _create_study(path: Path, owner_email: str) -> int:
 
     owner = db.session.scalar(sa.select(User).where(User.email == owner_email.lower()))
     if owner is None:
-        raise InputError(f"no experimenter {owner_email!r} (add one with 'facepair "
-                         f"experimenter add')", field="--owner")
+        raise InputError(
+            f"no experimenter {owner_email!r} (add one with 'facepair experimenter add')",
+            field="--owner",
+        )
     spec = load_study_file(path)
     study = create_study(owner, spec, source_toml=path.read_text(encoding="utf-8"))
     db.session.commit()
@@ -133,8 +144,13 @@ def _create_study(path: Path, owner_email: str) -> int:
 
 def gunicorn_settings(host: str, port: int, workers: int) -> dict[str, object]:
     """How ``facepair serve`` runs gunicorn (the load benchmark's bare baseline runs the same)."""
-    return {"bind": f"{host}:{port}", "workers": workers, "threads": 4,
-            "worker_class": "gthread", "accesslog": "-"}
+    return {
+        "bind": f"{host}:{port}",
+        "workers": workers,
+        "threads": 4,
+        "worker_class": "gthread",
+        "accesslog": "-",
+    }
 
 
 def _serve(app, host: str, port: int, workers: int, dev: bool) -> None:  # type: ignore[no-untyped-def]
@@ -165,24 +181,33 @@ def serve(host: str, port: int, workers: int, dev: bool) -> None:
 
 
 @click.command()
-@click.option("--name", default=None,
-              help="The worker's name in RQ and on each clip it renders (default: random).")
+@click.option(
+    "--name",
+    default=None,
+    help="The worker's name in RQ and on each clip it renders (default: random).",
+)
 def worker(name: str | None) -> None:
     """Run an RQ worker for the background jobs (needs REDIS_URL); start one on each machine
     that should render (docs/web.md, "Render workers")."""
     app = _offline_app()
     url = app.config.get("REDIS_URL")
     if not url:
-        raise InputError("set REDIS_URL to run a worker (without it jobs run in the web "
-                         "process)", field="REDIS_URL")
+        raise InputError(
+            "set REDIS_URL to run a worker (without it jobs run in the web process)",
+            field="REDIS_URL",
+        )
     from redis import Redis
     from rq import Worker
 
     from app.jobs.tasks import rq_horse_killed
 
     with app.app_context():
-        Worker(["facepair"], connection=Redis.from_url(url), name=name,
-               work_horse_killed_handler=rq_horse_killed).work()
+        Worker(
+            ["facepair"],
+            connection=Redis.from_url(url),
+            name=name,
+            work_horse_killed_handler=rq_horse_killed,
+        ).work()
 
 
 @click.group()
@@ -242,8 +267,12 @@ def add(email: str, password: str) -> None:
 @click.command()
 @click.option("--host", default="127.0.0.1", show_default=True)
 @click.option("--port", default=5000, show_default=True, type=int)
-@click.option("--study-file", type=click.Path(dir_okay=False, path_type=Path),
-              default=data_path("examples", "study.toml"), show_default=True)
+@click.option(
+    "--study-file",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=data_path("examples", "study.toml"),
+    show_default=True,
+)
 @click.option("--no-serve", is_flag=True, help="Set everything up, print the URLs, exit.")
 def demo(host: str, port: int, study_file: Path, no_serve: bool) -> None:
     """Migrate the embedded database, create a demo experimenter and a ready, open demo study
@@ -262,8 +291,11 @@ def demo(host: str, port: int, study_file: Path, no_serve: bool) -> None:
         if user is None:
             user = create_user(DEMO_EMAIL, DEMO_PASSWORD)
             db.session.commit()
-        study = db.session.scalar(sa.select(Study).where(
-            Study.owner_id == user.id, Study.status == "open").order_by(Study.id.desc()))
+        study = db.session.scalar(
+            sa.select(Study)
+            .where(Study.owner_id == user.id, Study.status == "open")
+            .order_by(Study.id.desc())
+        )
         if study is None:
             click.echo(f"creating the demo study from {study_file} ...", err=True)
             study_id = _create_study(study_file, DEMO_EMAIL)
@@ -273,9 +305,11 @@ def demo(host: str, port: int, study_file: Path, no_serve: bool) -> None:
             db.session.commit()
         slug, study_id = study.slug, study.id  # type: ignore[union-attr]
     base = f"http://{host}:{port}"
-    click.echo(f"\n  participant:   {base}/s/{slug}\n"
-               f"  experimenter:  {base}/experimenter/studies/{study_id}\n"
-               f"  login:         {DEMO_EMAIL} / {DEMO_PASSWORD}\n")
+    click.echo(
+        f"\n  participant:   {base}/s/{slug}\n"
+        f"  experimenter:  {base}/experimenter/studies/{study_id}\n"
+        f"  login:         {DEMO_EMAIL} / {DEMO_PASSWORD}\n"
+    )
     if not no_serve:
         _serve(app, host, port, workers=1, dev=False)
 

@@ -62,5 +62,8 @@ def study_access(study: Study, user_id: int) -> str | None:
     """The access ``user_id`` has to ``study`` (one of :data:`ACCESS_LEVELS`), or None."""
     if study.owner_id == user_id:
         return "owner"
-    return db.session.scalar(sa.select(StudyShare.access).where(
-        StudyShare.study_id == study.id, StudyShare.user_id == user_id))
+    return db.session.scalar(
+        sa.select(StudyShare.access).where(
+            StudyShare.study_id == study.id, StudyShare.user_id == user_id
+        )
+    )

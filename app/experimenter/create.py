@@ -25,8 +25,14 @@ from app.extensions import db
 from app.storage import disk_full, disk_full_message
 
 #: How the form's parts read in an error, by the parser's field name.
-_FORM_FIELDS = {"name": "clip name", "audio": "audio", "ground_truth": "ground truth",
-                "model": "model", "settings": "settings", "tracks": "tracks"}
+_FORM_FIELDS = {
+    "name": "clip name",
+    "audio": "audio",
+    "ground_truth": "ground truth",
+    "model": "model",
+    "settings": "settings",
+    "tracks": "tracks",
+}
 
 
 def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
@@ -34,6 +40,7 @@ def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
 
     The files are in ``folder``'s ``audio``, ``ground_truth`` and ``tracks`` folders.
     """
+
     def names(field: str) -> list[str]:
         where = folder / field
         return sorted(p.name for p in where.iterdir()) if where.is_dir() else []
@@ -55,23 +62,33 @@ def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
         uploaded.setdefault(condition, {})[clip_name] = f"tracks/{name}"
     conditions += [{"name": c, "tracks": t} for c, t in uploaded.items()]
     data: dict[str, Any] = {
-        "title": form.title.data, "question": form.question.data,
-        "instructions": form.instructions.data or "", "consent": form.consent.data or "",
-        "design": form.design.data, "seed": form.seed.data or 0,
+        "title": form.title.data,
+        "question": form.question.data,
+        "instructions": form.instructions.data or "",
+        "consent": form.consent.data or "",
+        "design": form.design.data,
+        "seed": form.seed.data or 0,
         "target_participants": form.target_participants.data or 1,
         "completion_code": form.completion_code.data or "",
-        "undecided": {"allowed": bool(form.undecided_allowed.data),
-                      "label": form.undecided_label.data or "Undecided"},
+        "undecided": {
+            "allowed": bool(form.undecided_allowed.data),
+            "label": form.undecided_label.data or "Undecided",
+        },
         "replay": {"policy": form.replay.data},
         "catch": {"trials": form.catch_trials.data or 0, "kind": form.catch_kind.data},
-        "clips": clips, "conditions": conditions,
-        "eyes": form.eyes.data, "normalize": bool(form.normalize.data),
+        "clips": clips,
+        "conditions": conditions,
+        "eyes": form.eyes.data,
+        "normalize": bool(form.normalize.data),
         "mismatched": bool(form.mismatched.data),
-        "answer": {"scale": int(form.scale.data),
-                   "reasons": [t.strip() for t in (form.reasons.data or "").split(",")
-                               if t.strip()]},
-        "attention": {"max_failed": form.max_failed.data or 0,
-                      "screened_out_code": form.screened_out_code.data or ""},
+        "answer": {
+            "scale": int(form.scale.data),
+            "reasons": [t.strip() for t in (form.reasons.data or "").split(",") if t.strip()],
+        },
+        "attention": {
+            "max_failed": form.max_failed.data or 0,
+            "screened_out_code": form.screened_out_code.data or "",
+        },
         "viewing": {"min_face_px": form.min_face_px.data or 0},
     }
     if form.replay.data == "max_plays":
@@ -96,8 +113,11 @@ def form_error(exc: InputError, data: dict[str, Any]) -> InputError:
     kind, index, key, clip = found[1], int(found[2]), found[3], found[4]
     item = data[kind][index]
     if kind == "clips":
-        file = item["ground_truth"] if key == "ground_truth" and "ground_truth" in item \
+        file = (
+            item["ground_truth"]
+            if key == "ground_truth" and "ground_truth" in item
             else item["audio"]
+        )
         return InputError(exc.message, path=Path(file).name, field=_FORM_FIELDS.get(key, key))
     tracks = item.get("tracks", {})
     if clip in tracks:
@@ -192,5 +212,6 @@ def new_study():  # type: ignore[no-untyped-def]
 
 
 def _page(file_form: StudyFileForm, web_form: StudyWebForm, kept: dict[str, list[str]]) -> str:
-    return render_template("experimenter/new_study.html", file_form=file_form,
-                           web_form=web_form, kept=kept)
+    return render_template(
+        "experimenter/new_study.html", file_form=file_form, web_form=web_form, kept=kept
+    )

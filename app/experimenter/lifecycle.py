@@ -35,12 +35,18 @@ def pilot(token: str):  # type: ignore[no-untyped-def]
         study = db.session.scalar(sa.select(Study).where(Study.pilot_token == token))
     if study is None:
         abort(404)
-    unrendered = db.session.scalar(sa.select(sa.func.count(Stimulus.id)).where(
-        Stimulus.study_id == study.id, Stimulus.video_path.is_(None)))
+    unrendered = db.session.scalar(
+        sa.select(sa.func.count(Stimulus.id)).where(
+            Stimulus.study_id == study.id, Stimulus.video_path.is_(None)
+        )
+    )
     if study.status == "closed" or unrendered:
         why = "closed" if study.status == "closed" else "not rendered yet"
-        return render_template("participant/unavailable.html", study=study,
-                               reason=f"this pilot cannot run: the study is {why}"), 503
+        return render_template(
+            "participant/unavailable.html",
+            study=study,
+            reason=f"this pilot cannot run: the study is {why}",
+        ), 503
     participant = enrol(study, user_agent="pilot")
     participant.pilot = True
     db.session.commit()
@@ -113,8 +119,9 @@ def share(study_id: int):  # type: ignore[no-untyped-def]
     if user is None or user.id == study.owner_id:
         flash(f"Not shared: no other experimenter has the account {email!r}.", "error")
         return redirect(url_for(".study", study_id=study.id))
-    existing = db.session.scalar(sa.select(StudyShare).where(
-        StudyShare.study_id == study.id, StudyShare.user_id == user.id))
+    existing = db.session.scalar(
+        sa.select(StudyShare).where(StudyShare.study_id == study.id, StudyShare.user_id == user.id)
+    )
     if existing is None:
         db.session.add(StudyShare(study_id=study.id, user_id=user.id, access=form.access.data))
     else:
@@ -137,5 +144,8 @@ def unshare(study_id: int, share_id: int):  # type: ignore[no-untyped-def]
 
 
 def shares_of(study: Study) -> list[StudyShare]:
-    return list(db.session.scalars(sa.select(StudyShare).where(StudyShare.study_id == study.id)
-                                   .order_by(StudyShare.id)))
+    return list(
+        db.session.scalars(
+            sa.select(StudyShare).where(StudyShare.study_id == study.id).order_by(StudyShare.id)
+        )
+    )

@@ -25,12 +25,18 @@ def participant_table(study: Study) -> dict[str, Any]:
     may_reveal = access in ("full", "owner")
     reveal = may_reveal and request.args.get("reveal") == "1"
     rows = participant_rows(study, dropped_after=dropped_after())
-    shown = {row.id: (row.prolific_pid if reveal else pseudonym(study.pseudonym_key,
-                                                                row.prolific_pid))
-             for row in rows}
-    return {"participants": rows, "prolific_shown": shown, "reveal": reveal,
-            "may_reveal": may_reveal, "exclude_form": ExcludeForm(),
-            "auto_rules": [AUTO_RULES[rule] for rule in auto_rules(study)]}
+    shown = {
+        row.id: (row.prolific_pid if reveal else pseudonym(study.pseudonym_key, row.prolific_pid))
+        for row in rows
+    }
+    return {
+        "participants": rows,
+        "prolific_shown": shown,
+        "reveal": reveal,
+        "may_reveal": may_reveal,
+        "exclude_form": ExcludeForm(),
+        "auto_rules": [AUTO_RULES[rule] for rule in auto_rules(study)],
+    }
 
 
 @bp.post("/studies/<int:study_id>/participants/exclude")
@@ -50,8 +56,11 @@ def exclude_participant(study_id: int):  # type: ignore[no-untyped-def]
     number = (form.participant.data or "").strip().upper().removeprefix("P")
     person = None
     if number.isdigit() and len(number) <= 12:
-        person = db.session.scalar(sa.select(Participant).where(
-            Participant.study_id == study.id, Participant.number == int(number)))
+        person = db.session.scalar(
+            sa.select(Participant).where(
+                Participant.study_id == study.id, Participant.number == int(number)
+            )
+        )
     if person is None:
         flash("Nobody excluded: no participant of this study has that label.", "error")
         return back
@@ -79,6 +88,10 @@ def export_answers(study_id: int):  # type: ignore[no-untyped-def]
     study = _own_study(study_id)
     pilot = request.args.get("pilot") == "only"
     name = (secure_filename(study.title) or f"study-{study.id}") + (
-        "-pilot-answers" if pilot else "-answers")
-    return Response(answers_csv(study, pilot=pilot), mimetype="text/csv",
-                    headers={"Content-Disposition": f'attachment; filename="{name}.csv"'})
+        "-pilot-answers" if pilot else "-answers"
+    )
+    return Response(
+        answers_csv(study, pilot=pilot),
+        mimetype="text/csv",
+        headers={"Content-Disposition": f'attachment; filename="{name}.csv"'},
+    )

@@ -99,5 +99,8 @@ def kept_names(folder: Path) -> dict[str, list[str]]:
     """File names per form field in ``folder`` (what the page lists as kept)."""
     if not folder.is_dir():
         return {}
-    return {field.name: sorted(p.name for p in field.iterdir() if p.is_file())
-            for field in sorted(folder.iterdir()) if field.is_dir()}
+    return {
+        field.name: sorted(p.name for p in field.iterdir() if p.is_file())
+        for field in sorted(folder.iterdir())
+        if field.is_dir()
+    }

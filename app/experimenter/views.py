@@ -80,10 +80,20 @@ def _login_failed(response: Response) -> bool:
 
 
 @bp.route("/login", methods=["GET", "POST"])
-@limiter.limit(_account_limits, key_func=_login_account, methods=["POST"],
-               deduct_when=_login_failed, scope="login-account")
-@limiter.limit(_address_limits, key_func=_login_address, methods=["POST"],
-               deduct_when=_login_failed, scope="login-address")
+@limiter.limit(
+    _account_limits,
+    key_func=_login_account,
+    methods=["POST"],
+    deduct_when=_login_failed,
+    scope="login-account",
+)
+@limiter.limit(
+    _address_limits,
+    key_func=_login_address,
+    methods=["POST"],
+    deduct_when=_login_failed,
+    scope="login-address",
+)
 def login():  # type: ignore[no-untyped-def]
     form = LoginForm()
     if form.validate_on_submit():
@@ -111,9 +121,11 @@ def studies():  # type: ignore[no-untyped-def]
     from app.models import StudyShare
 
     shared = sa.select(StudyShare.study_id).where(StudyShare.user_id == user.id)  # type: ignore[union-attr]
-    rows = db.session.scalars(sa.select(Study).where(sa.or_(
-        Study.owner_id == user.id, Study.id.in_(shared)))  # type: ignore[union-attr]
-        .order_by(Study.created_at.desc())).all()
+    rows = db.session.scalars(
+        sa.select(Study)
+        .where(sa.or_(Study.owner_id == user.id, Study.id.in_(shared)))  # type: ignore[union-attr]
+        .order_by(Study.created_at.desc())
+    ).all()
     return render_template("experimenter/studies.html", studies=rows, action=ActionForm())
 
 
@@ -131,8 +143,11 @@ def _start(study: Study, kind: str) -> None:
     except EnqueueError as exc:
         db.session.delete(job)
         db.session.commit()
-        flash(f"The {kind} job could not be started: {exc}. Nothing was queued; try again "
-              "once the job queue is back.", "error")
+        flash(
+            f"The {kind} job could not be started: {exc}. Nothing was queued; try again "
+            "once the job queue is back.",
+            "error",
+        )
 
 
 @bp.get("/studies/<int:study_id>")
@@ -140,14 +155,23 @@ def _start(study: Study, kind: str) -> None:
 def study(study_id: int):  # type: ignore[no-untyped-def]
     study = _own_study(study_id)
     sweep_study_jobs(study.id)  # so the page never shows a dead job running
-    jobs = db.session.scalars(sa.select(Job).where(Job.study_id == study.id)
-                              .order_by(Job.id.desc()).limit(10)).all()
-    stimuli = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id)
-                                 .order_by(Stimulus.id)).all()
+    jobs = db.session.scalars(
+        sa.select(Job).where(Job.study_id == study.id).order_by(Job.id.desc()).limit(10)
+    ).all()
+    stimuli = db.session.scalars(
+        sa.select(Stimulus).where(Stimulus.study_id == study.id).order_by(Stimulus.id)
+    ).all()
     link = url_for("participant.start", slug=study.slug, _external=True)
-    return render_template("experimenter/study.html", study=study, jobs=jobs, stimuli=stimuli,
-                           link=link, action=ActionForm(), forget=DeleteParticipantForm(),
-                           **_study_extras(study, link))
+    return render_template(
+        "experimenter/study.html",
+        study=study,
+        jobs=jobs,
+        stimuli=stimuli,
+        link=link,
+        action=ActionForm(),
+        forget=DeleteParticipantForm(),
+        **_study_extras(study, link),
+    )
 
 
 def _study_extras(study: Study, link: str) -> dict[str, object]:
@@ -159,11 +183,15 @@ def _study_extras(study: Study, link: str) -> dict[str, object]:
 
     access = study_access(study, current_user().id)  # type: ignore[union-attr]
     return {
-        "access": access, "locked": stimuli_locked(study),
+        "access": access,
+        "locked": stimuli_locked(study),
         "pilot_link": url_for(".pilot", token=study.pilot_token, _external=True),
-        "prolific_url": prolific_study_url(link), "completion_url": completion_url(study),
-        "confirm": ConfirmForm(), "duplicate_form": DuplicateForm(),
-        "delete_form": DeleteStudyForm(), "share_form": ShareForm(),
+        "prolific_url": prolific_study_url(link),
+        "completion_url": completion_url(study),
+        "confirm": ConfirmForm(),
+        "duplicate_form": DuplicateForm(),
+        "delete_form": DeleteStudyForm(),
+        "share_form": ShareForm(),
         "shares": shares_of(study) if access == "owner" else [],
     }
 
@@ -209,8 +237,10 @@ def change_status(study_id: int, action: str):  # type: ignore[no-untyped-def]
         abort(400)
     if action == "reopen":  # only with its confirmation (``lifecycle.reopen``)
         abort(400)
-    if action == "open" and any(s.video_path is None for s in db.session.scalars(
-            sa.select(Stimulus).where(Stimulus.study_id == study.id))):
+    if action == "open" and any(
+        s.video_path is None
+        for s in db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id))
+    ):
         flash("Render the clips before opening recruitment.", "error")
         return redirect(url_for(".study", study_id=study.id))
     try:
@@ -240,8 +270,9 @@ def monitor(study_id: int):  # type: ignore[no-untyped-def]
     stats = study_monitor(study, dropped_after=dropped_after())
     from app.experimenter.participants import participant_table
 
-    return render_template("experimenter/monitor.html", study=study, stats=stats,
-                           **participant_table(study))
+    return render_template(
+        "experimenter/monitor.html", study=study, stats=stats, **participant_table(study)
+    )
 
 
 @bp.get("/studies/<int:study_id>/votes.csv")
@@ -254,9 +285,13 @@ def export_votes(study_id: int):  # type: ignore[no-untyped-def]
     if pilot not in ("without", "with", "only"):
         pilot = "without"
     name = (secure_filename(study.title) or f"study-{study.id}") + (
-        "" if pilot == "without" else f"-{pilot}-pilot")
-    return Response(votes_csv(study, pilot=pilot), mimetype="text/csv",
-                    headers={"Content-Disposition": f'attachment; filename="{name}-votes.csv"'})
+        "" if pilot == "without" else f"-{pilot}-pilot"
+    )
+    return Response(
+        votes_csv(study, pilot=pilot),
+        mimetype="text/csv",
+        headers={"Content-Disposition": f'attachment; filename="{name}-votes.csv"'},
+    )
 
 
 @bp.get("/studies/<int:study_id>/participants.csv")
@@ -268,10 +303,16 @@ def export_participants(study_id: int):  # type: ignore[no-untyped-def]
     study = _own_study(study_id, "owner" if request.args.get("ids") == "raw" else "read")
     raw = request.args.get("ids") == "raw"
     name = (secure_filename(study.title) or f"study-{study.id}") + (
-        "-participants-prolific-ids" if raw else "-participants")
-    return Response(participants_csv(study, raw_ids=raw), mimetype="text/csv",
-                    headers={"Content-Disposition": f'attachment; filename="{name}.csv"',
-                             "Cache-Control": "no-store"})
+        "-participants-prolific-ids" if raw else "-participants"
+    )
+    return Response(
+        participants_csv(study, raw_ids=raw),
+        mimetype="text/csv",
+        headers={
+            "Content-Disposition": f'attachment; filename="{name}.csv"',
+            "Cache-Control": "no-store",
+        },
+    )
 
 
 @bp.post("/studies/<int:study_id>/participants/delete")
@@ -288,12 +329,18 @@ def delete_participant(study_id: int):  # type: ignore[no-untyped-def]
         return redirect(url_for(".study", study_id=study.id))
     deleted = delete_participants(study, form.participant.data or "")
     if not deleted.labels:
-        flash("Nothing deleted: no participant of this study has that label, Prolific ID or "
-              "pseudonym.", "error")
+        flash(
+            "Nothing deleted: no participant of this study has that label, Prolific ID or "
+            "pseudonym.",
+            "error",
+        )
         return redirect(url_for(".study", study_id=study.id))
     db.session.commit()
-    flash(f"Deleted {', '.join(deleted.labels)}: {deleted.votes} votes, their schedule and "
-          "their Prolific IDs.", "ok")
+    flash(
+        f"Deleted {', '.join(deleted.labels)}: {deleted.votes} votes, their schedule and "
+        "their Prolific IDs.",
+        "ok",
+    )
     if study.status == "closed":  # the old report counted their votes
         _start(study, "report")
     return redirect(url_for(".study", study_id=study.id))
@@ -317,10 +364,10 @@ def report(study_id: int, name: str = "report.html"):  # type: ignore[no-untyped
     if not path.is_file() and not in_bucket:
         if name != "report.html":
             abort(404)
-        return render_template("experimenter/no_report.html", study=study,
-                               action=ActionForm()), 404
-    return media_response(study, rel, headers={
-        "Content-Security-Policy": REPORT_CONTENT_SECURITY_POLICY})
+        return render_template("experimenter/no_report.html", study=study, action=ActionForm()), 404
+    return media_response(
+        study, rel, headers={"Content-Security-Policy": REPORT_CONTENT_SECURITY_POLICY}
+    )
 
 
 @bp.get("/studies/<int:study_id>/stimuli/<int:stimulus_id>.mp4")

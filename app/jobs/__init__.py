@@ -58,8 +58,9 @@ def _process_executor() -> ProcessPoolExecutor:
         if _local is None or getattr(_local, "_broken", False):
             # One worker: jobs of a study run in the order they were asked for. "spawn": a
             # fresh interpreter, never a fork holding the web process's state.
-            _local = ProcessPoolExecutor(max_workers=1,
-                                         mp_context=multiprocessing.get_context("spawn"))
+            _local = ProcessPoolExecutor(
+                max_workers=1, mp_context=multiprocessing.get_context("spawn")
+            )
         return _local
 
 
@@ -111,8 +112,10 @@ def beat_held() -> int:
             try:
                 with transaction() as session:
                     result = session.execute(
-                        sa.update(Job).where(Job.id.in_(held), Job.status == "queued")
-                        .values(heartbeat_at=utcnow()))
+                        sa.update(Job)
+                        .where(Job.id.in_(held), Job.status == "queued")
+                        .values(heartbeat_at=utcnow())
+                    )
                 renewed += int(result.rowcount or 0)
             except SQLAlchemyError:  # the database is away: the next beat tries again
                 log.warning("could not renew the heartbeat of queued jobs %s", held)
@@ -136,8 +139,9 @@ def _hold(app: Flask, job_id: int, future: Future[str]) -> None:
         _held[job_id] = (app, future)
         if _keeper is None or not _keeper.is_alive():
             interval = beat_interval(app.config.get("JOB_STALE_AFTER_SECONDS", 900))
-            _keeper = threading.Thread(target=_keep_held_alive, args=(interval,),
-                                       name="facepair-queued-jobs", daemon=True)
+            _keeper = threading.Thread(
+                target=_keep_held_alive, args=(interval,), name="facepair-queued-jobs", daemon=True
+            )
             _keeper.start()
 
 
@@ -150,12 +154,17 @@ def enqueue(app: Flask, job_id: int) -> Future[str] | None:
         from redis.exceptions import RedisError
         from rq import Callback, Queue
 
-        connection = Redis.from_url(app.config["REDIS_URL"], socket_connect_timeout=5,
-                                    socket_timeout=10)
+        connection = Redis.from_url(
+            app.config["REDIS_URL"], socket_connect_timeout=5, socket_timeout=10
+        )
         try:
             Queue(QUEUE, connection=connection).enqueue(
-                "app.jobs.tasks.run_job_standalone", job_id, job_id=rq_job_id(job_id),
-                job_timeout=JOB_TIMEOUT, on_failure=Callback("app.jobs.tasks.rq_failed"))
+                "app.jobs.tasks.run_job_standalone",
+                job_id,
+                job_id=rq_job_id(job_id),
+                job_timeout=JOB_TIMEOUT,
+                on_failure=Callback("app.jobs.tasks.rq_failed"),
+            )
         except RedisError as exc:
             raise EnqueueError(f"the job queue (REDIS_URL) is unreachable: {exc}") from None
         return None
@@ -167,8 +176,7 @@ def enqueue(app: Flask, job_id: int) -> Future[str] | None:
         return None
     from app.media import DEFAULTS as MEDIA_SETTINGS
 
-    config = {key: app.config[key] for key in (*CHILD_CONFIG, *MEDIA_SETTINGS)
-              if key in app.config}
+    config = {key: app.config[key] for key in (*CHILD_CONFIG, *MEDIA_SETTINGS) if key in app.config}
     future = _process_executor().submit(run_in_child, job_id, config)
     future.add_done_callback(functools.partial(_when_finished, app, job_id))
     _hold(app, job_id, future)

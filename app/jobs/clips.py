@@ -63,19 +63,39 @@ def split_render(study: Study, job_id: int, progress: Callable[[int, int], None]
     # studies' longer than JOB_STALE_AFTER_SECONDS, and the sweeper asks RQ about a queued
     # row (the closing job, deferred while clips are left) instead of its heartbeat.
     with transaction() as session:
-        session.execute(sa.update(Job).where(Job.id == job_id).values(
-            status="queued", message=f"{len(todo)} clips queued, one job each, for any worker"))
+        session.execute(
+            sa.update(Job)
+            .where(Job.id == job_id)
+            .values(
+                status="queued", message=f"{len(todo)} clips queued, one job each, for any worker"
+            )
+        )
     queue = Queue(QUEUE, connection=get_current_job().connection)  # type: ignore[union-attr]
     failed = Callback("app.jobs.tasks.rq_failed")
-    clips = queue.enqueue_many([Queue.prepare_data(
-        "app.jobs.clips.render_clip_standalone", (job_id, stimulus_id),
-        job_id=clip_job_id(job_id, stimulus_id), timeout=JOB_TIMEOUT, on_failure=failed,
-        result_ttl=JOB_TIMEOUT) for stimulus_id in todo])
+    clips = queue.enqueue_many(
+        [
+            Queue.prepare_data(
+                "app.jobs.clips.render_clip_standalone",
+                (job_id, stimulus_id),
+                job_id=clip_job_id(job_id, stimulus_id),
+                timeout=JOB_TIMEOUT,
+                on_failure=failed,
+                result_ttl=JOB_TIMEOUT,
+            )
+            for stimulus_id in todo
+        ]
+    )
     # allow_failure: the closing job runs after a failed clip too, and says what is missing.
-    queue.enqueue("app.jobs.clips.finish_render_standalone", job_id, len(stimuli) - len(todo),
-                  job_id=finish_job_id(job_id), job_timeout=600, on_failure=failed,
-                  depends_on=Dependency(jobs=clips, allow_failure=True),
-                  result_ttl=JOB_TIMEOUT)
+    queue.enqueue(
+        "app.jobs.clips.finish_render_standalone",
+        job_id,
+        len(stimuli) - len(todo),
+        job_id=finish_job_id(job_id),
+        job_timeout=600,
+        on_failure=failed,
+        depends_on=Dependency(jobs=clips, allow_failure=True),
+        result_ttl=JOB_TIMEOUT,
+    )
     return True
 
 
@@ -98,8 +118,11 @@ def _beat(job_id: int, every: float) -> Callable[[int, int], None]:
         last[0] = time.monotonic()
         try:
             with transaction() as session:
-                session.execute(sa.update(Job).where(Job.id == job_id, Job.status == "running")
-                                .values(heartbeat_at=utcnow()))
+                session.execute(
+                    sa.update(Job)
+                    .where(Job.id == job_id, Job.status == "running")
+                    .values(heartbeat_at=utcnow())
+                )
         except SQLAlchemyError:  # a database restart loses one beat, not the clip
             log.warning("job %s: heartbeat not recorded (database unreachable)", job_id)
 
@@ -124,8 +147,10 @@ def render_clip(job_id: int, stimulus_id: int) -> dict[str, Any]:
     outcome = {"stimulus": stimulus_id, "worker": worker, "rendered": False}
     with transaction() as session:
         started = session.execute(
-            sa.update(Job).where(Job.id == job_id, Job.status.in_(("queued", "running")))
-            .values(status="running", heartbeat_at=utcnow())).rowcount
+            sa.update(Job)
+            .where(Job.id == job_id, Job.status.in_(("queued", "running")))
+            .values(status="running", heartbeat_at=utcnow())
+        ).rowcount
     stim = db.session.get(Stimulus, stimulus_id)
     if started != 1 or stim is None:
         # The render failed or was given up meanwhile: its retry renders this clip.
@@ -140,9 +165,15 @@ def render_clip(job_id: int, stimulus_id: int) -> dict[str, Any]:
             render_stimulus(study, stim, tracks, _beat(job_id, every))  # type: ignore[arg-type]
             outcome["rendered"] = True
         with transaction() as session:
-            session.execute(sa.update(Job).where(Job.id == job_id, Job.status == "running")
-                            .values(done=Job.done + 1, heartbeat_at=utcnow(),
-                                    message=f"clip {label} rendered by {worker}"))
+            session.execute(
+                sa.update(Job)
+                .where(Job.id == job_id, Job.status == "running")
+                .values(
+                    done=Job.done + 1,
+                    heartbeat_at=utcnow(),
+                    message=f"clip {label} rendered by {worker}",
+                )
+            )
     except Exception as exc:  # noqa: BLE001 - every failure must reach the experimenter
         db.session.rollback()
         log.exception("job %s: clip %s failed", job_id, label)
@@ -166,18 +197,31 @@ def finish_render(job_id: int, kept: int) -> str:
     _, stimuli = render_inputs(study)
     missing = sum(not rendered(study, s) for s in stimuli)
     if missing:
-        mark_failed(job_id, f"{len(stimuli) - missing} of {len(stimuli)} clips rendered; "
-                            "retry it to render the rest")
+        mark_failed(
+            job_id,
+            f"{len(stimuli) - missing} of {len(stimuli)} clips rendered; "
+            "retry it to render the rest",
+        )
         return "failed"
     current = get_current_job()
-    workers = {(d.return_value() or {}).get("worker") for d in current.fetch_dependencies()
-               } if current is not None else set()
+    workers = (
+        {(d.return_value() or {}).get("worker") for d in current.fetch_dependencies()}
+        if current is not None
+        else set()
+    )
     message = rendering_finished(study, len(stimuli), kept, len(workers - {None}))
     with transaction() as session:
-        session.execute(sa.update(Job).where(
-            Job.id == job_id, Job.status.in_(("queued", "running"))).values(
-            status="done", message=message, finished_at=utcnow(), done=len(stimuli),
-            total=len(stimuli)))
+        session.execute(
+            sa.update(Job)
+            .where(Job.id == job_id, Job.status.in_(("queued", "running")))
+            .values(
+                status="done",
+                message=message,
+                finished_at=utcnow(),
+                done=len(stimuli),
+                total=len(stimuli),
+            )
+        )
     return "done"
 
 

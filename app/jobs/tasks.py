@@ -28,8 +28,13 @@ log = logging.getLogger(__name__)
 JOB_KINDS = ("generate", "render", "report")
 
 
-def _progress(job_id: int, *, min_interval: float = 0.5, beat_every: float = 30.0,
-              echo: Callable[[int, int], None] | None = None) -> Callable[[int, int], None]:
+def _progress(
+    job_id: int,
+    *,
+    min_interval: float = 0.5,
+    beat_every: float = 30.0,
+    echo: Callable[[int, int], None] | None = None,
+) -> Callable[[int, int], None]:
     """A ``progress(done, total)`` callback that writes the job row at most every
     ``min_interval`` seconds and passes each new value on to ``echo`` (e.g. a CLI progress
     bar). Called again with the same values (from inside a long step, such as every frame of
@@ -49,8 +54,11 @@ def _progress(job_id: int, *, min_interval: float = 0.5, beat_every: float = 30.
         state["written_at"] = now
         try:
             with transaction() as session:
-                session.execute(sa.update(Job).where(Job.id == job_id)
-                                .values(done=values[0], total=values[1], heartbeat_at=utcnow()))
+                session.execute(
+                    sa.update(Job)
+                    .where(Job.id == job_id)
+                    .values(done=values[0], total=values[1], heartbeat_at=utcnow())
+                )
         except SQLAlchemyError:
             # The database is briefly away (a restart): the work goes on, the next report
             # writes the row. Only an outage longer than the stale timeout fails the job.
@@ -84,23 +92,28 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
             result = generate_conditions(
                 media.fetch(study, clip.audio_path),
                 conditions={c.name: {"model": c.model, **c.params} for c in models},
-                ground_truth=(media.fetch(study, clip.ground_truth_path)
-                              if clip.ground_truth_path else None),
+                ground_truth=(
+                    media.fetch(study, clip.ground_truth_path) if clip.ground_truth_path else None
+                ),
                 seed=study.seed,
                 eyes=study.settings.get("eyes", "still"),
                 normalize=bool(study.settings.get("normalize", False)),
             )
             tracks.update(result.tracks)
-            notes += [f"clip {clip.name}: {n}" for n in result.summary["notes"]
-                      if n.startswith("ground truth imported")]
+            notes += [
+                f"clip {clip.name}: {n}"
+                for n in result.summary["notes"]
+                if n.startswith("ground truth imported")
+            ]
         for condition in study.conditions:
             rel = f"tracks/{clip.name}/{condition.name}.fap"
             (root / rel).parent.mkdir(parents=True, exist_ok=True)
             if condition.model == "upload":
                 source = condition.uploads.get(clip.name)
                 if source is None:
-                    raise ValueError(f"condition {condition.name}: no uploaded track for clip "
-                                     f"{clip.name}")
+                    raise ValueError(
+                        f"condition {condition.name}: no uploaded track for clip {clip.name}"
+                    )
                 save_track(load_track(media.fetch(study, source)), root / rel)
             else:
                 save_track(tracks[condition.name], root / rel)
@@ -113,8 +126,9 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
 
 
 def _upsert_track(condition_id: int, clip_id: int, rel: str) -> None:
-    track = db.session.scalar(sa.select(Track).where(Track.condition_id == condition_id,
-                                                     Track.clip_id == clip_id))
+    track = db.session.scalar(
+        sa.select(Track).where(Track.condition_id == condition_id, Track.clip_id == clip_id)
+    )
     if track is None:
         db.session.add(Track(condition_id=condition_id, clip_id=clip_id, path=rel))
     else:
@@ -124,17 +138,24 @@ def _upsert_track(condition_id: int, clip_id: int, rel: str) -> None:
 def render_inputs(study: Study) -> tuple[dict[tuple[int, int], str], list[Stimulus]]:
     """The study's track paths by (condition, clip) and its stimuli in order; raises when a
     stimulus has no track to show yet."""
-    tracks = {(t.condition_id, t.clip_id): t.path for t in db.session.scalars(
-        sa.select(Track).join(Clip).where(Clip.study_id == study.id))}
-    stimuli = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id)
-                                 .order_by(Stimulus.id)).all()
+    tracks = {
+        (t.condition_id, t.clip_id): t.path
+        for t in db.session.scalars(sa.select(Track).join(Clip).where(Clip.study_id == study.id))
+    }
+    stimuli = db.session.scalars(
+        sa.select(Stimulus).where(Stimulus.study_id == study.id).order_by(Stimulus.id)
+    ).all()
     if any(key not in tracks for s in stimuli for key in _track_keys(s)):
         raise ValueError("generate the tracks first: some conditions have no track yet")
     return tracks, list(stimuli)
 
 
-def render_stimulus(study: Study, stim: Stimulus, tracks: dict[tuple[int, int], str],
-                    progress: Callable[[int, int], None]) -> str:
+def render_stimulus(
+    study: Study,
+    stim: Stimulus,
+    tracks: dict[tuple[int, int], str],
+    progress: Callable[[int, int], None],
+) -> str:
     """Render one stimulus video (``renderer.render_pair``), record and publish it; returns
     its path in the study's folder. ``progress(frame, frames)`` is called every frame."""
     import renderer
@@ -144,18 +165,30 @@ def render_stimulus(study: Study, stim: Stimulus, tracks: dict[tuple[int, int], 
     settings = renderer.RenderSettings(**study.settings.get("render", {}))
     rel = f"videos/{stim.clip.name}/{stim.left.name}__{stim.right.name}{_variant(stim)}.mp4"
     (root / rel).parent.mkdir(parents=True, exist_ok=True)
-    left, right = (load_track(media.fetch(study, tracks[(condition, clip)])) for condition, clip
-                   in _track_keys(stim))
+    left, right = (
+        load_track(media.fetch(study, tracks[(condition, clip)]))
+        for condition, clip in _track_keys(stim)
+    )
     if stim.foreign_side:
         # The lent motion is time-aligned to this clip's speech and trimmed to its length.
         matched = right if stim.foreign_side == "left" else left
-        lent = (left if stim.foreign_side == "left" else right).resample(
-            matched.fps).fit_length(matched.n_frames)
+        lent = (
+            (left if stim.foreign_side == "left" else right)
+            .resample(matched.fps)
+            .fit_length(matched.n_frames)
+        )
         left, right = (lent, right) if stim.foreign_side == "left" else (left, lent)
     caption = {"caption": f"press {stim.instruction}"} if stim.instruction else {}
-    renderer.render_pair(left, right, media.fetch(study, stim.clip.audio_path), root / rel,
-                         settings=settings, cache_dir=root / "cache", progress=progress,
-                         **caption)
+    renderer.render_pair(
+        left,
+        right,
+        media.fetch(study, stim.clip.audio_path),
+        root / rel,
+        settings=settings,
+        cache_dir=root / "cache",
+        progress=progress,
+        **caption,
+    )
     media.publish(study, rel)
     stim.video_path = rel
     db.session.commit()
@@ -195,8 +228,10 @@ def rendering_finished(study: Study, total: int, kept: int, workers: int = 0) ->
 def _track_keys(stim: Stimulus) -> list[tuple[int, int]]:
     """(condition, clip) of the motion on each side: an appropriateness pair's foreign side
     shows the motion made for its ``foreign_clip``."""
-    clips = [stim.foreign_clip_id if stim.foreign_side == side and stim.foreign_clip_id
-             else stim.clip_id for side in ("left", "right")]
+    clips = [
+        stim.foreign_clip_id if stim.foreign_side == side and stim.foreign_clip_id else stim.clip_id
+        for side in ("left", "right")
+    ]
     return [(stim.left_id, clips[0]), (stim.right_id, clips[1])]
 
 
@@ -229,7 +264,10 @@ def failure_message(exc: BaseException) -> str:
 
 
 TASKS: dict[str, Callable[[Study, Callable[[int, int], None]], str]] = {
-    "generate": generate_tracks, "render": render_clips, "report": build_report}
+    "generate": generate_tracks,
+    "render": render_clips,
+    "report": build_report,
+}
 
 
 def run_job(job_id: int, *, echo: Callable[[int, int], None] | None = None) -> str:
@@ -245,9 +283,11 @@ def run_job(job_id: int, *, echo: Callable[[int, int], None] | None = None) -> s
     # Only a queued row starts: one the sweeper gave up (and the experimenter may have retried)
     # stays failed instead of rendering beside its retry.
     started = db.session.execute(
-        sa.update(Job).where(Job.id == job_id, Job.status == "queued")
+        sa.update(Job)
+        .where(Job.id == job_id, Job.status == "queued")
         .values(status="running", heartbeat_at=utcnow())
-        .execution_options(synchronize_session=False))
+        .execution_options(synchronize_session=False)
+    )
     db.session.commit()
     if started.rowcount != 1:
         log.warning("job %s is no longer queued; not started", job_id)
@@ -306,8 +346,10 @@ def mark_failed(job_id: int, reason: str) -> bool:
     """Mark an unfinished job failed with ``reason``; False if it had already finished."""
     with transaction() as session:
         result = session.execute(
-            sa.update(Job).where(Job.id == job_id, Job.status.in_(("queued", "running")))
-            .values(status="failed", message=reason, finished_at=utcnow()))
+            sa.update(Job)
+            .where(Job.id == job_id, Job.status.in_(("queued", "running")))
+            .values(status="failed", message=reason, finished_at=utcnow())
+        )
     return result.rowcount == 1
 
 
@@ -323,8 +365,11 @@ def rq_horse_killed(job, retpid, ret_val, rusage) -> None:  # type: ignore[no-un
     no failure callback then, so the row is marked here, at once, with the signal."""
     import os
 
-    how = (f"killed by signal {os.WTERMSIG(ret_val)}" if ret_val and os.WIFSIGNALED(ret_val)
-           else f"exited with status {ret_val}")
+    how = (
+        f"killed by signal {os.WTERMSIG(ret_val)}"
+        if ret_val and os.WIFSIGNALED(ret_val)
+        else f"exited with status {ret_val}"
+    )
     try:
         mark_failed(int(job.args[0]), f"the process running it was {how}; retry it")
     finally:  # the worker forks the next work horse: it must hold no database connection
@@ -352,8 +397,11 @@ def _rq_states(app_redis_url: str, ids: list[int]) -> dict[int, tuple[str, str] 
         state = rq_job.get_status()
         result = rq_job.latest_result() if state == "failed" else None
         # the exception's own line ("module.Error: text"), not SQL or links printed after it
-        error = [line for line in ((result.exc_string if result else None) or "").splitlines()
-                 if re.match(r"[A-Za-z_][\w.]*: ", line)]
+        error = [
+            line
+            for line in ((result.exc_string if result else None) or "").splitlines()
+            if re.match(r"[A-Za-z_][\w.]*: ", line)
+        ]
         # RQ's JobStatus is a str enum: its value is the word
         return str(getattr(state, "value", state)), error[-1][:200] if error else ""
 
@@ -377,19 +425,25 @@ def sweep_stale(study_id: int, *, stale_after: float, redis_url: str | None = No
     from redis.exceptions import RedisError
 
     rows = db.session.execute(
-        sa.select(Job.id, Job.status, sa.func.coalesce(Job.heartbeat_at, Job.created_at))
-        .where(Job.study_id == study_id, Job.status.in_(("queued", "running")))).all()
+        sa.select(Job.id, Job.status, sa.func.coalesce(Job.heartbeat_at, Job.created_at)).where(
+            Job.study_id == study_id, Job.status.in_(("queued", "running"))
+        )
+    ).all()
     cutoff = utcnow() - dt.timedelta(seconds=stale_after)
     reasons: dict[int, str] = {}
     for job_id, status, last_sign in rows:
         if last_sign >= cutoff:
             continue
         if status == "running":
-            reasons[job_id] = (f"no sign of life for over {stale_after:.0f} s: the process "
-                               "running it stopped; retry it")
+            reasons[job_id] = (
+                f"no sign of life for over {stale_after:.0f} s: the process "
+                "running it stopped; retry it"
+            )
         elif not redis_url:  # RQ is asked about its own queue below
-            reasons[job_id] = (f"never started: the process holding it has not answered "
-                               f"for over {stale_after:.0f} s (restarted?); retry it")
+            reasons[job_id] = (
+                f"never started: the process holding it has not answered "
+                f"for over {stale_after:.0f} s (restarted?); retry it"
+            )
     if redis_url and rows:
         try:
             states = _rq_states(redis_url, [r.id for r in rows if r.id not in reasons])
@@ -404,12 +458,14 @@ def sweep_stale(study_id: int, *, stale_after: float, redis_url: str | None = No
     return sum(mark_failed(job_id, reason) for job_id, reason in reasons.items())
 
 
-
 def sweep_study_jobs(study_id: int) -> int:
     """:func:`sweep_stale` with the application's settings, committed."""
     from flask import current_app
 
-    swept = sweep_stale(study_id, stale_after=current_app.config["JOB_STALE_AFTER_SECONDS"],
-                        redis_url=current_app.config.get("REDIS_URL"))
+    swept = sweep_stale(
+        study_id,
+        stale_after=current_app.config["JOB_STALE_AFTER_SECONDS"],
+        redis_url=current_app.config.get("REDIS_URL"),
+    )
     db.session.commit()
     return swept

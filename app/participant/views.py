@@ -51,8 +51,11 @@ COOKIE_DAYS = 30
 #: Clips never change under a URL (a re-render writes a new file and ETag), so the browser
 #: may keep them for the length of a study: a preloaded next clip is served from its cache.
 CLIP_CACHE_SECONDS = 7 * 86400
-PROLIFIC_FIELDS = {"PROLIFIC_PID": "prolific_pid", "STUDY_ID": "prolific_study_id",
-                   "SESSION_ID": "prolific_session_id"}
+PROLIFIC_FIELDS = {
+    "PROLIFIC_PID": "prolific_pid",
+    "STUDY_ID": "prolific_study_id",
+    "SESSION_ID": "prolific_session_id",
+}
 
 
 class ConsentForm(FlaskForm):
@@ -93,16 +96,25 @@ def paragraphs(text: str | None) -> Markup:
 
 
 def _with_cookie(response, study: Study, participant: Participant):  # type: ignore[no-untyped-def]
-    response.set_cookie(_cookie_name(study), participant.token, max_age=COOKIE_DAYS * 86400,
-                        httponly=True, samesite="Lax", secure=request.is_secure)
+    response.set_cookie(
+        _cookie_name(study),
+        participant.token,
+        max_age=COOKIE_DAYS * 86400,
+        httponly=True,
+        samesite="Lax",
+        secure=request.is_secure,
+    )
     return response
 
 
 def _by_prolific_id(study: Study, pid: str | None) -> Participant | None:
     if not pid or not fits(Participant.prolific_pid, pid):
         return None
-    return db.session.scalar(sa.select(Participant).where(
-        Participant.study_id == study.id, Participant.prolific_pid == pid))
+    return db.session.scalar(
+        sa.select(Participant).where(
+            Participant.study_id == study.id, Participant.prolific_pid == pid
+        )
+    )
 
 
 @bp.route("/s/<slug>", methods=["GET", "POST"])
@@ -110,8 +122,11 @@ def start(slug: str):  # type: ignore[no-untyped-def]
     study = _study(slug)
     token = request.cookies.get(_cookie_name(study))
     if token and fits(Participant.token, token):
-        known = db.session.scalar(sa.select(Participant).where(
-            Participant.token == token, Participant.study_id == study.id))
+        known = db.session.scalar(
+            sa.select(Participant).where(
+                Participant.token == token, Participant.study_id == study.id
+            )
+        )
         if known is not None:
             return redirect(url_for(".resume", token=known.token))
     # One Prolific ID takes part once: its second arrival (another device, cleared cookies)
@@ -123,8 +138,9 @@ def start(slug: str):  # type: ignore[no-untyped-def]
         return render_template("participant/unavailable.html", study=study), 503
     form = ConsentForm(data={k: request.args.get(k, "") for k in PROLIFIC_FIELDS})
     if form.validate_on_submit():
-        ids = {column: (getattr(form, field).data or None) for field, column
-               in PROLIFIC_FIELDS.items()}
+        ids = {
+            column: (getattr(form, field).data or None) for field, column in PROLIFIC_FIELDS.items()
+        }
         agent = limits.printable(request.user_agent.string)[:300]
         try:
             participant = enrol(study, user_agent=agent, dropped_after=dropped_after(), **ids)
@@ -136,8 +152,9 @@ def start(slug: str):  # type: ignore[no-untyped-def]
             participant = _by_prolific_id(study, ids["prolific_pid"])  # type: ignore[assignment]
             if participant is None:  # pragma: no cover - the constraint fired, so it exists
                 raise
-        return _with_cookie(make_response(redirect(url_for(".resume", token=participant.token))),
-                            study, participant)
+        return _with_cookie(
+            make_response(redirect(url_for(".resume", token=participant.token))), study, participant
+        )
     return render_template("participant/consent.html", study=study, form=form)
 
 
@@ -160,17 +177,30 @@ def instructions(token: str):  # type: ignore[no-untyped-def]
     practice = practice_stimulus(participant)
     study = participant.study
     spec = participation(study)
-    return _no_store(render_template(
-        "participant/instructions.html", participant=participant, study=study,
-        practice=practice, spec=spec, **player_settings(study, spec)))
+    return _no_store(
+        render_template(
+            "participant/instructions.html",
+            participant=participant,
+            study=study,
+            practice=practice,
+            spec=spec,
+            **player_settings(study, spec),
+        )
+    )
 
 
 def player_settings(study: Study, spec: ParticipationSpec) -> dict[str, Any]:
     """What the player template and script take from :mod:`app.trials.rules`: the answer
     buttons, the keys that cast a choice, the replay policy."""
-    return {"answers": rules.answers(scale=spec.scale, undecided_allowed=study.allow_undecided,
-                                     undecided_label=study.undecided_label),
-            "answer_keys": rules.key_map(spec.scale), "replay": replay_policy(study)}
+    return {
+        "answers": rules.answers(
+            scale=spec.scale,
+            undecided_allowed=study.allow_undecided,
+            undecided_label=study.undecided_label,
+        ),
+        "answer_keys": rules.key_map(spec.scale),
+        "replay": replay_policy(study),
+    }
 
 
 def _no_store(body: str):  # type: ignore[no-untyped-def]
@@ -192,8 +222,9 @@ def trial(token: str):  # type: ignore[no-untyped-def]
     spec = participation(study)
     environment = participant.environment or {}
     if spec.min_face_px and environment.get("viewing_ok") is False:
-        return render_template("participant/unavailable.html", study=study,
-                               viewing=spec.min_face_px), 409
+        return render_template(
+            "participant/unavailable.html", study=study, viewing=spec.min_face_px
+        ), 409
     # The unanswered trial after this one comes along: its clip is preloaded while this
     # one is judged.
     upcoming, following = (next_trials(participant, 2) + [None, None])[:2]
@@ -201,17 +232,25 @@ def trial(token: str):  # type: ignore[no-untyped-def]
         return redirect(url_for(".done", token=token))
     if not touch(participant):
         db.session.commit()
-        return render_template("participant/unavailable.html", study=study,
-                               reason=SESSION_ENDED), 410
+        return render_template(
+            "participant/unavailable.html", study=study, reason=SESSION_ENDED
+        ), 410
     if participant.started_at is None:
         participant.started_at = utcnow()
     answered, total = progress(participant)
     # Rendered before the commit, which expires every loaded row: rendering after it read
     # the participant, study and trials again (four queries per page in the profile).
     page = render_template(
-        "participant/trial.html", participant=participant, study=study, trial=upcoming,
-        answered=answered, total=total, spec=spec, following=following,
-        **player_settings(study, spec))
+        "participant/trial.html",
+        participant=participant,
+        study=study,
+        trial=upcoming,
+        answered=answered,
+        total=total,
+        spec=spec,
+        following=following,
+        **player_settings(study, spec),
+    )
     db.session.commit()
     return _no_store(page)
 
@@ -249,6 +288,13 @@ def done(token: str):  # type: ignore[no-untyped-def]
         return redirect(url_for(".resume", token=token))
     study = participant.study
     code = participation(study).screened_out_code if screened else study.completion_code
-    return _no_store(render_template(
-        "participant/done.html", participant=participant, study=study, screened=screened,
-        code=code, reason=SCREENED_OUT if screened else None))
+    return _no_store(
+        render_template(
+            "participant/done.html",
+            participant=participant,
+            study=study,
+            screened=screened,
+            code=code,
+            reason=SCREENED_OUT if screened else None,
+        )
+    )

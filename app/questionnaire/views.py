@@ -21,8 +21,11 @@ from app.trials.questions import PAGES, check_answer
 bp = Blueprint("questionnaire", __name__)
 
 #: Participant pages that wait for an owed questionnaire page, and which page each waits for.
-_GUARDED = {"participant.instructions": "before", "participant.trial": "before",
-            "participant.done": "after"}
+_GUARDED = {
+    "participant.instructions": "before",
+    "participant.trial": "before",
+    "participant.done": "after",
+}
 
 
 def questionnaire_first():  # type: ignore[no-untyped-def]
@@ -70,6 +73,13 @@ def page(token: str, page: str):  # type: ignore[no-untyped-def]
             db.session.commit()
             target = "participant.done" if page == "after" else "participant.instructions"
             return redirect(url_for(target, token=token))
-    return render_template("questionnaire/page.html", study=participant.study,
-                           participant=participant, page=page, questions=questions,
-                           values=values, errors=errors, form=form), 400 if errors else 200
+    return render_template(
+        "questionnaire/page.html",
+        study=participant.study,
+        participant=participant,
+        page=page,
+        questions=questions,
+        values=values,
+        errors=errors,
+        form=form,
+    ), 400 if errors else 200

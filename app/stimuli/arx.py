@@ -95,11 +95,12 @@ class ArxModel:
         padded = np.vstack([np.repeat(u[:1], int(lag.max(initial=0)), axis=0), u])
         start = int(lag.max(initial=0))
         for j, d in enumerate(lag):
-            out += padded[start - d: start - d + n] @ self.b[j].T
+            out += padded[start - d : start - d + n] @ self.b[j].T
         return out
 
-    def simulate(self, u: np.ndarray, *, noise: np.ndarray | None = None,
-                 from_rest: bool = False) -> np.ndarray:
+    def simulate(
+        self, u: np.ndarray, *, noise: np.ndarray | None = None, from_rest: bool = False
+    ) -> np.ndarray:
         """Run the model free from inputs ``u`` (n, n_in); returns outputs (n, n_out).
 
         Outputs before the first frame are ``y_rest``; ``noise`` (n, n_out) is added to the
@@ -111,8 +112,7 @@ class ArxModel:
         if from_rest and len(u):
             u = _as_2d(u)
             u = u - u[:1]
-            at_rest = ArxModel(self.a, self.b, np.zeros(self.n_out), self.nk,
-                               np.zeros(self.n_out))
+            at_rest = ArxModel(self.a, self.b, np.zeros(self.n_out), self.nk, np.zeros(self.n_out))
             return at_rest.simulate(u, noise=noise)
         drive = self.exogenous(u)
         if noise is not None:
@@ -135,20 +135,33 @@ class ArxModel:
         rest = np.zeros(self.n_out) if self.y_rest is None else self.y_rest
         padded = np.vstack([np.tile(rest, (self.na, 1)), y])
         for i in range(self.na):
-            pred += padded[self.na - 1 - i: self.na - 1 - i + len(y)] @ self.a[i].T
+            pred += padded[self.na - 1 - i : self.na - 1 - i + len(y)] @ self.a[i].T
         return pred
 
     def to_dict(self) -> dict[str, Any]:
-        return {"na": self.na, "nb": self.nb, "nk": self.nk, "a": self.a.tolist(),
-                "b": self.b.tolist(), "c": self.c.tolist(),
-                "y_rest": np.asarray(self.y_rest).tolist(), "info": self.info}
+        return {
+            "na": self.na,
+            "nb": self.nb,
+            "nk": self.nk,
+            "a": self.a.tolist(),
+            "b": self.b.tolist(),
+            "c": self.c.tolist(),
+            "y_rest": np.asarray(self.y_rest).tolist(),
+            "info": self.info,
+        }
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> ArxModel:
         a = np.asarray(d["a"], dtype=np.float64).reshape(int(d["na"]), -1, len(d["c"]))
         b = np.asarray(d["b"], dtype=np.float64).reshape(int(d["nb"]), len(d["c"]), -1)
-        return cls(a=a, b=b, c=np.asarray(d["c"]), nk=int(d["nk"]),
-                   y_rest=np.asarray(d["y_rest"]), info=dict(d.get("info", {})))
+        return cls(
+            a=a,
+            b=b,
+            c=np.asarray(d["c"]),
+            nk=int(d["nk"]),
+            y_rest=np.asarray(d["y_rest"]),
+            info=dict(d.get("info", {})),
+        )
 
 
 def _as_2d(x: np.ndarray) -> np.ndarray:
@@ -156,8 +169,9 @@ def _as_2d(x: np.ndarray) -> np.ndarray:
     return x[:, None] if x.ndim == 1 else x
 
 
-def lag_matrix(y: np.ndarray, u: np.ndarray, na: int, nb: int, nk: int
-               ) -> tuple[np.ndarray, np.ndarray]:
+def lag_matrix(
+    y: np.ndarray, u: np.ndarray, na: int, nb: int, nk: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Regressors ``[y_{t-1..t-na}, u_{t-nk..t-nk-nb+1}, 1]`` and targets ``y_t``.
 
     Rows start at the first frame whose lags all exist.
@@ -166,14 +180,15 @@ def lag_matrix(y: np.ndarray, u: np.ndarray, na: int, nb: int, nk: int
     start = max(na, nk + nb - 1)
     n = len(y)
     rows = range(start, n)
-    cols = [y[start - i: n - i] for i in range(1, na + 1)]
-    cols += [u[start - nk - j: n - nk - j] for j in range(nb)]
+    cols = [y[start - i : n - i] for i in range(1, na + 1)]
+    cols += [u[start - nk - j : n - nk - j] for j in range(nb)]
     cols.append(np.ones((max(n - start, 0), 1)))
-    return np.hstack(cols), y[rows.start:]
+    return np.hstack(cols), y[rows.start :]
 
 
-def fit_arx(y: np.ndarray, u: np.ndarray, *, na: int = 4, nb: int = 4, nk: int = 1,
-            ridge: float = 0.0) -> ArxModel:
+def fit_arx(
+    y: np.ndarray, u: np.ndarray, *, na: int = 4, nb: int = 4, nk: int = 1, ridge: float = 0.0
+) -> ArxModel:
     """Least-squares ARX fit of outputs ``y`` (n, n_out) on inputs ``u`` (n, n_in).
 
     ``ridge`` > 0 adds ``ridge * diag(X'X)`` to the normal equations (intercept excepted): a
@@ -186,8 +201,9 @@ def fit_arx(y: np.ndarray, u: np.ndarray, *, na: int = 4, nb: int = 4, nk: int =
     x, target = lag_matrix(y, u, na, nb, nk)
     m, k = y.shape[1], u.shape[1]
     if x.shape[0] < x.shape[1]:
-        raise ValueError(f"{x.shape[0]} equations for {x.shape[1]} unknowns per output: "
-                         "need a longer recording")
+        raise ValueError(
+            f"{x.shape[0]} equations for {x.shape[1]} unknowns per output: need a longer recording"
+        )
     if ridge > 0:
         gram = x.T @ x
         pen = ridge * np.diag(np.diag(gram))
@@ -196,9 +212,12 @@ def fit_arx(y: np.ndarray, u: np.ndarray, *, na: int = 4, nb: int = 4, nk: int =
     else:
         theta = np.linalg.lstsq(x, target, rcond=None)[0]
     a = theta[: na * m].T.reshape(m, na, m).transpose(1, 0, 2)
-    b = theta[na * m: na * m + nb * k].T.reshape(m, nb, k).transpose(1, 0, 2)
+    b = theta[na * m : na * m + nb * k].T.reshape(m, nb, k).transpose(1, 0, 2)
     model = ArxModel(a=a, b=b, c=theta[-1], nk=nk, y_rest=y.mean(axis=0))
     resid = target - x @ theta
-    model.info.update(frames=int(len(y)), ridge=float(ridge),
-                      one_step_rmse=np.sqrt(np.mean(resid**2, axis=0)).tolist())
+    model.info.update(
+        frames=int(len(y)),
+        ridge=float(ridge),
+        one_step_rmse=np.sqrt(np.mean(resid**2, axis=0)).tolist(),
+    )
     return model

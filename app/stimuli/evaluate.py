@@ -79,14 +79,16 @@ def coupling(track: MotionTrack, features: SpeechFeatures) -> dict[str, float | 
     return out
 
 
-def track_measures(track: MotionTrack, features: SpeechFeatures, truth: MotionTrack
-                   ) -> dict[str, Any]:
+def track_measures(
+    track: MotionTrack, features: SpeechFeatures, truth: MotionTrack
+) -> dict[str, Any]:
     """Coupling, correlation with the truth and kinematics of one track on one test take."""
     channels = {}
     for c in EVALUATED:
         x = track.get(c)
         channels[str(c)] = {
-            "mean": float(x.mean()), "sd": float(x.std()),
+            "mean": float(x.mean()),
+            "sd": float(x.std()),
             "speed": float(np.abs(np.diff(x)).mean() * track.fps) if len(x) > 1 else None,
             "power_above_4hz": power_above(x, track.fps),
             "r_truth": pearson(x, truth.get(c)),
@@ -105,31 +107,40 @@ def _pool(measures: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """Mean and spread over takes or draws of every number in :func:`track_measures`."""
     return {
         "coupling": {g: _mean_sd(m["coupling"][g] for m in measures) for g in GROUPS},
-        "channels": {c: {k: _mean_sd(m["channels"][c][k] for m in measures)
-                         for k in measures[0]["channels"][c]}
-                     for c in measures[0]["channels"]},
+        "channels": {
+            c: {
+                k: _mean_sd(m["channels"][c][k] for m in measures)
+                for k in measures[0]["channels"][c]
+            }
+            for c in measures[0]["channels"]
+        },
     }
 
 
 def _concatenate(takes: Sequence[Take]) -> Take:
     fps = takes[0][0].fps
-    feats = SpeechFeatures(fps, np.concatenate([f.f0 for f, _ in takes]),
-                           np.concatenate([f.intensity for f, _ in takes]),
-                           np.concatenate([f.f0_conditioned for f, _ in takes]),
-                           dict(takes[0][0].metadata))
+    feats = SpeechFeatures(
+        fps,
+        np.concatenate([f.f0 for f, _ in takes]),
+        np.concatenate([f.intensity for f, _ in takes]),
+        np.concatenate([f.f0_conditioned for f, _ in takes]),
+        dict(takes[0][0].metadata),
+    )
     channels = sorted(set().union(*(t.channels for _, t in takes)))
     values = np.vstack([np.column_stack([t.get(c) for c in channels]) for _, t in takes])
     return feats, MotionTrack(fps, values, tuple(channels), source=takes[0][1].source)
 
 
-def load_takes(pairs: Sequence[tuple[str | Path, str | Path]], fps: float = 30.0,
-               pitch_floor: float | None = None, pitch_ceiling: float | None = None
-               ) -> list[Take]:
+def load_takes(
+    pairs: Sequence[tuple[str | Path, str | Path]],
+    fps: float = 30.0,
+    pitch_floor: float | None = None,
+    pitch_ceiling: float | None = None,
+) -> list[Take]:
     """(audio, ground truth) files -> speech features and the truth aligned to them."""
     takes = []
     for audio, truth in pairs:
-        feats = extract_features(audio, fps, pitch_floor=pitch_floor,
-                                 pitch_ceiling=pitch_ceiling)
+        feats = extract_features(audio, fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling)
         takes.append((feats, align_to_features(load_track(truth, fps=fps), feats)))
     return takes
 
@@ -141,8 +152,7 @@ def split_take(take: Take, train_fraction: float) -> tuple[Take, Take]:
     feats, truth = take
     cut = round(feats.n_frames * train_fraction)
     if min(cut, feats.n_frames - cut) < round(3 * feats.fps):
-        raise InputError("each side of the split needs at least 3 s of speech",
-                         field="split")
+        raise InputError("each side of the split needs at least 3 s of speech", field="split")
 
     def part(a: int, b: int) -> Take:
         return feats.slice(a, b), truth.replace(values=truth.values[a:b].copy())
@@ -150,11 +160,21 @@ def split_take(take: Take, train_fraction: float) -> tuple[Take, Take]:
     return part(0, cut), part(cut, feats.n_frames)
 
 
-def evaluate_conditions(train: Sequence[Take], test: Sequence[Take], *,
-                        conditions: str | Iterable[str] | Mapping[str, Any] =
-                        ("none", "random", "speech_driven", "ground_truth"), seed: int = 0,
-                        n_random_seeds: int = N_RANDOM_SEEDS, n_shifts: int = N_SHIFTS,
-                        progress: Progress | None = None) -> dict[str, Any]:
+def evaluate_conditions(
+    train: Sequence[Take],
+    test: Sequence[Take],
+    *,
+    conditions: str | Iterable[str] | Mapping[str, Any] = (
+        "none",
+        "random",
+        "speech_driven",
+        "ground_truth",
+    ),
+    seed: int = 0,
+    n_random_seeds: int = N_RANDOM_SEEDS,
+    n_shifts: int = N_SHIFTS,
+    progress: Progress | None = None,
+) -> dict[str, Any]:
     """Fit on ``train``, measure on ``test`` (see the module docstring); JSON-able result.
 
     ``conditions`` as for :func:`app.stimuli.generate.parse_conditions`. Each condition is
@@ -171,8 +191,11 @@ def evaluate_conditions(train: Sequence[Take], test: Sequence[Take], *,
         cond = make_condition(model, **params).fit(train_feats, train_truth)
         per_take = []
         for feats, truth in test:
-            track = (truth if model == "ground_truth" else
-                     cond.generate(feats, seed=seed, ground_truth=truth))
+            track = (
+                truth
+                if model == "ground_truth"
+                else cond.generate(feats, seed=seed, ground_truth=truth)
+            )
             per_take.append(track_measures(track, feats, truth))
         results[name] = {"model": model, **_pool(per_take)}
         step()
@@ -186,13 +209,18 @@ def evaluate_conditions(train: Sequence[Take], test: Sequence[Take], *,
             moved = truth.replace(values=np.roll(truth.values, int(k), axis=0))
             shifted.append(track_measures(moved, feats, truth))
     step()
-    random_draws = [track_measures(make_condition("random").generate(feats, seed=s), feats, truth)
-                    for s in range(n_random_seeds) for feats, truth in test]
+    random_draws = [
+        track_measures(make_condition("random").generate(feats, seed=s), feats, truth)
+        for s in range(n_random_seeds)
+        for feats, truth in test
+    ]
     step()
     return {
         "train": {"takes": len(train), "frames": int(train_feats.n_frames)},
         "test": {"takes": len(test), "frames": int(sum(f.n_frames for f, _ in test))},
-        "fps": train_feats.fps, "jitter_hz": JITTER_HZ, "conditions": results,
+        "fps": train_feats.fps,
+        "jitter_hz": JITTER_HZ,
+        "conditions": results,
         "baselines": {
             "ground_truth_shifted": _pool(shifted) if shifted else None,
             f"random_{n_random_seeds}_seeds": _pool(random_draws),
@@ -208,14 +236,20 @@ def plot_evaluation(report: Mapping[str, Any], path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows = {**report["conditions"],
-            **{k: v for k, v in report["baselines"].items() if v is not None}}
+    rows = {
+        **report["conditions"],
+        **{k: v for k, v in report["baselines"].items() if v is not None},
+    }
     names = list(rows)
-    panels = [("head coupling with speech (CCA)", lambda r: r["coupling"]["head"]),
-              ("correlation with held-out truth, yaw", lambda r: r["channels"]["49"]["r_truth"]),
-              ("head yaw sd (AU)", lambda r: r["channels"]["49"]["sd"]),
-              (f"head yaw power above {report['jitter_hz']:g} Hz",
-               lambda r: r["channels"]["49"]["power_above_4hz"])]
+    panels = [
+        ("head coupling with speech (CCA)", lambda r: r["coupling"]["head"]),
+        ("correlation with held-out truth, yaw", lambda r: r["channels"]["49"]["r_truth"]),
+        ("head yaw sd (AU)", lambda r: r["channels"]["49"]["sd"]),
+        (
+            f"head yaw power above {report['jitter_hz']:g} Hz",
+            lambda r: r["channels"]["49"]["power_above_4hz"],
+        ),
+    ]
     fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.6))
     for ax, (title, pick) in zip(axes, panels, strict=True):
         stats = [pick(rows[n]) for n in names]
@@ -225,8 +259,11 @@ def plot_evaluation(report: Mapping[str, Any], path: str | Path) -> Path:
         ax.set_yticks(range(len(names)), names, fontsize=8)
         ax.set_title(title, fontsize=9)
         ax.invert_yaxis()
-    fig.suptitle(f"held-out evaluation: trained on {report['train']['frames']} frames, tested "
-                 f"on {report['test']['frames']}", fontsize=10)
+    fig.suptitle(
+        f"held-out evaluation: trained on {report['train']['frames']} frames, tested "
+        f"on {report['test']['frames']}",
+        fontsize=10,
+    )
     fig.tight_layout()
     out = Path(path)
     fig.savefig(out, dpi=110)

@@ -41,14 +41,18 @@ DEFAULT_EYES = "still"
 def check_eyes(mode: str) -> str:
     """``mode`` if it is one of :data:`EYE_MODES`, else an InputError naming the field."""
     if mode not in EYE_MODES:
-        raise InputError(f"eyes must be one of {', '.join(EYE_MODES)}, got {mode!r}",
-                         field="eyes")
+        raise InputError(f"eyes must be one of {', '.join(EYE_MODES)}, got {mode!r}", field="eyes")
     return mode
 
 
-def eye_channels(mode: str, features: SpeechFeatures, ground_truth: MotionTrack | None = None,
-                 *, seed: int = 0, live_model_path: str | Path | None = None
-                 ) -> dict[int, np.ndarray]:
+def eye_channels(
+    mode: str,
+    features: SpeechFeatures,
+    ground_truth: MotionTrack | None = None,
+    *,
+    seed: int = 0,
+    live_model_path: str | Path | None = None,
+) -> dict[int, np.ndarray]:
     """FAPs 19-26 for every condition of one clip under the study's ``eyes`` setting.
 
     ``ground_truth`` must already be aligned to ``features`` for ``"ground_truth"``, which

@@ -48,7 +48,11 @@ FAPU = {
 #: The neutral-face distance (in model units) each length FAPU is measured as, by FAPU name;
 #: a face file states these distances (``ES0`` ...), a FAP value counts FAPU = distance / 1024.
 FAPU_DISTANCE: dict[str, str] = {
-    "ES": "ES0", "IRISD": "IRISD0", "ENS": "ENS0", "MNS": "MNS0", "MW": "MW0",
+    "ES": "ES0",
+    "IRISD": "IRISD0",
+    "ENS": "ENS0",
+    "MNS": "MNS0",
+    "MW": "MW0",
 }
 FAPU_DIVISOR = 1024.0
 
@@ -68,8 +72,11 @@ def fapu_values(distances: Mapping[str, float]) -> dict[str, float]:
 
 #: Unit vectors of the straight directions a positive FAP value moves a feature point.
 _DIRECTIONS: dict[str, tuple[float, float, float]] = {
-    "up": (0.0, 1.0, 0.0), "down": (0.0, -1.0, 0.0), "left": (1.0, 0.0, 0.0),
-    "right": (-1.0, 0.0, 0.0), "forward": (0.0, 0.0, 1.0),
+    "up": (0.0, 1.0, 0.0),
+    "down": (0.0, -1.0, 0.0),
+    "left": (1.0, 0.0, 0.0),
+    "right": (-1.0, 0.0, 0.0),
+    "forward": (0.0, 0.0, 1.0),
 }
 #: Rotation axes: with Xface's axes a positive pitch (down), yaw (to the face's left) and roll
 #: (to the face's right) are each a positive right-handed turn about this axis.
@@ -190,7 +197,8 @@ assert len(FAPS) == N_FAPS and sorted(FAPS) == list(range(1, N_FAPS + 1))
 #: value moves it along (translations), the axis it turns about (rotations) and its side.
 FEATURE_POINT: dict[int, str] = {n: f.feature_point for n, f in FAPS.items() if f.feature_point}
 DIRECTION: dict[int, tuple[float, float, float]] = {
-    n: f.direction for n, f in FAPS.items() if f.direction}
+    n: f.direction for n, f in FAPS.items() if f.direction
+}
 AXIS: dict[int, str] = {n: f.axis for n, f in FAPS.items() if f.axis}
 SIDE: dict[int, str] = {n: f.side for n, f in FAPS.items() if f.side}
 

@@ -94,13 +94,19 @@ class _Dialect:
         return _HIGH_LEVEL_WIDTH.get(fap, 1) if self.high_level_widths else 1
 
 
-_XFACE = _Dialect("68-value mask: Xface/MPEG-4, 4 values for FAP 1, 6 for FAP 2",
-                  tuple(range(1, N_FAPS + 1)), True)
-_GRETA = _Dialect("69-value mask: Greta, one value per masked position",
-                  (*range(1, N_FAPS + 1), 0), False)
+_XFACE = _Dialect(
+    "68-value mask: Xface/MPEG-4, 4 values for FAP 1, 6 for FAP 2",
+    tuple(range(1, N_FAPS + 1)),
+    True,
+)
+_GRETA = _Dialect(
+    "69-value mask: Greta, one value per masked position", (*range(1, N_FAPS + 1), 0), False
+)
 _EARLY_FACEPAIR_GRETA = _Dialect(
     "69-value mask of an early facepair file: null FAP 0, then FAP 1..68, MPEG-4 widths",
-    (0, *range(1, N_FAPS + 1)), True)
+    (0, *range(1, N_FAPS + 1)),
+    True,
+)
 
 
 @lru_cache(maxsize=256)
@@ -156,8 +162,9 @@ def _ints(tokens: list[str], path: str, line: int, what: str) -> list[int]:
                 f"{what}: value {k} is {tok[:40]!r}, expected an integer", path=path, line=line
             ) from None
         if abs(value) > _INT32:
-            raise InputError(f"{what}: value {k} is outside the 32-bit integer range",
-                             path=path, line=line)
+            raise InputError(
+                f"{what}: value {k} is outside the 32-bit integer range", path=path, line=line
+            )
         out.append(value)
     return out
 
@@ -172,19 +179,23 @@ def _header(text: str, path: str, line: int) -> tuple[str, float, int]:
     try:
         fps = float(tokens[-2])
     except ValueError:
-        raise InputError(f"header: fps is {tokens[-2][:40]!r}, expected a number", path=path,
-                         line=line) from None
+        raise InputError(
+            f"header: fps is {tokens[-2][:40]!r}, expected a number", path=path, line=line
+        ) from None
     if not np.isfinite(fps) or fps <= 0:
-        raise InputError(f"header: fps is {tokens[-2][:40]}, expected a number > 0",
-                         path=path, line=line)
+        raise InputError(
+            f"header: fps is {tokens[-2][:40]}, expected a number > 0", path=path, line=line
+        )
     try:
         n_frames = int(tokens[-1])
     except ValueError:
-        raise InputError(f"header: frame count is {tokens[-1][:40]!r}, expected an integer",
-                         path=path, line=line) from None
+        raise InputError(
+            f"header: frame count is {tokens[-1][:40]!r}, expected an integer", path=path, line=line
+        ) from None
     if not 0 <= n_frames <= MAX_FRAMES:
-        raise InputError(f"header: frame count is {n_frames}, expected 0..{MAX_FRAMES}",
-                         path=path, line=line)
+        raise InputError(
+            f"header: frame count is {n_frames}, expected 0..{MAX_FRAMES}", path=path, line=line
+        )
     return " ".join(tokens[1:-2]), fps, n_frames
 
 
@@ -195,12 +206,14 @@ def _dialect_of(mask: list[int], early_facepair: bool, path: str, line: int) -> 
         return _EARLY_FACEPAIR_GRETA if early_facepair else _GRETA
     raise InputError(
         f"mask line: expected 68 (Xface) or 69 (Greta) values of 0/1, got {len(mask)}",
-        path=path, line=line,
+        path=path,
+        line=line,
     )
 
 
-def _count_error(dialect: _Dialect, bits: tuple[int, ...], got: int, path: str,
-                 line: int) -> InputError:
+def _count_error(
+    dialect: _Dialect, bits: tuple[int, ...], got: int, path: str, line: int
+) -> InputError:
     """The one line for a value line of the wrong length: what each dialect expects."""
     masked = [fap for fap, bit in zip(dialect.faps, bits, strict=True) if bit]
     if dialect.high_level_widths:
@@ -211,7 +224,8 @@ def _count_error(dialect: _Dialect, bits: tuple[int, ...], got: int, path: str,
     return InputError(
         f"value line: expected the frame index and {_layout(dialect, bits)[2]} values for the "
         f"{len(masked)} masked positions ({dialect.name}; {other}), got {got} numbers",
-        path=path, line=line,
+        path=path,
+        line=line,
     )
 
 
@@ -238,7 +252,8 @@ def _parse(f: IO[str], path: str) -> MotionTrack:
     if len(body) % 2:
         raise InputError(
             "truncated: a mask line without its value line at the end of the file",
-            path=path, line=body[-1][0],
+            path=path,
+            line=body[-1][0],
         )
     dialect: _Dialect | None = None
     frames: list[tuple[int, np.ndarray, np.ndarray]] = []
@@ -252,7 +267,9 @@ def _parse(f: IO[str], path: str) -> MotionTrack:
         elif len(mask) != len(dialect.faps):
             raise InputError(
                 f"mask line: {len(mask)} values after {len(dialect.faps)}-value masks; "
-                "a file holds one dialect (68: Xface, 69: Greta)", path=path, line=mask_no,
+                "a file holds one dialect (68: Xface, 69: Greta)",
+                path=path,
+                line=mask_no,
             )
         if any(m not in (0, 1) for m in mask):
             raise InputError("mask line: expected only 0 and 1", path=path, line=mask_no)
@@ -264,29 +281,41 @@ def _parse(f: IO[str], path: str) -> MotionTrack:
         index = vals[0]
         if index < 0 or index <= last_index:
             after = f" after {last_index}" if last_index >= 0 else ""
-            raise InputError(f"frame index {index}{after}: indices must start at >= 0 and "
-                             "increase", path=path, line=value_no)
+            raise InputError(
+                f"frame index {index}{after}: indices must start at >= 0 and increase",
+                path=path,
+                line=value_no,
+            )
         if index >= n_frames:
             raise InputError(
                 f"frame index {index} outside 0..{n_frames - 1} (header says {n_frames} frames)",
-                path=path, line=value_no,
+                path=path,
+                line=value_no,
             )
         last_index = index
         frames.append((index, columns, np.asarray(vals, dtype=np.float64)[places]))
     if last_index < n_frames - 1:
         raise InputError(
             f"truncated: header says {n_frames} frames, the last frame index is {last_index}",
-            path=path, line=body[-1][0] if body else number,
+            path=path,
+            line=body[-1][0] if body else number,
         )
-    present = np.unique(np.concatenate([np.empty(0, np.intp)]
-                                       + [columns for _, columns, _ in frames]))
+    present = np.unique(
+        np.concatenate([np.empty(0, np.intp)] + [columns for _, columns, _ in frames])
+    )
     kept = np.full((n_frames, len(present)), np.nan)
     for index, columns, row in frames:
         kept[index, np.searchsorted(present, columns)] = row
     channels = tuple(int(i) + 1 for i in present)
     _fill_gaps(kept)
-    return MotionTrack(fps, kept, channels, name=name, source=meta.get("source", path),
-                       speaker=meta.get("speaker", ""))
+    return MotionTrack(
+        fps,
+        kept,
+        channels,
+        name=name,
+        source=meta.get("source", path),
+        speaker=meta.get("speaker", ""),
+    )
 
 
 def _fill_gaps(values: np.ndarray) -> None:
@@ -312,11 +341,14 @@ def write_fap(track: MotionTrack, target: str | Path | IO[str], *, greta: bool =
     if high:
         raise InputError(
             f"FAP {high[0]} ({FAPS[high[0]].name}) is a high-level parameter, not motion: "
-            "a .fap file written by facepair holds FAPs 3..68 only", field="channels")
+            "a .fap file written by facepair holds FAPs 3..68 only",
+            field="channels",
+        )
     ints = np.rint(track.values)
     if ints.size and not np.all(np.abs(ints) <= _INT32):
-        raise InputError("a value is outside the 32-bit integer range of .fap files",
-                         field="values")
+        raise InputError(
+            "a value is outside the 32-bit integer range of .fap files", field="values"
+        )
     ints = ints.astype(np.int64)
     out = io.StringIO()
     out.write(f"# {_GRETA_WRITER_LINE if greta else _WRITER_LINE}\n")

@@ -50,8 +50,9 @@ class GenerationResult:
 ConditionRequest = tuple[str, dict[str, Any]]
 
 
-def parse_conditions(conditions: str | Iterable[str] | Mapping[str, Any]
-                     ) -> dict[str, ConditionRequest]:
+def parse_conditions(
+    conditions: str | Iterable[str] | Mapping[str, Any],
+) -> dict[str, ConditionRequest]:
     """Conditions as ``name -> (model, params)``, validated, in the given order.
 
     Accepts ``"none,random"``, a list of names (each name is its model), or a mapping from
@@ -77,20 +78,27 @@ def parse_conditions(conditions: str | Iterable[str] | Mapping[str, Any]
         elif isinstance(spec, tuple) and len(spec) == 2 and isinstance(spec[1], Mapping):
             model, params = str(spec[0]), dict(spec[1])  # already parsed
         else:
-            raise InputError(f"condition {name!r}: expected a model name or a table of "
-                             "settings", field="conditions")
+            raise InputError(
+                f"condition {name!r}: expected a model name or a table of settings",
+                field="conditions",
+            )
         condition_class(model)  # unknown or unavailable: one clear line now, not halfway
         out.setdefault(name, (model, params))
     return out
 
 
 def generate_conditions(
-    audio_path: str | Path, *,
+    audio_path: str | Path,
+    *,
     conditions: str | Iterable[str] | Mapping[str, Any] = DEFAULT_CONDITIONS,
-    ground_truth: str | Path | MotionTrack | None = None, fps: float = 30.0, seed: int = 0,
-    normalize: bool = False, eyes: str = DEFAULT_EYES,
+    ground_truth: str | Path | MotionTrack | None = None,
+    fps: float = 30.0,
+    seed: int = 0,
+    normalize: bool = False,
+    eyes: str = DEFAULT_EYES,
     models: Mapping[str, str | Path] | None = None,
-    progress: Progress | None = None, pitch_floor: float | None = None,
+    progress: Progress | None = None,
+    pitch_floor: float | None = None,
     pitch_ceiling: float | None = None,
     condition_params: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> GenerationResult:
@@ -109,21 +117,23 @@ def generate_conditions(
     requests = parse_conditions(conditions)
     check_eyes(eyes)
     if ground_truth is None and any(m == "ground_truth" for m, _ in requests.values()):
-        raise InputError("the ground_truth condition needs --ground-truth FILE",
-                         field="conditions")
+        raise InputError("the ground_truth condition needs --ground-truth FILE", field="conditions")
     if normalize and ground_truth is None:
-        raise InputError("--normalize needs a reference: give --ground-truth",
-                         field="normalize")
+        raise InputError("--normalize needs a reference: give --ground-truth", field="normalize")
     if eyes == "ground_truth" and ground_truth is None:
         raise InputError("eyes = 'ground_truth' needs --ground-truth FILE", field="eyes")
     for name in models or {}:
         if name not in requests:
-            raise InputError(f"a model is given for {name!r}, which is not among the "
-                             f"conditions ({', '.join(requests)})", field="model")
+            raise InputError(
+                f"a model is given for {name!r}, which is not among the "
+                f"conditions ({', '.join(requests)})",
+                field="model",
+            )
     step = progress_steps(progress, len(requests) + 3 + int(normalize))
 
-    features = extract_features(audio_path, fps, pitch_floor=pitch_floor,
-                                pitch_ceiling=pitch_ceiling)
+    features = extract_features(
+        audio_path, fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling
+    )
     gt_track = _load_ground_truth(ground_truth, fps)
     gt_aligned = align_to_features(gt_track, features) if gt_track is not None else None
     step()
@@ -134,8 +144,7 @@ def generate_conditions(
         kw = {**params, **dict((condition_params or {}).get(name, {}))}
         if models and name in models:
             if "model_path" not in inspect.signature(condition_class(model)).parameters:
-                raise InputError(f"condition {name!r} ({model}) takes no model file",
-                                 field="model")
+                raise InputError(f"condition {name!r} ({model}) takes no model file", field="model")
             kw["model_path"] = str(models[name])
         cond = make_condition(model, **kw)
         if gt_aligned is not None:
@@ -147,8 +156,10 @@ def generate_conditions(
         step()
 
     eye_cols = eye_channels(eyes, features, gt_aligned, seed=seed)
-    tracks = {name: t.with_channels(eye_cols).replace(metadata={**t.metadata, "eyes": eyes})
-              for name, t in tracks.items()}
+    tracks = {
+        name: t.with_channels(eye_cols).replace(metadata={**t.metadata, "eyes": eyes})
+        for name, t in tracks.items()
+    }
     step()
 
     factors = None
@@ -159,14 +170,16 @@ def generate_conditions(
         tracks, factors = normalize_tracks(tracks, gt_names[0] if gt_names else reference)
         step()
 
-    summary = _summary(audio_path, features, gt_track, gt_aligned, tracks, described, factors,
-                       seed, eyes)
+    summary = _summary(
+        audio_path, features, gt_track, gt_aligned, tracks, described, factors, seed, eyes
+    )
     step()
     return GenerationResult(tracks, features, _jsonable(summary))
 
 
-def _load_ground_truth(ground_truth: str | Path | MotionTrack | None, fps: float
-                       ) -> MotionTrack | None:
+def _load_ground_truth(
+    ground_truth: str | Path | MotionTrack | None, fps: float
+) -> MotionTrack | None:
     if ground_truth is None or isinstance(ground_truth, MotionTrack):
         return ground_truth
     if not Path(ground_truth).is_file():
@@ -176,31 +189,52 @@ def _load_ground_truth(ground_truth: str | Path | MotionTrack | None, fps: float
 
 def _speech_summary(features: SpeechFeatures) -> dict[str, Any]:
     voiced = features.f0[features.voiced]
-    return {**features.metadata, "fps": features.fps, "frames": features.n_frames,
-            "voiced_fraction": float(features.voiced.mean()) if features.n_frames else 0.0,
-            "f0_hz": {"median": float(np.median(voiced)) if len(voiced) else None,
-                      "min": float(voiced.min()) if len(voiced) else None,
-                      "max": float(voiced.max()) if len(voiced) else None},
-            "intensity_db": {"min": float(features.intensity.min()),
-                             "median": float(np.median(features.intensity)),
-                             "max": float(features.intensity.max())}}
+    return {
+        **features.metadata,
+        "fps": features.fps,
+        "frames": features.n_frames,
+        "voiced_fraction": float(features.voiced.mean()) if features.n_frames else 0.0,
+        "f0_hz": {
+            "median": float(np.median(voiced)) if len(voiced) else None,
+            "min": float(voiced.min()) if len(voiced) else None,
+            "max": float(voiced.max()) if len(voiced) else None,
+        },
+        "intensity_db": {
+            "min": float(features.intensity.min()),
+            "median": float(np.median(features.intensity)),
+            "max": float(features.intensity.max()),
+        },
+    }
 
 
-def _summary(audio_path: str | Path, features: SpeechFeatures, gt: MotionTrack | None,
-             gt_aligned: MotionTrack | None, tracks: dict[str, MotionTrack],
-             described: dict[str, Any], factors: dict[str, Any] | None, seed: int,
-             eyes: str) -> dict[str, Any]:
+def _summary(
+    audio_path: str | Path,
+    features: SpeechFeatures,
+    gt: MotionTrack | None,
+    gt_aligned: MotionTrack | None,
+    tracks: dict[str, MotionTrack],
+    described: dict[str, Any],
+    factors: dict[str, Any] | None,
+    seed: int,
+    eyes: str,
+) -> dict[str, Any]:
     from app import __version__
 
     notes: list[str] = []
     gt_info: dict[str, Any] | None = None
     if gt is not None:
         synthetic = "synthetic" in f"{gt.source} {gt.speaker} {gt.name}".lower()
-        gt_info = {"source": gt.source, "speaker": gt.speaker, "fps": gt.fps,
-                   "frames": gt.n_frames, "synthetic": synthetic}
+        gt_info = {
+            "source": gt.source,
+            "speaker": gt.speaker,
+            "fps": gt.fps,
+            "frames": gt.n_frames,
+            "synthetic": synthetic,
+        }
         if synthetic:
-            notes.append("the ground truth is SYNTHETIC (facepair's reference speaker), "
-                         "not captured motion")
+            notes.append(
+                "the ground truth is SYNTHETIC (facepair's reference speaker), not captured motion"
+            )
         capture = gt.metadata.get("capture")
         if capture:
             gt_info["capture"] = capture
@@ -208,13 +242,23 @@ def _summary(audio_path: str | Path, features: SpeechFeatures, gt: MotionTrack |
     conds: dict[str, Any] = {}
     for name, track in tracks.items():
         entry: dict[str, Any] = {
-            "display_name": DISPLAY_NAMES.get(name, name), "file": f"{name}.fap",
-            "source": track.source, "frames": track.n_frames, "channels": list(track.channels),
+            "display_name": DISPLAY_NAMES.get(name, name),
+            "file": f"{name}.fap",
+            "source": track.source,
+            "frames": track.n_frames,
+            "channels": list(track.channels),
             "parameters": described.get(name, {}),
             "measures": measure_track(track, features, gt_aligned),
         }
-        for key in ("model", "head_model", "head_mean", "eyebrows", "amplitudes",
-                    "carried_from_ground_truth", "eyes"):
+        for key in (
+            "model",
+            "head_model",
+            "head_mean",
+            "eyebrows",
+            "amplitudes",
+            "carried_from_ground_truth",
+            "eyes",
+        ):
             if key in track.metadata:
                 entry[key] = track.metadata[key]
         if track.metadata.get("head_model"):
@@ -223,17 +267,27 @@ def _summary(audio_path: str | Path, features: SpeechFeatures, gt: MotionTrack |
         if warning:
             notes.append(f"{name}: {warning}")
         conds[name] = entry
-    return {"generator": f"facepair {__version__}", "audio": str(audio_path), "seed": seed,
-            "speech": _speech_summary(features), "ground_truth": gt_info, "eyes": eyes,
-            "normalized": factors is not None, "normalization": factors,
-            "conditions": conds, "notes": notes}
+    return {
+        "generator": f"facepair {__version__}",
+        "audio": str(audio_path),
+        "seed": seed,
+        "speech": _speech_summary(features),
+        "ground_truth": gt_info,
+        "eyes": eyes,
+        "normalized": factors is not None,
+        "normalization": factors,
+        "conditions": conds,
+        "notes": notes,
+    }
 
 
 def capture_note(source: str, capture: Mapping[str, Any]) -> str:
     """One line on an imported ground truth: lost samples, filled frames, FAPs left out."""
-    note = (f"ground truth imported from {source}: {capture['samples']} samples at "
-            f"{capture['capture_fps']:g} fps, {capture['invalid_samples']} lost, "
-            f"{capture['filled_frames']} frames filled by interpolation")
+    note = (
+        f"ground truth imported from {source}: {capture['samples']} samples at "
+        f"{capture['capture_fps']:g} fps, {capture['invalid_samples']} lost, "
+        f"{capture['filled_frames']} frames filled by interpolation"
+    )
     missing = sorted({f for faps in capture.get("missing", {}).values() for f in faps})
     if missing:
         note += f"; FAPs {', '.join(map(str, missing))} absent from the file"
@@ -257,8 +311,9 @@ def _jsonable(x: Any) -> Any:
     return x
 
 
-def write_outputs(result: GenerationResult, out_dir: str | Path, *, plot: bool = True,
-                  greta: bool = False) -> list[Path]:
+def write_outputs(
+    result: GenerationResult, out_dir: str | Path, *, plot: bool = True, greta: bool = False
+) -> list[Path]:
     """Write ``<condition>.fap`` per condition, ``summary.json`` and (``plot``) ``summary.png``.
 
     The tracks are in Xface's .fap dialect, or Greta's with ``greta``.

@@ -41,10 +41,10 @@ def save_track(track: MotionTrack, path: str | Path, *, greta: bool = False) -> 
     if suffix == ".fap":
         write_fap(track, path, greta=greta)
     elif greta:
-        raise InputError(f"Greta's dialect is a .fap format, not {suffix or 'no extension'}",
-                         path=path)
+        raise InputError(
+            f"Greta's dialect is a .fap format, not {suffix or 'no extension'}", path=path
+        )
     elif suffix == ".csv":
         write_track_csv(track, path)
     else:
-        raise InputError(f"unknown motion track type {suffix!r}: expected .fap or .csv",
-                         path=path)
+        raise InputError(f"unknown motion track type {suffix!r}: expected .fap or .csv", path=path)

@@ -68,8 +68,9 @@ def _basis(a: np.ndarray) -> np.ndarray:
     return u[:, :rank]
 
 
-def channel_stats(track: MotionTrack, channels: Iterable[int] | None = None
-                  ) -> dict[str, dict[str, float | None]]:
+def channel_stats(
+    track: MotionTrack, channels: Iterable[int] | None = None
+) -> dict[str, dict[str, float | None]]:
     """Mean, sd, range, and velocity/acceleration statistics (FAPU/s, FAPU/s^2) per channel."""
     out: dict[str, dict[str, float | None]] = {}
     for c in channels if channels is not None else track.channels:
@@ -79,8 +80,10 @@ def channel_stats(track: MotionTrack, channels: Iterable[int] | None = None
         vel = np.diff(x) * track.fps
         acc = np.diff(x, 2) * track.fps**2
         out[str(c)] = {
-            "mean": _num(x.mean()) if len(x) else None, "std": _num(x.std()) if len(x) else None,
-            "min": _num(x.min()) if len(x) else None, "max": _num(x.max()) if len(x) else None,
+            "mean": _num(x.mean()) if len(x) else None,
+            "std": _num(x.std()) if len(x) else None,
+            "min": _num(x.min()) if len(x) else None,
+            "max": _num(x.max()) if len(x) else None,
             "velocity_mean_abs": _num(np.abs(vel).mean()) if len(vel) else None,
             "velocity_std": _num(vel.std()) if len(vel) else None,
             "velocity_max_abs": _num(np.abs(vel).max()) if len(vel) else None,
@@ -94,21 +97,29 @@ def head_kinematics(track: MotionTrack) -> dict[str, float | None]:
     """Angular speed and acceleration of the head over (pitch, yaw, roll), in degrees."""
     angles = np.column_stack([track.get(c) for c in HEAD]) * DEG_PER_AU
     if len(angles) < 3:
-        return {"speed_mean_deg_s": None, "speed_max_deg_s": None,
-                "acceleration_mean_deg_s2": None}
+        return {"speed_mean_deg_s": None, "speed_max_deg_s": None, "acceleration_mean_deg_s2": None}
     v = np.sqrt(np.sum((np.diff(angles, axis=0) * track.fps) ** 2, axis=1))
     a = np.sqrt(np.sum((np.diff(angles, 2, axis=0) * track.fps**2) ** 2, axis=1))
-    return {"speed_mean_deg_s": _num(v.mean()), "speed_max_deg_s": _num(v.max()),
-            "acceleration_mean_deg_s2": _num(a.mean())}
+    return {
+        "speed_mean_deg_s": _num(v.mean()),
+        "speed_max_deg_s": _num(v.max()),
+        "acceleration_mean_deg_s2": _num(a.mean()),
+    }
 
 
-def speech_relation(track: MotionTrack, features: SpeechFeatures,
-                    channels: Iterable[int] = HEAD + EYEBROW_RAISE) -> dict[str, Any]:
+def speech_relation(
+    track: MotionTrack, features: SpeechFeatures, channels: Iterable[int] = HEAD + EYEBROW_RAISE
+) -> dict[str, Any]:
     """Correlations with conditioned F0 and intensity; canonical correlations per group."""
     speech = np.column_stack([features.f0_conditioned, features.intensity])
-    per_channel = {str(c): {"f0": pearson(track[c], features.f0_conditioned),
-                            "intensity": pearson(track[c], features.intensity)}
-                   for c in channels if c in track.channels}
+    per_channel = {
+        str(c): {
+            "f0": pearson(track[c], features.f0_conditioned),
+            "intensity": pearson(track[c], features.intensity),
+        }
+        for c in channels
+        if c in track.channels
+    }
     groups = {}
     for label, group in (("head", HEAD), ("eyebrows", EYEBROW_RAISE)):
         cols = [track[c] for c in group if c in track.channels]
@@ -116,27 +127,32 @@ def speech_relation(track: MotionTrack, features: SpeechFeatures,
     return {"correlation": per_channel, "canonical_correlation": groups}
 
 
-def compare_to_reference(track: MotionTrack, reference: MotionTrack,
-                         channels: Iterable[int] = HEAD + EYEBROW_RAISE
-                         ) -> dict[str, dict[str, float | None]]:
+def compare_to_reference(
+    track: MotionTrack, reference: MotionTrack, channels: Iterable[int] = HEAD + EYEBROW_RAISE
+) -> dict[str, dict[str, float | None]]:
     """RMSE and correlation of each channel to the reference (ground truth), frame by frame."""
     n = min(track.n_frames, reference.n_frames)
     out = {}
     for c in channels:
         if c in track.channels and c in reference.channels and n:
             x, r = track[c][:n], reference[c][:n]
-            out[str(c)] = {"rmse": _num(np.sqrt(np.mean((x - r) ** 2))),
-                           "correlation": pearson(x, r)}
+            out[str(c)] = {
+                "rmse": _num(np.sqrt(np.mean((x - r) ** 2))),
+                "correlation": pearson(x, r),
+            }
     return out
 
 
-def measure_track(track: MotionTrack, features: SpeechFeatures,
-                  ground_truth: MotionTrack | None = None) -> dict[str, Any]:
+def measure_track(
+    track: MotionTrack, features: SpeechFeatures, ground_truth: MotionTrack | None = None
+) -> dict[str, Any]:
     """All measures of one condition track (JSON-able)."""
     prosody = [c for c in HEAD + EYEBROW_RAISE if c in track.channels]
-    d: dict[str, Any] = {"channels": channel_stats(track, prosody),
-                         "head": head_kinematics(track),
-                         "speech": speech_relation(track, features)}
+    d: dict[str, Any] = {
+        "channels": channel_stats(track, prosody),
+        "head": head_kinematics(track),
+        "speech": speech_relation(track, features),
+    }
     if ground_truth is not None:
         d["ground_truth"] = compare_to_reference(track, ground_truth)
     return d

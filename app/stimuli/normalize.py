@@ -40,9 +40,12 @@ from app.stimuli.track import MotionTrack
 DEFAULT_CHANNELS: tuple[int, ...] = HEAD
 
 
-def normalize_tracks(tracks: Mapping[str, MotionTrack], reference: str | MotionTrack =
-                     "ground_truth", *, channels: Iterable[int] = DEFAULT_CHANNELS
-                     ) -> tuple[dict[str, MotionTrack], dict[str, dict[str, Any]]]:
+def normalize_tracks(
+    tracks: Mapping[str, MotionTrack],
+    reference: str | MotionTrack = "ground_truth",
+    *,
+    channels: Iterable[int] = DEFAULT_CHANNELS,
+) -> tuple[dict[str, MotionTrack], dict[str, dict[str, Any]]]:
     """Give every track the reference's per-channel mean and sd; returns tracks and factors.
 
     ``reference`` is a key of ``tracks`` (that track is returned unchanged) or a track of its
@@ -52,8 +55,11 @@ def normalize_tracks(tracks: Mapping[str, MotionTrack], reference: str | MotionT
     """
     if isinstance(reference, str):
         if reference not in tracks:
-            raise InputError(f"normalisation reference {reference!r} is not among the "
-                             f"conditions ({', '.join(tracks) or 'none'})", field="normalize")
+            raise InputError(
+                f"normalisation reference {reference!r} is not among the "
+                f"conditions ({', '.join(tracks) or 'none'})",
+                field="normalize",
+            )
         ref_track, ref_name = tracks[reference], reference
     else:
         ref_track, ref_name = reference, ""
@@ -65,8 +71,10 @@ def normalize_tracks(tracks: Mapping[str, MotionTrack], reference: str | MotionT
             out[name] = track
             continue
         if track.n_frames != ref_track.n_frames:
-            raise InputError(f"{name}: {track.n_frames} frames, reference has "
-                             f"{ref_track.n_frames}", field="normalize")
+            raise InputError(
+                f"{name}: {track.n_frames} frames, reference has {ref_track.n_frames}",
+                field="normalize",
+            )
         columns: dict[int, np.ndarray] = {}
         report: dict[str, Any] = {}
         for c in wanted:
@@ -83,8 +91,14 @@ def normalize_tracks(tracks: Mapping[str, MotionTrack], reference: str | MotionT
             scale = sr / sx
             offset = mr - scale * mx
             columns[c] = (x - mx) * scale + mr
-            report[str(c)] = {"scale": scale, "offset": offset, "mean_before": mx,
-                              "std_before": sx, "mean_target": mr, "std_target": sr}
+            report[str(c)] = {
+                "scale": scale,
+                "offset": offset,
+                "mean_before": mx,
+                "std_before": sx,
+                "mean_target": mr,
+                "std_target": sr,
+            }
         meta = dict(track.metadata, normalized_to=ref_name or ref_track.source or "reference")
         out[name] = track.with_channels(columns).replace(metadata=meta)
         factors[name] = report

@@ -31,8 +31,9 @@ _MASK = 0xFFFFFFFFFFFFFFFF
 
 def _hash_unit(k: np.ndarray, seed: int, octave: int) -> np.ndarray:
     """SplitMix64 of (lattice index, seed, octave) mapped to [-1, 1)."""
-    z = (k.astype(np.int64).astype(np.uint64)
-         + np.uint64((seed * 0x9E3779B97F4A7C15 + octave * 0xD1B54A32D192ED69) & _MASK))
+    z = k.astype(np.int64).astype(np.uint64) + np.uint64(
+        (seed * 0x9E3779B97F4A7C15 + octave * 0xD1B54A32D192ED69) & _MASK
+    )
     z = z * np.uint64(0xBF58476D1CE4E5B9)
     z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
     z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
@@ -51,8 +52,9 @@ def perlin_1d(x: np.ndarray, *, seed: int = 0, octave: int = 0) -> np.ndarray:
     return (1 - fade) * g0 * t + fade * g1 * (t - 1)
 
 
-def fractal_noise(x: np.ndarray, *, seed: int = 0, octaves: int = 6,
-                  persistence: float = 0.8) -> np.ndarray:
+def fractal_noise(
+    x: np.ndarray, *, seed: int = 0, octaves: int = 6, persistence: float = 0.8
+) -> np.ndarray:
     """Thesis eq. 32: ``sum_i persistence**i * perlin_1d(2**i * x)`` over ``octaves`` octaves."""
     x = np.asarray(x, dtype=np.float64)
     out = np.zeros_like(x)
@@ -66,8 +68,16 @@ def fbm_bound(octaves: int = 6, persistence: float = 0.8) -> float:
     return 0.5 * sum(persistence**i for i in range(int(octaves)))
 
 
-def frame_noise(n_frames: int, fps: float, *, frequency: float, frame_offset: int = 0,
-                seed: int = 0, octaves: int = 6, persistence: float = 0.8) -> np.ndarray:
+def frame_noise(
+    n_frames: int,
+    fps: float,
+    *,
+    frequency: float,
+    frame_offset: int = 0,
+    seed: int = 0,
+    octaves: int = 6,
+    persistence: float = 0.8,
+) -> np.ndarray:
     """Thesis eq. 33-34: fractal noise of the frame number, ``x = (frame + offset) * f / fps``.
 
     ``frequency`` (Hz) is the lattice rate of the first octave; octave ``i`` runs at
@@ -75,5 +85,6 @@ def frame_noise(n_frames: int, fps: float, *, frequency: float, frame_offset: in
     ``fps / 2`` or the top octave aliases.
     """
     frames = np.arange(int(n_frames), dtype=np.float64) + frame_offset
-    return fractal_noise(frames * frequency / fps, seed=seed, octaves=octaves,
-                         persistence=persistence)
+    return fractal_noise(
+        frames * frequency / fps, seed=seed, octaves=octaves, persistence=persistence
+    )

@@ -18,8 +18,13 @@ from app.stimuli.fap import DEG_PER_AU
 if TYPE_CHECKING:
     from app.stimuli.generate import GenerationResult
 
-_COLOURS = {"ground_truth": "black", "none": "0.6", "random": "tab:orange",
-            "speech_driven": "tab:blue", "live_gmm": "tab:green"}
+_COLOURS = {
+    "ground_truth": "black",
+    "none": "0.6",
+    "random": "tab:orange",
+    "speech_driven": "tab:blue",
+    "live_gmm": "tab:green",
+}
 
 
 def plot_conditions(result: GenerationResult, path: str | Path) -> Path:
@@ -33,15 +38,19 @@ def plot_conditions(result: GenerationResult, path: str | Path) -> Path:
 
     feats = result.features
     t = np.arange(feats.n_frames) / feats.fps
-    rows = [("head pitch (48), deg, + down", 48, DEG_PER_AU),
-            ("head yaw (49), deg, + left", 49, DEG_PER_AU),
-            ("head roll (50), deg, + right", 50, DEG_PER_AU),
-            ("inner eyebrow raise (31), ENS", 31, 1.0)]
-    fig, axes = plt.subplots(len(rows) + 1, 1, figsize=(12, 11), sharex=True,
-                             constrained_layout=True)
+    rows = [
+        ("head pitch (48), deg, + down", 48, DEG_PER_AU),
+        ("head yaw (49), deg, + left", 49, DEG_PER_AU),
+        ("head roll (50), deg, + right", 50, DEG_PER_AU),
+        ("inner eyebrow raise (31), ENS", 31, 1.0),
+    ]
+    fig, axes = plt.subplots(
+        len(rows) + 1, 1, figsize=(12, 11), sharex=True, constrained_layout=True
+    )
     ax = axes[0]
-    ax.plot(t, np.where(feats.voiced, feats.f0, np.nan), ".", ms=3, color="tab:red",
-            label="F0 (Praat)")
+    ax.plot(
+        t, np.where(feats.voiced, feats.f0, np.nan), ".", ms=3, color="tab:red", label="F0 (Praat)"
+    )
     ax.plot(t, feats.f0_conditioned, color="tab:red", lw=1, alpha=0.6, label="F0 conditioned")
     ax.set_ylabel("F0, Hz")
     ax2 = ax.twinx()
@@ -64,9 +73,13 @@ def plot_conditions(result: GenerationResult, path: str | Path) -> Path:
         for name, track in result.tracks.items():
             if fap not in track.channels:
                 continue
-            ax.plot(t[: track.n_frames], track[fap] * scale, color=_COLOURS.get(name),
-                    lw=2.2 if name == "ground_truth" else 1.1,
-                    label=DISPLAY_NAMES.get(name, name))
+            ax.plot(
+                t[: track.n_frames],
+                track[fap] * scale,
+                color=_COLOURS.get(name),
+                lw=2.2 if name == "ground_truth" else 1.1,
+                label=DISPLAY_NAMES.get(name, name),
+            )
         ax.set_ylabel(label, fontsize=8)
         ax.grid(alpha=0.3)
         if fap == 31:

@@ -64,8 +64,14 @@ SPEAKER = "synthetic reference speaker"
 _DEG = np.pi / 180 / AU_RADIANS  # AU per degree
 
 
-def synthesize_reference(features: SpeechFeatures, *, seed: int = 0, nod_au: float = 2500.0,
-                         brow_ens: float = 20.0, talk_fraction: float = 0.35) -> MotionTrack:
+def synthesize_reference(
+    features: SpeechFeatures,
+    *,
+    seed: int = 0,
+    nod_au: float = 2500.0,
+    brow_ens: float = 20.0,
+    talk_fraction: float = 0.35,
+) -> MotionTrack:
     """The synthetic reference speaker's motion for ``features`` (see the module docstring)."""
     n, fps = features.n_frames, features.fps
     rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(6)]
@@ -80,16 +86,20 @@ def synthesize_reference(features: SpeechFeatures, *, seed: int = 0, nod_au: flo
 
     columns = {**head, **brows, **gaze, **lids, **mouth}
     meta: dict[str, Any] = {
-        "synthetic": True, "model": "facepair synthetic reference speaker v1", "seed": seed,
-        "accent_frames": accents.tolist(), "eyebrow_raise_frames": raises,
-        "blink_frames": blinks, "talking_fraction": float(talking.mean()) if n else 0.0,
+        "synthetic": True,
+        "model": "facepair synthetic reference speaker v1",
+        "seed": seed,
+        "accent_frames": accents.tolist(),
+        "eyebrow_raise_frames": raises,
+        "blink_frames": blinks,
+        "talking_fraction": float(talking.mean()) if n else 0.0,
     }
-    return MotionTrack.from_channels(fps, columns, name="GROUND_TRUTH (synthetic)",
-                                     source=SOURCE, speaker=SPEAKER, metadata=meta)
+    return MotionTrack.from_channels(
+        fps, columns, name="GROUND_TRUTH (synthetic)", source=SOURCE, speaker=SPEAKER, metadata=meta
+    )
 
 
-def talking_frames(intensity: np.ndarray, fps: float, talk_fraction: float = 0.35
-                   ) -> np.ndarray:
+def talking_frames(intensity: np.ndarray, fps: float, talk_fraction: float = 0.35) -> np.ndarray:
     """Boolean mask of frames where the speaker talks, decided from intensity (dB)."""
     x = np.asarray(intensity, dtype=np.float64)
     if len(x) == 0:
@@ -103,8 +113,7 @@ def talking_frames(intensity: np.ndarray, fps: float, talk_fraction: float = 0.3
     return ndimage.binary_opening(mask, np.ones(opening, dtype=bool))
 
 
-def pitch_accents(features: SpeechFeatures, talking: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray]:
+def pitch_accents(features: SpeechFeatures, talking: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Frames of pitch accents and their strengths (z-scores clipped to [0.3, 2.5])."""
     voiced = features.voiced & talking
     if voiced.sum() < 3:
@@ -113,8 +122,9 @@ def pitch_accents(features: SpeechFeatures, talking: np.ndarray
     ref = features.f0[voiced]
     sd = max(float(ref.std()), 1.0)
     prominence = max(8.0, 0.6 * sd)
-    peaks, _ = signal.find_peaks(np.where(voiced, f0, 0.0), prominence=prominence,
-                                 distance=max(round(0.4 * features.fps), 1))
+    peaks, _ = signal.find_peaks(
+        np.where(voiced, f0, 0.0), prominence=prominence, distance=max(round(0.4 * features.fps), 1)
+    )
     peaks = peaks[voiced[peaks]]
     strength = np.clip((f0[peaks] - np.median(ref)) / sd + 1.0, 0.3, 2.5)
     return peaks.astype(int), strength
@@ -143,20 +153,28 @@ def _standard(x: np.ndarray) -> np.ndarray:
     return (x - x.mean()) / sd if sd > 0 else np.zeros_like(x)
 
 
-def _head(features: SpeechFeatures, talking: np.ndarray, accents: np.ndarray,
-          strength: np.ndarray, nod_au: float, rng: np.random.Generator
-          ) -> dict[int, np.ndarray]:
+def _head(
+    features: SpeechFeatures,
+    talking: np.ndarray,
+    accents: np.ndarray,
+    strength: np.ndarray,
+    nod_au: float,
+    rng: np.random.Generator,
+) -> dict[int, np.ndarray]:
     n, fps = features.n_frames, features.fps
     t = np.arange(max(round(1.0 * fps), 2)) / fps
     tau = 0.1
     gamma = (t / tau) * np.exp(1 - t / tau)  # peaks at 1 at t = tau
     nods = _pulses(n, accents, nod_au * strength, gamma)
-    roll_tilt = _pulses(n, accents, 0.5 * nod_au * strength * rng.choice([-1.0, 1.0],
-                                                                        len(accents)), gamma)
+    roll_tilt = _pulses(
+        n, accents, 0.5 * nod_au * strength * rng.choice([-1.0, 1.0], len(accents)), gamma
+    )
     inten = _standard(features.intensity)
     f0 = _standard(features.f0_conditioned)
-    inten_1s, f0_1s = _standard(smooth_1s(features.intensity, fps)), _standard(
-        smooth_1s(features.f0_conditioned, fps))
+    inten_1s, f0_1s = (
+        _standard(smooth_1s(features.intensity, fps)),
+        _standard(smooth_1s(features.f0_conditioned, fps)),
+    )
     a = np.exp(-1.0 / (0.5 * fps))
     respond = lambda x: signal.lfilter([1 - a], [1.0, -a], x)  # noqa: E731
     # positive pitch is down: loud, high speech lifts the head a little
@@ -164,8 +182,9 @@ def _head(features: SpeechFeatures, talking: np.ndarray, accents: np.ndarray,
     yaw = respond(700.0 * f0 + 900.0 * f0_1s - 400.0 * inten)
     roll = respond(-500.0 * f0 + 400.0 * inten_1s) + roll_tilt
     onsets = np.flatnonzero(np.diff(talking.astype(int)) == 1) + 1
-    turn = np.repeat(np.r_[0.0, rng.normal(0, 2.5 * _DEG, len(onsets))],
-                     np.diff(np.r_[0, onsets, n]))
+    turn = np.repeat(
+        np.r_[0.0, rng.normal(0, 2.5 * _DEG, len(onsets))], np.diff(np.r_[0, onsets, n])
+    )
     yaw += ndimage.uniform_filter1d(turn, max(round(0.4 * fps), 1), mode="nearest")
     pitch += _ou(n, fps, 4.0, 1.2 * _DEG, rng)
     yaw += _ou(n, fps, 6.0, 2.0 * _DEG, rng)
@@ -175,25 +194,36 @@ def _head(features: SpeechFeatures, talking: np.ndarray, accents: np.ndarray,
     return {48: pitch, 49: yaw, 50: roll}
 
 
-def _eyebrows(n: int, fps: float, accents: np.ndarray, strength: np.ndarray,
-              brow_ens: float) -> tuple[dict[int, np.ndarray], list[int]]:
+def _eyebrows(
+    n: int, fps: float, accents: np.ndarray, strength: np.ndarray, brow_ens: float
+) -> tuple[dict[int, np.ndarray], list[int]]:
     inner = np.zeros(n)
     chosen = accents[strength >= 1.0]
     rise, fall = max(round(0.1 * fps), 1), max(round(0.2 * fps), 1)
     for k, s in zip(chosen, strength[strength >= 1.0], strict=True):
         hold = round((0.25 + 0.1 * s) * fps)
-        shape = np.r_[np.linspace(0, 1, rise + 1)[1:], np.ones(hold),
-                      np.linspace(1, 0, fall + 1)[1:]] * brow_ens * s
+        shape = (
+            np.r_[np.linspace(0, 1, rise + 1)[1:], np.ones(hold), np.linspace(1, 0, fall + 1)[1:]]
+            * brow_ens
+            * s
+        )
         start = max(int(k) - rise // 2, 0)
         seg = shape[: n - start]
-        inner[start:start + len(seg)] = np.maximum(inner[start:start + len(seg)], seg)
+        inner[start : start + len(seg)] = np.maximum(inner[start : start + len(seg)], seg)
     ratio = {31: 1.0, 32: 1.0, 33: 0.8, 34: 0.8, 35: 0.0, 36: 0.0}
     assert tuple(ratio) == EYEBROW_RAISE
     return {c: r * inner for c, r in ratio.items()}, [int(k) for k in chosen]
 
 
-def _state_intervals(n: int, fps: float, talking: np.ndarray, rng: np.random.Generator,
-                     median_talk: float, median_silent: float, sigma: float) -> np.ndarray:
+def _state_intervals(
+    n: int,
+    fps: float,
+    talking: np.ndarray,
+    rng: np.random.Generator,
+    median_talk: float,
+    median_silent: float,
+    sigma: float,
+) -> np.ndarray:
     """Event frames with log-normal intervals whose median depends on talking at the last event.
 
     Draws are made in bulk for both states and consumed in order, so the loop only walks the
@@ -202,8 +232,10 @@ def _state_intervals(n: int, fps: float, talking: np.ndarray, rng: np.random.Gen
     if n == 0:
         return np.zeros(0, dtype=int)
     budget = int(n / fps / min(median_talk, median_silent) * 3) + 8
-    draws = {True: rng.lognormal(np.log(median_talk), sigma, budget),
-             False: rng.lognormal(np.log(median_silent), sigma, budget)}
+    draws = {
+        True: rng.lognormal(np.log(median_talk), sigma, budget),
+        False: rng.lognormal(np.log(median_silent), sigma, budget),
+    }
     used = {True: 0, False: 0}
     frames = []
     t = float(rng.uniform(0, median_silent))
@@ -218,8 +250,9 @@ def _state_intervals(n: int, fps: float, talking: np.ndarray, rng: np.random.Gen
     return np.array(frames, dtype=int)
 
 
-def _gaze(n: int, fps: float, talking: np.ndarray, head: dict[int, np.ndarray],
-          rng: np.random.Generator) -> dict[int, np.ndarray]:
+def _gaze(
+    n: int, fps: float, talking: np.ndarray, head: dict[int, np.ndarray], rng: np.random.Generator
+) -> dict[int, np.ndarray]:
     shifts = _state_intervals(n, fps, talking, rng, 1.2, 2.5, 0.5)
     if len(shifts) == 0:
         return {c: np.zeros(n) for c in (23, 24, 25, 26)}
@@ -239,8 +272,9 @@ def _centre(x: np.ndarray, fps: float) -> np.ndarray:
     return x - ndimage.uniform_filter1d(x, max(round(2 * fps), 1), mode="nearest")
 
 
-def _blinks(n: int, fps: float, talking: np.ndarray, rng: np.random.Generator
-            ) -> tuple[dict[int, np.ndarray], list[int]]:
+def _blinks(
+    n: int, fps: float, talking: np.ndarray, rng: np.random.Generator
+) -> tuple[dict[int, np.ndarray], list[int]]:
     onsets = _state_intervals(n, fps, talking, rng, 2.0, 3.5, 0.6)
     close, opening = max(round(0.075 * fps), 1), max(round(0.15 * fps), 1)
     shape = np.r_[np.linspace(0, 1, close + 1)[1:], np.linspace(1, 0, opening + 1)[1:]]
@@ -255,5 +289,10 @@ def _jaw_lips(intensity: np.ndarray, talking: np.ndarray) -> dict[int, np.ndarra
         return {c: np.zeros(0) for c in (3, 4, 5, 51, 52)}
     floor, level = np.percentile(x, [10, 95])
     opening = np.clip((x - floor) / max(level - floor, 1e-9), 0, 1) * talking
-    return {3: 350.0 * opening, 4: -40.0 * opening, 5: -40.0 * opening,
-            51: -40.0 * opening, 52: -40.0 * opening}
+    return {
+        3: 350.0 * opening,
+        4: -40.0 * opening,
+        5: -40.0 * opening,
+        51: -40.0 * opening,
+        52: -40.0 * opening,
+    }

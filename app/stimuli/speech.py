@@ -87,13 +87,17 @@ class SpeechFeatures:
     def slice(self, start: int, stop: int) -> SpeechFeatures:
         """Frames ``start:stop`` as new features (for held-out splits and streaming)."""
         return SpeechFeatures(
-            self.fps, self.f0[start:stop].copy(), self.intensity[start:stop].copy(),
-            self.f0_conditioned[start:stop].copy(), dict(self.metadata),
+            self.fps,
+            self.f0[start:stop].copy(),
+            self.intensity[start:stop].copy(),
+            self.f0_conditioned[start:stop].copy(),
+            dict(self.metadata),
         )
 
 
-def load_audio(path: str | Path, *, max_duration: float = MAX_DURATION_S
-               ) -> tuple[np.ndarray, float]:
+def load_audio(
+    path: str | Path, *, max_duration: float = MAX_DURATION_S
+) -> tuple[np.ndarray, float]:
     """Read a WAV or FLAC file as mono float64 samples in [-1, 1] and its sample rate.
 
     Several channels are averaged to mono (use :func:`load_sound` to learn whether that
@@ -103,8 +107,9 @@ def load_audio(path: str | Path, *, max_duration: float = MAX_DURATION_S
     return sound.values[0].astype(np.float64), float(sound.sampling_frequency)
 
 
-def load_sound(path: str | Path, *, max_duration: float = MAX_DURATION_S
-               ) -> tuple[parselmouth.Sound, int]:
+def load_sound(
+    path: str | Path, *, max_duration: float = MAX_DURATION_S
+) -> tuple[parselmouth.Sound, int]:
     """Read and validate audio as a mono Praat sound; returns it and the original channel count."""
     p = Path(path)
     if not p.is_file():
@@ -125,11 +130,15 @@ def load_sound(path: str | Path, *, max_duration: float = MAX_DURATION_S
     if sound.duration < MIN_DURATION_S:
         raise InputError(
             f"audio is {sound.duration * 1000:.0f} ms long; at least "
-            f"{MIN_DURATION_S * 1000:.0f} ms is needed for pitch analysis", path=p)
+            f"{MIN_DURATION_S * 1000:.0f} ms is needed for pitch analysis",
+            path=p,
+        )
     if sound.duration > max_duration:
         raise InputError(
             f"audio is {sound.duration:.1f} s long; the limit is {max_duration:g} s "
-            "(cut it into stimuli or raise max_duration)", path=p)
+            "(cut it into stimuli or raise max_duration)",
+            path=p,
+        )
     if n_channels > 1:
         sound = sound.convert_to_mono()
     if not np.all(np.isfinite(sound.values)):
@@ -171,16 +180,27 @@ def _check_wav_header(path: Path) -> None:
     if tag not in _WAV_CONTAINERS:
         return  # compressed encodings: Praat names what it does not support
     container = align // channels if channels else 0
-    if (channels == 0 or align % channels or container not in _WAV_CONTAINERS[tag]
-            or not 0 < bits <= 8 * container):
+    if (
+        channels == 0
+        or align % channels
+        or container not in _WAV_CONTAINERS[tag]
+        or not 0 < bits <= 8 * container
+    ):
         raise InputError(
             f"unsupported WAV sample width: {bits} bits per sample in {align}-byte frames of "
-            f"{channels} channel(s); expected 8/16/24/32-bit PCM or 32/64-bit float", path=path)
+            f"{channels} channel(s); expected 8/16/24/32-bit PCM or 32/64-bit float",
+            path=path,
+        )
 
 
-def extract_features(audio_path: str | Path, fps: float = 30.0, *,
-                     pitch_floor: float | None = None, pitch_ceiling: float | None = None,
-                     max_duration: float = MAX_DURATION_S) -> SpeechFeatures:
+def extract_features(
+    audio_path: str | Path,
+    fps: float = 30.0,
+    *,
+    pitch_floor: float | None = None,
+    pitch_ceiling: float | None = None,
+    max_duration: float = MAX_DURATION_S,
+) -> SpeechFeatures:
     """F0 (Hz, 0 unvoiced), intensity (dB) and conditioned F0 per video frame of an audio file.
 
     Praat's autocorrelation pitch and intensity run with time step = the frame period ``1/fps``
@@ -195,14 +215,18 @@ def extract_features(audio_path: str | Path, fps: float = 30.0, *,
         raise InputError(f"fps must be positive, got {fps!r}", field="fps")
     sound, n_channels = load_sound(audio_path, max_duration=max_duration)
     feats = _features(sound, fps, pitch_floor, pitch_ceiling)
-    feats.metadata.update(audio=str(audio_path), channels=n_channels,
-                          mixed_to_mono=n_channels > 1)
+    feats.metadata.update(audio=str(audio_path), channels=n_channels, mixed_to_mono=n_channels > 1)
     return feats
 
 
-def features_from_samples(samples: np.ndarray, sample_rate: float, fps: float = 30.0, *,
-                          pitch_floor: float | None = None, pitch_ceiling: float | None = None
-                          ) -> SpeechFeatures:
+def features_from_samples(
+    samples: np.ndarray,
+    sample_rate: float,
+    fps: float = 30.0,
+    *,
+    pitch_floor: float | None = None,
+    pitch_ceiling: float | None = None,
+) -> SpeechFeatures:
     """Like :func:`extract_features`, from mono samples already in memory (tests, streams)."""
     _check_range(pitch_floor, pitch_ceiling)
     sound = parselmouth.Sound(np.asarray(samples, dtype=np.float64), float(sample_rate))
@@ -224,15 +248,16 @@ OCTAVE_WINDOW_S = 0.3
 def _check_range(floor: float | None, ceiling: float | None) -> None:
     for name, value in (("pitch_floor", floor), ("pitch_ceiling", ceiling)):
         if value is not None and not (np.isfinite(value) and value > 0):
-            raise InputError(f"{name} must be a positive number of Hz, got {value!r}",
-                             field=name)
+            raise InputError(f"{name} must be a positive number of Hz, got {value!r}", field=name)
     if floor is not None and ceiling is not None and not floor < ceiling:
-        raise InputError(f"need pitch floor < pitch ceiling, got {floor:g} and {ceiling:g}",
-                         field="pitch_floor")
+        raise InputError(
+            f"need pitch floor < pitch ceiling, got {floor:g} and {ceiling:g}", field="pitch_floor"
+        )
 
 
-def speaker_pitch_range(first_pass_f0: np.ndarray, floor: float | None = None,
-                        ceiling: float | None = None) -> tuple[float, float, str]:
+def speaker_pitch_range(
+    first_pass_f0: np.ndarray, floor: float | None = None, ceiling: float | None = None
+) -> tuple[float, float, str]:
     """The speaker's F0 floor and ceiling: given values kept, missing ones from the quartiles.
 
     Two-pass rule of De Looze & Hirst (2008), widely used with Praat: a first pass over
@@ -261,8 +286,9 @@ def speaker_pitch_range(first_pass_f0: np.ndarray, floor: float | None = None,
     return round(lo, 3), round(hi, 3), how
 
 
-def remove_octave_jumps(f0: np.ndarray, fps: float, max_octaves: float = OCTAVE_JUMP,
-                        window_s: float = OCTAVE_WINDOW_S) -> tuple[np.ndarray, int]:
+def remove_octave_jumps(
+    f0: np.ndarray, fps: float, max_octaves: float = OCTAVE_JUMP, window_s: float = OCTAVE_WINDOW_S
+) -> tuple[np.ndarray, int]:
     """Unvoice frames whose F0 jumps by about an octave from their neighbourhood.
 
     Autocorrelation pitch trackers halve or double F0 on a few frames (e.g. a 371 Hz frame in
@@ -289,21 +315,24 @@ def remove_octave_jumps(f0: np.ndarray, fps: float, max_octaves: float = OCTAVE_
     return f0, int(len(bad))
 
 
-def _pitch(sound: parselmouth.Sound, fps: float, floor: float, ceiling: float,
-           t: np.ndarray) -> np.ndarray:
+def _pitch(
+    sound: parselmouth.Sound, fps: float, floor: float, ceiling: float, t: np.ndarray
+) -> np.ndarray:
     pitch = sound.to_pitch_ac(time_step=1.0 / fps, pitch_floor=floor, pitch_ceiling=ceiling)
     return _read_f0(pitch.xs(), pitch.selected_array["frequency"], t)
 
 
-def _features(sound: parselmouth.Sound, fps: float, floor: float | None,
-              ceiling: float | None) -> SpeechFeatures:
+def _features(
+    sound: parselmouth.Sound, fps: float, floor: float | None, ceiling: float | None
+) -> SpeechFeatures:
     n = round(sound.duration * fps)
     t = np.arange(n) / fps
     first = None
     if floor is None or ceiling is None:
         first = _pitch(sound, fps, *FIRST_PASS_RANGE, t)
-    floor, ceiling, how = speaker_pitch_range(first if first is not None else np.zeros(0),
-                                              floor, ceiling)
+    floor, ceiling, how = speaker_pitch_range(
+        first if first is not None else np.zeros(0), floor, ceiling
+    )
     f0, n_jumps = remove_octave_jumps(_pitch(sound, fps, floor, ceiling, t), fps)
     inten = sound.to_intensity(minimum_pitch=floor, time_step=1.0 / fps)
     db = np.maximum(inten.values[0], INTENSITY_FLOOR_DB)
@@ -311,9 +340,14 @@ def _features(sound: parselmouth.Sound, fps: float, floor: float | None,
         intensity = np.interp(t, inten.xs(), db)
     else:  # shorter than one intensity window: one value for the whole sound
         intensity = np.full(n, float(db[0]) if len(db) else INTENSITY_FLOOR_DB)
-    meta = dict(sample_rate=float(sound.sampling_frequency), duration=float(sound.duration),
-                pitch_floor=floor, pitch_ceiling=ceiling, pitch_range=how,
-                octave_jumps_removed=n_jumps)
+    meta = dict(
+        sample_rate=float(sound.sampling_frequency),
+        duration=float(sound.duration),
+        pitch_floor=floor,
+        pitch_ceiling=ceiling,
+        pitch_range=how,
+        octave_jumps_removed=n_jumps,
+    )
     return SpeechFeatures(float(fps), f0, intensity, condition_f0(f0), meta)
 
 

@@ -151,7 +151,11 @@ class MotionTrack:
                 raise ValueError(f"FAP {c}: expected {self.n_frames} values, got {col.shape}")
             merged[check_fap(c)] = col
         return MotionTrack.from_channels(
-            self.fps, merged, name=self.name, source=self.source, speaker=self.speaker,
+            self.fps,
+            merged,
+            name=self.name,
+            source=self.source,
+            speaker=self.speaker,
             metadata=dict(self.metadata),
         )
 
@@ -215,8 +219,9 @@ class MotionTrack:
         )
 
 
-def align_to_features(track: MotionTrack, features: SpeechFeatures, offset: float = 0.0
-                      ) -> MotionTrack:
+def align_to_features(
+    track: MotionTrack, features: SpeechFeatures, offset: float = 0.0
+) -> MotionTrack:
     """``track`` at the features' frame rate and frame count, shifted by ``offset`` seconds:
     a ground truth aligned to the speech it goes with (thesis sec. 4.3.2).
 

@@ -81,8 +81,9 @@ def read_track_csv(source: str | Path | IO[str], fps: float | None = None) -> Mo
         try:
             fps = float(meta["fps"])
         except ValueError:
-            raise InputError(f"fps is {meta['fps']!r}, expected a number", path=path,
-                             line=1) from None
+            raise InputError(
+                f"fps is {meta['fps']!r}, expected a number", path=path, line=1
+            ) from None
     if not np.isfinite(fps) or fps <= 0:
         raise InputError(f"fps is {fps}, expected a number > 0", path=path)
     rows = list(csv.reader(lines[start:]))
@@ -91,8 +92,11 @@ def read_track_csv(source: str | Path | IO[str], fps: float | None = None) -> Mo
     header = [h.strip() for h in rows[0]]
     header_line = start + 1
     if not header or header[0] != "frame":
-        raise InputError(f"first column is {header[0] if header else ''!r}, expected 'frame'",
-                         path=path, line=header_line)
+        raise InputError(
+            f"first column is {header[0] if header else ''!r}, expected 'frame'",
+            path=path,
+            line=header_line,
+        )
     try:
         channels = [parse_column_name(h) for h in header[1:]]
     except ValueError as exc:
@@ -108,18 +112,21 @@ def read_track_csv(source: str | Path | IO[str], fps: float | None = None) -> Mo
         try:
             frames.append(int(row[0]))
         except ValueError:
-            raise InputError(f"frame is {row[0]!r}, expected an integer", path=path, line=k,
-                             ) from None
+            raise InputError(
+                f"frame is {row[0]!r}, expected an integer",
+                path=path,
+                line=k,
+            ) from None
         vals = []
         for name, cell in zip(header[1:], row[1:], strict=True):
             try:
                 v = float(cell)
             except ValueError:
-                raise InputError(f"{name} is {cell!r}, expected a number", path=path,
-                                 line=k) from None
+                raise InputError(
+                    f"{name} is {cell!r}, expected a number", path=path, line=k
+                ) from None
             if not np.isfinite(v):
-                raise InputError(f"{name} is {cell!r}, expected a finite number", path=path,
-                                 line=k)
+                raise InputError(f"{name} is {cell!r}, expected a finite number", path=path, line=k)
             vals.append(v)
         data.append(vals)
     if frames and (frames[0] < 0 or np.any(np.diff(frames) <= 0)):
@@ -135,6 +142,10 @@ def read_track_csv(source: str | Path | IO[str], fps: float | None = None) -> Mo
         values[~have, j] = np.interp(grid[~have], grid[have], values[have, j])
     order = np.argsort(channels)
     return MotionTrack(
-        fps, values[:, order], tuple(sorted(channels)), name=meta.get("name", ""),
-        source=meta.get("source", path), speaker=meta.get("speaker", ""),
+        fps,
+        values[:, order],
+        tuple(sorted(channels)),
+        name=meta.get("name", ""),
+        source=meta.get("source", path),
+        speaker=meta.get("speaker", ""),
     )

@@ -67,8 +67,10 @@ class ParticipationSpec:
         return {
             "mismatched": self.mismatched,
             "answer": {"scale": self.scale, "reasons": list(self.reasons)},
-            "attention": {"max_failed": self.max_failed,
-                          "screened_out_code": self.screened_out_code},
+            "attention": {
+                "max_failed": self.max_failed,
+                "screened_out_code": self.screened_out_code,
+            },
             "viewing": {"min_face_px": self.min_face_px, "portrait": self.portrait},
         }
 
@@ -81,27 +83,31 @@ class ParticipationSpec:
         attention = stored.get("attention", {})
         viewing = stored.get("viewing", {})
         return cls(
-            scale=int(answer.get("scale", 3)), reasons=tuple(answer.get("reasons", ())),
+            scale=int(answer.get("scale", 3)),
+            reasons=tuple(answer.get("reasons", ())),
             max_failed=int(attention.get("max_failed", 0)),
             screened_out_code=str(attention.get("screened_out_code", "")),
             min_face_px=int(viewing.get("min_face_px", 0)),
             portrait=str(viewing.get("portrait", "fit")),
-            mismatched=bool(stored.get("mismatched", False)))
+            mismatched=bool(stored.get("mismatched", False)),
+        )
 
 
-def read_participation(reader: FieldReader, top: Mapping[str, Any], *,
-                       n_clips: int = 2) -> ParticipationSpec:
+def read_participation(
+    reader: FieldReader, top: Mapping[str, Any], *, n_clips: int = 2
+) -> ParticipationSpec:
     """Validate the block's keys in ``top`` (a study file's top-level table).
 
     ``n_clips`` is the study's number of clips: appropriateness pairs need another clip's
     motion, so ``mismatched = true`` needs at least two. Every problem raises one
     :class:`~app.errors.InputError` naming the field.
     """
-    mismatched = bool(reader.get(top, "mismatched", "mismatched", (bool,), "true or false",
-                                 False))
+    mismatched = bool(reader.get(top, "mismatched", "mismatched", (bool,), "true or false", False))
     if mismatched and n_clips < 2:
-        raise reader.error("mismatched", "needs at least two clips (another clip's motion is "
-                                         "shown under each clip's speech)")
+        raise reader.error(
+            "mismatched",
+            "needs at least two clips (another clip's motion is shown under each clip's speech)",
+        )
     answer = reader.table(top.get("answer", {}), "answer", ("scale", "reasons"))
     scale = reader.integer(answer, "scale", "answer.scale", 3, 3, 5)
     if scale not in SCALES:
@@ -111,12 +117,12 @@ def read_participation(reader: FieldReader, top: Mapping[str, Any], *,
         raise reader.error("answer.reasons", f"at most {MAX_REASONS} tags, got {len(tags)}")
     for index, tag in enumerate(tags):
         if not isinstance(tag, str) or not 1 <= len(tag.strip()) <= 40:
-            raise reader.error(f"answer.reasons[{index}]",
-                               "expected a tag of 1 to 40 characters")
+            raise reader.error(f"answer.reasons[{index}]", "expected a tag of 1 to 40 characters")
     if len(set(tags)) != len(tags):
         raise reader.error("answer.reasons", "repeats a tag")
-    attention = reader.table(top.get("attention", {}), "attention",
-                             ("max_failed", "screened_out_code"))
+    attention = reader.table(
+        top.get("attention", {}), "attention", ("max_failed", "screened_out_code")
+    )
     max_failed = reader.integer(attention, "max_failed", "attention.max_failed", 0, 0, 1000)
     code = reader.text(attention, "screened_out_code", "attention.screened_out_code", "")
     if len(code) > 80:
@@ -124,6 +130,12 @@ def read_participation(reader: FieldReader, top: Mapping[str, Any], *,
     viewing = reader.table(top.get("viewing", {}), "viewing", ("min_face_px", "portrait"))
     min_face = reader.integer(viewing, "min_face_px", "viewing.min_face_px", 0, 0, 4096)
     portrait = reader.choice(viewing, "portrait", "viewing.portrait", PORTRAIT_MODES, "fit")
-    return ParticipationSpec(scale=scale, reasons=tuple(t.strip() for t in tags),
-                             max_failed=max_failed, screened_out_code=code,
-                             min_face_px=min_face, portrait=portrait, mismatched=mismatched)
+    return ParticipationSpec(
+        scale=scale,
+        reasons=tuple(t.strip() for t in tags),
+        max_failed=max_failed,
+        screened_out_code=code,
+        min_face_px=min_face,
+        portrait=portrait,
+        mismatched=mismatched,
+    )

@@ -49,31 +49,55 @@ class QuestionSpec:
 
     def to_dict(self) -> dict[str, Any]:
         """The question as a study file's ``[[questions]]`` table."""
-        out: dict[str, Any] = {"name": self.name, "text": self.text, "page": self.page,
-                               "type": self.kind, "required": self.required}
+        out: dict[str, Any] = {
+            "name": self.name,
+            "text": self.text,
+            "page": self.page,
+            "type": self.kind,
+            "required": self.required,
+        }
         if self.kind == "choice":
             out["choices"] = list(self.choices)
         elif self.kind == "number":
-            out |= {k: v for k, v in (("min", self.minimum), ("max", self.maximum))
-                    if v is not None}
+            out |= {
+                k: v for k, v in (("min", self.minimum), ("max", self.maximum)) if v is not None
+            }
         else:
             out["max_length"] = self.max_length
         return out
 
 
 DEMOGRAPHICS: Final[tuple[QuestionSpec, ...]] = (
-    QuestionSpec("age_band", "Your age", kind="choice",
-                 choices=("18-24", "25-34", "35-44", "45-54", "55-64", "65 or over",
-                          "prefer not to say")),
-    QuestionSpec("gender", "Your gender", kind="choice",
-                 choices=("female", "male", "non-binary", "other", "prefer not to say")),
+    QuestionSpec(
+        "age_band",
+        "Your age",
+        kind="choice",
+        choices=("18-24", "25-34", "35-44", "45-54", "55-64", "65 or over", "prefer not to say"),
+    ),
+    QuestionSpec(
+        "gender",
+        "Your gender",
+        kind="choice",
+        choices=("female", "male", "non-binary", "other", "prefer not to say"),
+    ),
     QuestionSpec("native_language", "Your native language", kind="text", max_length=80),
-    QuestionSpec("vision_corrected", "Do you wear glasses or contact lenses to see a screen?",
-                 kind="choice", choices=("no", "yes, and I am wearing them now",
-                                         "yes, but I am not wearing them now")),
-    QuestionSpec("animation_experience", "Your experience with computer animation",
-                 kind="choice", choices=("none", "I watch animated films or play games",
-                                         "I have made animations", "I work in animation")),
+    QuestionSpec(
+        "vision_corrected",
+        "Do you wear glasses or contact lenses to see a screen?",
+        kind="choice",
+        choices=("no", "yes, and I am wearing them now", "yes, but I am not wearing them now"),
+    ),
+    QuestionSpec(
+        "animation_experience",
+        "Your experience with computer animation",
+        kind="choice",
+        choices=(
+            "none",
+            "I watch animated films or play games",
+            "I have made animations",
+            "I work in animation",
+        ),
+    ),
 )
 
 
@@ -95,27 +119,30 @@ def check_answer(question: QuestionSpec, raw: str | None) -> str | float | None:
         return None
     if question.kind == "choice":
         if value not in question.choices:
-            raise InputError(f"choose one of the options, got {value[:40]!r}",
-                             field=question.name)
+            raise InputError(f"choose one of the options, got {value[:40]!r}", field=question.name)
         return value
     if question.kind == "number":
         try:
             number = float(value)
         except ValueError:
-            raise InputError(f"expected a number, got {value[:40]!r}",
-                             field=question.name) from None
+            raise InputError(
+                f"expected a number, got {value[:40]!r}", field=question.name
+            ) from None
         if not math.isfinite(number):
             raise InputError(f"expected a number, got {value[:40]!r}", field=question.name)
         if question.minimum is not None and number < question.minimum:
-            raise InputError(f"must be at least {question.minimum:g}, got {number:g}",
-                             field=question.name)
+            raise InputError(
+                f"must be at least {question.minimum:g}, got {number:g}", field=question.name
+            )
         if question.maximum is not None and number > question.maximum:
-            raise InputError(f"must be at most {question.maximum:g}, got {number:g}",
-                             field=question.name)
+            raise InputError(
+                f"must be at most {question.maximum:g}, got {number:g}", field=question.name
+            )
         return number
     if len(value) > question.max_length:
-        raise InputError(f"at most {question.max_length} characters, got {len(value)}",
-                         field=question.name)
+        raise InputError(
+            f"at most {question.max_length} characters, got {len(value)}", field=question.name
+        )
     return value
 
 
@@ -129,7 +156,11 @@ class ExperimenterSideReader(FieldReader):
         """``auto_exclude`` (the automatic exclusion rules; default: all of them) and the
         questionnaire: ``demographics`` and ``[[questions]]`` (:mod:`app.trials.questions`)."""
         rules = self.get(
-            top, "auto_exclude", "auto_exclude", (list,), "an array of rule names",
+            top,
+            "auto_exclude",
+            "auto_exclude",
+            (list,),
+            "an array of rule names",
             list(AUTO_EXCLUDE_RULES),
         )
         for rule in rules:
@@ -169,8 +200,9 @@ class ExperimenterSideReader(FieldReader):
             text=self.text(item, "text", f"{name}.text", nonempty=True),
             page=self.choice(item, "page", f"{name}.page", PAGES, "before"),
             kind=kind,
-            required=bool(self.get(item, "required", f"{name}.required", (bool,),
-                                   "true or false", True)),
+            required=bool(
+                self.get(item, "required", f"{name}.required", (bool,), "true or false", True)
+            ),
         )
         if kind == "choice":
             choices = self.get(item, "choices", f"{name}.choices", (list,), "an array of strings")
@@ -180,14 +212,17 @@ class ExperimenterSideReader(FieldReader):
                 raise self.error(f"{name}.choices", "repeats an option")
             return replace(question, choices=tuple(choices))
         if kind == "number":
-            low, high = (self.get(item, k, f"{name}.{k}", (int, float), "a number", None)
-                         for k in ("min", "max"))
+            low, high = (
+                self.get(item, k, f"{name}.{k}", (int, float), "a number", None)
+                for k in ("min", "max")
+            )
             for key, bound in (("min", low), ("max", high)):
                 if bound is not None and not math.isfinite(bound):
                     raise self.error(f"{name}.{key}", f"expected a finite number, got {bound}")
             if low is not None and high is not None and low > high:
                 raise self.error(f"{name}.max", f"must be >= min ({low}), got {high}")
             return replace(question, minimum=low, maximum=high)
-        length = self.integer(item, "max_length", f"{name}.max_length", DEFAULT_MAX_LENGTH, 1,
-                              MAX_TEXT_LENGTH)
+        length = self.integer(
+            item, "max_length", f"{name}.max_length", DEFAULT_MAX_LENGTH, 1, MAX_TEXT_LENGTH
+        )
         return replace(question, max_length=length)

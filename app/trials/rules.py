@@ -32,9 +32,12 @@ CHOICES: Final[tuple[str, ...]] = tuple(c.value for c in VoteChoice)
 """The answers a participant can give, in the order the vote counts index them (0, 1, 2)."""
 
 KEYS: Final[dict[str, str]] = {
-    "ArrowLeft": CHOICES[0], "1": CHOICES[0],
-    "ArrowRight": CHOICES[1], "2": CHOICES[1],
-    "ArrowDown": CHOICES[2], "0": CHOICES[2],
+    "ArrowLeft": CHOICES[0],
+    "1": CHOICES[0],
+    "ArrowRight": CHOICES[1],
+    "2": CHOICES[1],
+    "ArrowDown": CHOICES[2],
+    "0": CHOICES[2],
 }
 """Keyboard keys of the 3-level answer (the study file's convention: 1 = left, 2 = right,
 0 = undecided; the arrows work too). The 5-level answer is keyed 1 to 5, left to right."""
@@ -63,8 +66,9 @@ class Answer(NamedTuple):
     key: str
 
 
-def answers(*, scale: int, undecided_allowed: bool,
-            undecided_label: str = "Undecided") -> tuple[Answer, ...]:
+def answers(
+    *, scale: int, undecided_allowed: bool, undecided_label: str = "Undecided"
+) -> tuple[Answer, ...]:
     """The answer buttons of a study, left to right (HEMVIP2's 5-level scale when ``scale`` is 5).
 
     >>> [a.key for a in answers(scale=3, undecided_allowed=True)]
@@ -74,14 +78,20 @@ def answers(*, scale: int, undecided_allowed: bool,
     """
     left, right, undecided = CHOICES
     if scale == 5:
-        out = [Answer(left, 2, "Clearly left", "1"), Answer(left, 1, "Slightly left", "2"),
-               Answer(undecided, 0, undecided_label, "3"),
-               Answer(right, 1, "Slightly right", "4"), Answer(right, 2, "Clearly right", "5")]
+        out = [
+            Answer(left, 2, "Clearly left", "1"),
+            Answer(left, 1, "Slightly left", "2"),
+            Answer(undecided, 0, undecided_label, "3"),
+            Answer(right, 1, "Slightly right", "4"),
+            Answer(right, 2, "Clearly right", "5"),
+        ]
     else:
         key = {choice: k for k, choice in KEYS.items() if k.isdigit()}
-        out = [Answer(left, None, "Left", key[left]),
-               Answer(undecided, None, undecided_label, key[undecided]),
-               Answer(right, None, "Right", key[right])]
+        out = [
+            Answer(left, None, "Left", key[left]),
+            Answer(undecided, None, undecided_label, key[undecided]),
+            Answer(right, None, "Right", key[right]),
+        ]
     return tuple(a for a in out if undecided_allowed or a.choice != undecided)
 
 

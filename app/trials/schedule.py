@@ -336,19 +336,30 @@ def make_schedule(
     sequence: list[ScheduledTrial] = []
     if practice_pair is not None:
         clip = practice_clip if practice_clip is not None else main[0][0]
-        sequence.append(ScheduledTrial(0, clip, practice_pair.left, practice_pair.right,
-                                       "practice"))
+        sequence.append(
+            ScheduledTrial(0, clip, practice_pair.left, practice_pair.right, "practice")
+        )
     pending = 0
     for index, (clip, pair) in enumerate(main):
         sequence.append(ScheduledTrial(0, clip, pair.left, pair.right))
         while pending < len(slots) and slots[pending] == index + 1:
             c_clip, c_pair, expected = catches[pending]
-            sequence.append(ScheduledTrial(0, c_clip, c_pair.left, c_pair.right, "catch", expected,
-                                  expected if onscreen is not None else ""))
+            sequence.append(
+                ScheduledTrial(
+                    0,
+                    c_clip,
+                    c_pair.left,
+                    c_pair.right,
+                    "catch",
+                    expected,
+                    expected if onscreen is not None else "",
+                )
+            )
             pending += 1
     if mismatched:
-        sequence = _with_mismatched(sequence, clips, pairs, rng,
-                                    first=int(practice_pair is not None))
+        sequence = _with_mismatched(
+            sequence, clips, pairs, rng, first=int(practice_pair is not None)
+        )
     return [replace(trial, position=position) for position, trial in enumerate(sequence)]
 
 
@@ -363,16 +374,21 @@ def foreign_clip(clips: Sequence[str], clip: str) -> str:
     return clips[(index + 1) % len(clips)]
 
 
-def _with_mismatched(sequence: list[ScheduledTrial], clips: Sequence[str],
-                     pairs: Sequence[ConditionPair], rng: np.random.Generator, *,
-                     first: int) -> list[ScheduledTrial]:
+def _with_mismatched(
+    sequence: list[ScheduledTrial],
+    clips: Sequence[str],
+    pairs: Sequence[ConditionPair],
+    rng: np.random.Generator,
+    *,
+    first: int,
+) -> list[ScheduledTrial]:
     """Insert one appropriateness pair per condition and clip at random places after
     ``first``; the mismatched side is balanced (left and right equally often, within one)."""
     if len(clips) < 2:
         raise ValueError("appropriateness pairs need at least two clips")
     conditions = list(dict.fromkeys(c for pair in pairs for c in (pair.left, pair.right)))
     items = [(clip, c) for clip in clips for c in conditions]
-    sides = (["left", "right"] * (len(items) // 2 + 1))[:len(items)]
+    sides = (["left", "right"] * (len(items) // 2 + 1))[: len(items)]
     sides = [sides[i] for i in rng.permutation(len(sides))]
     out = list(sequence)
     for (clip, condition), side in zip(items, sides, strict=True):
@@ -439,8 +455,12 @@ def variant_stimuli(
         out += [(clip, pair, side, "") for clip in clips for side in ("left", "right")]
     if mismatched:
         conditions = dict.fromkeys(c for pair in pairs for c in (pair.left, pair.right))
-        out += [(clip, ConditionPair(c, c), "", side) for clip in clips for c in conditions
-                for side in ("left", "right")]
+        out += [
+            (clip, ConditionPair(c, c), "", side)
+            for clip in clips
+            for c in conditions
+            for side in ("left", "right")
+        ]
     return out
 
 
@@ -455,7 +475,9 @@ def _catch_slots(n_main: int, n_catch: int, rng: np.random.Generator) -> list[in
 
 
 def _catch_trials(
-    main: Sequence[tuple[str, ConditionPair]], slots: Sequence[int], kind: str,
+    main: Sequence[tuple[str, ConditionPair]],
+    slots: Sequence[int],
+    kind: str,
     rng: np.random.Generator,
     onscreen: ConditionPair | None = None,
 ) -> list[tuple[str, ConditionPair, str]]:

@@ -271,9 +271,7 @@ class _StudyReader(ExperimenterSideReader):
     ) -> tuple[str, bool, dict[str, Any]]:
         """``eyes`` and ``normalize`` (the same for every condition) and the ``[render]`` table."""
         eyes = self.choice(top, "eyes", "eyes", EYE_MODES, DEFAULT_EYES)
-        normalize = bool(
-            self.get(top, "normalize", "normalize", (bool,), "true or false", False)
-        )
+        normalize = bool(self.get(top, "normalize", "normalize", (bool,), "true or false", False))
         for key, wanted in (("eyes", eyes == "ground_truth"), ("normalize", normalize)):
             lacking = [c.name for c in clips if c.ground_truth is None]
             if wanted and lacking:

@@ -145,9 +145,13 @@ class StudySpec:
         """Attention-check and appropriateness clips to render besides :meth:`stimuli`
         (:func:`app.trials.schedule.variant_stimuli`)."""
         return variant_stimuli(
-            clips=self.clip_names, pairs=self.pairs(), design=self.design,
-            catch_trials=self.catch_trials, catch_kind=self.catch_kind,
-            mismatched=self.participation.mismatched)
+            clips=self.clip_names,
+            pairs=self.pairs(),
+            design=self.design,
+            catch_trials=self.catch_trials,
+            catch_kind=self.catch_kind,
+            mismatched=self.participation.mismatched,
+        )
 
     def schedule(self, *, seed: int, list_index: int) -> list[ScheduledTrial]:
         """One participant's schedule from their stored seed and assigned list."""

@@ -34,9 +34,15 @@ def votes_from_matrix(counts, names=None, clip="c1"):
             for k, winner in enumerate(judges):
                 left, right = (i, j) if k % 2 == 0 else (j, i)
                 chosen = i if winner == "i" else j
-                rows.append({"participant": f"J{k:03d}", "clip": clip, "left": names[left],
-                             "right": names[right],
-                             "choice": "left" if chosen == left else "right"})
+                rows.append(
+                    {
+                        "participant": f"J{k:03d}",
+                        "clip": clip,
+                        "left": names[left],
+                        "right": names[right],
+                        "choice": "left" if chosen == left else "right",
+                    }
+                )
     return pd.DataFrame(rows)
 
 

@@ -7,13 +7,11 @@ from app.analysis.agreement import agreement_bounds, coefficient_of_agreement
 VECTORS = [
     ("kendall1940-boys.txt", 21, 13, 9718, 0.186569, 412.4321, 412.2216, 90.7479, 1.721e-42),
     ("kendall1940-girls.txt", 25, 11, 8928, 0.082182, 180.2949, 180.1210, 62.3819, 2.307e-13),
-    ("rumelhart1971-celebrities.txt", 234, 9, 548196, 0.117176, 1027.812, 1027.794, 36.4669,
-     None),
+    ("rumelhart1971-celebrities.txt", 234, 9, 548196, 0.117176, 1027.812, 1027.794, 36.4669, None),
 ]
 
 
-@pytest.mark.parametrize(("name", "m", "n", "sigma", "u", "chi2", "chi2_c", "df", "p_c"),
-                         VECTORS)
+@pytest.mark.parametrize(("name", "m", "n", "sigma", "u", "chi2", "chi2_c", "df", "p_c"), VECTORS)
 def test_published_vectors(analysis_data, name, m, n, sigma, u, chi2, chi2_c, df, p_c):
     a = np.loadtxt(analysis_data / name)
     assert a.shape == (n, n)
@@ -53,8 +51,10 @@ def test_unequal_judges_sum_pair_by_pair():
     a = np.array([[0, 8, 5], [2, 0, 3], [5, 3, 0]], dtype=float)
     r = coefficient_of_agreement(a)
     assert (r.judges_min, r.judges_max, r.pairs) == (6, 10, 3)
-    parts = [coefficient_of_agreement(np.array([[0, x], [y, 0]], dtype=float))
-             for x, y in ((8, 2), (5, 5), (3, 3))]
+    parts = [
+        coefficient_of_agreement(np.array([[0, x], [y, 0]], dtype=float))
+        for x, y in ((8, 2), (5, 5), (3, 3))
+    ]
     assert r.chi2 == pytest.approx(sum(p.chi2 for p in parts))
     assert r.df == pytest.approx(sum(p.df for p in parts))
     sigma = sum(p.sigma for p in parts)

@@ -48,12 +48,19 @@ def _brute_fit(counts, ties=True):
         return -_brute_loglik(counts, pi, math.exp(x[n - 1]), nu)
 
     x0 = np.zeros(n + int(ties))
-    res = optimize.minimize(negative, x0, method="Nelder-Mead",
-                            options={"xatol": 1e-10, "fatol": 1e-12, "maxiter": 40000,
-                                     "maxfev": 40000})
+    res = optimize.minimize(
+        negative,
+        x0,
+        method="Nelder-Mead",
+        options={"xatol": 1e-10, "fatol": 1e-12, "maxiter": 40000, "maxfev": 40000},
+    )
     theta = np.concatenate([[0.0], res.x[: n - 1]])
-    return theta - theta.mean(), math.exp(res.x[n - 1]), (math.exp(res.x[n]) if ties else 0.0), \
-        -res.fun
+    return (
+        theta - theta.mean(),
+        math.exp(res.x[n - 1]),
+        (math.exp(res.x[n]) if ties else 0.0),
+        -res.fun,
+    )
 
 
 def test_hand_solved_exact_fit():
@@ -65,12 +72,21 @@ def test_hand_solved_exact_fit():
         f = fit_btd(c * scale)
         assert f.theta == pytest.approx([math.log(2), -math.log(2)], abs=1e-7)
         assert f.gamma == pytest.approx(2.0, abs=1e-7) and f.nu == pytest.approx(1.0, abs=1e-7)
-        assert f.loglik == pytest.approx(scale * (8 * math.log(8 / 11) + math.log(1 / 11)
-                                                  + 2 * math.log(2 / 11) + 2 * math.log(2 / 8)
-                                                  + 4 * math.log(4 / 8) + 2 * math.log(2 / 8)))
+        assert f.loglik == pytest.approx(
+            scale
+            * (
+                8 * math.log(8 / 11)
+                + math.log(1 / 11)
+                + 2 * math.log(2 / 11)
+                + 2 * math.log(2 / 8)
+                + 4 * math.log(4 / 8)
+                + 2 * math.log(2 / 8)
+            )
+        )
     beta, ok = fit_btd_many(c[None])
-    assert ok[0] and beta[0] == pytest.approx([math.log(2), -math.log(2), math.log(2), 0.0],
-                                              abs=1e-7)
+    assert ok[0] and beta[0] == pytest.approx(
+        [math.log(2), -math.log(2), math.log(2), 0.0], abs=1e-7
+    )
 
 
 def test_hand_solved_symmetric_sides():
@@ -102,7 +118,8 @@ def test_fit_equals_brute_force_maximisation(cells, ties):
     assert f.theta == pytest.approx(theta, abs=1e-4)
     assert f.gamma == pytest.approx(g, rel=1e-4) and f.nu == pytest.approx(nu, abs=1e-4)
     assert log_likelihood(c, f.theta, f.gamma, f.nu) == pytest.approx(
-        _brute_loglik(c, np.exp(f.theta), f.gamma, f.nu))
+        _brute_loglik(c, np.exp(f.theta), f.gamma, f.nu)
+    )
     beta, ok = fit_btd_many(c[None])
     assert ok[0] and beta[0, :3] == pytest.approx(f.theta, abs=1e-6)
 
@@ -142,15 +159,22 @@ def test_summary_layout_identical_pairs_and_intervals():
         for a, b in [("A", "B"), ("B", "A"), ("A", "C"), ("C", "A"), ("B", "C"), ("C", "B")]:
             z = {"A": 0.8, "B": 0.0, "C": -0.5}[a] - {"A": 0.8, "B": 0.0, "C": -0.5}[b]
             z += rng.normal()
-            rows.append((f"p{k}", "c", a, b,
-                         "undecided" if abs(z) < 0.3 else "left" if z > 0 else "right"))
+            rows.append(
+                (f"p{k}", "c", a, b, "undecided" if abs(z) < 0.3 else "left" if z > 0 else "right")
+            )
     base = analyze(pd.DataFrame(rows, columns=COLS), bootstrap=200)["pooled"]["btd"]
     # identical-clip pairs are left out of the fit and reported on their own
     extra = rows + [(f"p{k}", "c", x, x, "left") for k in range(12) for x in "ABC"]
     r = analyze(pd.DataFrame(extra, columns=COLS), bootstrap=200)["pooled"]["btd"]
     assert r["scores"] == pytest.approx(base["scores"]) and r["n"] == base["n"] == 72
-    assert r["identical_pairs"] == {"votes": 36, "left": 36, "right": 0, "undecided": 0,
-                                    "share_left": 1.0, "p": pytest.approx(2 * 0.5**36)}
+    assert r["identical_pairs"] == {
+        "votes": 36,
+        "left": 36,
+        "right": 0,
+        "undecided": 0,
+        "share_left": 1.0,
+        "p": pytest.approx(2 * 0.5**36),
+    }
     assert {"scores", "nu", "gamma", "ci", "loglik", "n"} <= set(r)
     assert sum(r["scores"].values()) == pytest.approx(0.0, abs=1e-9)
     assert r["scores"]["A"] > r["scores"]["B"] > r["scores"]["C"]
@@ -167,8 +191,9 @@ def test_leave_one_out_loglik_by_separate_fits():
     loo = leave_one_out_loglik(t)
     for p in range(5):
         rest = fit_btd(t.sum(axis=0) - t[p])
-        assert loo[p] == pytest.approx(log_likelihood(t[p], rest.theta, rest.gamma, rest.nu),
-                                       abs=1e-6)
+        assert loo[p] == pytest.approx(
+            log_likelihood(t[p], rest.theta, rest.gamma, rest.nu), abs=1e-6
+        )
 
 
 def test_conditions_never_compared_get_null():

@@ -30,8 +30,9 @@ def test_formula_equals_direct_count_on_random_tournaments():
         upper = rng.random((50, n, n)) < 0.5
         beats = np.triu(upper, 1)
         beats = beats | np.swapaxes(~beats, 1, 2) & np.tril(np.ones((n, n), bool), -1)
-        np.testing.assert_array_equal(count_circular_triads(beats),
-                                      circular_triads_from_scores(beats.sum(axis=2)))
+        np.testing.assert_array_equal(
+            count_circular_triads(beats), circular_triads_from_scores(beats.sum(axis=2))
+        )
 
 
 @pytest.mark.parametrize("n", [3, 4, 5, 6])
@@ -92,7 +93,10 @@ def test_every_triad_checked():
     for i, j in combinations(range(n), 2):
         beats[i, j] = (i + j) % 2 == 0
         beats[j, i] = not beats[i, j]
-    direct = sum(1 for i, j, k in combinations(range(n), 3)
-                 if (beats[i, j] and beats[j, k] and beats[k, i])
-                 or (beats[j, i] and beats[k, j] and beats[i, k]))
+    direct = sum(
+        1
+        for i, j, k in combinations(range(n), 3)
+        if (beats[i, j] and beats[j, k] and beats[k, i])
+        or (beats[j, i] and beats[k, j] and beats[i, k])
+    )
     assert count_circular_triads(beats) == direct

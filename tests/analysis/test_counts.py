@@ -8,13 +8,20 @@ from app.errors import InputError
 
 
 def _table(rows):
-    return read_votes(pd.DataFrame(rows, columns=["participant", "clip", "left", "right",
-                                                  "choice"]))
+    return read_votes(
+        pd.DataFrame(rows, columns=["participant", "clip", "left", "right", "choice"])
+    )
 
 
 def test_tensor_and_ballots_by_hand():
-    t = _table([("p1", "s2", "A", "B", "left"), ("p1", "s2", "B", "A", "left"),
-                ("p1", "s2", "A", "A", "right"), ("p2", "s7", "B", "A", "undecided")])
+    t = _table(
+        [
+            ("p1", "s2", "A", "B", "left"),
+            ("p1", "s2", "B", "A", "left"),
+            ("p1", "s2", "A", "A", "right"),
+            ("p2", "s7", "B", "A", "undecided"),
+        ]
+    )
     c = count_votes(t)
     assert c.conditions == ("A", "B") and c.participants == ("p1", "p2")
     assert c.clips == ("s2", "s7") and c.tensor.sum() == 4

@@ -11,9 +11,13 @@ def results():
 
 
 def test_every_figure_draws(results):
-    for fig in (figures.ballots_figure(results), figures.preference_bars_figure(results["pooled"]),
-                figures.confusion_figure(results["pooled"]), figures.scale_figure(results),
-                figures.consistence_figure(results)):
+    for fig in (
+        figures.ballots_figure(results),
+        figures.preference_bars_figure(results["pooled"]),
+        figures.confusion_figure(results["pooled"]),
+        figures.scale_figure(results),
+        figures.consistence_figure(results),
+    ):
         fig.canvas.draw()
         assert fig.axes
 
@@ -46,8 +50,7 @@ def test_scale_interval_not_containing_its_estimate_is_drawn_as_given(results):
 def test_count_axes_have_whole_ticks():
     import numpy as np
 
-    few = analyze(simulate_votes({"a": 0.0, "b": 0.5}, participants=1, clips=("x",)),
-                  bootstrap=0)
+    few = analyze(simulate_votes({"a": 0.0, "b": 0.5}, participants=1, clips=("x",)), bootstrap=0)
     for fig in (figures.ballots_figure(few), figures.consistence_figure(few)):
         fig.canvas.draw()
         ticks = fig.axes[0].get_yticks()

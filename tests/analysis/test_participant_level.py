@@ -54,9 +54,14 @@ def _random_rows(rng, participants=9, conditions="ABC", repeats=2):
 
 
 def test_net_preference_by_hand():
-    rows = [("p1", "c", "A", "B", "left"), ("p1", "c", "B", "A", "left"),
-            ("p1", "c", "A", "B", "undecided"), ("p1", "c", "A", "B", "left"),
-            ("p2", "c", "B", "A", "right"), ("p2", "c", "A", "A", "left")]
+    rows = [
+        ("p1", "c", "A", "B", "left"),
+        ("p1", "c", "B", "A", "left"),
+        ("p1", "c", "A", "B", "undecided"),
+        ("p1", "c", "A", "B", "left"),
+        ("p2", "c", "B", "A", "right"),
+        ("p2", "c", "A", "A", "left"),
+    ]
     counts, t = _tensor(rows)
     d = net_preference(t)
     # p1: A wins 2, B wins 1, 1 undecided -> (2 - 1) / 4; p2: one vote for A
@@ -94,8 +99,10 @@ def test_rank_biserial_against_the_signed_rank_statistic():
     assert rank_biserial([0.5, 0.5, 0.0]) == 1.0
 
 
-@given(st.lists(st.sampled_from([-1.0, -0.5, -0.25, 0.0, 0.25, 0.5, 1.0]), min_size=1,
-                max_size=12), st.integers(0, 2**31))
+@given(
+    st.lists(st.sampled_from([-1.0, -0.5, -0.25, 0.0, 0.25, 0.5, 1.0]), min_size=1, max_size=12),
+    st.integers(0, 2**31),
+)
 @settings(max_examples=60, deadline=None)
 def test_bootstrap_effect_equals_explicit_resamples(d, seed):
     d = np.array(d)
@@ -125,10 +132,13 @@ def test_effect_interval_and_relabelling():
 
 def test_one_judgement_per_participant_by_hand():
     # p1 and p2 prefer A (3 of 4 and 2 of 2), p3 is tied on A-B (1-1), p4 only undecided
-    rows = ([("p1", "c", "A", "B", "left")] * 3 + [("p1", "c", "B", "A", "left")]
-            + [("p2", "c", "B", "A", "right")] * 2
-            + [("p3", "c", "A", "B", "left"), ("p3", "c", "A", "B", "right")]
-            + [("p4", "c", "A", "B", "undecided")])
+    rows = (
+        [("p1", "c", "A", "B", "left")] * 3
+        + [("p1", "c", "B", "A", "left")]
+        + [("p2", "c", "B", "A", "right")] * 2
+        + [("p3", "c", "A", "B", "left"), ("p3", "c", "A", "B", "right")]
+        + [("p4", "c", "A", "B", "undecided")]
+    )
     _, t = _tensor(rows)
     r = one_judgement_per_participant(t, ["A", "B"])
     s = r["sign_tests"][0]
@@ -142,9 +152,12 @@ def test_one_judgement_per_participant_by_hand():
 
 def test_pooled_counts_overstate_the_evidence():
     # 6 participants each see A|B and B|A five times and always pick A: pooled m = 60
-    rows = [(f"p{k}", "c", a, b, "left" if a == "A" else "right") for k in range(6)
-            for _ in range(5) for a, b in (("A", "B"), ("B", "A"))] + [
-        (f"p{k}", "c", a, b, "left") for k in range(6) for a, b in (("A", "C"), ("C", "A"))]
+    rows = [
+        (f"p{k}", "c", a, b, "left" if a == "A" else "right")
+        for k in range(6)
+        for _ in range(5)
+        for a, b in (("A", "B"), ("B", "A"))
+    ] + [(f"p{k}", "c", a, b, "left") for k in range(6) for a, b in (("A", "C"), ("C", "A"))]
     r = analyze(pd.DataFrame(rows, columns=COLS), bootstrap=0)["pooled"]
     pooled = next(s for s in r["sign_tests"] if (s["a"], s["b"]) == ("A", "B"))
     per = next(s for s in r["one_per_participant"]["sign_tests"] if s["b"] == "B")
@@ -160,16 +173,34 @@ def test_sections_carry_the_new_statistics():
     for section in [*r["clips"].values(), r["pooled"]]:
         assert len(section["participant_level"]) == 6
         for row in section["participant_level"]:
-            assert set(row) == {"a", "b", "n_participants", "median_d", "W", "p", "p_holm",
-                                "effect", "effect_ci"}
+            assert set(row) == {
+                "a",
+                "b",
+                "n_participants",
+                "median_d",
+                "W",
+                "p",
+                "p_holm",
+                "effect",
+                "effect_ci",
+            }
         assert section["one_per_participant"]["agreement"]["judges"] == 14
     json.dumps(r, allow_nan=False)
 
 
-@given(st.lists(st.tuples(st.sampled_from(["p1", "p2", "p3"]), st.sampled_from(["s", "t"]),
-                          st.sampled_from("ABC"), st.sampled_from("ABC"),
-                          st.sampled_from(["left", "right", "undecided"])),
-                min_size=1, max_size=30))
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from(["p1", "p2", "p3"]),
+            st.sampled_from(["s", "t"]),
+            st.sampled_from("ABC"),
+            st.sampled_from("ABC"),
+            st.sampled_from(["left", "right", "undecided"]),
+        ),
+        min_size=1,
+        max_size=30,
+    )
+)
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_any_votes_give_bounded_participant_statistics(rows):
     r = analyze(pd.DataFrame(rows, columns=COLS), bootstrap=20)

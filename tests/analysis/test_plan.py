@@ -45,8 +45,7 @@ def test_unordered_design_balances_sides():
 def test_power_is_alpha_without_effect_and_grows_with_participants():
     null = plan_study(StudyPlan(("a", "b"), (0.0, 0.0), votes=4), [30], simulations=1000)
     for test in ("wilcoxon", "sign_per_participant"):
-        assert null["levels"][0]["power"][test]["a vs b"] <= 0.05 + 3 * np.sqrt(0.05 * 0.95
-                                                                                 / 1000)
+        assert null["levels"][0]["power"][test]["a vs b"] <= 0.05 + 3 * np.sqrt(0.05 * 0.95 / 1000)
     r = plan_study(StudyPlan(("a", "b", "c"), (0.0, 0.3, 0.6)), [10, 30, 60], simulations=400)
     power = [lv["power"]["wilcoxon"]["a vs c"] for lv in r["levels"]]
     widths = [lv["ci_width_jod"]["a"] for lv in r["levels"]]
@@ -69,12 +68,15 @@ def test_pilot_plan_uses_the_fitted_model():
         plan_from_pilot(c, ["a", "b"])
 
 
-@pytest.mark.parametrize("plan, message", [
-    (StudyPlan(("a",), (0.0,)), "at least two"),
-    (StudyPlan(("a", "b"), (0.0, 1.0), votes=1), "do not reach every pair"),
-    (StudyPlan(("a", "b"), (0.0, 1.0), nu=-1), "nu"),
-    (StudyPlan(("a", "b"), (0.0, 1.0), design="other"), "expected one of"),
-])
+@pytest.mark.parametrize(
+    "plan, message",
+    [
+        (StudyPlan(("a",), (0.0,)), "at least two"),
+        (StudyPlan(("a", "b"), (0.0, 1.0), votes=1), "do not reach every pair"),
+        (StudyPlan(("a", "b"), (0.0, 1.0), nu=-1), "nu"),
+        (StudyPlan(("a", "b"), (0.0, 1.0), design="other"), "expected one of"),
+    ],
+)
 def test_bad_plans_are_refused(plan, message):
     with pytest.raises(InputError, match=message):
         plan_study(plan, [10], simulations=10)

@@ -23,8 +23,11 @@ def _study(seed=0, participants=10):
     for k in range(participants):
         for a, b in PAIRS * 2:
             z = worth[a] - worth[b] + rng.normal(0, 0.8)
-            choice = "undecided" if a == b and k % 2 else (
-                "undecided" if abs(z) < 0.2 else "left" if z > 0 else "right")
+            choice = (
+                "undecided"
+                if a == b and k % 2
+                else ("undecided" if abs(z) < 0.2 else "left" if z > 0 else "right")
+            )
             rows.append((f"p{k}", "c", a, b, "left" if k == 0 else choice))
     frame = pd.DataFrame(rows, columns=COLS)
     frame["response_ms"] = 1000.0 + 10 * np.arange(len(frame))
@@ -33,12 +36,17 @@ def _study(seed=0, participants=10):
 
 def test_rules_parse_and_bad_rules_name_the_option():
     rules = parse_rules("catch<1.0, side_p<=0.001,outlier>1.5")
-    assert [(r.field, r.op, r.value) for r in rules] == [("catch", "<", 1.0),
-                                                        ("side_p", "<=", 0.001),
-                                                        ("outlier", ">", 1.5)]
+    assert [(r.field, r.op, r.value) for r in rules] == [
+        ("catch", "<", 1.0),
+        ("side_p", "<=", 0.001),
+        ("outlier", ">", 1.5),
+    ]
     assert parse_rules(None) == [] and parse_rules(" ") == []
-    for bad, words in [("catch<<1", "cannot read rule"), ("speed<3", "unknown field 'speed'"),
-                       ("catch<", "cannot read rule")]:
+    for bad, words in [
+        ("catch<<1", "cannot read rule"),
+        ("speed<3", "unknown field 'speed'"),
+        ("catch<", "cannot read rule"),
+    ]:
         with pytest.raises(InputError, match=words) as info:
             parse_rules(bad)
         assert info.value.field == "exclude"
@@ -68,8 +76,10 @@ def test_side_bias_catch_and_times():
     assert q["p3"]["undecided"] == pytest.approx((votes.choice == "undecided").mean())
 
 
-@given(st.lists(st.lists(st.integers(0, 3), min_size=4, max_size=4), min_size=1, max_size=6),
-       st.lists(st.integers(-2, 2), min_size=4, max_size=4))
+@given(
+    st.lists(st.lists(st.integers(0, 3), min_size=4, max_size=4), min_size=1, max_size=6),
+    st.lists(st.integers(-2, 2), min_size=4, max_size=4),
+)
 @settings(max_examples=80, deadline=None)
 def test_tau_b_equals_scipy(rows, consensus):
     x = np.array(rows, dtype=float)
@@ -86,7 +96,8 @@ def test_outlier_distance_is_pwcmps():
     frame = _study(participants=12)
     reversed_rows = frame[frame.participant == "p5"].copy()
     reversed_rows["choice"] = reversed_rows["choice"].map(
-        {"left": "right", "right": "left", "undecided": "undecided"})
+        {"left": "right", "right": "left", "undecided": "undecided"}
+    )
     frame = pd.concat([frame[frame.participant != "p5"], reversed_rows], ignore_index=True)
     counts = count_votes(read_votes(frame))
     q = participant_quality(counts, frame)
@@ -105,10 +116,17 @@ def test_exclusion_applies_before_every_statistic():
     assert r["quality"]["excluded"]["p0"][0].startswith("side_p<0.001 (side_p = ")
     assert "p0" in r["quality"]["participants"] and "p0" not in r["participants"]
     without = analyze(frame[frame.participant != "p0"], bootstrap=30)
-    for key in ("ballots", "agreement", "sign_tests", "scale", "paired_t", "btd",
-                "participant_level", "one_per_participant"):
+    for key in (
+        "ballots",
+        "agreement",
+        "sign_tests",
+        "scale",
+        "paired_t",
+        "btd",
+        "participant_level",
+        "one_per_participant",
+    ):
         assert r["pooled"][key] == without["pooled"][key]
-    assert r["input"]["excluded_participants"] == 1 and r["options"]["exclude"] == [
-        "side_p<0.001"]
+    assert r["input"]["excluded_participants"] == 1 and r["options"]["exclude"] == ["side_p<0.001"]
     with pytest.raises(InputError, match="exclude every participant"):
         analyze(frame, exclude="side_left>=0")

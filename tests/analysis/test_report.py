@@ -24,8 +24,14 @@ def test_html_is_self_contained_and_complete(tmp_path, results):
     images = re.findall(r'src="data:image/png;base64,([^"]+)"', text)
     assert len(images) == 6
     assert all(base64.b64decode(i).startswith(b"\x89PNG") for i in images)
-    for heading in ("Ballots", "Pairwise preferences", "Per-participant scores",
-                    "Agreement and consistence", "Scale", "Method"):
+    for heading in (
+        "Ballots",
+        "Pairwise preferences",
+        "Per-participant scores",
+        "Agreement and consistence",
+        "Scale",
+        "Method",
+    ):
         assert f"<h2>{heading}</h2>" in text
     u = results["pooled"]["agreement"]["u"]
     assert f"u = {u:.3f}" in text
@@ -33,8 +39,7 @@ def test_html_is_self_contained_and_complete(tmp_path, results):
     for c in TRUE_SCALE:
         assert f"{c} ({results['pooled']['ballots'][c]})" in text
     pdf = pdf_path.read_bytes()
-    assert pdf.startswith(b"%PDF") and pdf.count(b"/Type /Page\n") + pdf.count(
-        b"/Type /Page ") >= 4
+    assert pdf.startswith(b"%PDF") and pdf.count(b"/Type /Page\n") + pdf.count(b"/Type /Page ") >= 4
 
 
 def test_skipped_rows_and_split_are_stated(tmp_path, results):
@@ -53,13 +58,18 @@ def test_missing_folder_is_an_input_error(tmp_path, results):
         write_report(results, tmp_path / "no" / "r.html")
 
 
-@pytest.mark.parametrize(("rows", "note"), [
-    ([("p", "c", "A", "A", "left")], "fewer than two conditions"),
-    ([("p", "c", "A", "B", "undecided"), ("q", "c", "B", "A", "undecided")],
-     "fewer than two conditions"),
-    ([("p", "c", "A", "B", "left")], None),
-    ([("p", "c", "A", "B", "left"), ("p", "c", "C", "D", "left")], "do not link"),
-])
+@pytest.mark.parametrize(
+    ("rows", "note"),
+    [
+        ([("p", "c", "A", "A", "left")], "fewer than two conditions"),
+        (
+            [("p", "c", "A", "B", "undecided"), ("q", "c", "B", "A", "undecided")],
+            "fewer than two conditions",
+        ),
+        ([("p", "c", "A", "B", "left")], None),
+        ([("p", "c", "A", "B", "left"), ("p", "c", "C", "D", "left")], "do not link"),
+    ],
+)
 def test_degenerate_studies_still_report(tmp_path, rows, note):
     import pandas as pd
 
@@ -78,8 +88,11 @@ def test_reviewer_sections_say_which_to_cite(tmp_path):
     r = analyze(votes, conditions=list(TRUE_SCALE), bootstrap=100, exclude="outlier>1.0")
     write_report(r, tmp_path / "r.html")
     text = (tmp_path / "r.html").read_text(encoding="utf-8")
-    for heading in ("Participant-level inference",
-                    "Bradley-Terry-Davidson model with ties and side", "Participant quality"):
+    for heading in (
+        "Participant-level inference",
+        "Bradley-Terry-Davidson model with ties and side",
+        "Participant quality",
+    ):
         assert f"<h2>{heading}</h2>" in text
     assert "Which is which" in text and "Cite the participant-level tests" in text
     assert "Table 7. Participant-level Wilcoxon" in text and "Table 9. Bradley-Terry" in text

@@ -18,8 +18,12 @@ def _frame(rows):
 
 
 def test_layout_is_the_issues(tmp_path):
-    rows = [(f"p{k}", clip, a, b, "left") for k in range(3) for clip in ("s2", "s7")
-            for a, b in permutations("ABC", 2)]
+    rows = [
+        (f"p{k}", clip, a, b, "left")
+        for k in range(3)
+        for clip in ("s2", "s7")
+        for a, b in permutations("ABC", 2)
+    ]
     r = analyze(_frame(rows), bootstrap=20)
     assert {"clips", "pooled", "participants", "conditions", "input", "options"} <= set(r)
     assert set(r["clips"]) == {"s2", "s7"}
@@ -27,8 +31,19 @@ def test_layout_is_the_issues(tmp_path):
         assert set(section["ballots"]) == {"A", "B", "C"}
         assert {"left", "right", "undecided"} <= set(section["confusion"])
         for row in section["paired_t"]:
-            assert {"a", "b", "mean", "sd", "sem", "ci_low", "ci_high", "t", "df", "p",
-                    "p_holm"} <= set(row)
+            assert {
+                "a",
+                "b",
+                "mean",
+                "sd",
+                "sem",
+                "ci_low",
+                "ci_high",
+                "t",
+                "df",
+                "p",
+                "p_holm",
+            } <= set(row)
         assert {"u", "chi2", "df", "p", "judges", "undecided"} <= set(section["agreement"])
         for row in section["sign_tests"]:
             assert {"a", "b", "wins", "losses", "undecided", "p"} <= set(row)
@@ -74,8 +89,12 @@ def test_unanimous_ranking_by_hand():
 
 
 def test_sign_test_vector_through_the_votes():
-    rows = ([("p1", "c", "A", "B", "left")] * 7 + [("p1", "c", "B", "A", "right")] * 7
-            + [("p1", "c", "B", "A", "left")] * 4 + [("p1", "c", "A", "B", "undecided")] * 2)
+    rows = (
+        [("p1", "c", "A", "B", "left")] * 7
+        + [("p1", "c", "B", "A", "right")] * 7
+        + [("p1", "c", "B", "A", "left")] * 4
+        + [("p1", "c", "A", "B", "undecided")] * 2
+    )
     rows = [(f"p{k}", *row[1:]) for k, row in enumerate(rows)]
     s = analyze(_frame(rows), bootstrap=0)["pooled"]["sign_tests"][0]
     assert (s["wins"], s["losses"], s["undecided"]) == (14, 4, 2)
@@ -84,10 +103,13 @@ def test_sign_test_vector_through_the_votes():
     assert s["p_undecided_as_losses"] == pytest.approx(0.115318, abs=1e-6)
 
 
-@pytest.mark.parametrize(("name", "u", "chi2", "df"), [
-    ("kendall1940-boys.txt", 0.186569, 412.4321, 90.7479),
-    ("kendall1940-girls.txt", 0.082182, 180.2949, 62.3819),
-])
+@pytest.mark.parametrize(
+    ("name", "u", "chi2", "df"),
+    [
+        ("kendall1940-boys.txt", 0.186569, 412.4321, 90.7479),
+        ("kendall1940-girls.txt", 0.082182, 180.2949, 62.3819),
+    ],
+)
 def test_agreement_vectors_through_the_votes(analysis_data, matrix_votes, name, u, chi2, df):
     a = np.loadtxt(analysis_data / name).astype(int)
     r = analyze(matrix_votes(a), bootstrap=0)
@@ -107,8 +129,12 @@ def test_thurstone_example_through_the_votes(matrix_votes):
 
 
 def test_undecided_split_is_stated_and_used():
-    rows = [("p1", "c", "A", "B", "left"), ("p2", "c", "A", "B", "undecided"),
-            ("p3", "c", "B", "A", "right"), ("p4", "c", "A", "B", "undecided")]
+    rows = [
+        ("p1", "c", "A", "B", "left"),
+        ("p2", "c", "A", "B", "undecided"),
+        ("p3", "c", "B", "A", "right"),
+        ("p4", "c", "A", "B", "undecided"),
+    ]
     ex = analyze(_frame(rows), bootstrap=0)
     sp = analyze(_frame(rows), undecided="split", bootstrap=0)
     assert ex["options"]["undecided"] == "exclude" and sp["options"]["undecided"] == "split"
@@ -147,10 +173,16 @@ def test_no_votes_is_an_input_error():
 # ---- properties -----------------------------------------------------------------------------
 
 votes_strategy = st.lists(
-    st.tuples(st.sampled_from(["ann", "bob", "cy", "dee", "eve"]), st.sampled_from(["s2", "s7"]),
-              st.sampled_from("ABCD"), st.sampled_from("ABCD"),
-              st.sampled_from(["left", "right", "undecided"])),
-    min_size=1, max_size=60)
+    st.tuples(
+        st.sampled_from(["ann", "bob", "cy", "dee", "eve"]),
+        st.sampled_from(["s2", "s7"]),
+        st.sampled_from("ABCD"),
+        st.sampled_from("ABCD"),
+        st.sampled_from(["left", "right", "undecided"]),
+    ),
+    min_size=1,
+    max_size=60,
+)
 slow = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 SWAP = {"left": "right", "right": "left", "undecided": "undecided"}
 
@@ -173,8 +205,10 @@ def test_ballots_plus_undecided_is_votes(rows):
 def test_swapping_sides_changes_nothing_that_matters(rows, undecided):
     swapped = [(p, c, right, left, SWAP[ch]) for p, c, left, right, ch in rows]
     a, b = _run(rows, undecided=undecided), _run(swapped, undecided=undecided)
-    for sa, sb in [*zip(a["clips"].values(), b["clips"].values(), strict=True),
-                   (a["pooled"], b["pooled"])]:
+    for sa, sb in [
+        *zip(a["clips"].values(), b["clips"].values(), strict=True),
+        (a["pooled"], b["pooled"]),
+    ]:
         assert sa["ballots"] == sb["ballots"] and sa["undecided"] == sb["undecided"]
         assert _same(sa["agreement"], sb["agreement"])
         assert _same(sa["scale"], sb["scale"])
@@ -185,8 +219,7 @@ def test_swapping_sides_changes_nothing_that_matters(rows, undecided):
 @slow
 @given(votes_strategy, st.permutations(["ann", "bob", "cy", "dee", "eve"]))
 def test_relabelling_participants_changes_nothing(rows, order):
-    rename = dict(zip(["ann", "bob", "cy", "dee", "eve"], [f"x{o}" for o in order],
-                      strict=True))
+    rename = dict(zip(["ann", "bob", "cy", "dee", "eve"], [f"x{o}" for o in order], strict=True))
     relabelled = [(rename[p], *rest) for p, *rest in rows]
     a, b = _run(rows), _run(relabelled)
     assert _same(a["pooled"], b["pooled"]) and _same(a["clips"], b["clips"])

@@ -20,7 +20,8 @@ def test_matches_scipy_binomtest():
 def test_half_votes_round_towards_the_null():
     # 3 undecided split: 15.5 vs 5.5 is tested as 15 vs 6, never as 16 vs 5
     assert sign_test_p(14, 4, 3, undecided_rule="split") == pytest.approx(
-        stats.binomtest(15, 21, 0.5).pvalue)
+        stats.binomtest(15, 21, 0.5).pvalue
+    )
 
 
 def test_vectorised_and_rule_checked():

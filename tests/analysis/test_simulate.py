@@ -5,8 +5,7 @@ TRUTH = {"a": -1.0, "b": 0.0, "c": 1.0}
 
 
 def test_design_and_recovery_without_abstentions():
-    votes = simulate_votes(TRUTH, participants=40, clips=("s2", "s7"), undecided_width=0.0,
-                           seed=3)
+    votes = simulate_votes(TRUTH, participants=40, clips=("s2", "s7"), undecided_width=0.0, seed=3)
     assert len(votes) == 40 * 2 * 9 and len(read_votes(votes)) == len(votes)
     assert (votes["choice"] != "undecided").all()
     scale = {s["condition"]: s for s in analyze(votes, bootstrap=200)["pooled"]["scale"]}

@@ -28,10 +28,26 @@ def _write(tmp_path, text, name="votes.csv"):
 
 def test_schema_is_the_interface():
     assert REQUIRED_COLUMNS == ("participant", "clip", "left", "right", "choice")
-    assert OPTIONAL_COLUMNS == ("study", "trial", "response_ms", "plays", "presented_at",
-                                "voted_at", "strength", "reasons", "mismatched", "watched_ms",
-                                "played_to_end", "stalls", "stall_ms", "focus_lost", "kind",
-                                "status", "excluded", "prolific_id")
+    assert OPTIONAL_COLUMNS == (
+        "study",
+        "trial",
+        "response_ms",
+        "plays",
+        "presented_at",
+        "voted_at",
+        "strength",
+        "reasons",
+        "mismatched",
+        "watched_ms",
+        "played_to_end",
+        "stalls",
+        "stall_ms",
+        "focus_lost",
+        "kind",
+        "status",
+        "excluded",
+        "prolific_id",
+    )
     assert VOTE_COLUMNS == REQUIRED_COLUMNS + OPTIONAL_COLUMNS
     assert CHOICES == ("left", "right", "undecided")
 
@@ -44,13 +60,16 @@ def test_reads_and_normalises(tmp_path):
     assert t.frame["trial"].isna().all()
 
 
-@pytest.mark.parametrize(("row", "where", "what"), [
-    ("p1,s2,a,b,maybe", ":3: choice:", "unknown choice 'maybe'"),
-    (",s2,a,b,left", ":3: participant:", "missing value"),
-    ("p1,s2,,b,left", ":3: left:", "missing value"),
-    ("p1,s2,a,b", ":3:", "expected 5 fields like the header, got 4"),
-    ("p1,s2,a,b,left,extra", ":3:", "expected 5 fields like the header, got 6"),
-])
+@pytest.mark.parametrize(
+    ("row", "where", "what"),
+    [
+        ("p1,s2,a,b,maybe", ":3: choice:", "unknown choice 'maybe'"),
+        (",s2,a,b,left", ":3: participant:", "missing value"),
+        ("p1,s2,,b,left", ":3: left:", "missing value"),
+        ("p1,s2,a,b", ":3:", "expected 5 fields like the header, got 4"),
+        ("p1,s2,a,b,left,extra", ":3:", "expected 5 fields like the header, got 6"),
+    ],
+)
 def test_bad_row_is_one_line_with_its_number(tmp_path, row, where, what):
     path = _write(tmp_path, "participant,clip,left,right,choice\np0,s2,a,b,left\n" + row + "\n")
     with pytest.raises(InputError) as err:
@@ -60,11 +79,16 @@ def test_bad_row_is_one_line_with_its_number(tmp_path, row, where, what):
     assert err.value.line == 3
 
 
-@pytest.mark.parametrize(("column", "value", "what"), [
-    ("trial", "1.5", "whole number"), ("trial", "-1", "whole number"),
-    ("plays", "x", "whole number"), ("response_ms", "fast", "a number"),
-    ("voted_at", "yesterday", "ISO 8601"),
-])
+@pytest.mark.parametrize(
+    ("column", "value", "what"),
+    [
+        ("trial", "1.5", "whole number"),
+        ("trial", "-1", "whole number"),
+        ("plays", "x", "whole number"),
+        ("response_ms", "fast", "a number"),
+        ("voted_at", "yesterday", "ISO 8601"),
+    ],
+)
 def test_optional_columns_are_typed(tmp_path, column, value, what):
     path = _write(tmp_path, f"participant,clip,left,right,choice,{column}\np,c,a,b,left,{value}\n")
     with pytest.raises(InputError, match=what) as err:
@@ -72,11 +96,14 @@ def test_optional_columns_are_typed(tmp_path, column, value, what):
     assert err.value.field == column and err.value.line == 2
 
 
-@pytest.mark.parametrize(("header", "what"), [
-    ("participant,clip,left,right", "missing choice"),
-    ("participant,clip,left,right,choice,clip", "repeated clip"),
-    ("Participant,clip,left,right,choice", "missing participant"),
-])
+@pytest.mark.parametrize(
+    ("header", "what"),
+    [
+        ("participant,clip,left,right", "missing choice"),
+        ("participant,clip,left,right,choice,clip", "repeated clip"),
+        ("Participant,clip,left,right,choice", "missing participant"),
+    ],
+)
 def test_header_that_does_not_match(tmp_path, header, what):
     path = _write(tmp_path, header + "\np,c,a,b,left\n")
     with pytest.raises(InputError, match=what) as err:
@@ -109,9 +136,18 @@ def test_empty_and_missing_files(tmp_path):
 
 def test_write_then_read_round_trip(tmp_path):
     rows = [
-        {"participant": "p1", "clip": "s2", "left": "a", "right": "b", "choice": "left",
-         "trial": 1, "response_ms": 1234.5, "plays": 2,
-         "presented_at": "2026-03-02T09:00:00Z", "voted_at": "2026-03-02T09:00:01.2345Z"},
+        {
+            "participant": "p1",
+            "clip": "s2",
+            "left": "a",
+            "right": "b",
+            "choice": "left",
+            "trial": 1,
+            "response_ms": 1234.5,
+            "plays": 2,
+            "presented_at": "2026-03-02T09:00:00Z",
+            "voted_at": "2026-03-02T09:00:01.2345Z",
+        },
         {"participant": "p,2", "clip": "s7", "left": "b", "right": "a", "choice": "undecided"},
     ]
     path = tmp_path / "out.csv"
@@ -126,24 +162,45 @@ def test_write_then_read_round_trip(tmp_path):
 
 
 def test_extra_columns_are_ignored_on_reading(tmp_path):
-    path = _write(tmp_path, "participant,clip,left,right,choice,watched_ms,colour\n"
-                            "p,c,a,b,left,3000,red\n")
+    path = _write(
+        tmp_path, "participant,clip,left,right,choice,watched_ms,colour\np,c,a,b,left,3000,red\n"
+    )
     table = read_votes(path)
     assert len(table.frame) == 1 and "colour" not in table.frame.columns
 
 
 def test_write_refuses_invalid_votes(tmp_path):
     with pytest.raises(InputError, match="unknown choice"):
-        write_votes_csv([{"participant": "p", "clip": "c", "left": "a", "right": "b",
-                          "choice": "both"}], tmp_path / "x.csv")
+        write_votes_csv(
+            [{"participant": "p", "clip": "c", "left": "a", "right": "b", "choice": "both"}],
+            tmp_path / "x.csv",
+        )
     with pytest.raises(InputError, match="unknown 'colour'"):
-        write_votes_csv([{"participant": "p", "clip": "c", "left": "a", "right": "b",
-                          "choice": "left", "colour": "red"}], tmp_path / "x.csv")
+        write_votes_csv(
+            [
+                {
+                    "participant": "p",
+                    "clip": "c",
+                    "left": "a",
+                    "right": "b",
+                    "choice": "left",
+                    "colour": "red",
+                }
+            ],
+            tmp_path / "x.csv",
+        )
 
 
 def test_frame_input_with_missing_values():
-    frame = pd.DataFrame({"participant": ["p", None], "clip": ["c", "c"], "left": ["a", "a"],
-                          "right": ["b", "b"], "choice": ["left", "right"]})
+    frame = pd.DataFrame(
+        {
+            "participant": ["p", None],
+            "clip": ["c", "c"],
+            "left": ["a", "a"],
+            "right": ["b", "b"],
+            "choice": ["left", "right"],
+        }
+    )
     t = read_votes(frame, skip_bad_rows=True)
     assert len(t) == 1 and t.skipped == 1 and "participant: missing value" in t.problems[0]
 
@@ -158,20 +215,32 @@ def test_plain_and_quoted_files_read_alike(tmp_path):
 def test_times_are_written_in_utc_with_seconds(tmp_path):
     import datetime as dt
 
-    rows = [{"participant": "p", "clip": "c", "left": "a", "right": "b", "choice": "left",
-             "presented_at": dt.datetime(2026, 3, 2, 10, 0, tzinfo=dt.timezone(dt.timedelta(
-                 hours=1))), "voted_at": "2026-03-02T09:00:10.120Z"}]
+    rows = [
+        {
+            "participant": "p",
+            "clip": "c",
+            "left": "a",
+            "right": "b",
+            "choice": "left",
+            "presented_at": dt.datetime(
+                2026, 3, 2, 10, 0, tzinfo=dt.timezone(dt.timedelta(hours=1))
+            ),
+            "voted_at": "2026-03-02T09:00:10.120Z",
+        }
+    ]
     buffer = io.StringIO()
     write_votes_csv(rows, buffer)
     assert ",2026-03-02T09:00:00Z,2026-03-02T09:00:10.12Z," in buffer.getvalue().splitlines()[1]
 
 
 def test_media_log_columns_read_write_and_refuse_nonsense(tmp_path):
-    text = ("participant,clip,left,right,choice,strength,watched_ms,played_to_end,stalls,"
-            "stall_ms,focus_lost\n"
-            "p1,s2,a,b,left,2,4000,TRUE,1,850,0\n"
-            "p1,s2,b,a,undecided,0,1200,no,0,0,2\n"
-            "p2,s2,a,b,right,,,,,,\n")
+    text = (
+        "participant,clip,left,right,choice,strength,watched_ms,played_to_end,stalls,"
+        "stall_ms,focus_lost\n"
+        "p1,s2,a,b,left,2,4000,TRUE,1,850,0\n"
+        "p1,s2,b,a,undecided,0,1200,no,0,0,2\n"
+        "p2,s2,a,b,right,,,,,,\n"
+    )
     t = read_votes(_write(tmp_path, text))
     assert t.frame["played_to_end"].tolist()[:2] == [True, False]
     assert t.frame["played_to_end"].isna().tolist() == [False, False, True]

@@ -33,7 +33,8 @@ def test_vote_is_idempotent(app, participant, web):
     assert other.status_code == 200 and other.json["vote"]["choice"] == "left"
     votes = _votes(app)
     assert [(v.trial_id, v.choice, v.idempotency_key) for v in votes] == [
-        (trial, "left", "same-key-123")]
+        (trial, "left", "same-key-123")
+    ]
     assert votes[0].response_ms == 1234 and votes[0].plays == 1
     assert votes[0].presented_at.isoformat() == "2026-01-01T10:00:00"
 
@@ -45,9 +46,17 @@ def test_concurrent_duplicates_store_one_vote(app, participant, web):
 
     def post():
         client = app.test_client()
-        response = client.post("/api/v1/votes", json={
-            "token": token, "trial_id": trial, "choice": "right", "plays": 1,
-            "watched_to_end": True, "idempotency_key": "racing-key-1"})
+        response = client.post(
+            "/api/v1/votes",
+            json={
+                "token": token,
+                "trial_id": trial,
+                "choice": "right",
+                "plays": 1,
+                "watched_to_end": True,
+                "idempotency_key": "racing-key-1",
+            },
+        )
         results.append(response.status_code)
 
     threads = [threading.Thread(target=post) for _ in range(6)]
@@ -62,8 +71,12 @@ def test_concurrent_duplicates_store_one_vote(app, participant, web):
 def test_key_reused_on_another_trial_is_refused(app, participant, web):
     token = _join(app, participant, web, design="all_ordered")
     with app.app_context():
-        trials = db.session.scalars(sa.select(Trial).join(Participant).where(
-            Participant.token == token, Trial.kind == "trial").order_by(Trial.position)).all()
+        trials = db.session.scalars(
+            sa.select(Trial)
+            .join(Participant)
+            .where(Participant.token == token, Trial.kind == "trial")
+            .order_by(Trial.position)
+        ).all()
         ids = [t.id for t in trials]
     assert participant.vote(ids[0], key="key-abcdefgh").status_code == 201
     assert participant.vote(ids[1], key="key-abcdefgh").status_code == 409
@@ -82,8 +95,11 @@ def test_bad_votes_are_refused_with_a_reason(app, participant, web):
     bad_token = participant.client.post("/api/v1/votes", json={"token": "nope", "trial_id": 1})
     assert bad_token.status_code == 403
     with app.app_context():
-        practice = db.session.scalar(sa.select(Trial.id).join(Participant).where(
-            Participant.token == token, Trial.kind == "practice"))
+        practice = db.session.scalar(
+            sa.select(Trial.id)
+            .join(Participant)
+            .where(Participant.token == token, Trial.kind == "practice")
+        )
     assert participant.vote(practice).status_code == 422
     assert _votes(app) == []
     assert participant.vote(trial, "left", plays=2).status_code == 201
@@ -130,8 +146,9 @@ def test_a_vote_on_a_closed_study_says_so_for_good(app, participant, web):
     token = _join(app, participant, web)
     trial = participant.current_trial()
     with app.app_context():
-        db.session.scalar(sa.select(Participant).where(Participant.token == token)) \
-            .study.status = "closed"
+        db.session.scalar(
+            sa.select(Participant).where(Participant.token == token)
+        ).study.status = "closed"
         db.session.commit()
     response = participant.vote(trial)
     assert response.status_code == 409
@@ -139,13 +156,24 @@ def test_a_vote_on_a_closed_study_says_so_for_good(app, participant, web):
     assert _votes(app) == []
 
 
-@pytest.mark.parametrize("url", ["sqlite:////nonexistent-folder/facepair.sqlite",
-                                 "postgresql+psycopg://postgres@127.0.0.1:9/nowhere"])
+@pytest.mark.parametrize(
+    "url",
+    [
+        "sqlite:////nonexistent-folder/facepair.sqlite",
+        "postgresql+psycopg://postgres@127.0.0.1:9/nowhere",
+    ],
+)
 def test_database_unreachable_is_503_with_retry_after(tmp_path, url):
     from app import create_app
 
-    app = create_app({"TESTING": True, "SQLALCHEMY_DATABASE_URI": url,
-                      "MEDIA_ROOT": str(tmp_path), "RETRY_AFTER_SECONDS": 7})
+    app = create_app(
+        {
+            "TESTING": True,
+            "SQLALCHEMY_DATABASE_URI": url,
+            "MEDIA_ROOT": str(tmp_path),
+            "RETRY_AFTER_SECONDS": 7,
+        }
+    )
     client = app.test_client()
     vote = client.post("/api/v1/votes", json={"token": "t" * 32, "trial_id": 1})
     assert vote.status_code == 503 and vote.headers["Retry-After"] == "7"
@@ -158,9 +186,18 @@ def test_database_unreachable_is_503_with_retry_after(tmp_path, url):
 
 # --- the media log, the environment and the play requests -----------------------------------
 
-MEDIA = {"watched_ms": 4100, "played_to_end": True, "stalls": 2, "stall_ms": 950,
-         "focus_lost": 1, "pauses": 1, "seeks": 0, "width": 640, "height": 320,
-         "stall_durations": [700, 250]}
+MEDIA = {
+    "watched_ms": 4100,
+    "played_to_end": True,
+    "stalls": 2,
+    "stall_ms": 950,
+    "focus_lost": 1,
+    "pauses": 1,
+    "seeks": 0,
+    "width": 640,
+    "height": 320,
+    "stall_durations": [700, 250],
+}
 
 
 def test_the_media_log_is_stored_and_exported(app, participant, web):
@@ -171,25 +208,43 @@ def test_the_media_log_is_stored_and_exported(app, participant, web):
     assert participant.vote(trial, "left", media=MEDIA).status_code == 201
     with app.app_context():
         vote = db.session.scalar(sa.select(Vote))
-        assert (vote.watched_ms, vote.played_to_end, vote.stalls, vote.stall_ms,
-                vote.focus_lost) == (4100, True, 2, 950, 1)
-        assert vote.media == {"pauses": 1, "seeks": 0, "width": 640, "height": 320,
-                              "stall_durations": [700, 250]}
+        assert (
+            vote.watched_ms,
+            vote.played_to_end,
+            vote.stalls,
+            vote.stall_ms,
+            vote.focus_lost,
+        ) == (4100, True, 2, 950, 1)
+        assert vote.media == {
+            "pauses": 1,
+            "seeks": 0,
+            "width": 640,
+            "height": 320,
+            "stall_durations": [700, 250],
+        }
         text = votes_csv(db.session.scalars(sa.select(Study)).one())
     header, row = text.splitlines()[:2]
     values = dict(zip(header.split(","), row.split(","), strict=True))
-    assert {k: values[k] for k in ("watched_ms", "played_to_end", "stalls", "stall_ms",
-                                   "focus_lost")} == {
-        "watched_ms": "4100", "played_to_end": "true", "stalls": "2", "stall_ms": "950",
-        "focus_lost": "1"}
+    assert {
+        k: values[k] for k in ("watched_ms", "played_to_end", "stalls", "stall_ms", "focus_lost")
+    } == {
+        "watched_ms": "4100",
+        "played_to_end": "true",
+        "stalls": "2",
+        "stall_ms": "950",
+        "focus_lost": "1",
+    }
 
 
-@pytest.mark.parametrize(("media", "message"), [
-    ("lots", "media: expected an object"),
-    ({"stalls": -1}, "stalls: expected a whole number"),
-    ({"played_to_end": "yes"}, "played_to_end: expected true or false"),
-    ({"stall_durations": "x"}, "stall_durations: expected a list"),
-])
+@pytest.mark.parametrize(
+    ("media", "message"),
+    [
+        ("lots", "media: expected an object"),
+        ({"stalls": -1}, "stalls: expected a whole number"),
+        ({"played_to_end": "yes"}, "played_to_end: expected true or false"),
+        ({"stall_durations": "x"}, "stall_durations: expected a list"),
+    ],
+)
 def test_a_bad_media_log_is_refused_with_its_field(app, participant, web, media, message):
     _join(app, participant, web)
     response = participant.vote(participant.current_trial(), "left", media=media)
@@ -198,39 +253,60 @@ def test_a_bad_media_log_is_refused_with_its_field(app, participant, web, media,
 
 def test_environment_and_viewing_check(app, client, participant, web):
     token = _join(app, participant, web, extra="\n[viewing]\nmin_face_px = 200\n")
-    chrome = ("Mozilla/5.0 (Linux; Android 14) AppleWebKit/537.36 (KHTML, like Gecko) "
-              "Chrome/126.0.0.0 Mobile Safari/537.36")
-    report = {"screen_w": 390, "screen_h": 844, "viewport_w": 390, "viewport_h": 700,
-              "dpr": 3, "touch": True, "face_px": 180}
-    answer = client.post(f"/api/v1/participants/{token}/environment", json=report,
-                         headers={"User-Agent": chrome})
+    chrome = (
+        "Mozilla/5.0 (Linux; Android 14) AppleWebKit/537.36 (KHTML, like Gecko) "
+        "Chrome/126.0.0.0 Mobile Safari/537.36"
+    )
+    report = {
+        "screen_w": 390,
+        "screen_h": 844,
+        "viewport_w": 390,
+        "viewport_h": 700,
+        "dpr": 3,
+        "touch": True,
+        "face_px": 180,
+    }
+    answer = client.post(
+        f"/api/v1/participants/{token}/environment", json=report, headers={"User-Agent": chrome}
+    )
     assert answer.status_code == 200 and answer.json == {"viewing_ok": False}
     blocked = client.get(f"/p/{token}/trial")
     assert blocked.status_code == 409 and b"at least 200 pixels" in blocked.data
-    wide = client.post(f"/api/v1/participants/{token}/environment",
-                       json=report | {"face_px": 320}, headers={"User-Agent": chrome})
+    wide = client.post(
+        f"/api/v1/participants/{token}/environment",
+        json=report | {"face_px": 320},
+        headers={"User-Agent": chrome},
+    )
     assert wide.json == {"viewing_ok": True}
     assert client.get(f"/p/{token}/trial").status_code == 200
     with app.app_context():
         env = db.session.scalar(sa.select(Participant)).environment
     assert (env["browser"], env["browser_version"], env["dpr"], env["touch"]) == (
-        "Chrome", "126", 3, True)
+        "Chrome",
+        "126",
+        3,
+        True,
+    )
 
 
 JSONISH = st.recursive(
     st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=8),
-    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=8), inner,
-                                                                max_size=3),
-    max_leaves=8)
+    lambda inner: (
+        st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=8), inner, max_size=3)
+    ),
+    max_leaves=8,
+)
 
 
-@settings(max_examples=40, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(media=JSONISH, env=JSONISH, strength=JSONISH, reasons=JSONISH, trial=JSONISH)
-def test_hostile_participant_side_bodies_never_5xx(app, client, participant, web, media, env,
-                                                  strength, reasons, trial):
+def test_hostile_participant_side_bodies_never_5xx(
+    app, client, participant, web, media, env, strength, reasons, trial
+):
     if participant.token is None:
-        _join(app, participant, web, extra="\n[answer]\nscale = 5\nreasons = [\"a\"]\n")
+        _join(app, participant, web, extra='\n[answer]\nscale = 5\nreasons = ["a"]\n')
     trial_id = participant.current_trial()
     responses = [
         participant.vote(trial_id, "left", media=media, strength=strength, reasons=reasons),

@@ -5,17 +5,39 @@ from click.testing import CliRunner
 from app.cli import main
 
 ROWS = "participant,clip,left,right,choice\n" + "".join(
-    f"p{k},s2,{a},{b},{c}\n" for k in range(5)
-    for a, b, c in [("A", "B", "left"), ("B", "A", "right"), ("A", "C", "left"),
-                    ("C", "B", "undecided"), ("A", "A", "left")])
+    f"p{k},s2,{a},{b},{c}\n"
+    for k in range(5)
+    for a, b, c in [
+        ("A", "B", "left"),
+        ("B", "A", "right"),
+        ("A", "C", "left"),
+        ("C", "B", "undecided"),
+        ("A", "A", "left"),
+    ]
+)
 
 
 def test_analyze_writes_everything_and_prints_a_summary(tmp_path):
     (tmp_path / "v.csv").write_text(ROWS)
-    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--json",
-                                    str(tmp_path / "o.json"), "--report", str(tmp_path / "r.html"),
-                                    "--pdf", str(tmp_path / "r.pdf"), "--undecided", "split",
-                                    "--conditions", "C,B,A", "--bootstrap", "50"])
+    out = CliRunner().invoke(
+        main,
+        [
+            "analyze",
+            str(tmp_path / "v.csv"),
+            "--json",
+            str(tmp_path / "o.json"),
+            "--report",
+            str(tmp_path / "r.html"),
+            "--pdf",
+            str(tmp_path / "r.pdf"),
+            "--undecided",
+            "split",
+            "--conditions",
+            "C,B,A",
+            "--bootstrap",
+            "50",
+        ],
+    )
     assert out.exit_code == 0, out.output
     data = json.loads((tmp_path / "o.json").read_text())
     assert data["conditions"] == ["C", "B", "A"] and data["options"]["undecided"] == "split"
@@ -35,9 +57,20 @@ def test_bad_row_exits_2_with_one_line(tmp_path):
 
 def test_skip_bad_rows_counts_in_every_output(tmp_path):
     (tmp_path / "v.csv").write_text(ROWS + "p9,s2,A,B,maybe\n,s2,A,B,left\n")
-    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--skip-bad-rows",
-                                    "--json", str(tmp_path / "o.json"), "--report",
-                                    str(tmp_path / "r.html"), "--bootstrap", "0"])
+    out = CliRunner().invoke(
+        main,
+        [
+            "analyze",
+            str(tmp_path / "v.csv"),
+            "--skip-bad-rows",
+            "--json",
+            str(tmp_path / "o.json"),
+            "--report",
+            str(tmp_path / "r.html"),
+            "--bootstrap",
+            "0",
+        ],
+    )
     assert out.exit_code == 0, out.output
     assert "skipped 2 bad rows" in out.output and "skipped bad rows: 2" in out.output
     assert json.loads((tmp_path / "o.json").read_text())["input"]["skipped_rows"] == 2
@@ -55,17 +88,32 @@ def test_header_mismatch_and_unknown_condition(tmp_path):
 
 def test_pdf_needs_report(tmp_path):
     (tmp_path / "v.csv").write_text(ROWS)
-    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--pdf",
-                                    str(tmp_path / "r.pdf")])
+    out = CliRunner().invoke(
+        main, ["analyze", str(tmp_path / "v.csv"), "--pdf", str(tmp_path / "r.pdf")]
+    )
     assert out.exit_code == 2 and "--pdf needs --report" in out.output
 
 
 def test_exclude_rules_list_who_was_left_out(tmp_path):
-    (tmp_path / "v.csv").write_text(ROWS + "".join(
-        f"p9,s2,{a},{b},left\n" for a, b in [("A", "B"), ("B", "A"), ("C", "A"), ("B", "C")]))
-    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--exclude",
-                                    "side_p<0.2", "--json", str(tmp_path / "o.json"),
-                                    "--bootstrap", "0"])
+    (tmp_path / "v.csv").write_text(
+        ROWS
+        + "".join(
+            f"p9,s2,{a},{b},left\n" for a, b in [("A", "B"), ("B", "A"), ("C", "A"), ("B", "C")]
+        )
+    )
+    out = CliRunner().invoke(
+        main,
+        [
+            "analyze",
+            str(tmp_path / "v.csv"),
+            "--exclude",
+            "side_p<0.2",
+            "--json",
+            str(tmp_path / "o.json"),
+            "--bootstrap",
+            "0",
+        ],
+    )
     assert out.exit_code == 0, out.output
     data = json.loads((tmp_path / "o.json").read_text())
     assert list(data["quality"]["excluded"]) == ["p9"] and "p9" not in data["participants"]
@@ -81,22 +129,48 @@ def test_bad_exclude_rule_exits_2_with_one_line(tmp_path):
 
 
 def test_plan_prints_power_and_writes_json_and_plot(tmp_path):
-    out = CliRunner().invoke(main, ["plan", "--effects", "a=0,b=0.5,c=1", "--participants",
-                                    "8-16:8", "--simulations", "100", "--json",
-                                    str(tmp_path / "p.json"), "--plot", str(tmp_path / "p.png")])
+    out = CliRunner().invoke(
+        main,
+        [
+            "plan",
+            "--effects",
+            "a=0,b=0.5,c=1",
+            "--participants",
+            "8-16:8",
+            "--simulations",
+            "100",
+            "--json",
+            str(tmp_path / "p.json"),
+            "--plot",
+            str(tmp_path / "p.png"),
+        ],
+    )
     assert out.exit_code == 0, out.output
     data = json.loads((tmp_path / "p.json").read_text())
     assert [lv["participants"] for lv in data["levels"]] == [8, 16]
     assert "16 participants: power" in out.output and "a vs c" in out.output
     assert (tmp_path / "p.png").read_bytes().startswith(b"\x89PNG")
-    pilot = CliRunner().invoke(main, ["plan", "--pilot", "app/data/examples/votes.csv",
-                                      "--participants", "14", "--simulations", "50"])
+    pilot = CliRunner().invoke(
+        main,
+        [
+            "plan",
+            "--pilot",
+            "app/data/examples/votes.csv",
+            "--participants",
+            "14",
+            "--simulations",
+            "50",
+        ],
+    )
     assert pilot.exit_code == 0, pilot.output and "app/data/examples/votes.csv" in pilot.output
 
 
 def test_plan_bad_input_exits_2_with_one_line():
-    for args in (["--effects", "a=0,b"], ["--effects", "a=0,b=1", "--participants", "x"],
-                 ["--effects", "a=0,b=1", "--pilot", "app/data/examples/votes.csv"]):
+    for args in (
+        ["--effects", "a=0,b"],
+        ["--effects", "a=0,b=1", "--participants", "x"],
+        ["--effects", "a=0,b=1", "--pilot", "app/data/examples/votes.csv"],
+    ):
         out = CliRunner().invoke(main, ["plan", *args])
         lines = [ln for ln in out.output.splitlines() if ln.strip()]
         assert out.exit_code == 2 and len(lines) == 1 and "Traceback" not in out.output

@@ -26,8 +26,9 @@ def _study_file(tmp_path, web, **toml):
 def test_experimenter_add_and_study_create(app, monkeypatch, tmp_path, web):
     _env(monkeypatch, app)
     runner = CliRunner()
-    added = runner.invoke(main, ["experimenter", "add", "Lab@Example.org"],
-                          input="long enough pw\nlong enough pw\n")
+    added = runner.invoke(
+        main, ["experimenter", "add", "Lab@Example.org"], input="long enough pw\nlong enough pw\n"
+    )
     assert added.exit_code == 0, added.output
     short = runner.invoke(main, ["experimenter", "add", "x@example.org", "--password", "short"])
     assert short.exit_code == 2 and "password: at least 8 characters" in short.output
@@ -38,7 +39,10 @@ def test_experimenter_add_and_study_create(app, monkeypatch, tmp_path, web):
     with app.app_context():
         study = db.session.scalar(sa.select(Study))
         assert (study.title, study.owner.email, study.status) == (
-            "Test study", "lab@example.org", "draft")
+            "Test study",
+            "lab@example.org",
+            "draft",
+        )
 
 
 def test_study_create_errors_are_one_line(app, monkeypatch, tmp_path, web):
@@ -49,11 +53,11 @@ def test_study_create_errors_are_one_line(app, monkeypatch, tmp_path, web):
     web.user()
     bad = tmp_path / "bad.toml"
     bad.write_text(web.toml(design="zigzag"))
-    result = CliRunner().invoke(main, ["study", "create", str(bad), "--owner",
-                                       "exp@example.org"])
+    result = CliRunner().invoke(main, ["study", "create", str(bad), "--owner", "exp@example.org"])
     assert result.exit_code == 2
-    assert result.output.strip().endswith("expected one of all_ordered, reference, "
-                                          "unordered_counterbalanced, got 'zigzag'")
+    assert result.output.strip().endswith(
+        "expected one of all_ordered, reference, unordered_counterbalanced, got 'zigzag'"
+    )
     assert "Traceback" not in result.output
 
 
@@ -104,8 +108,9 @@ def test_demo_sets_up_a_ready_study(monkeypatch, tmp_path, web):
     def fake_render(study, progress):
         from app.storage import media_dir
 
-        for stimulus in db.session.scalars(sa.select(Stimulus)
-                                           .where(Stimulus.study_id == study.id)):
+        for stimulus in db.session.scalars(
+            sa.select(Stimulus).where(Stimulus.study_id == study.id)
+        ):
             stimulus.video_path = f"videos/{stimulus.id}.mp4"
             (media_dir(study) / "videos").mkdir(exist_ok=True)
             shutil.copyfile(web.tiny_video, media_dir(study) / stimulus.video_path)
@@ -125,8 +130,9 @@ def test_demo_sets_up_a_ready_study(monkeypatch, tmp_path, web):
 
     monkeypatch.setattr(commands, "_run_jobs_apart", run_here)
     path = _study_file(tmp_path, web, design="all_ordered")
-    result = CliRunner().invoke(main, ["demo", "--no-serve", "--port", "5077",
-                                       "--study-file", str(path)])
+    result = CliRunner().invoke(
+        main, ["demo", "--no-serve", "--port", "5077", "--study-file", str(path)]
+    )
     assert result.exit_code == 0, result.output
     assert "participant:   http://127.0.0.1:5077/s/" in result.output
     assert "login:         demo@facepair.local / facepair-demo" in result.output
@@ -180,9 +186,16 @@ def test_the_shipped_example_creates_a_study(app, monkeypatch, web, repo_root):
     """The same app/data/examples/study.toml the web takes as an upload (tests/experimenter)."""
     _env(monkeypatch, app)
     web.user("lab@example.org")
-    created = CliRunner().invoke(main, ["study", "create",
-                                        str(repo_root / "app" / "data" / "examples" / "study.toml"),
-                                        "--owner", "lab@example.org"])
+    created = CliRunner().invoke(
+        main,
+        [
+            "study",
+            "create",
+            str(repo_root / "app" / "data" / "examples" / "study.toml"),
+            "--owner",
+            "lab@example.org",
+        ],
+    )
     assert created.exit_code == 0, created.output
     with app.app_context():
         study = db.session.scalar(sa.select(Study))

@@ -27,8 +27,7 @@ def _new_page(client) -> str:
 
 
 def _post(client, data):
-    return client.post("/experimenter/studies/new", content_type="multipart/form-data",
-                       data=data)
+    return client.post("/experimenter/studies/new", content_type="multipart/form-data", data=data)
 
 
 def _files(*paths):
@@ -40,31 +39,47 @@ def test_the_shipped_example_uploads_as_it_is(app, client, web, repo_root):
     web.login(client)
     text = (repo_root / "app" / "data" / "examples" / "study.toml").read_text()
     demo = repo_root / "app" / "data" / "demo"
-    response = _post(client, {
-        "file-csrf_token": _token(_new_page(client), "file"), "file-submit": "1",
-        "file-study_file": (io.BytesIO(text.encode()), "study.toml"),
-        "file-media": _files(demo / "speech.wav", demo / "ground_truth.fap")})
+    response = _post(
+        client,
+        {
+            "file-csrf_token": _token(_new_page(client), "file"),
+            "file-submit": "1",
+            "file-study_file": (io.BytesIO(text.encode()), "study.toml"),
+            "file-media": _files(demo / "speech.wav", demo / "ground_truth.fap"),
+        },
+    )
     assert response.status_code == 302, response.get_data(as_text=True)
     with app.app_context():
         study = db.session.scalar(sa.select(Study))
-        assert [c.name for c in study.conditions] == ["none", "random", "speech_driven",
-                                                      "ground_truth"]
+        assert [c.name for c in study.conditions] == [
+            "none",
+            "random",
+            "speech_driven",
+            "ground_truth",
+        ]
         assert [(c.name, c.ground_truth_path) for c in study.clips] == [
-            ("speech", "clips/speech/ground_truth.fap")]
+            ("speech", "clips/speech/ground_truth.fap")
+        ]
 
 
 def test_a_file_the_study_names_but_nobody_uploaded_is_named(app, client, web, repo_root):
     web.user()
     web.login(client)
     text = (repo_root / "app" / "data" / "examples" / "study.toml").read_text()
-    response = _post(client, {
-        "file-csrf_token": _token(_new_page(client), "file"), "file-submit": "1",
-        "file-study_file": (io.BytesIO(text.encode()), "study.toml"),
-        "file-media": _files(repo_root / "app" / "data" / "demo" / "speech.wav")})
+    response = _post(
+        client,
+        {
+            "file-csrf_token": _token(_new_page(client), "file"),
+            "file-submit": "1",
+            "file-study_file": (io.BytesIO(text.encode()), "study.toml"),
+            "file-media": _files(repo_root / "app" / "data" / "demo" / "speech.wav"),
+        },
+    )
     assert response.status_code == 400
-    assert ("study.toml: clips[0].ground_truth: no uploaded file named 'ground_truth.fap'; "
-            "upload it with the study file") in response.get_data(as_text=True).replace(
-                "&#39;", "'")
+    assert (
+        "study.toml: clips[0].ground_truth: no uploaded file named 'ground_truth.fap'; "
+        "upload it with the study file"
+    ) in response.get_data(as_text=True).replace("&#39;", "'")
 
 
 def test_a_failed_upload_keeps_its_files_for_the_next_attempt(app, client, web, tmp_path):
@@ -72,26 +87,45 @@ def test_a_failed_upload_keeps_its_files_for_the_next_attempt(app, client, web, 
     web.login(client)
     wav = web.write_wav(tmp_path / "s1.wav")
     broken = web.toml(design="zigzag")
-    first = _post(client, {
-        "file-csrf_token": _token(_new_page(client), "file"), "file-submit": "1",
-        "file-study_file": (io.BytesIO(broken.encode()), "study.toml"),
-        "file-media": _files(wav)})
+    first = _post(
+        client,
+        {
+            "file-csrf_token": _token(_new_page(client), "file"),
+            "file-submit": "1",
+            "file-study_file": (io.BytesIO(broken.encode()), "study.toml"),
+            "file-media": _files(wav),
+        },
+    )
     page = first.get_data(as_text=True)
     assert first.status_code == 400 and "Kept from your last attempt" in page
     assert "s1.wav" in page
     # The fixed study file alone: the audio comes from the kept files.
-    second = _post(client, {
-        "file-csrf_token": _token(page, "file"), "file-submit": "1",
-        "file-kept": _kept(page, "file"),
-        "file-study_file": (io.BytesIO(web.toml().encode()), "study.toml")})
+    second = _post(
+        client,
+        {
+            "file-csrf_token": _token(page, "file"),
+            "file-submit": "1",
+            "file-kept": _kept(page, "file"),
+            "file-study_file": (io.BytesIO(web.toml().encode()), "study.toml"),
+        },
+    )
     assert second.status_code == 302, second.get_data(as_text=True)
 
 
 def _form(page: str, **fields):
-    data = {"web-csrf_token": _token(page, "web"), "web-submit": "1", "web-title": "Form study",
-            "web-question": "Which one?", "web-design": "all_ordered", "web-replay": "unlimited",
-            "web-undecided_allowed": "y", "web-undecided_label": "Same",
-            "web-catch_trials": "0", "web-target_participants": "4", "web-seed": "1"}
+    data = {
+        "web-csrf_token": _token(page, "web"),
+        "web-submit": "1",
+        "web-title": "Form study",
+        "web-question": "Which one?",
+        "web-design": "all_ordered",
+        "web-replay": "unlimited",
+        "web-undecided_allowed": "y",
+        "web-undecided_label": "Same",
+        "web-catch_trials": "0",
+        "web-target_participants": "4",
+        "web-seed": "1",
+    }
     return data | fields
 
 
@@ -104,9 +138,17 @@ def test_form_errors_name_the_file_and_keep_the_choices(app, client, web, tmp_pa
     from app.stimuli.track import MotionTrack
 
     write_fap(MotionTrack.zeros(30.0, 15, channels=(48,)), truth)
-    response = _post(client, _form(_new_page(client), **{
-        "web-models": ["none", "ground_truth"], "web-audio": _files(a, b),
-        "web-ground_truth": _files(truth)}))
+    response = _post(
+        client,
+        _form(
+            _new_page(client),
+            **{
+                "web-models": ["none", "ground_truth"],
+                "web-audio": _files(a, b),
+                "web-ground_truth": _files(truth),
+            },
+        ),
+    )
     page = response.get_data(as_text=True).replace("&#39;", "'")
     assert response.status_code == 400
     # clip_b.wav is the second clip: the message says so by name, not as clips[1].
@@ -115,8 +157,9 @@ def test_form_errors_name_the_file_and_keep_the_choices(app, client, web, tmp_pa
     assert re.search(r'checked[^>]*value="ground_truth"|value="ground_truth"[^>]*checked', page)
     assert "clip_a.wav, clip_b.wav" in page and "clip_a.fap" in page
     # Choosing other models only (no files again) works from the kept files.
-    again = _post(client, _form(page, **{"web-kept": _kept(page, "web"),
-                                         "web-models": ["none", "random"]}))
+    again = _post(
+        client, _form(page, **{"web-kept": _kept(page, "web"), "web-models": ["none", "random"]})
+    )
     assert again.status_code == 302, again.get_data(as_text=True)
     with app.app_context():
         study = db.session.scalar(sa.select(Study))
@@ -127,20 +170,32 @@ def test_kept_files_belong_to_their_experimenter(app, client, web, tmp_path):
     web.user()
     web.login(client)
     wav = web.write_wav(tmp_path / "s1.wav")
-    first = _post(client, {
-        "file-csrf_token": _token(_new_page(client), "file"), "file-submit": "1",
-        "file-study_file": (io.BytesIO(web.toml(design="zigzag").encode()), "study.toml"),
-        "file-media": _files(wav)})
+    first = _post(
+        client,
+        {
+            "file-csrf_token": _token(_new_page(client), "file"),
+            "file-submit": "1",
+            "file-study_file": (io.BytesIO(web.toml(design="zigzag").encode()), "study.toml"),
+            "file-media": _files(wav),
+        },
+    )
     kept = _kept(first.get_data(as_text=True), "file")
     other = app.test_client()
     web.user("other@example.org")
     web.login(other, "other@example.org")
-    response = _post(other, {
-        "file-csrf_token": _token(_new_page(other), "file"), "file-submit": "1",
-        "file-kept": kept, "file-study_file": (io.BytesIO(web.toml().encode()), "study.toml")})
+    response = _post(
+        other,
+        {
+            "file-csrf_token": _token(_new_page(other), "file"),
+            "file-submit": "1",
+            "file-kept": kept,
+            "file-study_file": (io.BytesIO(web.toml().encode()), "study.toml"),
+        },
+    )
     assert response.status_code == 400
     assert "no uploaded file named 's1.wav'" in response.get_data(as_text=True).replace(
-        "&#39;", "'")
+        "&#39;", "'"
+    )
 
 
 def test_models_are_ticked_not_ctrl_clicked(app, client, web):
@@ -152,15 +207,24 @@ def test_models_are_ticked_not_ctrl_clicked(app, client, web):
 
 
 def test_form_error_names_tracks_and_models():
-    data = {"clips": [{"name": "a", "audio": "audio/a.wav"}],
-            "conditions": [{"name": "up", "tracks": {"a": "tracks/up__a.fap"}},
-                           {"name": "none", "model": "none"}]}
-    assert str(form_error(InputError("bad", path="form", field="conditions[0].tracks.a"),
-                          data)) == "up__a.fap: track: bad"
-    assert str(form_error(InputError("bad", path="form", field="conditions[1].settings"),
-                          data)) == "model none: settings: bad"
+    data = {
+        "clips": [{"name": "a", "audio": "audio/a.wav"}],
+        "conditions": [
+            {"name": "up", "tracks": {"a": "tracks/up__a.fap"}},
+            {"name": "none", "model": "none"},
+        ],
+    }
+    assert (
+        str(form_error(InputError("bad", path="form", field="conditions[0].tracks.a"), data))
+        == "up__a.fap: track: bad"
+    )
+    assert (
+        str(form_error(InputError("bad", path="form", field="conditions[1].settings"), data))
+        == "model none: settings: bad"
+    )
     assert str(form_error(InputError("bad", path="form", field="title"), data)) == (
-        "form: title: bad")
+        "form: title: bad"
+    )
 
 
 def test_hostile_upload_names_never_give_a_5xx(app, client, web):
@@ -169,15 +233,24 @@ def test_hostile_upload_names_never_give_a_5xx(app, client, web):
     token = _token(_new_page(client), "file")
     names = st.text(st.characters(blacklist_categories=("Cs",)), max_size=60)
 
-    @settings(max_examples=60, deadline=None, database=None,
-              suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
-    @given(study_name=names, media_name=names, kept=names,
-           body=st.binary(max_size=200))
+    @settings(
+        max_examples=60,
+        deadline=None,
+        database=None,
+        suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+    )
+    @given(study_name=names, media_name=names, kept=names, body=st.binary(max_size=200))
     def hostile(study_name, media_name, kept, body):
-        response = _post(client, {
-            "file-csrf_token": token, "file-submit": "1", "file-kept": kept,
-            "file-study_file": (io.BytesIO(body), study_name or "x.toml"),
-            "file-media": [(io.BytesIO(b"RIFF"), media_name or "m.wav")]})
+        response = _post(
+            client,
+            {
+                "file-csrf_token": token,
+                "file-submit": "1",
+                "file-kept": kept,
+                "file-study_file": (io.BytesIO(body), study_name or "x.toml"),
+                "file-media": [(io.BytesIO(b"RIFF"), media_name or "m.wav")],
+            },
+        )
         assert response.status_code in (302, 400), response.get_data(as_text=True)[-500:]
 
     hostile()
@@ -187,12 +260,25 @@ def test_the_form_sets_the_stimulus_and_participant_page_options(app, client, we
     web.user()
     web.login(client)
     a, b = web.write_wav(tmp_path / "clip_a.wav"), web.write_wav(tmp_path / "clip_b.wav")
-    response = _post(client, _form(_new_page(client), **{
-        "web-models": ["none", "random"], "web-audio": _files(a, b),
-        "web-eyes": "generated", "web-mismatched": "y", "web-catch_trials": "1",
-        "web-catch_kind": "onscreen", "web-scale": "5",
-        "web-reasons": "head motion, eyebrows ,timing", "web-max_failed": "2",
-        "web-screened_out_code": "SCREENED", "web-min_face_px": "150"}))
+    response = _post(
+        client,
+        _form(
+            _new_page(client),
+            **{
+                "web-models": ["none", "random"],
+                "web-audio": _files(a, b),
+                "web-eyes": "generated",
+                "web-mismatched": "y",
+                "web-catch_trials": "1",
+                "web-catch_kind": "onscreen",
+                "web-scale": "5",
+                "web-reasons": "head motion, eyebrows ,timing",
+                "web-max_failed": "2",
+                "web-screened_out_code": "SCREENED",
+                "web-min_face_px": "150",
+            },
+        ),
+    )
     assert response.status_code == 302, response.get_data(as_text=True)
     with app.app_context():
         study = db.session.scalar(sa.select(Study))
@@ -206,7 +292,16 @@ def test_the_form_sets_the_stimulus_and_participant_page_options(app, client, we
     assert (part.max_failed, part.screened_out_code) == (2, "SCREENED")
     assert part.min_face_px == 150 and part.mismatched is True
     # an option that does not fit is named, as a study file's would be
-    bad = _post(client, _form(_new_page(client), **{
-        "web-models": ["none", "random"], "web-audio": _files(a, b), "web-eyes": "ground_truth"}))
+    bad = _post(
+        client,
+        _form(
+            _new_page(client),
+            **{
+                "web-models": ["none", "random"],
+                "web-audio": _files(a, b),
+                "web-eyes": "ground_truth",
+            },
+        ),
+    )
     assert bad.status_code == 400
     assert "eyes: needs a ground_truth for every clip" in bad.get_data(as_text=True)

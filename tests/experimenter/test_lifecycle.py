@@ -20,8 +20,9 @@ def _page_token(client, study_id):
 
 def _post(client, study_id, path, **data):
     token = _page_token(client, study_id)
-    return client.post(f"/experimenter/studies/{study_id}{path}",
-                       data={"csrf_token": token, **data})
+    return client.post(
+        f"/experimenter/studies/{study_id}{path}", data={"csrf_token": token, **data}
+    )
 
 
 def _get(app, study_id, *attrs):
@@ -47,7 +48,8 @@ def test_stimuli_are_frozen_once_open(app, client, web):
     opened = web.study(status="open")
     web.login(client)
     assert 'id="stimuli-locked"' not in client.get(f"/experimenter/studies/{ready}").get_data(
-        as_text=True)
+        as_text=True
+    )
     page = client.get(f"/experimenter/studies/{opened}").get_data(as_text=True)
     assert "Stimuli frozen: the study is open; duplicate the study" in page
     assert re.search(r"disabled>1\. Generate tracks", page)
@@ -57,16 +59,16 @@ def test_stimuli_are_frozen_once_open(app, client, web):
         assert db.session.scalar(sa.select(sa.func.count(Job.id))) == 0
 
 
-def test_pilot_votes_freeze_the_stimuli_and_stay_out_of_the_export(app, client, web,
-                                                                   participant):
+def test_pilot_votes_freeze_the_stimuli_and_stay_out_of_the_export(app, client, web, participant):
     study_id = web.study(status="ready", design="all_ordered")
     web.login(client)
     _pilot(app, participant, study_id)
     with app.app_context():
         pilot = db.session.scalar(sa.select(Participant))
         assert pilot.pilot and pilot.finished_at is not None
-    assert "participants have voted" in client.get(
-        f"/experimenter/studies/{study_id}").get_data(as_text=True)
+    assert "participants have voted" in client.get(f"/experimenter/studies/{study_id}").get_data(
+        as_text=True
+    )
     _post(client, study_id, "/jobs/render")
     with app.app_context():
         assert db.session.scalar(sa.select(sa.func.count(Job.id))) == 0
@@ -75,7 +77,8 @@ def test_pilot_votes_freeze_the_stimuli_and_stay_out_of_the_export(app, client, 
     monitor = client.get(f"/experimenter/studies/{study_id}/monitor").get_data(as_text=True)
     assert re.search(r'id="stat-started">0<', monitor) and "no: pilot" in monitor
     pilots = client.get(f"/experimenter/studies/{study_id}/votes.csv?pilot=only").get_data(
-        as_text=True)
+        as_text=True
+    )
     assert pilots.count("\n") == 5 and ",pilot," in pilots
     # Opening gives the pilot's list slot back: real participants are balanced alone.
     _post(client, study_id, "/status/open")
@@ -112,22 +115,30 @@ def test_duplicate_with_and_without_clips(app, client, web, participant):
     full = _post(client, study_id, "/duplicate", with_clips="y")
     full_id = int(full.headers["Location"].rsplit("/", 1)[1])
     with app.app_context():
-        original, copy, rendered = (db.session.get(Study, i) for i in (study_id, bare_id,
-                                                                        full_id))
+        original, copy, rendered = (db.session.get(Study, i) for i in (study_id, bare_id, full_id))
         for other in (copy, rendered):
             assert other.title == "Test study (copy)"
             assert [p.label for p in other.pairs] == [p.label for p in original.pairs]
             assert (other.slug, other.pilot_token, other.pseudonym_key) != (
-                original.slug, original.pilot_token, original.pseudonym_key)
-            assert db.session.scalar(sa.select(sa.func.count(Participant.id)).where(
-                Participant.study_id == other.id)) == 0
+                original.slug,
+                original.pilot_token,
+                original.pseudonym_key,
+            )
+            assert (
+                db.session.scalar(
+                    sa.select(sa.func.count(Participant.id)).where(Participant.study_id == other.id)
+                )
+                == 0
+            )
             assert (media_dir(other) / other.clips[0].audio_path).is_file()
         assert (copy.status, rendered.status) == ("draft", "ready")
-        videos = db.session.scalars(sa.select(Stimulus.video_path).where(
-            Stimulus.study_id == rendered.id)).all()
+        videos = db.session.scalars(
+            sa.select(Stimulus.video_path).where(Stimulus.study_id == rendered.id)
+        ).all()
         assert videos and all((media_dir(rendered) / v).is_file() for v in videos)
-        assert set(db.session.scalars(sa.select(Stimulus.video_path).where(
-            Stimulus.study_id == copy.id))) == {None}
+        assert set(
+            db.session.scalars(sa.select(Stimulus.video_path).where(Stimulus.study_id == copy.id))
+        ) == {None}
 
 
 def test_delete_needs_the_title_and_removes_files(app, client, web, participant):
@@ -166,11 +177,16 @@ def test_collaborators_read_only_or_full(app, client, web):
     assert "(shared by exp@example.org)" in listing
     for path in ("", "/monitor", "/votes.csv", "/participants.csv"):
         assert reader.get(f"/experimenter/studies/{study_id}{path}").status_code == 200
-    assert reader.get(f"/experimenter/studies/{study_id}/participants.csv?ids=raw"
-                      ).status_code == 403
+    assert (
+        reader.get(f"/experimenter/studies/{study_id}/participants.csv?ids=raw").status_code == 403
+    )
     token = web.csrf(reader, "/experimenter/")
-    assert reader.post(f"/experimenter/studies/{study_id}/status/open",
-                       data={"csrf_token": token}).status_code == 403
+    assert (
+        reader.post(
+            f"/experimenter/studies/{study_id}/status/open", data={"csrf_token": token}
+        ).status_code
+        == 403
+    )
     _post(runner, study_id, "/status/open")
     assert _get(app, study_id, "status") == ("open",)
     # Only the owner deletes or shares.
@@ -195,15 +211,20 @@ def test_lifecycle_forms_never_answer_5xx(app, client, web):
     token = _page_token(client, study_id)
     text = st.text(st.characters(blacklist_categories=("Cs",)), max_size=80)
 
-    @settings(max_examples=60, deadline=None, database=None,
-              suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+    @settings(
+        max_examples=60,
+        deadline=None,
+        database=None,
+        suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+    )
     @given(title=text, email=text, access=text, confirm=text, who=text, how=text)
     def hostile(title, email, access, confirm, who, how):
         base = f"/experimenter/studies/{study_id}"
-        for path, data in (("/delete", {"title": title}),
-                           ("/shares", {"email": email, "access": access}),
-                           ("/participants/exclude", {"participant": who, "how": how,
-                                                      "reason": title})):
+        for path, data in (
+            ("/delete", {"title": title}),
+            ("/shares", {"email": email, "access": access}),
+            ("/participants/exclude", {"participant": who, "how": how, "reason": title}),
+        ):
             response = client.post(base + path, data={"csrf_token": token, **data})
             assert response.status_code == 302, response.get_data(as_text=True)[-300:]
         assert client.get(f"/experimenter/pilot/{quote(who, safe='')}").status_code < 500

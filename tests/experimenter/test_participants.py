@@ -23,8 +23,9 @@ def _run(app, participant, slug, *, catch_answer, pid):
     while (trial := participant.current_trial()) is not None:
         with app.app_context():
             kind = db.session.get(Trial, trial).kind
-        assert participant.vote(trial, catch_answer if kind == "catch" else "left"
-                                ).status_code == 201
+        assert (
+            participant.vote(trial, catch_answer if kind == "catch" else "left").status_code == 201
+        )
 
 
 def test_table_statuses_catch_scores_and_the_export(app, client, web, participant):
@@ -36,17 +37,22 @@ def test_table_statuses_catch_scores_and_the_export(app, client, web, participan
     participant.join(slug)  # started, never voted
     web.login(client)
     monitor = client.get(f"/experimenter/studies/{study_id}/monitor").get_data(as_text=True)
-    rows = {m[0]: m[1] for m in re.findall(
-        r'id="participant-(P\d+)" data-status="(\w+)"', monitor)}
+    rows = {m[0]: m[1] for m in re.findall(r'id="participant-(P\d+)" data-status="(\w+)"', monitor)}
     assert rows == {"P0000": "finished", "P0001": "finished", "P0002": "started"}
     assert "2/2" in monitor and "0/2" in monitor
     assert "5f0000000000000000000001" not in monitor  # pseudonymised until revealed
     assert "no: failed a catch trial (0 of 2 passed)" in monitor
     revealed = client.get(f"/experimenter/studies/{study_id}/monitor?reveal=1").get_data(
-        as_text=True)
+        as_text=True
+    )
     assert "5f0000000000000000000001" in revealed
-    export = list(csv.DictReader(io.StringIO(client.get(
-        f"/experimenter/studies/{study_id}/votes.csv").get_data(as_text=True))))
+    export = list(
+        csv.DictReader(
+            io.StringIO(
+                client.get(f"/experimenter/studies/{study_id}/votes.csv").get_data(as_text=True)
+            )
+        )
+    )
     kinds = {(r["participant"], r["kind"]) for r in export}
     assert ("P0000", "catch") in kinds and ("P0001", "trial") in kinds
     excluded = {r["participant"]: r["excluded"] for r in export}
@@ -70,8 +76,15 @@ def test_excluding_by_hand_frees_the_list_slot(app, client, web, participant):
     client.post(base, data={"csrf_token": token, "participant": "P0000", "how": "excluded"})
     with app.app_context():
         assert db.session.scalar(sa.select(Participant.excluded_at)) is None
-    response = client.post(base, data={"csrf_token": token, "participant": "p0",
-                                       "how": "excluded", "reason": "spoke to a neighbour"})
+    response = client.post(
+        base,
+        data={
+            "csrf_token": token,
+            "participant": "p0",
+            "how": "excluded",
+            "reason": "spoke to a neighbour",
+        },
+    )
     assert response.status_code == 302
     with app.app_context():
         person = db.session.scalar(sa.select(Participant))
@@ -85,7 +98,8 @@ def test_excluding_by_hand_frees_the_list_slot(app, client, web, participant):
     with app.app_context():
         assert db.session.scalar(sa.select(sa.func.sum(StudyList.n_assigned))) == 0
         assert db.session.scalar(sa.select(Participant.exclusion_reason)) == (
-            "spoke to a neighbour")
+            "spoke to a neighbour"
+        )
 
 
 def test_a_returned_submission(app, client, web, participant):
@@ -93,8 +107,10 @@ def test_a_returned_submission(app, client, web, participant):
     participant.join(_slug(app, study_id))
     web.login(client)
     token = web.csrf(client, f"/experimenter/studies/{study_id}/monitor?refresh=0")
-    client.post(f"/experimenter/studies/{study_id}/participants/exclude",
-                data={"csrf_token": token, "participant": "P0000", "how": "returned"})
+    client.post(
+        f"/experimenter/studies/{study_id}/participants/exclude",
+        data={"csrf_token": token, "participant": "P0000", "how": "returned"},
+    )
     monitor = client.get(f"/experimenter/studies/{study_id}/monitor").get_data(as_text=True)
     assert 'data-status="returned"' in monitor
     # Coming back does not take the slot again.

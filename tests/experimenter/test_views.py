@@ -44,8 +44,10 @@ def test_login_logout_and_protection(app, client, web):
 def test_login_never_redirects_off_site(app, client, web):
     web.user()
     token = web.csrf(client, "/experimenter/login")
-    response = client.post("/experimenter/login?next=//evil.example/x", data={
-        "csrf_token": token, "email": "exp@example.org", "password": "correct horse"})
+    response = client.post(
+        "/experimenter/login?next=//evil.example/x",
+        data={"csrf_token": token, "email": "exp@example.org", "password": "correct horse"},
+    )
     assert response.headers["Location"] == "/experimenter/"
 
 
@@ -74,12 +76,14 @@ def _upload_study(client, web, text: str, media=()):
     web.login(client)
     page = client.get("/experimenter/studies/new").get_data(as_text=True)
     token = re.search(r'name="file-csrf_token" type="hidden" value="([^"]+)"', page).group(1)
-    data = {"file-csrf_token": token, "file-submit": "1",
-            "file-study_file": (io.BytesIO(text.encode()), "study.toml")}
+    data = {
+        "file-csrf_token": token,
+        "file-submit": "1",
+        "file-study_file": (io.BytesIO(text.encode()), "study.toml"),
+    }
     if media:
         data["file-media"] = [(path.open("rb"), path.name) for path in media]
-    return client.post("/experimenter/studies/new", content_type="multipart/form-data",
-                       data=data)
+    return client.post("/experimenter/studies/new", content_type="multipart/form-data", data=data)
 
 
 def test_create_study_from_uploaded_file(app, client, web, tmp_path):
@@ -90,7 +94,11 @@ def test_create_study_from_uploaded_file(app, client, web, tmp_path):
     with app.app_context():
         study = db.session.get(Study, study_id)
         assert (study.title, study.design, len(study.pairs), study.status) == (
-            "Test study", "all_ordered", 4, "draft")
+            "Test study",
+            "all_ordered",
+            4,
+            "draft",
+        )
         assert "Test study" in study.source_toml
     page = client.get(f"/experimenter/studies/{study_id}").get_data(as_text=True)
     assert "0 of 4 clips rendered" in page and "/s/" in page
@@ -126,23 +134,43 @@ def test_create_study_from_web_form(app, client, web, tmp_path):
     from app.stimuli.track import MotionTrack
 
     write_fap(MotionTrack.zeros(30.0, 15, channels=(48,)), track)
-    response = client.post("/experimenter/studies/new", content_type="multipart/form-data", data={
-        "web-csrf_token": token, "web-submit": "1", "web-title": "Form study",
-        "web-question": "Which one?", "web-models": ["none"],
-        "web-audio": [(wav.open("rb"), "clip_a.wav")],
-        "web-tracks": [(track.open("rb"), "uploaded__clip_a.fap")],
-        "web-design": "reference", "web-reference": "none", "web-undecided_allowed": "y",
-        "web-undecided_label": "Same", "web-replay": "max_plays", "web-max_plays": "2",
-        "web-catch_trials": "0", "web-target_participants": "12", "web-seed": "5",
-        "web-completion_code": "XYZ", "web-redirect_url": "https://example.org/done",
-    })
+    response = client.post(
+        "/experimenter/studies/new",
+        content_type="multipart/form-data",
+        data={
+            "web-csrf_token": token,
+            "web-submit": "1",
+            "web-title": "Form study",
+            "web-question": "Which one?",
+            "web-models": ["none"],
+            "web-audio": [(wav.open("rb"), "clip_a.wav")],
+            "web-tracks": [(track.open("rb"), "uploaded__clip_a.fap")],
+            "web-design": "reference",
+            "web-reference": "none",
+            "web-undecided_allowed": "y",
+            "web-undecided_label": "Same",
+            "web-replay": "max_plays",
+            "web-max_plays": "2",
+            "web-catch_trials": "0",
+            "web-target_participants": "12",
+            "web-seed": "5",
+            "web-completion_code": "XYZ",
+            "web-redirect_url": "https://example.org/done",
+        },
+    )
     assert response.status_code == 302, response.get_data(as_text=True)
     with app.app_context():
         study = db.session.scalar(sa.select(Study).where(Study.title == "Form study"))
         assert [(c.name, c.model) for c in study.conditions] == [
-            ("none", "none"), ("uploaded", "upload")]
+            ("none", "none"),
+            ("uploaded", "upload"),
+        ]
         assert (study.replay, study.max_plays, study.reference, study.undecided_label) == (
-            "max_plays", 2, "none", "Same")
+            "max_plays",
+            2,
+            "none",
+            "Same",
+        )
         assert [p.label for p in study.pairs] == ["uploaded vs none", "none vs uploaded"]
 
 
@@ -195,10 +223,20 @@ def test_monitor_export_and_report(app, client, participant, web):
 
     assert tuple(rows[0]) == VOTE_COLUMNS
     assert len(rows) == 8 and {r["choice"] for r in rows} == {"left", "right"}
-    assert {(r["participant"], r["choice"]) for r in rows} == {("P0000", "left"),
-                                                              ("P0001", "right")}
-    assert len(read_votes(io.StringIO(response.get_data(as_text=True))
-                          if False else _tmp_csv(response.get_data(as_text=True)))) == 8
+    assert {(r["participant"], r["choice"]) for r in rows} == {
+        ("P0000", "left"),
+        ("P0001", "right"),
+    }
+    assert (
+        len(
+            read_votes(
+                io.StringIO(response.get_data(as_text=True))
+                if False
+                else _tmp_csv(response.get_data(as_text=True))
+            )
+        )
+        == 8
+    )
     assert client.get(f"/experimenter/studies/{study_id}/report/").status_code == 404
     _post(client, f"/experimenter/studies/{study_id}/status/close")
     report = client.get(f"/experimenter/studies/{study_id}/report/")
@@ -305,8 +343,10 @@ def test_render_job_fills_every_stimulus(app, client, web, fake_renderer):
     with app.app_context():
         job = db.session.scalar(sa.select(Job).where(Job.study_id == study_id))
         assert (job.status, job.done, job.total) == ("done", 2, 2), job.message
-        assert all(s.video_path for s in db.session.scalars(
-            sa.select(Stimulus).where(Stimulus.study_id == study_id)))
+        assert all(
+            s.video_path
+            for s in db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study_id))
+        )
         assert db.session.get(Study, study_id).status == "ready"
     assert len(fake_renderer) == 2
     page = client.get(f"/experimenter/studies/{study_id}").get_data(as_text=True)
@@ -344,16 +384,23 @@ def test_disk_full_on_upload_is_507_and_leaves_nothing(app, client, web, tmp_pat
     from app.stimuli.track import MotionTrack
 
     write_fap(MotionTrack.zeros(30.0, 15, channels=(48,)), track)
-    text = web.toml().replace('[[clips]]', '[[conditions]]\nname = "up"\n'
-                              'tracks = { s1 = "t.fap" }\n\n[[clips]]')
+    text = web.toml().replace(
+        "[[clips]]", '[[conditions]]\nname = "up"\ntracks = { s1 = "t.fap" }\n\n[[clips]]'
+    )
     web.user()
     web.login(client)
     page = client.get("/experimenter/studies/new").get_data(as_text=True)
     token = re.search(r'name="file-csrf_token" type="hidden" value="([^"]+)"', page).group(1)
-    response = client.post("/experimenter/studies/new", content_type="multipart/form-data", data={
-        "file-csrf_token": token, "file-submit": "1",
-        "file-study_file": (io.BytesIO(text.encode()), "study.toml"),
-        "file-media": [(io.BytesIO(p.read_bytes()), p.name) for p in (wav, track)]})
+    response = client.post(
+        "/experimenter/studies/new",
+        content_type="multipart/form-data",
+        data={
+            "file-csrf_token": token,
+            "file-submit": "1",
+            "file-study_file": (io.BytesIO(text.encode()), "study.toml"),
+            "file-media": [(io.BytesIO(p.read_bytes()), p.name) for p in (wav, track)],
+        },
+    )
     assert response.status_code == 507
     assert "disk is full writing s1.fap" in response.get_data(as_text=True)
     assert copied  # the first file was written, then the disk filled up
@@ -381,8 +428,9 @@ def test_disk_full_in_a_job_is_its_error(app, web, monkeypatch):
         db.session.commit()
         assert run_job(job.id) == "failed"
         db.session.refresh(job)
-        assert job.message == ("the server's disk is full writing a.mp4; free some space and "
-                               "try again")
+        assert job.message == (
+            "the server's disk is full writing a.mp4; free some space and try again"
+        )
 
 
 def test_retry_resumes_from_the_clips_already_rendered(app, client, web, fake_renderer):
@@ -394,21 +442,29 @@ def test_retry_resumes_from_the_clips_already_rendered(app, client, web, fake_re
         study = db.session.get(Study, study_id)
         _generated_tracks(study)
         # A render killed half way: two clips in place, the row failed.
-        stimuli = db.session.scalars(sa.select(Stimulus).where(
-            Stimulus.study_id == study_id).order_by(Stimulus.id)).all()
+        stimuli = db.session.scalars(
+            sa.select(Stimulus).where(Stimulus.study_id == study_id).order_by(Stimulus.id)
+        ).all()
         for stimulus in stimuli[:2]:
             stimulus.video_path = f"videos/kept-{stimulus.id}.mp4"
             (media_dir(study) / "videos").mkdir(exist_ok=True)
             (media_dir(study) / stimulus.video_path).write_bytes(b"rendered before")
-        failed = Job(study_id=study_id, kind="render", status="failed", done=2, total=4,
-                     message="the process running it stopped")
+        failed = Job(
+            study_id=study_id,
+            kind="render",
+            status="failed",
+            done=2,
+            total=4,
+            message="the process running it stopped",
+        )
         db.session.add(failed)
         db.session.commit()
         failed_id, n_stimuli = failed.id, len(stimuli)
     page = client.get(f"/experimenter/studies/{study_id}").get_data(as_text=True)
     assert f"/jobs/{failed_id}/retry" in page
-    assert _post(client, f"/experimenter/studies/{study_id}/jobs/{failed_id}/retry"
-                 ).status_code == 302
+    assert (
+        _post(client, f"/experimenter/studies/{study_id}/jobs/{failed_id}/retry").status_code == 302
+    )
     assert len(fake_renderer) == n_stimuli - 2  # only the missing clips were rendered
     with app.app_context():
         retried = db.session.scalar(sa.select(Job).where(Job.id != failed_id))

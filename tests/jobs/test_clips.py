@@ -44,8 +44,13 @@ def pg_app(postgres_url, redis_url, tmp_path):
     with Redis.from_url(redis_url) as connection:
         connection.flushdb()  # no queued job of another run
     upgrade_database(postgres_url, tmp_path / "media")
-    app = make_app(postgres_url, tmp_path / "media", REDIS_URL=redis_url, JOB_RUNNER="process",
-                   JOB_STALE_AFTER_SECONDS=60)
+    app = make_app(
+        postgres_url,
+        tmp_path / "media",
+        REDIS_URL=redis_url,
+        JOB_RUNNER="process",
+        JOB_STALE_AFTER_SECONDS=60,
+    )
     try:
         yield app
     finally:
@@ -55,13 +60,22 @@ def pg_app(postgres_url, redis_url, tmp_path):
 
 
 def start_worker(app, name: str, log: Path) -> subprocess.Popen:
-    env = {**os.environ, "DATABASE_URL": app.config["SQLALCHEMY_DATABASE_URI"],
-           "REDIS_URL": app.config["REDIS_URL"], "MEDIA_ROOT": app.config["MEDIA_ROOT"],
-           "FACEPAIR_INSTANCE": str(log.parent / f"instance-{name}"),
-           "PYTHONPATH": str(ROOT)}
+    env = {
+        **os.environ,
+        "DATABASE_URL": app.config["SQLALCHEMY_DATABASE_URI"],
+        "REDIS_URL": app.config["REDIS_URL"],
+        "MEDIA_ROOT": app.config["MEDIA_ROOT"],
+        "FACEPAIR_INSTANCE": str(log.parent / f"instance-{name}"),
+        "PYTHONPATH": str(ROOT),
+    }
     with log.open("wb") as out:  # the worker holds its own copy of the descriptor
-        return subprocess.Popen([sys.executable, "-m", "app", "worker", "--name", name],
-                                env=env, stdout=out, stderr=subprocess.STDOUT, cwd=ROOT)
+        return subprocess.Popen(
+            [sys.executable, "-m", "app", "worker", "--name", name],
+            env=env,
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            cwd=ROOT,
+        )
 
 
 def stop(workers: list[subprocess.Popen]) -> None:
@@ -114,21 +128,23 @@ def test_two_workers_render_one_studys_clips_in_parallel(pg_app, tmp_path):
         stop(workers)
     with pg_app.app_context():
         study = db.session.get(Study, study_id)
-        stimuli = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study_id)
-                                     .order_by(Stimulus.id)).all()
+        stimuli = db.session.scalars(
+            sa.select(Stimulus).where(Stimulus.study_id == study_id).order_by(Stimulus.id)
+        ).all()
         assert len(stimuli) >= 4 and study.status == "ready"
         for stimulus in stimuli:
             assert (media_dir(study) / stimulus.video_path).stat().st_size > 1000
     with Redis.from_url(pg_app.config["REDIS_URL"]) as connection:
-        clip_jobs = [RQJob.fetch(clip_job_id(row.id, s.id), connection=connection)
-                     for s in stimuli]
+        clip_jobs = [RQJob.fetch(clip_job_id(row.id, s.id), connection=connection) for s in stimuli]
         finished = RQJob.fetch(finish_job_id(row.id), connection=connection)
     by = {job.id: job.return_value() for job in clip_jobs}
     assert all(outcome["rendered"] for outcome in by.values()), by
     assert {outcome["worker"] for outcome in by.values()} == {"w1", "w2"}, by
     # at once, not in turn: some clip of one worker was rendering while one of the other was
-    spans = {name: [(j.started_at, j.ended_at) for j in clip_jobs if j.worker_name == name]
-             for name in ("w1", "w2")}
+    spans = {
+        name: [(j.started_at, j.ended_at) for j in clip_jobs if j.worker_name == name]
+        for name in ("w1", "w2")
+    }
     assert any(a0 < b1 and b0 < a1 for a0, a1 in spans["w1"] for b0, b1 in spans["w2"]), spans
     assert row.message == f"{len(stimuli)} clips rendered by 2 workers"
     assert (row.done, row.total) == (len(stimuli), len(stimuli))
@@ -151,8 +167,11 @@ def test_a_failing_clip_fails_the_row_by_name_and_the_rest_skip(app, web, monkey
         db.session.add(job)
         db.session.commit()
         job_id = job.id
-        ids = list(db.session.scalars(sa.select(Stimulus.id).where(
-            Stimulus.study_id == study_id).order_by(Stimulus.id)))
+        ids = list(
+            db.session.scalars(
+                sa.select(Stimulus.id).where(Stimulus.study_id == study_id).order_by(Stimulus.id)
+            )
+        )
 
     def broken(*args, **kwargs):
         raise RuntimeError("the GPU went away")
@@ -182,11 +201,11 @@ def test_the_closing_job_fails_a_render_with_clips_missing(app, web):
         db.session.expire_all()
         total = db.session.scalar(sa.select(sa.func.count(Stimulus.id)))
         assert db.session.get(Job, job.id).message == (
-            f"0 of {total} clips rendered; retry it to render the rest")
+            f"0 of {total} clips rendered; retry it to render the rest"
+        )
 
 
-def test_a_split_render_waiting_for_workers_is_swept_only_when_rq_lost_it(app, web,
-                                                                         redis_url):
+def test_a_split_render_waiting_for_workers_is_swept_only_when_rq_lost_it(app, web, redis_url):
     """Clips may wait behind other studies' clips for longer than the stale timeout: the row
     is queued, its closing job deferred in RQ, and the sweeper leaves it; once RQ no longer
     has the closing job the row is swept."""
@@ -203,8 +222,13 @@ def test_a_split_render_waiting_for_workers_is_swept_only_when_rq_lost_it(app, w
     study_id = web.study(video=False)
     long_ago = utcnow() - dt.timedelta(hours=2)
     with app.app_context():
-        job = Job(study_id=study_id, kind="render", status="queued", created_at=long_ago,
-                  heartbeat_at=long_ago)
+        job = Job(
+            study_id=study_id,
+            kind="render",
+            status="queued",
+            created_at=long_ago,
+            heartbeat_at=long_ago,
+        )
         db.session.add(job)
         db.session.commit()
         job_id = job.id
@@ -212,8 +236,9 @@ def test_a_split_render_waiting_for_workers_is_swept_only_when_rq_lost_it(app, w
         connection.flushdb()
         queue = Queue("facepair-test-split", connection=connection)
         waiting = queue.enqueue("builtins.print", job_id=clip_job_id(job_id, 1))
-        queue.enqueue("builtins.print", job_id=finish_job_id(job_id),
-                      depends_on=Dependency(jobs=[waiting]))
+        queue.enqueue(
+            "builtins.print", job_id=finish_job_id(job_id), depends_on=Dependency(jobs=[waiting])
+        )
         with app.app_context():
             assert sweep_stale(study_id, stale_after=60, redis_url=redis_url) == 0
             assert db.session.get(Job, job_id).status == "queued"

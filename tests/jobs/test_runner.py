@@ -44,8 +44,9 @@ def test_jobs_run_in_a_spawned_process(app, web):
     deadline = time.monotonic() + 10
     with app.app_context():
         while time.monotonic() < deadline:
-            row = db.session.execute(sa.select(Job.status, Job.message)
-                                     .where(Job.id == job_id)).one()
+            row = db.session.execute(
+                sa.select(Job.status, Job.message).where(Job.id == job_id)
+            ).one()
             if row.status == "failed":
                 break
             time.sleep(0.1)
@@ -62,8 +63,7 @@ def _queued(app, study_id: int, *, age: dt.timedelta) -> int:
 
 def _status(app, job_id: int) -> tuple[str, str]:
     with app.app_context():
-        row = db.session.execute(sa.select(Job.status, Job.message)
-                                 .where(Job.id == job_id)).one()
+        row = db.session.execute(sa.select(Job.status, Job.message).where(Job.id == job_id)).one()
         return row.status, row.message
 
 

@@ -54,11 +54,16 @@ def test_named_conditions_keep_their_model_settings_and_render_settings(app, tmp
         assert study.settings["eyes"] == "still"
         message = generate_tracks(db.session.get(Study, study.id), lambda done, total: None)
         assert message == "2 tracks generated"
-        paths = {t.condition.name: media_dir(study) / t.path
-                 for t in db.session.scalars(sa.select(Track))}
+        paths = {
+            t.condition.name: media_dir(study) / t.path
+            for t in db.session.scalars(sa.select(Track))
+        }
     calm, lively = load_track(paths["calm"]), load_track(paths["lively"])
-    direct = generate_conditions(tmp_path / "s1.wav", seed=5, conditions={
-        "calm": {"model": "random", "octaves": 1, "persistence": 0.5}}).tracks["calm"]
+    direct = generate_conditions(
+        tmp_path / "s1.wav",
+        seed=5,
+        conditions={"calm": {"model": "random", "octaves": 1, "persistence": 0.5}},
+    ).tracks["calm"]
     np.testing.assert_allclose(calm[48], direct[48], atol=1.0)  # .fap stores integers
     assert not np.allclose(calm[48], lively[48])
 
@@ -72,17 +77,18 @@ def test_a_trackers_ground_truth_is_converted_and_its_gaps_reported(app, tmp_pat
     success = np.ones(30, int)
     success[10:13] = 0
     write_openface(tmp_path / "openface.csv", t, {"pose_Ry": 0.1 * np.sin(t)}, success=success)
-    text = TOML.format().replace('audio = "s1.wav"', 'audio = "s1.wav"\nground_truth = '
-                                                      '"openface.csv"')
-    text = text.replace('name = "lively"\nmodel = "random"', 'name = "truth"\nmodel = '
-                                                               '"ground_truth"')
+    text = TOML.format().replace(
+        'audio = "s1.wav"', 'audio = "s1.wav"\nground_truth = "openface.csv"'
+    )
+    text = text.replace(
+        'name = "lively"\nmodel = "random"', 'name = "truth"\nmodel = "ground_truth"'
+    )
     spec = loads_study(text, base_dir=tmp_path)
     with app.app_context():
         study = create_study(create_test_user(), spec)
         db.session.commit()
         message = generate_tracks(db.session.get(Study, study.id), lambda done, total: None)
-        truth = next(t for t in db.session.scalars(sa.select(Track))
-                     if t.condition.name == "truth")
+        truth = next(t for t in db.session.scalars(sa.select(Track)) if t.condition.name == "truth")
         track = load_track(media_dir(study) / truth.path)
     assert "clip s1: ground truth imported from OpenFace 2.0 CSV ground_truth.csv" in message
     assert "3 lost, 3 frames filled by interpolation" in message
@@ -105,8 +111,14 @@ def _row(app, job_id):
 
 def test_running_job_without_a_sign_of_life_is_swept(app, client, web):
     study_id = web.study(video=False)
-    silent = _job(app, study_id, status="running", done=4, total=16,
-                  heartbeat_at=utcnow() - dt.timedelta(hours=1))
+    silent = _job(
+        app,
+        study_id,
+        status="running",
+        done=4,
+        total=16,
+        heartbeat_at=utcnow() - dt.timedelta(hours=1),
+    )
     alive = _job(app, study_id, status="running", done=1, total=16, heartbeat_at=utcnow())
     queued = _job(app, study_id)
     web.login(client)
@@ -150,8 +162,10 @@ def test_a_job_rq_reports_failed_is_swept_with_its_error(app, client, web, redis
     client.get(f"/experimenter/studies/{study_id}")
     status, message = _row(app, job_id)
     assert status == "failed"
-    assert message == ("the job queue reports it failed (ValueError: invalid literal for int() "
-                       "with base 10: 'not a number'); retry it")
+    assert message == (
+        "the job queue reports it failed (ValueError: invalid literal for int() "
+        "with base 10: 'not a number'); retry it"
+    )
 
 
 def test_rq_failure_callback_marks_the_row(app, web, monkeypatch):
@@ -198,8 +212,9 @@ def test_a_clip_longer_than_the_stale_timeout_keeps_its_job_alive(app, web, monk
     study_id = web.study(video=False)
     with app.app_context():
         clip = db.session.scalar(sa.select(Clip).where(Clip.study_id == study_id))
-        for condition in db.session.scalars(sa.select(Condition)
-                                            .where(Condition.study_id == study_id)):
+        for condition in db.session.scalars(
+            sa.select(Condition).where(Condition.study_id == study_id)
+        ):
             db.session.add(Track(condition_id=condition.id, clip_id=clip.id, path="x.fap"))
         db.session.commit()
     swept = []
@@ -277,7 +292,8 @@ audio = "short.wav"
 
 
 def test_render_job_lends_the_other_clips_motion_and_draws_the_instruction(
-        app, tmp_path, monkeypatch):
+    app, tmp_path, monkeypatch
+):
     """An appropriateness clip shows, on its foreign side, the motion made for the next clip,
     cut or held to this clip's length; an on-screen check gets its caption."""
     import renderer
@@ -295,24 +311,26 @@ def test_render_job_lends_the_other_clips_motion_and_draws_the_instruction(
 
     monkeypatch.setattr(renderer, "render_pair", record)
     with app.app_context():
-        study = create_study(create_test_user(), loads_study(MISMATCHED_TOML,
-                                                             base_dir=tmp_path))
+        study = create_study(create_test_user(), loads_study(MISMATCHED_TOML, base_dir=tmp_path))
         db.session.commit()
         generate_tracks(study, lambda done, total: None)
         render_clips(study, lambda done, total: None)
-        own = {(t.condition.name, t.clip.name): load_track(media_dir(study) / t.path)
-               for t in db.session.scalars(sa.select(Track))}
+        own = {
+            (t.condition.name, t.clip.name): load_track(media_dir(study) / t.path)
+            for t in db.session.scalars(sa.select(Track))
+        }
         stimuli = db.session.scalars(sa.select(Stimulus)).all()
         assert all(s.video_path for s in stimuli)
     left, right, audio, caption = calls["long/calm__calm__foreign_left.mp4"]
     assert audio == "audio.wav" and caption is None
     assert right.equals(own[("calm", "long")])
     assert left.n_frames == right.n_frames  # the short clip's motion, held to length
-    assert np.array_equal(left.values[:own[("calm", "short")].n_frames],
-                          own[("calm", "short")].values)
+    assert np.array_equal(
+        left.values[: own[("calm", "short")].n_frames], own[("calm", "short")].values
+    )
     # on the short clip, the long clip's motion is cut to the short clip's length
     left, right, _audio, _caption = calls["short/calm__calm__foreign_right.mp4"]
     assert left.equals(own[("calm", "short")])
-    assert np.array_equal(right.values, own[("calm", "long")].values[:left.n_frames])
+    assert np.array_equal(right.values, own[("calm", "long")].values[: left.n_frames])
     captions = sorted(c for _l, _r, _a, c in calls.values() if c)
     assert captions == ["press left", "press left", "press right", "press right"]

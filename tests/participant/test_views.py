@@ -39,7 +39,10 @@ def test_whole_study_with_reload_and_resume(app, client, participant, web):
     with app.app_context():
         person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
         assert (person.prolific_pid, person.prolific_study_id, person.prolific_session_id) == (
-            "pp1", "st1", "se1")
+            "pp1",
+            "st1",
+            "se1",
+        )
         assert person.finished_at is not None
         votes = db.session.scalars(sa.select(Vote)).all()
         assert sorted(v.trial_id for v in votes) == sorted(seen)
@@ -65,9 +68,11 @@ def test_tokens_are_private(app, client, participant, web):
     other_token = other.join(slug)
     assert token != other_token and len(token) >= 30
     with app.app_context():
-        theirs = db.session.scalar(sa.select(Trial).join(Participant)
-                                   .where(Participant.token == other_token,
-                                          Trial.kind == "trial"))
+        theirs = db.session.scalar(
+            sa.select(Trial)
+            .join(Participant)
+            .where(Participant.token == other_token, Trial.kind == "trial")
+        )
     # My token cannot fetch or answer their trial.
     assert _status(participant.client, f"/p/{token}/video/{theirs.id}") == 404
     assert participant.vote(theirs.id).status_code == 404
@@ -97,12 +102,14 @@ def test_closed_study_stops_trials(app, client, participant, web):
 
 # --- the participant's side: integrity of the trial page ------------------------------------
 
+
 def _play(client, token, trial_id):
     return client.post("/api/v1/plays", json={"token": token, "trial_id": trial_id})
 
 
-def test_plays_are_counted_by_the_server_and_a_reload_gives_none_back(app, client,
-                                                                      participant, web):
+def test_plays_are_counted_by_the_server_and_a_reload_gives_none_back(
+    app, client, participant, web
+):
     token = participant.join(_slug(app, web.study(replay="max_plays", max_plays=2)))
     trial_id = participant.current_trial()
     assert _play(client, token, trial_id).get_json() == {"plays": 1, "plays_left": 1}
@@ -148,7 +155,8 @@ def test_study_text_is_paragraphs_not_ragged_lines(app, client, participant, web
     assert str(paragraphs("one\ntwo <b>\n\n  three\n")) == "<p>one two &lt;b&gt;</p><p>three</p>"
     token = participant.join(_slug(app, web.study()))
     assert "<p>Watch both faces.</p>" in client.get(f"/p/{token}/instructions").get_data(
-        as_text=True)
+        as_text=True
+    )
 
 
 def test_answer_buttons_are_mirror_images(app, client, participant, web):
@@ -177,8 +185,12 @@ screened_out_code = "SCREENED-9"
 
 
 def test_five_levels_reasons_and_the_stop_rule(app, client, participant, web):
-    token = participant.join(_slug(app, web.study(
-        design="all_ordered", catch=2, extra=FIVE.replace("[answer]", "\n[answer]"))))
+    token = participant.join(
+        _slug(
+            app,
+            web.study(design="all_ordered", catch=2, extra=FIVE.replace("[answer]", "\n[answer]")),
+        )
+    )
     page = client.get(f"/p/{token}/trial").get_data(as_text=True)
     assert page.count('class="vote"') == 5 and "Clearly left" in page and 'value="lips"' in page
     with app.app_context():
@@ -220,15 +232,17 @@ def test_clips_answer_ranges_with_a_long_private_cache(app, client, participant,
     part.close()
 
 
-def test_the_page_takes_its_answers_keys_and_replay_rule_from_the_rules(app, client,
-                                                                        participant, web):
+def test_the_page_takes_its_answers_keys_and_replay_rule_from_the_rules(
+    app, client, participant, web
+):
     import html
     import json
 
     from app.trials.rules import answers, key_map
 
-    token = participant.join(_slug(app, web.study(undecided=False, replay="max_plays",
-                                                  max_plays=2)))
+    token = participant.join(
+        _slug(app, web.study(undecided=False, replay="max_plays", max_plays=2))
+    )
     guide = client.get(f"/p/{token}/instructions").get_data(as_text=True)
     assert "<kbd>←</kbd>/<kbd>1</kbd> for “Left”" in guide and "↓" not in guide
     page = client.get(f"/p/{token}/trial").get_data(as_text=True)

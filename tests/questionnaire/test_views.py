@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from app.extensions import db
 from app.models import Participant, Study
 
-QUESTIONS = '''demographics = true
+QUESTIONS = """demographics = true
 [[questions]]
 name = "comments"
 text = "Any comments?"
@@ -24,9 +24,14 @@ page = "after"
 type = "number"
 min = 0
 max = 24
-'''
-BEFORE = {"age_band": "25-34", "gender": "female", "native_language": "Welsh",
-          "vision_corrected": "no", "animation_experience": "none"}
+"""
+BEFORE = {
+    "age_band": "25-34",
+    "gender": "female",
+    "native_language": "Welsh",
+    "vision_corrected": "no",
+    "animation_experience": "none",
+}
 
 
 def _slug(app, study_id):
@@ -52,7 +57,8 @@ def test_the_path_passes_through_both_pages(app, client, web, participant):
     text = missing.get_data(as_text=True)
     assert "an answer is required" in text and 'value="Welsh"' in text  # the rest kept
     assert _answer(participant.client, token, "before", **BEFORE).headers["Location"] == (
-        f"/p/{token}/instructions")
+        f"/p/{token}/instructions"
+    )
     while (trial := participant.current_trial()) is not None:
         participant.vote(trial, "left")
     done = participant.client.get(f"/p/{token}/done")
@@ -65,11 +71,24 @@ def test_the_path_passes_through_both_pages(app, client, web, participant):
     # A page is answered once.
     assert participant.client.get(f"/p/{token}/questions/before").status_code == 302
     web.login(client)
-    answers = list(csv.DictReader(io.StringIO(client.get(
-        f"/experimenter/studies/{study_id}/answers.csv").get_data(as_text=True))))
-    assert answers == [{"participant": "P0000", "status": "finished", "excluded": "",
-                        "prolific_id": "", **BEFORE, "comments": "Nice faces",
-                        "hours": "3.5"}]
+    answers = list(
+        csv.DictReader(
+            io.StringIO(
+                client.get(f"/experimenter/studies/{study_id}/answers.csv").get_data(as_text=True)
+            )
+        )
+    )
+    assert answers == [
+        {
+            "participant": "P0000",
+            "status": "finished",
+            "excluded": "",
+            "prolific_id": "",
+            **BEFORE,
+            "comments": "Nice faces",
+            "hours": "3.5",
+        }
+    ]
 
 
 def test_the_report_summarises_the_answers(app, client, web, participant):
@@ -105,8 +124,12 @@ def test_hostile_answers_never_give_a_5xx(app, web, participant):
     csrf = re.search(r'name="csrf_token" type="hidden" value="([^"]+)"', form).group(1)
     text = st.text(st.characters(blacklist_categories=("Cs",)), max_size=200)
 
-    @settings(max_examples=80, deadline=None, database=None,
-              suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+    @settings(
+        max_examples=80,
+        deadline=None,
+        database=None,
+        suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+    )
     @given(st.dictionaries(st.sampled_from([*BEFORE, "x"]), text))
     def hostile(values):
         response = participant.client.post(url, data={"csrf_token": csrf, **values})

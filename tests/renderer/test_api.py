@@ -27,23 +27,47 @@ def _tracks(n=45):
 def decode(path):
     """(metadata, frames) of an MP4, decoded with the bundled ffmpeg."""
     exe = imageio_ffmpeg.get_ffmpeg_exe()
-    info = subprocess.run([exe, "-hide_banner", "-i", str(path)], capture_output=True,
-                          text=True).stderr
+    info = subprocess.run(
+        [exe, "-hide_banner", "-i", str(path)], capture_output=True, text=True
+    ).stderr
     video = next(line for line in info.splitlines() if "Video:" in line)
     size = tuple(int(x) for x in re.search(r", (\d+)x(\d+)", video).groups())
-    meta = {"codec": video.split("Video:")[1].split()[0], "size": size,
-            "fps": float(re.search(r"([\d.]+) fps", video).group(1)),
-            "pix_fmt": "yuv420p" if "yuv420p" in video else video}
-    raw = subprocess.run([exe, "-v", "error", "-i", str(path), "-f", "rawvideo", "-pix_fmt",
-                          "rgb24", "-"], capture_output=True, check=True).stdout
+    meta = {
+        "codec": video.split("Video:")[1].split()[0],
+        "size": size,
+        "fps": float(re.search(r"([\d.]+) fps", video).group(1)),
+        "pix_fmt": "yuv420p" if "yuv420p" in video else video,
+    }
+    raw = subprocess.run(
+        [exe, "-v", "error", "-i", str(path), "-f", "rawvideo", "-pix_fmt", "rgb24", "-"],
+        capture_output=True,
+        check=True,
+    ).stdout
     frames = np.frombuffer(raw, np.uint8).reshape(-1, size[1], size[0], 3)
     return meta, list(frames)
 
 
 def audio_seconds(path, rate=16000):
-    out = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-v", "error", "-i", str(path),
-                          "-map", "0:a:0", "-f", "s16le", "-ac", "1", "-ar", str(rate), "-"],
-                         capture_output=True, check=True).stdout
+    out = subprocess.run(
+        [
+            imageio_ffmpeg.get_ffmpeg_exe(),
+            "-v",
+            "error",
+            "-i",
+            str(path),
+            "-map",
+            "0:a:0",
+            "-f",
+            "s16le",
+            "-ac",
+            "1",
+            "-ar",
+            str(rate),
+            "-",
+        ],
+        capture_output=True,
+        check=True,
+    ).stdout
     return len(out) / 2 / rate
 
 
@@ -67,18 +91,25 @@ def test_mosaic_blocks_survive_encoding_within_codec_tolerance(tmp_path, tone_wa
     a, b = _tracks(20)
     out = render_pair(a, b, tone_wav(1.0), tmp_path / "clip.mp4", settings=SETTINGS)
     _, frames = decode(out)
-    raw = render_frames([a, b], builtin_face(), size=SIZE, samples=4,
-                        background=SETTINGS.background, mosaic_block=16, mosaic_margin=0.15)
+    raw = render_frames(
+        [a, b],
+        builtin_face(),
+        size=SIZE,
+        samples=4,
+        background=SETTINGS.background,
+        mosaic_block=16,
+        mosaic_margin=0.15,
+    )
     checked = 0
     for fr, dec in zip(raw, frames, strict=True):
         for x0, y0, x1, y1 in fr.boxes:
             for by in range(y0, y1, 16):
                 for bx in range(x0, x1, 16):
-                    cell = fr.image[by:by + 16, bx:bx + 16]
+                    cell = fr.image[by : by + 16, bx : bx + 16]
                     if not (cell == cell[0, 0]).all():  # on the face's outline
                         continue
                     checked += 1
-                    inner = dec[by + 3:by + 13, bx + 3:bx + 13].astype(float)
+                    inner = dec[by + 3 : by + 13, bx + 3 : bx + 13].astype(float)
                     assert inner.std(axis=(0, 1)).max() < 4.0
                     assert np.abs(inner.mean(axis=(0, 1)) - fr.image[by, bx]).max() < 12
     assert checked > 20 * 2 * 4
@@ -112,16 +143,37 @@ def test_cache_serves_the_same_render_and_never_a_stale_one(tmp_path, tone_wav):
     audio = tone_wav(1.0)
     calls = []
     cache = tmp_path / "cache"
-    first = render_pair(a, b, audio, tmp_path / "1.mp4", settings=SETTINGS, cache_dir=cache,
-                        progress=lambda d, n: calls.append(d))
+    first = render_pair(
+        a,
+        b,
+        audio,
+        tmp_path / "1.mp4",
+        settings=SETTINGS,
+        cache_dir=cache,
+        progress=lambda d, n: calls.append(d),
+    )
     assert len(calls) == 8
     calls.clear()
-    second = render_pair(a, b, audio, tmp_path / "2.mp4", settings=SETTINGS, cache_dir=cache,
-                         progress=lambda d, n: calls.append(d))
+    second = render_pair(
+        a,
+        b,
+        audio,
+        tmp_path / "2.mp4",
+        settings=SETTINGS,
+        cache_dir=cache,
+        progress=lambda d, n: calls.append(d),
+    )
     assert calls == [8] and second.read_bytes() == first.read_bytes()
     changed = b.with_channels({31: b[31] + 1.0})
-    render_pair(a, changed, audio, tmp_path / "3.mp4", settings=SETTINGS, cache_dir=cache,
-                progress=lambda d, n: calls.append(d))
+    render_pair(
+        a,
+        changed,
+        audio,
+        tmp_path / "3.mp4",
+        settings=SETTINGS,
+        cache_dir=cache,
+        progress=lambda d, n: calls.append(d),
+    )
     assert len(calls) == 1 + 8
     assert len(list(cache.glob("*.mp4"))) == 2
 

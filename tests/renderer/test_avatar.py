@@ -29,12 +29,14 @@ def _rename_target(old, new):
     def edit(gltf):
         names = gltf.meshes[0].extras["targetNames"]
         names[names.index(old)] = new
+
     return edit
 
 
 def _rename_node(old, new):
     def edit(gltf):
         next(n for n in gltf.nodes if n.name == old).name = new
+
     return edit
 
 
@@ -54,7 +56,8 @@ def test_missing_blendshape_names_it_and_its_faps(exported_head, tmp_path):
     assert str(path) in message
     # the sidecar renames it, and the avatar loads
     path.with_name("avatar.avatar.json").write_text(
-        json.dumps({"blendshapes": {"JawOpen": "mouth_open"}}))
+        json.dumps({"blendshapes": {"JawOpen": "mouth_open"}})
+    )
     assert "JawOpen" in load_avatar(path).targets
 
 
@@ -62,8 +65,7 @@ def test_missing_bone_names_it_and_its_faps(exported_head, tmp_path):
     path = _edited(exported_head, tmp_path, _rename_node("leftEye", "eyeball"))
     with pytest.raises(InputError, match=r"bone leftEye \(FAP 23, 25\)"):
         load_avatar(path)
-    path.with_name("avatar.avatar.json").write_text(
-        json.dumps({"bones": {"leftEye": "eyeball"}}))
+    path.with_name("avatar.avatar.json").write_text(json.dumps({"bones": {"leftEye": "eyeball"}}))
     assert len(load_avatar(path).groups["eyeball_l"]) > 0
 
 
@@ -76,9 +78,21 @@ def test_cli_reports_a_missing_blendshape_in_one_line(exported_head, tmp_path):
     path = _edited(exported_head, tmp_path, _rename_target("EyeBlinkLeft", "blink"))
     track = tmp_path / "t.csv"
     track.write_text("# fps=30\nframe,fap49\n0,0\n1,100\n")
-    result = CliRunner().invoke(main, ["render", "still", "--track", str(track), "--face",
-                                       str(path), "--size", "64", "--out",
-                                       str(tmp_path / "s.png")])
+    result = CliRunner().invoke(
+        main,
+        [
+            "render",
+            "still",
+            "--track",
+            str(track),
+            "--face",
+            str(path),
+            "--size",
+            "64",
+            "--out",
+            str(tmp_path / "s.png"),
+        ],
+    )
     assert result.exit_code == 2, result.output
     assert "EyeBlinkLeft (FAP 19, 21)" in result.output
     assert "Traceback" not in result.output and len(result.output.strip().splitlines()) == 1
@@ -113,6 +127,7 @@ def test_mouth_points_found_from_the_jaw_shape(exported_head):
 def test_avatar_without_feature_points_frames_and_mosaics(exported_head, tmp_path):
     def strip(gltf):
         gltf.extras = {}
+
     path = _edited(exported_head, tmp_path, strip)
     face = load_avatar(path)
     assert {"2.2", "2.3", "8.3"} <= set(face.fp_vertices)
@@ -128,12 +143,16 @@ def test_avatar_without_feature_points_frames_and_mosaics(exported_head, tmp_pat
 def _track(dense):
     from app.stimuli.track import MotionTrack
 
-    return MotionTrack.from_channels(30.0, {k + 1: dense[:, k] for k in range(68)
-                                            if dense[:, k].any()} or {49: dense[:, 48]})
+    return MotionTrack.from_channels(
+        30.0, {k + 1: dense[:, k] for k in range(68) if dense[:, k].any()} or {49: dense[:, 48]}
+    )
 
 
-@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow,
-                                                                 HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=30,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+)
 @given(data=st.binary(max_size=400), suffix=st.sampled_from([".glb", ".gltf", ".vrm"]))
 def test_any_bytes_give_an_input_error_or_an_avatar(tmp_path, data, suffix):
     path = tmp_path / f"a{suffix}"
@@ -142,14 +161,37 @@ def test_any_bytes_give_an_input_error_or_an_avatar(tmp_path, data, suffix):
         load_avatar(path)
 
 
-@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow,
-                                                                 HealthCheck.function_scoped_fixture])
-@given(doc=st.recursive(st.none() | st.booleans() | st.integers(-3, 3) | st.text(max_size=5),
-                        lambda c: st.lists(c, max_size=3)
-                        | st.dictionaries(st.sampled_from(["nodes", "meshes", "accessors",
-                                                           "asset", "scenes", "buffers",
-                                                           "version", "mesh", "children"]),
-                                          c, max_size=4), max_leaves=12))
+@settings(
+    max_examples=30,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+)
+@given(
+    doc=st.recursive(
+        st.none() | st.booleans() | st.integers(-3, 3) | st.text(max_size=5),
+        lambda c: (
+            st.lists(c, max_size=3)
+            | st.dictionaries(
+                st.sampled_from(
+                    [
+                        "nodes",
+                        "meshes",
+                        "accessors",
+                        "asset",
+                        "scenes",
+                        "buffers",
+                        "version",
+                        "mesh",
+                        "children",
+                    ]
+                ),
+                c,
+                max_size=4,
+            )
+        ),
+        max_leaves=12,
+    )
+)
 def test_any_json_gives_an_input_error(tmp_path, doc):
     path = tmp_path / "a.gltf"
     path.write_text(json.dumps(doc))

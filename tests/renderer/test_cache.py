@@ -25,8 +25,9 @@ def test_key_changes_with_every_input(tmp_path):
     # what does not change the clip does not change the key
     assert base == _key([a, b], wav, settings=RenderSettings(workers=3))
     assert base == _key([a, b], wav, settings=RenderSettings(samples=8))  # not multisampling
-    assert (_key([a, b], wav, settings=RenderSettings(antialias="msaa", samples=2))
-            != _key([a, b], wav, settings=RenderSettings(antialias="msaa", samples=8)))
+    assert _key([a, b], wav, settings=RenderSettings(antialias="msaa", samples=2)) != _key(
+        [a, b], wav, settings=RenderSettings(antialias="msaa", samples=8)
+    )
     assert base != _key([a, b], wav, face="g")
     assert base != _key([a, b], wav, version="2")
     wav.write_bytes(b"RIFF0001")

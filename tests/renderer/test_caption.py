@@ -26,9 +26,10 @@ def test_stamp_is_centred_at_the_top_and_leaves_the_faces_alone():
     assert np.array_equal(frame, np.full((160, 320, 3), 100, np.uint8))  # not in place
 
 
-@pytest.mark.parametrize(("text", "message"), [("press ←", "cannot draw '←'"),
-                                               ("", "empty text"),
-                                               ("PRESS LEFT NOW PLEASE", "does not fit")])
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [("press ←", "cannot draw '←'"), ("", "empty text"), ("PRESS LEFT NOW PLEASE", "does not fit")],
+)
 def test_what_cannot_be_drawn_is_an_input_error(text, message):
     with pytest.raises(InputError, match=message):
         CaptionStamp(text, width=64, height=64)
@@ -41,10 +42,18 @@ def test_a_rendered_pair_carries_the_caption_and_another_cache_entry(tmp_path, t
 
     settings = RenderSettings(size=128, mosaic_block=16)
     a, b = _tracks(6)
-    plain = render_pair(a, b, tone_wav(0.3), tmp_path / "plain.mp4", settings=settings,
-                        cache_dir=tmp_path / "cache")
-    marked = render_pair(a, b, tone_wav(0.3), tmp_path / "marked.mp4", settings=settings,
-                         cache_dir=tmp_path / "cache", caption="press Right")
+    plain = render_pair(
+        a, b, tone_wav(0.3), tmp_path / "plain.mp4", settings=settings, cache_dir=tmp_path / "cache"
+    )
+    marked = render_pair(
+        a,
+        b,
+        tone_wav(0.3),
+        tmp_path / "marked.mp4",
+        settings=settings,
+        cache_dir=tmp_path / "cache",
+        caption="press Right",
+    )
     (_, without), (_, with_text) = decode(plain), decode(marked)
     stamp = CaptionStamp("press Right", width=256, height=128)
     ink = stamp.ink

@@ -7,10 +7,21 @@ from renderer.pipeline import render_frames
 
 def test_settings_pipeline_and_canvas_share_the_drawing_defaults():
     settings = RenderSettings()
-    assert (settings.size, settings.mosaic_block, settings.mosaic_margin, settings.antialias,
-            settings.samples, settings.background) == (
-        defaults.SIZE, defaults.MOSAIC_BLOCK, defaults.MOSAIC_MARGIN, defaults.ANTIALIAS,
-        defaults.SAMPLES, defaults.BACKGROUND)
+    assert (
+        settings.size,
+        settings.mosaic_block,
+        settings.mosaic_margin,
+        settings.antialias,
+        settings.samples,
+        settings.background,
+    ) == (
+        defaults.SIZE,
+        defaults.MOSAIC_BLOCK,
+        defaults.MOSAIC_MARGIN,
+        defaults.ANTIALIAS,
+        defaults.SAMPLES,
+        defaults.BACKGROUND,
+    )
     drawing = settings.drawing()
     for fn in (render_frames, FaceCanvas.__init__):
         params = inspect.signature(fn).parameters

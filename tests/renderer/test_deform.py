@@ -38,18 +38,49 @@ def test_neutral_faps_leave_the_mesh_unchanged(rig):
     assert np.allclose(frame.head, np.eye(4)) and np.allclose(frame.eye_l, np.eye(4))
 
 
-@pytest.mark.parametrize("fap, fp, axis, sign", [
-    (31, "4.1", 1, 1), (32, "4.2", 1, 1), (33, "4.3", 1, 1), (34, "4.4", 1, 1),
-    (35, "4.5", 1, 1), (36, "4.6", 1, 1), (37, "4.1", 0, -1), (38, "4.2", 0, 1),
-    (4, "2.2", 1, -1), (5, "2.3", 1, 1), (6, "2.4", 0, 1), (7, "2.5", 0, -1),
-    (8, "2.6", 1, -1), (9, "2.7", 1, -1), (10, "2.8", 1, 1), (11, "2.9", 1, 1),
-    (12, "2.4", 1, 1), (13, "2.5", 1, 1), (16, "2.3", 2, 1), (17, "2.2", 2, 1),
-    (18, "2.10", 1, 1), (51, "8.1", 1, -1), (52, "8.2", 1, 1), (53, "8.3", 0, 1),
-    (54, "8.4", 0, -1), (55, "8.5", 1, -1), (56, "8.6", 1, -1), (57, "8.7", 1, 1),
-    (58, "8.8", 1, 1), (59, "8.3", 1, 1), (60, "8.4", 1, 1),
-    (3, "2.1", 1, -1), (14, "2.1", 2, 1), (15, "2.1", 0, -1),
-    (19, "3.1", 1, -1), (20, "3.2", 1, -1), (21, "3.3", 1, 1), (22, "3.4", 1, 1),
-])
+@pytest.mark.parametrize(
+    "fap, fp, axis, sign",
+    [
+        (31, "4.1", 1, 1),
+        (32, "4.2", 1, 1),
+        (33, "4.3", 1, 1),
+        (34, "4.4", 1, 1),
+        (35, "4.5", 1, 1),
+        (36, "4.6", 1, 1),
+        (37, "4.1", 0, -1),
+        (38, "4.2", 0, 1),
+        (4, "2.2", 1, -1),
+        (5, "2.3", 1, 1),
+        (6, "2.4", 0, 1),
+        (7, "2.5", 0, -1),
+        (8, "2.6", 1, -1),
+        (9, "2.7", 1, -1),
+        (10, "2.8", 1, 1),
+        (11, "2.9", 1, 1),
+        (12, "2.4", 1, 1),
+        (13, "2.5", 1, 1),
+        (16, "2.3", 2, 1),
+        (17, "2.2", 2, 1),
+        (18, "2.10", 1, 1),
+        (51, "8.1", 1, -1),
+        (52, "8.2", 1, 1),
+        (53, "8.3", 0, 1),
+        (54, "8.4", 0, -1),
+        (55, "8.5", 1, -1),
+        (56, "8.6", 1, -1),
+        (57, "8.7", 1, 1),
+        (58, "8.8", 1, 1),
+        (59, "8.3", 1, 1),
+        (60, "8.4", 1, 1),
+        (3, "2.1", 1, -1),
+        (14, "2.1", 2, 1),
+        (15, "2.1", 0, -1),
+        (19, "3.1", 1, -1),
+        (20, "3.2", 1, -1),
+        (21, "3.3", 1, 1),
+        (22, "3.4", 1, 1),
+    ],
+)
 def test_translational_faps_move_their_point_the_mpeg4_way(rig, fap, fp, axis, sign):
     d = _moved(rig, _faps(**{f"f{fap}": 200.0}), fp)
     assert sign * d[axis] > 0.5, d
@@ -106,10 +137,12 @@ def test_every_supported_fap_moves_the_face(rig):
     neutral = rig.deform(np.zeros(68))
     for fap in SUPPORTED_FAPS:
         fr = rig.deform(_faps(**{f"f{fap}": 300.0 if fap < 48 or fap > 50 else 20000.0}))
-        moved = (np.abs(fr.positions - neutral.positions).max() > 0.5
-                 or not np.allclose(fr.head, neutral.head)
-                 or not np.allclose(fr.eye_l, neutral.eye_l)
-                 or not np.allclose(fr.eye_r, neutral.eye_r))
+        moved = (
+            np.abs(fr.positions - neutral.positions).max() > 0.5
+            or not np.allclose(fr.head, neutral.head)
+            or not np.allclose(fr.eye_l, neutral.eye_l)
+            or not np.allclose(fr.eye_r, neutral.eye_r)
+        )
         assert moved, fap
 
 
@@ -140,19 +173,43 @@ def test_posed_turns_the_head_about_7_1_and_the_eyes_about_their_centres():
     eye = rig.eye_vertices["l"][0]
     centre = rig.eye_centres["l"]
     on_eye = rotation("y", 0.1) @ (rig.v0[eye] - centre) + centre
-    np.testing.assert_allclose(pos[eye], rotation("y", 0.2) @ (on_eye - pivot) + pivot,
-                               atol=1e-3)
+    np.testing.assert_allclose(pos[eye], rotation("y", 0.2) @ (on_eye - pivot) + pivot, atol=1e-3)
     np.testing.assert_allclose(np.linalg.norm(nrm, axis=1), 1.0, atol=1e-5)
     # down the neck the turn fades in with the head weight
     neck = int(np.argmin(np.abs(w - 0.5)))
     assert 0.2 < w[neck] < 0.8
     turned = rotation("y", 0.2) @ (rig.v0[neck] - pivot) + pivot
-    np.testing.assert_allclose(pos[neck], rig.v0[neck] + w[neck] * (turned - rig.v0[neck]),
-                               atol=1e-3)
+    np.testing.assert_allclose(
+        pos[neck], rig.v0[neck] + w[neck] * (turned - rig.v0[neck]), atol=1e-3
+    )
 
 
-_MOVING = (3, 4, 5, 8, 12, 14, 15, 16, 17, 18, 19, 21, 23, 26, 31, 34, 35, 37, 48, 49, 50,
-           51, 55, 59)
+_MOVING = (
+    3,
+    4,
+    5,
+    8,
+    12,
+    14,
+    15,
+    16,
+    17,
+    18,
+    19,
+    21,
+    23,
+    26,
+    31,
+    34,
+    35,
+    37,
+    48,
+    49,
+    50,
+    51,
+    55,
+    59,
+)
 
 
 @settings(max_examples=30, deadline=None)
@@ -167,8 +224,12 @@ def test_the_mouth_at_rest_is_the_frame_with_the_jaw_and_lip_faps_at_zero(rig, v
     zeroed = faps.copy()
     zeroed[np.array(MOUTH_FAPS) - 1] = 0.0
     expected = rig.deform(zeroed)
-    for got, want in ((rest.positions, expected.positions), (rest.normals, expected.normals),
-                      (rest.head, expected.head), (rest.eye_l, expected.eye_l)):
+    for got, want in (
+        (rest.positions, expected.positions),
+        (rest.normals, expected.normals),
+        (rest.head, expected.head),
+        (rest.eye_l, expected.eye_l),
+    ):
         np.testing.assert_array_equal(got, want)
 
 

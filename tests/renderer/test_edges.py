@@ -6,8 +6,9 @@ from renderer.edges import edge_table, front_facing, overdraw_edges
 
 # a regular octahedron, counter-clockwise seen from outside: +x, -x, +y, -y, +z, -z
 OCTA_V = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
-OCTA_T = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4],
-                   [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]])
+OCTA_T = np.array(
+    [[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]]
+)
 
 
 def _ortho(v):
@@ -22,8 +23,9 @@ def _pairs(edges):
 def test_edge_table_of_a_closed_mesh_pairs_every_edge():
     table = edge_table(OCTA_T)
     assert len(table.a) == 12 and (table.t1 >= 0).all()
-    for a, b, t0, t1, o0, o1 in zip(table.a, table.b, table.t0, table.t1, table.o0, table.o1,
-                                    strict=True):
+    for a, b, t0, t1, o0, o1 in zip(
+        table.a, table.b, table.t0, table.t1, table.o0, table.o1, strict=True
+    ):
         for t, o in ((t0, o0), (t1, o1)):
             assert set(OCTA_T[t]) == {a, b, o}
 
@@ -38,8 +40,9 @@ def test_edge_table_marks_open_boundaries():
 
 def test_front_facing_is_counter_clockwise_in_front_of_the_camera():
     tris = np.array([[0, 1, 2], [0, 2, 1], [3, 4, 5]])
-    xyw = np.array([[0, 0, 1], [1, 0, 1], [0, 1, 1],
-                    [0, 0, -1], [1, 0, -1], [0, 1, -1]], float)  # the last is behind the eye
+    xyw = np.array(
+        [[0, 0, 1], [1, 0, 1], [0, 1, 1], [0, 0, -1], [1, 0, -1], [0, 1, -1]], float
+    )  # the last is behind the eye
     assert front_facing(tris, xyw).tolist() == [True, False, False]
 
 

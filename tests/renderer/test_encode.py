@@ -7,8 +7,10 @@ from app.errors import InputError
 from renderer.encode import ClipWriter, check_audio, fps_arg
 
 
-@pytest.mark.parametrize("fps, expected", [(30.0, "30/1"), (29.97, "2997/100"),
-                                           (30000 / 1001, "30000/1001"), (25, "25/1")])
+@pytest.mark.parametrize(
+    "fps, expected",
+    [(30.0, "30/1"), (29.97, "2997/100"), (30000 / 1001, "30000/1001"), (25, "25/1")],
+)
 def test_frame_rates_are_exact_rationals(fps, expected):
     assert fps_arg(fps) == expected
 

@@ -22,14 +22,24 @@ def test_exported_head_renders_as_the_builtin_one(exported_head, tmp_path, mosai
     channels = {48: np.full(3, -6000.0), 49: np.full(3, 15000.0), 50: np.full(3, 4000.0)}
     channels.update({f: np.full(3, 80.0) for f in range(31, 37)})  # raised brows
     track = MotionTrack.from_channels(30.0, channels)
-    a = render_still(track, 1, tmp_path / "builtin.png", settings=RenderSettings(size=192),
-                     mosaic=mosaic)
-    b = render_still(track, 1, tmp_path / "avatar.png", mosaic=mosaic,
-                     settings=RenderSettings(size=192, face=str(exported_head)))
+    a = render_still(
+        track, 1, tmp_path / "builtin.png", settings=RenderSettings(size=192), mosaic=mosaic
+    )
+    b = render_still(
+        track,
+        1,
+        tmp_path / "avatar.png",
+        mosaic=mosaic,
+        settings=RenderSettings(size=192, face=str(exported_head)),
+    )
     assert _psnr(a, b) >= 35.0
-    rest = render_still(MotionTrack.from_channels(30.0, {49: np.zeros(3)}), 1,
-                        tmp_path / "rest.png", settings=RenderSettings(size=192),
-                        mosaic=mosaic)
+    rest = render_still(
+        MotionTrack.from_channels(30.0, {49: np.zeros(3)}),
+        1,
+        tmp_path / "rest.png",
+        settings=RenderSettings(size=192),
+        mosaic=mosaic,
+    )
     assert _psnr(rest, b) < 30.0  # the comparison sees head turns and brows
 
 

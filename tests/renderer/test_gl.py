@@ -35,8 +35,7 @@ def test_projection_puts_the_face_in_the_middle():
 @pytest.mark.parametrize("antialias", gl.ANTIALIAS_MODES)
 def test_canvas_draws_faces_on_a_neutral_background(antialias):
     rig = Rig(builtin_face())
-    canvas = gl.FaceCanvas(rig, 128, 2, antialias=antialias, samples=4,
-                           background=(0.5, 0.5, 0.5))
+    canvas = gl.FaceCanvas(rig, 128, 2, antialias=antialias, samples=4, background=(0.5, 0.5, 0.5))
     try:
         frame = rig.deform(np.zeros(68))
         img = canvas.draw([frame, frame]).copy()
@@ -73,12 +72,15 @@ def test_edge_overdraw_stops_the_outline_popping_and_stays_on_it():
     assert n_edges > 50
     background = np.abs(plain[0] - 128).max(axis=2) <= 2
     square = np.ones((3, 3), bool)
-    outline = (ndimage.binary_dilation(background, square, iterations=2)
-               & ndimage.binary_dilation(~background, square, iterations=2))
+    outline = ndimage.binary_dilation(background, square, iterations=2) & ndimage.binary_dilation(
+        ~background, square, iterations=2
+    )
 
     def worst_jump(images):
-        return max(np.abs(a - b).max(axis=2)[outline].max()
-                   for a, b in zip(images, images[1:], strict=False))
+        return max(
+            np.abs(a - b).max(axis=2)[outline].max()
+            for a, b in zip(images, images[1:], strict=False)
+        )
 
     # aliased, outline pixels flip between face and background; overdrawn, they fade
     assert worst_jump(plain) > 35
@@ -117,8 +119,9 @@ def test_multisampling_on_a_gpu_smooths_the_outline():
     frame = rig.deform(faps)
     images = {}
     for mode, samples in (("none", 0), ("msaa", 8)):
-        canvas = gl.FaceCanvas(rig, 256, 1, antialias=mode, samples=samples,
-                               background=(0.5, 0.5, 0.5))
+        canvas = gl.FaceCanvas(
+            rig, 256, 1, antialias=mode, samples=samples, background=(0.5, 0.5, 0.5)
+        )
         try:
             images[mode] = canvas.draw([frame]).astype(int)
         finally:

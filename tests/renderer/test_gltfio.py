@@ -24,6 +24,7 @@ def _edited(exported_head, path, edit):
 def test_vrm0_avatar_faces_the_camera_and_names_its_bones(exported_head, tmp_path):
     """A VRM 0.x avatar faces -z with its humanoid bones in the VRM extension: it is turned
     half round and its bones are found under any node names."""
+
     def to_vrm0(gltf):
         bones = []
         for node_index, node in enumerate(gltf.nodes):
@@ -34,19 +35,20 @@ def test_vrm0_avatar_faces_the_camera_and_names_its_bones(exported_head, tmp_pat
         gltf.extensionsUsed = ["VRM"]
         # face -z, as VRM 0.x avatars do: turn the mesh and the bones half round
         blob = bytearray(gltf.binary_blob())
-        for acc_index in [0, 1] + [a for t in gltf.meshes[0].primitives[0].targets
-                                   for a in t.values()]:
+        for acc_index in [0, 1] + [
+            a for t in gltf.meshes[0].primitives[0].targets for a in t.values()
+        ]:
             acc = gltf.accessors[acc_index]
             view = gltf.bufferViews[acc.bufferView]
             data = np.frombuffer(blob, np.float32, acc.count * 3, view.byteOffset).copy()
             data = (data.reshape(-1, 3) * (-1.0, 1.0, -1.0)).astype(np.float32)
-            blob[view.byteOffset:view.byteOffset + data.nbytes] = data.tobytes()
+            blob[view.byteOffset : view.byteOffset + data.nbytes] = data.tobytes()
         for node in gltf.nodes:
             if node.translation:
-                node.translation = [-node.translation[0], node.translation[1],
-                                    -node.translation[2]]
+                node.translation = [-node.translation[0], node.translation[1], -node.translation[2]]
         gltf.set_binary_blob(bytes(blob))
         gltf.extras = {}
+
     vrm = _edited(exported_head, tmp_path / "a.vrm", to_vrm0)
     turned, plain = load_avatar(vrm), load_avatar(exported_head)
     assert np.allclose(turned.vertices, plain.vertices, atol=1e-6)
@@ -61,28 +63,38 @@ def test_base_colour_texture_is_sampled_at_each_vertex(exported_head, tmp_path):
     def texture(gltf):
         blob = bytearray(gltf.binary_blob())
         n = gltf.accessors[0].count
-        x = np.frombuffer(bytes(blob), np.float32, n * 3,
-                          gltf.bufferViews[gltf.accessors[0].bufferView].byteOffset)[0::3]
+        x = np.frombuffer(
+            bytes(blob),
+            np.float32,
+            n * 3,
+            gltf.bufferViews[gltf.accessors[0].bufferView].byteOffset,
+        )[0::3]
         uv = np.column_stack([np.where(x > 0, 0.0, 1.0), np.zeros(n)]).astype(np.float32)
         for data, kind, count in ((uv.tobytes(), "VEC2", n), (png.getvalue(), None, None)):
             while len(blob) % 4:
                 blob.append(0)
-            gltf.bufferViews.append(pygltflib.BufferView(buffer=0, byteOffset=len(blob),
-                                                         byteLength=len(data)))
+            gltf.bufferViews.append(
+                pygltflib.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(data))
+            )
             blob.extend(data)
             if kind:
-                gltf.accessors.append(pygltflib.Accessor(
-                    bufferView=len(gltf.bufferViews) - 1, componentType=pygltflib.FLOAT,
-                    count=count, type=kind))
+                gltf.accessors.append(
+                    pygltflib.Accessor(
+                        bufferView=len(gltf.bufferViews) - 1,
+                        componentType=pygltflib.FLOAT,
+                        count=count,
+                        type=kind,
+                    )
+                )
         prim = gltf.meshes[0].primitives[0]
         prim.attributes.TEXCOORD_0 = len(gltf.accessors) - 1
         prim.attributes.COLOR_0 = None
-        gltf.images = [pygltflib.Image(bufferView=len(gltf.bufferViews) - 1,
-                                       mimeType="image/png")]
+        gltf.images = [pygltflib.Image(bufferView=len(gltf.bufferViews) - 1, mimeType="image/png")]
         gltf.textures = [pygltflib.Texture(source=0)]
         gltf.materials[0].pbrMetallicRoughness.baseColorTexture = pygltflib.TextureInfo(index=0)
         gltf.buffers[0].byteLength = len(blob)
         gltf.set_binary_blob(bytes(blob))
+
     scene = read_gltf(_edited(exported_head, tmp_path / "t.glb", texture))
     left = scene.vertices[:, 0] > 0
     assert np.allclose(scene.colors[left, :3], (1, 0, 0))
@@ -100,8 +112,11 @@ def test_gltf_with_embedded_buffers_reads_as_the_glb(exported_head, tmp_path):
 
 def test_a_scene_without_triangles_is_an_input_error(tmp_path):
     path = tmp_path / "empty.gltf"
-    pygltflib.GLTF2(asset=pygltflib.Asset(version="2.0"), nodes=[pygltflib.Node()],
-                    scenes=[pygltflib.Scene(nodes=[0])]).save_json(str(path))
+    pygltflib.GLTF2(
+        asset=pygltflib.Asset(version="2.0"),
+        nodes=[pygltflib.Node()],
+        scenes=[pygltflib.Scene(nodes=[0])],
+    ).save_json(str(path))
     with pytest.raises(InputError, match="no triangle mesh"):
         read_gltf(path)
 
@@ -116,30 +131,53 @@ def _tiny_gltf() -> dict:
 
     v = np.eye(3)
     with tempfile.TemporaryDirectory() as d:
-        path = write_glb(Path(d) / "t.glb",
-                         MeshOut(v, np.tile([0, 0, 1.0], (3, 1)), np.array([[0, 1, 2]]),
-                                 np.ones((3, 4)), {"JawOpen": (v * 0.1, v * 0)},
-                                 joints=np.zeros((3, 4), np.uint8),
-                                 weights=np.tile([1.0, 0, 0, 0], (3, 1))),
-                         bones=[("head", -1, np.zeros(3))], extras={})
+        path = write_glb(
+            Path(d) / "t.glb",
+            MeshOut(
+                v,
+                np.tile([0, 0, 1.0], (3, 1)),
+                np.array([[0, 1, 2]]),
+                np.ones((3, 4)),
+                {"JawOpen": (v * 0.1, v * 0)},
+                joints=np.zeros((3, 4), np.uint8),
+                weights=np.tile([1.0, 0, 0, 0], (3, 1)),
+            ),
+            bones=[("head", -1, np.zeros(3))],
+            extras={},
+        )
         gltf = pygltflib.GLTF2().load_binary(str(path))
     gltf.convert_buffers(pygltflib.BufferFormat.DATAURI)
     return json.loads(gltf.to_json())
 
 
 TINY = _tiny_gltf()
-_INT_FIELDS = [("nodes", "mesh"), ("nodes", "skin"), ("accessors", "count"),
-               ("accessors", "bufferView"), ("accessors", "byteOffset"),
-               ("accessors", "componentType"), ("bufferViews", "byteOffset"),
-               ("bufferViews", "byteLength"), ("bufferViews", "byteStride"),
-               ("skins", "inverseBindMatrices"), ("scenes", "nodes")]
+_INT_FIELDS = [
+    ("nodes", "mesh"),
+    ("nodes", "skin"),
+    ("accessors", "count"),
+    ("accessors", "bufferView"),
+    ("accessors", "byteOffset"),
+    ("accessors", "componentType"),
+    ("bufferViews", "byteOffset"),
+    ("bufferViews", "byteLength"),
+    ("bufferViews", "byteStride"),
+    ("skins", "inverseBindMatrices"),
+    ("scenes", "nodes"),
+]
 
 
-@settings(max_examples=60, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(edits=st.lists(st.tuples(st.sampled_from(_INT_FIELDS), st.integers(0, 5),
-                                st.integers(-3, 10**6) | st.just(None)), min_size=1,
-                      max_size=3))
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    edits=st.lists(
+        st.tuples(
+            st.sampled_from(_INT_FIELDS), st.integers(0, 5), st.integers(-3, 10**6) | st.just(None)
+        ),
+        min_size=1,
+        max_size=3,
+    )
+)
 def test_a_corrupted_gltf_reads_or_is_an_input_error(tmp_path, edits):
     import copy
     import json

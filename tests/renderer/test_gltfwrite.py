@@ -13,9 +13,15 @@ def _quad(colors):
     v = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
     tri = np.array([[0, 1, 2], [0, 2, 3]])
     normals = np.tile([0, 0, 1.0], (4, 1))
-    return MeshOut(v, normals, tri, colors, {"JawOpen": (v * 0.1, v * 0.0),
-                                             "BrowUp": (v * 0.0 + [0, 0.2, 0], v * 0.0)},
-                   joints=np.zeros((4, 4), np.uint8), weights=np.tile([1.0, 0, 0, 0], (4, 1)))
+    return MeshOut(
+        v,
+        normals,
+        tri,
+        colors,
+        {"JawOpen": (v * 0.1, v * 0.0), "BrowUp": (v * 0.0 + [0, 0.2, 0], v * 0.0)},
+        joints=np.zeros((4, 4), np.uint8),
+        weights=np.tile([1.0, 0, 0, 0], (4, 1)),
+    )
 
 
 @settings(max_examples=20, deadline=None)
@@ -23,8 +29,12 @@ def _quad(colors):
 def test_geometry_targets_and_colours_read_back(tmp_path_factory, values):
     colors = np.array(values).reshape(4, 4)
     mesh = _quad(colors)
-    path = write_glb(tmp_path_factory.mktemp("glb") / "quad.glb", mesh,
-                     bones=[("head", -1, np.array([0.0, 0.5, 0.0]))], extras={"by": "test"})
+    path = write_glb(
+        tmp_path_factory.mktemp("glb") / "quad.glb",
+        mesh,
+        bones=[("head", -1, np.array([0.0, 0.5, 0.0]))],
+        extras={"by": "test"},
+    )
     scene = read_gltf(path)
     np.testing.assert_allclose(scene.vertices, mesh.vertices, atol=1e-6)
     assert scene.triangles.tolist() == mesh.triangles.tolist()

@@ -22,8 +22,7 @@ GAZE_20_DEG = np.radians(20.0) / 1e-5  # FAP units (1e-5 rad)
 
 
 def _draw(rig, *faps_list, antialias="edges"):
-    canvas = FaceCanvas(rig, SIZE, len(faps_list), antialias=antialias,
-                        background=(0.5, 0.5, 0.5))
+    canvas = FaceCanvas(rig, SIZE, len(faps_list), antialias=antialias, background=(0.5, 0.5, 0.5))
     try:
         frames = []
         for faps in faps_list:
@@ -34,7 +33,7 @@ def _draw(rig, *faps_list, antialias="edges"):
         img = canvas.draw(frames).copy()
     finally:
         canvas.release()
-    return [img[:, k * SIZE:(k + 1) * SIZE].astype(float) for k in range(len(faps_list))]
+    return [img[:, k * SIZE : (k + 1) * SIZE].astype(float) for k in range(len(faps_list))]
 
 
 @pytest.fixture(scope="module")
@@ -70,9 +69,14 @@ def _eye_boxes(rig):
 
 def test_turned_eyeballs_stay_behind_the_lids(marked_eyes):
     # a ball turning about its centre fills the same space: what shows of it may not grow
-    rest, *turned = _draw(marked_eyes, {}, {23: GAZE_20_DEG, 24: GAZE_20_DEG},
-                          {23: -GAZE_20_DEG, 24: -GAZE_20_DEG},
-                          {25: GAZE_20_DEG, 26: GAZE_20_DEG}, antialias="none")
+    rest, *turned = _draw(
+        marked_eyes,
+        {},
+        {23: GAZE_20_DEG, 24: GAZE_20_DEG},
+        {23: -GAZE_20_DEG, 24: -GAZE_20_DEG},
+        {25: GAZE_20_DEG, 26: GAZE_20_DEG},
+        antialias="none",
+    )
     allowed = ndimage.binary_dilation(_eyeball(rest), iterations=1)
     for img in turned:
         outside = _eyeball(img) & ~allowed
@@ -101,8 +105,8 @@ def test_the_skin_above_both_eyes_has_the_same_fine_detail():
     lum = rest @ np.array([0.299, 0.587, 0.114])
     detail = lum - ndimage.gaussian_filter(lum, 2.0)
     # above the eyes, below the brows: mirror one side onto the other
-    a = detail[left[0].start - 14:left[0].start + 10, left[1]]
-    b = detail[right[0].start - 14:right[0].start + 10, right[1]][:, ::-1]
+    a = detail[left[0].start - 14 : left[0].start + 10, left[1]]
+    b = detail[right[0].start - 14 : right[0].start + 10, right[1]][:, ::-1]
     w = min(a.shape[1], b.shape[1])
     assert np.abs(a[:, :w] - b[:, :w]).mean() < 1.0
 
@@ -112,7 +116,7 @@ def _brow_top(img, box):
     (where the luminance first falls below 3/4 of the band's median, interpolated)."""
     lum = img @ np.array([0.299, 0.587, 0.114])
     inner = slice(box[1].start + 5, box[1].stop - 5)  # clear of the temples and the nose
-    band = lum[box[0].start - 40:box[0].start + 10, inner]
+    band = lum[box[0].start - 40 : box[0].start + 10, inner]
     level = 0.75 * np.median(band)
     dark = band < level
     first = dark.argmax(axis=0)

@@ -60,8 +60,7 @@ def test_a_marker_turned_away_is_hidden(camera):
 def test_look_noise_is_seeded_and_markers_are_bright_on_a_dark_face():
     track = MotionTrack.zeros(30.0, 1, (48,))
     clean = next(marker_frames(track, 128))
-    a, b = (next(marker_frames(track, 128, look=MarkerLook(noise=5.0, seed=s)))
-            for s in (1, 1))
+    a, b = (next(marker_frames(track, 128, look=MarkerLook(noise=5.0, seed=s))) for s in (1, 1))
     assert np.array_equal(a, b) and not np.array_equal(a, clean)
     face_level = np.median(clean[clean > 0])
     assert 20 < face_level < 80 and (clean > 128).sum() >= 17 * 4  # 3 px markers

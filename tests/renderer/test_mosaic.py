@@ -32,9 +32,9 @@ def test_pixelate_makes_each_block_its_mean_colour():
     pixelate(img, (16, 8, 48, 40), 8)
     for by in range(8, 40, 8):
         for bx in range(16, 48, 8):
-            cell = img[by:by + 8, bx:bx + 8].reshape(-1, 3)
+            cell = img[by : by + 8, bx : bx + 8].reshape(-1, 3)
             assert (cell == cell[0]).all()
-            expected = before[by:by + 8, bx:bx + 8].reshape(-1, 3).mean(axis=0)
+            expected = before[by : by + 8, bx : bx + 8].reshape(-1, 3).mean(axis=0)
             assert np.abs(cell[0] - expected).max() <= 0.5 + 1e-9
     outside = np.ones((64, 64), bool)
     outside[8:40, 16:48] = False
@@ -47,24 +47,29 @@ def _reference_mosaic_by_cells(image, reference, box, block, background):
     x0, y0, x1, y1 = box
     for by in range(y0, y1, block):
         for bx in range(x0, x1, block):
-            ref = reference[by - y0:by - y0 + block, bx - x0:bx - x0 + block].reshape(-1, 3)
-            own = image[by:by + block, bx:bx + block].reshape(-1, 3)
+            ref = reference[by - y0 : by - y0 + block, bx - x0 : bx - x0 + block].reshape(-1, 3)
+            own = image[by : by + block, bx : bx + block].reshape(-1, 3)
             on_ref = (ref != background).any(axis=1)
             on_own = (own != background).any(axis=1)
             source = ref[on_ref] if on_ref.any() else own[on_own]
             if not len(source):
                 continue
             mean = np.floor(source.astype(float).mean(axis=0) + 0.5).astype(np.uint8)
-            cell = out[by:by + block, bx:bx + block]
+            cell = out[by : by + block, bx : bx + block]
             cell[(cell != background).any(axis=2)] = mean
     return out
 
 
 @settings(max_examples=60, deadline=None)
-@given(seed=st.integers(0, 2**31), block=st.sampled_from([1, 2, 4, 8, 24]),
-       cells=st.tuples(st.integers(0, 4), st.integers(0, 4)), share=st.floats(0.0, 1.0))
+@given(
+    seed=st.integers(0, 2**31),
+    block=st.sampled_from([1, 2, 4, 8, 24]),
+    cells=st.tuples(st.integers(0, 4), st.integers(0, 4)),
+    share=st.floats(0.0, 1.0),
+)
 def test_pixelate_reference_is_the_mean_face_colour_of_the_reference_per_cell(
-        seed, block, cells, share):
+    seed, block, cells, share
+):
     rng = np.random.default_rng(seed)
     background = np.array([140, 143, 148], np.uint8)
     image = rng.integers(0, 256, (130, 150, 3), dtype=np.uint8)
@@ -73,7 +78,6 @@ def test_pixelate_reference_is_the_mean_face_colour_of_the_reference_per_cell(
     box = (x0, y0, x0 + cells[0] * block, y0 + cells[1] * block)
     reference = rng.integers(0, 256, (cells[1] * block, cells[0] * block, 3), dtype=np.uint8)
     reference[rng.random(reference.shape[:2]) > share] = background
-    reference[: block] = background  # a row of cells with no reference face pixel
+    reference[:block] = background  # a row of cells with no reference face pixel
     expected = _reference_mosaic_by_cells(image, reference, box, block, background)
-    assert np.array_equal(pixelate_reference(image, reference, box, block, background),
-                          expected)
+    assert np.array_equal(pixelate_reference(image, reference, box, block, background), expected)

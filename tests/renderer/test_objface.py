@@ -49,14 +49,17 @@ def _write(tmp_path, spec):
 def test_missing_feature_points_are_named(exported, tmp_path):
     spec = _spec(exported)
     del spec["feature_points"]["2.1"], spec["feature_points"]["4.3"]
-    with pytest.raises(InputError, match=r"face.json: feature_points: missing feature points: "
-                                         r"2.1, 4.3"):
+    with pytest.raises(
+        InputError,
+        match=r"face.json: feature_points: missing feature points: "
+        r"2.1, 4.3",
+    ):
         load_face(_write(tmp_path, spec))
 
 
 def test_out_of_range_vertex_and_missing_group(exported, tmp_path):
     spec = _spec(exported)
-    spec["feature_points"]["2.2"] = 10 ** 9
+    spec["feature_points"]["2.2"] = 10**9
     with pytest.raises(InputError, match=r"feature_points.2.2: vertex index 1000000000 out"):
         load_face(_write(tmp_path, spec))
     spec = _spec(exported)
@@ -94,12 +97,15 @@ def test_bad_json_and_missing_mesh(tmp_path):
         load_face(tmp_path / "absent.json")
 
 
-@pytest.mark.parametrize("text, message", [
-    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", r"bad.obj:4: face refers to vertex 9"),
-    ("v 0 0 zero\n", r"bad.obj:1: vertex coordinates must be numbers"),
-    ("v 0 0 0\nv 1 0 0\nf 1 2\n", r"bad.obj:3: a face needs at least 3 vertices"),
-    ("v 0 0 0\n", r"bad.obj: no triangles"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", r"bad.obj:4: face refers to vertex 9"),
+        ("v 0 0 zero\n", r"bad.obj:1: vertex coordinates must be numbers"),
+        ("v 0 0 0\nv 1 0 0\nf 1 2\n", r"bad.obj:3: a face needs at least 3 vertices"),
+        ("v 0 0 0\n", r"bad.obj: no triangles"),
+    ],
+)
 def test_bad_obj_lines_are_reported_with_their_line(tmp_path, text, message):
     p = tmp_path / "bad.obj"
     p.write_text(text)

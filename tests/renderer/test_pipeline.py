@@ -12,9 +12,17 @@ SIZE = 256
 
 
 def _frame(tracks, mosaic_block=0, index=0, size=SIZE, antialias="edges"):
-    gen = render_frames(tracks, builtin_face(), size=size, samples=4, antialias=antialias,
-                        background=(0.55, 0.56, 0.58), mosaic_block=mosaic_block,
-                        mosaic_margin=0.15, frames=range(index, index + 1))
+    gen = render_frames(
+        tracks,
+        builtin_face(),
+        size=size,
+        samples=4,
+        antialias=antialias,
+        background=(0.55, 0.56, 0.58),
+        mosaic_block=mosaic_block,
+        mosaic_margin=0.15,
+        frames=range(index, index + 1),
+    )
     out = next(gen)
     gen.close()
     return out.image.copy(), out.boxes
@@ -83,19 +91,28 @@ def test_mosaic_blocks_are_constant_on_raw_frames():
     a = MotionTrack.from_channels(30.0, {3: 300 + 300 * np.sin(9 * t), 49: 15000 * t})
     b = MotionTrack.from_channels(30.0, {3: 200 + 200 * np.sin(5 * t)})
     block = 16
-    gen = render_frames([a, b], builtin_face(), size=SIZE, samples=4,
-                        background=(0.5, 0.5, 0.5), mosaic_block=block, mosaic_margin=0.15)
+    gen = render_frames(
+        [a, b],
+        builtin_face(),
+        size=SIZE,
+        samples=4,
+        background=(0.5, 0.5, 0.5),
+        mosaic_block=block,
+        mosaic_margin=0.15,
+    )
     n = 0
     for fr in gen:
         assert len(fr.boxes) == 2
         for x0, y0, x1, y1 in fr.boxes:
             assert x1 > x0 and y1 > y0
-            cells = fr.image[y0:y1, x0:x1].reshape((y1 - y0) // block, block,
-                                                   (x1 - x0) // block, block, 3)
+            cells = fr.image[y0:y1, x0:x1].reshape(
+                (y1 - y0) // block, block, (x1 - x0) // block, block, 3
+            )
             # constant on the face; background pixels beside it are left alone
             face = (cells != 128).any(axis=-1)
-            same = (cells == cells.max(axis=(1, 3), where=face[..., None], initial=0)[
-                :, None, :, None]).all(axis=-1)
+            same = (
+                cells == cells.max(axis=(1, 3), where=face[..., None], initial=0)[:, None, :, None]
+            ).all(axis=-1)
             assert (same | ~face).all() and face.mean() > 0.8
         n += 1
     assert n == 12
@@ -118,10 +135,13 @@ def test_worker_processes_draw_the_same_frames_in_order(monkeypatch):
     a = MotionTrack.from_channels(30.0, {49: 20000 * np.sin(4 * t), 3: 300 * t})
     b = MotionTrack.from_channels(30.0, {48: 15000 * np.sin(3 * t)})
     kwargs = dict(size=64, samples=4, mosaic_block=8, mosaic_margin=0.15)
-    serial = [(f.index, f.image.copy(), f.boxes)
-              for f in render_frames([a, b], builtin_face(), **kwargs)]
-    parallel = [(f.index, f.image.copy(), f.boxes)
-                for f in render_frames([a, b], builtin_face(), workers=2, **kwargs)]
+    serial = [
+        (f.index, f.image.copy(), f.boxes) for f in render_frames([a, b], builtin_face(), **kwargs)
+    ]
+    parallel = [
+        (f.index, f.image.copy(), f.boxes)
+        for f in render_frames([a, b], builtin_face(), workers=2, **kwargs)
+    ]
     assert [i for i, _, _ in parallel] == list(range(n))
     for (i, img, boxes), (j, img2, boxes2) in zip(serial, parallel, strict=True):
         assert i == j and boxes == boxes2 and np.array_equal(img, img2)
@@ -165,11 +185,14 @@ def test_the_mosaic_carries_no_mouth_opening():
     n = 40
     t = np.arange(n) / 30.0
     jaw = 300 + 300 * np.sin(2 * np.pi * 1.3 * t)
-    track = MotionTrack.from_channels(30.0, {3: jaw, 49: 30000 * np.sin(2 * np.pi * 0.4 * t),
-                                             48: 5000 * np.sin(2 * np.pi * 0.7 * t)})
+    track = MotionTrack.from_channels(
+        30.0,
+        {3: jaw, 49: 30000 * np.sin(2 * np.pi * 0.4 * t), 48: 5000 * np.sin(2 * np.pi * 0.7 * t)},
+    )
     means = []
-    for fr in render_frames([track], builtin_face(), size=SIZE, mosaic_block=16,
-                            mosaic_margin=0.15):
+    for fr in render_frames(
+        [track], builtin_face(), size=SIZE, mosaic_block=16, mosaic_margin=0.15
+    ):
         x0, y0, x1, y1 = fr.boxes[0]
         means.append(fr.image[y0:y1, x0:x1].astype(float).mean())
     assert abs(np.corrcoef(means, jaw)[0, 1]) < 0.15
@@ -192,8 +215,11 @@ def test_the_mosaic_is_the_same_whether_the_mouth_moves_or_not(antialias):
     # a moving one from a second drawing at rest: the two must agree to the bit)
     pose = dict(f49=25000, f48=-6000, f31=150, f32=150)
     still, boxes = _frame([_track(**pose)], mosaic_block=16, antialias=antialias)
-    moving, boxes_moving = _frame([_track(**pose, f3=400, f5=-150, f12=120, f13=120, f53=90)],
-                                  mosaic_block=16, antialias=antialias)
+    moving, boxes_moving = _frame(
+        [_track(**pose, f3=400, f5=-150, f12=120, f13=120, f53=90)],
+        mosaic_block=16,
+        antialias=antialias,
+    )
     assert boxes == boxes_moving
     x0, y0, x1, y1 = boxes[0]
     background = [140, 143, 148]

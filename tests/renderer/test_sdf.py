@@ -33,8 +33,9 @@ def test_smooth_union_and_intersection_bound_the_sharp_ones():
 
 
 def test_smoothstep_ends_and_middle():
-    np.testing.assert_allclose(smoothstep(0.0, 2.0, np.array([-1.0, 0, 1, 2, 3])),
-                               [0, 0, 0.5, 1, 1])
+    np.testing.assert_allclose(
+        smoothstep(0.0, 2.0, np.array([-1.0, 0, 1, 2, 3])), [0, 0, 0.5, 1, 1]
+    )
 
 
 def test_ray_surface_finds_a_sphere_radius():

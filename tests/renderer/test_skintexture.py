@@ -23,7 +23,7 @@ from tests.renderer.test_headlook import SIZE, _draw
 @pytest.fixture(scope="module")
 def grid():
     face = builtin_face("plain")
-    return face.vertices[:N_ELEVATION * N_AZIMUTH].reshape(N_ELEVATION, N_AZIMUTH, 3)
+    return face.vertices[: N_ELEVATION * N_AZIMUTH].reshape(N_ELEVATION, N_AZIMUTH, 3)
 
 
 @pytest.fixture(scope="module")
@@ -40,28 +40,31 @@ def test_the_texture_is_the_same_for_a_seed_and_changes_with_it(grid):
     assert np.abs(a.astype(int) - c.astype(int)).mean() > 1.0
 
 
-def test_a_painted_texture_is_read_back_and_a_changed_grid_paints_anew(grid, tmp_path,
-                                                                      monkeypatch):
+def test_a_painted_texture_is_read_back_and_a_changed_grid_paints_anew(grid, tmp_path, monkeypatch):
     first = cached_skin_texture(grid, -58.0, 25.0, size=64, seed=7, directory=tmp_path)
     assert np.array_equal(first, skin_texture(grid, -58.0, 25.0, size=64, seed=7))
     [stored] = tmp_path.glob("skin-*.npy")
     # the second call reads the file: painting is not called again
-    monkeypatch.setattr("renderer.skintexture.skin_texture",
-                        lambda *a, **k: pytest.fail("painted again"))
-    assert np.array_equal(cached_skin_texture(grid, -58.0, 25.0, size=64, seed=7,
-                                              directory=tmp_path), first)
+    monkeypatch.setattr(
+        "renderer.skintexture.skin_texture", lambda *a, **k: pytest.fail("painted again")
+    )
+    assert np.array_equal(
+        cached_skin_texture(grid, -58.0, 25.0, size=64, seed=7, directory=tmp_path), first
+    )
     monkeypatch.undo()
     moved = grid + np.array([0.0, 1.0, 0.0])
     cached_skin_texture(moved, -58.0, 25.0, size=64, seed=7, directory=tmp_path)
     assert len(list(tmp_path.glob("skin-*.npy"))) == 2
     # a damaged file is painted again, and a folder that cannot be written is no error
     stored.write_bytes(b"not an array")
-    assert np.array_equal(cached_skin_texture(grid, -58.0, 25.0, size=64, seed=7,
-                                              directory=tmp_path), first)
+    assert np.array_equal(
+        cached_skin_texture(grid, -58.0, 25.0, size=64, seed=7, directory=tmp_path), first
+    )
     blocked = tmp_path / "file"
     blocked.write_text("")
-    assert np.array_equal(cached_skin_texture(grid, -58.0, 25.0, size=64, seed=7,
-                                              directory=blocked / "sub"), first)
+    assert np.array_equal(
+        cached_skin_texture(grid, -58.0, 25.0, size=64, seed=7, directory=blocked / "sub"), first
+    )
 
 
 def test_the_texture_has_skin_detail_lips_and_hair_where_the_grid_puts_them(rig):
@@ -70,19 +73,18 @@ def test_the_texture_has_skin_detail_lips_and_hair_where_the_grid_puts_them(rig)
     h, w, _ = tex.shape
 
     def texel(point):
-        i = int(np.argmin(np.linalg.norm(face.vertices[:N_ELEVATION * N_AZIMUTH] - point,
-                                         axis=1)))
+        i = int(np.argmin(np.linalg.norm(face.vertices[: N_ELEVATION * N_AZIMUTH] - point, axis=1)))
         u, v = face.uvs[i]
         return tex[int(v * h), int(u * w)], (int(v * h), int(u * w))
 
     cheek, (r, c) = texel(np.array([40.0, -25.0, 80.0]))
     lip, _ = texel(np.array([0.0, -63.0, 92.0]))  # the middle of the lower lip
     crown, _ = texel(np.array([0.0, 100.0, 20.0]))
-    assert cheek[0] > cheek[1] > cheek[2] and cheek[0] > 150      # skin: warm and light
-    assert lip[0] - lip[1] > cheek[0] - cheek[1]                  # lips redder than skin
-    assert crown.mean() < 0.5 * cheek.mean()                      # hair dark
-    patch = tex[r - 8:r + 8, c - 8:c + 8].mean(axis=2)
-    assert 1.5 < patch.std() < 25.0                               # detail, not noise or flat
+    assert cheek[0] > cheek[1] > cheek[2] and cheek[0] > 150  # skin: warm and light
+    assert lip[0] - lip[1] > cheek[0] - cheek[1]  # lips redder than skin
+    assert crown.mean() < 0.5 * cheek.mean()  # hair dark
+    patch = tex[r - 8 : r + 8, c - 8 : c + 8].mean(axis=2)
+    assert 1.5 < patch.std() < 25.0  # detail, not noise or flat
     u, v = white_uv(N_ELEVATION)
     assert (face.texture[int(v * h), :] == 255).all()
 
@@ -95,9 +97,11 @@ def test_grid_uvs_follow_rows_and_columns():
 
 def _partial_peaks(coverage):
     """Local maxima of partial coverage along the rows and along the columns of a map."""
+
     def along(m):
         core = m[1:-1]
         return int(((core > m[:-2]) & (core > m[2:]) & (core > 0.05) & (core < 0.97)).sum())
+
     return along(coverage) + along(coverage.T)
 
 
@@ -125,9 +129,9 @@ def test_key_and_fill_light_both_halves_of_the_face(rig):
     vp, _ = camera_for(rig)
     lum = _luminance(img)
     cheeks = project(vp, np.array([[38.0, -28.0, 82.0], [-38.0, -28.0, 82.0]]), SIZE)
-    means = [lum[int(y) - 6:int(y) + 6, int(x) - 6:int(x) + 6].mean() for x, y in cheeks]
+    means = [lum[int(y) - 6 : int(y) + 6, int(x) - 6 : int(x) + 6].mean() for x, y in cheeks]
     key, fill = sorted(means, reverse=True)
-    assert fill > 0.4            # the fill side is lit, not in shadow
+    assert fill > 0.4  # the fill side is lit, not in shadow
     assert 0.65 < fill / key < 0.95  # and still modelled: the key side is brighter
 
 
@@ -149,7 +153,7 @@ def test_the_lashes_close_with_the_lids(rig):
     box = (int(x) - 14, int(y) - 10, int(x) + 14, int(top[1][1]) + 8)
     before, n_before = _dark_rows(open_img, box)
     after, n_after = _dark_rows(closed_img, box)
-    assert n_before > 20 and n_after > 20     # the lash line is there, open or closed
+    assert n_before > 20 and n_after > 20  # the lash line is there, open or closed
     assert after - before == pytest.approx(top[1][1] - top[0][1], abs=3.0)
     plain = Rig(builtin_face("plain"))
     (plain_img,) = _draw(plain, {})
@@ -168,7 +172,7 @@ def test_the_brows_rise_in_the_image_with_faps_31_to_34(rig):
         before, n = _dark_rows(rest, box, 0.3)
         after, n2 = _dark_rows(raised, box, 0.3)
         assert n > 15 and n2 > 15
-        assert y2 < y - 2                      # the FAPs raise the brow by pixels
+        assert y2 < y - 2  # the FAPs raise the brow by pixels
         assert after - before == pytest.approx(y2 - y, abs=2.0)
 
 

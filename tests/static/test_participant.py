@@ -30,22 +30,47 @@ def _run(cases: list) -> list:
     node = shutil.which("node") or shutil.which("nodejs")
     if node is None:
         pytest.skip("node is not installed")
-    result = subprocess.run([node, "-e", HARNESS, str(SCRIPT), json.dumps(cases)],
-                            capture_output=True, text=True, check=True, timeout=60)
+    result = subprocess.run(
+        [node, "-e", HARNESS, str(SCRIPT), json.dumps(cases)],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=60,
+    )
     return json.loads(result.stdout)
 
 
 def test_only_server_errors_are_sent_again():
-    cases = [[201, {}], [200, {"status": "duplicate"}],
-             [409, {"error": "this study is closed", "closed": True}],
-             [409, {"error": "idempotency_key: already used for another trial"}],
-             [400, {"error": "plays: required"}], [404, {}], [413, {}], [422, {}], [429, {}],
-             [500, {}], [502, {}], [503, {"error": "the database is unavailable"}]]
-    assert _run(cases) == ["saved", "saved", "closed", "refused", "refused", "refused",
-                           "refused", "refused", "refused", "retry", "retry", "retry"]
+    cases = [
+        [201, {}],
+        [200, {"status": "duplicate"}],
+        [409, {"error": "this study is closed", "closed": True}],
+        [409, {"error": "idempotency_key: already used for another trial"}],
+        [400, {"error": "plays: required"}],
+        [404, {}],
+        [413, {}],
+        [422, {}],
+        [429, {}],
+        [500, {}],
+        [502, {}],
+        [503, {"error": "the database is unavailable"}],
+    ]
+    assert _run(cases) == [
+        "saved",
+        "saved",
+        "closed",
+        "refused",
+        "refused",
+        "refused",
+        "refused",
+        "refused",
+        "refused",
+        "retry",
+        "retry",
+        "retry",
+    ]
 
 
 def test_retry_waits_for_retry_after_else_backs_off():
-    cases = [[1, "5"], [3, "5"], [1, "0"], [1, "600"], [1, None], [2, None], [5, None],
-             [9, "soon"]]
+    cases = [[1, "5"], [3, "5"], [1, "0"], [1, "600"], [1, None], [2, None], [5, None], [9, "soon"]]
     assert _run(cases) == [5000, 5000, 1000, 30000, 1000, 2000, 16000, 30000]

@@ -8,8 +8,14 @@ from pathlib import Path
 import pytest
 
 
-def harmonic_glide(f_start: float, f_end: float, seconds: float, sr: int = 16000,
-                   amplitude: float = 0.2, n_harmonics: int = 5):
+def harmonic_glide(
+    f_start: float,
+    f_end: float,
+    seconds: float,
+    sr: int = 16000,
+    amplitude: float = 0.2,
+    n_harmonics: int = 5,
+):
     """A voiced-like harmonic signal whose F0 glides linearly; returns (samples, f0 of time)."""
     import numpy as np
 
@@ -40,11 +46,16 @@ def write_wav(path, samples, sr: int = 16000, *, channels: int = 1) -> None:
 def demo_wav(repo_root: Path) -> Path:
     return repo_root / "app" / "data" / "demo" / "speech.wav"
 
+
 # The live head-and-eye generator (app/stimuli/live).
 
-def live_synthetic_speaker(n_frames: int = 3000, fps: float = 30.0, seed: int = 0,
-                           blink_params: tuple[tuple[float, float], tuple[float, float]] = (
-                               (0.6, 0.4), (1.3, 0.3))):
+
+def live_synthetic_speaker(
+    n_frames: int = 3000,
+    fps: float = 30.0,
+    seed: int = 0,
+    blink_params: tuple[tuple[float, float], tuple[float, float]] = ((0.6, 0.4), (1.3, 0.3)),
+):
     """Synthetic speech features and a ground-truth track with KNOWN couplings, for the live
     model's tests: talk spurts and pauses; head pitch follows F0 and yaw follows loudness
     (smoothed, plus noise); gaze follows head yaw and loudness; the lids follow gaze pitch; blink
@@ -63,14 +74,15 @@ def live_synthetic_speaker(n_frames: int = 3000, fps: float = 30.0, seed: int = 
     t = 0
     while t < n:  # alternating talk spurts (2-6 s) and pauses (1-3 s)
         spurt = int(rng.uniform(2, 6) * fps)
-        talk[t:t + spurt] = True
+        talk[t : t + spurt] = True
         t += spurt + int(rng.uniform(1, 3) * fps)
     syll = np.sin(2 * np.pi * np.arange(n) / fps * 4.0 + rng.uniform(0, 6)) > -0.3
     voiced = talk & syll
     contour = 150 * 2 ** (gaussian_filter1d(rng.normal(0, 1, n), 8) * 2.0 / 12 * 3)
     f0 = np.where(voiced, contour, 0.0)
-    intensity = np.where(talk, 62 + 6 * syll + gaussian_filter1d(rng.normal(0, 3, n), 2),
-                         25 + rng.normal(0, 2, n))
+    intensity = np.where(
+        talk, 62 + 6 * syll + gaussian_filter1d(rng.normal(0, 3, n), 2), 25 + rng.normal(0, 2, n)
+    )
     st = 12 * np.log2(np.maximum(contour, 1) / 150)
     drive_p = gaussian_filter1d(np.where(voiced, st, 0.0), 3)
     drive_l = gaussian_filter1d((intensity - 45) / 20, 5)
@@ -90,9 +102,19 @@ def live_synthetic_speaker(n_frames: int = 3000, fps: float = 30.0, seed: int = 
         onset += float(np.exp(mu + sigma * rng.standard_normal()))
     total = (1 - openness * (1 - closure)) * 1024
     au = np.pi / 180 / 1e-5
-    cols = {48: pitch_deg * au, 49: yaw_deg * au, 50: roll_deg * au,
-            23: gaze_yaw * au, 24: gaze_yaw * au, 25: gaze_pitch * au, 26: gaze_pitch * au,
-            19: 0.8 * total, 20: 0.8 * total, 21: 0.2 * total, 22: 0.2 * total}
+    cols = {
+        48: pitch_deg * au,
+        49: yaw_deg * au,
+        50: roll_deg * au,
+        23: gaze_yaw * au,
+        24: gaze_yaw * au,
+        25: gaze_pitch * au,
+        26: gaze_pitch * au,
+        19: 0.8 * total,
+        20: 0.8 * total,
+        21: 0.2 * total,
+        22: 0.2 * total,
+    }
     features = SpeechFeatures(fps, f0, intensity, np.where(voiced, f0, 150.0), {})
     track = MotionTrack.from_channels(fps, cols).replace(name="synthetic", source="synthetic")
     return features, track

@@ -84,15 +84,37 @@ def test_cli_writes_the_evaluation_and_extends_a_summary(tmp_path):
     truth = synthesize_reference(extract_features(audio), seed=1)
     save_track(truth, tmp_path / "truth.fap")
     (tmp_path / "summary.json").write_text(json.dumps({"conditions": {}}))
-    r = CliRunner().invoke(main, ["stimuli", "evaluate", "--audio", str(audio),
-                                  "--ground-truth", str(tmp_path / "truth.fap"),
-                                  "--split", "0.5", "--out", str(tmp_path)])
+    r = CliRunner().invoke(
+        main,
+        [
+            "stimuli",
+            "evaluate",
+            "--audio",
+            str(audio),
+            "--ground-truth",
+            str(tmp_path / "truth.fap"),
+            "--split",
+            "0.5",
+            "--out",
+            str(tmp_path),
+        ],
+    )
     assert r.exit_code == 0, r.output
     assert "speech_driven" in r.output and (tmp_path / "evaluation.png").stat().st_size > 0
     report = json.loads((tmp_path / "evaluation.json").read_text())
     assert set(report["conditions"]) == {"none", "random", "speech_driven", "ground_truth"}
     assert json.loads((tmp_path / "summary.json").read_text())["evaluation"] == report
-    bad = CliRunner().invoke(main, ["stimuli", "evaluate", "--audio", str(audio),
-                                    "--ground-truth", str(tmp_path / "truth.fap"),
-                                    "--out", str(tmp_path)])
+    bad = CliRunner().invoke(
+        main,
+        [
+            "stimuli",
+            "evaluate",
+            "--audio",
+            str(audio),
+            "--ground-truth",
+            str(tmp_path / "truth.fap"),
+            "--out",
+            str(tmp_path),
+        ],
+    )
     assert bad.exit_code == 2 and "--split" in bad.output

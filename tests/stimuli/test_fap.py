@@ -6,7 +6,10 @@ from app.stimuli import fap
 def test_table_has_68_faps_with_known_units_and_directions():
     assert len(fap.FAPS) == 68
     assert (fap.FAPS[3].unit, fap.FAPS[3].bidirectional, fap.FAPS[3].positive) == (
-        "MNS", False, "down")
+        "MNS",
+        False,
+        "down",
+    )
     assert (fap.FAPS[19].unit, fap.FAPS[19].positive) == ("IRISD", "down")
     assert (fap.FAPS[23].unit, fap.FAPS[23].positive) == ("AU", "left")
     assert (fap.FAPS[25].unit, fap.FAPS[25].positive) == ("AU", "down")
@@ -46,7 +49,13 @@ def test_column_names_round_trip():
 def test_feature_points_directions_and_axes_follow_the_reference():
     # reference mpeg4-fap: "The 68 FAPs" and "Feature points (FDP)"; +x is the face's left
     assert [fap.FEATURE_POINT[n] for n in fap.EYEBROW_RAISE] == [
-        "4.1", "4.2", "4.3", "4.4", "4.5", "4.6"]
+        "4.1",
+        "4.2",
+        "4.3",
+        "4.4",
+        "4.5",
+        "4.6",
+    ]
     assert fap.FEATURE_POINT[fap.OPEN_JAW] == "2.1" and fap.FEATURE_POINT[18] == "2.10"
     assert [fap.FEATURE_POINT[n] for n in fap.EYELIDS] == ["3.1", "3.2", "3.3", "3.4"]
     assert {fap.FEATURE_POINT[n] for n in fap.HEAD} == {"7.1"}

@@ -24,8 +24,14 @@ def mask(positions, n=68):
 
 def test_round_trip_is_exact(tmp_path):
     rng = np.random.default_rng(1)
-    track = MotionTrack(25, np.rint(rng.normal(0, 3000, (50, 4))), (19, 31, 48, 49),
-                        name="a name with spaces", source="capture", speaker="s1")
+    track = MotionTrack(
+        25,
+        np.rint(rng.normal(0, 3000, (50, 4))),
+        (19, 31, 48, 49),
+        name="a name with spaces",
+        source="capture",
+        speaker="s1",
+    )
     path = tmp_path / "t.fap"
     write_fap(track, path)
     back = read_fap(path)
@@ -89,8 +95,9 @@ def test_greta_expression_and_trailing_extra_carry_one_value_each():
 
 
 def test_greta_writer_writes_greta_layout_and_reads_back(tmp_path):
-    track = MotionTrack(30, np.array([[1.0, -2.0, 3.0], [4.0, 5.0, -6.0]]), (3, 50, 68),
-                        source="capture")
+    track = MotionTrack(
+        30, np.array([[1.0, -2.0, 3.0], [4.0, 5.0, -6.0]]), (3, 50, 68), source="capture"
+    )
     path = tmp_path / "g.fap"
     write_fap(track, path, greta=True)
     lines = [line for line in path.read_text().splitlines() if not line.startswith("#")]
@@ -183,12 +190,21 @@ def test_high_level_faps_are_read_past():
 
 
 def test_missing_frames_and_masked_off_channels_are_interpolated():
-    text = "\n".join([
-        "# a comment", "2.1 gaps 10 5",
-        mask([48, 49]), "0 0 100",
-        mask([48]), "1 10",
-        mask([48, 49]), "4 40 400",
-    ]) + "\n"
+    text = (
+        "\n".join(
+            [
+                "# a comment",
+                "2.1 gaps 10 5",
+                mask([48, 49]),
+                "0 0 100",
+                mask([48]),
+                "1 10",
+                mask([48, 49]),
+                "4 40 400",
+            ]
+        )
+        + "\n"
+    )
     t = read_fap(io.StringIO(text))
     np.testing.assert_allclose(t[48], [0, 10, 20, 30, 40])
     np.testing.assert_allclose(t[49], [100, 175, 250, 325, 400])
@@ -207,37 +223,71 @@ CASES = {
     "fps negative": ("2.1 x -25 3\n", 1, "expected a number > 0"),
     "frame count": ("2.1 x 25 many\n", 1, "frame count is 'many'"),
     "mask count": (f"2.1 x 25 1\n{'1 0 1'}\n0 1 2\n", 2, "expected 68 (Xface) or 69 (Greta)"),
-    "mask not binary": (f"2.1 x 25 1\n{mask([48]).replace('1', '2')}\n0 1\n", 2,
-                        "expected only 0 and 1"),
-    "wrong value count": (f"2.1 x 25 1\n{mask([48, 49])}\n0 1\n", 3,
-                          "expected the frame index and 2 values for the 2 masked positions"),
+    "mask not binary": (
+        f"2.1 x 25 1\n{mask([48]).replace('1', '2')}\n0 1\n",
+        2,
+        "expected only 0 and 1",
+    ),
+    "wrong value count": (
+        f"2.1 x 25 1\n{mask([48, 49])}\n0 1\n",
+        3,
+        "expected the frame index and 2 values for the 2 masked positions",
+    ),
     "Greta count in an Xface file": (
-        f"2.1 x 25 1\n{mask([1, 48])}\n0 3 -250\n", 3,
+        f"2.1 x 25 1\n{mask([1, 48])}\n0 3 -250\n",
+        3,
         "expected the frame index and 5 values for the 2 masked positions (68-value mask: "
         "Xface/MPEG-4, 4 values for FAP 1, 6 for FAP 2; Greta, one value each, would expect "
-        "2), got 3 numbers"),
+        "2), got 3 numbers",
+    ),
     "MPEG-4 count in a Greta file": (
-        f"2.1 x 25 1\n{mask([1, 2, 48], 69)}\n0 1 2 3 4 5 6 7 8 9 10 11 12\n", 3,
+        f"2.1 x 25 1\n{mask([1, 2, 48], 69)}\n0 1 2 3 4 5 6 7 8 9 10 11 12\n",
+        3,
         "expected the frame index and 3 values for the 3 masked positions (69-value mask: "
         "Greta, one value per masked position; Xface/MPEG-4, 4 for FAP 1 and 6 for FAP 2, "
-        "would expect 11), got 13 numbers"),
-    "two dialects": (f"2.1 x 25 2\n{mask([48])}\n0 1\n{mask([48], 69)}\n1 2\n", 4,
-                     "69 values after 68-value masks; a file holds one dialect"),
-    "value beyond 32 bits": (f"2.1 x 25 1\n{mask([48])}\n0 4294967296\n", 3,
-                             "value 2 is outside the 32-bit integer range"),
-    "frame count beyond limit": ("2.1 x 25 99999999999\n", 1,
-                                 "frame count is 99999999999, expected 0..1000000"),
-    "negative index": (f"2.1 x 25 1\n{mask([48])}\n-1 5\n", 3,
-                       "frame index -1: indices must start at >= 0"),
-    "non-number": (f"2.1 x 25 1\n{mask([48])}\n0 1.5\n", 3,
-                   "value 2 is '1.5', expected an integer"),
-    "truncated pair": (f"2.1 x 25 2\n{mask([48])}\n0 1\n{mask([48])}\n", 4,
-                       "truncated: a mask line without its value line"),
-    "truncated frames": (f"2.1 x 25 3\n{mask([48])}\n0 1\n", 3,
-                         "truncated: header says 3 frames, the last frame index is 0"),
+        "would expect 11), got 13 numbers",
+    ),
+    "two dialects": (
+        f"2.1 x 25 2\n{mask([48])}\n0 1\n{mask([48], 69)}\n1 2\n",
+        4,
+        "69 values after 68-value masks; a file holds one dialect",
+    ),
+    "value beyond 32 bits": (
+        f"2.1 x 25 1\n{mask([48])}\n0 4294967296\n",
+        3,
+        "value 2 is outside the 32-bit integer range",
+    ),
+    "frame count beyond limit": (
+        "2.1 x 25 99999999999\n",
+        1,
+        "frame count is 99999999999, expected 0..1000000",
+    ),
+    "negative index": (
+        f"2.1 x 25 1\n{mask([48])}\n-1 5\n",
+        3,
+        "frame index -1: indices must start at >= 0",
+    ),
+    "non-number": (
+        f"2.1 x 25 1\n{mask([48])}\n0 1.5\n",
+        3,
+        "value 2 is '1.5', expected an integer",
+    ),
+    "truncated pair": (
+        f"2.1 x 25 2\n{mask([48])}\n0 1\n{mask([48])}\n",
+        4,
+        "truncated: a mask line without its value line",
+    ),
+    "truncated frames": (
+        f"2.1 x 25 3\n{mask([48])}\n0 1\n",
+        3,
+        "truncated: header says 3 frames, the last frame index is 0",
+    ),
     "index outside": (f"2.1 x 25 1\n{mask([48])}\n5 1\n", 3, "frame index 5 outside 0..0"),
-    "index backwards": (f"2.1 x 25 3\n{mask([48])}\n1 1\n{mask([48])}\n0 1\n", 5,
-                        "frame index 0 after 1: indices must start at >= 0 and increase"),
+    "index backwards": (
+        f"2.1 x 25 3\n{mask([48])}\n1 1\n{mask([48])}\n0 1\n",
+        5,
+        "frame index 0 after 1: indices must start at >= 0 and increase",
+    ),
 }
 
 
@@ -266,7 +316,8 @@ def test_cli_gives_exit_2_and_one_line(tmp_path):
     path.write_text(f"2.1 x 25 1\n{mask([48])}\n0 oops\n")
     proc = subprocess.run(
         [sys.executable, "-m", "app", "stimuli", "convert", str(path), str(tmp_path / "o.csv")],
-        capture_output=True, text=True,
+        capture_output=True,
+        text=True,
     )
     assert proc.returncode == 2
     assert proc.stderr.strip().count("\n") == 0
@@ -275,6 +326,7 @@ def test_cli_gives_exit_2_and_one_line(tmp_path):
 
 
 # -- any input: a track or the one-line input error, never another exception ----------------------
+
 
 def _read_or_input_error(read, *args):
     try:
@@ -307,8 +359,11 @@ frame_lines = st.tuples(
 
 
 @settings(max_examples=200, deadline=None)
-@given(n_frames=st.integers(0, 4), frames=st.lists(frame_lines, max_size=4),
-       indices=st.lists(st.integers(-1, 5), max_size=4))
+@given(
+    n_frames=st.integers(0, 4),
+    frames=st.lists(frame_lines, max_size=4),
+    indices=st.lists(st.integers(-1, 5), max_size=4),
+)
 def test_near_miss_files_give_a_track_or_one_line(n_frames, frames, indices):
     lines = [f"2.1 fuzz 30 {n_frames}"]
     for k, (length, positions, values) in enumerate(frames):
@@ -320,8 +375,7 @@ def test_near_miss_files_give_a_track_or_one_line(n_frames, frames, indices):
 
 @settings(max_examples=150, deadline=None)
 @given(greta=st.booleans(), n_frames=st.integers(1, 5), data=st.data())
-def test_well_formed_files_of_either_dialect_keep_every_masked_low_level_fap(
-        greta, n_frames, data):
+def test_well_formed_files_of_either_dialect_keep_every_masked_low_level_fap(greta, n_frames, data):
     length = 69 if greta else 68
     lines, expected = [f"2.1 ok 25 {n_frames}"], {}
     for index in range(n_frames):
@@ -329,8 +383,7 @@ def test_well_formed_files_of_either_dialect_keep_every_masked_low_level_fap(
         values = []
         for p in sorted(positions):
             width = 1 if greta else XFACE_WIDTH.get(p, 1)
-            drawn = data.draw(st.lists(st.integers(-5000, 5000), min_size=width,
-                                       max_size=width))
+            drawn = data.draw(st.lists(st.integers(-5000, 5000), min_size=width, max_size=width))
             values += drawn
             if 3 <= p <= 68:
                 expected.setdefault(p, {})[index] = drawn[0]
@@ -357,6 +410,5 @@ def test_cli_convert_writes_either_dialect(tmp_path):
         masks = [line for line in target.read_text().splitlines() if not line.startswith("#")]
         assert len(masks[1].split()) == length
         assert read_fap(target).equals(read_fap(source))
-    r = runner.invoke(main, ["stimuli", "convert", str(source), str(tmp_path / "o.csv"),
-                             "--greta"])
+    r = runner.invoke(main, ["stimuli", "convert", str(source), str(tmp_path / "o.csv"), "--greta"])
     assert r.exit_code == 2 and "Greta's dialect is a .fap format, not .csv" in r.output

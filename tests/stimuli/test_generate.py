@@ -14,9 +14,14 @@ from app.stimuli.io import load_track
 def test_demo_generates_four_conditions(repo_root, tmp_path):
     demo = repo_root / "app" / "data" / "demo"
     seen = []
-    result = generate_conditions(demo / "speech.wav", ground_truth=demo / "ground_truth.fap",
-                                 normalize=True, seed=1, pitch_ceiling=300,
-                                 progress=lambda done, total: seen.append((done, total)))
+    result = generate_conditions(
+        demo / "speech.wav",
+        ground_truth=demo / "ground_truth.fap",
+        normalize=True,
+        seed=1,
+        pitch_ceiling=300,
+        progress=lambda done, total: seen.append((done, total)),
+    )
     # features, four conditions, eyes, normalisation, summary
     assert seen == [(k, 8) for k in range(1, 9)]
     assert set(result.tracks) == {"none", "random", "speech_driven", "ground_truth"}
@@ -28,15 +33,39 @@ def test_demo_generates_four_conditions(repo_root, tmp_path):
 def test_cli_writes_tracks_summary_and_plot(repo_root, tmp_path):
     demo = repo_root / "app" / "data" / "demo"
     out = tmp_path / "out"
-    r = CliRunner().invoke(main, ["stimuli", "generate", "--audio", str(demo / "speech.wav"),
-                                  "--out", str(out), "--no-plot"])
+    r = CliRunner().invoke(
+        main,
+        [
+            "stimuli",
+            "generate",
+            "--audio",
+            str(demo / "speech.wav"),
+            "--out",
+            str(out),
+            "--no-plot",
+        ],
+    )
     assert r.exit_code == 0, r.output
-    assert {p.name for p in out.iterdir()} == {"none.fap", "random.fap", "speech_driven.fap",
-                                               "summary.json"}
+    assert {p.name for p in out.iterdir()} == {
+        "none.fap",
+        "random.fap",
+        "speech_driven.fap",
+        "summary.json",
+    }
     summary = json.loads((out / "summary.json").read_text())
     assert "default head model" in summary["conditions"]["speech_driven"]["head_model"]
-    bad = CliRunner().invoke(main, ["stimuli", "generate", "--audio", str(demo / "speech.wav"),
-                                    "--out", str(out), "--normalize"])
+    bad = CliRunner().invoke(
+        main,
+        [
+            "stimuli",
+            "generate",
+            "--audio",
+            str(demo / "speech.wav"),
+            "--out",
+            str(out),
+            "--normalize",
+        ],
+    )
     assert bad.exit_code == 2 and "needs a reference" in bad.output
 
 
@@ -48,9 +77,16 @@ def demo_args(repo_root):
 def test_a_condition_named_unlike_its_model_keeps_its_settings(repo_root):
     """A study file's ``name = "calm"``, ``model = "random"`` with settings reaches the model."""
     audio, gt = demo_args(repo_root)
-    result = generate_conditions(audio, conditions={
-        "calm": {"model": "random", "octaves": 1, "persistence": 0.5},
-        "lively": {"model": "random"}, "none": {}}, ground_truth=gt, seed=3)
+    result = generate_conditions(
+        audio,
+        conditions={
+            "calm": {"model": "random", "octaves": 1, "persistence": 0.5},
+            "lively": {"model": "random"},
+            "none": {},
+        },
+        ground_truth=gt,
+        seed=3,
+    )
     assert list(result.tracks) == ["calm", "lively", "none"]
     params = result.summary["conditions"]["calm"]["parameters"]
     assert params["model"] == "random" and params["octaves"] == 1
@@ -74,16 +110,22 @@ def test_model_files_go_to_their_own_condition(repo_root, tmp_path):
 
     model = tmp_path / "head.json"
     model.write_bytes(DEFAULT_MODEL_PATH.read_bytes())
-    result = generate_conditions(audio, conditions="speech_driven,none", ground_truth=gt,
-                                 models={"speech_driven": model})
+    result = generate_conditions(
+        audio, conditions="speech_driven,none", ground_truth=gt, models={"speech_driven": model}
+    )
     assert "read from head.json" in result.summary["conditions"]["speech_driven"]["head_model"]
 
 
 @pytest.mark.parametrize("eyes", ["still", "ground_truth", "generated"])
 def test_eyes_are_the_same_in_every_condition(repo_root, eyes):
     audio, gt = demo_args(repo_root)
-    result = generate_conditions(audio, conditions="none,random,speech_driven,ground_truth",
-                                 ground_truth=gt, eyes=eyes, seed=2)
+    result = generate_conditions(
+        audio,
+        conditions="none,random,speech_driven,ground_truth",
+        ground_truth=gt,
+        eyes=eyes,
+        seed=2,
+    )
     tracks = list(result.tracks.values())
     for c in range(19, 27):
         for t in tracks[1:]:
@@ -99,8 +141,7 @@ def test_eyes_are_the_same_in_every_condition(repo_root, eyes):
 
 def test_generated_eyes_replace_the_live_models_own_in_every_condition(repo_root):
     audio, gt = demo_args(repo_root)
-    result = generate_conditions(audio, conditions="live_gmm,none", eyes="still",
-                                 ground_truth=gt)
+    result = generate_conditions(audio, conditions="live_gmm,none", eyes="still", ground_truth=gt)
     assert np.all(result.tracks["live_gmm"][23] == 0)  # no eye confound with NO_PROSODY
     assert result.tracks["live_gmm"][48].std() > 0
 
@@ -144,9 +185,21 @@ def test_greta_ground_truth_passes_through_unchanged(repo_root, tmp_path, greta)
     gt_path = tmp_path / "greta_gt.fap"
     expected = _greta_ground_truth(gt_path)
     out = tmp_path / "out"
-    args = ["stimuli", "generate", "--audio", str(repo_root / "app/data/demo/speech.wav"),
-            "--ground-truth", str(gt_path), "--conditions", "ground_truth", "--out", str(out),
-            "--no-plot", "--eyes", "ground_truth"] + (["--greta"] if greta else [])
+    args = [
+        "stimuli",
+        "generate",
+        "--audio",
+        str(repo_root / "app/data/demo/speech.wav"),
+        "--ground-truth",
+        str(gt_path),
+        "--conditions",
+        "ground_truth",
+        "--out",
+        str(out),
+        "--no-plot",
+        "--eyes",
+        "ground_truth",
+    ] + (["--greta"] if greta else [])
     r = CliRunner().invoke(main, args)
     assert r.exit_code == 0, r.output
     written = out / "ground_truth.fap"
@@ -155,8 +208,9 @@ def test_greta_ground_truth_passes_through_unchanged(repo_root, tmp_path, greta)
     assert track.channels == tuple(expected)
     for fap, values in expected.items():
         np.testing.assert_array_equal(track[fap], values)
-    body = [line.split() for line in written.read_text().splitlines()
-            if not line.startswith("#")][1:]
+    body = [line.split() for line in written.read_text().splitlines() if not line.startswith("#")][
+        1:
+    ]
     # the same positions masked, less the viseme and Greta's extra entry; 69 values with --greta
     bits = ["1" if p in expected else "0" for p in range(1, 70 if greta else 69)]
     assert body[::2] == [bits] * 120

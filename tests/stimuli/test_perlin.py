@@ -34,5 +34,6 @@ def test_deterministic_per_seed_and_frame_based():
     np.testing.assert_array_equal(a, frame_noise(300, 30, frequency=0.3, seed=7))
     assert not np.allclose(a, frame_noise(300, 30, frequency=0.3, seed=8))
     # the value is a function of the frame number: an offset window reads the same frames
-    np.testing.assert_allclose(frame_noise(100, 30, frequency=0.3, seed=7, frame_offset=50),
-                               a[50:150])
+    np.testing.assert_allclose(
+        frame_noise(100, 30, frequency=0.3, seed=7, frame_offset=50), a[50:150]
+    )

@@ -85,9 +85,13 @@ def test_head_motion_is_speech_correlated():
     from scipy import signal
 
     a = np.exp(-1 / 15)
-    x = np.column_stack([
-        signal.lfilter([1 - a], [1, -a], (v - v.mean()) / v.std())
-        for v in (feats.intensity, feats.f0_conditioned)] + [np.ones(feats.n_frames)])
+    x = np.column_stack(
+        [
+            signal.lfilter([1 - a], [1, -a], (v - v.mean()) / v.std())
+            for v in (feats.intensity, feats.f0_conditioned)
+        ]
+        + [np.ones(feats.n_frames)]
+    )
     for fap in (48, 49):
         y = track[fap]
         coef, *_ = np.linalg.lstsq(x, y, rcond=None)

@@ -101,21 +101,31 @@ def test_flac_is_read(tmp_path):
 def _wav_with_width(path, bits, align):
     data = b"\x00\x01" * 4000
     fmt = struct.pack("<IHHIIHH", 16, 1, 1, 16000, 16000 * align, align, bits)
-    path.write_bytes(b"RIFF" + struct.pack("<I", 36 + len(data)) + b"WAVEfmt " + fmt
-                     + b"data" + struct.pack("<I", len(data)) + data)
+    path.write_bytes(
+        b"RIFF"
+        + struct.pack("<I", 36 + len(data))
+        + b"WAVEfmt "
+        + fmt
+        + b"data"
+        + struct.pack("<I", len(data))
+        + data
+    )
 
 
-@pytest.mark.parametrize("case,expected", [
-    ("text", "not readable as WAV/FLAC"),
-    ("empty", "empty file"),
-    ("silence", "all silence"),
-    ("long", "limit is 1 s"),
-    ("short", "at least 100 ms"),
-    ("width40", "unsupported WAV sample width: 40 bits"),
-    ("width0", "unsupported WAV sample width: 0 bits"),
-    ("truncated", "WAV"),
-    ("missing", "no such audio file"),
-])
+@pytest.mark.parametrize(
+    "case,expected",
+    [
+        ("text", "not readable as WAV/FLAC"),
+        ("empty", "empty file"),
+        ("silence", "all silence"),
+        ("long", "limit is 1 s"),
+        ("short", "at least 100 ms"),
+        ("width40", "unsupported WAV sample width: 40 bits"),
+        ("width0", "unsupported WAV sample width: 0 bits"),
+        ("truncated", "WAV"),
+        ("missing", "no such audio file"),
+    ],
+)
 def test_bad_audio_gives_one_line_naming_the_file(tmp_path, case, expected):
     path = tmp_path / f"{case}.wav"
     if case == "text":

@@ -38,10 +38,27 @@ def ensure_services(*, redis: bool = True, seconds: float = 5.0) -> bool:
     PostgreSQL answers within ``seconds``. The commands are those DEVELOPERS use by hand."""
     if not port_open(PG_PORT) and Path("/etc/postgresql").is_dir():
         version = sorted(p.name for p in Path("/etc/postgresql").iterdir())[-1]
-        subprocess.run(["pg_ctlcluster", "--skip-systemctl-redirect", version, "main", "start"],
-                       check=False, capture_output=True)
+        subprocess.run(
+            ["pg_ctlcluster", "--skip-systemctl-redirect", version, "main", "start"],
+            check=False,
+            capture_output=True,
+        )
     if redis and not port_open(REDIS_PORT) and shutil.which("redis-server"):
-        subprocess.run(["redis-server", "--daemonize", "yes", "--bind", "127.0.0.1", "--port",
-                        str(REDIS_PORT), "--save", "", "--appendonly", "no"],
-                       check=False, capture_output=True)
+        subprocess.run(
+            [
+                "redis-server",
+                "--daemonize",
+                "yes",
+                "--bind",
+                "127.0.0.1",
+                "--port",
+                str(REDIS_PORT),
+                "--save",
+                "",
+                "--appendonly",
+                "no",
+            ],
+            check=False,
+            capture_output=True,
+        )
     return wait_for_port(PG_PORT, seconds)

@@ -119,10 +119,15 @@ def test_uploaded_paths_are_matched_by_file_name(tmp_path: Path) -> None:
     (tmp_path / "up" / "speech.wav").write_bytes(b"")
     (tmp_path / "speech2.wav").write_bytes(b"")
     reader = FieldReader("study.toml", tmp_path / "up", by_name=True)
-    for written in ("../demo/speech.wav", "speech.wav", "C:\\audio\\speech.wav",
-                    str(tmp_path / "elsewhere" / "speech.wav")):
+    for written in (
+        "../demo/speech.wav",
+        "speech.wav",
+        "C:\\audio\\speech.wav",
+        str(tmp_path / "elsewhere" / "speech.wav"),
+    ):
         assert reader.file({"f": written}, "f", "f", (".wav",)) == tmp_path / "up" / "speech.wav"
     # A file beside the upload folder is never reached, whatever the path says.
     for bad in ("../speech2.wav", str(tmp_path / "speech2.wav"), "x/../speech2.wav"):
         assert "no uploaded file named" in message(
-            lambda bad=bad: reader.file({"f": bad}, "f", "f", (".wav",)))
+            lambda bad=bad: reader.file({"f": bad}, "f", "f", (".wav",))
+        )

@@ -28,31 +28,42 @@ def test_defaults_are_the_classic_page(make_study_data, study_dir) -> None:
 
 def test_block_is_read_and_written_back(make_study_data, study_dir) -> None:
     data = make_study_data() | {
-        "mismatched": True, "answer": {"scale": 5, "reasons": ["lips", "eyes"]},
+        "mismatched": True,
+        "answer": {"scale": 5, "reasons": ["lips", "eyes"]},
         "attention": {"max_failed": 2, "screened_out_code": "RETURN-7"},
-        "viewing": {"min_face_px": 160, "portrait": "rotate"}}
+        "viewing": {"min_face_px": 160, "portrait": "rotate"},
+    }
     spec = _parse(data, study_dir)
     assert spec.participation == ParticipationSpec(
-        scale=5, reasons=("lips", "eyes"), max_failed=2, screened_out_code="RETURN-7",
-        min_face_px=160, portrait="rotate", mismatched=True)
+        scale=5,
+        reasons=("lips", "eyes"),
+        max_failed=2,
+        screened_out_code="RETURN-7",
+        min_face_px=160,
+        portrait="rotate",
+        mismatched=True,
+    )
     again = loads_study(spec.to_toml(), base_dir=study_dir)
     assert again.participation == spec.participation
     stored = ParticipationSpec.from_settings(spec.participation.to_dict())
     assert stored == spec.participation
 
 
-@pytest.mark.parametrize(("changes", "expected"), [
-    ({"answer": {"scale": 4}}, "answer.scale: expected 3 or 5, got 4"),
-    ({"answer": {"scale": "5"}}, "answer.scale: expected an integer"),
-    ({"answer": {"reasons": ["a", "a"]}}, "answer.reasons: repeats a tag"),
-    ({"answer": {"reasons": ["ok", ""]}}, "answer.reasons[1]: expected a tag of 1 to 40"),
-    ({"answer": {"reasons": [str(i) for i in range(9)]}}, "answer.reasons: at most 8 tags"),
-    ({"answer": {"levels": 5}}, "answer.levels: unknown key"),
-    ({"attention": {"max_failed": -1}}, "attention.max_failed: must be >= 0"),
-    ({"viewing": {"portrait": "tilt"}}, "viewing.portrait: expected one of fit, rotate"),
-    ({"viewing": {"min_face_px": 1.5}}, "viewing.min_face_px: expected an integer"),
-    ({"mismatched": "yes"}, "mismatched: expected true or false"),
-])
+@pytest.mark.parametrize(
+    ("changes", "expected"),
+    [
+        ({"answer": {"scale": 4}}, "answer.scale: expected 3 or 5, got 4"),
+        ({"answer": {"scale": "5"}}, "answer.scale: expected an integer"),
+        ({"answer": {"reasons": ["a", "a"]}}, "answer.reasons: repeats a tag"),
+        ({"answer": {"reasons": ["ok", ""]}}, "answer.reasons[1]: expected a tag of 1 to 40"),
+        ({"answer": {"reasons": [str(i) for i in range(9)]}}, "answer.reasons: at most 8 tags"),
+        ({"answer": {"levels": 5}}, "answer.levels: unknown key"),
+        ({"attention": {"max_failed": -1}}, "attention.max_failed: must be >= 0"),
+        ({"viewing": {"portrait": "tilt"}}, "viewing.portrait: expected one of fit, rotate"),
+        ({"viewing": {"min_face_px": 1.5}}, "viewing.min_face_px: expected an integer"),
+        ({"mismatched": "yes"}, "mismatched: expected true or false"),
+    ],
+)
 def test_each_bad_key_names_its_field(make_study_data, study_dir, changes, expected) -> None:
     with pytest.raises(InputError) as caught:
         _parse(make_study_data() | changes, study_dir)
@@ -67,13 +78,25 @@ def test_mismatched_needs_two_clips(make_study_data, study_dir) -> None:
         _parse(data, study_dir)
 
 
-@settings(max_examples=60, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(block=st.dictionaries(st.sampled_from(["answer", "attention", "viewing", "mismatched"]),
-                             st.one_of(st.none(), st.integers(), st.text(max_size=5),
-                                       st.dictionaries(st.text(max_size=12), st.one_of(
-                                           st.integers(), st.text(max_size=50),
-                                           st.lists(st.text(max_size=50), max_size=10))))))
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    block=st.dictionaries(
+        st.sampled_from(["answer", "attention", "viewing", "mismatched"]),
+        st.one_of(
+            st.none(),
+            st.integers(),
+            st.text(max_size=5),
+            st.dictionaries(
+                st.text(max_size=12),
+                st.one_of(
+                    st.integers(), st.text(max_size=50), st.lists(st.text(max_size=50), max_size=10)
+                ),
+            ),
+        ),
+    )
+)
 def test_any_block_is_read_or_refused_in_one_line(make_study_data, study_dir, block) -> None:
     try:
         _parse(make_study_data() | block, study_dir)
@@ -85,8 +108,15 @@ PAIRS = build_pairs(["a", "b", "c"], "all_ordered")
 
 
 def _schedule(seed: int, **options):
-    return make_schedule(clips=["s2", "s7"], pairs=PAIRS, design="all_ordered", seed=seed,
-                         list_index=0, n_lists=2, **options)
+    return make_schedule(
+        clips=["s2", "s7"],
+        pairs=PAIRS,
+        design="all_ordered",
+        seed=seed,
+        list_index=0,
+        n_lists=2,
+        **options,
+    )
 
 
 def test_onscreen_catch_trials_carry_the_expected_side_as_instruction() -> None:
@@ -95,9 +125,16 @@ def test_onscreen_catch_trials_carry_the_expected_side_as_instruction() -> None:
     assert len(catches) == 4
     assert all(t.instruction == t.expected and t.pair == PAIRS[0] for t in catches)
     assert Counter(t.expected for t in catches) == {"left": 2, "right": 2}
-    shown = {(c, p, i) for c, p, i, _f in variant_stimuli(
-        clips=["s2", "s7"], pairs=PAIRS, design="all_ordered", catch_trials=4,
-        catch_kind="onscreen")}
+    shown = {
+        (c, p, i)
+        for c, p, i, _f in variant_stimuli(
+            clips=["s2", "s7"],
+            pairs=PAIRS,
+            design="all_ordered",
+            catch_trials=4,
+            catch_kind="onscreen",
+        )
+    }
     assert {(t.clip, t.pair, t.instruction) for t in catches} <= shown
 
 
@@ -108,18 +145,20 @@ def test_appropriateness_pairs_leave_the_rest_of_the_schedule_alone(seed: int) -
     mixed = _schedule(seed, catch_trials=2, mismatched=True)
     pairs = [t for t in mixed if t.kind == "mismatch"]
     assert [(t.clip, t.pair, t.kind) for t in mixed if t.kind != "mismatch"] == [
-        (t.clip, t.pair, t.kind) for t in plain]
+        (t.clip, t.pair, t.kind) for t in plain
+    ]
     assert [t.position for t in mixed] == list(range(len(mixed)))
     # one per condition and clip, the same condition on both sides, the mismatched side
     # balanced, and the expected (matched) side the other one
     assert sorted((t.clip, t.left) for t in pairs) == sorted(
-        (clip, c) for clip in ("s2", "s7") for c in "abc")
-    assert all(t.left == t.right and {t.expected, t.foreign} == {"left", "right"}
-               for t in pairs)
+        (clip, c) for clip in ("s2", "s7") for c in "abc"
+    )
+    assert all(t.left == t.right and {t.expected, t.foreign} == {"left", "right"} for t in pairs)
     sides = Counter(t.foreign for t in pairs)
     assert abs(sides["left"] - sides["right"]) <= 1
-    rendered = variant_stimuli(clips=["s2", "s7"], pairs=PAIRS, design="all_ordered",
-                               mismatched=True)
+    rendered = variant_stimuli(
+        clips=["s2", "s7"], pairs=PAIRS, design="all_ordered", mismatched=True
+    )
     assert {(t.clip, t.pair, "", t.foreign) for t in pairs} <= set(rendered)
 
 

@@ -107,7 +107,8 @@ def test_undecided_only_when_allowed() -> None:
 
 @given(st.sampled_from(REPLAY_KINDS), st.integers(1, 9), st.integers(0, 20), st.booleans())
 def test_a_vote_is_refused_with_a_reason_exactly_when_the_rule_forbids_it(
-        kind: str, cap: int, plays: int, finished: bool) -> None:
+    kind: str, cap: int, plays: int, finished: bool
+) -> None:
     policy = ReplayPolicy(kind, cap if kind == "max_plays" else None)
     reason = vote_refusal(policy, plays, finished)
     assert (reason is None) == may_vote(policy, plays, finished)
@@ -119,16 +120,19 @@ def test_a_vote_is_refused_with_a_reason_exactly_when_the_rule_forbids_it(
 def test_refusals_name_the_rule() -> None:
     assert vote_refusal(ReplayPolicy(), 0, True) == "plays: the clip must be played before voting"
     assert vote_refusal(ReplayPolicy("max_plays", max_plays=2), 3, True) == (
-        "plays: at most 2 plays are allowed")
+        "plays: at most 2 plays are allowed"
+    )
     assert play_refusal(ReplayPolicy("max_plays", max_plays=4)) == (
-        "plays: at most 4 plays are allowed")
+        "plays: at most 4 plays are allowed"
+    )
     assert ReplayPolicy("play_to_end").needs_end and not ReplayPolicy().needs_end
 
 
 @pytest.mark.parametrize("scale", [3, 5])
 @pytest.mark.parametrize("undecided", [True, False])
 def test_answer_buttons_cast_only_allowed_choices_with_distinct_keys(
-        scale: int, undecided: bool) -> None:
+    scale: int, undecided: bool
+) -> None:
     buttons = answers(scale=scale, undecided_allowed=undecided, undecided_label="Same")
     assert {b.choice for b in buttons} == set(allowed_choices(undecided_allowed=undecided))
     assert len({b.key for b in buttons}) == len(buttons)

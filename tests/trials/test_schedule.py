@@ -225,8 +225,9 @@ def test_balanced_orientation_keeps_edges_and_balances_every_vertex(
 
 
 def test_balanced_orientation_of_a_triangle_is_a_cycle() -> None:
-    oriented = balanced_orientation([ConditionPair("a", "b"), ConditionPair("a", "c"),
-                                     ConditionPair("b", "c")])
+    oriented = balanced_orientation(
+        [ConditionPair("a", "b"), ConditionPair("a", "c"), ConditionPair("b", "c")]
+    )
     assert Counter(p.left for p in oriented) == Counter({"a": 1, "b": 1, "c": 1})
 
 

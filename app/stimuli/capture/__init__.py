@@ -50,5 +50,9 @@ def import_track(path: str | Path, kind: str | None = None, fps: float = 30.0) -
         return read_openface(path, fps)
     if kind == "arkit":
         return read_arkit_csv(path, fps)
-    raise InputError(f"not a tracker file facepair imports ({', '.join(FORMATS)}): its "
-                     "header is neither OpenFace's nor Live Link Face's", path=path, line=1)
+    raise InputError(
+        f"not a tracker file facepair imports ({', '.join(FORMATS)}): its "
+        "header is neither OpenFace's nor Live Link Face's",
+        path=path,
+        line=1,
+    )

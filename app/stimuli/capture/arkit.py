@@ -43,28 +43,77 @@ from app.stimuli.track import MotionTrack
 
 #: The 52 ARKit blendshapes in Live Link Face's column order.
 BLENDSHAPES: tuple[str, ...] = (
-    "EyeBlinkLeft", "EyeLookDownLeft", "EyeLookInLeft", "EyeLookOutLeft", "EyeLookUpLeft",
-    "EyeSquintLeft", "EyeWideLeft", "EyeBlinkRight", "EyeLookDownRight", "EyeLookInRight",
-    "EyeLookOutRight", "EyeLookUpRight", "EyeSquintRight", "EyeWideRight", "JawForward",
-    "JawRight", "JawLeft", "JawOpen", "MouthClose", "MouthFunnel", "MouthPucker", "MouthRight",
-    "MouthLeft", "MouthSmileLeft", "MouthSmileRight", "MouthFrownLeft", "MouthFrownRight",
-    "MouthDimpleLeft", "MouthDimpleRight", "MouthStretchLeft", "MouthStretchRight",
-    "MouthRollLower", "MouthRollUpper", "MouthShrugLower", "MouthShrugUpper", "MouthPressLeft",
-    "MouthPressRight", "MouthLowerDownLeft", "MouthLowerDownRight", "MouthUpperUpLeft",
-    "MouthUpperUpRight", "BrowDownLeft", "BrowDownRight", "BrowInnerUp", "BrowOuterUpLeft",
-    "BrowOuterUpRight", "CheekPuff", "CheekSquintLeft", "CheekSquintRight", "NoseSneerLeft",
-    "NoseSneerRight", "TongueOut")
-ROTATIONS: tuple[str, ...] = ("HeadYaw", "HeadPitch", "HeadRoll", "LeftEyeYaw",
-                              "LeftEyePitch", "LeftEyeRoll", "RightEyeYaw", "RightEyePitch",
-                              "RightEyeRoll")
+    "EyeBlinkLeft",
+    "EyeLookDownLeft",
+    "EyeLookInLeft",
+    "EyeLookOutLeft",
+    "EyeLookUpLeft",
+    "EyeSquintLeft",
+    "EyeWideLeft",
+    "EyeBlinkRight",
+    "EyeLookDownRight",
+    "EyeLookInRight",
+    "EyeLookOutRight",
+    "EyeLookUpRight",
+    "EyeSquintRight",
+    "EyeWideRight",
+    "JawForward",
+    "JawRight",
+    "JawLeft",
+    "JawOpen",
+    "MouthClose",
+    "MouthFunnel",
+    "MouthPucker",
+    "MouthRight",
+    "MouthLeft",
+    "MouthSmileLeft",
+    "MouthSmileRight",
+    "MouthFrownLeft",
+    "MouthFrownRight",
+    "MouthDimpleLeft",
+    "MouthDimpleRight",
+    "MouthStretchLeft",
+    "MouthStretchRight",
+    "MouthRollLower",
+    "MouthRollUpper",
+    "MouthShrugLower",
+    "MouthShrugUpper",
+    "MouthPressLeft",
+    "MouthPressRight",
+    "MouthLowerDownLeft",
+    "MouthLowerDownRight",
+    "MouthUpperUpLeft",
+    "MouthUpperUpRight",
+    "BrowDownLeft",
+    "BrowDownRight",
+    "BrowInnerUp",
+    "BrowOuterUpLeft",
+    "BrowOuterUpRight",
+    "CheekPuff",
+    "CheekSquintLeft",
+    "CheekSquintRight",
+    "NoseSneerLeft",
+    "NoseSneerRight",
+    "TongueOut",
+)
+ROTATIONS: tuple[str, ...] = (
+    "HeadYaw",
+    "HeadPitch",
+    "HeadRoll",
+    "LeftEyeYaw",
+    "LeftEyePitch",
+    "LeftEyeRoll",
+    "RightEyeYaw",
+    "RightEyePitch",
+    "RightEyeRoll",
+)
 HEADER: tuple[str, ...] = ("Timecode", "BlendShapeCount", *BLENDSHAPES, *ROTATIONS)
 APP_RATES = (24.0, 25.0, 30.0, 48.0, 50.0, 60.0)
 BROW, JAW = 100.0, 800.0
 _TIMECODE = re.compile(r"^(\d+):(\d{1,2}):(\d{1,2}):(\d{1,3})(?:\.(\d+))?$")
 
 
-def arkit_mapping(brow: float = BROW, jaw: float = JAW, flip: Iterable[str] = ()
-                  ) -> FapMapping:
+def arkit_mapping(brow: float = BROW, jaw: float = JAW, flip: Iterable[str] = ()) -> FapMapping:
     """The table of the module docstring; ``flip`` names rotation columns whose sign to turn
     (e.g. ``("HeadPitch",)``)."""
     flipped = {name.lower() for name in flip}
@@ -75,17 +124,30 @@ def arkit_mapping(brow: float = BROW, jaw: float = JAW, flip: Iterable[str] = ()
     def brows(side: str) -> dict[int, dict[str, float]]:
         down, outer = f"BrowDown{side}", f"BrowOuterUp{side}"
         i, m, o = (31, 33, 35) if side == "Left" else (32, 34, 36)
-        return {i: {"BrowInnerUp": brow, down: -brow},
-                m: {"BrowInnerUp": brow / 2, outer: brow / 2, down: -brow},
-                o: {outer: brow, down: -brow}}
+        return {
+            i: {"BrowInnerUp": brow, down: -brow},
+            m: {"BrowInnerUp": brow / 2, outer: brow / 2, down: -brow},
+            o: {outer: brow, down: -brow},
+        }
 
     return FapMapping(
-        angles={48: angle("HeadPitch"), 49: angle("HeadYaw"), 50: angle("HeadRoll"),
-                23: angle("LeftEyeYaw"), 24: angle("RightEyeYaw"),
-                25: angle("LeftEyePitch"), 26: angle("RightEyePitch")},
+        angles={
+            48: angle("HeadPitch"),
+            49: angle("HeadYaw"),
+            50: angle("HeadRoll"),
+            23: angle("LeftEyeYaw"),
+            24: angle("RightEyeYaw"),
+            25: angle("LeftEyePitch"),
+            26: angle("RightEyePitch"),
+        },
         sums={**brows("Left"), **brows("Right"), 3: {"JawOpen": jaw}},
-        lids={19: ("EyeBlinkLeft", 1.0), 21: ("EyeBlinkLeft", 1.0),
-              20: ("EyeBlinkRight", 1.0), 22: ("EyeBlinkRight", 1.0)})
+        lids={
+            19: ("EyeBlinkLeft", 1.0),
+            21: ("EyeBlinkLeft", 1.0),
+            20: ("EyeBlinkRight", 1.0),
+            22: ("EyeBlinkRight", 1.0),
+        },
+    )
 
 
 ARKIT_MAP = arkit_mapping()
@@ -113,17 +175,23 @@ def parse_timecode(text: str, app_fps: float) -> float:
     return h * 3600 + mi * 60 + s + ff / app_fps
 
 
-def read_arkit_csv(path: str | Path, fps: float = 30.0, *, app_fps: float | None = None,
-                   max_gap_s: float = MAX_GAP_S, mapping: FapMapping = ARKIT_MAP
-                   ) -> MotionTrack:
+def read_arkit_csv(
+    path: str | Path,
+    fps: float = 30.0,
+    *,
+    app_fps: float | None = None,
+    max_gap_s: float = MAX_GAP_S,
+    mapping: FapMapping = ARKIT_MAP,
+) -> MotionTrack:
     """A Live Link Face CSV as a FAP track at ``fps`` (timecode to time, then resampled).
 
     ``app_fps`` is the app's frame rate behind the timecodes; by default the smallest of
     24/25/30/48/50/60 above every frame number in the file (60 for a take under a second).
     """
     p = Path(path)
-    table = read_numeric_csv(p, check_header=_header_problem,
-                             text_columns={"Timecode": _timecode_problem})
+    table = read_numeric_csv(
+        p, check_header=_header_problem, text_columns={"Timecode": _timecode_problem}
+    )
     header, data, rows = table.header, table.values, table.lines
     stamps = table.text[header[0]]
     names = {h.lower(): i for i, h in enumerate(header)}
@@ -139,9 +207,17 @@ def read_arkit_csv(path: str | Path, fps: float = 30.0, *, app_fps: float | None
     faps = mapping.apply(column, available)
     if not faps:
         raise InputError("no blendshape or rotation column to import", path=p, line=1)
-    track, report = to_track(times - times[0], faps, np.ones(len(times), bool), fps=fps,
-                             path=str(p), max_gap_s=max_gap_s, rows=rows, name=p.stem,
-                             source=f"ARKit blendshape CSV {p.name}")
+    track, report = to_track(
+        times - times[0],
+        faps,
+        np.ones(len(times), bool),
+        fps=fps,
+        path=str(p),
+        max_gap_s=max_gap_s,
+        rows=rows,
+        name=p.stem,
+        source=f"ARKit blendshape CSV {p.name}",
+    )
     report.update(app_fps=app_fps, missing=mapping.needs(available))
     return mapping.limit(track).replace(metadata={**track.metadata, "capture": report})
 
@@ -156,8 +232,7 @@ def _header_problem(header: list[str]) -> str | None:
     return "not a Live Link Face CSV: the header must start 'Timecode,BlendShapeCount'"
 
 
-def write_arkit_csv(track: MotionTrack, path: str | Path, *, app_fps: float | None = None
-                    ) -> None:
+def write_arkit_csv(track: MotionTrack, path: str | Path, *, app_fps: float | None = None) -> None:
     """Write ``track`` in Live Link Face's layout: the inverse of :func:`arkit_mapping`.
 
     Timecodes count frames of ``app_fps`` (default: the track's rate). Blendshapes are
@@ -166,8 +241,10 @@ def write_arkit_csv(track: MotionTrack, path: str | Path, *, app_fps: float | No
     rate = float(app_fps or track.fps)
     n = track.n_frames
     weights = arkit_weights(track.dense())
-    cols = {name: np.clip(weights[name], 0.0, 1.0) if name in BLENDSHAPES else weights[name]
-            for name in (*BLENDSHAPES, *ROTATIONS)}
+    cols = {
+        name: np.clip(weights[name], 0.0, 1.0) if name in BLENDSHAPES else weights[name]
+        for name in (*BLENDSHAPES, *ROTATIONS)
+    }
     with Path(path).open("w", newline="", encoding="utf-8") as f:
         out = csv.writer(f, lineterminator="\n")
         out.writerow(HEADER)
@@ -179,8 +256,13 @@ def write_arkit_csv(track: MotionTrack, path: str | Path, *, app_fps: float | No
             h, rem = divmod(secs, 3600)
             mi, s = divmod(rem, 60)
             stamp = f"{h:02d}:{mi:02d}:{s:02d}:{ff:02d}.{round((frames - whole) * 1000):03d}"
-            out.writerow([stamp, len(BLENDSHAPES) + len(ROTATIONS),
-                          *(f"{cols[name][k]:.6f}" for name in (*BLENDSHAPES, *ROTATIONS))])
+            out.writerow(
+                [
+                    stamp,
+                    len(BLENDSHAPES) + len(ROTATIONS),
+                    *(f"{cols[name][k]:.6f}" for name in (*BLENDSHAPES, *ROTATIONS)),
+                ]
+            )
 
 
 def arkit_weights(faps: np.ndarray) -> dict[str, np.ndarray]:
@@ -203,9 +285,15 @@ def arkit_weights(faps: np.ndarray) -> dict[str, np.ndarray]:
 
     zero = np.zeros(f.shape[:-1])
     cols: dict[str, np.ndarray] = {name: zero for name in (*BLENDSHAPES, *ROTATIONS)}
-    for fap, name in ((48, "HeadPitch"), (49, "HeadYaw"), (50, "HeadRoll"),
-                      (23, "LeftEyeYaw"), (24, "RightEyeYaw"), (25, "LeftEyePitch"),
-                      (26, "RightEyePitch")):
+    for fap, name in (
+        (48, "HeadPitch"),
+        (49, "HeadYaw"),
+        (50, "HeadRoll"),
+        (23, "LeftEyeYaw"),
+        (24, "RightEyeYaw"),
+        (25, "LeftEyePitch"),
+        (26, "RightEyePitch"),
+    ):
         cols[name] = g(fap) * AU_RADIANS
     inner_up = []
     for side, i, o in (("Left", 31, 35), ("Right", 32, 36)):

@@ -42,8 +42,9 @@ DENSITY = 0.36
 FIRST_WINDOW, LARGEST_WINDOW = 3, 10
 
 
-def box_sums(table: np.ndarray, top: np.ndarray, left: np.ndarray, k: np.ndarray | int
-             ) -> np.ndarray:
+def box_sums(
+    table: np.ndarray, top: np.ndarray, left: np.ndarray, k: np.ndarray | int
+) -> np.ndarray:
     """Sums of ``k`` x ``k`` boxes at (``top``, ``left``) from a zero-padded summed-area table,
     boxes clipped to the image."""
     h, w = table.shape[0] - 1, table.shape[1] - 1
@@ -59,8 +60,14 @@ def summed_area(values: np.ndarray) -> np.ndarray:
     return out
 
 
-def find_markers(image: np.ndarray, threshold: float = 128.0, *, density: float = DENSITY,
-                 largest: int = LARGEST_WINDOW, weights: str = "grey") -> np.ndarray:
+def find_markers(
+    image: np.ndarray,
+    threshold: float = 128.0,
+    *,
+    density: float = DENSITY,
+    largest: int = LARGEST_WINDOW,
+    weights: str = "grey",
+) -> np.ndarray:
     """Centres of the markers in one grey frame, (k, 2) pixel coordinates (x right, y down,
     the centre of pixel (i, j) at (j + 0.5, i + 0.5)), top to bottom.
 
@@ -73,8 +80,12 @@ def find_markers(image: np.ndarray, threshold: float = 128.0, *, density: float 
     ones = grey >= threshold
     table = summed_area(ones)
     n_first = FIRST_WINDOW * FIRST_WINDOW
-    counts = table[FIRST_WINDOW:, FIRST_WINDOW:] - table[:-FIRST_WINDOW, FIRST_WINDOW:] \
-        - table[FIRST_WINDOW:, :-FIRST_WINDOW] + table[:-FIRST_WINDOW, :-FIRST_WINDOW]
+    counts = (
+        table[FIRST_WINDOW:, FIRST_WINDOW:]
+        - table[:-FIRST_WINDOW, FIRST_WINDOW:]
+        - table[FIRST_WINDOW:, :-FIRST_WINDOW]
+        + table[:-FIRST_WINDOW, :-FIRST_WINDOW]
+    )
     candidates = counts >= density * n_first - 1e-9  # window top-left corners
     groups, n = ndimage.label(candidates, structure=np.ones((3, 3)))
     if n == 0:
@@ -90,8 +101,11 @@ def find_markers(image: np.ndarray, threshold: float = 128.0, *, density: float 
     mass = (grey - threshold).clip(min=0.0) if weights == "grey" else ones.astype(np.float64)
     if weights not in ("grey", "binary"):
         raise ValueError(f"weights must be 'grey' or 'binary', got {weights!r}")
-    tables = [summed_area(mass), summed_area(mass * (np.arange(grey.shape[1]) + 0.5)),
-              summed_area(mass * (np.arange(grey.shape[0])[:, None] + 0.5))]
+    tables = [
+        summed_area(mass),
+        summed_area(mass * (np.arange(grey.shape[1]) + 0.5)),
+        summed_area(mass * (np.arange(grey.shape[0])[:, None] + 0.5)),
+    ]
     for _ in range(2):  # centre of gravity in the grown box, then in the box re-centred on it
         top = np.floor(centre_y - size / 2.0 + 0.5).astype(np.int64)
         left = np.floor(centre_x - size / 2.0 + 0.5).astype(np.int64)
@@ -103,8 +117,9 @@ def find_markers(image: np.ndarray, threshold: float = 128.0, *, density: float 
     return _merge(centres[np.argsort(centres[:, 1], kind="stable")], 1.0)
 
 
-def _grow(table: np.ndarray, cy: np.ndarray, cx: np.ndarray, density: float, largest: int
-          ) -> np.ndarray:
+def _grow(
+    table: np.ndarray, cy: np.ndarray, cx: np.ndarray, density: float, largest: int
+) -> np.ndarray:
     """Side of each area grown about (cy, cx) while its density stays >= ``density``."""
     size = np.full(len(cy), FIRST_WINDOW, np.int64)
     growing = np.ones(len(cy), bool)

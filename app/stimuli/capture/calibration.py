@@ -40,8 +40,9 @@ from app.stimuli.fap import AU_RADIANS, HEAD_PITCH, HEAD_YAW
 from app.stimuli.track import MotionTrack
 
 
-def calibrate(tracks: MarkerTracks, truth: MotionTrack,
-              base: MarkerConstants = DEFAULT_CONSTANTS) -> MarkerConstants:
+def calibrate(
+    tracks: MarkerTracks, truth: MotionTrack, base: MarkerConstants = DEFAULT_CONSTANTS
+) -> MarkerConstants:
     """``base`` with ``kp``, ``ky`` and the eyebrows' pitch couplings measured on ``tracks``,
     a capture of a neutral face whose head pitch and yaw are ``truth``'s FAPs 48 and 49
     (sampled at the capture's time stamps)."""
@@ -50,14 +51,25 @@ def calibrate(tracks: MarkerTracks, truth: MotionTrack,
     yaw = np.interp(times, truth.times, truth.get(HEAD_YAW)) * AU_RADIANS
     design = np.column_stack([pitch - pitch[0], yaw - yaw[0]])
     if np.ptp(design[:, 0]) < np.radians(1.0) or np.ptp(design[:, 1]) < np.radians(1.0):
-        raise InputError("the calibration needs the head to pitch and to yaw by a few "
-                         "degrees at least (FAPs 48 and 49 of the known motion)")
+        raise InputError(
+            "the calibration needs the head to pitch and to yaw by a few "
+            "degrees at least (FAPs 48 and 49 of the known motion)"
+        )
     geometry = post_geometry(tracks)
     brows = brow_distances(tracks, geometry, base)
-    measured = np.column_stack([geometry["hratio"] - geometry["hratio"][0],
-                                geometry["vratio"] - geometry["vratio"][0],
-                                brows["inner"], brows["middle"]])
+    measured = np.column_stack(
+        [
+            geometry["hratio"] - geometry["hratio"][0],
+            geometry["vratio"] - geometry["vratio"][0],
+            brows["inner"],
+            brows["middle"],
+        ]
+    )
     coef = np.linalg.lstsq(design, measured, rcond=None)[0]  # (2, 4): pitch, yaw rows
-    return replace(base, kp=float(coef[0, 0] * np.radians(base.pitch_max_deg)),
-                   ky=float(coef[1, 1] * np.radians(base.yaw_max_deg)),
-                   brow_pitch_inner=float(coef[0, 2]), brow_pitch_middle=float(coef[0, 3]))
+    return replace(
+        base,
+        kp=float(coef[0, 0] * np.radians(base.pitch_max_deg)),
+        ky=float(coef[1, 1] * np.radians(base.yaw_max_deg)),
+        brow_pitch_inner=float(coef[0, 2]),
+        brow_pitch_middle=float(coef[0, 3]),
+    )

@@ -38,9 +38,12 @@ class NumericTable:
     text: dict[str, list[str]] = field(default_factory=dict)
 
 
-def read_numeric_csv(path: str | Path, *, check_header: Callable[[list[str]], str | None] =
-                     lambda header: None, text_columns: dict[str, Callable[[str], str | None]]
-                     | None = None) -> NumericTable:
+def read_numeric_csv(
+    path: str | Path,
+    *,
+    check_header: Callable[[list[str]], str | None] = lambda header: None,
+    text_columns: dict[str, Callable[[str], str | None]] | None = None,
+) -> NumericTable:
     """Read a tracker's CSV (see the module docstring).
 
     ``check_header(names)`` returns why the header is not the expected one, or ``None``;
@@ -65,8 +68,9 @@ def read_numeric_csv(path: str | Path, *, check_header: Callable[[list[str]], st
                     continue
                 line = reader.line_num
                 if len(record) != len(header):
-                    raise InputError(f"{len(record)} values for {len(header)} columns",
-                                     path=p, line=line)
+                    raise InputError(
+                        f"{len(record)} values for {len(header)} columns", path=p, line=line
+                    )
                 row = []
                 for i, cell in enumerate(record):
                     if i in text_at:
@@ -79,8 +83,9 @@ def read_numeric_csv(path: str | Path, *, check_header: Callable[[list[str]], st
                     try:
                         row.append(float(cell))
                     except ValueError:
-                        raise InputError(f"column {header[i]}: not a number: {cell[:40]!r}",
-                                         path=p, line=line) from None
+                        raise InputError(
+                            f"column {header[i]}: not a number: {cell[:40]!r}", path=p, line=line
+                        ) from None
                 values.append(row)
                 lines.append(line)
     except FileNotFoundError:

@@ -75,9 +75,14 @@ def frame_label(k: int, t: float) -> str:
     return f"frame {k} ({t:.3f} s)"
 
 
-def label_neutral(spots: np.ndarray, t: float = 0.0, *, names: tuple[str, ...] = MARKERS,
-                  layout: Mapping[str, tuple[float, float]] = NEUTRAL_LAYOUT,
-                  path: str | None = None) -> np.ndarray:
+def label_neutral(
+    spots: np.ndarray,
+    t: float = 0.0,
+    *,
+    names: tuple[str, ...] = MARKERS,
+    layout: Mapping[str, tuple[float, float]] = NEUTRAL_LAYOUT,
+    path: str | None = None,
+) -> np.ndarray:
     """Positions of ``names`` (four posts first) in the neutral first frame, (n, 2).
 
     Raises an :class:`InputError` naming the first marker it cannot find.
@@ -85,9 +90,12 @@ def label_neutral(spots: np.ndarray, t: float = 0.0, *, names: tuple[str, ...] =
     spots = np.asarray(spots, dtype=np.float64).reshape(-1, 2)
     where = frame_label(0, t)
     if len(spots) < len(POSTS):
-        raise InputError(f"{where}: {len(spots)} bright spots, fewer than the head frame's "
-                         "4 post markers (the first frame must show every marker in the "
-                         "neutral pose)", path=path)
+        raise InputError(
+            f"{where}: {len(spots)} bright spots, fewer than the head frame's "
+            "4 post markers (the first frame must show every marker in the "
+            "neutral pose)",
+            path=path,
+        )
     by_height = np.argsort(spots[:, 1], kind="stable")
     top = spots[by_height[:2]][np.argsort(spots[by_height[:2], 0])]
     bottom = spots[by_height[-2:]][np.argsort(spots[by_height[-2:], 0])]
@@ -96,15 +104,22 @@ def label_neutral(spots: np.ndarray, t: float = 0.0, *, names: tuple[str, ...] =
     face = [n for n in names if n not in POSTS]
     uv = np.array([layout[n] for n in face]).reshape(-1, 2)
     u, v = uv[:, :1], uv[:, 1:]
-    places = ((1 - u) * (1 - v) * posts[0] + u * (1 - v) * posts[1]
-              + (1 - u) * v * posts[2] + u * v * posts[3])
+    places = (
+        (1 - u) * (1 - v) * posts[0]
+        + u * (1 - v) * posts[1]
+        + (1 - u) * v * posts[2]
+        + u * v * posts[3]
+    )
     found = _match(places, rest, LAYOUT_RADIUS * _nearest(np.vstack([posts, places]))[4:])
     for k, name in enumerate(face):
         if found[k] < 0:
             x, y = places[k]
-            raise InputError(f"{where}: marker {name} not found near ({x:.0f}, {y:.0f}) px "
-                             f"({len(spots)} bright spots; the first frame must show all "
-                             f"{len(names)} markers in the neutral pose)", path=path)
+            raise InputError(
+                f"{where}: marker {name} not found near ({x:.0f}, {y:.0f}) px "
+                f"({len(spots)} bright spots; the first frame must show all "
+                f"{len(names)} markers in the neutral pose)",
+                path=path,
+            )
     return np.vstack([posts, rest[found]])
 
 
@@ -138,9 +153,16 @@ def _match(predicted: np.ndarray, spots: np.ndarray, radius: np.ndarray) -> np.n
 class MarkerTracker:
     """Labels the spots of each frame of a clip, the first frame being the neutral pose."""
 
-    def __init__(self, spots: np.ndarray, t: float, *, names: tuple[str, ...] = MARKERS,
-                 layout: Mapping[str, tuple[float, float]] = NEUTRAL_LAYOUT,
-                 max_gap_s: float = MAX_GAP_S, path: str | None = None) -> None:
+    def __init__(
+        self,
+        spots: np.ndarray,
+        t: float,
+        *,
+        names: tuple[str, ...] = MARKERS,
+        layout: Mapping[str, tuple[float, float]] = NEUTRAL_LAYOUT,
+        max_gap_s: float = MAX_GAP_S,
+        path: str | None = None,
+    ) -> None:
         self.names, self.max_gap_s, self.path = names, max_gap_s, path
         first = label_neutral(spots, t, names=names, layout=layout, path=path)
         self.radius = TRACK_RADIUS * _nearest(first)
@@ -166,8 +188,7 @@ class MarkerTracker:
         now = np.where(seen[:, None], spots[np.maximum(found, 0)], np.nan)
         was_seen = self.seen[-1]
         self.step = np.where((seen & was_seen)[:, None], now - self.last, 0.0)
-        self.last = np.where(seen[:, None], now,
-                             self.last if moved is None else moved(self.last))
+        self.last = np.where(seen[:, None], now, self.last if moved is None else moved(self.last))
         self.positions.append(now)
         self.seen.append(seen)
         self.times.append(float(t))
@@ -184,17 +205,20 @@ class MarkerTracker:
                 before = times[a - 1]
                 after = times[b] if b < len(times) else times[b - 1]
                 if after - before > self.max_gap_s + 1e-9:
-                    end = ("until the end" if b == len(times) else
-                           f"until {frame_label(b, times[b])}")
+                    end = (
+                        "until the end" if b == len(times) else f"until {frame_label(b, times[b])}"
+                    )
                     raise InputError(
                         f"marker {name} lost from {frame_label(a, times[a])} {end}, longer "
                         f"than the {self.max_gap_s:g} s recovered by interpolating between "
-                        "its last and first sightings", path=self.path)
+                        "its last and first sightings",
+                        path=self.path,
+                    )
                 gaps.append([name, a, b - 1])
             ok = seen[:, k]
             for axis in (0, 1):
                 pos[:, k, axis] = np.interp(times, times[ok], pos[ok, k, axis])
-        lost = {n: int((~seen[:, k]).sum()) for k, n in enumerate(self.names)
-                if not seen[:, k].all()}
+        lost = {
+            n: int((~seen[:, k]).sum()) for k, n in enumerate(self.names) if not seen[:, k].all()
+        }
         return MarkerTracks(pos, seen, times, self.names, {"lost": lost, "gaps": gaps})
-

@@ -45,8 +45,11 @@ class FapMapping:
 
     def limit(self, track: MotionTrack) -> MotionTrack:
         """Eyelid closures back into 0..closed after resampling (a low-pass rings at blinks)."""
-        lids = {c: np.clip(track[c], 0.0, LID_SHARE[c] * IRISD_CLOSED)
-                for c in self.lids if c in track.channels}
+        lids = {
+            c: np.clip(track[c], 0.0, LID_SHARE[c] * IRISD_CLOSED)
+            for c in self.lids
+            if c in track.channels
+        }
         return track.with_channels(lids) if lids else track
 
     def columns_of(self, fap: int) -> tuple[str, ...]:
@@ -69,8 +72,9 @@ class FapMapping:
                     out.setdefault(name, []).append(fap)
         return out
 
-    def apply(self, column: Callable[[str], np.ndarray], available: set[str]
-              ) -> dict[int, np.ndarray]:
+    def apply(
+        self, column: Callable[[str], np.ndarray], available: set[str]
+    ) -> dict[int, np.ndarray]:
         """FAP -> values for every FAP whose columns are all ``available``."""
         out: dict[int, np.ndarray] = {}
         for fap in self.faps:

@@ -107,8 +107,9 @@ class MarkerConstants:
         out: dict[str, Any] = {}
         for key, value in data.items():
             if key not in types:
-                raise InputError(f"unknown constant (known: {', '.join(types)})", path=path,
-                                 field=key)
+                raise InputError(
+                    f"unknown constant (known: {', '.join(types)})", path=path, field=key
+                )
             out[key] = _checked(key, value, getattr(cls(), key), path)
         return replace(cls(), **out)
 
@@ -119,14 +120,18 @@ DEFAULT_CONSTANTS = MarkerConstants()
 
 def _checked(key: str, value: Any, default: Any, path: str | Path) -> Any:
     """``value`` if it has the type of ``default`` (and is positive where that matters)."""
+
     def number(v: Any) -> bool:
         return isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v)
 
     if isinstance(default, bool):
         ok = isinstance(value, bool)
     elif isinstance(default, dict):
-        ok = (isinstance(value, dict) and set(value) <= set(default)
-              and all(number(v) and v > 0 for v in value.values()))
+        ok = (
+            isinstance(value, dict)
+            and set(value) <= set(default)
+            and all(number(v) and v > 0 for v in value.values())
+        )
         value = {**default, **value} if ok else value
     elif isinstance(default, tuple):
         ok = isinstance(value, list) and len(value) == len(default) and all(map(number, value))
@@ -156,18 +161,22 @@ def post_geometry(tracks: MarkerTracks) -> dict[str, np.ndarray]:
     left, right = tl - bl, tr - br
     left_len, right_len = np.linalg.norm(left, axis=1), np.linalg.norm(right, axis=1)
     avg = left / left_len[:, None] + right / right_len[:, None]
-    return {"hratio": np.linalg.norm(tl - tr, axis=1) / np.linalg.norm(bl - br, axis=1),
-            "vratio": left_len / right_len,
-            "roll": np.arctan2(-avg[:, 0], -avg[:, 1]),
-            "post": (left_len + right_len) / 2.0}
+    return {
+        "hratio": np.linalg.norm(tl - tr, axis=1) / np.linalg.norm(bl - br, axis=1),
+        "vratio": left_len / right_len,
+        "roll": np.arctan2(-avg[:, 0], -avg[:, 1]),
+        "post": (left_len + right_len) / 2.0,
+    }
 
 
 def head_pose(geometry: dict[str, np.ndarray], c: MarkerConstants) -> dict[int, np.ndarray]:
     """FAPs 48 (pitch), 49 (yaw), 50 (roll) in AU from :func:`post_geometry` (eq. 3-10)."""
     pitch = np.radians(c.pitch_max_deg) * np.clip(
-        (geometry["hratio"] - geometry["hratio"][0]) / c.kp, -1.0, 1.0)
+        (geometry["hratio"] - geometry["hratio"][0]) / c.kp, -1.0, 1.0
+    )
     yaw = np.radians(c.yaw_max_deg) * np.clip(
-        (geometry["vratio"] - geometry["vratio"][0]) / c.ky, -1.0, 1.0)
+        (geometry["vratio"] - geometry["vratio"][0]) / c.ky, -1.0, 1.0
+    )
     roll = geometry["roll"] - geometry["roll"][0]
     return {48: pitch / AU_RADIANS, 49: yaw / AU_RADIANS, 50: roll / AU_RADIANS}
 
@@ -179,8 +188,9 @@ def fapu_px(tracks: MarkerTracks, c: MarkerConstants) -> dict[str, float]:
     return {"ENS0": c.fapu_mm["ENS0"] * per_mm, "MNS0": c.fapu_mm["MNS0"] * per_mm, "MW0": mw0}
 
 
-def lip_faps(tracks: MarkerTracks, geometry: dict[str, np.ndarray], c: MarkerConstants
-             ) -> dict[int, np.ndarray]:
+def lip_faps(
+    tracks: MarkerTracks, geometry: dict[str, np.ndarray], c: MarkerConstants
+) -> dict[int, np.ndarray]:
     """Outer and inner lip FAPs from the four lip markers (eq. 11-21)."""
     unit = fapu_px(tracks, c)
     vlip = np.linalg.norm(tracks["lip_top"] - tracks["lip_bottom"], axis=1)
@@ -193,14 +203,21 @@ def lip_faps(tracks: MarkerTracks, geometry: dict[str, np.ndarray], c: MarkerCon
     top, bottom, corner = c.lip_weights
     stretch = (hlip - hlip[0]) / 2.0 / unit["MW0"] * 1024.0
     out: dict[int, np.ndarray] = {}
-    for fap, value in ((51, -top * opening), (52, -bottom * opening), (53, stretch),
-                       (54, stretch), (59, -corner * opening), (60, -corner * opening)):
+    for fap, value in (
+        (51, -top * opening),
+        (52, -bottom * opening),
+        (53, stretch),
+        (54, stretch),
+        (59, -corner * opening),
+        (60, -corner * opening),
+    ):
         out[fap] = out[fap - 47] = value
     return out
 
 
-def brow_distances(tracks: MarkerTracks, geometry: dict[str, np.ndarray], c: MarkerConstants
-                   ) -> dict[str, np.ndarray]:
+def brow_distances(
+    tracks: MarkerTracks, geometry: dict[str, np.ndarray], c: MarkerConstants
+) -> dict[str, np.ndarray]:
     """Eq. 22-27 before the pitch coupling: post-corrected brow raises in ENS units."""
     unit = fapu_px(tracks, c)
     bridge = tracks["nose_bridge"]
@@ -213,8 +230,9 @@ def brow_distances(tracks: MarkerTracks, geometry: dict[str, np.ndarray], c: Mar
     return out
 
 
-def brow_faps(tracks: MarkerTracks, geometry: dict[str, np.ndarray], pitch_au: np.ndarray,
-              c: MarkerConstants) -> dict[int, np.ndarray]:
+def brow_faps(
+    tracks: MarkerTracks, geometry: dict[str, np.ndarray], pitch_au: np.ndarray, c: MarkerConstants
+) -> dict[int, np.ndarray]:
     """Eyebrow FAPs 31-34 (eq. 22-31), before the 5-frame mean (:func:`mean_filter`)."""
     raised = brow_distances(tracks, geometry, c)
     pitch = pitch_au * AU_RADIANS
@@ -232,10 +250,10 @@ def mean_filter(values: np.ndarray, seconds: float, fps: float) -> np.ndarray:
     return ndimage.uniform_filter1d(np.asarray(values, np.float64), width, mode="nearest")
 
 
-def marker_faps(tracks: MarkerTracks, c: MarkerConstants = DEFAULT_CONSTANTS
-                ) -> dict[int, np.ndarray]:
+def marker_faps(
+    tracks: MarkerTracks, c: MarkerConstants = DEFAULT_CONSTANTS
+) -> dict[int, np.ndarray]:
     """Every FAP the marker set gives, per captured frame (eyebrows not yet averaged)."""
     geometry = post_geometry(tracks)
     head = head_pose(geometry, c)
-    return {**head, **lip_faps(tracks, geometry, c),
-            **brow_faps(tracks, geometry, head[48], c)}
+    return {**head, **lip_faps(tracks, geometry, c), **brow_faps(tracks, geometry, head[48], c)}

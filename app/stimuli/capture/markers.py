@@ -41,10 +41,15 @@ from app.stimuli.track import MotionTrack
 THRESHOLD = 128.0
 
 
-def label_frames(frames: Iterable[tuple[float, np.ndarray]], *, threshold: float = THRESHOLD,
-                 weights: str = "grey", max_gap_s: float = MAX_GAP_S,
-                 path: str | None = None,
-                 progress: Callable[[int], None] | None = None) -> MarkerTracks:
+def label_frames(
+    frames: Iterable[tuple[float, np.ndarray]],
+    *,
+    threshold: float = THRESHOLD,
+    weights: str = "grey",
+    max_gap_s: float = MAX_GAP_S,
+    path: str | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> MarkerTracks:
     """Segment and label ``(time, grey frame)`` pairs; the first is the neutral pose."""
     tracker: MarkerTracker | None = None
     for k, (t, grey) in enumerate(frames):
@@ -60,28 +65,46 @@ def label_frames(frames: Iterable[tuple[float, np.ndarray]], *, threshold: float
     return tracker.finish()
 
 
-def tracks_to_faps(tracks: MarkerTracks, *, fps: float = 30.0,
-                   constants: MarkerConstants = DEFAULT_CONSTANTS,
-                   max_gap_s: float = MAX_GAP_S, path: str | None = None,
-                   name: str = "") -> MotionTrack:
+def tracks_to_faps(
+    tracks: MarkerTracks,
+    *,
+    fps: float = 30.0,
+    constants: MarkerConstants = DEFAULT_CONSTANTS,
+    max_gap_s: float = MAX_GAP_S,
+    path: str | None = None,
+    name: str = "",
+) -> MotionTrack:
     """The FAP track of labelled markers at ``fps``; its metadata holds the capture report."""
     columns = marker_faps(tracks, constants)
-    track, report = to_track(tracks.times, columns, np.ones(len(tracks.times), bool), fps=fps,
-                             source="marker capture", path=path, max_gap_s=max_gap_s,
-                             rows=np.arange(len(tracks.times)), name=name)
-    brows = {f: mean_filter(track[f], constants.smooth_s, fps)
-             for f in EYEBROWS if f in track.channels}
-    report = {**report, "markers_lost": tracks.report["lost"],
-              "marker_gaps": tracks.report["gaps"]}
+    track, report = to_track(
+        tracks.times,
+        columns,
+        np.ones(len(tracks.times), bool),
+        fps=fps,
+        source="marker capture",
+        path=path,
+        max_gap_s=max_gap_s,
+        rows=np.arange(len(tracks.times)),
+        name=name,
+    )
+    brows = {
+        f: mean_filter(track[f], constants.smooth_s, fps) for f in EYEBROWS if f in track.channels
+    }
+    report = {**report, "markers_lost": tracks.report["lost"], "marker_gaps": tracks.report["gaps"]}
     track = track.with_channels(brows)
     return track.replace(metadata={**track.metadata, "capture": report})
 
 
-def capture_markers(path: str | Path, *, fps: float = 30.0,
-                    constants: MarkerConstants = DEFAULT_CONSTANTS,
-                    threshold: float = THRESHOLD, weights: str = "grey",
-                    max_gap_s: float = MAX_GAP_S,
-                    progress: Callable[[int, int], None] | None = None) -> MotionTrack:
+def capture_markers(
+    path: str | Path,
+    *,
+    fps: float = 30.0,
+    constants: MarkerConstants = DEFAULT_CONSTANTS,
+    threshold: float = THRESHOLD,
+    weights: str = "grey",
+    max_gap_s: float = MAX_GAP_S,
+    progress: Callable[[int, int], None] | None = None,
+) -> MotionTrack:
     """Run the whole capture on a video file (any imageio-ffmpeg reads); see the module text.
 
     ``progress(done, total)`` is called after each frame (``total`` an estimate from the
@@ -91,7 +114,19 @@ def capture_markers(path: str | Path, *, fps: float = 30.0,
 
     info = video_info(path)
     report = None if progress is None else (lambda k: progress(k, info["n_frames"]))
-    tracks = label_frames(read_grey_frames(path, info), threshold=threshold, weights=weights,
-                          max_gap_s=max_gap_s, path=str(path), progress=report)
-    return tracks_to_faps(tracks, fps=fps, constants=constants, max_gap_s=max_gap_s,
-                          path=str(path), name=Path(path).stem)
+    tracks = label_frames(
+        read_grey_frames(path, info),
+        threshold=threshold,
+        weights=weights,
+        max_gap_s=max_gap_s,
+        path=str(path),
+        progress=report,
+    )
+    return tracks_to_faps(
+        tracks,
+        fps=fps,
+        constants=constants,
+        max_gap_s=max_gap_s,
+        path=str(path),
+        name=Path(path).stem,
+    )

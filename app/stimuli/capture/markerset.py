@@ -50,15 +50,20 @@ POSTS: tuple[str, ...] = ("TL", "TR", "BL", "BR")
 
 #: The 13 face markers and their sites (thesis sec. 3.2.1, 4.1).
 SITES: dict[str, Site] = {
-    "brow_inner_l": Site("4.1"), "brow_inner_r": Site("4.2"),
-    "brow_middle_l": Site("4.3"), "brow_middle_r": Site("4.4"),
+    "brow_inner_l": Site("4.1"),
+    "brow_inner_r": Site("4.2"),
+    "brow_middle_l": Site("4.3"),
+    "brow_middle_r": Site("4.4"),
     # at the eye line, where the eyebrows' zones end: the fiducial the eyebrows are measured
     # from must not move with them
     "nose_bridge": Site(None, 0.0, -0.1),
     "nose_tip": Site("9.3", 0.0, -0.45),
-    "cheek_l": Site(None, 0.61, -0.62), "cheek_r": Site(None, -0.61, -0.62),
-    "lip_top": Site("8.1"), "lip_bottom": Site("8.2"),
-    "lip_corner_l": Site("8.3"), "lip_corner_r": Site("8.4"),
+    "cheek_l": Site(None, 0.61, -0.62),
+    "cheek_r": Site(None, -0.61, -0.62),
+    "lip_top": Site("8.1"),
+    "lip_bottom": Site("8.2"),
+    "lip_corner_l": Site("8.3"),
+    "lip_corner_r": Site("8.4"),
     "chin": Site("2.10", 0.0, -2.0),
 }
 
@@ -87,12 +92,17 @@ HEAD_FRAME = HeadFrame()
 
 #: Face markers' neutral places inside the frame: (u, v) fractions (see the module text).
 NEUTRAL_LAYOUT: dict[str, tuple[float, float]] = {
-    "brow_inner_l": (0.594, 0.233), "brow_inner_r": (0.406, 0.233),
-    "brow_middle_l": (0.682, 0.208), "brow_middle_r": (0.318, 0.208),
+    "brow_inner_l": (0.594, 0.233),
+    "brow_inner_r": (0.406, 0.233),
+    "brow_middle_l": (0.682, 0.208),
+    "brow_middle_r": (0.318, 0.208),
     "nose_bridge": (0.500, 0.371),
     "nose_tip": (0.500, 0.559),
-    "cheek_l": (0.729, 0.513), "cheek_r": (0.271, 0.513),
-    "lip_top": (0.500, 0.711), "lip_bottom": (0.500, 0.834),
-    "lip_corner_l": (0.666, 0.746), "lip_corner_r": (0.334, 0.746),
+    "cheek_l": (0.729, 0.513),
+    "cheek_r": (0.271, 0.513),
+    "lip_top": (0.500, 0.711),
+    "lip_bottom": (0.500, 0.834),
+    "lip_corner_l": (0.666, 0.746),
+    "lip_corner_r": (0.334, 0.746),
     "chin": (0.500, 0.947),
 }

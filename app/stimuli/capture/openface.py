@@ -39,19 +39,34 @@ REQUIRED = ("frame", "timestamp", "confidence", "success")
 MIN_CONFIDENCE = 0.75
 
 
-def openface_mapping(brow: float = 25.0, jaw: float = 120.0, blink_closed: float = 3.0
-                     ) -> FapMapping:
+def openface_mapping(
+    brow: float = 25.0, jaw: float = 120.0, blink_closed: float = 3.0
+) -> FapMapping:
     """The table of the module docstring with its scales (FAPU per AU intensity)."""
     inner = {"AU01_r": brow, "AU04_r": -brow}
     middle = {"AU01_r": brow / 2, "AU02_r": brow / 2, "AU04_r": -brow}
     outer = {"AU02_r": brow, "AU04_r": -brow}
     return FapMapping(
-        angles={48: ("pose_Rx", 1.0), 49: ("pose_Ry", -1.0), 50: ("pose_Rz", -1.0),
-                23: ("gaze_angle_x", 1.0), 24: ("gaze_angle_x", 1.0),
-                25: ("gaze_angle_y", 1.0), 26: ("gaze_angle_y", 1.0)},
-        sums={31: inner, 32: inner, 33: middle, 34: middle, 35: outer, 36: outer,
-              3: {"AU26_r": jaw}},
-        lids={c: ("AU45_r", blink_closed) for c in (19, 20, 21, 22)})
+        angles={
+            48: ("pose_Rx", 1.0),
+            49: ("pose_Ry", -1.0),
+            50: ("pose_Rz", -1.0),
+            23: ("gaze_angle_x", 1.0),
+            24: ("gaze_angle_x", 1.0),
+            25: ("gaze_angle_y", 1.0),
+            26: ("gaze_angle_y", 1.0),
+        },
+        sums={
+            31: inner,
+            32: inner,
+            33: middle,
+            34: middle,
+            35: outer,
+            36: outer,
+            3: {"AU26_r": jaw},
+        },
+        lids={c: ("AU45_r", blink_closed) for c in (19, 20, 21, 22)},
+    )
 
 
 OPENFACE_MAP = openface_mapping()
@@ -69,9 +84,14 @@ def is_openface(header: list[str]) -> bool:
     return header[:2] == ["frame", "face_id"] and "success" in header
 
 
-def read_openface(path: str | Path, fps: float = 30.0, *, min_confidence: float =
-                  MIN_CONFIDENCE, max_gap_s: float = MAX_GAP_S,
-                  mapping: FapMapping = OPENFACE_MAP) -> MotionTrack:
+def read_openface(
+    path: str | Path,
+    fps: float = 30.0,
+    *,
+    min_confidence: float = MIN_CONFIDENCE,
+    max_gap_s: float = MAX_GAP_S,
+    mapping: FapMapping = OPENFACE_MAP,
+) -> MotionTrack:
     """Read an OpenFace 2.0 CSV as a FAP track at ``fps`` (see the module docstring).
 
     The track's ``metadata["capture"]`` reports dropped frames, filled gaps and the FAPs
@@ -87,11 +107,22 @@ def read_openface(path: str | Path, fps: float = 30.0, *, min_confidence: float 
 
     faps = mapping.apply(column, set(col))
     if not faps:
-        raise InputError("no pose_R*, gaze_angle_* or AU*_r columns to import (run "
-                         "FeatureExtraction with -pose -gaze -aus)", path=path)
+        raise InputError(
+            "no pose_R*, gaze_angle_* or AU*_r columns to import (run "
+            "FeatureExtraction with -pose -gaze -aus)",
+            path=path,
+        )
     valid = (column("success") > 0.5) & (column("confidence") >= min_confidence)
-    track, report = to_track(column("timestamp"), faps, valid, fps=fps, path=str(path),
-                             max_gap_s=max_gap_s, rows=rows, name=Path(path).stem,
-                             source=f"OpenFace 2.0 CSV {Path(path).name}")
+    track, report = to_track(
+        column("timestamp"),
+        faps,
+        valid,
+        fps=fps,
+        path=str(path),
+        max_gap_s=max_gap_s,
+        rows=rows,
+        name=Path(path).stem,
+        source=f"OpenFace 2.0 CSV {Path(path).name}",
+    )
     report["missing"] = mapping.needs(set(col))
     return mapping.limit(track).replace(metadata={**track.metadata, "capture": report})

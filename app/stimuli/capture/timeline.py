@@ -29,9 +29,18 @@ from app.stimuli.track import MotionTrack
 MAX_GAP_S = 0.5
 
 
-def to_track(times: np.ndarray, columns: Mapping[int, np.ndarray], valid: np.ndarray, *,
-             fps: float, source: str, path: str | None = None, max_gap_s: float = MAX_GAP_S,
-             rows: np.ndarray | None = None, name: str = "") -> tuple[MotionTrack, dict[str, Any]]:
+def to_track(
+    times: np.ndarray,
+    columns: Mapping[int, np.ndarray],
+    valid: np.ndarray,
+    *,
+    fps: float,
+    source: str,
+    path: str | None = None,
+    max_gap_s: float = MAX_GAP_S,
+    rows: np.ndarray | None = None,
+    name: str = "",
+) -> tuple[MotionTrack, dict[str, Any]]:
     """A track at ``fps`` from samples at ``times`` (seconds) where ``valid`` is true.
 
     The capture's own rate is the median spacing of the valid samples; the samples are put on
@@ -53,8 +62,9 @@ def to_track(times: np.ndarray, columns: Mapping[int, np.ndarray], valid: np.nda
     if np.any(steps < 0):
         k = int(np.flatnonzero(steps < 0)[0]) + 1
         where = f"row {int(rows[ok][k])}" if rows is not None else f"sample {k}"
-        raise InputError(f"{where}: time goes backwards ({tv[k - 1]:.3f} s then {tv[k]:.3f} s)",
-                         path=path)
+        raise InputError(
+            f"{where}: time goes backwards ({tv[k - 1]:.3f} s then {tv[k]:.3f} s)", path=path
+        )
     positive = steps[steps > 0]
     if len(positive) == 0:
         raise InputError("all usable frames have the same time stamp", path=path)
@@ -74,18 +84,33 @@ def to_track(times: np.ndarray, columns: Mapping[int, np.ndarray], valid: np.nda
         raise InputError(
             f"no usable frame for {(b - a) / capture_fps:.2f} s between rows {before} and "
             f"{after} ({tv[0] + a / capture_fps:.2f}-{tv[0] + b / capture_fps:.2f} s), more "
-            f"than the {max_gap_s:g} s that are filled by interpolation", path=path)
+            f"than the {max_gap_s:g} s that are filled by interpolation",
+            path=path,
+        )
     grid_t = np.arange(n_grid)
-    values = np.column_stack([
-        np.interp(grid_t, grid_index, np.asarray(col, dtype=np.float64)[ok])
-        for col in columns.values()]) if columns else np.zeros((n_grid, 0))
+    values = (
+        np.column_stack(
+            [
+                np.interp(grid_t, grid_index, np.asarray(col, dtype=np.float64)[ok])
+                for col in columns.values()
+            ]
+        )
+        if columns
+        else np.zeros((n_grid, 0))
+    )
     raw = MotionTrack(capture_fps, values, tuple(columns), name=name, source=source)
     track = raw.resample(fps) if abs(capture_fps - fps) > 1e-6 else raw.replace(fps=fps)
-    report = {"capture_fps": round(capture_fps, 4), "samples": int(len(t)),
-              "invalid_samples": int(len(t) - ok.sum()), "filled_frames": int(filled.sum()),
-              "gaps": [[round(tv[0] + a / capture_fps, 3), round(tv[0] + b / capture_fps, 3)]
-                       for a, b in gaps],
-              "duplicates": duplicates, "start_s": round(float(tv[0]), 3)}
+    report = {
+        "capture_fps": round(capture_fps, 4),
+        "samples": int(len(t)),
+        "invalid_samples": int(len(t) - ok.sum()),
+        "filled_frames": int(filled.sum()),
+        "gaps": [
+            [round(tv[0] + a / capture_fps, 3), round(tv[0] + b / capture_fps, 3)] for a, b in gaps
+        ],
+        "duplicates": duplicates,
+        "start_s": round(float(tv[0]), 3),
+    }
     return track.replace(metadata={**track.metadata, "capture": report}), report
 
 

@@ -42,32 +42,58 @@ def video_info(path: str | Path) -> dict[str, Any]:
     p = Path(path)
     if not p.is_file():
         raise InputError("video file not found", path=p)
-    probe = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-nostdin",
-                            "-i", str(p)], capture_output=True, text=True, errors="replace")
+    probe = subprocess.run(
+        [imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-nostdin", "-i", str(p)],
+        capture_output=True,
+        text=True,
+        errors="replace",
+    )
     video = _VIDEO.search(probe.stderr)
     if video is None:
         lines = probe.stderr.strip().splitlines()
         reason = lines[-1] if lines else "no video stream"
         raise InputError(f"not a video ffmpeg can read ({reason})", path=p)
-    fps = _FPS.search(probe.stderr[video.start():])
+    fps = _FPS.search(probe.stderr[video.start() :])
     rate = float(fps.group(1)) if fps else 0.0
     duration = _DURATION.search(probe.stderr)
-    seconds = (3600 * int(duration.group(1)) + 60 * int(duration.group(2))
-               + float(duration.group(3))) if duration else 0.0
-    return {"size": (int(video.group(1)), int(video.group(2))), "fps": rate,
-            "n_frames": int(round(seconds * rate))}
+    seconds = (
+        (3600 * int(duration.group(1)) + 60 * int(duration.group(2)) + float(duration.group(3)))
+        if duration
+        else 0.0
+    )
+    return {
+        "size": (int(video.group(1)), int(video.group(2))),
+        "fps": rate,
+        "n_frames": int(round(seconds * rate)),
+    }
 
 
-def read_grey_frames(path: str | Path, info: dict[str, Any] | None = None
-                     ) -> Iterator[tuple[float, np.ndarray]]:
+def read_grey_frames(
+    path: str | Path, info: dict[str, Any] | None = None
+) -> Iterator[tuple[float, np.ndarray]]:
     """``(time stamp in seconds, (h, w) uint8 luma)`` for every stored frame, in order."""
     import imageio_ffmpeg
 
     info = info or video_info(path)
     width, height = info["size"]
-    cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-nostdin", "-i", str(path),
-           "-map", "0:v:0", "-fps_mode", "passthrough", "-vf", "showinfo",
-           "-f", "rawvideo", "-pix_fmt", "gray", "-"]
+    cmd = [
+        imageio_ffmpeg.get_ffmpeg_exe(),
+        "-hide_banner",
+        "-nostdin",
+        "-i",
+        str(path),
+        "-map",
+        "0:v:0",
+        "-fps_mode",
+        "passthrough",
+        "-vf",
+        "showinfo",
+        "-f",
+        "rawvideo",
+        "-pix_fmt",
+        "gray",
+        "-",
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     stamps: list[float] = []
     log: list[bytes] = []
@@ -110,8 +136,7 @@ def read_grey_frames(path: str | Path, info: dict[str, Any] | None = None
             proc.stderr.close()
     if k == 0:
         tail = b"".join(log[-3:]).decode(errors="replace").strip().splitlines()
-        raise InputError(f"no frames decoded ({tail[-1] if tail else 'empty video'})",
-                         path=path)
+        raise InputError(f"no frames decoded ({tail[-1] if tail else 'empty video'})", path=path)
 
 
 def _has_more(stamps: list[float], k: int) -> bool:

@@ -51,7 +51,8 @@ def condition_class(name: str) -> type[ConditionModel]:
     if name not in CONDITIONS:
         raise InputError(
             f"unknown condition {name!r}: expected one of {', '.join(CONDITIONS)}",
-            field="conditions")
+            field="conditions",
+        )
     module_name, _, class_name = CONDITIONS[name].partition(":")
     try:
         module = importlib.import_module(module_name)
@@ -59,12 +60,15 @@ def condition_class(name: str) -> type[ConditionModel]:
         missing = exc.name or module_name
         raise InputError(
             f"condition {name!r} is not available in this installation: module {missing!r} "
-            f"is missing (needed by {module_name})", field="conditions") from None
+            f"is missing (needed by {module_name})",
+            field="conditions",
+        ) from None
     try:
         return getattr(module, class_name)
     except AttributeError:
-        raise InputError(f"condition {name!r}: {module_name} defines no {class_name}",
-                         field="conditions") from None
+        raise InputError(
+            f"condition {name!r}: {module_name} defines no {class_name}", field="conditions"
+        ) from None
 
 
 def make_condition(name: str, **params: Any) -> ConditionModel:

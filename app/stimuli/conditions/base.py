@@ -31,8 +31,9 @@ class ConditionModel:
         self."""
         return self
 
-    def generate(self, features: SpeechFeatures, *, seed: int = 0,
-                 ground_truth: MotionTrack | None = None) -> MotionTrack:
+    def generate(
+        self, features: SpeechFeatures, *, seed: int = 0, ground_truth: MotionTrack | None = None
+    ) -> MotionTrack:
         """The condition's track for ``features``; ``ground_truth`` is the capture as it is
         (at its own rate and length), aligned here by :meth:`base_track`."""
         raise NotImplementedError
@@ -42,8 +43,7 @@ class ConditionModel:
         return {}
 
     # -- helpers for subclasses ---------------------------------------------------------------
-    def base_track(self, features: SpeechFeatures, ground_truth: MotionTrack | None
-                   ) -> MotionTrack:
+    def base_track(self, features: SpeechFeatures, ground_truth: MotionTrack | None) -> MotionTrack:
         """The jaw and lips from ``ground_truth`` (aligned) and neutral prosody channels."""
         from app.stimuli.conditions import DISPLAY_NAMES
 
@@ -53,9 +53,13 @@ class ConditionModel:
             gt = align_to_features(ground_truth, features)
             speaker = gt.speaker
             carried = {c: gt[c] for c in gt.channels if c in JAW_LIPS}
-        track = MotionTrack.zeros(features.fps, features.n_frames, PROSODY,
-                                  name=DISPLAY_NAMES.get(self.name, self.name),
-                                  source=f"facepair condition {self.name}", speaker=speaker)
-        meta = {"condition": self.name,
-                "carried_from_ground_truth": sorted(carried)}
+        track = MotionTrack.zeros(
+            features.fps,
+            features.n_frames,
+            PROSODY,
+            name=DISPLAY_NAMES.get(self.name, self.name),
+            source=f"facepair condition {self.name}",
+            speaker=speaker,
+        )
+        meta = {"condition": self.name, "carried_from_ground_truth": sorted(carried)}
         return track.with_channels(carried).replace(metadata=meta)

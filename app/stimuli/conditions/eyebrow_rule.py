@@ -58,8 +58,14 @@ MAX_RAISE = 80.0
 LONG_HOLD_S = 4.0
 
 
-def raise_size(f0_peak: np.ndarray, f0_threshold: float, *, gain: float = RAISE_GAIN,
-               offset: float | None = None, max_raise: float = MAX_RAISE) -> np.ndarray:
+def raise_size(
+    f0_peak: np.ndarray,
+    f0_threshold: float,
+    *,
+    gain: float = RAISE_GAIN,
+    offset: float | None = None,
+    max_raise: float = MAX_RAISE,
+) -> np.ndarray:
     """Thesis sec. 4.3.4.1: "a scaled version of the fundamental frequency signal, with an
     appropriate offset", in ENS units: ``clip(gain * F0peak + offset, 0, max_raise)``.
 
@@ -77,10 +83,15 @@ def rising_crossings(f0_conditioned: np.ndarray, threshold: float) -> np.ndarray
     return np.flatnonzero((f0[:-1] < threshold) & (f0[1:] >= threshold)) + 1
 
 
-def eyebrow_raise_events(f0_conditioned: np.ndarray, intensity: np.ndarray, fps: float, *,
-                         f0_threshold: float = F0_THRESHOLD_HZ,
-                         intensity_threshold: float = INTENSITY_THRESHOLD_DB,
-                         min_hold_s: float = MIN_HOLD_S) -> list[tuple[int, int]]:
+def eyebrow_raise_events(
+    f0_conditioned: np.ndarray,
+    intensity: np.ndarray,
+    fps: float,
+    *,
+    f0_threshold: float = F0_THRESHOLD_HZ,
+    intensity_threshold: float = INTENSITY_THRESHOLD_DB,
+    min_hold_s: float = MIN_HOLD_S,
+) -> list[tuple[int, int]]:
     """Raises as ``(start, release)`` frame pairs: held on ``start .. release-1``.
 
     ``release`` may equal the frame count (held to the end).
@@ -101,16 +112,25 @@ def eyebrow_raise_events(f0_conditioned: np.ndarray, intensity: np.ndarray, fps:
     return events
 
 
-def eyebrow_raise_sizes(f0_conditioned: np.ndarray, events: list[tuple[int, int]],
-                        fps: float, min_hold_s: float = MIN_HOLD_S) -> np.ndarray:
+def eyebrow_raise_sizes(
+    f0_conditioned: np.ndarray,
+    events: list[tuple[int, int]],
+    fps: float,
+    min_hold_s: float = MIN_HOLD_S,
+) -> np.ndarray:
     """``F0peak`` of each raise: the highest conditioned F0 during its minimum hold."""
     f0 = np.asarray(f0_conditioned, dtype=np.float64)
     hold = max(math.ceil(min_hold_s * fps - 1e-9), 1)
-    return np.array([f0[s:min(s + hold, r) if r > s else s + 1].max() for s, r in events])
+    return np.array([f0[s : min(s + hold, r) if r > s else s + 1].max() for s, r in events])
 
 
-def eyebrow_contour(n_frames: int, events: list[tuple[int, int]], sizes: np.ndarray,
-                    release_frames: int = RELEASE_FRAMES, onset_frames: int = 0) -> np.ndarray:
+def eyebrow_contour(
+    n_frames: int,
+    events: list[tuple[int, int]],
+    sizes: np.ndarray,
+    release_frames: int = RELEASE_FRAMES,
+    onset_frames: int = 0,
+) -> np.ndarray:
     """Per-frame displacement: each raise ramps up over ``onset_frames``, is held at its size,
     then ramps down over ``release_frames`` (linear ramps, see the module docstring)."""
     out = np.zeros(n_frames)
@@ -119,23 +139,32 @@ def eyebrow_contour(n_frames: int, events: list[tuple[int, int]], sizes: np.ndar
     for (start, release), size in zip(events, sizes, strict=True):
         out[start:release] = size
         rise = min(onset_frames, release - start)
-        out[start:start + rise] = size * up[:rise]
+        out[start : start + rise] = size * up[:rise]
         end = min(release + release_frames, n_frames)
         out[release:end] = np.maximum(out[release:end], size * down[: end - release])
     return out
 
 
-def hold_warnings(events: list[tuple[int, int]], fps: float, f0_threshold: float,
-                  f0_max: float, long_hold_s: float = LONG_HOLD_S) -> list[str]:
+def hold_warnings(
+    events: list[tuple[int, int]],
+    fps: float,
+    f0_threshold: float,
+    f0_max: float,
+    long_hold_s: float = LONG_HOLD_S,
+) -> list[str]:
     """What a researcher should check: no raise at all, or raises held unusually long."""
     if not events:
-        return [f"no eyebrow raise: conditioned F0 never rises across {f0_threshold:g} Hz "
-                f"(its maximum is {f0_max:.0f} Hz); set the F0 threshold for this speaker "
-                "or use 'auto'"]
+        return [
+            f"no eyebrow raise: conditioned F0 never rises across {f0_threshold:g} Hz "
+            f"(its maximum is {f0_max:.0f} Hz); set the F0 threshold for this speaker "
+            "or use 'auto'"
+        ]
     long = [(s, r) for s, r in events if (r - s) / fps > long_hold_s]
     if not long:
         return []
     spans = ", ".join(f"{s / fps:.1f}-{r / fps:.1f} s" for s, r in long)
-    return [f"eyebrow raise held longer than {long_hold_s:g} s ({spans}): intensity never "
-            "fell below the release threshold; lower-level pauses or a higher threshold "
-            "would end it"]
+    return [
+        f"eyebrow raise held longer than {long_hold_s:g} s ({spans}): intensity never "
+        "fell below the release threshold; lower-level pauses or a higher threshold "
+        "would end it"
+    ]

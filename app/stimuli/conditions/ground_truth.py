@@ -23,18 +23,29 @@ class GroundTruthCondition(ConditionModel):
     def __init__(self, *, offset: float = 0.0) -> None:
         self.offset = float(offset)
 
-    def generate(self, features: SpeechFeatures, *, seed: int = 0,
-                 ground_truth: MotionTrack | None = None) -> MotionTrack:
+    def generate(
+        self, features: SpeechFeatures, *, seed: int = 0, ground_truth: MotionTrack | None = None
+    ) -> MotionTrack:
         if ground_truth is None:
-            raise InputError("the ground_truth condition needs a ground-truth track "
-                             "(--ground-truth FILE)", field="ground_truth")
+            raise InputError(
+                "the ground_truth condition needs a ground-truth track (--ground-truth FILE)",
+                field="ground_truth",
+            )
         from app.stimuli.conditions import DISPLAY_NAMES
 
         gt = align_to_features(ground_truth, features, self.offset)
-        meta = dict(gt.metadata, condition=self.name, offset_s=self.offset,
-                    source_fps=ground_truth.fps, source_frames=ground_truth.n_frames)
-        return gt.replace(name=DISPLAY_NAMES[self.name], source=ground_truth.source or
-                          "ground truth", metadata=meta)
+        meta = dict(
+            gt.metadata,
+            condition=self.name,
+            offset_s=self.offset,
+            source_fps=ground_truth.fps,
+            source_frames=ground_truth.n_frames,
+        )
+        return gt.replace(
+            name=DISPLAY_NAMES[self.name],
+            source=ground_truth.source or "ground truth",
+            metadata=meta,
+        )
 
     def describe(self) -> dict[str, Any]:
         return {"offset_s": self.offset}

@@ -33,8 +33,13 @@ from app.stimuli.fap import HEAD
 from app.stimuli.speech import SpeechFeatures, smooth_1s
 from app.stimuli.track import MotionTrack
 
-HEAD_INPUTS = ("intensity_db", "f0_conditioned_hz", "intensity_x_f0",
-               "intensity_db_1s_mean", "f0_conditioned_hz_1s_mean")
+HEAD_INPUTS = (
+    "intensity_db",
+    "f0_conditioned_hz",
+    "intensity_x_f0",
+    "intensity_db_1s_mean",
+    "f0_conditioned_hz_1s_mean",
+)
 DEFAULT_MODEL_PATH = data_path("models", "head_arx_default.json")
 FORMAT = "facepair-head-arx"
 _STABLE = 0.995
@@ -53,8 +58,9 @@ def free_run_error(model: ArxModel, y: np.ndarray, z: np.ndarray) -> float:
     return float(np.mean(np.sqrt(np.mean(dev**2, axis=0)) / sd))
 
 
-def _select_ridge(y: np.ndarray, z: np.ndarray, order: dict[str, int], ridge: float
-                  ) -> tuple[ArxModel | None, float]:
+def _select_ridge(
+    y: np.ndarray, z: np.ndarray, order: dict[str, int], ridge: float
+) -> tuple[ArxModel | None, float]:
     """The stable fit (spectral radius < 0.995) with the smallest :func:`free_run_error` over
     ``ridge`` and the larger ridges of :data:`_RIDGES`.
 
@@ -79,8 +85,9 @@ def head_inputs(features: SpeechFeatures) -> np.ndarray:
     """The thesis' five ARX inputs per frame, shape (n_frames, 5), in :data:`HEAD_INPUTS` order."""
     inten = np.asarray(features.intensity, dtype=np.float64)
     f0 = np.asarray(features.f0_conditioned, dtype=np.float64)
-    return np.column_stack([inten, f0, inten * f0, smooth_1s(inten, features.fps),
-                            smooth_1s(f0, features.fps)])
+    return np.column_stack(
+        [inten, f0, inten * f0, smooth_1s(inten, features.fps), smooth_1s(f0, features.fps)]
+    )
 
 
 @dataclass(eq=False)
@@ -95,8 +102,16 @@ class HeadPoseArx:
     provenance: dict[str, Any] = field(default_factory=dict)
 
     @classmethod
-    def fit(cls, features: SpeechFeatures, ground_truth: MotionTrack, *, na: int = 4,
-            nb: int = 4, nk: int = 1, ridge: float = 0.0) -> HeadPoseArx:
+    def fit(
+        cls,
+        features: SpeechFeatures,
+        ground_truth: MotionTrack,
+        *,
+        na: int = 4,
+        nb: int = 4,
+        nk: int = 1,
+        ridge: float = 0.0,
+    ) -> HeadPoseArx:
         """Least-squares fit on ``ground_truth`` head angles (already on the features' frames)."""
         u = head_inputs(features)
         mean, std = u.mean(axis=0), u.std(axis=0)
@@ -115,15 +130,27 @@ class HeadPoseArx:
             model.a[:] = 0.0
             note = "AR part dropped: no ridge gave a stable model"
         sim = model.simulate(z)
-        model.info.update(spectral_radius=model.spectral_radius(), note=note,
-                          free_run_rmse=np.sqrt(np.mean((sim - y) ** 2, axis=0)).tolist(),
-                          free_run_error=err)
-        prov = {"fitted_on": "ground truth", "audio": features.metadata.get("audio", ""),
-                "ground_truth_source": ground_truth.source, "frames": len(y)}
+        model.info.update(
+            spectral_radius=model.spectral_radius(),
+            note=note,
+            free_run_rmse=np.sqrt(np.mean((sim - y) ** 2, axis=0)).tolist(),
+            free_run_error=err,
+        )
+        prov = {
+            "fitted_on": "ground truth",
+            "audio": features.metadata.get("audio", ""),
+            "ground_truth_source": ground_truth.source,
+            "frames": len(y),
+        }
         return cls(model, mean, std, float(features.fps), HEAD, prov)
 
-    def generate(self, features: SpeechFeatures, *, input_norm: str = "recording",
-                 mean: Mapping[int, float] | None = None) -> dict[int, np.ndarray]:
+    def generate(
+        self,
+        features: SpeechFeatures,
+        *,
+        input_norm: str = "recording",
+        mean: Mapping[int, float] | None = None,
+    ) -> dict[int, np.ndarray]:
         """Free-running head angles for ``features`` ({fap: column}).
 
         The head starts at rest and moves only with the speech's changes from the first frame
@@ -136,8 +163,10 @@ class HeadPoseArx:
         motion, never a per-speaker posture.
         """
         if input_norm not in INPUT_NORMS:
-            raise InputError(f"input_norm must be one of {', '.join(INPUT_NORMS)}, got "
-                             f"{input_norm!r}", field="input_norm")
+            raise InputError(
+                f"input_norm must be one of {', '.join(INPUT_NORMS)}, got {input_norm!r}",
+                field="input_norm",
+            )
         u = head_inputs(features)
         n = features.n_frames
         if n == 0:
@@ -156,15 +185,24 @@ class HeadPoseArx:
             track = MotionTrack(self.fps, y, self.outputs).resample(features.fps, n)
             y = track.values
         target = mean or {}
-        return {c: y[:, j] - y[:, j].mean() + float(target.get(c, 0.0))
-                for j, c in enumerate(self.outputs)}
+        return {
+            c: y[:, j] - y[:, j].mean() + float(target.get(c, 0.0))
+            for j, c in enumerate(self.outputs)
+        }
 
     # -- persistence --------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        return {"format": FORMAT, "version": 1, "fps": self.fps, "inputs": list(HEAD_INPUTS),
-                "outputs": list(self.outputs), "input_mean": self.input_mean.tolist(),
-                "input_std": self.input_std.tolist(), "arx": self.arx.to_dict(),
-                "provenance": self.provenance}
+        return {
+            "format": FORMAT,
+            "version": 1,
+            "fps": self.fps,
+            "inputs": list(HEAD_INPUTS),
+            "outputs": list(self.outputs),
+            "input_mean": self.input_mean.tolist(),
+            "input_std": self.input_std.tolist(),
+            "arx": self.arx.to_dict(),
+            "provenance": self.provenance,
+        }
 
     def save(self, path: str | Path) -> None:
         Path(path).write_text(json.dumps(self.to_dict(), indent=1) + "\n", encoding="utf-8")
@@ -179,8 +217,7 @@ class HeadPoseArx:
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise InputError(f"not a JSON head model: {exc}", path=path) from None
         if not isinstance(d, dict) or d.get("format") != FORMAT:
-            raise InputError(f"not a facepair head model (expected format {FORMAT!r})",
-                             path=path)
+            raise InputError(f"not a facepair head model (expected format {FORMAT!r})", path=path)
         try:
             if list(d["inputs"]) != list(HEAD_INPUTS):
                 raise ValueError(f"inputs {d['inputs']} differ from {list(HEAD_INPUTS)}")
@@ -188,7 +225,13 @@ class HeadPoseArx:
             mean, std = np.asarray(d["input_mean"], float), np.asarray(d["input_std"], float)
             if arx.n_in != len(HEAD_INPUTS) or mean.shape != (arx.n_in,) or std.shape != mean.shape:
                 raise ValueError("input sizes disagree")
-            return cls(arx, mean, std, float(d["fps"]), tuple(int(c) for c in d["outputs"]),
-                       dict(d.get("provenance", {})))
+            return cls(
+                arx,
+                mean,
+                std,
+                float(d["fps"]),
+                tuple(int(c) for c in d["outputs"]),
+                dict(d.get("provenance", {})),
+            )
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"damaged head model: {exc}", path=path) from None

@@ -16,6 +16,7 @@ class NoProsodyCondition(ConditionModel):
 
     name = "none"
 
-    def generate(self, features: SpeechFeatures, *, seed: int = 0,
-                 ground_truth: MotionTrack | None = None) -> MotionTrack:
+    def generate(
+        self, features: SpeechFeatures, *, seed: int = 0, ground_truth: MotionTrack | None = None
+    ) -> MotionTrack:
         return self.base_track(features, ground_truth)

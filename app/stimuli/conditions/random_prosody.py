@@ -46,19 +46,27 @@ class RandomCondition(ConditionModel):
 
     name = "random"
 
-    def __init__(self, *, octaves: int = 6, persistence: float = 0.8,
-                 head_frequency: float = 0.2, eyebrow_frequency: float = 0.4,
-                 match_amplitudes: bool = False) -> None:
+    def __init__(
+        self,
+        *,
+        octaves: int = 6,
+        persistence: float = 0.8,
+        head_frequency: float = 0.2,
+        eyebrow_frequency: float = 0.4,
+        match_amplitudes: bool = False,
+    ) -> None:
         self.match_amplitudes = bool(match_amplitudes)
         self.octaves, self.persistence = int(octaves), float(persistence)
-        self.head_frequency, self.eyebrow_frequency = float(head_frequency), float(
-            eyebrow_frequency)
+        self.head_frequency, self.eyebrow_frequency = (
+            float(head_frequency),
+            float(eyebrow_frequency),
+        )
         self.target: dict[int, tuple[float | None, float]] = {
-            c: (None, s) for c, s in DEFAULT_STD.items()}
+            c: (None, s) for c, s in DEFAULT_STD.items()
+        }
         self.matched_to = ""
 
-    def fit(self, features: SpeechFeatures, ground_truth: MotionTrack | None
-            ) -> RandomCondition:
+    def fit(self, features: SpeechFeatures, ground_truth: MotionTrack | None) -> RandomCondition:
         """With ``match_amplitudes``, take amplitudes from a reference track's statistics."""
         if ground_truth is None or not self.match_amplitudes:
             return self
@@ -68,13 +76,20 @@ class RandomCondition(ConditionModel):
         self.matched_to = ground_truth.source or "reference track"
         return self
 
-    def _noise(self, n: int, fps: float, frequency: float, offset: int, seed: int
-               ) -> np.ndarray:
-        return frame_noise(n, fps, frequency=frequency, frame_offset=offset, seed=seed,
-                           octaves=self.octaves, persistence=self.persistence)
+    def _noise(self, n: int, fps: float, frequency: float, offset: int, seed: int) -> np.ndarray:
+        return frame_noise(
+            n,
+            fps,
+            frequency=frequency,
+            frame_offset=offset,
+            seed=seed,
+            octaves=self.octaves,
+            persistence=self.persistence,
+        )
 
-    def generate(self, features: SpeechFeatures, *, seed: int = 0,
-                 ground_truth: MotionTrack | None = None) -> MotionTrack:
+    def generate(
+        self, features: SpeechFeatures, *, seed: int = 0, ground_truth: MotionTrack | None = None
+    ) -> MotionTrack:
         n, fps = features.n_frames, features.fps
         track = self.base_track(features, ground_truth)
         cols: dict[int, np.ndarray] = {}
@@ -87,17 +102,24 @@ class RandomCondition(ConditionModel):
         for c in BROW_CHANNELS:
             scale = self.target[c][1] / brow_sd if brow_sd > 0 else 0.0
             cols[c] = brow * scale
-        meta = dict(track.metadata, seed=seed,
-                    amplitudes="matched to " + self.matched_to if self.matched_to
-                    else "Perlin constants (thesis Table 8)")
+        meta = dict(
+            track.metadata,
+            seed=seed,
+            amplitudes="matched to " + self.matched_to
+            if self.matched_to
+            else "Perlin constants (thesis Table 8)",
+        )
         return track.with_channels(cols).replace(metadata=meta)
 
     def describe(self) -> dict[str, Any]:
-        return {"octaves": self.octaves, "persistence": self.persistence,
-                "head_frequency_hz": self.head_frequency,
-                "eyebrow_frequency_hz": self.eyebrow_frequency,
-                "amplitudes": self.matched_to or "Perlin constants (Table 8)",
-                "target_mean_std": {c: list(v) for c, v in self.target.items()}}
+        return {
+            "octaves": self.octaves,
+            "persistence": self.persistence,
+            "head_frequency_hz": self.head_frequency,
+            "eyebrow_frequency_hz": self.eyebrow_frequency,
+            "amplitudes": self.matched_to or "Perlin constants (Table 8)",
+            "target_mean_std": {c: list(v) for c, v in self.target.items()},
+        }
 
 
 def _standardise(x: np.ndarray) -> np.ndarray:

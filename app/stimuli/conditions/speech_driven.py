@@ -66,8 +66,9 @@ def resolve_threshold(value: float | str, kind: str, features: SpeechFeatures) -
         try:
             return float(value)
         except ValueError:
-            raise InputError(f"expected a number or 'auto', got {value!r}",
-                             field=f"{kind}_threshold") from None
+            raise InputError(
+                f"expected a number or 'auto', got {value!r}", field=f"{kind}_threshold"
+            ) from None
     voiced = features.voiced
     if kind == "f0":
         f0 = features.f0[voiced]
@@ -81,17 +82,29 @@ class SpeechDrivenCondition(ConditionModel):
 
     name = "speech_driven"
 
-    def __init__(self, *, f0_threshold: float | str = "auto",
-                 intensity_threshold: float | str = "auto",
-                 min_hold_s: float = MIN_HOLD_S, release_frames: int = RELEASE_FRAMES,
-                 onset_frames: int = ONSET_FRAMES, eyebrow_gain: float = RAISE_GAIN,
-                 eyebrow_offset: float | None = None, fit_eyebrows: bool = False,
-                 na: int = 4, nb: int = 4, nk: int = 1, ridge: float = 0.0,
-                 input_norm: str = "recording", model_path: str | Path | None = None) -> None:
-        if (min_hold_s < 0 or release_frames < 0 or onset_frames < 0 or na < 0 or nb < 1
-                or nk < 0):
-            raise InputError("min_hold_s, release_frames, onset_frames, na, nk must be >= 0 "
-                             "and nb >= 1", field="speech_driven")
+    def __init__(
+        self,
+        *,
+        f0_threshold: float | str = "auto",
+        intensity_threshold: float | str = "auto",
+        min_hold_s: float = MIN_HOLD_S,
+        release_frames: int = RELEASE_FRAMES,
+        onset_frames: int = ONSET_FRAMES,
+        eyebrow_gain: float = RAISE_GAIN,
+        eyebrow_offset: float | None = None,
+        fit_eyebrows: bool = False,
+        na: int = 4,
+        nb: int = 4,
+        nk: int = 1,
+        ridge: float = 0.0,
+        input_norm: str = "recording",
+        model_path: str | Path | None = None,
+    ) -> None:
+        if min_hold_s < 0 or release_frames < 0 or onset_frames < 0 or na < 0 or nb < 1 or nk < 0:
+            raise InputError(
+                "min_hold_s, release_frames, onset_frames, na, nk must be >= 0 and nb >= 1",
+                field="speech_driven",
+            )
         self.f0_threshold, self.intensity_threshold = f0_threshold, intensity_threshold
         self.min_hold_s, self.release_frames = float(min_hold_s), int(release_frames)
         self.onset_frames = int(onset_frames)
@@ -99,8 +112,7 @@ class SpeechDrivenCondition(ConditionModel):
         self.brow_offset: dict[int, float | None] = {c: eyebrow_offset for c in BROW_CHANNELS}
         self.fit_eyebrows = bool(fit_eyebrows)
         self.brows_fitted = False
-        self.order: dict[str, Any] = dict(na=int(na), nb=int(nb), nk=int(nk),
-                                          ridge=float(ridge))
+        self.order: dict[str, Any] = dict(na=int(na), nb=int(nb), nk=int(nk), ridge=float(ridge))
         self.input_norm = input_norm
         self.model_path = model_path
         self.head: HeadPoseArx | None = None
@@ -111,30 +123,38 @@ class SpeechDrivenCondition(ConditionModel):
     def _events(self, features: SpeechFeatures) -> tuple[list[tuple[int, int]], float, float]:
         f0_thr = resolve_threshold(self.f0_threshold, "f0", features)
         db_thr = resolve_threshold(self.intensity_threshold, "intensity", features)
-        events = eyebrow_raise_events(features.f0_conditioned, features.intensity, features.fps,
-                                      f0_threshold=f0_thr, intensity_threshold=db_thr,
-                                      min_hold_s=self.min_hold_s)
+        events = eyebrow_raise_events(
+            features.f0_conditioned,
+            features.intensity,
+            features.fps,
+            f0_threshold=f0_thr,
+            intensity_threshold=db_thr,
+            min_hold_s=self.min_hold_s,
+        )
         return events, f0_thr, db_thr
 
     def eyebrows(self, features: SpeechFeatures) -> tuple[dict[int, np.ndarray], dict[str, Any]]:
         """Eyebrow columns and a JSON-able account of the raises."""
         events, f0_thr, db_thr = self._events(features)
-        peaks = eyebrow_raise_sizes(features.f0_conditioned, events, features.fps,
-                                    self.min_hold_s)
+        peaks = eyebrow_raise_sizes(features.f0_conditioned, events, features.fps, self.min_hold_s)
         cols, sizes = {}, {}
         for c in BROW_CHANNELS:
-            sizes[c] = raise_size(peaks, f0_thr, gain=self.brow_gain[c],
-                                  offset=self.brow_offset[c])
-            cols[c] = eyebrow_contour(features.n_frames, events, sizes[c],
-                                      self.release_frames, self.onset_frames)
+            sizes[c] = raise_size(peaks, f0_thr, gain=self.brow_gain[c], offset=self.brow_offset[c])
+            cols[c] = eyebrow_contour(
+                features.n_frames, events, sizes[c], self.release_frames, self.onset_frames
+            )
         top = float(features.f0_conditioned.max()) if features.n_frames else 0.0
         warnings = hold_warnings(events, features.fps, f0_thr, top)
         info: dict[str, Any] = {
-            "f0_threshold_hz": f0_thr, "intensity_threshold_db": db_thr,
-            "raises": [[s, r] for s, r in events], "n_raises": len(events),
+            "f0_threshold_hz": f0_thr,
+            "intensity_threshold_db": db_thr,
+            "raises": [[s, r] for s, r in events],
+            "n_raises": len(events),
             "raise_sizes": sizes[BROW_CHANNELS[0]].tolist(),
             "held_fraction": float(np.mean(cols[BROW_CHANNELS[0]] > 0))
-            if features.n_frames else 0.0}
+            if features.n_frames
+            else 0.0,
+        }
         if warnings:
             info["warning"] = "; ".join(warnings)
         return cols, info
@@ -143,12 +163,12 @@ class SpeechDrivenCondition(ConditionModel):
         events, _, _ = self._events(features)
         if not events:
             return
-        peaks = eyebrow_raise_sizes(features.f0_conditioned, events, features.fps,
-                                    self.min_hold_s)
+        peaks = eyebrow_raise_sizes(features.f0_conditioned, events, features.fps, self.min_hold_s)
         held = [(min(s + self.onset_frames, r), r) for s, r in events]  # past the onset ramp
         frames = np.concatenate([np.arange(s, r) for s, r in held])
-        peak_of_frame = np.concatenate([np.full(r - s, p) for (s, r), p in zip(held, peaks,
-                                                                               strict=True)])
+        peak_of_frame = np.concatenate(
+            [np.full(r - s, p) for (s, r), p in zip(held, peaks, strict=True)]
+        )
         distinct = len(np.unique(np.round(peaks, 6))) >= 2
         for c in BROW_CHANNELS:
             if c not in gt.channels:
@@ -163,16 +183,16 @@ class SpeechDrivenCondition(ConditionModel):
         self.brows_fitted = True
 
     # -- the condition interface ---------------------------------------------------------------
-    def fit(self, features: SpeechFeatures, ground_truth: MotionTrack | None
-            ) -> SpeechDrivenCondition:
+    def fit(
+        self, features: SpeechFeatures, ground_truth: MotionTrack | None
+    ) -> SpeechDrivenCondition:
         """Fit the head ARX model on the ground truth (and, with ``fit_eyebrows``, the eyebrow
         gains); the ground truth's head mean becomes the generated head's mean."""
         if ground_truth is None:
             return self
         gt = ground_truth  # aligned to the features by the caller
         self.head_mean = {c: float(gt[c].mean()) for c in HEAD if c in gt.channels}
-        if self.model_path is None and any(c in gt.channels and np.std(gt[c]) > 0
-                                           for c in HEAD):
+        if self.model_path is None and any(c in gt.channels and np.std(gt[c]) > 0 for c in HEAD):
             self.head = HeadPoseArx.fit(features, gt, **self.order)
             self.head_note = "head ARX model fitted on the ground truth of this recording"
         if self.fit_eyebrows:
@@ -184,29 +204,43 @@ class SpeechDrivenCondition(ConditionModel):
             path = Path(self.model_path) if self.model_path else DEFAULT_MODEL_PATH
             self.head = HeadPoseArx.load(path)
             origin = self.head.provenance.get("fitted_on", "unknown data")
-            self.head_note = (f"head ARX model read from {path.name}" if self.model_path else
-                              f"no ground truth to fit: used the shipped default head model "
-                              f"{path.name} (fitted on {origin})")
+            self.head_note = (
+                f"head ARX model read from {path.name}"
+                if self.model_path
+                else f"no ground truth to fit: used the shipped default head model "
+                f"{path.name} (fitted on {origin})"
+            )
         return self.head
 
-    def generate(self, features: SpeechFeatures, *, seed: int = 0,
-                 ground_truth: MotionTrack | None = None) -> MotionTrack:
+    def generate(
+        self, features: SpeechFeatures, *, seed: int = 0, ground_truth: MotionTrack | None = None
+    ) -> MotionTrack:
         track = self.base_track(features, ground_truth)
         brows, brow_info = self.eyebrows(features)
-        head = self._head_model().generate(features, input_norm=self.input_norm,
-                                           mean=self.head_mean)
-        meta = dict(track.metadata, eyebrows=brow_info, head_model=self.head_note,
-                    head_mean="ground truth" if self.head_mean else "neutral")
+        head = self._head_model().generate(
+            features, input_norm=self.input_norm, mean=self.head_mean
+        )
+        meta = dict(
+            track.metadata,
+            eyebrows=brow_info,
+            head_model=self.head_note,
+            head_mean="ground truth" if self.head_mean else "neutral",
+        )
         return track.with_channels({**brows, **head}).replace(metadata=meta)
 
     def describe(self) -> dict[str, Any]:
         d: dict[str, Any] = {
             "f0_threshold": self.f0_threshold,
-            "intensity_threshold": self.intensity_threshold, "min_hold_s": self.min_hold_s,
-            "onset_frames": self.onset_frames, "release_frames": self.release_frames,
-            "eyebrow_channels": list(BROW_CHANNELS), "eyebrow_gain": self.brow_gain,
-            "eyebrow_offset": self.brow_offset, "eyebrows_fitted": self.brows_fitted,
-            "arx_order": self.order, "input_norm": self.input_norm,
+            "intensity_threshold": self.intensity_threshold,
+            "min_hold_s": self.min_hold_s,
+            "onset_frames": self.onset_frames,
+            "release_frames": self.release_frames,
+            "eyebrow_channels": list(BROW_CHANNELS),
+            "eyebrow_gain": self.brow_gain,
+            "eyebrow_offset": self.brow_offset,
+            "eyebrows_fitted": self.brows_fitted,
+            "arx_order": self.order,
+            "input_norm": self.input_norm,
             "head_model": self.head_note,
         }
         if self.head is not None:

@@ -37,9 +37,17 @@ _P_REF2 = (2e-5) ** 2
 class AudioFrameStream:
     """Feed blocks of mono samples with :meth:`push`; get (f0 Hz, intensity dB) per frame."""
 
-    def __init__(self, sample_rate: int, fps: float, *, pitch_floor: float = 75.0,
-                 pitch_ceiling: float = 600.0, voicing_threshold: float = 0.45,
-                 silence_db: float = 35.0, octave_cost: float = 0.01) -> None:
+    def __init__(
+        self,
+        sample_rate: int,
+        fps: float,
+        *,
+        pitch_floor: float = 75.0,
+        pitch_ceiling: float = 600.0,
+        voicing_threshold: float = 0.45,
+        silence_db: float = 35.0,
+        octave_cost: float = 0.01,
+    ) -> None:
         if sample_rate <= 0 or fps <= 0 or not 0 < pitch_floor < pitch_ceiling:
             raise ValueError("need sample_rate > 0, fps > 0 and 0 < pitch_floor < ceiling")
         self.sample_rate = int(sample_rate)
@@ -56,8 +64,7 @@ class AudioFrameStream:
         self._rw = rw / rw[0]
         lags = np.arange(self.max_lag + 2, dtype=np.float64)
         with np.errstate(divide="ignore"):
-            self._cost = octave_cost * np.log2(np.maximum(lags, 1.0) * pitch_floor
-                                               / sample_rate)
+            self._cost = octave_cost * np.log2(np.maximum(lags, 1.0) * pitch_floor / sample_rate)
         self._buf = np.zeros(self.width)
         self._buf_start = -self.width  # absolute index of _buf[0]
         self._received = 0
@@ -74,7 +81,7 @@ class AudioFrameStream:
         out = []
         while self._frame_end(self._next) <= self._received:
             end = self._frame_end(self._next) - self._buf_start
-            out.append(self._analyse(self._buf[end - self.width:end]))
+            out.append(self._analyse(self._buf[end - self.width : end]))
             self._next += 1
         keep_from = self._frame_end(self._next) - self.width - self._buf_start
         if keep_from > 0:
@@ -92,7 +99,7 @@ class AudioFrameStream:
         r = np.fft.irfft(np.abs(np.fft.rfft(xw, self._nfft)) ** 2)[: self.max_lag + 2]
         rn = r / r[0] / self._rw
         lo, hi = self.min_lag, self.max_lag
-        seg = rn[lo:hi + 1] - self._cost[lo:hi + 1]
+        seg = rn[lo : hi + 1] - self._cost[lo : hi + 1]
         k = int(np.argmax(seg)) + lo
         if rn[k] < self.voicing_threshold or k <= lo or k >= hi:
             return 0.0, db

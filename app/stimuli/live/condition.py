@@ -43,18 +43,21 @@ class LiveGmmCondition(ConditionModel):
     name = "live_gmm"
     display_name = "LIVE_GMM"
 
-    def __init__(self, *, model_path: str | Path | None = None, n_components: int = 10,
-                 train_seed: int = 0) -> None:
+    def __init__(
+        self, *, model_path: str | Path | None = None, n_components: int = 10, train_seed: int = 0
+    ) -> None:
         self.model_path = Path(model_path) if model_path is not None else None
         self.n_components = n_components
         self.train_seed = train_seed
         self.model: LiveModel | None = None
         self._fitted = False
-        self.note = ("model read from the given model file" if model_path is not None else
-                     "shipped default model (demo reference speaker)")
+        self.note = (
+            "model read from the given model file"
+            if model_path is not None
+            else "shipped default model (demo reference speaker)"
+        )
 
-    def fit(self, features: SpeechFeatures, ground_truth: MotionTrack | None
-            ) -> LiveGmmCondition:
+    def fit(self, features: SpeechFeatures, ground_truth: MotionTrack | None) -> LiveGmmCondition:
         """Train on speech features and a ground-truth track with head motion (FAPs 48-50;
         gaze 23-26 and eyelids 19-22 are used when present).
 
@@ -71,8 +74,9 @@ class LiveGmmCondition(ConditionModel):
             self.note = "model read from the given model file (not fitted)"
             return self
         try:
-            self.model = train_live_model(features, ground_truth,
-                                          n_components=self.n_components, seed=self.train_seed)
+            self.model = train_live_model(
+                features, ground_truth, n_components=self.n_components, seed=self.train_seed
+            )
         except InputError as exc:
             self.note = f"ground truth not usable for training ({exc.message}): default model"
             return self
@@ -86,13 +90,17 @@ class LiveGmmCondition(ConditionModel):
 
             path = self.model_path or DEFAULT_MODEL_PATH
             if not path.exists():
-                raise InputError("live model file not found (train one with `facepair stimuli "
-                                 "train-live`, see docs/live.md)", path=path)
+                raise InputError(
+                    "live model file not found (train one with `facepair stimuli "
+                    "train-live`, see docs/live.md)",
+                    path=path,
+                )
             self.model = load_model(path)
         return self.model
 
-    def generate(self, features: SpeechFeatures, *, seed: int = 0,
-                 ground_truth: MotionTrack | None = None) -> MotionTrack:
+    def generate(
+        self, features: SpeechFeatures, *, seed: int = 0, ground_truth: MotionTrack | None = None
+    ) -> MotionTrack:
         """FAPs 19-26 and 48-50 for ``features``: the model sees speech only; the ground truth
         only supplies the jaw and lips carried into every condition's track."""
         from app.stimuli.live.stream import generate_track
@@ -101,15 +109,19 @@ class LiveGmmCondition(ConditionModel):
         live = generate_track(model, features, seed=seed, name=self.name)
         base = self.base_track(features, ground_truth)
         track = base.with_channels({c: live[c] for c in OUTPUT_CHANNELS})
-        meta = {**base.metadata, **live.metadata, "model_note": self.note,
-                "model_path": "fitted" if self._fitted else str(self.model_path or
-                                                                DEFAULT_MODEL_PATH)}
+        meta = {
+            **base.metadata,
+            **live.metadata,
+            "model_note": self.note,
+            "model_path": "fitted" if self._fitted else str(self.model_path or DEFAULT_MODEL_PATH),
+        }
         return track.replace(metadata=meta)
 
     def describe(self) -> dict[str, Any]:
         """Model facts for the generation summary: where it came from and its training data."""
         model = self.model
-        return {"model": "fitted" if self._fitted else str(self.model_path or
-                                                           DEFAULT_MODEL_PATH),
-                "note": self.note,
-                "training": None if model is None else model.summary}
+        return {
+            "model": "fitted" if self._fitted else str(self.model_path or DEFAULT_MODEL_PATH),
+            "note": self.note,
+            "training": None if model is None else model.summary,
+        }

@@ -41,27 +41,54 @@ class Voice(NamedTuple):
 
 
 #: Voices of the training takes.
-TRAIN_VOICES: tuple[Voice, ...] = (Voice(95.0, 1.0, 1.0), Voice(125.0, 1.4, 0.9),
-                                   Voice(160.0, 0.8, 1.15), Voice(110.0, 1.2, 1.25))
+TRAIN_VOICES: tuple[Voice, ...] = (
+    Voice(95.0, 1.0, 1.0),
+    Voice(125.0, 1.4, 0.9),
+    Voice(160.0, 0.8, 1.15),
+    Voice(110.0, 1.2, 1.25),
+)
 #: Voices of the test takes: none of them is a training voice.
-TEST_VOICES: tuple[Voice, ...] = (Voice(105.0, 1.3, 0.85), Voice(140.0, 0.9, 1.05),
-                                  Voice(180.0, 1.1, 1.2))
+TEST_VOICES: tuple[Voice, ...] = (
+    Voice(105.0, 1.3, 0.85),
+    Voice(140.0, 0.9, 1.05),
+    Voice(180.0, 1.1, 1.2),
+)
 #: Pauses between utterances, seconds (uniform).
 PAUSE_S = (0.4, 3.0)
 #: Level of the noise in pauses, relative to full scale (about -66 dBFS rms).
 PAUSE_NOISE = 5e-4
 
 
-def resynthesise(sound: parselmouth.Sound, voice: Voice, *, pitch_floor: float = 75.0,
-                 pitch_ceiling: float = 300.0) -> parselmouth.Sound:
+def resynthesise(
+    sound: parselmouth.Sound,
+    voice: Voice,
+    *,
+    pitch_floor: float = 75.0,
+    pitch_ceiling: float = 300.0,
+) -> parselmouth.Sound:
     """``sound`` spoken in ``voice`` (Praat "Change gender", formants kept)."""
-    return call(sound, "Change gender", pitch_floor, pitch_ceiling, 1.0,
-                voice.pitch_median_hz, voice.pitch_range, voice.duration)
+    return call(
+        sound,
+        "Change gender",
+        pitch_floor,
+        pitch_ceiling,
+        1.0,
+        voice.pitch_median_hz,
+        voice.pitch_range,
+        voice.duration,
+    )
 
 
-def speech_take(sound: parselmouth.Sound, voices: Sequence[Voice], seconds: float, *,
-                seed: int, fps: float = 30.0, pitch_floor: float = 75.0,
-                pitch_ceiling: float = 400.0) -> SpeechFeatures:
+def speech_take(
+    sound: parselmouth.Sound,
+    voices: Sequence[Voice],
+    seconds: float,
+    *,
+    seed: int,
+    fps: float = 30.0,
+    pitch_floor: float = 75.0,
+    pitch_ceiling: float = 400.0,
+) -> SpeechFeatures:
     """Speech features of a take of about ``seconds``: utterances of ``sound`` in voices drawn
     (seeded) from ``voices``, each followed by a pause of :data:`PAUSE_S`.
 
@@ -81,7 +108,8 @@ def speech_take(sound: parselmouth.Sound, voices: Sequence[Voice], seconds: floa
         pieces += [utterance, pause]
         total += len(utterance) + len(pause)
     samples = np.concatenate(pieces)[: round(seconds * rate)]
-    feats = features_from_samples(samples, rate, fps, pitch_floor=pitch_floor,
-                                  pitch_ceiling=pitch_ceiling)
+    feats = features_from_samples(
+        samples, rate, fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling
+    )
     feats.metadata.update(take_seed=seed, voices=[list(v) for v in voices])
     return feats

@@ -86,12 +86,15 @@ class HeldOutFigures:
 
     def table(self) -> str:
         """The figures as a plain-text table."""
-        rows = [f"{'channel':<11} {'sd':>6} {'truth':>6} {'ratio':>6} {'>4Hz':>6} "
-                f"{'truth':>6} {'r':>6}"]
+        rows = [
+            f"{'channel':<11} {'sd':>6} {'truth':>6} {'ratio':>6} {'>4Hz':>6} {'truth':>6} {'r':>6}"
+        ]
         for i, name in enumerate(CHANNELS):
-            rows.append(f"{name:<11} {self.sd[i]:6.2f} {self.sd_truth[i]:6.2f} "
-                        f"{self.sd_ratio[i]:6.2f} {self.jitter[i]:6.3f} "
-                        f"{self.jitter_truth[i]:6.3f} {self.correlation[i]:6.2f}")
+            rows.append(
+                f"{name:<11} {self.sd[i]:6.2f} {self.sd_truth[i]:6.2f} "
+                f"{self.sd_ratio[i]:6.2f} {self.jitter[i]:6.3f} "
+                f"{self.jitter_truth[i]:6.3f} {self.correlation[i]:6.2f}"
+            )
         rows.append(f"blinks/min  {self.blinks_per_min:6.1f} {self.blinks_per_min_truth:6.1f}")
         return "\n".join(rows)
 
@@ -108,28 +111,46 @@ def compare_motion(generated: MotionTrack, truth: MotionTrack) -> HeldOutFigures
     g, t = motion_channels(generated)[:n], motion_channels(truth)[:n]
     fps = generated.fps
     return HeldOutFigures(
-        g.std(axis=0), t.std(axis=0),
+        g.std(axis=0),
+        t.std(axis=0),
         np.array([high_frequency_fraction(g[:, i], fps) for i in range(5)]),
         np.array([high_frequency_fraction(t[:, i], fps) for i in range(5)]),
         np.array([_corr(g[:, i], t[:, i]) for i in range(5)]),
-        blink_rate(generated), blink_rate(truth))
+        blink_rate(generated),
+        blink_rate(truth),
+    )
 
 
 def mean_figures(figures: Sequence[HeldOutFigures]) -> HeldOutFigures:
     """Average of several comparisons (each take and seed weighs the same)."""
+
     def avg(name: str) -> np.ndarray:
         return np.mean([getattr(f, name) for f in figures], axis=0)
 
-    return HeldOutFigures(avg("sd"), avg("sd_truth"), avg("jitter"), avg("jitter_truth"),
-                          avg("correlation"), float(avg("blinks_per_min")),
-                          float(avg("blinks_per_min_truth")))
+    return HeldOutFigures(
+        avg("sd"),
+        avg("sd_truth"),
+        avg("jitter"),
+        avg("jitter_truth"),
+        avg("correlation"),
+        float(avg("blinks_per_min")),
+        float(avg("blinks_per_min_truth")),
+    )
 
 
-def evaluate_held_out(model: LiveModel, takes: Sequence[tuple[SpeechFeatures, MotionTrack]],
-                      seeds: Sequence[int] = (0, 1)) -> HeldOutFigures:
+def evaluate_held_out(
+    model: LiveModel,
+    takes: Sequence[tuple[SpeechFeatures, MotionTrack]],
+    seeds: Sequence[int] = (0, 1),
+) -> HeldOutFigures:
     """Generate on every test take with every seed and compare with its ground truth."""
-    return mean_figures([compare_motion(generate_track(model, feats, seed=s), truth)
-                         for feats, truth in takes for s in seeds])
+    return mean_figures(
+        [
+            compare_motion(generate_track(model, feats, seed=s), truth)
+            for feats, truth in takes
+            for s in seeds
+        ]
+    )
 
 
 @dataclass(frozen=True)
@@ -140,12 +161,19 @@ class HeldOutSplit:
     test: list[tuple[SpeechFeatures, MotionTrack]]
 
 
-def held_out_split(sound: parselmouth.Sound, *, train_takes: int = 3, test_takes: int = 4,
-                   seconds: float = 120.0, fps: float = 30.0) -> HeldOutSplit:
+def held_out_split(
+    sound: parselmouth.Sound,
+    *,
+    train_takes: int = 3,
+    test_takes: int = 4,
+    seconds: float = 120.0,
+    fps: float = 30.0,
+) -> HeldOutSplit:
     """The standard split on one recording: training takes ``0 .. train_takes-1`` in
     :data:`~app.stimuli.live.corpus.TRAIN_VOICES` with reference-speaker seeds equal to the take
     number; test takes in :data:`~app.stimuli.live.corpus.TEST_VOICES` with take and speaker
     seeds from 100 on. Every take is ``seconds`` long."""
+
     def takes(voices: tuple, first: int, count: int) -> list:
         out = []
         for i in range(first, first + count):

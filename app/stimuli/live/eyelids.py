@@ -57,8 +57,9 @@ def default_blink_params() -> np.ndarray:
     return np.column_stack([mu, np.full(2, DEFAULT_SIGMA)])
 
 
-def blink_closure(tau: np.ndarray | float, shape: tuple[float, float, float] = BLINK_SHAPE
-                  ) -> np.ndarray:
+def blink_closure(
+    tau: np.ndarray | float, shape: tuple[float, float, float] = BLINK_SHAPE
+) -> np.ndarray:
     """Closure fraction (0 open .. 1 closed) ``tau`` seconds after a blink's onset."""
     tc, th, to = shape
     tau = np.asarray(tau, dtype=np.float64)
@@ -77,9 +78,13 @@ def blink_onsets(closure: np.ndarray) -> np.ndarray:
     return np.flatnonzero(shut & ~np.concatenate([[False], shut[:-1]]))
 
 
-def fit_interval_params(onsets: np.ndarray, talking: np.ndarray, fps: float,
-                        starts: Sequence[int] = (0,), defaults: np.ndarray | None = None
-                        ) -> tuple[np.ndarray, list[str], list[int]]:
+def fit_interval_params(
+    onsets: np.ndarray,
+    talking: np.ndarray,
+    fps: float,
+    starts: Sequence[int] = (0,),
+    defaults: np.ndarray | None = None,
+) -> tuple[np.ndarray, list[str], list[int]]:
     """Maximum-likelihood log-normal (mu, sigma) per mode from event onset frames (blinks
     here, saccades in :mod:`app.stimuli.live.gaze`); ``defaults`` (2, 2) for a mode with too
     few intervals (blinks: :func:`default_blink_params`).
@@ -88,8 +93,7 @@ def fit_interval_params(onsets: np.ndarray, talking: np.ndarray, fps: float,
     (``starts``: their first frames) are not intervals. Returns the (2, 2) parameters
     (talking, listening), where each came from ("fitted" or "default") and interval counts.
     """
-    params = (default_blink_params() if defaults is None
-              else np.array(defaults, dtype=np.float64))
+    params = default_blink_params() if defaults is None else np.array(defaults, dtype=np.float64)
     sources, counts = ["default", "default"], [0, 0]
     onsets = np.asarray(onsets, dtype=int)
     if len(onsets) > 1:
@@ -137,8 +141,13 @@ def closure_from_faps(lids: np.ndarray) -> tuple[np.ndarray, float]:
     return closure, share
 
 
-def fit_eyelid_model(gaze: np.ndarray, lids: np.ndarray | None, talking: np.ndarray,
-                     fps: float, starts: Sequence[int] = (0,)) -> tuple[EyelidModel, dict]:
+def fit_eyelid_model(
+    gaze: np.ndarray,
+    lids: np.ndarray | None,
+    talking: np.ndarray,
+    fps: float,
+    starts: Sequence[int] = (0,),
+) -> tuple[EyelidModel, dict]:
     """Fit eq. 17 and the blink model to ground-truth gaze (n, 2) and FAPs 19-22 (n, 4) (or
     None: defaults); ``starts``: first frames of concatenated takes. Returns the model and a
     JSON-able summary."""
@@ -147,14 +156,18 @@ def fit_eyelid_model(gaze: np.ndarray, lids: np.ndarray | None, talking: np.ndar
         model = EyelidModel(np.array([0.0, 0.0, 1.0]), params)
         return model, {"blink_source": sources, "intervals": counts, "blinks": 0}
     closure, share = closure_from_faps(lids)
-    onsets = np.concatenate([blink_onsets(closure[a:b]) + a for a, b in
-                             zip(starts, list(starts[1:]) + [len(closure)], strict=True)])
+    onsets = np.concatenate(
+        [
+            blink_onsets(closure[a:b]) + a
+            for a, b in zip(starts, list(starts[1:]) + [len(closure)], strict=True)
+        ]
+    )
     params, sources, counts = fit_interval_params(onsets, talking, fps, starts)
     # Frames inside or near a blink do not show gaze-evoked motion: leave them out of eq. 17.
     keep = np.ones(len(closure), bool)
     before, after = int(np.ceil(0.1 * fps)), int(np.ceil(sum(BLINK_SHAPE) * fps))
     for onset in onsets:
-        keep[max(0, onset - before):onset + after] = False
+        keep[max(0, onset - before) : onset + after] = False
     x = np.column_stack([-gaze[:, 1], np.abs(gaze[:, 0]), np.ones(len(gaze))])[keep]
     cb = nnls(x, 1.0 - closure[keep])[0] if keep.sum() >= 3 else np.array([0.0, 0.0, 1.0])
     model = EyelidModel(cb, params, share)

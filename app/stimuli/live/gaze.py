@@ -57,8 +57,9 @@ def _inv_sqrt(c: np.ndarray) -> np.ndarray:
     return (vecs / np.sqrt(np.maximum(vals, 1e-12))) @ vecs.T
 
 
-def cca(x: np.ndarray, y: np.ndarray, *, reg: float = 1e-6
-        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def cca(
+    x: np.ndarray, y: np.ndarray, *, reg: float = 1e-6
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Canonical correlation analysis of centred ``x`` (n, p) and ``y`` (n, q) (eq. 6-7).
 
     Returns ``U`` (p, r), ``V`` (q, r) and the canonical correlations (r,), r = min(p, q), in
@@ -102,8 +103,9 @@ class GazeModel:
         """``U Ce'`` (4, r): phi_z -> e^ in one product (eq. 13)."""
         return self.u @ self.ce_t
 
-    def step(self, h: np.ndarray, prev_hat: np.ndarray, coupling: np.ndarray
-             ) -> tuple[np.ndarray, np.ndarray]:
+    def step(
+        self, h: np.ndarray, prev_hat: np.ndarray, coupling: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """One frame of eq. 13-15: head-speech ``h`` (4,) -> gaze (2,) in degrees and the new
         smoothed ``e^``. ``coupling`` is :meth:`coupling`, passed in so it is computed once."""
         if not self.enabled:
@@ -137,8 +139,20 @@ def fit_gaze_model(h: np.ndarray, e: np.ndarray, starts: Sequence[int] = (0,)) -
     e_mean, e_std = e.mean(axis=0), _std(e)
     if not np.any(e.std(axis=0) > 1e-9):
         z2, z4 = np.zeros((4, 2)), np.zeros((2, 2))
-        return GazeModel(h_mean, h_std, np.zeros(4), np.ones(4), z2, z4, z4, z4, e_mean,
-                         np.ones(2), np.zeros(2), enabled=False)
+        return GazeModel(
+            h_mean,
+            h_std,
+            np.zeros(4),
+            np.ones(4),
+            z2,
+            z4,
+            z4,
+            z4,
+            e_mean,
+            np.ones(2),
+            np.zeros(2),
+            enabled=False,
+        )
     phi = kernel((h - h_mean) / h_std)
     phi_mean, phi_std = phi.mean(axis=0), _std(phi)
     x = (phi - phi_mean) / phi_std
@@ -171,16 +185,19 @@ class FixationModel:
     offsets: np.ndarray  # (2, 4) mean yaw, mean pitch, sd yaw, sd pitch (deg), rows as above
 
 
-def fit_fixation_model(gaze: np.ndarray, predicted: np.ndarray, talking: np.ndarray,
-                       fps: float, starts: Sequence[int] = (0,)
-                       ) -> tuple[FixationModel, dict]:
+def fit_fixation_model(
+    gaze: np.ndarray,
+    predicted: np.ndarray,
+    talking: np.ndarray,
+    fps: float,
+    starts: Sequence[int] = (0,),
+) -> tuple[FixationModel, dict]:
     """Fit the fixation model to ground-truth gaze and the NDCCA gaze ``predicted`` for the
     same frames (both (n, 2), degrees); returns it and a JSON-able summary."""
     residual = np.asarray(gaze, dtype=np.float64) - predicted
     talking = np.asarray(talking, dtype=bool)
     onsets = saccade_onsets(gaze, fps, starts)
-    params, sources, counts = fit_interval_params(onsets, talking, fps, starts,
-                                                  DEFAULT_FIXATION)
+    params, sources, counts = fit_interval_params(onsets, talking, fps, starts, DEFAULT_FIXATION)
     # A fixation runs from a take start or a saccade (plus two frames of movement) to the
     # next; its offset is its mean residual, its mode that of its first frame.
     bounds = np.unique(np.concatenate([onsets, list(starts), [len(residual)]]))
@@ -197,8 +214,10 @@ def fit_fixation_model(gaze: np.ndarray, predicted: np.ndarray, talking: np.ndar
         use = means_a[sel] if sel.sum() >= 2 else means_a
         if len(use) >= 2:
             offsets[i] = np.r_[use.mean(axis=0), use.std(axis=0)]
-    return (FixationModel(params, offsets),
-            {"saccades": int(len(onsets)), "interval_source": sources, "intervals": counts})
+    return (
+        FixationModel(params, offsets),
+        {"saccades": int(len(onsets)), "interval_source": sources, "intervals": counts},
+    )
 
 
 @dataclass

@@ -112,11 +112,13 @@ class HeadModel:
             fixed[:, 0] = pitch_z
             fixed[:, 1] = loud_z
             a0, a1, a2 = self.voiced.slice_coefficients(fixed)
-        return FrameSlice(np.stack([a0, a1, a2], axis=-1),
-                          np.stack([np.ones_like(a1), a1, a2], axis=-1))
+        return FrameSlice(
+            np.stack([a0, a1, a2], axis=-1), np.stack([np.ones_like(a1), a1, a2], axis=-1)
+        )
 
-    def objective(self, theta: np.ndarray, prev1: np.ndarray, prev2: np.ndarray, fps: float,
-                  frame: FrameSlice) -> tuple[float, np.ndarray]:
+    def objective(
+        self, theta: np.ndarray, prev1: np.ndarray, prev2: np.ndarray, fps: float, frame: FrameSlice
+    ) -> tuple[float, np.ndarray]:
         """J(theta) of eq. 4 (log, up to a constant) and its analytic gradient (3,).
 
         With ``e_gk = a0 + a1 z_g + a2 z_g^2`` and ``w_gk = exp(e_gk - max_k e_gk)``:
@@ -153,8 +155,15 @@ class HeadModel:
     def _grad_scale(self) -> np.ndarray:
         return self.weights / self.kin_std
 
-    def sample(self, start: np.ndarray, prev1: np.ndarray, prev2: np.ndarray, fps: float,
-               frame: FrameSlice, rng: np.random.Generator) -> np.ndarray:
+    def sample(
+        self,
+        start: np.ndarray,
+        prev1: np.ndarray,
+        prev2: np.ndarray,
+        fps: float,
+        frame: FrameSlice,
+        rng: np.random.Generator,
+    ) -> np.ndarray:
         """The frame's pose: ``n_iter`` Metropolis-adjusted Langevin steps on J from ``start``
         (eq. 5's draw), targeting ``exp(J)``.
 
@@ -179,11 +188,20 @@ class HeadModel:
         return theta
 
 
-def fit_head_model(angles: np.ndarray, pitch_z: np.ndarray, loud_z: np.ndarray, fps: float, *,
-                   starts: Sequence[int] = (0,), n_components: int = 10, seed: int = 0,
-                   n_iter: int = 17, weights: Sequence[float] | None = None,
-                   proposal: float = DEFAULT_PROPOSAL,
-                   progress: Callable[[], None] | None = None) -> HeadModel:
+def fit_head_model(
+    angles: np.ndarray,
+    pitch_z: np.ndarray,
+    loud_z: np.ndarray,
+    fps: float,
+    *,
+    starts: Sequence[int] = (0,),
+    n_components: int = 10,
+    seed: int = 0,
+    n_iter: int = 17,
+    weights: Sequence[float] | None = None,
+    proposal: float = DEFAULT_PROPOSAL,
+    progress: Callable[[], None] | None = None,
+) -> HeadModel:
     """Fit the ten mixtures of the head model (sec. 5.1) to training frames.
 
     ``angles`` (n, 3): yaw, pitch, roll in degrees; ``pitch_z`` (n,) standardised pitch with NaN
@@ -219,5 +237,13 @@ def fit_head_model(angles: np.ndarray, pitch_z: np.ndarray, loud_z: np.ndarray, 
             progress()
     step = np.concatenate([np.diff(angles[a:b], axis=0) for a, b in pieces]).std(axis=0) * fps
     w = np.array(DEFAULT_WEIGHTS if weights is None else weights, dtype=np.float64)
-    return HeadModel(MixtureBank.stack(v_mix), MixtureBank.stack(u_mix), kin_mean, kin_std,
-                     np.where(step > 1e-9, step, 1.0), w, n_iter, proposal)
+    return HeadModel(
+        MixtureBank.stack(v_mix),
+        MixtureBank.stack(u_mix),
+        kin_mean,
+        kin_std,
+        np.where(step > 1e-9, step, 1.0),
+        w,
+        n_iter,
+        proposal,
+    )

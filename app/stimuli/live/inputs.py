@@ -103,8 +103,9 @@ class ContourSmoother:
         return total / count if finite else float("nan")
 
 
-def smoothed_inputs(f0: np.ndarray, intensity_db: np.ndarray, width: int = SMOOTH_FRAMES
-                    ) -> tuple[np.ndarray, np.ndarray]:
+def smoothed_inputs(
+    f0: np.ndarray, intensity_db: np.ndarray, width: int = SMOOTH_FRAMES
+) -> tuple[np.ndarray, np.ndarray]:
     """Pitch (semitones, NaN unvoiced) and loudness (dB) of one take, smoothed causally."""
     return smooth_contour(semitones(f0), width), smooth_contour(loudness(intensity_db), width)
 
@@ -133,8 +134,13 @@ class SpeechScale:
         pitch_mean = float(st.mean()) if st.size else 0.0
         pitch_std = float(st.std()) if st.size > 1 else 1.0
         ref = float(np.median(loud[voiced])) if voiced.any() else float(np.median(loud))
-        return cls(pitch_mean, pitch_std if pitch_std > 1e-6 else 1.0, float(loud.mean()),
-                   float(loud.std()) if loud.std() > 1e-6 else 1.0, ref - TALK_MARGIN_DB)
+        return cls(
+            pitch_mean,
+            pitch_std if pitch_std > 1e-6 else 1.0,
+            float(loud.mean()),
+            float(loud.std()) if loud.std() > 1e-6 else 1.0,
+            ref - TALK_MARGIN_DB,
+        )
 
     def pitch_z(self, pitch_st: _X) -> _X:
         """Standardised pitch from semitones, within +/- :data:`Z_LIMIT`; NaN where
@@ -146,16 +152,18 @@ class SpeechScale:
         return np.clip((loud_db - self.loud_mean) / self.loud_std, -Z_LIMIT, Z_LIMIT)
 
     def to_array(self) -> np.ndarray:
-        return np.array([self.pitch_mean, self.pitch_std, self.loud_mean, self.loud_std,
-                         self.threshold_db])
+        return np.array(
+            [self.pitch_mean, self.pitch_std, self.loud_mean, self.loud_std, self.threshold_db]
+        )
 
     @classmethod
     def from_array(cls, a: np.ndarray) -> SpeechScale:
         return cls(*(float(v) for v in a))
 
 
-def talking_mode(intensity_db: np.ndarray, threshold_db: float, fps: float,
-                 window_s: float = 0.5) -> np.ndarray:
+def talking_mode(
+    intensity_db: np.ndarray, threshold_db: float, fps: float, window_s: float = 0.5
+) -> np.ndarray:
     """Causal talking/listening mode per frame (sec. 7.1): True while any of the frames of the
     last ``window_s`` seconds (the current one included) reached ``threshold_db``.
 

@@ -66,8 +66,11 @@ class Mixture:
     def marginal(self, keep: list[int]) -> Mixture:
         """The mixture of the coordinates ``keep`` (a Gaussian mixture marginalises exactly)."""
         idx = np.asarray(keep)
-        return Mixture(self.weights.copy(), self.means[:, idx].copy(),
-                       self.covariances[:, idx][:, :, idx].copy())
+        return Mixture(
+            self.weights.copy(),
+            self.means[:, idx].copy(),
+            self.covariances[:, idx][:, :, idx].copy(),
+        )
 
     def padded(self, n_components: int) -> Mixture:
         """Same density with zero-weight unit components appended up to ``n_components``."""
@@ -82,8 +85,14 @@ class Mixture:
         )
 
 
-def fit_mixture(x: np.ndarray, n_components: int = 10, *, seed: int = 0,
-                reg_covar: float = 1e-4, max_iter: int = 300) -> Mixture:
+def fit_mixture(
+    x: np.ndarray,
+    n_components: int = 10,
+    *,
+    seed: int = 0,
+    reg_covar: float = 1e-4,
+    max_iter: int = 300,
+) -> Mixture:
     """Fit a full-covariance Gaussian mixture to the rows of ``x`` by EM (sec. 5.1).
 
     The number of components is reduced to ``len(x) // 15`` (at least 1) when there are too few
@@ -92,12 +101,20 @@ def fit_mixture(x: np.ndarray, n_components: int = 10, *, seed: int = 0,
     """
     x = np.asarray(x, dtype=np.float64)
     k = int(max(1, min(n_components, len(x) // 15)))
-    gm = GaussianMixture(n_components=k, covariance_type="full", reg_covar=reg_covar,
-                         max_iter=max_iter, n_init=1, random_state=seed)
+    gm = GaussianMixture(
+        n_components=k,
+        covariance_type="full",
+        reg_covar=reg_covar,
+        max_iter=max_iter,
+        n_init=1,
+        random_state=seed,
+    )
     gm.fit(x)
-    return Mixture(np.asarray(gm.weights_, dtype=np.float64),
-                   np.asarray(gm.means_, dtype=np.float64),
-                   np.asarray(gm.covariances_, dtype=np.float64))
+    return Mixture(
+        np.asarray(gm.weights_, dtype=np.float64),
+        np.asarray(gm.means_, dtype=np.float64),
+        np.asarray(gm.covariances_, dtype=np.float64),
+    )
 
 
 @dataclass(frozen=True)
@@ -134,8 +151,9 @@ class MixtureBank:
         lam00 = prec[..., 0, 0]
         mu0 = mu[..., 0]
         const = logw - 0.5 * (d * _LOG_2PI + logdet_cov) - 0.5 * lam00 * mu0 * mu0
-        return cls(tuple(mixtures), lam00, prec[..., 0, 1:], prec[..., 1:, 1:], mu0,
-                   mu[..., 1:], const)
+        return cls(
+            tuple(mixtures), lam00, prec[..., 0, 1:], prec[..., 1:, 1:], mu0, mu[..., 1:], const
+        )
 
     def slice_coefficients(self, fixed: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Coefficients ``(a0, a1, a2)``, each (G, K), of the components' log densities as

@@ -45,11 +45,14 @@ class LiveGenerator:
         self.fps = float(fps or model.fps)
         head_seq, blink_seq, fix_seq = np.random.SeedSequence(seed).spawn(3)
         self._rng = np.random.default_rng(head_seq)
-        self._blinks = BlinkClock(model.eyelids.blink, np.random.default_rng(blink_seq),
-                                  shape=model.eyelids.shape)
-        self._fixations = FixationClock(model.fixations.intervals,
-                                        np.random.default_rng(fix_seq),
-                                        offsets=model.fixations.offsets)
+        self._blinks = BlinkClock(
+            model.eyelids.blink, np.random.default_rng(blink_seq), shape=model.eyelids.shape
+        )
+        self._fixations = FixationClock(
+            model.fixations.intervals,
+            np.random.default_rng(fix_seq),
+            offsets=model.fixations.offsets,
+        )
         rest = model.head.kin_mean[:3].copy()
         self._prev1, self._prev2 = rest.copy(), rest.copy()
         self._noise = model.head.step_std / self.fps
@@ -76,8 +79,9 @@ class LiveGenerator:
         loud_db = intensity if math.isfinite(intensity) else LOUDNESS_FLOOR_DB
         loud_db = self._smooth_loud.step(max(loud_db, LOUDNESS_FLOOR_DB))
         # log2(f0) - log2(100), not log2(f0 / 100): a subnormal F0 divided by 100 underflows to 0
-        pitch_st = (12.0 * (math.log2(f0) - math.log2(100.0))
-                    if math.isfinite(f0) and f0 > 0 else math.nan)
+        pitch_st = (
+            12.0 * (math.log2(f0) - math.log2(100.0)) if math.isfinite(f0) and f0 > 0 else math.nan
+        )
         pitch_st = self._smooth_pitch.step(pitch_st)
         lz, pz = scale.loud_z(loud_db), scale.pitch_z(pitch_st)
         # Head (sec. 5): eq. 5 start, Langevin steps on eq. 4.
@@ -114,8 +118,7 @@ class LiveGenerator:
         if self._audio is None:
             self._audio = AudioFrameStream(sample_rate, self.fps)
         elif self._audio.sample_rate != sample_rate:
-            raise ValueError(f"sample rate changed from {self._audio.sample_rate} to "
-                             f"{sample_rate}")
+            raise ValueError(f"sample rate changed from {self._audio.sample_rate} to {sample_rate}")
         feats = self._audio.push(samples)
         out = np.empty((len(feats), len(OUTPUT_CHANNELS)))
         for i, (f0, db) in enumerate(feats):
@@ -132,13 +135,23 @@ class LiveGenerator:
         return out
 
 
-def generate_track(model: LiveModel, features: SpeechFeatures, *, seed: int = 0,
-                   name: str = "live_gmm") -> MotionTrack:
+def generate_track(
+    model: LiveModel, features: SpeechFeatures, *, seed: int = 0, name: str = "live_gmm"
+) -> MotionTrack:
     """Offline generation over whole speech features (raw F0, so unvoiced frames stay
     unvoiced): a :class:`MotionTrack` with FAPs 19-26 and 48-50."""
     gen = LiveGenerator(model, fps=features.fps, seed=seed)
     values = gen.run(features.f0, features.intensity)
-    return MotionTrack(features.fps, values, OUTPUT_CHANNELS, name=name, source="live_gmm",
-                       metadata={"condition": "live_gmm", "seed": seed,
-                                 "blinks": len(gen.blink_log),
-                                 "model_training": model.summary})
+    return MotionTrack(
+        features.fps,
+        values,
+        OUTPUT_CHANNELS,
+        name=name,
+        source="live_gmm",
+        metadata={
+            "condition": "live_gmm",
+            "seed": seed,
+            "blinks": len(gen.blink_log),
+            "model_training": model.summary,
+        },
+    )

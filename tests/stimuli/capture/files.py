@@ -6,16 +6,45 @@ from pathlib import Path
 
 import numpy as np
 
-AU_REG = ("AU01", "AU02", "AU04", "AU05", "AU06", "AU07", "AU09", "AU10", "AU12", "AU14",
-          "AU15", "AU17", "AU20", "AU23", "AU25", "AU26", "AU45")
+AU_REG = (
+    "AU01",
+    "AU02",
+    "AU04",
+    "AU05",
+    "AU06",
+    "AU07",
+    "AU09",
+    "AU10",
+    "AU12",
+    "AU14",
+    "AU15",
+    "AU17",
+    "AU20",
+    "AU23",
+    "AU25",
+    "AU26",
+    "AU45",
+)
 AU_CLASS = AU_REG[:-1] + ("AU28", "AU45")
 
 
 def openface_header(eye_landmarks: int = 56) -> list[str]:
     """OpenFace 2.x RecorderCSV header for FeatureExtraction -pose -gaze -aus."""
-    names = ["frame", "face_id", "timestamp", "confidence", "success",
-             "gaze_0_x", "gaze_0_y", "gaze_0_z", "gaze_1_x", "gaze_1_y", "gaze_1_z",
-             "gaze_angle_x", "gaze_angle_y"]
+    names = [
+        "frame",
+        "face_id",
+        "timestamp",
+        "confidence",
+        "success",
+        "gaze_0_x",
+        "gaze_0_y",
+        "gaze_0_z",
+        "gaze_1_x",
+        "gaze_1_y",
+        "gaze_1_z",
+        "gaze_angle_x",
+        "gaze_angle_y",
+    ]
     for axis in ("x", "y", "X", "Y", "Z"):
         names += [f"eye_lmk_{axis}_{i}" for i in range(eye_landmarks)]
     names += ["pose_Tx", "pose_Ty", "pose_Tz", "pose_Rx", "pose_Ry", "pose_Rz"]
@@ -23,9 +52,15 @@ def openface_header(eye_landmarks: int = 56) -> list[str]:
     return names
 
 
-def write_openface(path: Path, times: np.ndarray, values: dict[str, np.ndarray], *,
-                   success: np.ndarray | None = None, confidence: np.ndarray | None = None,
-                   eye_landmarks: int = 56) -> Path:
+def write_openface(
+    path: Path,
+    times: np.ndarray,
+    values: dict[str, np.ndarray],
+    *,
+    success: np.ndarray | None = None,
+    confidence: np.ndarray | None = None,
+    eye_landmarks: int = 56,
+) -> Path:
     """One row per entry of ``times``; columns in ``values`` take those numbers, others 0.
     Numbers are printed with OpenFace's precisions, separated by ", "."""
     header = openface_header(eye_landmarks)
@@ -50,8 +85,14 @@ def write_openface(path: Path, times: np.ndarray, values: dict[str, np.ndarray],
     return path
 
 
-def write_live_link(path: Path, n: int, values: dict[str, np.ndarray], *, app_fps: int = 60,
-                    drop: tuple[int, ...] = ()) -> Path:
+def write_live_link(
+    path: Path,
+    n: int,
+    values: dict[str, np.ndarray],
+    *,
+    app_fps: int = 60,
+    drop: tuple[int, ...] = (),
+) -> Path:
     """A Live Link Face export: Timecode HH:MM:SS:FF.sss at ``app_fps``, BlendShapeCount 61,
     the 52 blendshapes and 9 rotations with 8 decimals; frames in ``drop`` missing."""
     from app.stimuli.capture.arkit import HEADER
@@ -64,8 +105,9 @@ def write_live_link(path: Path, n: int, values: dict[str, np.ndarray], *, app_fp
         secs, ff = divmod(k, app_fps)
         s = start + secs
         stamp = f"{s // 3600:02d}:{s // 60 % 60:02d}:{s % 60:02d}:{ff:02d}.{(k * 7) % 1000:03d}"
-        row = [stamp, "61"] + [f"{float(values[h][k]) if h in values else 0.0:.8f}"
-                               for h in HEADER[2:]]
+        row = [stamp, "61"] + [
+            f"{float(values[h][k]) if h in values else 0.0:.8f}" for h in HEADER[2:]
+        ]
         lines.append(",".join(row))
     path.write_text("\n".join(lines) + "\n")
     return path
@@ -79,7 +121,26 @@ def drop_video_frames(src, dst, frames):
     import imageio_ffmpeg
 
     keep = "*".join(f"not(eq(n\\,{k}))" for k in frames)
-    subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-loglevel", "error", "-i", str(src),
-                    "-vf", f"select='{keep}'", "-fps_mode", "passthrough", "-c:v", "libx264",
-                    "-crf", "12", "-pix_fmt", "yuv420p", str(dst)], check=True)
+    subprocess.run(
+        [
+            imageio_ffmpeg.get_ffmpeg_exe(),
+            "-y",
+            "-loglevel",
+            "error",
+            "-i",
+            str(src),
+            "-vf",
+            f"select='{keep}'",
+            "-fps_mode",
+            "passthrough",
+            "-c:v",
+            "libx264",
+            "-crf",
+            "12",
+            "-pix_fmt",
+            "yuv420p",
+            str(dst),
+        ],
+        check=True,
+    )
     return dst

@@ -21,11 +21,15 @@ def take(n=240, app_fps=60):
         "HeadPitch": 0.08 * np.sin(2 * np.pi * 0.5 * t),
         "HeadYaw": 0.2 * np.sin(2 * np.pi * 0.25 * t),
         "HeadRoll": np.full(n, -0.03),
-        "LeftEyeYaw": np.full(n, 0.1), "RightEyeYaw": np.full(n, 0.1),
-        "LeftEyePitch": np.full(n, 0.05), "RightEyePitch": np.full(n, 0.05),
+        "LeftEyeYaw": np.full(n, 0.1),
+        "RightEyeYaw": np.full(n, 0.1),
+        "LeftEyePitch": np.full(n, 0.05),
+        "RightEyePitch": np.full(n, 0.05),
         "BrowInnerUp": np.where((t % 2) < 1, 0.4, 0.0),
-        "BrowOuterUpLeft": np.full(n, 0.2), "BrowOuterUpRight": np.full(n, 0.1),
-        "BrowDownLeft": np.zeros(n), "BrowDownRight": np.zeros(n),
+        "BrowOuterUpLeft": np.full(n, 0.2),
+        "BrowOuterUpRight": np.full(n, 0.1),
+        "BrowDownLeft": np.zeros(n),
+        "BrowDownRight": np.zeros(n),
         "EyeBlinkLeft": np.where((t % 2) > 1.8, 1.0, 0.0),
         "EyeBlinkRight": np.where((t % 2) > 1.8, 1.0, 0.0),
         "JawOpen": np.full(n, 0.25),
@@ -33,8 +37,7 @@ def take(n=240, app_fps=60):
 
 
 def test_timecodes():
-    assert parse_timecode("14:03:52:28.207", 60) == pytest.approx(
-        14 * 3600 + 3 * 60 + 52 + 28 / 60)
+    assert parse_timecode("14:03:52:28.207", 60) == pytest.approx(14 * 3600 + 3 * 60 + 52 + 28 / 60)
     with pytest.raises(ValueError, match="expected a timecode"):
         parse_timecode("14:03:52", 60)
 
@@ -54,7 +57,8 @@ def test_a_live_link_take_maps_to_faps(tmp_path):
     raised = track[31][track[31] > 20]
     assert np.median(raised) == pytest.approx(40.0, abs=0.5)  # a 0.4 inner raise: 40 units
     assert track[35].min() == pytest.approx(20.0, abs=1) and track[36].min() == pytest.approx(
-        10.0, abs=1)
+        10.0, abs=1
+    )
     assert track[19].max() == pytest.approx(0.8 * 1024, rel=0.01)
     np.testing.assert_allclose(track[3], 200.0, atol=1e-6)
 
@@ -100,16 +104,20 @@ def test_malformed_rows_name_row_and_column(tmp_path):
 def test_cli_import_and_export(tmp_path):
     t, v = take()
     src = write_live_link(tmp_path / "take.csv", 240, v, drop=(10,))
-    r = CliRunner().invoke(main, ["capture", "import", str(src), "--out",
-                                  str(tmp_path / "gt.fap"), "--flip", "HeadPitch"])
+    r = CliRunner().invoke(
+        main,
+        ["capture", "import", str(src), "--out", str(tmp_path / "gt.fap"), "--flip", "HeadPitch"],
+    )
     assert r.exit_code == 0, r.output
     assert "120 frames at 30 fps from 239 samples at 60 fps" in r.output
     assert "1 frames filled by interpolation" in r.output
-    r = CliRunner().invoke(main, ["capture", "export", str(tmp_path / "gt.fap"), "--out",
-                                  str(tmp_path / "back.csv")])
+    r = CliRunner().invoke(
+        main, ["capture", "export", str(tmp_path / "gt.fap"), "--out", str(tmp_path / "back.csv")]
+    )
     assert r.exit_code == 0 and sniff_csv(tmp_path / "back.csv") == "arkit"
-    bad = CliRunner().invoke(main, ["capture", "import", str(src), "--out",
-                                    str(tmp_path / "x.fap"), "--flip", "Nose"])
+    bad = CliRunner().invoke(
+        main, ["capture", "import", str(src), "--out", str(tmp_path / "x.fap"), "--flip", "Nose"]
+    )
     assert bad.exit_code == 2 and "--flip takes ARKit rotation columns" in bad.output
 
 

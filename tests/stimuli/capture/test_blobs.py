@@ -14,8 +14,9 @@ def dots(centres, size=64, diameter=4.0, blur=0.6, noise=0.0, seed=0):
     """A dark frame with anti-aliased marker discs at sub-pixel ``centres``."""
     centres = np.asarray(centres, float)
     look = MarkerLook(blur_px=blur, noise=noise, seed=seed)
-    return draw_marker_frame(centres, np.ones(len(centres), bool),
-                             np.full(len(centres), diameter), *NO_FACE, size, look)
+    return draw_marker_frame(
+        centres, np.ones(len(centres), bool), np.full(len(centres), diameter), *NO_FACE, size, look
+    )
 
 
 def test_grey_centres_of_gravity_find_sub_pixel_positions():
@@ -48,8 +49,7 @@ def test_growth_stops_at_ten_pixels_and_dim_frames_have_no_markers():
 
 
 @settings(max_examples=40, deadline=None)
-@given(arrays(np.uint8, st.tuples(st.integers(1, 40), st.integers(1, 40))),
-       st.floats(1, 255))
+@given(arrays(np.uint8, st.tuples(st.integers(1, 40), st.integers(1, 40))), st.floats(1, 255))
 def test_any_frame_gives_centres_inside_it(img, threshold):
     found = find_markers(img, threshold)
     assert found.shape[1] == 2 and np.all(np.isfinite(found))

@@ -14,12 +14,15 @@ def test_numbers_text_columns_and_lines(tmp_path):
     np.testing.assert_array_equal(table.values[:, 1:], [[1, 2], [3, 4.5]])
 
 
-@pytest.mark.parametrize(("text", "message"), [
-    ("a, b\n1, 2, 3\n", r"t.csv:2: 3 values for 2 columns"),
-    ("a, b\n1, x\n", r"t.csv:2: column b: not a number: 'x'"),
-    ("a, b\n", r"t.csv: no data rows"),
-    ("q, b\n1, 2\n", r"t.csv:1: wrong header"),
-])
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("a, b\n1, 2, 3\n", r"t.csv:2: 3 values for 2 columns"),
+        ("a, b\n1, x\n", r"t.csv:2: column b: not a number: 'x'"),
+        ("a, b\n", r"t.csv: no data rows"),
+        ("q, b\n1, 2\n", r"t.csv:1: wrong header"),
+    ],
+)
 def test_bad_files_are_one_line_naming_row_and_column(tmp_path, text, message):
     path = tmp_path / "t.csv"
     path.write_text(text)

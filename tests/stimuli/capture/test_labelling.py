@@ -65,8 +65,11 @@ def test_a_marker_lost_too_long_is_named_with_its_frames(neutral):
     tracker = MarkerTracker(pos[0], t[0], max_gap_s=0.2)
     for i in range(1, len(t)):
         tracker.update(np.delete(pos[i], k, axis=0) if i >= 20 else pos[i], t[i])
-    with pytest.raises(InputError, match=r"marker nose_bridge lost from frame 20 \(0.667 s\) "
-                                         r"until the end, longer than the 0.2 s"):
+    with pytest.raises(
+        InputError,
+        match=r"marker nose_bridge lost from frame 20 \(0.667 s\) "
+        r"until the end, longer than the 0.2 s",
+    ):
         tracker.finish()
 
 

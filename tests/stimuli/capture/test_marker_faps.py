@@ -14,13 +14,25 @@ from app.stimuli.capture.marker_faps import (
 from app.stimuli.capture.markerset import MARKERS
 
 #: A flat marker layout in pixels: posts 200 x 200 apart, the face inside.
-LAYOUT = {"TL": (100, 100), "TR": (300, 100), "BL": (100, 300), "BR": (300, 300),
-          "brow_inner_l": (215, 140), "brow_inner_r": (185, 140),
-          "brow_middle_l": (240, 135), "brow_middle_r": (160, 135),
-          "nose_bridge": (200, 165), "nose_tip": (200, 200),
-          "cheek_l": (250, 195), "cheek_r": (150, 195),
-          "lip_top": (200, 230), "lip_bottom": (200, 250),
-          "lip_corner_l": (227, 235), "lip_corner_r": (173, 235), "chin": (200, 280)}
+LAYOUT = {
+    "TL": (100, 100),
+    "TR": (300, 100),
+    "BL": (100, 300),
+    "BR": (300, 300),
+    "brow_inner_l": (215, 140),
+    "brow_inner_r": (185, 140),
+    "brow_middle_l": (240, 135),
+    "brow_middle_r": (160, 135),
+    "nose_bridge": (200, 165),
+    "nose_tip": (200, 200),
+    "cheek_l": (250, 195),
+    "cheek_r": (150, 195),
+    "lip_top": (200, 230),
+    "lip_bottom": (200, 250),
+    "lip_corner_l": (227, 235),
+    "lip_corner_r": (173, 235),
+    "chin": (200, 280),
+}
 # MW0 = 54 px: with the default FAPU (MW0 54 mm) one pixel is one millimetre
 FAPU = {"ENS0": 52.0, "MNS0": 20.0, "MW0": 54.0}
 LINEAR = MarkerConstants(squash=False, fapu_mm=FAPU)
@@ -63,15 +75,13 @@ def test_roll_is_the_posts_angle_and_ratios_give_pitch_and_yaw():
     beyond = with_(TL=(-100 * 2 * c.kp, 0), TR=(100 * 2 * c.kp, 0))
     faps = marker_faps(tracks_of([LAYOUT, rolled, wide_top, long_left, beyond]), c)
     np.testing.assert_allclose(faps[50] * 1e-5, [0, angle, 0, 0, 0], atol=1e-12)
-    np.testing.assert_allclose(faps[48] * 1e-5,
-                               np.radians([0, 0, 0.5 * 17, 0, 17]), atol=1e-12)
+    np.testing.assert_allclose(faps[48] * 1e-5, np.radians([0, 0, 0.5 * 17, 0, 17]), atol=1e-12)
     np.testing.assert_allclose(faps[49] * 1e-5, np.radians([0, 0, 0, 0.5 * 8, 0]), atol=1e-12)
 
 
 def test_lips_open_and_stretch_in_fapu_with_the_thesis_weights():
     # opened by 10 px = 10 mm = half of MNS0: 512 MNS units; corners 4 mm further apart
-    opened = with_(lip_top=(0, -1), lip_bottom=(0, 9), lip_corner_l=(2, 0),
-                   lip_corner_r=(-2, 0))
+    opened = with_(lip_top=(0, -1), lip_bottom=(0, 9), lip_corner_l=(2, 0), lip_corner_r=(-2, 0))
     faps = marker_faps(tracks_of([LAYOUT, opened]), LINEAR)
     assert faps[52][1] == pytest.approx(-0.9 * 512) and faps[51][1] == pytest.approx(-0.1 * 512)
     assert faps[59][1] == faps[60][1] == pytest.approx(-0.4 * 512)
@@ -84,8 +94,12 @@ def test_lips_open_and_stretch_in_fapu_with_the_thesis_weights():
 
 def test_eyebrows_in_ens_units_corrected_by_the_posts():
     up = 52.0 / 1024 * 40  # 40 ENS units, in px (= mm here)
-    raised = with_(brow_inner_l=(0, -up), brow_inner_r=(0, -up),
-                   brow_middle_l=(0, -2 * up), brow_middle_r=(0, -2 * up))
+    raised = with_(
+        brow_inner_l=(0, -up),
+        brow_inner_r=(0, -up),
+        brow_middle_l=(0, -2 * up),
+        brow_middle_r=(0, -2 * up),
+    )
     # the same raised face 10 % larger (nearer the camera): the post average undoes it
     nearer = {k: 1.1 * (v - 200.0) + 200.0 for k, v in raised.items()}
     faps = marker_faps(tracks_of([LAYOUT, raised, nearer]), LINEAR)
@@ -108,9 +122,13 @@ def test_constants_file_round_trip_and_bad_keys(tmp_path):
     c = MarkerConstants(kp=0.07, brow_pitch_inner=-12.5, fapu_mm={**FAPU, "ENS0": 49.0})
     c.to_json(tmp_path / "c.json")
     assert MarkerConstants.from_json(tmp_path / "c.json") == c
-    for body, match in (({"kq": 1}, "kq: unknown constant"), ({"kp": -1}, "kp: bad value"),
-                        ({"fapu_mm": {"ES0": 60}}, "fapu_mm: bad value"),
-                        ({"squash": 1}, "squash: bad value"), ([1], "expected a JSON object")):
+    for body, match in (
+        ({"kq": 1}, "kq: unknown constant"),
+        ({"kp": -1}, "kp: bad value"),
+        ({"fapu_mm": {"ES0": 60}}, "fapu_mm: bad value"),
+        ({"squash": 1}, "squash: bad value"),
+        ([1], "expected a JSON object"),
+    ):
         (tmp_path / "bad.json").write_text(json.dumps(body))
         with pytest.raises(InputError, match=match):
             MarkerConstants.from_json(tmp_path / "bad.json")

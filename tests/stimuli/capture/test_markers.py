@@ -37,8 +37,7 @@ def captured(truth, seed):
 @pytest.fixture(scope="module")
 def loop():
     face = builtin_face()
-    base = MarkerConstants(squash=False, fapu_mm={k: face.fapu[k] for k in ("ENS0", "MNS0",
-                                                                             "MW0")})
+    base = MarkerConstants(squash=False, fapu_mm={k: face.fapu[k] for k in ("ENS0", "MNS0", "MW0")})
     known = calibration_motion(seconds=2.0)
     truth = known_motion(seconds=2.0)
     return base, calibrate(captured(known, 1), known, base), truth, captured(truth, 2)
@@ -71,8 +70,10 @@ def test_hidden_markers_are_recovered_and_reported(loop):
     tracks = label_frames(zip(truth.times, frames, strict=True))
     assert tracks.report["lost"] == {"brow_middle_r": 6, "lip_top": 2}
     rec = tracks_to_faps(tracks, constants=calibrated)
-    assert rec.metadata["capture"]["marker_gaps"] == [["brow_middle_r", 30, 35],
-                                                      ["lip_top", 40, 41]]
+    assert rec.metadata["capture"]["marker_gaps"] == [
+        ["brow_middle_r", 30, 35],
+        ["lip_top", 40, 41],
+    ]
     assert rms(rec[34], truth[34]) < 10.0
 
 
@@ -91,8 +92,9 @@ def test_time_stamps_place_frames_and_the_cli_reports_the_drop(clip, tmp_path):
     assert len(times) == truth.n_frames - 1
     np.testing.assert_allclose(np.diff(times)[11], 2 / 29.97, atol=1e-3)
     out = tmp_path / "rec.fap"
-    r = CliRunner().invoke(main, ["capture", "markers", str(dropped), "--out", str(out),
-                                  "--no-squash"])
+    r = CliRunner().invoke(
+        main, ["capture", "markers", str(dropped), "--out", str(out), "--no-squash"]
+    )
     assert r.exit_code == 0, r.output
     assert "from 35 video frames at 29.97 fps" in r.output
     assert "1 dropped frames filled" in r.output
@@ -106,9 +108,20 @@ def test_calibrate_command_writes_constants_markers_reads(tmp_path):
     known = calibration_motion(seconds=1.6)
     video = write_marker_clip(known, tmp_path / "cal.mp4", SIZE, look=LOOK)
     save_track(known, tmp_path / "known.csv")
-    r = CliRunner().invoke(main, ["capture", "calibrate", str(video), "--truth",
-                                  str(tmp_path / "known.csv"), "--out",
-                                  str(tmp_path / "c.json"), "--fapu", "ENS0=51.9,MNS0=20.1"])
+    r = CliRunner().invoke(
+        main,
+        [
+            "capture",
+            "calibrate",
+            str(video),
+            "--truth",
+            str(tmp_path / "known.csv"),
+            "--out",
+            str(tmp_path / "c.json"),
+            "--fapu",
+            "ENS0=51.9,MNS0=20.1",
+        ],
+    )
     assert r.exit_code == 0, r.output
     c = MarkerConstants.from_json(tmp_path / "c.json")
     assert 0.06 < c.kp < 0.09 and c.fapu_mm["ENS0"] == 51.9
@@ -116,15 +129,19 @@ def test_calibrate_command_writes_constants_markers_reads(tmp_path):
     assert np.degrees(rms(track[48], known[48]) * 1e-5) < 1.0
 
 
-@pytest.mark.parametrize(("hidden", "message"), [
-    ({"cheek_l": [0]}, "frame 0 (0.000 s): marker cheek_l not found near"),
-    ({"BR": range(5, 36)}, "marker BR lost from frame 5 (0.167 s) until the end"),
-])
+@pytest.mark.parametrize(
+    ("hidden", "message"),
+    [
+        ({"cheek_l": [0]}, "frame 0 (0.000 s): marker cheek_l not found near"),
+        ({"BR": range(5, 36)}, "marker BR lost from frame 5 (0.167 s) until the end"),
+    ],
+)
 def test_unlabelable_videos_exit_2_naming_frame_and_marker(tmp_path, hidden, message):
     truth = known_motion(seconds=1.2)
     video = write_marker_clip(truth, tmp_path / "bad.mp4", SIZE, look=LOOK, hidden=hidden)
-    r = CliRunner().invoke(main, ["capture", "markers", str(video), "--out",
-                                  str(tmp_path / "x.fap")])
+    r = CliRunner().invoke(
+        main, ["capture", "markers", str(video), "--out", str(tmp_path / "x.fap")]
+    )
     assert r.exit_code == 2
     last = r.output.strip().splitlines()[-1]
     assert last.startswith("facepair: error: ") and message in last and "Traceback" not in r.output
@@ -146,8 +163,10 @@ def test_bad_files_and_options_exit_2(tmp_path, repo_root):
 @settings(max_examples=25, deadline=None)
 @given(st.lists(st.binary(min_size=0, max_size=400), min_size=1, max_size=4))
 def test_any_frames_are_labelled_or_refused_in_one_line(chunks):
-    frames = [(k / 30.0, np.frombuffer(c.ljust(400, b"\0"), np.uint8).reshape(20, 20))
-              for k, c in enumerate(chunks)]
+    frames = [
+        (k / 30.0, np.frombuffer(c.ljust(400, b"\0"), np.uint8).reshape(20, 20))
+        for k, c in enumerate(chunks)
+    ]
     try:
         tracks = label_frames(frames)
     except InputError as exc:

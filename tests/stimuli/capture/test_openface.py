@@ -19,13 +19,14 @@ def known_motion(n=300, drop=()):
     t = np.arange(n) / FPS
     keep = np.setdiff1d(np.arange(n), drop)
     values = {
-        "pose_Rx": 0.10 * np.sin(2 * np.pi * 0.5 * t),       # nod: +/- 5.7 deg
-        "pose_Ry": 0.20 * np.sin(2 * np.pi * 0.25 * t),      # turn
+        "pose_Rx": 0.10 * np.sin(2 * np.pi * 0.5 * t),  # nod: +/- 5.7 deg
+        "pose_Ry": 0.20 * np.sin(2 * np.pi * 0.25 * t),  # turn
         "pose_Rz": 0.05 * np.cos(2 * np.pi * 0.3 * t),
         "gaze_angle_x": 0.15 * np.sin(2 * np.pi * 0.4 * t),
         "gaze_angle_y": -0.05 * np.ones(n),
         "AU01_r": 2.0 * (np.sin(2 * np.pi * 0.2 * t) > 0),
-        "AU02_r": np.full(n, 1.0), "AU04_r": np.zeros(n),
+        "AU02_r": np.full(n, 1.0),
+        "AU04_r": np.zeros(n),
         "AU45_r": np.where((t % 3) < 0.2, 4.0, 0.0),
         "AU26_r": np.full(n, 0.5),
     }
@@ -48,7 +49,8 @@ def test_known_signals_map_to_faps_with_their_signs_and_units(tmp_path):
     np.testing.assert_allclose(track[33], 25 * (v["AU01_r"] + 1.0) / 2)
     np.testing.assert_allclose(track[35], 25.0)
     assert track[19].max() == pytest.approx(0.8 * 1024) and track[21].max() == pytest.approx(
-        0.2 * 1024)
+        0.2 * 1024
+    )
     assert track[3].mean() == pytest.approx(60.0)
     assert track.metadata["capture"]["missing"] == {}
 
@@ -59,8 +61,13 @@ def test_lost_frames_are_filled_and_reported(tmp_path):
     success[100:105] = 0  # tracker lost the face for 5 frames
     conf = np.full(len(keep), 0.98)
     conf[200] = 0.3
-    path = write_openface(tmp_path / "of.csv", t[keep], {k: c[keep] for k, c in v.items()},
-                          success=success, confidence=conf)
+    path = write_openface(
+        tmp_path / "of.csv",
+        t[keep],
+        {k: c[keep] for k, c in v.items()},
+        success=success,
+        confidence=conf,
+    )
     track = read_openface(path, FPS)
     report = track.metadata["capture"]
     assert report["invalid_samples"] == 6 and report["filled_frames"] == 9
@@ -78,8 +85,11 @@ def test_a_gap_too_long_to_fill_names_its_rows(tmp_path):
     success = np.ones(300, int)
     success[60:90] = 0  # 1 s without a face
     path = write_openface(tmp_path / "of.csv", t, v, success=success)
-    with pytest.raises(InputError, match=r"of.csv: no usable frame for 1\.00 s between rows "
-                                         r"61 and 92"):
+    with pytest.raises(
+        InputError,
+        match=r"of.csv: no usable frame for 1\.00 s between rows "
+        r"61 and 92",
+    ):
         read_openface(path, FPS)
 
 
@@ -95,10 +105,23 @@ def test_29_97_fps_capture_is_placed_by_time_stamps(tmp_path):
 
 
 def test_missing_columns_are_reported_and_bad_rows_named(tmp_path):
-    header = ["frame", "face_id", "timestamp", "confidence", "success", "pose_Tx", "pose_Ty",
-              "pose_Tz", "pose_Rx", "pose_Ry", "pose_Rz"]
-    rows = [f"{k + 1}, 0, {k / 30:.3f}, 0.98, 1, 0.0, 0.0, 500.0, 0.010, 0.000, 0.000"
-            for k in range(30)]
+    header = [
+        "frame",
+        "face_id",
+        "timestamp",
+        "confidence",
+        "success",
+        "pose_Tx",
+        "pose_Ty",
+        "pose_Tz",
+        "pose_Rx",
+        "pose_Ry",
+        "pose_Rz",
+    ]
+    rows = [
+        f"{k + 1}, 0, {k / 30:.3f}, 0.98, 1, 0.0, 0.0, 500.0, 0.010, 0.000, 0.000"
+        for k in range(30)
+    ]
     path = tmp_path / "pose_only.csv"
     path.write_text("\n".join([", ".join(header), *rows]) + "\n")
     track = read_openface(path, FPS)
@@ -117,27 +140,40 @@ def test_missing_columns_are_reported_and_bad_rows_named(tmp_path):
 def test_cli_import_and_ground_truth_detection(tmp_path, repo_root):
     t, _, v = known_motion(n=150)
     src = write_openface(tmp_path / "take.csv", t, v)
-    r = CliRunner().invoke(main, ["capture", "import", str(src), "--out",
-                                  str(tmp_path / "gt.fap")])
+    r = CliRunner().invoke(main, ["capture", "import", str(src), "--out", str(tmp_path / "gt.fap")])
     assert r.exit_code == 0, r.output
     assert "150 frames at 30 fps from 150 samples at 30 fps" in r.output
     assert "FAPs 3, 19, 20, 21, 22, 23, 24, 25, 26, 31" in r.output
     assert load_track(tmp_path / "gt.fap").n_frames == 150
     assert load_track(src).channels == read_openface(src, FPS).channels  # by header
     out = tmp_path / "out"
-    r = CliRunner().invoke(main, ["stimuli", "generate", "--audio",
-                                  str(repo_root / "app" / "data" / "demo" / "speech.wav"),
-                                  "--ground-truth", str(src), "--out", str(out), "--no-plot",
-                                  "--conditions", "ground_truth"])
+    r = CliRunner().invoke(
+        main,
+        [
+            "stimuli",
+            "generate",
+            "--audio",
+            str(repo_root / "app" / "data" / "demo" / "speech.wav"),
+            "--ground-truth",
+            str(src),
+            "--out",
+            str(out),
+            "--no-plot",
+            "--conditions",
+            "ground_truth",
+        ],
+    )
     assert r.exit_code == 0, r.output
     assert load_track(out / "ground_truth.fap").n_frames == 120
-    bad = CliRunner().invoke(main, ["capture", "import", str(repo_root / "README.md"),
-                                    "--out", str(tmp_path / "x.fap")])
+    bad = CliRunner().invoke(
+        main, ["capture", "import", str(repo_root / "README.md"), "--out", str(tmp_path / "x.fap")]
+    )
     assert bad.exit_code == 2 and "not an OpenFace or Live Link Face CSV" in bad.output
 
 
-@settings(max_examples=150, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(st.lists(st.text(alphabet="0123456789.,- abcn\n", max_size=40), max_size=12))
 def test_junk_rows_are_one_input_error_never_a_crash(tmp_path, rows):
     path = tmp_path / "junk.csv"

@@ -13,13 +13,21 @@ def test_capture_rate_from_rounded_stamps_with_drops():
 
 def test_duplicates_gaps_and_backwards_time():
     t = np.array([0.0, 0.1, 0.1, 0.2, 0.5, 0.6])
-    track, report = to_track(t, {48: np.array([0, 1, 9, 2, 5, 6.0])}, np.ones(6, bool),
-                             fps=10.0, source="x")
+    track, report = to_track(
+        t, {48: np.array([0, 1, 9, 2, 5, 6.0])}, np.ones(6, bool), fps=10.0, source="x"
+    )
     assert report["duplicates"] == 1 and report["filled_frames"] == 2
     np.testing.assert_allclose(track[48], [0, 9, 2, 3, 4, 5, 6])  # the later duplicate wins
     with pytest.raises(InputError, match="row 4: time goes backwards"):
-        to_track(np.array([0.0, 0.1, 0.05]), {48: np.zeros(3)}, np.ones(3, bool), fps=10.0,
-                 source="x", rows=np.array([2, 3, 4]))
+        to_track(
+            np.array([0.0, 0.1, 0.05]),
+            {48: np.zeros(3)},
+            np.ones(3, bool),
+            fps=10.0,
+            source="x",
+            rows=np.array([2, 3, 4]),
+        )
     with pytest.raises(InputError, match="fewer than 2 usable frames"):
-        to_track(np.array([0.0, 0.1]), {48: np.zeros(2)}, np.array([True, False]), fps=10.0,
-                 source="x")
+        to_track(
+            np.array([0.0, 0.1]), {48: np.zeros(2)}, np.array([True, False]), fps=10.0, source="x"
+        )

@@ -14,8 +14,11 @@ def speechlike(n=3000, fps=30.0, seed=0):
     rng = np.random.default_rng(seed)
     t = np.arange(n) / fps
     intensity = 60 + 10 * np.sin(2 * np.pi * 3.7 * t) + 3 * rng.standard_normal(n)
-    f0 = np.where(np.sin(2 * np.pi * 0.4 * t) > -0.5,
-                  140 + 30 * np.sin(2 * np.pi * 0.9 * t) + 5 * rng.standard_normal(n), 0.0)
+    f0 = np.where(
+        np.sin(2 * np.pi * 0.4 * t) > -0.5,
+        140 + 30 * np.sin(2 * np.pi * 0.9 * t) + 5 * rng.standard_normal(n),
+        0.0,
+    )
     return SpeechFeatures(fps, f0, intensity, condition_f0(f0))
 
 
@@ -49,19 +52,21 @@ def test_fit_recovers_a_head_system_driven_by_speech():
 
 def test_other_frame_rate_runs_at_the_models_rate():
     feats = speechlike(900)
-    gt = MotionTrack(30.0, np.column_stack([np.sin(np.arange(900) / 20) * 1000] * 3),
-                     (48, 49, 50))
+    gt = MotionTrack(30.0, np.column_stack([np.sin(np.arange(900) / 20) * 1000] * 3), (48, 49, 50))
     model = HeadPoseArx.fit(feats, gt)
-    feats25 = SpeechFeatures(25.0, feats.f0[::6].repeat(5), feats.intensity[::6].repeat(5),
-                             feats.f0_conditioned[::6].repeat(5))
+    feats25 = SpeechFeatures(
+        25.0,
+        feats.f0[::6].repeat(5),
+        feats.intensity[::6].repeat(5),
+        feats.f0_conditioned[::6].repeat(5),
+    )
     head = model.generate(feats25)
     assert len(head[48]) == feats25.n_frames and np.isfinite(head[48]).all()
 
 
 def test_save_load_round_trip_and_damaged_files(tmp_path):
     feats = speechlike(600)
-    gt = MotionTrack(30.0, np.random.default_rng(1).standard_normal((600, 3)) * 500,
-                     (48, 49, 50))
+    gt = MotionTrack(30.0, np.random.default_rng(1).standard_normal((600, 3)) * 500, (48, 49, 50))
     model = HeadPoseArx.fit(feats, gt)
     model.save(tmp_path / "m.json")
     again = HeadPoseArx.load(tmp_path / "m.json")
@@ -83,8 +88,9 @@ def test_save_load_round_trip_and_damaged_files(tmp_path):
 
 def test_short_recording_is_stabilised_or_refused():
     feats = speechlike(60)
-    gt = MotionTrack(30.0, np.cumsum(np.random.default_rng(2).standard_normal((60, 3)), 0)
-                     * 300, (48, 49, 50))
+    gt = MotionTrack(
+        30.0, np.cumsum(np.random.default_rng(2).standard_normal((60, 3)), 0) * 300, (48, 49, 50)
+    )
     model = HeadPoseArx.fit(feats, gt)
     assert model.arx.spectral_radius() < 0.995
     with pytest.raises(InputError, match="cannot fit the head model"):

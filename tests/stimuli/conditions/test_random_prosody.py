@@ -42,11 +42,16 @@ def test_default_amplitudes_are_the_thesis_perlin_constants():
 
 def reference_track(n):
     rng = np.random.default_rng(0)
-    return MotionTrack.from_channels(30.0, {48: 400 + 900 * rng.standard_normal(n),
-                                            49: -100 + 2000 * rng.standard_normal(n),
-                                            50: 300 * rng.standard_normal(n),
-                                            31: np.abs(5 * rng.standard_normal(n))},
-                                     source="capture")
+    return MotionTrack.from_channels(
+        30.0,
+        {
+            48: 400 + 900 * rng.standard_normal(n),
+            49: -100 + 2000 * rng.standard_normal(n),
+            50: 300 * rng.standard_normal(n),
+            31: np.abs(5 * rng.standard_normal(n)),
+        },
+        source="capture",
+    )
 
 
 def test_experiment_1_random_keeps_its_own_amplitudes_next_to_a_ground_truth():
@@ -63,8 +68,7 @@ def test_experiment_1_random_keeps_its_own_amplitudes_next_to_a_ground_truth():
 def test_amplitudes_matched_to_a_reference_on_request():
     feats = features(30)
     ref = reference_track(feats.n_frames)
-    track = make_condition("random", match_amplitudes=True).fit(feats, ref).generate(feats,
-                                                                                    seed=5)
+    track = make_condition("random", match_amplitudes=True).fit(feats, ref).generate(feats, seed=5)
     for c in (48, 49, 50):
         np.testing.assert_allclose(track[c].mean(), ref[c].mean(), atol=1e-9 * 1e4)
         np.testing.assert_allclose(track[c].std(), ref[c].std(), rtol=1e-9)

@@ -8,8 +8,11 @@ from app.stimuli.track import MotionTrack
 
 
 def test_registry_names():
-    assert set(CONDITIONS) == set(DISPLAY_NAMES) == {
-        "none", "random", "speech_driven", "ground_truth", "live_gmm"}
+    assert (
+        set(CONDITIONS)
+        == set(DISPLAY_NAMES)
+        == {"none", "random", "speech_driven", "ground_truth", "live_gmm"}
+    )
     assert CONDITIONS["live_gmm"] == "app.stimuli.live.condition:LiveGmmCondition"
 
 
@@ -32,8 +35,9 @@ def test_missing_module_is_one_clear_line(monkeypatch):
 def test_none_zeroes_prosody_and_carries_lips():
     n = 30
     feats = SpeechFeatures(30.0, np.full(n, 120.0), np.full(n, 60.0), np.full(n, 120.0))
-    gt = MotionTrack.from_channels(30.0, {3: np.arange(n) * 1.0, 48: np.ones(n) * 500,
-                                          19: np.ones(n) * 7, 31: np.ones(n) * 9})
+    gt = MotionTrack.from_channels(
+        30.0, {3: np.arange(n) * 1.0, 48: np.ones(n) * 500, 19: np.ones(n) * 7, 31: np.ones(n) * 9}
+    )
     track = make_condition("none").generate(feats, ground_truth=gt)
     assert track.name == "NO_PROSODY"
     np.testing.assert_array_equal(track[3], gt[3])
@@ -46,8 +50,9 @@ def test_none_zeroes_prosody_and_carries_lips():
 def test_ground_truth_is_aligned_and_resampled():
     fps_capture, n = 120.0, 480  # 4 s capture at 120 Hz
     t = np.arange(n) / fps_capture
-    gt = MotionTrack.from_channels(fps_capture, {48: 1000 * np.sin(2 * np.pi * 0.5 * t)},
-                                   source="capture")
+    gt = MotionTrack.from_channels(
+        fps_capture, {48: 1000 * np.sin(2 * np.pi * 0.5 * t)}, source="capture"
+    )
     feats = SpeechFeatures(30.0, np.zeros(90), np.zeros(90), np.zeros(90))  # 3 s of audio
     track = make_condition("ground_truth").generate(feats, ground_truth=gt)
     assert track.fps == 30 and track.n_frames == 90 and track.name == "GROUND_TRUTH"

@@ -77,11 +77,15 @@ def test_auto_release_does_not_depend_on_recording_gain():
     f0, intensity = known_contours()
     quiet = SpeechFeatures(30.0, f0, intensity, f0.copy())
     loud = SpeechFeatures(30.0, f0, intensity + 20.0, f0.copy())
-    auto = [make_condition("speech_driven", f0_threshold=207).generate(f)
-            .metadata["eyebrows"]["raises"] for f in (quiet, loud)]
+    auto = [
+        make_condition("speech_driven", f0_threshold=207).generate(f).metadata["eyebrows"]["raises"]
+        for f in (quiet, loud)
+    ]
     assert auto[0] == auto[1]
-    fixed = [make_condition("speech_driven", **THESIS).generate(f)
-             .metadata["eyebrows"]["raises"] for f in (quiet, loud)]
+    fixed = [
+        make_condition("speech_driven", **THESIS).generate(f).metadata["eyebrows"]["raises"]
+        for f in (quiet, loud)
+    ]
     assert fixed[0] != fixed[1]
 
 
@@ -113,8 +117,9 @@ def test_fitted_on_reference_speaker_learns_speech_structure():
 
 def test_eyebrow_gains_fitted_from_ground_truth():
     feats = known_features()
-    gt = make_condition("speech_driven", eyebrow_gain=0.2, eyebrow_offset=5,
-                        **THESIS).generate(feats)
+    gt = make_condition("speech_driven", eyebrow_gain=0.2, eyebrow_offset=5, **THESIS).generate(
+        feats
+    )
     cond = make_condition("speech_driven", fit_eyebrows=True, **THESIS).fit(feats, gt)
     assert cond.brows_fitted
     np.testing.assert_allclose(cond.brow_gain[31], 0.2, atol=1e-9)

@@ -52,8 +52,9 @@ def _head_correlation(track, truth) -> float:
 
 
 @pytest.mark.slow
-def test_learns_head_motion_of_the_reference_speaker_better_than_random(live_training_data,
-                                                                         live_held_out_speech):
+def test_learns_head_motion_of_the_reference_speaker_better_than_random(
+    live_training_data, live_held_out_speech
+):
     # Train on one stretch of speech with the reference speaker's motion; test on other speech
     # with reference motion of another seed, which the models never saw.
     train_speech = live_training_data[0]
@@ -62,10 +63,12 @@ def test_learns_head_motion_of_the_reference_speaker_better_than_random(live_tra
     live = make_condition("live_gmm").fit(train_speech, train_truth)
     rand = make_condition("random").fit(train_speech, train_truth)
     seeds = range(3)
-    r_live = np.mean([_head_correlation(live.generate(live_held_out_speech, seed=s), held_truth)
-                      for s in seeds])
-    r_rand = np.mean([_head_correlation(rand.generate(live_held_out_speech, seed=s), held_truth)
-                      for s in seeds])
+    r_live = np.mean(
+        [_head_correlation(live.generate(live_held_out_speech, seed=s), held_truth) for s in seeds]
+    )
+    r_rand = np.mean(
+        [_head_correlation(rand.generate(live_held_out_speech, seed=s), held_truth) for s in seeds]
+    )
     assert r_live > r_rand + 0.05, (r_live, r_rand)
     assert r_live > 0.08
 
@@ -75,8 +78,9 @@ def test_fit_without_ground_truth_keeps_the_file_model(tmp_path, live_model, liv
     cond = make_condition("live_gmm", model_path=str(path))
     assert cond.fit(live_training_data[0], None) is cond
     features = live_training_data[0].slice(0, 60)
-    np.testing.assert_array_equal(cond.generate(features, seed=2)[48],
-                                  generate_track(live_model, features, seed=2)[48])
+    np.testing.assert_array_equal(
+        cond.generate(features, seed=2)[48], generate_track(live_model, features, seed=2)[48]
+    )
     assert cond.describe()["model"] == str(path)
 
 
@@ -86,8 +90,9 @@ def test_a_given_model_file_is_used_instead_of_fitting(tmp_path, live_model, liv
     cond = make_condition("live_gmm", model_path=path).fit(features, truth.drop((48,)))
     assert cond.model is None and "given model file" in cond.describe()["note"]
     short = features.slice(0, 60)
-    np.testing.assert_array_equal(cond.generate(short, seed=1)[49],
-                                  generate_track(live_model, short, seed=1)[49])
+    np.testing.assert_array_equal(
+        cond.generate(short, seed=1)[49], generate_track(live_model, short, seed=1)[49]
+    )
 
 
 def test_unusable_ground_truth_falls_back_to_the_default_model(live_training_data):

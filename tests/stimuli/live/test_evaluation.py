@@ -35,8 +35,9 @@ def test_high_frequency_fraction_of_known_mixtures():
 def test_blink_rate_counts_known_blinks():
     times = np.arange(1800) / 30.0  # one minute
     closure = sum(blink_closure(times - onset) for onset in (5.0, 21.0, 40.5, 52.0))
-    track = MotionTrack.from_channels(30.0, {19: 819.2 * closure, 20: 819.2 * closure,
-                                             21: 204.8 * closure, 22: 204.8 * closure})
+    track = MotionTrack.from_channels(
+        30.0, {19: 819.2 * closure, 20: 819.2 * closure, 21: 204.8 * closure, 22: 204.8 * closure}
+    )
     assert blink_rate(track) == pytest.approx(4.0)
 
 

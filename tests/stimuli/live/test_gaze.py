@@ -27,10 +27,17 @@ def test_cca_matches_scikit_learn_canonical_correlations():
     rng = np.random.default_rng(0)
     n = 3000
     latent = rng.normal(size=(n, 2))
-    x = np.column_stack([latent[:, 0] + 0.5 * rng.normal(size=n), rng.normal(size=n),
-                         latent[:, 1] + rng.normal(size=n), rng.normal(size=n)])
-    y = np.column_stack([latent[:, 0] + 0.3 * rng.normal(size=n),
-                         latent[:, 1] + 0.8 * rng.normal(size=n)])
+    x = np.column_stack(
+        [
+            latent[:, 0] + 0.5 * rng.normal(size=n),
+            rng.normal(size=n),
+            latent[:, 1] + rng.normal(size=n),
+            rng.normal(size=n),
+        ]
+    )
+    y = np.column_stack(
+        [latent[:, 0] + 0.3 * rng.normal(size=n), latent[:, 1] + 0.8 * rng.normal(size=n)]
+    )
     x, y = x - x.mean(0), y - y.mean(0)
     u, v, corr = cca(x, y)
     xs, ys = x @ u, y @ v
@@ -85,7 +92,7 @@ def test_fixation_model_recovers_known_saccades_and_offsets():
         talk = bool(talking[t])
         mu = np.log(1.5 if talk else 3.0)
         length = max(int(np.exp(mu + 0.4 * rng.standard_normal()) * fps), 3)
-        gaze[t:t + length] = (rng.normal([2, -1], [5, 2]) if talk else rng.normal(0, 3, 2))
+        gaze[t : t + length] = rng.normal([2, -1], [5, 2]) if talk else rng.normal(0, 3, 2)
         t += length
     model, summary = fit_fixation_model(gaze, np.zeros((n, 2)), talking, fps)
     assert summary["interval_source"] == ["fitted", "fitted"]
@@ -103,8 +110,11 @@ def test_saccade_onsets_are_where_the_speed_rises_through_the_threshold():
 
 
 def test_fixation_clock_holds_an_offset_between_saccades():
-    clock = FixationClock(np.array([[0.0, 0.1], [0.0, 0.1]]), np.random.default_rng(0),
-                          offsets=np.array([[0, 0, 4, 4]] * 2, float))
+    clock = FixationClock(
+        np.array([[0.0, 0.1], [0.0, 0.1]]),
+        np.random.default_rng(0),
+        offsets=np.array([[0, 0, 4, 4]] * 2, float),
+    )
     offsets = np.array([clock.step(i / 30.0, True) for i in range(600)])
     changes = np.flatnonzero(np.any(np.diff(offsets, axis=0) != 0, axis=1))
     assert 12 <= len(changes) <= 28  # about one saccade a second over 20 s

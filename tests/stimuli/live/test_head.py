@@ -39,8 +39,10 @@ def test_analytic_gradient_matches_finite_differences(head, pitch_z):
         for i in range(3):
             e = np.zeros(3)
             e[i] = h
-            fd[i] = (head.objective(theta + e, prev1, prev2, 30.0, coeffs)[0]
-                     - head.objective(theta - e, prev1, prev2, 30.0, coeffs)[0]) / (2 * h)
+            fd[i] = (
+                head.objective(theta + e, prev1, prev2, 30.0, coeffs)[0]
+                - head.objective(theta - e, prev1, prev2, 30.0, coeffs)[0]
+            ) / (2 * h)
         np.testing.assert_allclose(grad, fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
 
 
@@ -49,8 +51,10 @@ def test_objective_is_the_weighted_sum_of_mixture_log_densities(head):
     f, _ = head.objective(theta, prev1, prev2, 30.0, head.frame_coefficients(0.5, -0.2))
     kin = kinematic_features(np.stack([prev2, prev1, theta]), 30.0)[2]
     z = (kin - head.kin_mean) / head.kin_std
-    want = sum(w * m.log_density(np.array([z[g], 0.5, -0.2]))[0]
-               for g, (w, m) in enumerate(zip(head.weights, head.voiced.mixtures, strict=True)))
+    want = sum(
+        w * m.log_density(np.array([z[g], 0.5, -0.2]))[0]
+        for g, (w, m) in enumerate(zip(head.weights, head.voiced.mixtures, strict=True))
+    )
     assert f == pytest.approx(want, rel=1e-9)
 
 
@@ -60,14 +64,19 @@ def test_langevin_steps_sample_the_objective_s_distribution():
     rng = np.random.default_rng(0)
     n = 6000
     pz, lz = rng.normal(0, 1, n), rng.normal(0, 1, n)
-    angles = np.column_stack([2 + 1.5 * rng.normal(0, 1, n), 3 * pz + rng.normal(0, 0.5, n),
-                              rng.normal(0, 0.8, n)])
+    angles = np.column_stack(
+        [2 + 1.5 * rng.normal(0, 1, n), 3 * pz + rng.normal(0, 0.5, n), rng.normal(0, 0.8, n)]
+    )
     model = fit_head_model(angles, pz, lz, 30.0, n_components=1, weights=[1, 1, 1, 0, 0])
     # Proposal variances about half the target's per axis, so that 60 steps mix well.
     model = replace(model, n_iter=60, proposal=1.0, step_std=30.0 * np.array([1.0, 0.35, 0.55]))
     coeffs = model.frame_coefficients(1.0, 0.0)  # pitch angle | pz = 1: N(3, 0.5^2)
-    draws = np.array([model.sample(np.zeros(3), np.zeros(3), np.zeros(3), 30.0, coeffs, rng)
-                      for _ in range(3000)])
+    draws = np.array(
+        [
+            model.sample(np.zeros(3), np.zeros(3), np.zeros(3), 30.0, coeffs, rng)
+            for _ in range(3000)
+        ]
+    )
     np.testing.assert_allclose(draws.mean(axis=0), [2.0, 3.0, 0.0], atol=0.1)
     np.testing.assert_allclose(draws.std(axis=0), [1.5, 0.5, 0.8], rtol=0.1)
 
@@ -86,8 +95,9 @@ def test_pose_follows_the_speech_the_model_was_trained_on():
     n = 4000
     pz = np.sin(np.arange(n) / 40.0) + rng.normal(0, 0.05, n)
     lz = rng.normal(0, 1, n)
-    angles = np.column_stack([rng.normal(0, 0.2, n).cumsum() * 0.01, 5 * pz,
-                              np.zeros(n) + rng.normal(0, 0.05, n)])
+    angles = np.column_stack(
+        [rng.normal(0, 0.2, n).cumsum() * 0.01, 5 * pz, np.zeros(n) + rng.normal(0, 0.05, n)]
+    )
     model = fit_head_model(angles, pz, lz, 30.0, n_components=4, weights=[1, 1, 1, 0, 0])
     for target in (-0.8, 0.0, 0.8):
         coeffs = model.frame_coefficients(target, 0.0)

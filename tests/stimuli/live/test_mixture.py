@@ -10,11 +10,13 @@ from app.stimuli.live.mixture import Mixture, MixtureBank, fit_mixture
 TRUE = Mixture(
     weights=np.array([0.5, 0.3, 0.2]),
     means=np.array([[-4.0, 0.0, 1.0], [3.0, 3.0, -2.0], [2.0, -4.0, 4.0]]),
-    covariances=np.array([
-        [[1.0, 0.5, 0.0], [0.5, 1.0, 0.2], [0.0, 0.2, 0.5]],
-        [[0.6, -0.2, 0.1], [-0.2, 0.8, 0.0], [0.1, 0.0, 0.4]],
-        [[0.3, 0.0, 0.0], [0.0, 0.5, 0.25], [0.0, 0.25, 1.0]],
-    ]),
+    covariances=np.array(
+        [
+            [[1.0, 0.5, 0.0], [0.5, 1.0, 0.2], [0.0, 0.2, 0.5]],
+            [[0.6, -0.2, 0.1], [-0.2, 0.8, 0.0], [0.1, 0.0, 0.4]],
+            [[0.3, 0.0, 0.0], [0.0, 0.5, 0.25], [0.0, 0.25, 1.0]],
+        ]
+    ),
 )
 
 
@@ -36,17 +38,24 @@ def test_em_recovers_a_known_mixture():
 
 def test_log_density_matches_scipy():
     x = _sample(TRUE, 50, seed=1)
-    want = np.log(sum(w * multivariate_normal(mu, c).pdf(x) for w, mu, c in
-                      zip(TRUE.weights, TRUE.means, TRUE.covariances, strict=True)))
+    want = np.log(
+        sum(
+            w * multivariate_normal(mu, c).pdf(x)
+            for w, mu, c in zip(TRUE.weights, TRUE.means, TRUE.covariances, strict=True)
+        )
+    )
     np.testing.assert_allclose(TRUE.log_density(x), want, rtol=1e-10)
 
 
 def test_marginal_and_padding_keep_the_density():
     x = _sample(TRUE, 40, seed=2)
     marg = TRUE.marginal([0, 2])
-    want = np.log(sum(w * multivariate_normal(mu[[0, 2]], c[np.ix_([0, 2], [0, 2])]).pdf(
-        x[:, [0, 2]]) for w, mu, c in zip(TRUE.weights, TRUE.means, TRUE.covariances,
-                                          strict=True)))
+    want = np.log(
+        sum(
+            w * multivariate_normal(mu[[0, 2]], c[np.ix_([0, 2], [0, 2])]).pdf(x[:, [0, 2]])
+            for w, mu, c in zip(TRUE.weights, TRUE.means, TRUE.covariances, strict=True)
+        )
+    )
     np.testing.assert_allclose(marg.log_density(x[:, [0, 2]]), want, rtol=1e-10)
     np.testing.assert_allclose(TRUE.padded(7).log_density(x), TRUE.log_density(x), rtol=1e-12)
 
@@ -63,6 +72,8 @@ def test_slice_coefficients_give_each_components_log_density():
             total = np.log(np.exp(poly).sum())
             np.testing.assert_allclose(total, m.log_density(x)[0], rtol=1e-10)
             live = m.weights > 0
-            comp = [np.log(m.weights[k]) + multivariate_normal(m.means[k], m.covariances[k])
-                    .logpdf(x) for k in np.flatnonzero(live)]
+            comp = [
+                np.log(m.weights[k]) + multivariate_normal(m.means[k], m.covariances[k]).logpdf(x)
+                for k in np.flatnonzero(live)
+            ]
             np.testing.assert_allclose(poly[live], comp, rtol=1e-10)

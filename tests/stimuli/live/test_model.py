@@ -78,24 +78,44 @@ def test_mismatched_files_name_the_field(live_model, tmp_path):
         "shape": (lambda a: a.update(gaze_u=np.zeros((3, 2))), "gaze_u"),
         "missing": (lambda a: a.pop("eyelid_cb"), "eyelid_cb"),
         "nan": (lambda a: a.update(head_kin_std=np.full(5, np.nan)), "head_kin_std"),
-        "weights": (lambda a: a.update(head_voiced_weights=a["head_voiced_weights"] * 2),
-                    "head_voiced"),
-        "version": (lambda a: a.update(meta=np.frombuffer(json.dumps(
-            {"format": "facepair-live-gmm", "version": 99}).encode(), np.uint8)),
-            "meta.version"),
-        "format": (lambda a: a.update(meta=np.frombuffer(b'{"format": "x"}', np.uint8)),
-                   "meta.format"),
+        "weights": (
+            lambda a: a.update(head_voiced_weights=a["head_voiced_weights"] * 2),
+            "head_voiced",
+        ),
+        "version": (
+            lambda a: a.update(
+                meta=np.frombuffer(
+                    json.dumps({"format": "facepair-live-gmm", "version": 99}).encode(), np.uint8
+                )
+            ),
+            "meta.version",
+        ),
+        "format": (
+            lambda a: a.update(meta=np.frombuffer(b'{"format": "x"}', np.uint8)),
+            "meta.format",
+        ),
         "json": (lambda a: a.update(meta=np.frombuffer(b"{not json", np.uint8)), "meta"),
-        "fixation sd": (lambda a: a.update(gaze_fixation_offsets=-a["gaze_fixation_offsets"]
-                                           - 1.0), "gaze_fixation_offsets"),
-        "interval sd": (lambda a: a.update(gaze_fixation_intervals=np.zeros((2, 2))),
-                        "gaze_fixation_intervals"),
+        "fixation sd": (
+            lambda a: a.update(gaze_fixation_offsets=-a["gaze_fixation_offsets"] - 1.0),
+            "gaze_fixation_offsets",
+        ),
+        "interval sd": (
+            lambda a: a.update(gaze_fixation_intervals=np.zeros((2, 2))),
+            "gaze_fixation_intervals",
+        ),
         "step sd": (lambda a: a.update(head_step_std=np.zeros(3)), "head_step_std"),
-        "version 1": (lambda a: a.update(meta=np.frombuffer(json.dumps(
-            {"format": "facepair-live-gmm", "version": 1}).encode(), np.uint8)),
-            "version 1, this program reads version 2"),
-        "proposal": (lambda a: a.update(meta=_with_meta(a, head={"n_iter": 17,
-                                                                 "proposal": -1.0})), "meta"),
+        "version 1": (
+            lambda a: a.update(
+                meta=np.frombuffer(
+                    json.dumps({"format": "facepair-live-gmm", "version": 1}).encode(), np.uint8
+                )
+            ),
+            "version 1, this program reads version 2",
+        ),
+        "proposal": (
+            lambda a: a.update(meta=_with_meta(a, head={"n_iter": 17, "proposal": -1.0})),
+            "meta",
+        ),
     }
     for name, (change, field) in cases.items():
         bad = tmp_path / f"{name}.npz"
@@ -126,8 +146,9 @@ def test_training_needs_head_motion(live_training_data):
 
 def test_gazeless_lidless_ground_truth_trains_with_defaults(live_training_data):
     features, truth = live_training_data
-    model = train_live_model(features.slice(0, 1500), truth.select((48, 49, 50)).fit_length(1500),
-                             n_components=3)
+    model = train_live_model(
+        features.slice(0, 1500), truth.select((48, 49, 50)).fit_length(1500), n_components=3
+    )
     assert not model.gaze.enabled
     assert model.summary["eyelids"]["blink_source"] == ["default", "default"]
     track = generate_track(model, features.slice(0, 100))
@@ -137,8 +158,12 @@ def test_gazeless_lidless_ground_truth_trains_with_defaults(live_training_data):
 def test_takes_are_not_joined(live_training_data):
     features, truth = live_training_data
     half = features.n_frames // 2
-    model = train_live_model([features.slice(0, half), features.slice(half, 2 * half)],
-                             [truth.fit_length(half), MotionTrack(
-                                 truth.fps, truth.values[half:2 * half], truth.channels)],
-                             n_components=3)
+    model = train_live_model(
+        [features.slice(0, half), features.slice(half, 2 * half)],
+        [
+            truth.fit_length(half),
+            MotionTrack(truth.fps, truth.values[half : 2 * half], truth.channels),
+        ],
+        n_components=3,
+    )
     assert model.summary["takes"] == 2 and model.summary["frames"] == 2 * half

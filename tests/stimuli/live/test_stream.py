@@ -34,8 +34,9 @@ def test_streaming_frames_equal_offline_frames(live_model, speech):
 
 def test_frames_use_only_past_and_current_input(live_model, speech):
     full = generate_track(live_model, speech, seed=2).values
-    changed = SpeechFeatures(speech.fps, speech.f0.copy(), speech.intensity.copy(),
-                             speech.f0_conditioned.copy())
+    changed = SpeechFeatures(
+        speech.fps, speech.f0.copy(), speech.intensity.copy(), speech.f0_conditioned.copy()
+    )
     changed.f0[200:] = 0.0
     changed.intensity[200:] = 10.0
     other = generate_track(live_model, changed, seed=2).values
