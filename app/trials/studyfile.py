@@ -131,12 +131,15 @@ RENDER_KEYS: Final[dict[str, tuple[tuple[type, ...], str]]] = {
     "fps": ((int, float), "a number"),
     "crf": ((int,), "an integer"),
     "preset": ((str,), "a string"),
+    "look": ((str,), "a string"),
 }
 #: What a participant counted as dropped (idle past the deployment's DROPPED_AFTER_MINUTES)
 #: meets on coming back: ``resume`` takes their list slot back, ``refuse`` ends their session.
 REJOIN_POLICIES: Final = ("resume", "refuse")
 #: ``renderer.gl.ANTIALIAS_MODES``, repeated so that reading a study file imports no GL.
 ANTIALIAS_MODES: Final = ("edges", "msaa", "none")
+#: ``renderer.headmodel.LOOKS`` (the built-in head's looks), repeated for the same reason.
+LOOKS: Final = ("textured", "plain")
 
 _TOP_KEYS: Final = (
     "title",
@@ -285,6 +288,8 @@ class _StudyReader(ExperimenterSideReader):
                 render[key] = self.get(table, key, f"render.{key}", types, expected)
         if "antialias" in render:
             self.choice(render, "antialias", "render.antialias", ANTIALIAS_MODES)
+        if "look" in render:
+            self.choice(render, "look", "render.look", LOOKS)
         return eyes, normalize, render
 
     def replay(self, top: Mapping[str, Any]) -> ReplayPolicy:

@@ -263,6 +263,7 @@ BAD_FIELDS: list[tuple[dict[str, Any], str]] = [
     ({"render": {"size": "big"}}, "render.size: expected an integer"),
     ({"render": {"colour": 1}}, "render.colour: unknown key (expected one of size,"),
     ({"render": {"antialias": "fxaa"}}, "render.antialias: expected one of edges, msaa, none"),
+    ({"render": {"look": "shiny"}}, "render.look: expected one of textured, plain"),
     ({"render": 3}, "render: expected a table, got 3"),
     ({"rejoin": "ask"}, "rejoin: expected one of resume, refuse, got 'ask'"),
     ({"rejoin": True}, "rejoin: expected a string, got true"),
@@ -419,11 +420,13 @@ def test_stimulus_settings_are_read_and_round_trip(
     make_study_data: StudyData, study_dir: Path
 ) -> None:
     data = make_study_data()
-    data.update(eyes="generated", normalize=True, render={"size": 256, "antialias": "msaa"})
+    data.update(
+        eyes="generated", normalize=True, render={"size": 256, "antialias": "msaa", "look": "plain"}
+    )
     data["clips"][0]["ground_truth"] = data["clips"][1]["ground_truth"]
     spec = parse_study(data, source="study.toml", base_dir=study_dir)
     assert (spec.eyes, spec.normalize) == ("generated", True)
-    assert dict(spec.render) == {"size": 256, "antialias": "msaa"}
+    assert dict(spec.render) == {"size": 256, "antialias": "msaa", "look": "plain"}
     again = parse_study(spec.to_dict(), source="study.toml", base_dir=study_dir)
     assert (again.eyes, again.normalize, dict(again.render)) == ("generated", True, spec.render)
 
@@ -436,3 +439,13 @@ def test_the_rejoin_policy_is_read_and_round_trips(
     spec = parse_study(data, source="study.toml", base_dir=study_dir)
     assert spec.rejoin == "refuse"
     assert loads_study(spec.to_toml(), base_dir=study_dir).rejoin == "refuse"
+
+
+def test_the_render_choices_repeat_the_renderers() -> None:
+    # repeated so that reading a study file imports no GL: the copies must agree
+    from app.trials import studyfile
+    from renderer.gl import ANTIALIAS_MODES
+    from renderer.headmodel import LOOKS
+
+    assert studyfile.ANTIALIAS_MODES == ANTIALIAS_MODES
+    assert studyfile.LOOKS == LOOKS
