@@ -123,6 +123,17 @@ def test_the_web_never_imports_gl_and_loads_the_renderer_only_in_a_job() -> None
     assert not bad, bad
 
 
+def test_trials_never_import_analysis() -> None:
+    # the vote vocabulary lives in app.trials.rules and analysis reads it, not the reverse
+    bad = [
+        f"{path.relative_to(REPO)}: {name}"
+        for path in _files("app/trials")
+        for name, _ in imports(path)
+        if _is(name, ("app.analysis",))
+    ]
+    assert not bad, bad
+
+
 def test_the_check_sees_a_forbidden_import(tmp_path: Path) -> None:
     """The checks above can fail: a function-level Flask import and a relative web import
     are both found."""
