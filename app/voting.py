@@ -97,18 +97,37 @@ def _int_field(
     return value
 
 
+def check_open(study: Any, *, pilot: bool) -> None:
+    """Refuse a vote on a study that takes no answers (pilots vote before it opens)."""
+    # Pilot participants (``app.participants``) vote before recruitment opens.
+    piloting = pilot and study.status in ("draft", "ready")
+    if study.status not in ("open", "paused") and not piloting:
+        raise VoteRejected("this study is closed", 409, closed=True)
+
+
+def trial_id_of(payload: dict[str, Any]) -> int:
+    """The request's ``trial_id``: a whole number an id column can hold."""
+    return _int_field(payload, "trial_id", Trial.id, required=True)  # type: ignore[return-value]
+
+
 def validate(participant: Participant, payload: dict[str, Any]) -> tuple[Trial, dict[str, Any]]:
     """Check a vote request against the participant's schedule and the study's rules."""
     study = participant.study
-    # Pilot participants (``app.participants``) vote before recruitment opens.
-    piloting = participant.pilot and study.status in ("draft", "ready")
-    if study.status not in ("open", "paused") and not piloting:
-        raise VoteRejected("this study is closed", 409, closed=True)
-    trial_id = _int_field(payload, "trial_id", Trial.id, required=True)
+    check_open(study, pilot=participant.pilot)
+    trial_id = trial_id_of(payload)
     # With its vote, if any: a resent or double-clicked vote is answered from it.
     trial = db.session.get(Trial, trial_id, options=[so.joinedload(Trial.vote)])
+    return trial, vote_fields(study, trial, participant.id, payload)  # type: ignore[return-value]
+
+
+def vote_fields(
+    study: Any, trial: Any, participant_id: int, payload: dict[str, Any]
+) -> dict[str, Any]:
+    """The vote's columns from ``payload``, checked against ``trial`` (its ``participant_id``,
+    ``kind`` and ``plays``) and the study's rules (``allow_undecided``, ``replay``,
+    ``max_plays``, ``settings``); ``study`` and ``trial`` are rows or ORM objects."""
     # Another participant's trial is reported exactly like a missing one: nothing leaks.
-    if trial is None or trial.participant_id != participant.id:
+    if trial is None or trial.participant_id != participant_id:
         raise VoteRejected("no such trial", 404)
     if trial.kind == "practice":
         raise VoteRejected("the practice pair is not recorded", 422)
@@ -139,7 +158,7 @@ def validate(participant: Participant, payload: dict[str, Any]) -> tuple[Trial, 
         columns, log = media_fields(payload.get("media"))
     except MediaLogError as exc:
         raise VoteRejected(str(exc)) from None
-    fields = {
+    return {
         "choice": choice,
         "idempotency_key": key,
         "plays": plays,
@@ -150,7 +169,6 @@ def validate(participant: Participant, payload: dict[str, Any]) -> tuple[Trial, 
         "media": log or None,
         **columns,
     }
-    return trial, fields
 
 
 def _strength(value: Any, choice: str, scale: int) -> int | None:

@@ -1,0 +1,223 @@
+"""The vote's usual case in two SQL statements: a participant's vote on a trial of their own.
+
+:func:`app.voting.record_vote` goes through the ORM: a statement for the participant, one for
+the trial, one to mark the participant seen, the INSERT and the progress counts, each with the
+ORM's Python work around it, which the load benchmark's profile showed to be most of a vote's
+cost. :func:`cast` checks the vote with the same functions (:func:`app.voting.check_open`,
+:func:`app.voting.vote_fields`) and stores it through SQLAlchemy Core on the session's
+connection, in the request's one transaction:
+
+1. one row: the participant, their study, the trial (only if it is theirs) and its vote if
+   any, the participant's row locked (``FOR UPDATE``), so one participant's votes are stored
+   one after the other and the counts below see every earlier one;
+2. the vote inserted ``ON CONFLICT DO NOTHING`` (the unique idempotency key and
+   ``(participant, trial)`` settle races), the participant marked as seen, and the progress
+   counted: one statement on PostgreSQL (data-modifying CTEs), three in process on SQLite.
+
+The vote that completes the schedule marks the participant finished in the same transaction.
+Whatever is not the usual case returns None, before anything is committed, and the caller
+takes :func:`app.voting.record_vote` (the reference for every rule): an unknown token, a
+participant screened out or released as dropped, a missed attention check (the stop rule), a
+key or trial whose vote the first statement did not see (a race, or a key reused on another
+trial).
+"""
+
+from __future__ import annotations
+
+from functools import cache
+from typing import Any, NamedTuple
+
+import sqlalchemy as sa
+from sqlalchemy.dialects import postgresql, sqlite
+
+from app.extensions import db
+from app.limits import fits
+from app.models import Participant, Study, Trial, Vote, utcnow
+from app.participants import release_if_left_out
+from app.voting import VoteRejected, check_open, trial_id_of, vote_fields
+
+P, S, T, V = (m.__table__ for m in (Participant, Study, Trial, Vote))  # type: ignore[attr-defined]
+#: The vote's columns written from the request (every one but the id).
+VOTE_COLUMNS = tuple(c.name for c in V.columns if c.name != "id")
+
+
+class StoredVote(NamedTuple):
+    """What the acknowledgement repeats of a stored vote."""
+
+    trial_id: int
+    choice: str
+    plays: int
+    response_ms: int | None
+    strength: int | None
+
+
+class CastVote(NamedTuple):
+    vote: StoredVote
+    #: True when this request stored it; False when it was already stored (a retry).
+    created: bool
+    answered: int
+    total: int
+
+
+class _TrialFacts(NamedTuple):
+    participant_id: int
+    kind: str
+    plays: int
+
+
+@cache
+def _facts() -> sa.Select[Any]:
+    """Statement 1, built once: the participant, study, trial and stored vote, locked."""
+    trial = sa.and_(T.c.id == sa.bindparam("trial_id"), T.c.participant_id == P.c.id)
+    return (
+        sa.select(
+            P.c.id,
+            P.c.pilot,
+            P.c.screened_out_at,
+            P.c.dropped_at,
+            P.c.finished_at,
+            S.c.status,
+            S.c.allow_undecided,
+            S.c.replay,
+            S.c.max_plays,
+            S.c.settings,
+            T.c.id.label("trial_id"),
+            T.c.kind,
+            T.c.expected,
+            T.c.plays,
+            V.c.id.label("vote_id"),
+            V.c.choice.label("vote_choice"),
+            V.c.plays.label("vote_plays"),
+            V.c.response_ms.label("vote_response_ms"),
+            V.c.strength.label("vote_strength"),
+        )
+        .select_from(
+            P.join(S, S.c.id == P.c.study_id)
+            .outerjoin(T, trial)
+            .outerjoin(V, V.c.trial_id == T.c.id)
+        )
+        .where(P.c.token == sa.bindparam("token"))
+        .with_for_update(of=P)
+    )
+
+
+def _vote_values() -> dict[str, Any]:
+    return {name: sa.bindparam(name, type_=V.c[name].type) for name in VOTE_COLUMNS}
+
+
+def _counts(inserted: Any = None) -> tuple[Any, Any]:
+    """(answered, total) over the participant's trials; ``inserted`` adds a CTE's rows (its
+    statement's snapshot does not hold them)."""
+    answered: Any = (
+        sa.select(sa.func.count(V.c.id))
+        .where(V.c.participant_id == sa.bindparam("participant_id"))
+        .scalar_subquery()
+    )
+    if inserted is not None:
+        answered = answered + sa.select(sa.func.count()).select_from(inserted).scalar_subquery()
+    total = (
+        sa.select(sa.func.count(T.c.id))
+        .where(T.c.participant_id == sa.bindparam("participant_id"), T.c.kind != "practice")
+        .scalar_subquery()
+    )
+    return answered.label("answered"), total.label("total")
+
+
+@cache
+def _store_postgresql() -> sa.Select[Any]:
+    """Statement 2 on PostgreSQL: insert, mark seen and count in one round trip."""
+    seen = (
+        sa.update(P)
+        .where(P.c.id == sa.bindparam("participant_id"))
+        .values(last_seen_at=sa.bindparam("now"))
+        .returning(P.c.id)
+        .cte("seen")
+    )
+    inserted = (
+        postgresql.insert(V)
+        .values(_vote_values())
+        .on_conflict_do_nothing()
+        .returning(V.c.id)
+        .cte("inserted")
+    )
+    return sa.select(
+        sa.select(inserted.c.id).scalar_subquery().label("vote_id"),
+        sa.select(sa.func.count()).select_from(seen).scalar_subquery().label("seen"),
+        *_counts(inserted),
+    )
+
+
+@cache
+def _store_sqlite() -> tuple[Any, Any, Any]:
+    """Statement 2 on SQLite (no data-modifying CTEs): three statements, all in process."""
+    seen = (
+        sa.update(P)
+        .where(P.c.id == sa.bindparam("participant_id"))
+        .values(last_seen_at=sa.bindparam("now"))
+    )
+    inserted = sqlite.insert(V).values(_vote_values()).on_conflict_do_nothing().returning(V.c.id)
+    return seen, inserted, sa.select(*_counts())
+
+
+def _store(conn: sa.Connection, values: dict[str, Any]) -> tuple[int | None, int, int]:
+    """Insert the vote unless its key or trial has one; (new vote id or None, answered,
+    total)."""
+    if conn.dialect.name == "postgresql":
+        row = conn.execute(_store_postgresql(), values).one()
+        return row.vote_id, int(row.answered), int(row.total)
+    seen, inserted, counts = _store_sqlite()
+    conn.execute(seen, values)
+    vote_id = conn.execute(inserted, values).scalar()
+    row = conn.execute(counts, values).one()
+    return vote_id, int(row.answered), int(row.total)
+
+
+def cast(payload: dict[str, Any]) -> CastVote | None:
+    """Store the vote in ``payload`` (a JSON object) if it is the usual case; None otherwise,
+    with nothing written (the caller rolls back and takes :func:`app.voting.record_vote`).
+
+    Raises :class:`app.voting.VoteRejected` for a request that is not a valid vote of this
+    participant, as :func:`~app.voting.record_vote` does; the caller commits.
+    """
+    token = payload.get("token")
+    if not isinstance(token, str) or not fits(Participant.token, token):
+        return None
+    try:
+        trial_id = trial_id_of(payload)
+    except VoteRejected:
+        return None  # refused by the ORM path, after the checks that come first there
+    conn = db.session.connection()
+    facts = conn.execute(_facts(), {"token": token, "trial_id": trial_id}).one_or_none()
+    if facts is None or facts.screened_out_at is not None or facts.dropped_at is not None:
+        return None  # unknown (403), screened out, or dropped (it may rejoin): the ORM path
+    check_open(facts, pilot=facts.pilot)
+    trial = None
+    if facts.trial_id is not None:
+        trial = _TrialFacts(facts.id, facts.kind, facts.plays)
+    fields = vote_fields(facts, trial, facts.id, payload)
+    if facts.kind == "catch" and facts.vote_id is None and fields["choice"] != facts.expected:
+        return None  # a missed attention check may end the session (app.voting.screen_out)
+    now = utcnow()
+    values = dict.fromkeys(VOTE_COLUMNS)
+    values.update(fields, participant_id=facts.id, trial_id=trial_id, voted_at=now, now=now)
+    vote_id, answered, total = _store(conn, values)
+    if vote_id is not None:
+        vote = StoredVote(
+            trial_id, fields["choice"], fields["plays"], fields["response_ms"], fields["strength"]
+        )
+    elif facts.vote_id is not None:  # a resent or double-clicked vote: the stored one
+        vote = StoredVote(
+            trial_id,
+            facts.vote_choice,
+            facts.vote_plays,
+            facts.vote_response_ms,
+            facts.vote_strength,
+        )
+    else:
+        return None  # the key is another trial's, or a concurrent request stored it first
+    if answered >= total and facts.finished_at is None:
+        participant = db.session.get(Participant, facts.id)
+        assert participant is not None  # locked by statement 1
+        participant.finished_at = now
+        release_if_left_out(participant)
+    return CastVote(vote, vote_id is not None, answered, total)
