@@ -14,12 +14,13 @@ connection, in the request's one transaction:
    ``(participant, trial)`` settle races), the participant marked as seen, and the progress
    counted: one statement on PostgreSQL (data-modifying CTEs), three in process on SQLite.
 
-The vote that completes the schedule marks the participant finished in the same transaction.
-Whatever is not the usual case returns None, before anything is committed, and the caller
-takes :func:`app.voting.record_vote` (the reference for every rule): an unknown token, a
-participant screened out or released as dropped, a missed attention check (the stop rule), a
-key or trial whose vote the first statement did not see (a race, or a key reused on another
-trial).
+The vote that completes the schedule marks the participant finished (and
+:func:`app.participants.release_if_left_out` applies), and a missed attention check applies
+the stop rule (:func:`app.voting.screen_out`), in the same transaction and the ORM's way: they
+are rare. Whatever else is not the usual case returns None, before anything is committed, and
+the caller takes :func:`app.voting.record_vote` (the reference for every rule): an unknown
+token, a participant screened out or released as dropped, a key or trial whose vote the first
+statement did not see (a race, or a key reused on another trial).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from app.extensions import db
 from app.limits import fits
 from app.models import Participant, Study, Trial, Vote, utcnow
 from app.participants import release_if_left_out
-from app.voting import VoteRejected, check_open, trial_id_of, vote_fields
+from app.voting import VoteRejected, check_open, screen_out, trial_id_of, vote_fields
 
 P, S, T, V = (m.__table__ for m in (Participant, Study, Trial, Vote))  # type: ignore[attr-defined]
 #: The vote's columns written from the request (every one but the id).
@@ -195,8 +196,6 @@ def cast(payload: dict[str, Any]) -> CastVote | None:
     if facts.trial_id is not None:
         trial = _TrialFacts(facts.id, facts.kind, facts.plays)
     fields = vote_fields(facts, trial, facts.id, payload)
-    if facts.kind == "catch" and facts.vote_id is None and fields["choice"] != facts.expected:
-        return None  # a missed attention check may end the session (app.voting.screen_out)
     now = utcnow()
     values = dict.fromkeys(VOTE_COLUMNS)
     values.update(fields, participant_id=facts.id, trial_id=trial_id, voted_at=now, now=now)
@@ -215,8 +214,14 @@ def cast(payload: dict[str, Any]) -> CastVote | None:
         )
     else:
         return None  # the key is another trial's, or a concurrent request stored it first
-    if answered >= total and facts.finished_at is None:
+    participant = None
+    screened = False
+    if vote_id is not None and facts.kind == "catch" and fields["choice"] != facts.expected:
+        # A missed attention check: the stop rule may end the session (the ORM's way, rare).
         participant = db.session.get(Participant, facts.id)
+        screened = screen_out(participant)  # type: ignore[arg-type]
+    if answered >= total and facts.finished_at is None and not screened:
+        participant = participant or db.session.get(Participant, facts.id)
         assert participant is not None  # locked by statement 1
         participant.finished_at = now
         release_if_left_out(participant)

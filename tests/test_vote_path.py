@@ -1,0 +1,121 @@
+"""The vote's usual case (``app.vote_path``): the same answers as the ORM path, in two
+statements on PostgreSQL, and the ORM path for what is not the usual case."""
+
+import pytest
+import sqlalchemy as sa
+
+from app import voting
+from app.extensions import db
+from app.models import Participant, Study, Vote
+
+
+@pytest.fixture
+def joined(app, participant, web):
+    study_id = web.study(design="all_ordered")  # several trials
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    participant.join(slug)
+    return participant
+
+
+@pytest.fixture
+def orm_calls(monkeypatch):
+    """How often a vote took the ORM path (``app.voting.record_vote``)."""
+    calls = []
+    original = voting.record_vote
+
+    def counted(*args, **kwargs):
+        calls.append(args)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr("app.api.views.record_vote", counted)
+    return calls
+
+
+def _statements(app):
+    seen: list[str] = []
+    with app.app_context():
+        engine = db.engine
+
+    def before(_conn, _cursor, statement, *_args):
+        seen.append(statement.split()[0].upper())
+
+    sa.event.listen(engine, "before_cursor_execute", before)
+    return seen, lambda: sa.event.remove(engine, "before_cursor_execute", before)
+
+
+def test_a_vote_a_retry_and_a_double_click_take_the_usual_path(app, joined, orm_calls):
+    trial = joined.current_trial()
+    first = joined.vote(trial, "right", key="key-one-0001")
+    assert first.status_code == 201 and first.json["status"] == "recorded"
+    assert first.json["vote"] == {
+        "trial_id": trial,
+        "choice": "right",
+        "plays": 1,
+        "response_ms": 1234,
+        "strength": None,
+    }
+    assert first.json["answered"] == 1 and first.json["next"].endswith(f"/p/{joined.token}")
+    retry = joined.vote(trial, "right", key="key-one-0001")
+    assert retry.status_code == 200 and retry.json["status"] == "duplicate"
+    assert retry.json["vote"] == first.json["vote"]
+    double = joined.vote(trial, "left", key="key-two-0002")  # a second click, a new key
+    assert double.status_code == 200 and double.json["vote"]["choice"] == "right"
+    assert orm_calls == []
+    with app.app_context():
+        votes = db.session.scalars(sa.select(Vote)).all()
+        assert [(v.trial_id, v.choice, v.idempotency_key) for v in votes] == [
+            (trial, "right", "key-one-0001")
+        ]
+        person = db.session.scalar(sa.select(Participant))
+        assert person.last_seen_at >= person.consented_at
+
+
+def test_the_usual_vote_is_two_statements_on_postgresql(app, joined):
+    if not app.config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql"):
+        pytest.skip("SQLite runs the second statement as three, in process")
+    trial = joined.current_trial()
+    seen, stop = _statements(app)
+    try:
+        assert joined.vote(trial, "left").json["answered"] == 1  # not the last: no finish
+    finally:
+        stop()
+    assert seen == ["SELECT", "WITH"], seen  # BEGIN and COMMIT are the driver's, not statements
+
+
+def test_what_is_not_the_usual_case_takes_the_orm_path(app, joined, orm_calls):
+    trial = joined.current_trial()
+    assert joined.vote(trial, "left", key="shared-key-01").status_code == 201
+    other = joined.current_trial()
+    # The key of another trial's vote: the insert meets it, the ORM path says which.
+    reused = joined.vote(other, "left", key="shared-key-01")
+    assert reused.status_code == 409 and "another trial" in reused.json["error"]
+    assert len(orm_calls) == 1
+    # An unknown participant is the ORM path's 403.
+    assert (
+        joined.client.post(
+            "/api/v1/votes", json={"token": "nobody-at-all", "trial_id": trial}
+        ).status_code
+        == 403
+    )
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count(Vote.id))) == 1
+
+
+def test_another_participants_trial_and_a_closed_study_are_refused(app, client, joined, web):
+    from tests.conftest import ParticipantActions
+
+    theirs = joined.current_trial()
+    with app.app_context():
+        slug = db.session.scalar(sa.select(Study.slug))
+    other = ParticipantActions(app.test_client(), app)
+    other.join(slug)
+    refused = other.vote(theirs, "left")
+    assert refused.status_code == 404 and refused.json["error"] == "no such trial"
+    with app.app_context():
+        db.session.scalar(sa.select(Study)).status = "closed"
+        db.session.commit()
+    closed = joined.vote(theirs, "left")
+    assert closed.status_code == 409 and closed.json["closed"] is True
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count(Vote.id))) == 0
