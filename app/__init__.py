@@ -56,7 +56,8 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
         LOGIN_LIMIT_PER_ACCOUNT="5 per minute; 30 per hour",
         LOGIN_LIMIT_PER_ADDRESS="20 per minute; 200 per hour",
         SQLALCHEMY_DATABASE_URI=embedded_database_uri(app.instance_path),
-        SQLALCHEMY_ENGINE_OPTIONS={"pool_pre_ping": True},
+        # No pre-ping on every checkout: a connection idle in the pool is pinged (app.web).
+        SQLALCHEMY_ENGINE_OPTIONS={},
         MEDIA_ROOT=os.path.join(app.instance_path, "media"),
         REDIS_URL=None,
         # "process": a spawned local process; "inline": run at once (tests); RQ if REDIS_URL
