@@ -7,9 +7,12 @@ is sent here first (:func:`questionnaire_first`, installed by ``app.web``).
 
 from __future__ import annotations
 
+from functools import cache
+
 import sqlalchemy as sa
 from flask import Blueprint, abort, g, redirect, render_template, request, url_for
 from flask_wtf import FlaskForm
+from sqlalchemy import orm as so
 
 from app.errors import InputError
 from app.extensions import db
@@ -34,7 +37,7 @@ def questionnaire_first():  # type: ignore[no-untyped-def]
     token = (request.view_args or {}).get("token")
     if wanted is None or not isinstance(token, str) or not fits(Participant.token, token):
         return None
-    participant = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+    participant = db.session.scalar(_with_study(), {"token": token})
     if participant is None:
         return None
     g.participant = participant  # the view reads it again otherwise (two queries a page)
@@ -42,6 +45,17 @@ def questionnaire_first():  # type: ignore[no-untyped-def]
     if page is None or (page == "after") != (wanted == "after"):
         return None
     return redirect(url_for("questionnaire.page", token=token, page=page))
+
+
+@cache
+def _with_study() -> sa.Select[tuple[Participant]]:
+    """The participant of a token with their study, which the guard and the page read next
+    (a lazy load of the study was a second query on every trial page); built once."""
+    return (
+        sa.select(Participant)
+        .where(Participant.token == sa.bindparam("token"))
+        .options(so.joinedload(Participant.study))
+    )
 
 
 class _PageForm(FlaskForm):
