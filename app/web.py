@@ -129,12 +129,6 @@ def init_web(app: Flask) -> None:
     app.before_request(questionnaire_first)
     app.register_blueprint(experimenter_bp)
     app.register_blueprint(api_bp)
-    from app.extensions import limiter
-
-    # Only the experimenter's login is rate limited (app.security); the participant side is
-    # exempt, so its requests skip the limiter's per-request checks.
-    for blueprint in (participant_bp, questionnaire_bp, api_bp):
-        limiter.exempt(blueprint)
     # The JSON API authenticates participants by the token in the request body, not a cookie,
     # so a cross-site form cannot forge a vote; experimenter endpoints there are GET only.
     csrf.exempt(api_bp)
