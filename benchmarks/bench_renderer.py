@@ -17,6 +17,12 @@ same load; the runs of the looks alternate, and best and median are per look.
 
 ``--face`` measures a face file or glTF avatar instead of the built-in head (e.g. the head
 written by ``facepair face export``).
+
+The drawing processes are spawned, so each imports this script again as ``__mp_main__``: the
+speech analysis and condition generation it needs for its tracks are imported in ``main()``
+only, so that the workers pay for the renderer's imports alone, as they do under ``facepair
+render`` or a render job (the generator's imports cost each worker about 1.4 s of CPU, 1.5 ms
+a pair frame of the 60 s clip, which the clip's figure used to include).
 """
 
 from __future__ import annotations
@@ -29,9 +35,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from synthetic import write_speech  # benchmarks/synthetic.py, beside this script
 
-from app.stimuli.generate import generate_conditions
 from renderer import RenderSettings, load_face, render_pair
 from renderer.encode import ClipWriter
 from renderer.gl import ANTIALIAS_MODES, device_name
@@ -62,6 +66,11 @@ def main() -> None:
         help="looks of the built-in head to measure, comma-separated",
     )
     args = parser.parse_args()
+    # here, not at the top: see the module's docstring
+    from synthetic import write_speech  # benchmarks/synthetic.py, beside this script
+
+    from app.stimuli.generate import generate_conditions
+
     looks = args.look.split(",") if args.face is None else [RenderSettings.look]
     with tempfile.TemporaryDirectory() as d:
         wav = write_speech(Path(d) / "speech.wav", args.seconds)
