@@ -174,23 +174,29 @@ def _give_back_slot(participant: Participant) -> None:
     db.session.refresh(participant)
 
 
-def release_if_left_out(participant: Participant) -> bool:
-    """A participant who has just finished but failed a catch trial, under the study's
-    ``catch_failed`` rule, gives the list slot back: the report leaves them out, so the lists
-    stay balanced over the participants it counts. Not committed; True if released."""
-    if participant.pilot or "catch_failed" not in auto_rules(participant.study):
+def left_out(study: Any, participant_id: int, *, pilot: bool) -> bool:
+    """Whether the report leaves a finished participant out for a failed catch trial (the
+    study's ``catch_failed`` rule); ``study`` is a row or an ORM object with ``settings``."""
+    if pilot or "catch_failed" not in auto_rules(study):
         return False
     failed = db.session.scalar(
         sa.select(Vote.id)
         .join(Trial, Vote.trial_id == Trial.id)
         .where(
-            Vote.participant_id == participant.id,
+            Vote.participant_id == participant_id,
             Trial.kind == "catch",
             Vote.choice != Trial.expected,
         )
         .limit(1)
     )
-    if failed is None:
+    return failed is not None
+
+
+def release_if_left_out(participant: Participant) -> bool:
+    """A participant who has just finished but failed a catch trial, under the study's
+    ``catch_failed`` rule, gives the list slot back: the report leaves them out, so the lists
+    stay balanced over the participants it counts. Not committed; True if released."""
+    if not left_out(participant.study, participant.id, pilot=participant.pilot):
         return False
     _give_back_slot(participant)
     return True

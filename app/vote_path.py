@@ -14,10 +14,10 @@ connection, in the request's one transaction:
    ``(participant, trial)`` settle races), the participant marked as seen, and the progress
    counted: one statement on PostgreSQL (data-modifying CTEs), three in process on SQLite.
 
-The vote that completes the schedule marks the participant finished (and
-:func:`app.participants.release_if_left_out` applies), and a missed attention check applies
-the stop rule (:func:`app.voting.screen_out`), in the same transaction and the ORM's way: they
-are rare. Whatever else is not the usual case returns None, before anything is committed, and
+The vote that completes the schedule marks the participant finished (one more UPDATE), in
+the same transaction; where the report leaves them out for a failed check, their list slot goes
+back the ORM's way (:func:`app.participants.release_if_left_out`), as a missed attention check
+under a stop rule ends the session (:func:`app.voting.screen_out`): they are rare. Whatever else is not the usual case returns None, before anything is committed, and
 the caller takes :func:`app.voting.record_vote` (the reference for every rule): an unknown
 token, a participant screened out or released as dropped, a key or trial whose vote the first
 statement did not see (a race, or a key reused on another trial).
@@ -34,7 +34,8 @@ from sqlalchemy.dialects import postgresql, sqlite
 from app.extensions import db
 from app.limits import fits
 from app.models import Participant, Study, Trial, Vote, utcnow
-from app.participants import release_if_left_out
+from app.participants import left_out, release_if_left_out
+from app.studies import participation
 from app.voting import VoteRejected, check_open, screen_out, trial_id_of, vote_fields
 
 P, S, T, V = (m.__table__ for m in (Participant, Study, Trial, Vote))  # type: ignore[attr-defined]
@@ -216,13 +217,27 @@ def cast(payload: dict[str, Any]) -> CastVote | None:
         return None  # the key is another trial's, or a concurrent request stored it first
     participant = None
     screened = False
-    if vote_id is not None and facts.kind == "catch" and fields["choice"] != facts.expected:
-        # A missed attention check: the stop rule may end the session (the ORM's way, rare).
+    missed = vote_id is not None and facts.kind == "catch" and fields["choice"] != facts.expected
+    if missed and participation(facts).max_failed:
+        # A missed attention check under a stop rule may end the session (the ORM's way).
         participant = db.session.get(Participant, facts.id)
         screened = screen_out(participant)  # type: ignore[arg-type]
     if answered >= total and facts.finished_at is None and not screened:
-        participant = participant or db.session.get(Participant, facts.id)
-        assert participant is not None  # locked by statement 1
-        participant.finished_at = now
-        release_if_left_out(participant)
+        if left_out(facts, facts.id, pilot=facts.pilot):
+            # Finished, but left out of the report: the list slot goes back (the ORM's way).
+            participant = participant or db.session.get(Participant, facts.id)
+            assert participant is not None  # locked by statement 1
+            participant.finished_at = now
+            release_if_left_out(participant)
+        else:
+            conn.execute(_finished(), {"participant_id": facts.id, "now": now})
     return CastVote(vote, vote_id is not None, answered, total)
+
+
+@cache
+def _finished() -> sa.Update:
+    return (
+        sa.update(P)
+        .where(P.c.id == sa.bindparam("participant_id"))
+        .values(finished_at=sa.bindparam("now"))
+    )

@@ -119,3 +119,30 @@ def test_another_participants_trial_and_a_closed_study_are_refused(app, client, 
     assert closed.status_code == 409 and closed.json["closed"] is True
     with app.app_context():
         assert db.session.scalar(sa.select(sa.func.count(Vote.id))) == 0
+
+
+def test_the_last_vote_finishes_and_a_failed_check_gives_the_slot_back(app, participant, web):
+    from app.models import StudyList, Trial
+    from tests.conftest import ParticipantActions
+
+    study_id = web.study(design="all_ordered", catch=2)
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    careful, careless = participant, ParticipantActions(app.test_client(), app)
+    for person in (careful, careless):
+        person.join(slug)
+    with app.app_context():
+        expected = dict(db.session.execute(sa.select(Trial.id, Trial.expected)).all())
+    for person, attentive in ((careful, True), (careless, False)):
+        while (trial := person.current_trial()) is not None:
+            wanted = expected[trial]
+            choice = wanted if attentive or wanted is None else "left"
+            assert person.vote(trial, choice or "left").status_code == 201
+    with app.app_context():
+        people = {p.token: p for p in db.session.scalars(sa.select(Participant))}
+        assert people[careful.token].finished_at is not None
+        assert people[careful.token].dropped_at is None
+        # Left out of the report (catch_failed), so the list slot went back.
+        assert people[careless.token].finished_at is not None
+        assert people[careless.token].dropped_at is not None
+        assert sum(db.session.scalars(sa.select(StudyList.n_assigned))) == 1
