@@ -16,6 +16,7 @@ import multiprocessing
 import os
 from collections import deque
 from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import lru_cache
 from multiprocessing import shared_memory
@@ -137,6 +138,27 @@ class _Drawer:
 
 _WORKER: dict[str, Any] = {}
 
+#: The thread-count variables of the BLAS libraries numpy may load, read once when it loads.
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+@contextmanager
+def _single_threaded_blas() -> Iterator[None]:
+    """Worker processes started inside this block load their BLAS with one thread.
+
+    A worker's matrix products are (n, 3) by (3, 3); a BLAS thread pool gains nothing on them
+    and its idle threads spin on the cores the other worker and the encoder need. A variable
+    the user set is kept.
+    """
+    added = [v for v in BLAS_THREAD_VARIABLES if v not in os.environ]
+    for v in added:
+        os.environ[v] = "1"
+    try:
+        yield
+    finally:
+        for v in added:
+            os.environ.pop(v, None)
+
 
 def _worker_start(args: tuple, ring_name: str, ring_shape: tuple[int, ...]) -> None:
     # llvmpipe's rasteriser threads only add switching when every core already runs a worker;
@@ -223,9 +245,11 @@ def _render_parallel(
         jobs = [(i, p % n_slots) for p, i in enumerate(indices)]
         chunks = [jobs[k : k + chunk] for k in range(0, len(jobs), chunk)]
         ctx = multiprocessing.get_context("spawn")
-        with ctx.Pool(
-            workers, initializer=_worker_start, initargs=(args, shm.name, ring_shape)
-        ) as pool:
+        with _single_threaded_blas():  # read by each worker as it starts
+            pool = ctx.Pool(
+                workers, initializer=_worker_start, initargs=(args, shm.name, ring_shape)
+            )
+        with pool:
             pending: deque = deque()
             todo = iter(chunks)
             for job in todo:

@@ -1,5 +1,7 @@
 """Pixels of rendered frames: each FAP group moves the face visibly, the MPEG-4 way."""
 
+import os
+
 import numpy as np
 import pytest
 
@@ -229,3 +231,15 @@ def test_the_mosaic_is_the_same_whether_the_mouth_moves_or_not(antialias):
     assert (face & box).sum() > 0.8 * box.sum()
     assert not np.array_equal(still[~box], moving[~box])  # the jaw shows below the box
     assert np.array_equal(still[face & box], moving[face & box])
+
+
+def test_workers_start_with_single_threaded_blas_and_a_set_value_is_kept(monkeypatch):
+    from renderer import pipeline
+
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    monkeypatch.setenv("OMP_NUM_THREADS", "3")
+    with pipeline._single_threaded_blas():
+        assert os.environ["OPENBLAS_NUM_THREADS"] == "1"
+        assert os.environ["OMP_NUM_THREADS"] == "3"
+    assert "OPENBLAS_NUM_THREADS" not in os.environ
+    assert os.environ["OMP_NUM_THREADS"] == "3"
