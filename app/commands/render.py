@@ -18,6 +18,29 @@ def _settings(size: int, mosaic_block: int, face: str | None, **extra: Any):
     return RenderSettings(size=size, mosaic_block=mosaic_block, face=face, **extra)
 
 
+def _clip_settings(
+    size: int,
+    mosaic_block: int,
+    face: str | None,
+    antialias: str,
+    samples: str,
+    look: str,
+    fps: float | None,
+    workers: int,
+):
+    """The settings of a clip command (``render pair`` and ``render single``) from its options."""
+    return _settings(
+        size,
+        mosaic_block,
+        face,
+        antialias=antialias,
+        samples=int(samples),
+        fps=fps,
+        workers=workers,
+        look=look,
+    )
+
+
 @contextmanager
 def _progress_bar(label: str):
     from tqdm import tqdm
@@ -134,16 +157,7 @@ def pair(
     from app.stimuli.io import load_track
     from renderer import render_pair
 
-    settings = _settings(
-        size,
-        mosaic_block,
-        face,
-        antialias=antialias,
-        samples=int(samples),
-        fps=fps,
-        workers=workers,
-        look=look,
-    )
+    settings = _clip_settings(size, mosaic_block, face, antialias, samples, look, fps, workers)
     tracks = load_track(left), load_track(right)
     with _progress_bar("render pair") as progress:
         path = render_pair(
@@ -176,16 +190,7 @@ def single(
     from app.stimuli.io import load_track
     from renderer import render_single
 
-    settings = _settings(
-        size,
-        mosaic_block,
-        face,
-        antialias=antialias,
-        samples=int(samples),
-        fps=fps,
-        workers=workers,
-        look=look,
-    )
+    settings = _clip_settings(size, mosaic_block, face, antialias, samples, look, fps, workers)
     track = load_track(track_path)
     with _progress_bar("render single") as progress:
         path = render_single(
