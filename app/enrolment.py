@@ -125,9 +125,20 @@ def enrol(
     db.session.flush()
     clips = {c.name: c.id for c in study.clips}
     conditions = {c.name: c.id for c in study.conditions}
+    # Plain rows, not ORM objects: a study has one stimulus per clip and pair variant, and
+    # every consent reads them all.
     stimuli = {
         (s.clip_id, s.left_id, s.right_id, s.instruction, s.foreign_side): s.id
-        for s in db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id))
+        for s in db.session.execute(
+            sa.select(
+                Stimulus.id,
+                Stimulus.clip_id,
+                Stimulus.left_id,
+                Stimulus.right_id,
+                Stimulus.instruction,
+                Stimulus.foreign_side,
+            ).where(Stimulus.study_id == study.id)
+        )
     }
     pairs: dict[tuple[int, int], int] = {}
     for pair in study.pairs:

@@ -96,9 +96,13 @@ def paragraphs(text: str | None) -> Markup:
 
 
 def _with_cookie(response, study: Study, participant: Participant):  # type: ignore[no-untyped-def]
+    return _set_cookie(response, _cookie_name(study), participant.token)
+
+
+def _set_cookie(response, name: str, token: str):  # type: ignore[no-untyped-def]
     response.set_cookie(
-        _cookie_name(study),
-        participant.token,
+        name,
+        token,
         max_age=COOKIE_DAYS * 86400,
         httponly=True,
         samesite="Lax",
@@ -144,7 +148,11 @@ def start(slug: str):  # type: ignore[no-untyped-def]
         agent = limits.printable(request.user_agent.string)[:300]
         try:
             participant = enrol(study, user_agent=agent, dropped_after=dropped_after(), **ids)
+            # Read before the commit expires them: afterwards each was a query of its own.
+            token, cookie = participant.token, _cookie_name(study)
             db.session.commit()
+            answer = make_response(redirect(url_for(".resume", token=token)))
+            return _set_cookie(answer, cookie, token)
         except IntegrityError:
             # The same ID enrolled at the same moment in another tab: resume that one.
             db.session.rollback()
