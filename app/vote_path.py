@@ -17,10 +17,11 @@ connection, in the request's one transaction:
 The vote that completes the schedule marks the participant finished (one more UPDATE), in
 the same transaction; where the report leaves them out for a failed check, their list slot goes
 back the ORM's way (:func:`app.participants.release_if_left_out`), as a missed attention check
-under a stop rule ends the session (:func:`app.voting.screen_out`): they are rare. Whatever else is not the usual case returns None, before anything is committed, and
-the caller takes :func:`app.voting.record_vote` (the reference for every rule): an unknown
-token, a participant screened out or released as dropped, a key or trial whose vote the first
-statement did not see (a race, or a key reused on another trial).
+under a stop rule ends the session (:func:`app.voting.screen_out`): they are rare. Whatever
+else is not the usual case returns None, before anything is committed, and the caller takes
+:func:`app.voting.record_vote` (the reference for every rule): an unknown token, a participant
+screened out or released as dropped, a key or trial whose vote the first statement did not see
+(a race, or a key reused on another trial).
 """
 
 from __future__ import annotations
