@@ -264,11 +264,8 @@ class Experimenter(threading.Thread):
             if job["status"] == "running":
                 kill = kills.pop(0)
                 if kill == "horse":
-                    # A render is one RQ job per clip: between two clips no work horse
-                    # exists for a moment, and a kill then would hit nothing.
-                    deadline = time.monotonic() + 30
-                    while not self.worker.kill_horse() and time.monotonic() < deadline:
-                        time.sleep(0.02)
+                    # the horse of the next clip, killed as it starts (see kill_next_horse)
+                    self.worker.kill_next_horse(30.0)
                 else:
                     with self.worker.lock:  # killed and restarted a second later
                         self.worker.kill_all()

@@ -12,6 +12,7 @@ import socket
 import subprocess
 import sys
 import threading
+import time
 from pathlib import Path
 
 from tests.support import services
@@ -31,7 +32,11 @@ def wait_for_port(port: int, seconds: float = 60.0) -> None:
 
 
 def children(pid: int) -> list[int]:
-    """Process ids whose parent is ``pid`` (from /proc)."""
+    """Process ids whose parent is ``pid`` and that are alive (from /proc).
+
+    A child that has exited but is not yet reaped (a zombie, state Z or X) is left out: a work
+    horse that finished its job is one for a moment, and a signal to it kills nothing.
+    """
     found = []
     for entry in Path("/proc").iterdir():
         if entry.name.isdigit():
@@ -39,7 +44,7 @@ def children(pid: int) -> list[int]:
                 fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
             except OSError:
                 continue
-            if int(fields[1]) == pid:
+            if int(fields[1]) == pid and fields[0] not in ("Z", "X"):
                 found.append(int(entry.name))
     return found
 
@@ -236,6 +241,22 @@ class JobWorker(Command):
             except ProcessLookupError:
                 return False
             return True
+
+    def kill_next_horse(self, seconds: float = 30.0) -> bool:
+        """SIGKILL the next work horse to start, within ``seconds``; whether one was killed.
+
+        Not the horse running now: it may be past its job's work already (its result being
+        written), where a kill changes nothing, while a horse just forked is at the start of
+        its job. A render is one RQ job per clip, so the next horse comes within a clip.
+        """
+        deadline = time.monotonic() + seconds
+        running = self.horse()
+        while time.monotonic() < deadline:
+            horse = self.horse()
+            if horse is not None and horse != running and self.kill_horse():
+                return True
+            time.sleep(0.005)
+        return False
 
     def kill_all(self) -> None:
         with self.lock:

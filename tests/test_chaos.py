@@ -45,9 +45,19 @@ def test_votes_and_jobs_survive_a_worker_kill_and_job_kills(empty_database, redi
 
     with Redis.from_url(redis_url) as connection:
         connection.flushdb()  # no queued job or result of another run
-    result = run(
-        options, tmp_path, database_url=empty_database, redis_url=redis_url, echo=lambda *args: None
-    )
+    try:
+        result = run(
+            options,
+            tmp_path,
+            database_url=empty_database,
+            redis_url=redis_url,
+            echo=lambda *args: None,
+        )
+    finally:
+        # nor of this run for the tests after it: the Redis fixture is flushed once a session,
+        # and their job rows' ids (from 1 in each test's database) would name this run's RQ jobs
+        with Redis.from_url(redis_url) as connection:
+            connection.flushdb()
     assert result.faults["web-worker"] == 1
     assert not result.tally.failures, result.tally.failures
     assert result.acknowledged == result.stored == 4 * 18  # every trial of every participant
