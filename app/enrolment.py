@@ -206,8 +206,10 @@ def _seen() -> sa.Update:
     )
 
 
-@cache
-def _progress() -> sa.Select[tuple[int, int]]:
+def progress_counts() -> tuple[sa.ScalarSelect[int], sa.ScalarSelect[int]]:
+    """(answered, total) as scalar subqueries on the bound ``participant_id``: the votes, and
+    the real and catch trials (not the practice). The one definition of a participant's
+    progress, for :func:`progress` and the vote's own statement (:mod:`app.vote_path`)."""
     answered = (
         sa.select(sa.func.count(Vote.id))
         .where(Vote.participant_id == sa.bindparam("participant_id"))
@@ -218,7 +220,12 @@ def _progress() -> sa.Select[tuple[int, int]]:
         .where(Trial.participant_id == sa.bindparam("participant_id"), Trial.kind != "practice")
         .scalar_subquery()
     )
-    return sa.select(answered, total)
+    return answered, total
+
+
+@cache
+def _progress() -> sa.Select[tuple[int, int]]:
+    return sa.select(*progress_counts())
 
 
 def practice_stimulus(participant: Participant) -> Stimulus | None:

@@ -32,6 +32,7 @@ from typing import Any, NamedTuple
 import sqlalchemy as sa
 from sqlalchemy.dialects import postgresql, sqlite
 
+from app.enrolment import progress_counts
 from app.extensions import db
 from app.limits import fits
 from app.models import Participant, Study, Trial, Vote, utcnow
@@ -111,18 +112,10 @@ def _vote_values() -> dict[str, Any]:
 def _counts(inserted: Any = None) -> tuple[Any, Any]:
     """(answered, total) over the participant's trials; ``inserted`` adds a CTE's rows (its
     statement's snapshot does not hold them)."""
-    answered: Any = (
-        sa.select(sa.func.count(V.c.id))
-        .where(V.c.participant_id == sa.bindparam("participant_id"))
-        .scalar_subquery()
-    )
+    answered: Any
+    answered, total = progress_counts()
     if inserted is not None:
         answered = answered + sa.select(sa.func.count()).select_from(inserted).scalar_subquery()
-    total = (
-        sa.select(sa.func.count(T.c.id))
-        .where(T.c.participant_id == sa.bindparam("participant_id"), T.c.kind != "practice")
-        .scalar_subquery()
-    )
     return answered.label("answered"), total.label("total")
 
 
