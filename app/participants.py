@@ -174,10 +174,17 @@ def _give_back_slot(participant: Participant) -> None:
     db.session.refresh(participant)
 
 
+def may_be_left_out(study: Any, *, pilot: bool) -> bool:
+    """Whether a finished participant of ``study`` could be left out of the report for a
+    failed catch trial at all (the study's ``catch_failed`` rule, never a pilot): when not,
+    :func:`left_out` is False without asking the database."""
+    return not pilot and "catch_failed" in auto_rules(study)
+
+
 def left_out(study: Any, participant_id: int, *, pilot: bool) -> bool:
     """Whether the report leaves a finished participant out for a failed catch trial (the
     study's ``catch_failed`` rule); ``study`` is a row or an ORM object with ``settings``."""
-    if pilot or "catch_failed" not in auto_rules(study):
+    if not may_be_left_out(study, pilot=pilot):
         return False
     failed = db.session.scalar(
         sa.select(Vote.id)

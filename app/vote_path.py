@@ -14,6 +14,13 @@ connection, in the request's one transaction:
    ``(participant, trial)`` settle races), the participant marked as seen, and the progress
    counted: one statement on PostgreSQL (data-modifying CTEs), three in process on SQLite.
 
+On PostgreSQL the two statements go straight to the driver (:func:`_cast_on_driver`,
+:mod:`app.driver`), in a transaction of their own, without the ORM session. What that path
+does not settle before its commit (a missed attention check under a stop rule, a vote that
+finishes a participant the report could leave out, or anything the first statement did not
+see) is rolled back and taken by the session's path below, which returns None where the
+ORM's path must decide.
+
 The vote that completes the schedule marks the participant finished (one more UPDATE), in
 the same transaction; where the report leaves them out for a failed check, their list slot goes
 back the ORM's way (:func:`app.participants.release_if_left_out`), as a missed attention check
@@ -30,19 +37,23 @@ from functools import cache
 from typing import Any, NamedTuple
 
 import sqlalchemy as sa
+from psycopg.types.json import Json
 from sqlalchemy.dialects import postgresql, sqlite
 
+from app import driver
 from app.enrolment import progress_counts
 from app.extensions import db
 from app.limits import fits
 from app.models import Participant, Study, Trial, Vote, utcnow
-from app.participants import left_out, release_if_left_out
+from app.participants import left_out, may_be_left_out, release_if_left_out
 from app.studies import participation
 from app.voting import VoteRejected, check_open, screen_out, trial_id_of, vote_fields
 
 P, S, T, V = (m.__table__ for m in (Participant, Study, Trial, Vote))  # type: ignore[attr-defined]
 #: The vote's columns written from the request (every one but the id).
 VOTE_COLUMNS = tuple(c.name for c in V.columns if c.name != "id")
+#: Those the driver is given as JSON (SQLAlchemy serialises them on its own path).
+JSON_COLUMNS = frozenset(c.name for c in V.columns if isinstance(c.type, sa.JSON))
 
 
 class StoredVote(NamedTuple):
@@ -168,6 +179,43 @@ def _store(conn: sa.Connection, values: dict[str, Any]) -> tuple[int | None, int
     return vote_id, int(row.answered), int(row.total)
 
 
+def _checked(
+    facts: Any, trial_id: int, payload: dict[str, Any]
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The vote's fields checked against statement 1's row (raises
+    :class:`~app.voting.VoteRejected` as the ORM path does), and statement 2's values."""
+    check_open(facts, pilot=facts.pilot)
+    trial = None
+    if facts.trial_id is not None:
+        trial = _TrialFacts(facts.id, facts.kind, facts.plays)
+    fields = vote_fields(facts, trial, facts.id, payload)
+    now = utcnow()
+    values = dict.fromkeys(VOTE_COLUMNS)
+    values.update(fields, participant_id=facts.id, trial_id=trial_id, voted_at=now, now=now)
+    return fields, values
+
+
+def _acknowledged(
+    facts: Any, trial_id: int, fields: dict[str, Any], *, inserted: bool
+) -> StoredVote | None:
+    """What the answer repeats: the vote just inserted, else the trial's stored vote (a
+    resent or double-clicked one); None when neither (the key is another trial's, or a
+    concurrent request stored it first)."""
+    if inserted:
+        return StoredVote(
+            trial_id, fields["choice"], fields["plays"], fields["response_ms"], fields["strength"]
+        )
+    if facts.vote_id is not None:
+        return StoredVote(
+            trial_id,
+            facts.vote_choice,
+            facts.vote_plays,
+            facts.vote_response_ms,
+            facts.vote_strength,
+        )
+    return None
+
+
 def cast(payload: dict[str, Any]) -> CastVote | None:
     """Store the vote in ``payload`` (a JSON object) if it is the usual case; None otherwise,
     with nothing written (the caller rolls back and takes :func:`app.voting.record_vote`).
@@ -182,32 +230,19 @@ def cast(payload: dict[str, Any]) -> CastVote | None:
         trial_id = trial_id_of(payload)
     except VoteRejected:
         return None  # refused by the ORM path, after the checks that come first there
+    if driver.available():
+        done = _cast_on_driver(token, trial_id, payload)
+        if done is not None:
+            return done
     conn = db.session.connection()
     facts = conn.execute(_facts(), {"token": token, "trial_id": trial_id}).one_or_none()
     if facts is None or facts.screened_out_at is not None or facts.dropped_at is not None:
         return None  # unknown (403), screened out, or dropped (it may rejoin): the ORM path
-    check_open(facts, pilot=facts.pilot)
-    trial = None
-    if facts.trial_id is not None:
-        trial = _TrialFacts(facts.id, facts.kind, facts.plays)
-    fields = vote_fields(facts, trial, facts.id, payload)
-    now = utcnow()
-    values = dict.fromkeys(VOTE_COLUMNS)
-    values.update(fields, participant_id=facts.id, trial_id=trial_id, voted_at=now, now=now)
+    fields, values = _checked(facts, trial_id, payload)
+    now = values["now"]
     vote_id, answered, total = _store(conn, values)
-    if vote_id is not None:
-        vote = StoredVote(
-            trial_id, fields["choice"], fields["plays"], fields["response_ms"], fields["strength"]
-        )
-    elif facts.vote_id is not None:  # a resent or double-clicked vote: the stored one
-        vote = StoredVote(
-            trial_id,
-            facts.vote_choice,
-            facts.vote_plays,
-            facts.vote_response_ms,
-            facts.vote_strength,
-        )
-    else:
+    vote = _acknowledged(facts, trial_id, fields, inserted=vote_id is not None)
+    if vote is None:
         return None  # the key is another trial's, or a concurrent request stored it first
     participant = None
     screened = False
@@ -235,3 +270,31 @@ def _finished() -> sa.Update:
         .where(P.c.id == sa.bindparam("participant_id"))
         .values(finished_at=sa.bindparam("now"))
     )
+
+
+def _cast_on_driver(token: str, trial_id: int, payload: dict[str, Any]) -> CastVote | None:
+    """The usual vote on PostgreSQL, in a transaction of its own on a pooled driver
+    connection (:mod:`app.driver`): committed and returned, or rolled back and None (the
+    session's path decides)."""
+    with driver.transaction() as tx:
+        facts = tx.run(_facts(), {"token": token, "trial_id": trial_id})
+        if facts is None or facts.screened_out_at is not None or facts.dropped_at is not None:
+            return None
+        fields, values = _checked(facts, trial_id, payload)
+        missed = facts.kind == "catch" and fields["choice"] != facts.expected
+        if missed and facts.vote_id is None and participation(facts).max_failed:
+            return None  # it may end the session: the ORM's way
+        for name in JSON_COLUMNS:
+            if values[name] is not None:
+                values[name] = Json(values[name])
+        stored = tx.run(_store_postgresql(), values)
+        answered, total = int(stored.answered), int(stored.total)
+        vote = _acknowledged(facts, trial_id, fields, inserted=stored.vote_id is not None)
+        if vote is None:
+            return None  # the key is another trial's, or a concurrent request stored it first
+        if answered >= total and facts.finished_at is None:
+            if may_be_left_out(facts, pilot=facts.pilot):
+                return None  # finished, perhaps left out of the report: the session's path
+            tx.run(_finished(), {"participant_id": facts.id, "now": values["now"]})
+        tx.commit()
+        return CastVote(vote, stored.vote_id is not None, answered, total)

@@ -309,10 +309,63 @@ def run_closed(args: argparse.Namespace, participants: int, slug: str, url: str)
     return ok and not errors
 
 
+def _cpu_of(pid: int) -> tuple[str, int, float]:
+    """(command name, parent pid, user + system CPU seconds) of a live process, from /proc."""
+    stat = Path(f"/proc/{pid}/stat").read_text()
+    name = stat[stat.index("(") + 1 : stat.rindex(")")]
+    fields = stat.rsplit(")", 1)[1].split()
+    return name, int(fields[1]), (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def cpu_seconds(server_pid: int) -> dict[str, float]:
+    """CPU seconds used so far by the server (gunicorn's master and workers), PostgreSQL (every
+    ``postgres`` process: the backends of the server's pooled connections live as long as the
+    workers) and this process (the load generator)."""
+    seen: dict[int, tuple[str, int, float]] = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                seen[int(entry.name)] = _cpu_of(int(entry.name))
+            except (OSError, ValueError):
+                continue  # exited while being read
+    parents = {pid: parent for pid, (_, parent, _) in seen.items()}
+
+    def under_server(pid: int) -> bool:
+        while pid > 1:
+            if pid == server_pid:
+                return True
+            pid = parents.get(pid, 0)
+        return False
+
+    used = {"server": 0.0, "postgres": 0.0, "generator": 0.0}
+    for pid, (name, _, cpu) in seen.items():
+        if pid == os.getpid():
+            used["generator"] += cpu
+        elif under_server(pid):
+            used["server"] += cpu
+        elif name.startswith("postgres"):
+            used["postgres"] += cpu
+    return used
+
+
+def cpu_line(before: dict[str, float], after: dict[str, float], trials: int, elapsed: float) -> str:
+    """Where the CPU of a phase went, per trial (a trial page, a play and a vote)."""
+    used = {k: after[k] - before[k] for k in before}
+    per = ", ".join(f"{k} {v / max(trials, 1) * 1e3:.1f} ms" for k, v in used.items())
+    busy = sum(used.values()) / max(elapsed, 1e-9) / (os.cpu_count() or 1)
+    return f"  CPU per trial: {per}; the cores {busy:.0%} busy with these"
+
+
 def run_open(
-    args: argparse.Namespace, participants: int, slug: str, acknowledged: dict[int, str]
+    args: argparse.Namespace,
+    participants: int,
+    slug: str,
+    acknowledged: dict[int, str],
+    server_pid: int | None = None,
 ) -> None:
     rate = args.arrival_rate or participants / 10
+    before = cpu_seconds(server_pid) if server_pid else None
+    wall = time.perf_counter()
     tally, elapsed = asyncio.run(
         load_clients.open_loop(
             f"http://127.0.0.1:{args.port}",
@@ -339,12 +392,19 @@ def run_open(
         f"  errors {len(tally.errors)}, statuses {dict(sorted(tally.statuses.items()))}, "
         f"answered with an earlier vote's other choice {tally.superseded}"
     )
+    if before is not None and server_pid is not None:
+        trials = len(tally.ms.get("page", []))
+        print(cpu_line(before, cpu_seconds(server_pid), trials, time.perf_counter() - wall))
     for e in tally.errors[:5]:
         print("  error:", e)
 
 
 def saturated_votes(
-    args: argparse.Namespace, slug: str, url: str, acknowledged: dict[int, str]
+    args: argparse.Namespace,
+    slug: str,
+    url: str,
+    acknowledged: dict[int, str],
+    server_pid: int | None = None,
 ) -> float:
     """facepair's vote endpoint driven saturated; returns votes per second."""
     import psycopg
@@ -371,7 +431,7 @@ def saturated_votes(
                 load_clients.vote_body(token, trial, choice, secrets.token_hex(8), 1500),
             )
         )
-    return _drive(f"{base}/api/v1/votes", bodies, "facepair", args, acknowledged)
+    return _drive(f"{base}/api/v1/votes", bodies, "facepair", args, acknowledged, server_pid)
 
 
 def _drive(
@@ -380,7 +440,10 @@ def _drive(
     name: str,
     args: argparse.Namespace,
     acknowledged: dict[int, str],
+    server_pid: int | None = None,
 ) -> float:
+    before = cpu_seconds(server_pid) if server_pid else None
+    wall = time.perf_counter()
     tally, elapsed = asyncio.run(
         load_clients.saturate(url, bodies, concurrency=64, timeout=args.timeout)
     )
@@ -391,6 +454,9 @@ def _drive(
         f"{elapsed:.1f} s by 64 senders, {rate:.0f} votes/s; vote {tally.summary('vote')}; "
         f"errors {len(tally.errors)} (load {os.getloadavg()[0]:.1f})"
     )
+    if before is not None and server_pid is not None:
+        used = cpu_line(before, cpu_seconds(server_pid), len(bodies), time.perf_counter() - wall)
+        print(used.replace("per trial", "per vote"))
     return rate
 
 
@@ -428,7 +494,8 @@ def bare_baseline(args: argparse.Namespace, url: str, votes: int, media: Path) -
             )
             for i in range(votes)
         ]
-        return _drive(f"http://127.0.0.1:{port}/votes", bodies, "bare baseline", args, {})
+        url = f"http://127.0.0.1:{port}/votes"
+        return _drive(url, bodies, "bare baseline", args, {}, server.pid)
     finally:
         stop_server(server)
 
@@ -514,8 +581,8 @@ def main() -> int:
             return 0 if all(run_closed(args, n, slug, url) for n in counts) else 1
         acknowledged: dict[int, str] = {}
         for n in counts:
-            run_open(args, n, slug, acknowledged)
-        facepair = saturated_votes(args, slug, url, acknowledged)
+            run_open(args, n, slug, acknowledged, server.pid)
+        facepair = saturated_votes(args, slug, url, acknowledged, server.pid)
         stop_server(server)
         server = None
         line, stored_ok = check(url, acknowledged)

@@ -71,16 +71,52 @@ def test_a_vote_a_retry_and_a_double_click_take_the_usual_path(app, joined, orm_
         assert person.last_seen_at >= person.consented_at
 
 
-def test_the_usual_vote_is_two_statements_on_postgresql(app, joined):
+def test_the_usual_vote_is_two_statements_on_postgresql(app, joined, monkeypatch):
     if not app.config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql"):
         pytest.skip("SQLite runs the second statement as three, in process")
+    from app import driver
+
+    on_driver: list[str] = []
+    original = driver.execute
+
+    def counted(cursor, statement, values):
+        on_driver.append(statement.sql.split()[0].upper())
+        return original(cursor, statement, values)
+
+    monkeypatch.setattr(driver, "execute", counted)
     trial = joined.current_trial()
     seen, stop = _statements(app)
     try:
-        assert joined.vote(trial, "left").json["answered"] == 1  # not the last: no finish
+        first = joined.vote(trial, "left", key="retried-key-01")
+        again = joined.vote(trial, "left", key="retried-key-01")
     finally:
         stop()
-    assert seen == ["SELECT", "WITH"], seen  # BEGIN and COMMIT are the driver's, not statements
+    assert first.status_code == 201 and first.json["answered"] == 1  # not the last: no finish
+    assert again.status_code == 200 and again.json["status"] == "duplicate"
+    # Both on the driver (BEGIN and COMMIT are its own, not statements); SQLAlchemy ran none.
+    assert on_driver == ["SELECT", "WITH"] * 2, on_driver
+    assert seen == [], seen
+
+
+def test_a_lost_database_connection_on_the_driver_path_is_a_503(app, joined, monkeypatch):
+    if not app.config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql"):
+        pytest.skip("the driver's path is PostgreSQL's")
+    import psycopg
+
+    from app import driver
+
+    def lost(cursor, statement, values):
+        raise psycopg.OperationalError("server closed the connection unexpectedly")
+
+    monkeypatch.setattr(driver, "execute", lost)
+    trial = joined.current_trial()
+    answer = joined.vote(trial, "left")
+    assert answer.status_code == 503
+    monkeypatch.undo()
+    # The broken connection was dropped, not pooled: the next vote is stored.
+    assert joined.vote(trial, "left").status_code == 201
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count(Vote.id))) == 1
 
 
 def test_what_is_not_the_usual_case_takes_the_orm_path(app, joined, orm_calls):

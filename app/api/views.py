@@ -15,7 +15,7 @@ import sqlalchemy as sa
 from flask import Blueprint, abort, jsonify, request, url_for
 from sqlalchemy import orm as so
 
-from app import limits
+from app import driver, limits
 from app.enrolment import progress as enrolment_progress
 from app.experimenter.auth import current_user, study_access
 from app.extensions import db
@@ -120,6 +120,23 @@ def _play_facts() -> sa.Select[Any]:
     )
 
 
+@cache
+def _one_more_play() -> sa.Update:
+    """The trial's play count up by one, unless it has reached ``limit`` (None: no limit)."""
+    limit = sa.bindparam("limit", type_=sa.Integer)
+    return (
+        sa.update(Trial)
+        .where(Trial.id == sa.bindparam("trial_id"), sa.or_(limit.is_(None), Trial.plays < limit))
+        .values(plays=Trial.plays + 1)
+        .returning(Trial.plays)
+    )
+
+
+@cache
+def _plays() -> sa.Select[tuple[int]]:
+    return sa.select(Trial.plays).where(Trial.id == sa.bindparam("trial_id"))
+
+
 @bp.post("/plays")
 def post_play():  # type: ignore[no-untyped-def]
     """One play of a trial's clip, asked for before it starts: counted here, so the replay
@@ -134,28 +151,30 @@ def post_play():  # type: ignore[no-untyped-def]
         if _participant_of(payload) is None:
             return _error("unknown participant", 403)
         return _error("trial_id: expected a whole number", 400)
-    # Core statements on the session's connection: the ORM's work was most of a play's cost.
-    conn = db.session.connection()
-    facts = conn.execute(_play_facts(), {"token": token, "trial_id": trial_id}).one_or_none()
+    # Core statements, straight to the driver on PostgreSQL (app.driver): the ORM's work,
+    # then the session's, was most of a play's cost.
+    if driver.available():
+        with driver.transaction() as tx:
+            return _count_play(tx.run, tx.commit, token, trial_id)
+    return _count_play(driver.on_session, db.session.commit, token, trial_id)
+
+
+def _count_play(run: Any, commit: Any, token: str, trial_id: int):  # type: ignore[no-untyped-def]
+    """The play's answer, its statements run by ``run`` and committed by ``commit``."""
+    facts = run(_play_facts(), {"token": token, "trial_id": trial_id})
     if facts is None:
         return _error("unknown participant", 403)
     if facts.trial_id is None or facts.kind == "practice":
         return _error("no such trial", 404)
     policy = replay_policy(facts)
     limit = policy.max_plays
-    plays = conn.execute(
-        sa.update(Trial)
-        .where(Trial.id == trial_id, sa.true() if limit is None else Trial.plays < limit)
-        .values(plays=Trial.plays + 1)
-        .returning(Trial.plays)
-    ).scalar()
-    if plays is None:
-        plays = conn.execute(sa.select(Trial.plays).where(Trial.id == trial_id)).scalar_one()
-        db.session.commit()
+    counted = run(_one_more_play(), {"trial_id": trial_id, "limit": limit})
+    if counted is None:
+        plays = run(_plays(), {"trial_id": trial_id}).plays
         return jsonify({"error": play_refusal(policy), "plays": plays, "plays_left": 0}), 409
-    db.session.commit()
-    left = None if limit is None else max(0, limit - plays)
-    return jsonify({"plays": plays, "plays_left": left}), 200
+    commit()
+    left = None if limit is None else max(0, limit - counted.plays)
+    return jsonify({"plays": counted.plays, "plays_left": left}), 200
 
 
 @bp.post("/participants/<token>/environment")

@@ -1,0 +1,125 @@
+"""The participant's hottest statements straight to psycopg, on the engine's pooled connections.
+
+Every trial asks for a play (``POST /api/v1/plays``) and casts a vote (``POST /api/v1/votes``).
+In the load benchmark's profile the ORM session around those few statements (creating it,
+checking out its connection, committing, removing it) and SQLAlchemy's execution of each
+statement cost more CPU than the statements themselves: in process, a vote's two statements
+took 0.8 ms through the session and 0.4 ms on the driver. Here the statements stay SQLAlchemy
+Core statements, defined once in the modules that use them, compiled once for the engine's
+dialect (:func:`compiled`) and run on a connection from the same pool, so the pool's events
+(the idle ping of :func:`app.web.ping_idle_connections`), its size and its reset on return all
+apply.
+
+:func:`transaction` gives one transaction on such a connection. It commits only when asked;
+anything else rolls back. A driver error comes out as SQLAlchemy's (a lost connection is a
+:class:`sqlalchemy.exc.OperationalError`, which ``app.web`` answers with 503), and a connection
+that failed is dropped from the pool, not handed out again. PostgreSQL only: on SQLite the same
+statements go through the session (:func:`available`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from functools import cache
+from typing import Any, NamedTuple
+
+import psycopg
+import sqlalchemy as sa
+from psycopg.rows import namedtuple_row
+
+from app.extensions import db
+
+
+class DriverSQL(NamedTuple):
+    """A Core statement compiled for the driver: its SQL and its bound parameters' defaults
+    (the literals a statement binds, such as ``kind <> 'practice'``)."""
+
+    sql: str
+    defaults: dict[str, Any]
+
+    def params(self, values: Mapping[str, Any]) -> dict[str, Any]:
+        return {**self.defaults, **values}
+
+
+@cache
+def _compiled(statement: Any, dialect: sa.Dialect) -> DriverSQL:
+    found = statement.compile(dialect=dialect)
+    return DriverSQL(str(found), dict(found.params))
+
+
+def compiled(statement: Any) -> DriverSQL:
+    """``statement`` (built once by its module, so the cache here holds each once) compiled
+    for the engine's dialect, once."""
+    return _compiled(statement, db.engine.dialect)
+
+
+def available() -> bool:
+    """Whether the engine's driver is psycopg (PostgreSQL)."""
+    return db.engine.dialect.driver == "psycopg"
+
+
+def on_session(statement: Any, values: Mapping[str, Any]) -> Any:
+    """What :meth:`Transaction.run` does, through the request's session instead (SQLite):
+    the row ``statement`` returns, if any, in the session's transaction."""
+    result = db.session.connection().execute(statement, values)
+    return result.one_or_none() if result.returns_rows else None
+
+
+def execute(cursor: Any, statement: DriverSQL, values: Mapping[str, Any]) -> Any:
+    """Run ``statement`` on a driver cursor; the row it returns, if any, with the statement's
+    column labels as attributes. Every statement of this module's transactions goes through
+    here."""
+    cursor.execute(statement.sql, statement.params(values))
+    return cursor.fetchone() if cursor.description else None
+
+
+class Transaction:
+    """One transaction on a pooled driver connection (see :func:`transaction`)."""
+
+    def __init__(self, raw: Any) -> None:
+        self.raw = raw
+        self.cursor = raw.driver_connection.cursor(row_factory=namedtuple_row)
+        self.committed = False
+        self.last = ""
+
+    def run(self, statement: Any, values: Mapping[str, Any]) -> Any:
+        """Run a Core ``statement`` (compiled once); the row it returns, if any."""
+        found = compiled(statement)
+        self.last = found.sql
+        return execute(self.cursor, found, values)
+
+    def commit(self) -> None:
+        self.raw.commit()
+        self.committed = True
+
+
+def _as_sqlalchemy(exc: psycopg.Error, statement: str | None) -> sa.exc.DBAPIError:
+    return sa.exc.DBAPIError.instance(
+        statement, None, exc, psycopg.Error, dialect=db.engine.dialect
+    )
+
+
+@contextmanager
+def transaction() -> Iterator[Transaction]:
+    """A transaction on a connection from the engine's pool: committed by
+    :meth:`Transaction.commit`, rolled back otherwise (an early return, an exception)."""
+    try:
+        raw = db.engine.raw_connection()
+    except psycopg.Error as exc:  # no connection to be had
+        raise _as_sqlalchemy(exc, None) from exc
+    tx = None
+    try:
+        tx = Transaction(raw)
+        yield tx
+    except psycopg.Error as exc:
+        if isinstance(exc, psycopg.OperationalError | psycopg.InterfaceError):
+            raw.invalidate(exc)  # lost or broken: never handed out again
+        raise _as_sqlalchemy(exc, tx.last if tx else None) from exc
+    finally:
+        if (tx is None or not tx.committed) and raw.dbapi_connection is not None:
+            try:
+                raw.rollback()
+            except psycopg.Error:
+                raw.invalidate()
+        raw.close()
