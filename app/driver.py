@@ -19,6 +19,7 @@ statements go through the session (:func:`available`).
 
 from __future__ import annotations
 
+from collections import namedtuple
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from functools import cache
@@ -26,17 +27,18 @@ from typing import Any, NamedTuple
 
 import psycopg
 import sqlalchemy as sa
-from psycopg.rows import namedtuple_row
 
 from app.extensions import db
 
 
 class DriverSQL(NamedTuple):
-    """A Core statement compiled for the driver: its SQL and its bound parameters' defaults
-    (the literals a statement binds, such as ``kind <> 'practice'``)."""
+    """A Core statement compiled for the driver: its SQL, its bound parameters' defaults (the
+    literals a statement binds, such as ``kind <> 'practice'``) and the class of the rows it
+    returns (named by its column labels), None if it returns none."""
 
     sql: str
     defaults: dict[str, Any]
+    row: Any
 
     def params(self, values: Mapping[str, Any]) -> dict[str, Any]:
         return {**self.defaults, **values}
@@ -45,7 +47,11 @@ class DriverSQL(NamedTuple):
 @cache
 def _compiled(statement: Any, dialect: sa.Dialect) -> DriverSQL:
     found = statement.compile(dialect=dialect)
-    return DriverSQL(str(found), dict(found.params))
+    # A SELECT's columns, or an UPDATE's RETURNING: known here, so a row is made without the
+    # driver describing each result (its description was a tenth of a vote in the profile).
+    labels = list(statement.exported_columns.keys())
+    row = namedtuple("Row", labels) if labels else None  # type: ignore[misc]
+    return DriverSQL(str(found), dict(found.params), row)
 
 
 def compiled(statement: Any) -> DriverSQL:
@@ -71,7 +77,10 @@ def execute(cursor: Any, statement: DriverSQL, values: Mapping[str, Any]) -> Any
     column labels as attributes. Every statement of this module's transactions goes through
     here."""
     cursor.execute(statement.sql, statement.params(values))
-    return cursor.fetchone() if cursor.description else None
+    if statement.row is None:
+        return None
+    found = cursor.fetchone()
+    return None if found is None else statement.row._make(found)
 
 
 class Transaction:
@@ -79,7 +88,7 @@ class Transaction:
 
     def __init__(self, raw: Any) -> None:
         self.raw = raw
-        self.cursor = raw.driver_connection.cursor(row_factory=namedtuple_row)
+        self.cursor = raw.driver_connection.cursor()
         self.committed = False
         self.last = ""
 

@@ -12,8 +12,11 @@ as in a Prolific study, not the server's. Prints vote, play and trial-page laten
 errors and the peak number of participants present at once. Then the vote endpoint alone is
 driven saturated (64 senders, prepared votes of freshly consented participants); with
 ``--baseline`` the bare baseline (``benchmarks/bare_baseline.py``: Flask + psycopg, one INSERT
-per request, the same gunicorn settings) is driven the same way, and facepair's saturated vote
-throughput is printed as a fraction of the baseline's.
+per request, the same gunicorn settings) is driven the same way, alternating with facepair for
+``--rounds`` rounds each, and the median of facepair's saturated vote throughput is printed as
+a fraction of the baseline's median. Each phase also prints where the CPU went, per trial (a
+trial page, a play and a vote) or per saturated vote: the server's processes, PostgreSQL's and
+the load generator's, from ``/proc``.
 
 ``--mode closed`` (the earlier figure): every participant, in its own thread with its own
 keep-alive connection, sends its next request as soon as the last one returns.
@@ -460,11 +463,11 @@ def _drive(
     return rate
 
 
-def bare_baseline(args: argparse.Namespace, url: str, votes: int, media: Path) -> float:
-    """The bare baseline driven like facepair's vote endpoint; returns votes per second."""
+def start_bare_baseline(args: argparse.Namespace, url: str, media: Path) -> subprocess.Popen[bytes]:
+    """The bare baseline's server, on the port after facepair's, on the same database."""
     dsn = url.replace("postgresql+psycopg://", "postgresql://")
     port = args.port + 1
-    server = start_server(
+    return start_server(
         [
             str(ROOT / "benchmarks" / "bare_baseline.py"),
             "--dsn",
@@ -478,26 +481,27 @@ def bare_baseline(args: argparse.Namespace, url: str, votes: int, media: Path) -
         port,
         media / "baseline.log",
     )
-    try:
-        bodies = [
-            (
-                i,
-                "left",
-                json.dumps(
-                    {
-                        "token": secrets.token_hex(11),
-                        "trial_id": i,
-                        "choice": "left",
-                        "idempotency_key": secrets.token_hex(8),
-                    }
-                ).encode(),
-            )
-            for i in range(votes)
-        ]
-        url = f"http://127.0.0.1:{port}/votes"
-        return _drive(url, bodies, "bare baseline", args, {}, server.pid)
-    finally:
-        stop_server(server)
+
+
+def bare_baseline(args: argparse.Namespace, votes: int, server_pid: int) -> float:
+    """The bare baseline driven like facepair's vote endpoint; returns votes per second."""
+    bodies = [
+        (
+            i,
+            "left",
+            json.dumps(
+                {
+                    "token": secrets.token_hex(11),
+                    "trial_id": i,
+                    "choice": "left",
+                    "idempotency_key": secrets.token_hex(8),
+                }
+            ).encode(),
+        )
+        for i in range(votes)
+    ]
+    url = f"http://127.0.0.1:{args.port + 1}/votes"
+    return _drive(url, bodies, "bare baseline", args, {}, server_pid)
 
 
 def participant_counts(text: str) -> list[int]:
@@ -538,11 +542,17 @@ def main() -> int:
     parser.add_argument(
         "--saturate",
         type=int,
-        default=60,
+        default=120,
         help="participants whose votes drive the saturated run (open)",
     )
     parser.add_argument(
         "--baseline", action="store_true", help="also drive the bare baseline and print the ratio"
+    )
+    parser.add_argument(
+        "--rounds",
+        type=int,
+        default=3,
+        help="saturated runs of each, facepair and the baseline alternating (open)",
     )
     parser.add_argument("--workers", type=int, default=4, help="gunicorn worker processes")
     parser.add_argument("--port", type=int, default=5077)
@@ -552,6 +562,8 @@ def main() -> int:
         counts = participant_counts(args.participants)
     except ValueError as exc:
         parser.error(str(exc))
+    if args.rounds < 1 or args.saturate < 1:
+        parser.error("--rounds and --saturate: expected a whole number of at least 1")
     if not ensure_services(redis=False):
         sys.exit("PostgreSQL is not reachable on 127.0.0.1:5432")
     import psycopg
@@ -582,16 +594,29 @@ def main() -> int:
         acknowledged: dict[int, str] = {}
         for n in counts:
             run_open(args, n, slug, acknowledged, server.pid)
-        facepair = saturated_votes(args, slug, url, acknowledged, server.pid)
+        if args.baseline:
+            bare_server = start_bare_baseline(args, url, media)
+        # The two alternate, so both meet the machine in the same state (the database's
+        # background writing after the open loop, other work on the host).
+        facepair, bare = [], []
+        try:
+            for _ in range(args.rounds):
+                facepair.append(saturated_votes(args, slug, url, acknowledged, server.pid))
+                if args.baseline:
+                    bare.append(bare_baseline(args, args.saturate * 18, bare_server.pid))
+        finally:
+            if args.baseline:
+                stop_server(bare_server)
         stop_server(server)
         server = None
         line, stored_ok = check(url, acknowledged)
         print(line)
         if args.baseline:
-            bare = bare_baseline(args, url, args.saturate * 18, media)
+            ours, theirs = float(np.median(facepair)), float(np.median(bare))
             print(
-                f"facepair's saturated vote throughput: {facepair:.0f}/s = "
-                f"{facepair / bare:.0%} of the bare baseline's {bare:.0f}/s"
+                f"facepair's saturated vote throughput (median of {args.rounds} rounds "
+                f"alternating with the baseline): {ours:.0f}/s = {ours / theirs:.0%} of the "
+                f"bare baseline's {theirs:.0f}/s"
             )
         print(f"load average after: {open('/proc/loadavg').read().strip()}")
         # Client errors (timeouts of an overloaded server) are reported above; the exit

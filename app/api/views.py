@@ -82,7 +82,8 @@ def post_vote():  # type: ignore[no-untyped-def]
         "total": outcome.total,
         "next": url_for("participant.resume", token=payload["token"]),
     }
-    db.session.commit()
+    if db.session.registry.has():  # the session's path (the driver's has committed its own)
+        db.session.commit()
     return jsonify(body), 201 if outcome.created else 200
 
 
