@@ -14,7 +14,8 @@ apply.
 anything else rolls back. A driver error comes out as SQLAlchemy's (a lost connection is a
 :class:`sqlalchemy.exc.OperationalError`, which ``app.web`` answers with 503), and a connection
 that failed is dropped from the pool, not handed out again. PostgreSQL only: on SQLite the same
-statements go through the session (:func:`available`).
+statements go through the session (:func:`on_session`). Column defaults computed in Python
+(SQLAlchemy applies them on its own path) are not applied here: a statement passes every value.
 """
 
 from __future__ import annotations

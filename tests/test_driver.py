@@ -1,0 +1,87 @@
+"""Statements straight to psycopg (``app.driver``): compiled once, rows named by their labels,
+a transaction that commits only when asked, driver errors as SQLAlchemy's."""
+
+import datetime as dt
+
+import psycopg
+import pytest
+import sqlalchemy as sa
+
+from app import driver
+from app.extensions import db
+from app.models import Study, User
+
+
+@pytest.fixture
+def pg_app(app):
+    with app.app_context():
+        if not driver.available():
+            pytest.skip("the driver's path is PostgreSQL's")
+    return app
+
+
+def _emails(app):
+    with app.app_context():
+        return db.session.scalars(sa.select(User.email).order_by(User.id)).all()
+
+
+# Every value given: the driver applies no column defaults computed in Python.
+INSERT = (
+    sa.insert(User)
+    .values(email=sa.bindparam("email"), password_hash="x", created_at=sa.bindparam("at"))
+    .returning(User.id, User.email)
+)
+AT = dt.datetime(2026, 1, 1)
+
+
+def test_compiled_once_with_its_literals_and_its_labels(pg_app):
+    statement = sa.select(Study.id.label("study_id"), sa.literal(7).label("seven"))
+    with pg_app.app_context():
+        first = driver.compiled(statement)
+        assert driver.compiled(statement) is first  # cached
+        assert "%(" in first.sql and first.row._fields == ("study_id", "seven")
+        assert 7 in first.defaults.values()  # a literal the statement binds itself
+        assert driver.compiled(sa.update(Study).values(title="x")).row is None
+
+
+def test_a_transaction_commits_only_when_asked(pg_app):
+    with pg_app.app_context():
+        with driver.transaction() as tx:
+            row = tx.run(INSERT, {"email": "kept@example.org", "at": AT})
+            assert row.email == "kept@example.org" and row.id > 0
+            tx.commit()
+        with driver.transaction() as tx:
+            tx.run(INSERT, {"email": "early@example.org", "at": AT})  # no commit: rolled back
+        with pytest.raises(RuntimeError), driver.transaction() as tx:
+            tx.run(INSERT, {"email": "raised@example.org", "at": AT})
+            raise RuntimeError("a bug in the caller")
+    assert _emails(pg_app) == ["kept@example.org"]
+
+
+def test_a_driver_error_is_sqlalchemys_and_a_broken_connection_leaves_the_pool(pg_app):
+    with pg_app.app_context():
+        # A constraint the database enforces: as SQLAlchemy's IntegrityError.
+        with pytest.raises(sa.exc.IntegrityError), driver.transaction() as tx:
+            tx.run(INSERT, {"email": "twice@example.org", "at": AT})
+            tx.run(INSERT, {"email": "twice@example.org", "at": AT})  # unique
+        # A lost connection: OperationalError (answered 503), and the connection is dropped.
+        with pytest.raises(sa.exc.OperationalError), driver.transaction() as tx:
+            pid = tx.run(sa.select(sa.func.pg_backend_pid().label("pid")), {}).pid
+            with psycopg.connect(
+                db.engine.url.set(drivername="postgresql").render_as_string(False),
+                autocommit=True,
+            ) as admin:
+                admin.execute("SELECT pg_terminate_backend(%s)", (pid,))
+            tx.run(INSERT, {"email": "lost@example.org", "at": AT})
+        with driver.transaction() as tx:  # a live connection again
+            assert tx.run(sa.select(sa.func.pg_backend_pid().label("pid")), {}).pid != pid
+    assert _emails(pg_app) == []
+
+
+def test_on_session_runs_the_same_statements_in_the_sessions_transaction(app):
+    with app.app_context():
+        row = driver.on_session(INSERT, {"email": "session@example.org", "at": AT})
+        assert row.email == "session@example.org"
+        assert driver.on_session(sa.update(Study).values(title="renamed"), {}) is None
+        db.session.rollback()
+    assert _emails(app) == []
