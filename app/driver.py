@@ -14,8 +14,8 @@ apply.
 anything else rolls back. A driver error comes out as SQLAlchemy's (a lost connection is a
 :class:`sqlalchemy.exc.OperationalError`, which ``app.web`` answers with 503), and a connection
 that failed is dropped from the pool, not handed out again. PostgreSQL only: on SQLite the same
-statements go through the session (:func:`on_session`). Column defaults computed in Python
-(SQLAlchemy applies them on its own path) are not applied here: a statement passes every value.
+statements go through the session (:func:`on_session`). Bind processors apply as on
+SQLAlchemy's path; column defaults computed in Python do not: a statement passes every value.
 """
 
 from __future__ import annotations
@@ -34,15 +34,28 @@ from app.extensions import db
 
 class DriverSQL(NamedTuple):
     """A Core statement compiled for the driver: its SQL, its bound parameters' defaults (the
-    literals a statement binds, such as ``kind <> 'practice'``) and the class of the rows it
+    literals a statement binds, such as ``kind <> 'practice'``), the names it needs a value
+    for, the bind processors of its types (a JSON column's, say) and the class of the rows it
     returns (named by its column labels), None if it returns none."""
 
     sql: str
     defaults: dict[str, Any]
+    required: frozenset[str]
+    processors: dict[str, Any]
     row: Any
 
     def params(self, values: Mapping[str, Any]) -> dict[str, Any]:
-        return {**self.defaults, **values}
+        """The driver's parameters: ``values`` over the defaults, each through its type's bind
+        processor as on SQLAlchemy's own path (a JSON column's None is JSON ``null`` there,
+        not SQL NULL). A value the statement needs and ``values`` lacks is an error, as there,
+        not a NULL."""
+        missing = self.required.difference(values)
+        if missing:
+            raise sa.exc.ArgumentError(f"no value for {', '.join(sorted(missing))}")
+        params = {**self.defaults, **values}
+        for name, process in self.processors.items():
+            params[name] = process(params[name])
+        return params
 
 
 @cache
@@ -52,7 +65,13 @@ def _compiled(statement: Any, dialect: sa.Dialect) -> DriverSQL:
     # driver describing each result (its description was a tenth of a vote in the profile).
     labels = list(statement.exported_columns.keys())
     row = namedtuple("Row", labels) if labels else None  # type: ignore[misc]
-    return DriverSQL(str(found), dict(found.params), row)
+    required = frozenset(name for name, bind in found.binds.items() if bind.required)
+    processors = {}
+    for name, bind in found.binds.items():
+        process = bind.type.dialect_impl(dialect).bind_processor(dialect)
+        if process is not None:
+            processors[name] = process
+    return DriverSQL(str(found), dict(found.params), required, processors, row)
 
 
 def compiled(statement: Any) -> DriverSQL:
@@ -123,9 +142,16 @@ def transaction() -> Iterator[Transaction]:
         tx = Transaction(raw)
         yield tx
     except psycopg.Error as exc:
-        if isinstance(exc, psycopg.OperationalError | psycopg.InterfaceError):
-            raw.invalidate(exc)  # lost or broken: never handed out again
+        cursor = tx.cursor if tx else None
+        if db.engine.dialect.is_disconnect(exc, raw.dbapi_connection, cursor):
+            # Lost: never handed out again (the pool's other connections are pinged once
+            # idle for a second; one used sooner answers 503 once, and the vote is resent).
+            raw.invalidate(exc)
         raise _as_sqlalchemy(exc, tx.last if tx else None) from exc
+    except BaseException as exc:
+        if not isinstance(exc, Exception):  # interrupted, perhaps mid-statement: drop it
+            raw.invalidate(exc)
+        raise
     finally:
         if (tx is None or not tx.committed) and raw.dbapi_connection is not None:
             try:

@@ -37,7 +37,6 @@ from functools import cache
 from typing import Any, NamedTuple
 
 import sqlalchemy as sa
-from psycopg.types.json import Json
 from sqlalchemy.dialects import postgresql, sqlite
 
 from app import driver
@@ -52,8 +51,6 @@ from app.voting import VoteRejected, check_open, screen_out, trial_id_of, vote_f
 P, S, T, V = (m.__table__ for m in (Participant, Study, Trial, Vote))  # type: ignore[attr-defined]
 #: The vote's columns written from the request (every one but the id).
 VOTE_COLUMNS = tuple(c.name for c in V.columns if c.name != "id")
-#: Those the driver is given as JSON (SQLAlchemy serialises them on its own path).
-JSON_COLUMNS = frozenset(c.name for c in V.columns if isinstance(c.type, sa.JSON))
 
 
 class StoredVote(NamedTuple):
@@ -284,9 +281,6 @@ def _cast_on_driver(token: str, trial_id: int, payload: dict[str, Any]) -> CastV
         missed = facts.kind == "catch" and fields["choice"] != facts.expected
         if missed and facts.vote_id is None and participation(facts).max_failed:
             return None  # it may end the session: the ORM's way
-        for name in JSON_COLUMNS:
-            if values[name] is not None:
-                values[name] = Json(values[name])
         stored = tx.run(_store_postgresql(), values)
         answered, total = int(stored.answered), int(stored.total)
         vote = _acknowledged(facts, trial_id, fields, inserted=stored.vote_id is not None)

@@ -44,6 +44,17 @@ def test_compiled_once_with_its_literals_and_its_labels(pg_app):
         assert driver.compiled(sa.update(Study).values(title="x")).row is None
 
 
+def test_a_missing_value_is_an_error_and_types_process_their_values(pg_app):
+    with pg_app.app_context():
+        found = driver.compiled(INSERT)
+        with pytest.raises(sa.exc.ArgumentError, match="no value for at, email"):
+            found.params({})
+        as_json = sa.select(sa.bindparam("doc", type_=sa.JSON).label("doc"))
+        assert driver.compiled(as_json).params({"doc": None})["doc"] is not None  # JSON null
+        with driver.transaction() as tx:
+            assert tx.run(as_json, {"doc": {"a": [1, 2]}}).doc == {"a": [1, 2]}
+
+
 def test_a_transaction_commits_only_when_asked(pg_app):
     with pg_app.app_context():
         with driver.transaction() as tx:

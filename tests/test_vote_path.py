@@ -182,3 +182,32 @@ def test_the_last_vote_finishes_and_a_failed_check_gives_the_slot_back(app, part
         assert people[careless.token].finished_at is not None
         assert people[careless.token].dropped_at is not None
         assert sum(db.session.scalars(sa.select(StudyList.n_assigned))) == 1
+
+
+def test_the_drivers_vote_is_stored_as_the_sessions_is(app, joined, monkeypatch):
+    if not app.config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql"):
+        pytest.skip("the driver's path is PostgreSQL's")
+    from app import driver
+
+    by_driver = joined.current_trial()
+    assert joined.vote(by_driver, "left", key="by-the-driver").status_code == 201
+    monkeypatch.setattr(driver, "available", lambda: False)  # the session's path
+    by_session = joined.current_trial()
+    assert joined.vote(by_session, "left", key="by-the-session").status_code == 201
+    columns = [c.name for c in Vote.__table__.columns if c.name not in ("id", "trial_id")]
+    with app.app_context():
+        rows = {}
+        for trial in (by_driver, by_session):
+            # The stored form itself: a JSON null and an SQL NULL read back alike.
+            rows[trial] = db.session.execute(
+                sa.text(
+                    "SELECT "
+                    + ", ".join(f"{c}::text IS NULL, {c}::text" for c in columns)
+                    + " FROM vote WHERE trial_id = :trial"
+                ),
+                {"trial": trial},
+            ).one()
+    same = {"idempotency_key", "voted_at"}  # differ by design
+    for i, name in enumerate(columns):
+        if name not in same:
+            assert rows[by_driver][2 * i : 2 * i + 2] == rows[by_session][2 * i : 2 * i + 2], name

@@ -172,6 +172,7 @@ def _count_play(run: Any, commit: Any, token: str, trial_id: int):  # type: igno
     counted = run(_one_more_play(), {"trial_id": trial_id, "limit": limit})
     if counted is None:
         plays = run(_plays(), {"trial_id": trial_id}).plays
+        commit()  # nothing written; ends the transaction (SQLite's write lock) at once
         return jsonify({"error": play_refusal(policy), "plays": plays, "plays_left": 0}), 409
     commit()
     left = None if limit is None else max(0, limit - counted.plays)
