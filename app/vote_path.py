@@ -17,9 +17,10 @@ connection, in the request's one transaction:
 On PostgreSQL the two statements go straight to the driver (:func:`_cast_on_driver`,
 :mod:`app.driver`), in a transaction of their own, without the ORM session. What that path
 does not settle before its commit (a missed attention check under a stop rule, a vote that
-finishes a participant the report could leave out, or anything the first statement did not
-see) is rolled back and taken by the session's path below, which returns None where the
-ORM's path must decide.
+finishes a participant the report could leave out, a key the insert met elsewhere) is rolled
+back and taken by the session's path below, which returns None where the ORM's path must
+decide; an unknown token or a participant screened out or dropped goes to the ORM's path at
+once, as the session's path would read the same row and send it there.
 
 The vote that completes the schedule marks the participant finished (one more UPDATE), in
 the same transaction; where the report leaves them out for a failed check, their list slot goes
@@ -34,7 +35,7 @@ screened out or released as dropped, a key or trial whose vote the first stateme
 from __future__ import annotations
 
 from functools import cache
-from typing import Any, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import sqlalchemy as sa
 from sqlalchemy.dialects import postgresql, sqlite
@@ -229,8 +230,10 @@ def cast(payload: dict[str, Any]) -> CastVote | None:
         return None  # refused by the ORM path, after the checks that come first there
     if driver.available():
         done = _cast_on_driver(token, trial_id, payload)
-        if done is not None:
+        if isinstance(done, CastVote):
             return done
+        if done == "orm":
+            return None  # the session's path would read the same row and say the same
     conn = db.session.connection()
     facts = conn.execute(_facts(), {"token": token, "trial_id": trial_id}).one_or_none()
     if facts is None or facts.screened_out_at is not None or facts.dropped_at is not None:
@@ -269,26 +272,29 @@ def _finished() -> sa.Update:
     )
 
 
-def _cast_on_driver(token: str, trial_id: int, payload: dict[str, Any]) -> CastVote | None:
+def _cast_on_driver(
+    token: str, trial_id: int, payload: dict[str, Any]
+) -> CastVote | Literal["session", "orm"]:
     """The usual vote on PostgreSQL, in a transaction of its own on a pooled driver
-    connection (:mod:`app.driver`): committed and returned, or rolled back and None (the
-    session's path decides)."""
+    connection (:mod:`app.driver`): committed and returned, or rolled back and the path that
+    decides instead: "orm" for an unknown token or a participant screened out or dropped,
+    "session" for the rest (:func:`cast` below the driver's call)."""
     with driver.transaction() as tx:
         facts = tx.run(_facts(), {"token": token, "trial_id": trial_id})
         if facts is None or facts.screened_out_at is not None or facts.dropped_at is not None:
-            return None
+            return "orm"
         fields, values = _checked(facts, trial_id, payload)
         missed = facts.kind == "catch" and fields["choice"] != facts.expected
         if missed and facts.vote_id is None and participation(facts).max_failed:
-            return None  # it may end the session: the ORM's way
+            return "session"  # it may end the session: screened out there
         stored = tx.run(_store_postgresql(), values)
         answered, total = int(stored.answered), int(stored.total)
         vote = _acknowledged(facts, trial_id, fields, inserted=stored.vote_id is not None)
         if vote is None:
-            return None  # the key is another trial's, or a concurrent request stored it first
+            return "session"  # the key is another trial's, or a concurrent request stored it
         if answered >= total and facts.finished_at is None:
             if may_be_left_out(facts, pilot=facts.pilot):
-                return None  # finished, perhaps left out of the report: the session's path
+                return "session"  # finished, perhaps left out of the report
             tx.run(_finished(), {"participant_id": facts.id, "now": values["now"]})
         tx.commit()
         return CastVote(vote, stored.vote_id is not None, answered, total)

@@ -52,7 +52,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from benchmarks import load_clients  # noqa: E402
-from tests.support.services import ensure_services, wait_for_port  # noqa: E402
+from tests.support.services import ensure_services, processes, wait_for_port  # noqa: E402
 
 PG = "host=127.0.0.1 port=5432 user=postgres"
 
@@ -312,36 +312,21 @@ def run_closed(args: argparse.Namespace, participants: int, slug: str, url: str)
     return ok and not errors
 
 
-def _cpu_of(pid: int) -> tuple[str, int, float]:
-    """(command name, parent pid, user + system CPU seconds) of a live process, from /proc."""
-    stat = Path(f"/proc/{pid}/stat").read_text()
-    name = stat[stat.index("(") + 1 : stat.rindex(")")]
-    fields = stat.rsplit(")", 1)[1].split()
-    return name, int(fields[1]), (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
 def cpu_seconds(server_pid: int) -> dict[str, float]:
     """CPU seconds used so far by the server (gunicorn's master and workers), PostgreSQL (every
     ``postgres`` process: the backends of the server's pooled connections live as long as the
     workers) and this process (the load generator)."""
-    seen: dict[int, tuple[str, int, float]] = {}
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                seen[int(entry.name)] = _cpu_of(int(entry.name))
-            except (OSError, ValueError):
-                continue  # exited while being read
-    parents = {pid: parent for pid, (_, parent, _) in seen.items()}
+    seen = processes()
 
     def under_server(pid: int) -> bool:
         while pid > 1:
             if pid == server_pid:
                 return True
-            pid = parents.get(pid, 0)
+            pid = seen[pid][2] if pid in seen else 0
         return False
 
     used = {"server": 0.0, "postgres": 0.0, "generator": 0.0}
-    for pid, (name, _, cpu) in seen.items():
+    for pid, (name, _, _, cpu) in seen.items():
         if pid == os.getpid():
             used["generator"] += cpu
         elif under_server(pid):
@@ -351,12 +336,15 @@ def cpu_seconds(server_pid: int) -> dict[str, float]:
     return used
 
 
-def cpu_line(before: dict[str, float], after: dict[str, float], trials: int, elapsed: float) -> str:
-    """Where the CPU of a phase went, per trial (a trial page, a play and a vote)."""
+def cpu_line(
+    before: dict[str, float], after: dict[str, float], count: int, unit: str, elapsed: float
+) -> str:
+    """Where the CPU of a phase went, per ``unit`` (a trial: its page, play and vote; or a
+    vote)."""
     used = {k: after[k] - before[k] for k in before}
-    per = ", ".join(f"{k} {v / max(trials, 1) * 1e3:.1f} ms" for k, v in used.items())
+    per = ", ".join(f"{k} {v / max(count, 1) * 1e3:.1f} ms" for k, v in used.items())
     busy = sum(used.values()) / max(elapsed, 1e-9) / (os.cpu_count() or 1)
-    return f"  CPU per trial: {per}; the cores {busy:.0%} busy with these"
+    return f"  CPU per {unit}: {per}; the cores {busy:.0%} busy with these"
 
 
 def run_open(
@@ -364,10 +352,10 @@ def run_open(
     participants: int,
     slug: str,
     acknowledged: dict[int, str],
-    server_pid: int | None = None,
+    server_pid: int,
 ) -> None:
     rate = args.arrival_rate or participants / 10
-    before = cpu_seconds(server_pid) if server_pid else None
+    before = cpu_seconds(server_pid)
     wall = time.perf_counter()
     tally, elapsed = asyncio.run(
         load_clients.open_loop(
@@ -395,9 +383,8 @@ def run_open(
         f"  errors {len(tally.errors)}, statuses {dict(sorted(tally.statuses.items()))}, "
         f"answered with an earlier vote's other choice {tally.superseded}"
     )
-    if before is not None and server_pid is not None:
-        trials = len(tally.ms.get("page", []))
-        print(cpu_line(before, cpu_seconds(server_pid), trials, time.perf_counter() - wall))
+    trials = len(tally.ms.get("page", []))
+    print(cpu_line(before, cpu_seconds(server_pid), trials, "trial", time.perf_counter() - wall))
     for e in tally.errors[:5]:
         print("  error:", e)
 
@@ -407,7 +394,7 @@ def saturated_votes(
     slug: str,
     url: str,
     acknowledged: dict[int, str],
-    server_pid: int | None = None,
+    server_pid: int,
 ) -> float:
     """facepair's vote endpoint driven saturated; returns votes per second."""
     import psycopg
@@ -443,9 +430,9 @@ def _drive(
     name: str,
     args: argparse.Namespace,
     acknowledged: dict[int, str],
-    server_pid: int | None = None,
+    server_pid: int,
 ) -> float:
-    before = cpu_seconds(server_pid) if server_pid else None
+    before = cpu_seconds(server_pid)
     wall = time.perf_counter()
     tally, elapsed = asyncio.run(
         load_clients.saturate(url, bodies, concurrency=64, timeout=args.timeout)
@@ -457,9 +444,9 @@ def _drive(
         f"{elapsed:.1f} s by 64 senders, {rate:.0f} votes/s; vote {tally.summary('vote')}; "
         f"errors {len(tally.errors)} (load {os.getloadavg()[0]:.1f})"
     )
-    if before is not None and server_pid is not None:
-        used = cpu_line(before, cpu_seconds(server_pid), len(bodies), time.perf_counter() - wall)
-        print(used.replace("per trial", "per vote"))
+    print(
+        cpu_line(before, cpu_seconds(server_pid), len(bodies), "vote", time.perf_counter() - wall)
+    )
     return rate
 
 

@@ -37,16 +37,11 @@ def children(pid: int) -> list[int]:
     A child that has exited but is not yet reaped (a zombie, state Z or X) is left out: a work
     horse that finished its job is one for a moment, and a signal to it kills nothing.
     """
-    found = []
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
-            except OSError:
-                continue
-            if int(fields[1]) == pid and fields[0] not in ("Z", "X"):
-                found.append(int(entry.name))
-    return found
+    return [
+        child
+        for child, (_, state, parent, _) in services.processes().items()
+        if parent == pid and state not in ("Z", "X")
+    ]
 
 
 class PrivatePostgres:

@@ -62,3 +62,29 @@ def ensure_services(*, redis: bool = True, seconds: float = 5.0) -> bool:
             capture_output=True,
         )
     return wait_for_port(PG_PORT, seconds)
+
+
+def process_stat(pid: int) -> tuple[str, str, int, float]:
+    """(command name, state, parent pid, user + system CPU seconds) of a process, from
+    ``/proc/<pid>/stat``; OSError if it is gone. The name is in parentheses and may hold
+    spaces, so the fields are counted from its closing one."""
+    import os
+
+    stat = Path(f"/proc/{pid}/stat").read_text()
+    name = stat[stat.index("(") + 1 : stat.rindex(")")]
+    fields = stat[stat.rindex(")") + 1 :].split()
+    cpu = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    return name, fields[0], int(fields[1]), cpu
+
+
+def processes() -> dict[int, tuple[str, str, int, float]]:
+    """:func:`process_stat` of every live process, by pid (one that exits meanwhile is left
+    out)."""
+    found = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                found[int(entry.name)] = process_stat(int(entry.name))
+            except (OSError, ValueError):
+                continue
+    return found
