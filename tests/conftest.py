@@ -425,32 +425,26 @@ def web(app, tmp_path, tiny_video):
 def live_server(tmp_path, tiny_video):
     """A threaded server on a migrated, file-backed SQLite database (never in-memory), for
     browser tests: ``live.url``, ``live.app``, ``live.study(**toml)``."""
-    import threading
     from types import SimpleNamespace
 
-    from werkzeug.serving import make_server
+    from tests.support.liveserver import serve
 
     url = f"sqlite:///{tmp_path / 'live.sqlite'}"
     upgrade_database(url, tmp_path / "media")
     app = make_app(url, tmp_path / "media")
-    server = make_server("127.0.0.1", 0, app, threaded=True)
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
     try:
-        yield SimpleNamespace(
-            app=app,
-            url=f"http://127.0.0.1:{server.port}",
-            study=lambda video=True, **toml: create_test_study(
-                app, tmp_path, tiny_video if video else None, **toml
-            ),
-            user=lambda: _in_context(app, create_test_user),
-            write_wav=write_tone_wav,
-            toml=study_toml,
-        )
+        with serve(app) as base:
+            yield SimpleNamespace(
+                app=app,
+                url=base,
+                study=lambda video=True, **toml: create_test_study(
+                    app, tmp_path, tiny_video if video else None, **toml
+                ),
+                user=lambda: _in_context(app, create_test_user),
+                write_wav=write_tone_wav,
+                toml=study_toml,
+            )
     finally:
-        server.shutdown()
-        server.server_close()
-        thread.join(timeout=10)
         from app.extensions import db
 
         with app.app_context():
