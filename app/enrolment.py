@@ -10,15 +10,29 @@ participant and the schedule are stored together or not at all.
 from __future__ import annotations
 
 import datetime as dt
+import threading
+from collections import OrderedDict
 from functools import cache
+from typing import NamedTuple
 
 import numpy as np
 import sqlalchemy as sa
 
 from app.extensions import db
-from app.models import Participant, Stimulus, Study, StudyList, Trial, Vote, utcnow
-from app.studies import design_pairs, participation, practice_pair
-from app.trials import assignment
+from app.models import (
+    Clip,
+    Condition,
+    Pair,
+    Participant,
+    Stimulus,
+    Study,
+    StudyList,
+    Trial,
+    Vote,
+    utcnow,
+)
+from app.studies import participation, practice_pair
+from app.trials import assignment, design
 from app.trials import schedule as schedules
 
 MAX_ATTEMPTS = 20
@@ -33,17 +47,109 @@ class EnrolmentBusy(RuntimeError):
     """Too many simultaneous arrivals; the participant should simply retry."""
 
 
+class Design(NamedTuple):
+    """What every consent reads of a study's design: fixed once the study is created
+    (:func:`app.studies.create_study` writes these rows, only :func:`app.studies.delete_study`
+    removes them), so it is read once per process (:func:`study_design`)."""
+
+    #: Clip names in the stored order, and each one's id.
+    clip_names: tuple[str, ...]
+    clips: dict[str, int]
+    #: Condition name -> id.
+    conditions: dict[str, int]
+    #: The pairs in the stored order, by condition names.
+    pairs: tuple[design.ConditionPair, ...]
+    #: (first condition id, second condition id) -> pair id, either way round.
+    pair_ids: dict[tuple[int, int], int]
+    n_lists: int
+    #: (clip id, left id, right id, instruction, foreign side) -> stimulus id.
+    stimuli: dict[tuple[int, int, int, str | None, str | None], int]
+
+
+#: Designs read so far, by (study id, study slug): the slug, random for every study created,
+#: tells apart a study created later under a reused id (SQLite may reuse a deleted row's id,
+#: and a database created again starts its ids afresh).
+_DESIGNS: OrderedDict[tuple[int, str], Design] = OrderedDict()
+_DESIGNS_KEPT = 64
+_DESIGNS_LOCK = threading.Lock()
+
+
+def study_design(study: Study) -> Design:
+    """The study's :class:`Design`, read in four plain queries the first time in this process
+    and kept for the :data:`_DESIGNS_KEPT` studies used last. Reading it through the ORM's lazy
+    relationships was five queries on every consent in the load benchmark's profile."""
+    key = (study.id, study.slug)
+    with _DESIGNS_LOCK:
+        found = _DESIGNS.get(key)
+        if found is not None:
+            _DESIGNS.move_to_end(key)
+            return found
+    found = _read_design(study.id)
+    with _DESIGNS_LOCK:
+        _DESIGNS[key] = found
+        while len(_DESIGNS) > _DESIGNS_KEPT:
+            _DESIGNS.popitem(last=False)
+    return found
+
+
+def _read_design(study_id: int) -> Design:
+    run = db.session.execute
+    clips = run(
+        sa.select(Clip.name, Clip.id).where(Clip.study_id == study_id).order_by(Clip.position)
+    ).all()
+    conditions = dict(
+        run(sa.select(Condition.name, Condition.id).where(Condition.study_id == study_id)).all()
+    )
+    names = {condition_id: name for name, condition_id in conditions.items()}
+    pairs = run(
+        sa.select(Pair.id, Pair.first_id, Pair.second_id)
+        .where(Pair.study_id == study_id)
+        .order_by(Pair.position)
+    ).all()
+    pair_ids: dict[tuple[int, int], int] = {}
+    for pair in pairs:
+        pair_ids.setdefault((pair.first_id, pair.second_id), pair.id)
+    for pair in pairs:
+        pair_ids.setdefault((pair.second_id, pair.first_id), pair.id)
+    n_lists = run(
+        sa.select(sa.func.count(StudyList.id)).where(StudyList.study_id == study_id)
+    ).scalar_one()
+    stimuli = {
+        (s.clip_id, s.left_id, s.right_id, s.instruction, s.foreign_side): s.id
+        for s in run(
+            sa.select(
+                Stimulus.id,
+                Stimulus.clip_id,
+                Stimulus.left_id,
+                Stimulus.right_id,
+                Stimulus.instruction,
+                Stimulus.foreign_side,
+            ).where(Stimulus.study_id == study_id)
+        )
+    }
+    return Design(
+        clip_names=tuple(name for name, _ in clips),
+        clips=dict(clips),
+        conditions=conditions,
+        pairs=tuple(design.ConditionPair(names[p.first_id], names[p.second_id]) for p in pairs),
+        pair_ids=pair_ids,
+        n_lists=int(n_lists),
+        stimuli=stimuli,
+    )
+
+
 def schedule(study: Study, *, seed: int, list_index: int) -> list[schedules.ScheduledTrial]:
     """One participant's trials (:class:`app.trials.schedule.ScheduledTrial`), in presentation
     order."""
     settings = study.settings or {}
+    fixed = study_design(study)
     return schedules.make_schedule(
-        clips=[c.name for c in study.clips],
-        pairs=design_pairs(study),
+        clips=list(fixed.clip_names),
+        pairs=list(fixed.pairs),
         design=study.design,
         seed=seed,
         list_index=list_index,
-        n_lists=len(study.lists),
+        n_lists=fixed.n_lists,
         catch_trials=study.catch_trials,
         catch_kind=study.catch_kind,
         practice_pair=practice_pair(study),
@@ -64,8 +170,9 @@ def choose_list(study: Study, counts: dict[int, int]) -> int:
     return int(assignment.choose_list(counts, rng))
 
 
-def _take_list(study: Study) -> tuple[StudyList, int]:
-    """Raise the count of the least-filled list; returns it and its arrivals before."""
+def _take_list(study: Study) -> tuple[int, int, int]:
+    """Raise the count of the least-filled list; returns its id, its index and its arrivals
+    before."""
     for _ in range(MAX_ATTEMPTS):
         rows = db.session.execute(
             sa.select(
@@ -87,7 +194,7 @@ def _take_list(study: Study) -> tuple[StudyList, int]:
             .execution_options(synchronize_session=False)
         )
         if result.rowcount == 1:
-            return db.session.get(StudyList, row.id), row.n_arrived  # type: ignore[return-value]
+            return row.id, row.index, row.n_arrived
     raise EnrolmentBusy("too many participants arriving at once; please reload the page")
 
 
@@ -107,13 +214,14 @@ def enrol(
     """
     if dropped_after is not None:
         release_dropped(study, after=dropped_after)
-    study_list, before = _take_list(study)
+    fixed = study_design(study)
+    list_id, list_index, before = _take_list(study)
     # (list, arrivals before) is unique per study, so this arrival number is too.
-    number = before * len(study.lists) + study_list.index
+    number = before * fixed.n_lists + list_index
     seed = participant_seed(study, number)
     participant = Participant(
         study_id=study.id,
-        list_id=study_list.id,
+        list_id=list_id,
         number=number,
         seed=seed,
         user_agent=user_agent,
@@ -123,30 +231,9 @@ def enrol(
     )
     db.session.add(participant)
     db.session.flush()
-    clips = {c.name: c.id for c in study.clips}
-    conditions = {c.name: c.id for c in study.conditions}
-    # Plain rows, not ORM objects: a study has one stimulus per clip and pair variant, and
-    # every consent reads them all.
-    stimuli = {
-        (s.clip_id, s.left_id, s.right_id, s.instruction, s.foreign_side): s.id
-        for s in db.session.execute(
-            sa.select(
-                Stimulus.id,
-                Stimulus.clip_id,
-                Stimulus.left_id,
-                Stimulus.right_id,
-                Stimulus.instruction,
-                Stimulus.foreign_side,
-            ).where(Stimulus.study_id == study.id)
-        )
-    }
-    pairs: dict[tuple[int, int], int] = {}
-    for pair in study.pairs:
-        pairs.setdefault((pair.first_id, pair.second_id), pair.id)
-    for pair in study.pairs:
-        pairs.setdefault((pair.second_id, pair.first_id), pair.id)
+    clips, conditions = fixed.clips, fixed.conditions
     rows = []
-    for item in schedule(study, seed=seed, list_index=study_list.index):
+    for item in schedule(study, seed=seed, list_index=list_index):
         left, right = conditions[item.left], conditions[item.right]
         rows.append(
             {
@@ -154,8 +241,8 @@ def enrol(
                 "position": item.position,
                 "kind": item.kind,
                 "expected": item.expected,
-                "pair_id": pairs.get((left, right)),
-                "stimulus_id": stimuli[
+                "pair_id": fixed.pair_ids.get((left, right)),
+                "stimulus_id": fixed.stimuli[
                     (clips[item.clip], left, right, item.instruction, item.foreign)
                 ],
             }

@@ -10,7 +10,7 @@ import sqlalchemy as sa
 
 from app.enrolment import release_dropped, schedule
 from app.extensions import db
-from app.models import Participant, Study, StudyList
+from app.models import Participant, Stimulus, Study, StudyList
 
 
 def _slug(app, study_id: int) -> str:
@@ -170,3 +170,92 @@ def test_lists_are_balanced_from_the_assignment_table(app, client, web):
             if t.kind == "trial"
         }
         assert {o for _, o in orders} == {"none", "random"}
+
+
+def test_the_design_read_once_matches_the_studys_rows(app, participant, web):
+    from app import enrolment
+    from app.studies import design_pairs
+
+    study_id = web.study(catch=1)  # counterbalanced: more than one list
+    with app.app_context():
+        study = db.session.get(Study, study_id)
+        fixed = enrolment.study_design(study)
+        assert list(fixed.clip_names) == [c.name for c in study.clips]
+        assert fixed.clips == {c.name: c.id for c in study.clips}
+        assert fixed.conditions == {c.name: c.id for c in study.conditions}
+        assert list(fixed.pairs) == design_pairs(study)
+        assert fixed.n_lists == len(study.lists) > 1
+        for pair in study.pairs:
+            assert fixed.pair_ids[(pair.first_id, pair.second_id)] == pair.id
+            assert fixed.pair_ids[(pair.second_id, pair.first_id)] == pair.id
+        stored = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study_id))
+        assert fixed.stimuli == {
+            (s.clip_id, s.left_id, s.right_id, s.instruction, s.foreign_side): s.id for s in stored
+        }
+
+
+def test_a_consent_reads_the_design_only_the_first_time(app, client, web):
+    from tests.conftest import ParticipantActions
+
+    slug = _slug(app, web.study(design="all_ordered", catch=1))
+    design_tables = ("clip", "condition", "pair", "study_list", "stimulus")
+    statements: list[str] = []
+
+    def seen(conn, cursor, statement, parameters, context, executemany):
+        statements.append(statement)
+
+    with app.app_context():
+        sa.event.listen(db.engine, "before_cursor_execute", seen)
+    try:
+        counts = []
+        for _ in range(2):
+            statements.clear()
+            ParticipantActions(app.test_client(), app).join(slug)
+            reads = [
+                s
+                for s in statements
+                if s.lstrip().upper().startswith("SELECT")
+                and re.search(r"\bFROM (" + "|".join(design_tables) + r")\b", s)
+            ]
+            counts.append(len(reads))
+    finally:
+        with app.app_context():
+            sa.event.remove(db.engine, "before_cursor_execute", seen)
+    # The first consent reads clips, conditions, pairs, the list count and the stimuli; the
+    # second only the list counts it balances on.
+    assert counts[0] >= counts[1] + 5
+    assert counts[1] == 1
+
+
+def test_a_study_created_again_under_the_same_id_gets_its_own_design(app, web):
+    from app.studies import delete_study
+    from tests.conftest import ParticipantActions
+
+    first = web.study(design="all_ordered")
+    ParticipantActions(app.test_client(), app).join(_slug(app, first))
+    with app.app_context():
+        delete_study(db.session.get(Study, first))
+        db.session.commit()
+    second = web.study(catch=1)
+    token = ParticipantActions(app.test_client(), app).join(_slug(app, second))
+    with app.app_context():
+        person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        own = set(db.session.scalars(sa.select(Stimulus.id).where(Stimulus.study_id == second)))
+        assert person.trials and {t.stimulus_id for t in person.trials} <= own
+        rebuilt = schedule(person.study, seed=person.seed, list_index=person.study_list.index)
+        assert [(t.position, t.kind) for t in person.trials] == [
+            (t.position, t.kind) for t in rebuilt
+        ]
+
+
+def test_the_designs_kept_are_bounded(app, web, monkeypatch):
+    from app import enrolment
+
+    monkeypatch.setattr(enrolment, "_DESIGNS_KEPT", 2)
+    monkeypatch.setattr(enrolment, "_DESIGNS", type(enrolment._DESIGNS)())
+    ids = [web.study(), web.study(), web.study()]
+    with app.app_context():
+        for study_id in ids:
+            enrolment.study_design(db.session.get(Study, study_id))
+        kept = [key[0] for key in enrolment._DESIGNS]
+    assert kept == ids[1:]
