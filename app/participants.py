@@ -20,6 +20,7 @@ from __future__ import annotations
 import datetime as dt
 import statistics
 from dataclasses import dataclass
+from functools import cache
 from typing import Any
 
 import sqlalchemy as sa
@@ -186,17 +187,25 @@ def left_out(study: Any, participant_id: int, *, pilot: bool) -> bool:
     study's ``catch_failed`` rule); ``study`` is a row or an ORM object with ``settings``."""
     if not may_be_left_out(study, pilot=pilot):
         return False
-    failed = db.session.scalar(
+    failed = db.session.scalar(failed_catch(), {"participant_id": participant_id})
+    return failed is not None
+
+
+@cache
+def failed_catch() -> sa.Select[tuple[int]]:
+    """A vote of the bound ``participant_id`` that failed a catch trial (at most one row): the
+    question :func:`left_out` asks, built once, also run on the driver by the vote that
+    finishes a schedule (:mod:`app.vote_path`)."""
+    return (
         sa.select(Vote.id)
         .join(Trial, Vote.trial_id == Trial.id)
         .where(
-            Vote.participant_id == participant_id,
+            Vote.participant_id == sa.bindparam("participant_id"),
             Trial.kind == "catch",
             Vote.choice != Trial.expected,
         )
         .limit(1)
     )
-    return failed is not None
 
 
 def release_if_left_out(participant: Participant) -> bool:

@@ -15,21 +15,24 @@ connection, in the request's one transaction:
    counted: one statement on PostgreSQL (data-modifying CTEs), three in process on SQLite.
 
 On PostgreSQL the two statements go straight to the driver (:func:`_cast_on_driver`,
-:mod:`app.driver`), in a transaction of their own, without the ORM session. What that path
-does not settle before its commit (a missed attention check under a stop rule, a vote that
-finishes a participant the report could leave out, a key the insert met elsewhere) is rolled
-back and taken by the session's path below, which returns None where the ORM's path must
-decide; an unknown token or a participant screened out or dropped goes to the ORM's path at
-once, as the session's path would read the same row and send it there.
+:mod:`app.driver`), in a transaction of their own, without the ORM session. The vote that
+finishes the schedule stays there too: under a ``catch_failed`` rule it asks whether the
+report leaves the participant out (:func:`app.participants.failed_catch`), then marks them
+finished, giving their list slot back if so, in one more statement each. What that path does
+not settle before its commit (a missed attention check under a stop rule, a key the insert
+met elsewhere) is rolled back and taken by the session's path below, which returns None where
+the ORM's path must decide; an unknown token or a participant screened out or dropped goes to
+the ORM's path at once, as the session's path would read the same row and send it there.
 
-The vote that completes the schedule marks the participant finished (one more UPDATE), in
-the same transaction; where the report leaves them out for a failed check, their list slot goes
-back the ORM's way (:func:`app.participants.release_if_left_out`), as a missed attention check
-under a stop rule ends the session (:func:`app.voting.screen_out`): they are rare. Whatever
-else is not the usual case returns None, before anything is committed, and the caller takes
+On the session's path (SQLite's), the vote that completes the schedule marks the participant
+finished (one more UPDATE), in the same transaction; where the report leaves them out for a
+failed check, their list slot goes back the ORM's way
+(:func:`app.participants.release_if_left_out`), as a missed attention check under a stop rule
+ends the session (:func:`app.voting.screen_out`): they are rare. Whatever else is not the
+usual case returns None, before anything is committed, and the caller takes
 :func:`app.voting.record_vote` (the reference for every rule): an unknown token, a participant
-screened out or released as dropped, a key or trial whose vote the first statement did not see
-(a race, or a key reused on another trial).
+screened out or released as dropped, a key or trial whose vote the first statement did not
+see (a race, or a key reused on another trial).
 """
 
 from __future__ import annotations
@@ -44,12 +47,15 @@ from app import driver
 from app.enrolment import progress_counts
 from app.extensions import db
 from app.limits import fits
-from app.models import Participant, Study, Trial, Vote, utcnow
-from app.participants import left_out, may_be_left_out, release_if_left_out
+from app.models import Participant, Study, StudyList, Trial, Vote, utcnow
+from app.participants import failed_catch, left_out, may_be_left_out, release_if_left_out
 from app.studies import participation
 from app.voting import VoteRejected, check_open, screen_out, trial_id_of, vote_fields
 
-P, S, T, V = (m.__table__ for m in (Participant, Study, Trial, Vote))  # type: ignore[attr-defined]
+P, S, T, V, L = (
+    m.__table__  # type: ignore[attr-defined]
+    for m in (Participant, Study, Trial, Vote, StudyList)
+)
 #: The vote's columns written from the request (every one but the id).
 VOTE_COLUMNS = tuple(c.name for c in V.columns if c.name != "id")
 
@@ -272,6 +278,24 @@ def _finished() -> sa.Update:
     )
 
 
+@cache
+def _finished_left_out() -> sa.Update:
+    """Finished, and left out of the report for a failed check: the participant gives the list
+    slot back, once (:func:`app.participants.release_if_left_out`, in one statement)."""
+    released = (
+        sa.update(P)
+        .where(P.c.id == sa.bindparam("participant_id"), P.c.dropped_at.is_(None))
+        .values(finished_at=sa.bindparam("now"), dropped_at=sa.bindparam("now"))
+        .returning(P.c.list_id)
+        .cte("released")
+    )
+    return (
+        sa.update(L)
+        .where(L.c.id.in_(sa.select(released.c.list_id)))
+        .values(n_assigned=L.c.n_assigned - 1)
+    )
+
+
 def _cast_on_driver(
     token: str, trial_id: int, payload: dict[str, Any]
 ) -> CastVote | Literal["session", "orm"]:
@@ -293,8 +317,12 @@ def _cast_on_driver(
         if vote is None:
             return "session"  # the key is another trial's, or a concurrent request stored it
         if answered >= total and facts.finished_at is None:
-            if may_be_left_out(facts, pilot=facts.pilot):
-                return "session"  # finished, perhaps left out of the report
-            tx.run(_finished(), {"participant_id": facts.id, "now": values["now"]})
+            finished = {"participant_id": facts.id, "now": values["now"]}
+            if may_be_left_out(facts, pilot=facts.pilot) and tx.run(
+                failed_catch(), {"participant_id": facts.id}
+            ):
+                tx.run(_finished_left_out(), finished)  # the list slot goes back
+            else:
+                tx.run(_finished(), finished)
         tx.commit()
         return CastVote(vote, stored.vote_id is not None, answered, total)

@@ -211,3 +211,50 @@ def test_the_drivers_vote_is_stored_as_the_sessions_is(app, joined, monkeypatch)
     for i, name in enumerate(columns):
         if name not in same:
             assert rows[by_driver][2 * i : 2 * i + 2] == rows[by_session][2 * i : 2 * i + 2], name
+
+
+@pytest.mark.parametrize("attentive", [True, False], ids=["attentive", "left-out"])
+def test_the_vote_that_finishes_a_participant_stays_on_the_driver(
+    app, participant, web, monkeypatch, orm_calls, attentive
+):
+    if not app.config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql"):
+        pytest.skip("the driver's path is PostgreSQL's")
+    from app import driver
+    from app.models import StudyList, Trial
+
+    study_id = web.study(design="all_ordered", catch=2)  # the default catch_failed rule
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    participant.join(slug)
+    with app.app_context():
+        expected = dict(db.session.execute(sa.select(Trial.id, Trial.expected)).all())
+    on_driver: list[str] = []
+    original = driver.execute
+
+    def counted(cursor, statement, values):
+        on_driver.append(statement.sql.split()[0].upper())
+        return original(cursor, statement, values)
+
+    monkeypatch.setattr(driver, "execute", counted)
+    answer = None
+    while (trial := participant.current_trial()) is not None:
+        choice = expected[trial] if attentive or expected[trial] is None else "left"
+        on_driver.clear()
+        seen, stop = _statements(app)
+        try:
+            answer = participant.vote(trial, choice or "left")
+        finally:
+            stop()
+        assert answer.status_code == 201
+        # The page fetched by current_trial() is the session's; the vote is the driver's.
+        assert seen == [], seen
+    assert answer is not None and answer.json["answered"] == answer.json["total"]
+    # The last vote: read, store, ask for a failed check, mark finished (and give the list
+    # slot back, for the participant the report leaves out).
+    assert on_driver == ["SELECT", "WITH", "SELECT", "UPDATE" if attentive else "WITH"]
+    assert orm_calls == []
+    with app.app_context():
+        person = db.session.scalar(sa.select(Participant))
+        assert person.finished_at is not None
+        assert (person.dropped_at is None) == attentive
+        assert sum(db.session.scalars(sa.select(StudyList.n_assigned))) == int(attentive)
