@@ -44,6 +44,21 @@ def _statements(app):
     return seen, lambda: sa.event.remove(engine, "before_cursor_execute", before)
 
 
+def _on_driver(monkeypatch) -> list[str]:
+    """The first word of every statement run on the driver (``app.driver.execute``)."""
+    from app import driver
+
+    seen: list[str] = []
+    original = driver.execute
+
+    def counted(cursor, statement, values):
+        seen.append(statement.sql.split()[0].upper())
+        return original(cursor, statement, values)
+
+    monkeypatch.setattr(driver, "execute", counted)
+    return seen
+
+
 def test_a_vote_a_retry_and_a_double_click_take_the_usual_path(app, joined, orm_calls):
     trial = joined.current_trial()
     first = joined.vote(trial, "right", key="key-one-0001")
@@ -74,16 +89,8 @@ def test_a_vote_a_retry_and_a_double_click_take_the_usual_path(app, joined, orm_
 def test_the_usual_vote_is_two_statements_on_postgresql(app, joined, monkeypatch):
     if not app.config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql"):
         pytest.skip("SQLite runs the second statement as three, in process")
-    from app import driver
 
-    on_driver: list[str] = []
-    original = driver.execute
-
-    def counted(cursor, statement, values):
-        on_driver.append(statement.sql.split()[0].upper())
-        return original(cursor, statement, values)
-
-    monkeypatch.setattr(driver, "execute", counted)
+    on_driver = _on_driver(monkeypatch)
     trial = joined.current_trial()
     seen, stop = _statements(app)
     try:
@@ -219,7 +226,6 @@ def test_the_vote_that_finishes_a_participant_stays_on_the_driver(
 ):
     if not app.config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql"):
         pytest.skip("the driver's path is PostgreSQL's")
-    from app import driver
     from app.models import StudyList, Trial
 
     study_id = web.study(design="all_ordered", catch=2)  # the default catch_failed rule
@@ -228,14 +234,7 @@ def test_the_vote_that_finishes_a_participant_stays_on_the_driver(
     participant.join(slug)
     with app.app_context():
         expected = dict(db.session.execute(sa.select(Trial.id, Trial.expected)).all())
-    on_driver: list[str] = []
-    original = driver.execute
-
-    def counted(cursor, statement, values):
-        on_driver.append(statement.sql.split()[0].upper())
-        return original(cursor, statement, values)
-
-    monkeypatch.setattr(driver, "execute", counted)
+    on_driver = _on_driver(monkeypatch)
     answer = None
     while (trial := participant.current_trial()) is not None:
         choice = expected[trial] if attentive or expected[trial] is None else "left"
