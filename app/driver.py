@@ -106,15 +106,16 @@ def execute(cursor: Any, statement: DriverSQL, values: Mapping[str, Any]) -> Any
 class Transaction:
     """One transaction on a pooled driver connection (see :func:`transaction`)."""
 
-    def __init__(self, raw: Any) -> None:
+    def __init__(self, raw: Any, dialect: sa.Dialect) -> None:
         self.raw = raw
+        self.dialect = dialect
         self.cursor = raw.driver_connection.cursor()
         self.committed = False
         self.last = ""
 
     def run(self, statement: Any, values: Mapping[str, Any]) -> Any:
         """Run a Core ``statement`` (compiled once); the row it returns, if any."""
-        found = compiled(statement)
+        found = _compiled(statement, self.dialect)
         self.last = found.sql
         return execute(self.cursor, found, values)
 
@@ -133,17 +134,18 @@ def _as_sqlalchemy(exc: psycopg.Error, statement: str | None) -> sa.exc.DBAPIErr
 def transaction() -> Iterator[Transaction]:
     """A transaction on a connection from the engine's pool: committed by
     :meth:`Transaction.commit`, rolled back otherwise (an early return, an exception)."""
+    engine = db.engine  # looked up once: Flask-SQLAlchemy finds it by the current app
     try:
-        raw = db.engine.raw_connection()
+        raw = engine.raw_connection()
     except psycopg.Error as exc:  # no connection to be had
         raise _as_sqlalchemy(exc, None) from exc
     tx = None
     try:
-        tx = Transaction(raw)
+        tx = Transaction(raw, engine.dialect)
         yield tx
     except psycopg.Error as exc:
         cursor = tx.cursor if tx else None
-        if db.engine.dialect.is_disconnect(exc, raw.dbapi_connection, cursor):
+        if engine.dialect.is_disconnect(exc, raw.dbapi_connection, cursor):
             # Lost: never handed out again (the pool's other connections are pinged once
             # idle for a second; one used sooner answers 503 once, and the vote is resent).
             raw.invalidate(exc)

@@ -316,3 +316,83 @@ def test_hostile_participant_side_bodies_never_5xx(
     for response in responses:
         assert response.status_code < 500, response.get_data(as_text=True)
         assert "Traceback" not in response.get_data(as_text=True)
+
+
+def _vote_body(participant, trial_id: int, key: str) -> dict:
+    return {
+        "token": participant.token,
+        "trial_id": trial_id,
+        "choice": "left",
+        "plays": 1,
+        "watched_to_end": True,
+        "response_ms": 900,
+        "idempotency_key": key,
+    }
+
+
+def test_a_vote_body_is_read_with_or_without_a_length(app, participant, web):
+    import io
+    import json
+
+    _join(app, participant, web)
+    trial = participant.current_trial()
+    body = json.dumps(_vote_body(participant, trial, "chunked-body-01")).encode()
+    # Chunked: no Content-Length, so werkzeug's guarded stream reads it (from a server that
+    # ends the stream itself, as gunicorn does).
+    chunked = participant.client.post(
+        "/api/v1/votes",
+        input_stream=io.BytesIO(body),
+        headers={"Content-Type": "application/json", "Transfer-Encoding": "chunked"},
+        environ_overrides={"wsgi.input_terminated": True},
+    )
+    assert chunked.status_code == 201, chunked.get_data(as_text=True)
+    assert [v.idempotency_key for v in _votes(app)] == ["chunked-body-01"]
+    again = participant.client.post("/api/v1/votes", data=body, content_type="application/json")
+    assert again.status_code == 200 and again.json["status"] == "duplicate"
+
+
+@pytest.mark.parametrize(
+    ("body", "content_type", "message"),
+    [
+        (b'{"token": "x"', "application/json", "body: expected a JSON object"),
+        (b"\xff\xfe\xfa", "application/json", "body: expected a JSON object"),
+        (b"[1, 2]", "application/json", "body: expected a JSON object"),
+        (b'{"token": "x"}', "text/plain", "body: expected a JSON object"),
+        (b"[" * 100_000 + b"]" * 100_000, "application/json", "body: larger than 64 KB"),
+        (b"[" * 20_000 + b"]" * 20_000, "application/json", "body: JSON nested too deeply"),
+    ],
+    ids=["truncated", "not-utf8", "array", "not-json-type", "too-large", "too-deep"],
+)
+def test_a_body_that_is_no_json_object_is_a_400_naming_why(
+    app, participant, web, body, content_type, message
+):
+    _join(app, participant, web)
+    for path in ("/api/v1/votes", "/api/v1/plays"):
+        answer = participant.client.post(path, data=body, content_type=content_type)
+        assert answer.status_code in (400, 413), (path, answer.status_code)
+        if answer.status_code == 400:
+            assert answer.json["error"] == message, (path, answer.json)
+    assert _votes(app) == []
+
+
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(body=st.binary(max_size=300), chunked=st.booleans())
+def test_raw_vote_bodies_never_5xx(app, participant, web, body, chunked):
+    import io
+
+    if participant.token is None:
+        _join(app, participant, web)
+    for path in ("/api/v1/votes", "/api/v1/plays"):
+        if chunked:  # no Content-Length: werkzeug reads it
+            answer = participant.client.post(
+                path,
+                input_stream=io.BytesIO(body),
+                headers={"Content-Type": "application/json", "Transfer-Encoding": "chunked"},
+                environ_overrides={"wsgi.input_terminated": True},
+            )
+        else:  # with its length: read straight from the stream
+            answer = participant.client.post(path, data=body, content_type="application/json")
+        assert answer.status_code < 500, answer.get_data(as_text=True)
+        assert "Traceback" not in answer.get_data(as_text=True)
