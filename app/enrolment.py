@@ -438,6 +438,40 @@ def touch(participant: Participant) -> bool:
     return True
 
 
+def touch_with_progress(participant: Participant) -> tuple[int, int] | None:
+    """:func:`touch`, then :func:`progress`: (answered, total), or None where ``touch`` says
+    the participant's session has ended. On PostgreSQL the usual case, a participant not
+    released as dropped, is one statement (the sign of life in a data-modifying CTE beside
+    both counts): a trial page's touch and counts were two of its five statements. Not
+    committed; ``participant`` is not refreshed (nothing after a page's touch reads it)."""
+    if db.session.get_bind().dialect.name == "postgresql":
+        row = db.session.execute(
+            _seen_with_progress(), {"participant_id": participant.id, "now": utcnow()}
+        ).one()
+        if row.seen:
+            return int(row.answered or 0), int(row.total or 0)
+    if not touch(participant):
+        return None
+    return progress(participant)
+
+
+@cache
+def _seen_with_progress() -> sa.Select[tuple[int, int, int]]:
+    seen = (
+        sa.update(Participant.__table__)  # type: ignore[arg-type]
+        .where(Participant.id == sa.bindparam("participant_id"), Participant.dropped_at.is_(None))
+        .values(last_seen_at=sa.bindparam("now"))
+        .returning(Participant.id)
+        .cte("seen")
+    )
+    answered, total = progress_counts()
+    return sa.select(
+        sa.select(sa.func.count()).select_from(seen).scalar_subquery().label("seen"),
+        answered.label("answered"),
+        total.label("total"),
+    )
+
+
 def progress(participant: Participant) -> tuple[int, int]:
     """(answered, total) over the participant's real and catch trials (not the practice)."""
     # One round trip for both counts: every vote and every trial page asks for them.

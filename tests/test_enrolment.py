@@ -259,3 +259,54 @@ def test_the_designs_kept_are_bounded(app, web, monkeypatch):
             enrolment.study_design(db.session.get(Study, study_id))
         kept = [key[0] for key in enrolment._DESIGNS]
     assert kept == ids[1:]
+
+
+def test_a_trial_page_marks_the_participant_seen_and_counts_in_one_statement(app, participant, web):
+    from app.enrolment import progress, touch_with_progress
+
+    token = participant.join(_slug(app, web.study(design="all_ordered")))
+    participant.vote(participant.current_trial())
+    _go_idle(app, token)  # idle, not yet released
+    postgres = app.config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql")
+    statements: list[str] = []
+
+    def seen(conn, cursor, statement, parameters, context, executemany):
+        statements.append(statement.split()[0].upper())
+
+    with app.app_context():
+        person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        before = person.last_seen_at
+        sa.event.listen(db.engine, "before_cursor_execute", seen)
+        try:
+            counts = touch_with_progress(person)
+        finally:
+            sa.event.remove(db.engine, "before_cursor_execute", seen)
+        assert counts == progress(person) and counts[0] == 1 and counts[1] > 1
+        db.session.commit()
+        assert person.last_seen_at > before
+    # One data-modifying CTE on PostgreSQL; the UPDATE and the counts elsewhere.
+    assert statements == (["WITH"] if postgres else ["UPDATE", "SELECT"]), statements
+
+
+def test_a_released_participant_s_trial_page_takes_the_slot_back_or_ends(app, participant, web):
+    from app.enrolment import touch_with_progress
+
+    for rejoin, expected_slots in (("resume", 1), ("refuse", 0)):
+        who = participant.__class__(app.test_client(), app)
+        extra = f'rejoin = "{rejoin}"\n'
+        token = who.join(_slug(app, web.study(extra=extra)))
+        _go_idle(app, token)
+        with app.app_context():
+            person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+            assert release_dropped(person.study, after=dt.timedelta(hours=1)) == 1
+            counts = touch_with_progress(person)
+            db.session.commit()
+            slots = db.session.scalar(
+                sa.select(StudyList.n_assigned).where(StudyList.id == person.list_id)
+            )
+            assert slots == expected_slots, rejoin
+            if rejoin == "resume":
+                assert counts is not None and counts[0] == 0
+                assert person.dropped_at is None
+            else:
+                assert counts is None and person.dropped_at is not None

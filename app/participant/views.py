@@ -33,8 +33,7 @@ from app.enrolment import (
     enrol,
     next_trials,
     practice_stimulus,
-    progress,
-    touch,
+    touch_with_progress,
 )
 from app.extensions import db
 from app.limits import fits
@@ -238,14 +237,15 @@ def trial(token: str):  # type: ignore[no-untyped-def]
     upcoming, following = (next_trials(participant, 2) + [None, None])[:2]
     if upcoming is None:
         return redirect(url_for(".done", token=token))
-    if not touch(participant):
+    counts = touch_with_progress(participant)
+    if counts is None:
         db.session.commit()
         return render_template(
             "participant/unavailable.html", study=study, reason=SESSION_ENDED
         ), 410
     if participant.started_at is None:
         participant.started_at = utcnow()
-    answered, total = progress(participant)
+    answered, total = counts
     # Rendered before the commit, which expires every loaded row: rendering after it read
     # the participant, study and trials again (four queries per page in the profile).
     page = render_template(
