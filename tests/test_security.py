@@ -173,3 +173,57 @@ def test_successful_logins_do_not_count(app, web):
     web.user()
     client = app.test_client()
     assert {web.login(client).status_code for _ in range(8)} == {302}
+
+
+def test_token_authenticated_endpoints_are_exactly_the_participant_json_ones(app):
+    """Every JSON endpoint but the job status authenticates by the participant's token, so its
+    session cookie is never read; a new endpoint must be placed on one side or the other."""
+    from app.security import token_authenticated
+
+    sides = {}
+    for rule in app.url_map.iter_rules():
+        if rule.endpoint.startswith("api."):
+            path = re.sub(
+                r"<(?:int:)?(\w+)>", lambda m: "7" if "int:" in m.group(0) else "tok", rule.rule
+            )
+            sides[rule.endpoint] = token_authenticated(path)
+    assert sides == {
+        "api.post_vote": True,
+        "api.post_play": True,
+        "api.post_environment": True,
+        "api.progress": True,
+        "api.job_status": False,
+    }
+    for path in ("/experimenter/login", "/s/slug", "/p/tok/trial", "/api/v1/jobs/1", "/"):
+        assert not token_authenticated(path), path
+
+
+def test_a_vote_leaves_the_session_cookie_unread_and_unchanged(app, participant, web, monkeypatch):
+    from flask.sessions import SecureCookieSessionInterface
+
+    study_id = web.study()
+    from app.extensions import db
+    from app.models import Study
+
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    participant.join(slug)  # the consent form put a CSRF token in the session cookie
+    assert participant.client.get_cookie("session") is not None
+    opened = []
+    original = SecureCookieSessionInterface.open_session
+
+    def counted(self, flask_app, request):
+        opened.append(request.path)
+        return original(self, flask_app, request)
+
+    monkeypatch.setattr(SecureCookieSessionInterface, "open_session", counted)
+    trial = participant.current_trial()
+    play = participant.client.post(
+        "/api/v1/plays", json={"token": participant.token, "trial_id": trial}
+    )
+    vote = participant.vote(trial)
+    assert play.status_code == 200 and vote.status_code == 201
+    assert "Set-Cookie" not in play.headers and "Set-Cookie" not in vote.headers
+    # The page read the cookie; the play and the vote did not.
+    assert opened == [f"/p/{participant.token}/trial"], opened
+    assert participant.client.get_cookie("session") is not None
