@@ -17,6 +17,7 @@ from typing import NamedTuple
 
 import numpy as np
 import sqlalchemy as sa
+from sqlalchemy import orm as so
 
 from app.extensions import db
 from app.models import (
@@ -417,6 +418,10 @@ def touch(participant: Participant) -> bool:
     ).all()
     if present:
         return True
+    if participant.finished_at is not None:
+        # Finished, and released because the report leaves them out: a resent last vote or a
+        # late request, not a return from a pause. Nothing to rejoin, no slot to take back.
+        return True
     if rejoin_policy(participant.study) == "refuse":
         db.session.refresh(participant)
         return False
@@ -428,6 +433,7 @@ def touch(participant: Participant) -> bool:
             Participant.dropped_at.is_not(None),
             Participant.excluded_at.is_(None),
             Participant.pilot.is_(False),
+            Participant.finished_at.is_(None),
         )
         .values(last_seen_at=now, dropped_at=None)
         .execution_options(synchronize_session=False)
@@ -442,13 +448,19 @@ def touch_with_progress(participant: Participant) -> tuple[int, int] | None:
     """:func:`touch`, then :func:`progress`: (answered, total), or None where ``touch`` says
     the participant's session has ended. On PostgreSQL the usual case, a participant not
     released as dropped, is one statement (the sign of life in a data-modifying CTE beside
-    both counts): a trial page's touch and counts were two of its five statements. Not
-    committed; ``participant`` is not refreshed (nothing after a page's touch reads it)."""
+    both counts, the start of the first trial set there if still empty): a trial page's touch
+    and counts were two of its five statements. Not committed; ``participant`` is not
+    refreshed, but for ``started_at``. The counts are the statement's snapshot: a vote of the
+    same participant committed while its UPDATE waited for the row is not among them (the
+    progress shown is then one behind, which the next page corrects)."""
     if db.session.get_bind().dialect.name == "postgresql":
         row = db.session.execute(
             _seen_with_progress(), {"participant_id": participant.id, "now": utcnow()}
         ).one()
         if row.seen:
+            # Set by this statement if still empty (a page loaded twice at once keeps the
+            # first), and known to the object without loading it again.
+            so.attributes.set_committed_value(participant, "started_at", row.started_at)
             return int(row.answered or 0), int(row.total or 0)
     if not touch(participant):
         return None
@@ -457,16 +469,18 @@ def touch_with_progress(participant: Participant) -> tuple[int, int] | None:
 
 @cache
 def _seen_with_progress() -> sa.Select[tuple[int, int, int]]:
+    now = sa.bindparam("now")
     seen = (
         sa.update(Participant.__table__)  # type: ignore[arg-type]
         .where(Participant.id == sa.bindparam("participant_id"), Participant.dropped_at.is_(None))
-        .values(last_seen_at=sa.bindparam("now"))
-        .returning(Participant.id)
+        .values(last_seen_at=now, started_at=sa.func.coalesce(Participant.started_at, now))
+        .returning(Participant.started_at)
         .cte("seen")
     )
     answered, total = progress_counts()
     return sa.select(
         sa.select(sa.func.count()).select_from(seen).scalar_subquery().label("seen"),
+        sa.select(seen.c.started_at).scalar_subquery().label("started_at"),
         answered.label("answered"),
         total.label("total"),
     )

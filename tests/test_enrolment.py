@@ -310,3 +310,40 @@ def test_a_released_participant_s_trial_page_takes_the_slot_back_or_ends(app, pa
                 assert person.dropped_at is None
             else:
                 assert counts is None and person.dropped_at is not None
+
+
+def test_a_trial_page_sets_the_start_once(app, participant, web):
+    token = participant.join(_slug(app, web.study(design="all_ordered")))
+    participant.current_trial()
+    first = _row(app, token).started_at
+    assert first is not None
+    participant.current_trial()
+    assert _row(app, token).started_at == first
+
+
+def test_a_left_out_participant_s_resent_last_vote_takes_no_slot_back(app, participant, web):
+    from app.models import Trial
+
+    for rejoin in ("resume", "refuse"):
+        who = participant.__class__(app.test_client(), app)
+        token = who.join(
+            _slug(app, web.study(design="all_ordered", catch=2, extra=f'rejoin = "{rejoin}"\n'))
+        )
+        with app.app_context():
+            kinds = dict(db.session.execute(sa.select(Trial.id, Trial.kind)).all())
+        last = None
+        while (trial := who.current_trial()) is not None:
+            # Every catch trial failed: left out of the report, the slot goes back at the end.
+            last = trial
+            choice = "left" if kinds[trial] == "catch" else "right"
+            assert who.vote(trial, choice, key=f"vote-key-{trial}").status_code == 201
+        person = _row(app, token)
+        assert person.finished_at is not None and person.dropped_at is not None
+        slots_before = _slots(app)
+        # The last vote sent again, as a browser does when its answer was lost.
+        choice = "left" if kinds[last] == "catch" else "right"
+        resent = who.vote(last, choice, key=f"vote-key-{last}")
+        # The answer is the stored vote; the participant stays released, the slot given back.
+        assert resent.status_code == 200 and resent.json["status"] == "duplicate", rejoin
+        assert _row(app, token).dropped_at is not None
+        assert _slots(app) == slots_before, rejoin
