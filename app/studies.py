@@ -321,6 +321,11 @@ def duplicate_study(study: Study, owner: User, *, with_clips: bool) -> Study:
             clip_id=clips[s.clip_id].id,
             left_id=conditions[s.left_id].id,
             right_id=conditions[s.right_id].id,
+            # An attention check's on-screen instruction, a mismatched pair's borrowed audio:
+            # without them the variants collide on the stimulus key.
+            instruction=s.instruction,
+            foreign_side=s.foreign_side,
+            foreign_clip_id=clips[s.foreign_clip_id].id if s.foreign_clip_id else None,
             video_path=s.video_path if with_clips else None,
         )
         for s in stimuli

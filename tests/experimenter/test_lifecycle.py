@@ -245,3 +245,26 @@ def test_a_pilot_still_voting_after_opening_takes_no_slot(app, client, web, part
     assert participant.vote(participant.current_trial()).status_code == 201
     with app.app_context():
         assert db.session.scalar(sa.select(sa.func.sum(StudyList.n_assigned))) == 0
+
+
+def test_a_study_with_onscreen_checks_duplicates_with_its_stimulus_variants(app, client, web):
+    study_id = web.study(catch=1, catch_kind="onscreen")
+    web.login(client)
+    copies = [
+        int(_post(client, study_id, "/duplicate", **extra).headers["Location"].rsplit("/", 1)[1])
+        for extra in ({}, {"with_clips": "y"})
+    ]
+
+    def variants(sid):
+        with app.app_context():
+            rows = db.session.execute(
+                sa.select(Stimulus.instruction, Stimulus.foreign_side).where(
+                    Stimulus.study_id == sid
+                )
+            ).all()
+        return sorted(rows, key=repr)
+
+    original = variants(study_id)
+    assert any(instruction for instruction, _ in original)  # the check's on-screen instruction
+    for copy in copies:
+        assert variants(copy) == original
