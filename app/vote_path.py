@@ -1,4 +1,4 @@
-"""The vote's usual case in two SQL statements: a participant's vote on a trial of their own.
+"""The vote's usual case in a few SQL statements: a participant's vote on a trial of their own.
 
 :func:`app.voting.record_vote` goes through the ORM: a statement for the participant, one for
 the trial, one to mark the participant seen, the INSERT and the progress counts, each with the
@@ -12,7 +12,10 @@ connection, in the request's one transaction:
    one after the other and the counts below see every earlier one;
 2. the vote inserted ``ON CONFLICT DO NOTHING`` (the unique idempotency key and
    ``(participant, trial)`` settle races), the participant marked as seen, and the progress
-   counted: one statement on PostgreSQL (data-modifying CTEs), three in process on SQLite.
+   counted: one statement on PostgreSQL (data-modifying CTEs), three in process on SQLite;
+3. unless the schedule is done, the next pair as the trial page shows it
+   (:func:`app.enrolment.upcoming`): the answer carries it, so the browser goes on to the next
+   pair without loading a trial page for it (``static/participant.js``).
 
 On PostgreSQL the two statements go straight to the driver (:func:`_cast_on_driver`,
 :mod:`app.driver`), in a transaction of their own, without the ORM session. The vote that
@@ -44,7 +47,7 @@ import sqlalchemy as sa
 from sqlalchemy.dialects import postgresql, sqlite
 
 from app import driver
-from app.enrolment import progress_counts
+from app.enrolment import progress_counts, upcoming
 from app.extensions import db
 from app.limits import fits
 from app.models import Participant, Study, StudyList, Trial, Vote, utcnow
@@ -76,6 +79,11 @@ class CastVote(NamedTuple):
     created: bool
     answered: int
     total: int
+    #: The next pair as the trial page would show it (:func:`app.enrolment.upcoming`'s row),
+    #: read in the vote's transaction; None when there is none or it was not read (the
+    #: schedule is done, or the participant's session ended): the browser then loads the
+    #: trial page, which decides.
+    upcoming: Any = None
 
 
 class _TrialFacts(NamedTuple):
@@ -266,7 +274,10 @@ def cast(payload: dict[str, Any]) -> CastVote | None:
             release_if_left_out(participant)
         else:
             conn.execute(_finished(), {"participant_id": facts.id, "now": now})
-    return CastVote(vote, vote_id is not None, answered, total)
+    following = None
+    if answered < total and not screened:
+        following = driver.on_session(upcoming(), {"participant_id": facts.id})
+    return CastVote(vote, vote_id is not None, answered, total, following)
 
 
 @cache
@@ -324,5 +335,8 @@ def _cast_on_driver(
                 tx.run(_finished_left_out(), finished)  # the list slot goes back
             else:
                 tx.run(_finished(), finished)
+        following = None
+        if answered < total:
+            following = tx.run(upcoming(), {"participant_id": facts.id})
         tx.commit()
-        return CastVote(vote, stored.vote_id is not None, answered, total)
+        return CastVote(vote, stored.vote_id is not None, answered, total, following)

@@ -121,6 +121,13 @@ def _take_part(
     page = context.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
+    loads: list[str] = []  # trial pages loaded: the first, the reloads below, after the last
+    page.on(
+        "request",
+        lambda r: (
+            loads.append(r.url) if r.resource_type == "document" and "/trial" in r.url else None
+        ),
+    )
     stall = StalledClip(clip)
     page.route("**/video/*", stall.handle)
     done: dict[int, dict] = {}
@@ -182,6 +189,8 @@ def _take_part(
     finally:
         context.close()
     assert errors == []
+    # Each vote's answer carried the next pair: no trial page between pairs.
+    assert len(loads) == 1 + 2 + 1, loads
     return done
 
 
@@ -292,5 +301,20 @@ def test_trial_page_layout_and_screenshots(
             assert (boxes[left]["width"], boxes[left]["height"]) == pytest.approx(
                 (boxes[right]["width"], boxes[right]["height"]), abs=0.5
             )  # subpixel rounding
+        # The next pair comes in place (the vote's answer carries it): the same layout.
+        first = page.get_attribute(".player", "data-trial-id")
+        page.wait_for_selector(".vote:not([disabled])", timeout=20000)
+        _press(page, ".vote >> nth=0", touch)
+        if page.locator(".reasons .confirm").count():
+            _press(page, ".reasons .confirm", touch)
+        page.wait_for_selector(f'.player[data-trial-id="{first}"]', state="detached")
+        page.wait_for_selector(".play:not([disabled])", timeout=20000)
+        assert page.inner_text(".progress-text").startswith("Pair 2 of ")
+        assert page.locator(".status").inner_text() == ""
+        _press(page, ".play", touch)
+        page.wait_for_timeout(1000)  # as the first pair was measured
+        assert page.locator(".stage").bounding_box() == before
+        assert [page.locator(".vote").nth(i).bounding_box() for i in range(5)] == boxes
+        page.screenshot(path=shots / f"participant-trial-{name}-next.png")
     finally:
         context.close()

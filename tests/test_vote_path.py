@@ -1,5 +1,8 @@
-"""The vote's usual case (``app.vote_path``): the same answers as the ORM path, in two
-statements on PostgreSQL, and the ORM path for what is not the usual case."""
+"""The vote's usual case (``app.vote_path``): the same answers as the ORM path, in three
+statements on PostgreSQL (the third the next pair), and the ORM path for what is not the usual
+case."""
+
+import re
 
 import pytest
 import sqlalchemy as sa
@@ -86,7 +89,7 @@ def test_a_vote_a_retry_and_a_double_click_take_the_usual_path(app, joined, orm_
         assert person.last_seen_at >= person.consented_at
 
 
-def test_the_usual_vote_is_two_statements_on_postgresql(app, joined, monkeypatch):
+def test_the_usual_vote_is_three_statements_on_postgresql(app, joined, monkeypatch):
     if not app.config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql"):
         pytest.skip("SQLite runs the second statement as three, in process")
 
@@ -100,8 +103,9 @@ def test_the_usual_vote_is_two_statements_on_postgresql(app, joined, monkeypatch
         stop()
     assert first.status_code == 201 and first.json["answered"] == 1  # not the last: no finish
     assert again.status_code == 200 and again.json["status"] == "duplicate"
-    # Both on the driver (BEGIN and COMMIT are its own, not statements); SQLAlchemy ran none.
-    assert on_driver == ["SELECT", "WITH"] * 2, on_driver
+    # Both on the driver (BEGIN and COMMIT are its own, not statements): read, store, the
+    # next pair; SQLAlchemy ran none.
+    assert on_driver == ["SELECT", "WITH", "SELECT"] * 2, on_driver
     assert seen == [], seen
 
 
@@ -257,3 +261,63 @@ def test_the_vote_that_finishes_a_participant_stays_on_the_driver(
         assert person.finished_at is not None
         assert (person.dropped_at is None) == attentive
         assert sum(db.session.scalars(sa.select(StudyList.n_assigned))) == int(attentive)
+
+
+def _page_shows(client, token):
+    """What the trial page shows of its pair: None once the schedule is done (a redirect)."""
+    page = client.get(f"/p/{token}/trial")
+    if page.status_code == 302:
+        return None
+    html = page.get_data(as_text=True)
+
+    def attribute(name):
+        found = re.search(rf'data-{name}="([^"]*)"', html)
+        return None if found is None else found.group(1)
+
+    instructed = re.search(r'class="instructed">For this pair, please choose <strong>(\w+)', html)
+    progress = re.search(r"Pair (\d+) of (\d+)", html)
+    return {
+        "trial_id": int(attribute("trial-id")),
+        "plays": int(attribute("plays")),
+        "video_url": attribute("video-url"),
+        "preload_url": attribute("preload-url"),
+        "instructed": None if instructed is None else instructed.group(1),
+    }, (int(progress.group(1)) - 1, int(progress.group(2)))
+
+
+@pytest.mark.parametrize("catch_kind", ["instructed", "onscreen"])
+def test_the_answer_carries_the_next_pair_as_its_trial_page_shows_it(
+    app, participant, web, orm_calls, catch_kind
+):
+    """Every vote's ``next_trial`` is what the trial page loaded after it shows: the pair,
+    its plays so far, its clip and the one preloaded, the catch instruction; the progress is
+    the answer's ``answered``/``total``. The last vote's is null."""
+    study_id = web.study(design="all_ordered", catch=2, catch_kind=catch_kind)
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    token = participant.join(slug)
+    client = participant.client
+    shown, progress = _page_shows(client, token)
+    carried = []
+    while True:
+        answer = participant.vote(shown["trial_id"], shown["instructed"] or "left")
+        assert answer.status_code == 201, answer.json
+        after = _page_shows(client, token)
+        if after is None:
+            assert answer.json["next_trial"] is None
+            assert answer.json["answered"] == answer.json["total"]
+            break
+        shown, progress = after
+        assert answer.json["next_trial"] == shown
+        assert (answer.json["answered"], answer.json["total"]) == progress
+        carried.append(shown)
+        # A play of the carried pair counts on the server, as the page then shows it.
+        played = client.post("/api/v1/plays", json={"token": token, "trial_id": shown["trial_id"]})
+        assert played.status_code == 200
+        shown["plays"] += 1
+        assert _page_shows(client, token) == (shown, progress)
+    assert len(carried) == progress[1] - 1
+    assert [s["preload_url"] is None for s in carried][-1] is True  # the last preloads none
+    # The instruction comes along as text, unless the clip shows it on screen.
+    assert any(s["instructed"] for s in carried) == (catch_kind == "instructed")
+    assert orm_calls == []

@@ -95,9 +95,32 @@ def post_vote():  # type: ignore[no-untyped-def]
         "total": outcome.total,
         "next": url_for("participant.resume", token=payload["token"]),
     }
+    if isinstance(outcome, CastVote):
+        if outcome.answered >= outcome.total:
+            body["next_trial"] = None
+        elif outcome.upcoming is not None:
+            body["next_trial"] = _next_trial(payload["token"], outcome.upcoming)
     if db.session.registry.has():  # the session's path (the driver's has committed its own)
         db.session.commit()
     return jsonify(body), 201 if outcome.created else 200
+
+
+def _next_trial(token: str, row: Any) -> dict[str, Any]:
+    """The next pair as ``participant/trial.html`` shows it, for the player to go on to
+    without loading that page (``static/participant.js``); the page stays the reference."""
+    following = row.following
+    instructed = None
+    if row.kind == "catch" and row.expected in ("left", "right") and not row.instruction:
+        instructed = row.expected
+    return {
+        "trial_id": row.trial_id,
+        "plays": row.plays,
+        "video_url": url_for("participant.video", token=token, trial_id=row.trial_id),
+        "preload_url": None
+        if following is None
+        else url_for("participant.video", token=token, trial_id=following),
+        "instructed": instructed,
+    }
 
 
 def _participant_of(payload: dict[str, Any]) -> Participant | None:

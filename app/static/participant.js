@@ -278,8 +278,13 @@
           store(pendingName, null);
           if (action === "saved") {
             say("Saved.", "ok");
-            // replace: the back button never returns to an answered pair
-            window.location.replace(d.nextUrl);
+            // The answer carries the next pair (as its trial page would show it): the player
+            // goes on in place. Without it (the last pair, or a case the server decides on the
+            // page), the trial page is loaded; replace: the back button never returns to an
+            // answered pair.
+            if (!(body.next_trial && self.onNext && self.onNext(body))) {
+              window.location.replace(d.nextUrl);
+            }
           } else if (action === "closed") {
             // Final: the study (or this participant's session) stopped taking answers.
             // Nothing is resent; the server's reason is shown.
@@ -375,8 +380,57 @@
     load();
   }
 
-  var players = Array.prototype.map.call(document.querySelectorAll(".player"), function (root) {
-    return new Player(root);
+  // The next pair in place of the one just answered: a copy of the player as the server
+  // rendered it (taken before it ran), with the next trial's attributes, and the bar's
+  // progress; what the trial page would show, without loading it.
+  function nextPlayer(pristine, index, body) {
+    var next = body.next_trial;
+    var root = players[index].root;
+    var fresh = pristine.cloneNode(true);
+    var d = fresh.dataset;
+    d.trialId = String(next.trial_id);
+    d.plays = String(next.plays);
+    d.videoUrl = next.video_url;
+    if (next.preload_url) d.preloadUrl = next.preload_url;
+    else delete d.preloadUrl;
+    var text = document.querySelector(".progress-text");
+    if (text) text.textContent = "Pair " + (body.answered + 1) + " of " + body.total;
+    var bar = document.querySelector("progress[aria-label=Progress]");
+    if (bar) { bar.max = body.total; bar.value = body.answered; }
+    var instructed = document.querySelector(".trial .instructed");
+    if (next.instructed) {
+      if (!instructed) {
+        instructed = document.createElement("p");
+        instructed.className = "instructed";
+        root.parentNode.insertBefore(instructed, root);
+      }
+      instructed.textContent = "For this pair, please choose ";
+      var strong = document.createElement("strong");
+      strong.textContent = next.instructed;
+      instructed.appendChild(strong);
+      instructed.appendChild(document.createTextNode("."));
+    } else if (instructed) {
+      instructed.parentNode.removeChild(instructed);
+    }
+    var old = root.querySelector("video");
+    old.pause();
+    old.removeAttribute("src");
+    old.load();  // lets the old clip's connection go
+    root.parentNode.replaceChild(fresh, root);
+    window.scrollTo(0, 0);  // where a loaded page starts (the reasons may have scrolled it)
+    players[index] = start(fresh, pristine, index);
+    return true;
+  }
+
+  function start(root, pristine, index) {
+    var player = new Player(root);
+    if (pristine) player.onNext = function (body) { return nextPlayer(pristine, index, body); };
+    return player;
+  }
+
+  var players = Array.prototype.map.call(document.querySelectorAll(".player"), function (root, i) {
+    // Trial players only (the practice has no trial id): a pristine copy for the next pair.
+    return start(root, root.dataset.trialId ? root.cloneNode(true) : null, i);
   });
 
   function current() { return players.filter(function (p) { return p.active(); })[0]; }
