@@ -6,17 +6,19 @@ per participant) with placeholder clips, and starts ``facepair serve`` (gunicorn
 
 ``--mode open`` (the default; ``benchmarks/load_clients.py``): for each count in
 ``--participants``, participants arrive at ``--arrival-rate`` per second (Poisson; by default all
-within 10 s), each loads a trial page, asks for a play, watches the clip for ``--think`` seconds
-(the clip's length) and votes, for ``--trials`` trials: the request rate is the participants',
-as in a Prolific study, not the server's. Prints vote, play and trial-page latency p50/p99,
-errors and the peak number of participants present at once. Then the vote endpoint alone is
+within 10 s), each loads the trial page once, then asks for a play, watches the clip for
+``--think`` seconds (the clip's length) and votes, for ``--trials`` trials, each vote's answer
+carrying the next pair as it does for the browser: the request rate is the participants', as in a
+Prolific study, not the server's. Prints vote, play and trial-page latency p50/p99, errors and the
+peak number of participants present at once, and the vote and play latency of the steady state:
+requests sent while at least 95 % of that peak were present. Then the vote endpoint alone is
 driven saturated (64 senders, prepared votes of freshly consented participants); with
-``--baseline`` the bare baseline (``benchmarks/bare_baseline.py``: Flask + psycopg, one INSERT
-per request, the same gunicorn settings) is driven the same way, alternating with facepair for
-``--rounds`` rounds each, and the median of facepair's saturated vote throughput is printed as
-a fraction of the baseline's median. Each phase also prints where the CPU went, per trial (a
-trial page, a play and a vote) or per saturated vote: the server's processes, PostgreSQL's and
-the load generator's, from ``/proc``.
+``--baseline`` the bare baseline (``benchmarks/bare_baseline.py``: Flask + psycopg, one INSERT per
+request, the same gunicorn settings) is driven the same way, alternating with facepair for
+``--rounds`` rounds each, and the median of facepair's saturated vote throughput is printed as a
+fraction of the baseline's median. Each phase also prints where the CPU went, per trial (a play
+and a vote, and the trial pages loaded) or per saturated vote: the server's processes,
+PostgreSQL's and the load generator's, from ``/proc``.
 
 ``--mode closed`` (the earlier figure): every participant, in its own thread with its own
 keep-alive connection, sends its next request as soon as the last one returns.
@@ -55,6 +57,8 @@ from benchmarks import load_clients  # noqa: E402
 from tests.support.services import ensure_services, processes, wait_for_port  # noqa: E402
 
 PG = "host=127.0.0.1 port=5432 user=postgres"
+#: The share of the peak number of participants present that counts as the steady state.
+STEADY = 0.95
 
 
 def prepare(url: str, media: Path) -> str:
@@ -339,8 +343,8 @@ def cpu_seconds(server_pid: int) -> dict[str, float]:
 def cpu_line(
     before: dict[str, float], after: dict[str, float], count: int, unit: str, elapsed: float
 ) -> str:
-    """Where the CPU of a phase went, per ``unit`` (a trial: its page, play and vote; or a
-    vote)."""
+    """Where the CPU of a phase went, per ``unit`` (a trial: its play and vote, and the trial
+    pages loaded; or a vote)."""
     used = {k: after[k] - before[k] for k in before}
     per = ", ".join(f"{k} {v / max(count, 1) * 1e3:.1f} ms" for k, v in used.items())
     busy = sum(used.values()) / max(elapsed, 1e-9) / (os.cpu_count() or 1)
@@ -379,11 +383,16 @@ def run_open(
     )
     for kind in ("vote", "play", "page", "consent"):
         print(f"  {kind:8s} {tally.summary(kind)}")
+    # The steady state: requests sent while nearly every participant was present at once.
+    print(
+        f"  while >= {STEADY:.0%} of the peak were present ({tally.window(STEADY):.0f} s): "
+        + "; ".join(f"{kind} {tally.summary(kind, STEADY)}" for kind in ("vote", "play"))
+    )
     print(
         f"  errors {len(tally.errors)}, statuses {dict(sorted(tally.statuses.items()))}, "
         f"answered with an earlier vote's other choice {tally.superseded}"
     )
-    trials = len(tally.ms.get("page", []))
+    trials = len(tally.ms.get("play", []))  # one play per trial
     print(cpu_line(before, cpu_seconds(server_pid), trials, "trial", time.perf_counter() - wall))
     for e in tally.errors[:5]:
         print("  error:", e)

@@ -2,12 +2,14 @@
 vote sender, one asyncio loop and one shared connection pool instead of a thread each.
 
 Open loop (:func:`open_loop`): participants arrive as a Poisson process at a given rate, each
-consents, and for each trial loads the trial page, asks for a play (``/api/v1/plays``, as the
-browser does before the clip starts), watches the clip for ``think`` seconds and posts the vote;
-one vote in ten is posted twice with the same idempotency key (a retried request) and one in
-twenty a third time with a new key (a double click). A vote that times out or fails is sent
-again with the same key, as the browser does, up to three times. Unlike a closed loop, the
-request rate is set by the participants, not by how fast the server answers.
+consents, loads the trial page, and for each trial asks for a play (``/api/v1/plays``, as the
+browser does before the clip starts), watches the clip for ``think`` seconds and posts the vote,
+whose answer carries the next pair: as in the browser, a trial page is loaded again only when
+an answer does not carry one. One vote in ten is posted twice with the same idempotency key (a
+retried request) and one in twenty a third time with a new key (a double click). A vote that
+times out or fails is sent again with the same key, as the browser does, up to three times.
+Unlike a closed loop, the request rate is set by the participants, not by how fast the server
+answers.
 
 Saturated (:func:`saturate`): ``concurrency`` senders post prepared JSON bodies back to back;
 the same function drives facepair's vote endpoint and the bare baseline's.
@@ -50,17 +52,33 @@ class Tally:
     #: Votes answered so far, shown while the run lasts (on stderr).
     bar: tqdm | None = None
 
-    def latency(self, kind: str, ms: float) -> None:
-        self.ms.setdefault(kind, []).append(ms)
+    #: Per request kind, (time.perf_counter(), participants present) when each
+    #: request of ``ms`` was sent.
+    sent: dict[str, list[tuple[float, int]]] = field(default_factory=dict)
 
-    def summary(self, kind: str) -> str:
+    def latency(self, kind: str, ms: float, sent_at: float = 0.0) -> None:
+        self.ms.setdefault(kind, []).append(ms)
+        self.sent.setdefault(kind, []).append((sent_at, self.active))
+
+    def summary(self, kind: str, share: float = 0.0) -> str:
+        """Count, p50, p99 and max; with ``share``, of the requests sent while at least that
+        share of the peak were present (the steady state, not the arrivals and departures)."""
         values = np.asarray(self.ms.get(kind, []))
+        if share:
+            present = np.asarray([n for _, n in self.sent.get(kind, [])])
+            values = values[present >= share * self.peak] if values.size else values
         if values.size == 0:
             return "none"
         return (
             f"{values.size}, p50 {np.percentile(values, 50):.1f} ms, "
             f"p99 {np.percentile(values, 99):.1f} ms, max {values.max():.1f} ms"
         )
+
+    def window(self, share: float) -> float:
+        """Seconds between the first and last request sent while at least ``share`` of the
+        peak were present."""
+        times = [t for sent in self.sent.values() for t, n in sent if n >= share * self.peak]
+        return max(times) - min(times) if times else 0.0
 
 
 def new_session(timeout_s: float, connections: int) -> aiohttp.ClientSession:
@@ -103,7 +121,7 @@ async def _request(
     except (TimeoutError, aiohttp.ClientError) as exc:
         tally.errors.append(f"{kind}: {type(exc).__name__} {exc}".strip())
         return None
-    tally.latency(kind, (time.perf_counter() - start) * 1e3)
+    tally.latency(kind, (time.perf_counter() - start) * 1e3, start)
     tally.statuses[status] = tally.statuses.get(status, 0) + 1
     if status >= 500:
         tally.errors.append(f"{kind}: HTTP {status}")
@@ -154,8 +172,8 @@ async def _vote(
     session: aiohttp.ClientSession, base: str, tally: Tally, cookies: dict[str, str], body: bytes
 ) -> tuple[int | None, str | None]:
     """Post one vote, resent with the same body after a timeout or a 5xx (the browser keeps
-    it); returns the final status (None if no attempt got an answer) and the choice the
-    server says it holds for the trial."""
+    it); returns the final status (None if no attempt got an answer) and the server's answer
+    when it holds the vote (with the choice it holds for the trial, and the next pair)."""
     status = None
     for _ in range(VOTE_ATTEMPTS):
         answer = await _request(
@@ -170,7 +188,7 @@ async def _vote(
         )
         status = answer[0] if answer else None
         if answer is not None and status in (200, 201):
-            return status, json.loads(answer[2])["vote"]["choice"]
+            return status, json.loads(answer[2])
         if status is not None and status < 500:
             return status, None
     return status, None
@@ -186,23 +204,27 @@ async def take_part(
     trials: int,
     rng: np.random.Generator,
 ) -> None:
-    """One participant's browser: consent, then page, play, clip, vote per trial."""
+    """One participant's browser: consent, then play, clip, vote per trial, with a trial
+    page where the browser loads one: for the first pair, and whenever a vote's answer does
+    not carry the next pair (``static/participant.js``)."""
     tally.active += 1
     tally.peak = max(tally.peak, tally.active)
     try:
         token, cookies = await consent(session, base, slug, tally)
+        trial: int | None = None  # the pair the last vote's answer carried
         for _ in range(trials):
-            answer = await _request(
-                session, tally, "page", "GET", f"{base}/p/{token}/trial", cookies
-            )
-            if answer is None:
-                continue  # the participant reloads the page
-            if answer[0] == 302:
-                break  # all trials answered
-            found = TRIAL_ID.search(answer[2])
-            if answer[0] != 200 or found is None:
-                raise RuntimeError(f"trial page: HTTP {answer[0]}")
-            trial = int(found.group(1))
+            if trial is None:
+                answer = await _request(
+                    session, tally, "page", "GET", f"{base}/p/{token}/trial", cookies
+                )
+                if answer is None:
+                    continue  # the participant reloads the page
+                if answer[0] == 302:
+                    break  # all trials answered
+                found = TRIAL_ID.search(answer[2])
+                if answer[0] != 200 or found is None:
+                    raise RuntimeError(f"trial page: HTTP {answer[0]}")
+                trial = int(found.group(1))
             await _request(
                 session,
                 tally,
@@ -222,21 +244,27 @@ async def take_part(
             )
             if tally.bar is not None:
                 tally.bar.update()
+            carried: Any = "unknown"  # the next pair, if an answer carried it (null: done)
             for k in keys:
-                status, stored = await _vote(
+                status, body = await _vote(
                     session,
                     base,
                     tally,
                     cookies,
                     vote_body(token, trial, choice, k, int(rng.integers(800, 4000))),
                 )
-                if stored is not None:
+                if body is not None:
+                    stored = body["vote"]["choice"]
                     # Another choice: a vote on this trial whose answer timed out was stored
                     # first, and the page shown again before it was committed; it is kept.
                     tally.superseded += stored != choice
                     tally.acknowledged[trial] = stored
+                    carried = body.get("next_trial", "unknown")
                 elif status is not None:
                     raise RuntimeError(f"vote: HTTP {status}")
+            if carried is None:
+                break  # all trials answered
+            trial = carried["trial_id"] if isinstance(carried, dict) else None
         tally.finished += 1
     except RuntimeError as exc:
         tally.errors.append(str(exc))

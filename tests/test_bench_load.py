@@ -36,3 +36,24 @@ def test_port_open_and_wait_for_port():
         assert port_open(port) and wait_for_port(port, 1)
     assert not port_open(port)
     assert not wait_for_port(port, 0.3)
+
+
+def test_the_steady_state_is_the_requests_sent_while_nearly_everyone_was_present():
+    from benchmarks.load_clients import Tally
+
+    tally = Tally()
+    # Arrivals (1, 2 ... 10 present), a plateau at 10 with slow answers, departures.
+    for present, ms, at in (
+        [(n, 5.0, float(n)) for n in range(1, 10)]
+        + [(10, 300.0, 10.0 + i) for i in range(20)]
+        + [(n, 5.0, 40.0 - n) for n in range(9, 0, -1)]
+    ):
+        tally.active = present
+        tally.peak = max(tally.peak, present)
+        tally.latency("vote", ms, at)
+    assert tally.summary("vote").startswith("38, ")  # every request
+    assert tally.summary("vote", 0.95) == "20, p50 300.0 ms, p99 300.0 ms, max 300.0 ms"
+    assert tally.window(0.95) == 19.0
+    # 90 % of 10 lets in the 9 present on the way up and down.
+    assert tally.summary("vote", 0.9).startswith("22, ")
+    assert Tally().summary("vote", 0.95) == "none" and Tally().window(0.95) == 0.0
