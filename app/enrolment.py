@@ -269,26 +269,25 @@ def next_trials(participant: Participant, count: int) -> list[Trial]:
 # them again was a tenth of a trial page's CPU in the load benchmark's profile.
 
 
-def _without_vote(select: Any) -> Any:
-    """``select`` narrowed to the bound participant's trials without a vote, in order.
+def _without_vote(select: Any, besides: bool = False) -> Any:
+    """``select`` narrowed to the bound participant's trials without a vote, in order; with
+    ``besides``, also other than the bound ``trial_id`` (the trial voted on in the same
+    statement, whose vote that statement's snapshot does not hold).
 
     The votes joined are the participant's own (a trial's vote is always its participant's):
     PostgreSQL then reads them by index, where joining on the trial alone let it scan every
     vote of every participant (2-3 ms a statement with 28,000 votes in the load benchmark)."""
-    return (
-        select.outerjoin(
-            Vote,
-            sa.and_(
-                Vote.participant_id == sa.bindparam("participant_id"), Vote.trial_id == Trial.id
-            ),
-        )
-        .where(
-            Trial.participant_id == sa.bindparam("participant_id"),
-            Trial.kind != "practice",
-            Vote.id.is_(None),
-        )
-        .order_by(Trial.position)
+    narrowed = select.outerjoin(
+        Vote,
+        sa.and_(Vote.participant_id == sa.bindparam("participant_id"), Vote.trial_id == Trial.id),
+    ).where(
+        Trial.participant_id == sa.bindparam("participant_id"),
+        Trial.kind != "practice",
+        Vote.id.is_(None),
     )
+    if besides:
+        narrowed = narrowed.where(Trial.id != sa.bindparam("trial_id"))
+    return narrowed.order_by(Trial.position)
 
 
 @cache
@@ -297,14 +296,15 @@ def _unanswered() -> sa.Select[tuple[Trial]]:
 
 
 @cache
-def upcoming() -> sa.Select[Any]:
+def upcoming(besides: bool = False) -> sa.Select[Any]:
     """The bound participant's next trial without a vote, as the trial page shows it: one
     row (none when every trial is answered) with what the page needs of it (its plays, kind,
     expected answer, its stimulus's on-screen instruction) and the id of the trial after it,
-    whose clip is preloaded (NULL when it is the last). Core, so a vote's own transaction
-    answers with the next pair (:mod:`app.vote_path`) instead of a trial page per pair."""
+    whose clip is preloaded (NULL when it is the last). Core, so a vote's own statement
+    answers with the next pair (:mod:`app.vote_path`) instead of a trial page per pair;
+    ``besides`` as in :func:`_without_vote`."""
     following = (
-        _without_vote(sa.select(Trial.id).correlate(None))
+        _without_vote(sa.select(Trial.id).correlate(None), besides)
         .offset(1)
         .limit(1)
         .scalar_subquery()
@@ -318,7 +318,8 @@ def upcoming() -> sa.Select[Any]:
             Trial.expected,
             Stimulus.instruction,
             following,
-        ).join(Stimulus, Stimulus.id == Trial.stimulus_id)
+        ).join(Stimulus, Stimulus.id == Trial.stimulus_id),
+        besides,
     ).limit(1)
 
 

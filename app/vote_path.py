@@ -1,4 +1,4 @@
-"""The vote's usual case in a few SQL statements: a participant's vote on a trial of their own.
+"""The vote's usual case in two SQL statements: a participant's vote on a trial of their own.
 
 :func:`app.voting.record_vote` goes through the ORM: a statement for the participant, one for
 the trial, one to mark the participant seen, the INSERT and the progress counts, each with the
@@ -11,11 +11,11 @@ connection, in the request's one transaction:
    any, the participant's row locked (``FOR UPDATE``), so one participant's votes are stored
    one after the other and the counts below see every earlier one;
 2. the vote inserted ``ON CONFLICT DO NOTHING`` (the unique idempotency key and
-   ``(participant, trial)`` settle races), the participant marked as seen, and the progress
-   counted: one statement on PostgreSQL (data-modifying CTEs), three in process on SQLite;
-3. unless the schedule is done, the next pair as the trial page shows it
-   (:func:`app.enrolment.upcoming`): the answer carries it, so the browser goes on to the next
-   pair without loading a trial page for it (``static/participant.js``).
+   ``(participant, trial)`` settle races), the participant marked as seen, the progress
+   counted, and the next pair read as the trial page shows it
+   (:func:`app.enrolment.upcoming`), which the answer carries so that the browser goes on to
+   it without loading a trial page (``static/participant.js``): one statement on PostgreSQL
+   (data-modifying CTEs), four in process on SQLite.
 
 On PostgreSQL the two statements go straight to the driver (:func:`_cast_on_driver`,
 :mod:`app.driver`), in a transaction of their own, without the ORM session. The vote that
@@ -144,7 +144,8 @@ def _counts(inserted: Any = None) -> tuple[Any, Any]:
 
 @cache
 def _store_postgresql() -> sa.Select[Any]:
-    """Statement 2 on PostgreSQL: insert, mark seen and count in one round trip."""
+    """Statement 2 on PostgreSQL: insert, mark seen, count and read the next pair in one
+    round trip."""
     seen = (
         sa.update(P)
         .where(P.c.id == sa.bindparam("participant_id"))
@@ -159,11 +160,32 @@ def _store_postgresql() -> sa.Select[Any]:
         .returning(V.c.id)
         .cte("inserted")
     )
+    # The next pair besides the trial voted on (this statement's snapshot lacks its vote), on
+    # the one row whether there is one or not.
+    following = upcoming(besides=True).subquery("following")
     return sa.select(
         sa.select(inserted.c.id).scalar_subquery().label("vote_id"),
         sa.select(sa.func.count()).select_from(seen).scalar_subquery().label("seen"),
         *_counts(inserted),
-    )
+        *(c.label(f"next_{c.name}") for c in following.c),
+    ).select_from(sa.select(sa.literal(1)).subquery("one").outerjoin(following, sa.true()))
+
+
+class Upcoming(NamedTuple):
+    """:func:`app.enrolment.upcoming`'s row, from statement 2's ``next_`` columns."""
+
+    trial_id: int
+    plays: int
+    kind: str
+    expected: str | None
+    instruction: str
+    following: int | None
+
+
+def _upcoming_of(stored: Any) -> Upcoming | None:
+    if stored.next_trial_id is None:
+        return None
+    return Upcoming(*(getattr(stored, f"next_{name}") for name in Upcoming._fields))
 
 
 @cache
@@ -178,17 +200,18 @@ def _store_sqlite() -> tuple[Any, Any, Any]:
     return seen, inserted, sa.select(*_counts())
 
 
-def _store(conn: sa.Connection, values: dict[str, Any]) -> tuple[int | None, int, int]:
+def _store(conn: sa.Connection, values: dict[str, Any]) -> tuple[int | None, int, int, Any]:
     """Insert the vote unless its key or trial has one; (new vote id or None, answered,
-    total)."""
+    total, the next pair or None)."""
     if conn.dialect.name == "postgresql":
         row = conn.execute(_store_postgresql(), values).one()
-        return row.vote_id, int(row.answered), int(row.total)
+        return row.vote_id, int(row.answered), int(row.total), _upcoming_of(row)
     seen, inserted, counts = _store_sqlite()
     conn.execute(seen, values)
     vote_id = conn.execute(inserted, values).scalar()
     row = conn.execute(counts, values).one()
-    return vote_id, int(row.answered), int(row.total)
+    following = conn.execute(upcoming(), values).one_or_none()
+    return vote_id, int(row.answered), int(row.total), following
 
 
 def _checked(
@@ -254,7 +277,7 @@ def cast(payload: dict[str, Any]) -> CastVote | None:
         return None  # unknown (403), screened out, or dropped (it may rejoin): the ORM path
     fields, values = _checked(facts, trial_id, payload)
     now = values["now"]
-    vote_id, answered, total = _store(conn, values)
+    vote_id, answered, total, following = _store(conn, values)
     vote = _acknowledged(facts, trial_id, fields, inserted=vote_id is not None)
     if vote is None:
         return None  # the key is another trial's, or a concurrent request stored it first
@@ -274,9 +297,8 @@ def cast(payload: dict[str, Any]) -> CastVote | None:
             release_if_left_out(participant)
         else:
             conn.execute(_finished(), {"participant_id": facts.id, "now": now})
-    following = None
-    if answered < total and not screened:
-        following = driver.on_session(upcoming(), {"participant_id": facts.id})
+    if answered >= total or screened:
+        following = None  # the trial page decides what comes next
     return CastVote(vote, vote_id is not None, answered, total, following)
 
 
@@ -335,8 +357,6 @@ def _cast_on_driver(
                 tx.run(_finished_left_out(), finished)  # the list slot goes back
             else:
                 tx.run(_finished(), finished)
-        following = None
-        if answered < total:
-            following = tx.run(upcoming(), {"participant_id": facts.id})
         tx.commit()
+        following = _upcoming_of(stored) if answered < total else None
         return CastVote(vote, stored.vote_id is not None, answered, total, following)

@@ -1,6 +1,5 @@
-"""The vote's usual case (``app.vote_path``): the same answers as the ORM path, in three
-statements on PostgreSQL (the third the next pair), and the ORM path for what is not the usual
-case."""
+"""The vote's usual case (``app.vote_path``): the same answers as the ORM path, in two
+statements on PostgreSQL, and the ORM path for what is not the usual case."""
 
 import re
 
@@ -89,7 +88,7 @@ def test_a_vote_a_retry_and_a_double_click_take_the_usual_path(app, joined, orm_
         assert person.last_seen_at >= person.consented_at
 
 
-def test_the_usual_vote_is_three_statements_on_postgresql(app, joined, monkeypatch):
+def test_the_usual_vote_is_two_statements_on_postgresql(app, joined, monkeypatch):
     if not app.config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql"):
         pytest.skip("SQLite runs the second statement as three, in process")
 
@@ -103,9 +102,9 @@ def test_the_usual_vote_is_three_statements_on_postgresql(app, joined, monkeypat
         stop()
     assert first.status_code == 201 and first.json["answered"] == 1  # not the last: no finish
     assert again.status_code == 200 and again.json["status"] == "duplicate"
-    # Both on the driver (BEGIN and COMMIT are its own, not statements): read, store, the
-    # next pair; SQLAlchemy ran none.
-    assert on_driver == ["SELECT", "WITH", "SELECT"] * 2, on_driver
+    # Both on the driver (BEGIN and COMMIT are its own, not statements): read, then store
+    # with the next pair; SQLAlchemy ran none.
+    assert on_driver == ["SELECT", "WITH"] * 2, on_driver
     assert seen == [], seen
 
 
@@ -300,8 +299,12 @@ def test_the_answer_carries_the_next_pair_as_its_trial_page_shows_it(
     shown, progress = _page_shows(client, token)
     carried = []
     while True:
-        answer = participant.vote(shown["trial_id"], shown["instructed"] or "left")
+        key = f"carried-{shown['trial_id']:08d}"
+        answer = participant.vote(shown["trial_id"], shown["instructed"] or "left", key=key)
         assert answer.status_code == 201, answer.json
+        # A resent vote (its answer lost) is answered with the same next pair.
+        again = participant.vote(shown["trial_id"], shown["instructed"] or "left", key=key)
+        assert again.status_code == 200 and again.json["next_trial"] == answer.json["next_trial"]
         after = _page_shows(client, token)
         if after is None:
             assert answer.json["next_trial"] is None
@@ -320,4 +323,6 @@ def test_the_answer_carries_the_next_pair_as_its_trial_page_shows_it(
     assert [s["preload_url"] is None for s in carried][-1] is True  # the last preloads none
     # The instruction comes along as text, unless the clip shows it on screen.
     assert any(s["instructed"] for s in carried) == (catch_kind == "instructed")
-    assert orm_calls == []
+    # Only the resent last vote of a participant left out for a missed check (answered
+    # "left" whatever the clip said) takes the ORM path: they are dropped by then.
+    assert len(orm_calls) <= (catch_kind == "onscreen")

@@ -95,11 +95,10 @@ def post_vote():  # type: ignore[no-untyped-def]
         "total": outcome.total,
         "next": url_for("participant.resume", token=payload["token"]),
     }
-    if isinstance(outcome, CastVote):
-        if outcome.answered >= outcome.total:
-            body["next_trial"] = None
-        elif outcome.upcoming is not None:
-            body["next_trial"] = _next_trial(payload["token"], outcome.upcoming)
+    if outcome.answered >= outcome.total:
+        body["next_trial"] = None  # every pair answered, on whichever path
+    elif isinstance(outcome, CastVote) and outcome.upcoming is not None:
+        body["next_trial"] = _next_trial(payload["token"], outcome.upcoming)
     if db.session.registry.has():  # the session's path (the driver's has committed its own)
         db.session.commit()
     return jsonify(body), 201 if outcome.created else 200
