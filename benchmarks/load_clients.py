@@ -56,9 +56,9 @@ class Tally:
     #: request of ``ms`` was sent.
     sent: dict[str, list[tuple[float, int]]] = field(default_factory=dict)
 
-    def latency(self, kind: str, ms: float, sent_at: float = 0.0) -> None:
+    def latency(self, kind: str, ms: float, sent_at: float = 0.0, present: int = 0) -> None:
         self.ms.setdefault(kind, []).append(ms)
-        self.sent.setdefault(kind, []).append((sent_at, self.active))
+        self.sent.setdefault(kind, []).append((sent_at, present))
 
     def summary(self, kind: str, share: float = 0.0) -> str:
         """Count, p50, p99 and max; with ``share``, of the requests sent while at least that
@@ -108,7 +108,7 @@ async def _request(
     headers = dict(kwargs.pop("headers", {}))
     if cookies:
         headers["Cookie"] = "; ".join(f"{k}={v}" for k, v in cookies.items())
-    start = time.perf_counter()
+    start, present = time.perf_counter(), tally.active
     try:
         async with session.request(
             method, url, headers=headers, allow_redirects=False, **kwargs
@@ -121,7 +121,7 @@ async def _request(
     except (TimeoutError, aiohttp.ClientError) as exc:
         tally.errors.append(f"{kind}: {type(exc).__name__} {exc}".strip())
         return None
-    tally.latency(kind, (time.perf_counter() - start) * 1e3, start)
+    tally.latency(kind, (time.perf_counter() - start) * 1e3, start, present)
     tally.statuses[status] = tally.statuses.get(status, 0) + 1
     if status >= 500:
         tally.errors.append(f"{kind}: HTTP {status}")

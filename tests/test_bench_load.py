@@ -48,9 +48,8 @@ def test_the_steady_state_is_the_requests_sent_while_nearly_everyone_was_present
         + [(10, 300.0, 10.0 + i) for i in range(20)]
         + [(n, 5.0, 40.0 - n) for n in range(9, 0, -1)]
     ):
-        tally.active = present
         tally.peak = max(tally.peak, present)
-        tally.latency("vote", ms, at)
+        tally.latency("vote", ms, at, present)
     assert tally.summary("vote").startswith("38, ")  # every request
     assert tally.summary("vote", 0.95) == "20, p50 300.0 ms, p99 300.0 ms, max 300.0 ms"
     assert tally.window(0.95) == 19.0

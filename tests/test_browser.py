@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import os
 from pathlib import Path
 
@@ -77,6 +78,87 @@ def log_in(page, url: str) -> None:
     page.fill("input[name=email]", "exp@example.org")
     page.fill("input[name=password]", "correct horse")
     page.click("input[type=submit]")
+
+
+def test_pairs_go_on_in_place_with_their_instruction_progress_and_no_stale_resend(
+    live_server, browser
+):
+    """After the first trial page every pair comes from the vote's answer: the bar's progress
+    and the instructed check's "please choose" line follow each pair as the trial page would
+    show them. The first vote is answered 503 and resent by its timer; when the connection
+    later drops and comes back, nothing of that vote is sent again and the pair on screen
+    stays as it is (a played clip, answers open)."""
+    study_id = live_server.study(
+        design="all_ordered", replay="play_to_end", catch=2, catch_kind="instructed"
+    )
+    with live_server.app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    context = browser.new_context(viewport=DESKTOP)
+    page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    sent: list[int] = []  # the trial of every vote request
+    pages: list[str] = []  # trial pages loaded
+
+    def votes(route):
+        sent.append(json.loads(route.request.post_data)["trial_id"])
+        if len(sent) == 1:
+            route.fulfill(status=503, headers={"Retry-After": "1"}, json={"error": "busy"})
+        else:
+            route.continue_()
+
+    page.route("**/api/v1/votes", votes)
+    page.on(
+        "request",
+        lambda r: (
+            pages.append(r.url) if r.resource_type == "document" and "/trial" in r.url else None
+        ),
+    )
+    shown: list[tuple[str, str | None]] = []
+    try:
+        page.goto(f"{live_server.url}/s/{slug}?PROLIFIC_PID=pp-8&STUDY_ID=st-8&SESSION_ID=se-8")
+        page.keyboard.press("Enter")
+        page.wait_for_url("**/instructions")
+        page.click("#start")
+        step = 0
+        while "/trial" in page.url:
+            page.wait_for_selector(".player[data-trial-id]")
+            trial = _trial_id(page)
+            with live_server.app.app_context():
+                row = db.session.get(Trial, trial)
+                kind, expected = row.kind, row.expected
+                total = len([t for t in row.participant.trials if t.kind != "practice"])
+            assert page.inner_text(".progress-text") == f"Pair {step + 1} of {total}"
+            bar = page.locator("progress[aria-label=Progress]")
+            assert (bar.get_attribute("value"), bar.get_attribute("max")) == (
+                str(step),
+                str(total),
+            )
+            instructed = page.locator(".instructed")
+            if kind == "catch":
+                assert instructed.inner_text() == f"For this pair, please choose {expected}."
+            else:
+                assert instructed.count() == 0
+            shown.append((kind, expected))
+            _ready_to_vote(page)
+            if step == 2:
+                # The connection drops and comes back: the first vote's resend, long done,
+                # is not sent again, and this pair stays on screen as it is.
+                context.set_offline(True)
+                context.set_offline(False)
+                page.wait_for_timeout(500)
+                assert _trial_id(page) == trial
+                assert page.locator(".vote:not([disabled])").count() == 3
+            page.click(f'.vote[data-choice="{expected if kind == "catch" else "left"}"]')
+            _gone(page, trial, timeout=30000)
+            step += 1
+        page.wait_for_url("**/done")
+    finally:
+        context.close()
+    assert errors == []
+    assert sent[0] == sent[1] and len(sent) == len(set(sent)) + 1, sent  # one resend, once
+    assert sum(kind == "catch" for kind, _ in shown) == 2
+    assert len(pages) == 2, pages  # the first pair's page, and the one the last vote opens
 
 
 def test_participant_walks_through_a_whole_study(live_server, browser, shots):

@@ -299,6 +299,11 @@ def test_the_answer_carries_the_next_pair_as_its_trial_page_shows_it(
     shown, progress = _page_shows(client, token)
     carried = []
     while True:
+        if shown["preload_url"]:
+            # A play of the pair after this one, asked for early: the answer carries its count.
+            following = int(shown["preload_url"].rsplit("/", 1)[1])
+            early = client.post("/api/v1/plays", json={"token": token, "trial_id": following})
+            assert early.status_code == 200
         key = f"carried-{shown['trial_id']:08d}"
         answer = participant.vote(shown["trial_id"], shown["instructed"] or "left", key=key)
         assert answer.status_code == 201, answer.json
@@ -320,6 +325,7 @@ def test_the_answer_carries_the_next_pair_as_its_trial_page_shows_it(
         shown["plays"] += 1
         assert _page_shows(client, token) == (shown, progress)
     assert len(carried) == progress[1] - 1
+    assert all(s["plays"] == 2 for s in carried)  # the early play and the one after the answer
     assert [s["preload_url"] is None for s in carried][-1] is True  # the last preloads none
     # The instruction comes along as text, unless the clip shows it on screen.
     assert any(s["instructed"] for s in carried) == (catch_kind == "instructed")

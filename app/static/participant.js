@@ -256,14 +256,24 @@
       say("No connection to the server. Your answer (" + payload.choice + ") is kept on " +
           "this page and will be sent automatically; please keep this page open. " +
           "Retrying in " + Math.round(wait / 1000) + " s…", "offline");
-      var timer = window.setTimeout(function () { send(payload); }, wait);
-      window.addEventListener("online", function () {
+      // One resend, by the timer or by the connection coming back, whichever is first: the
+      // other is called off, so no resend is left behind for a later pair.
+      var timer = null;
+      function again() {
         window.clearTimeout(timer);
+        window.removeEventListener("online", again);
         send(payload);
-      }, { once: true });
+      }
+      timer = window.setTimeout(again, wait);
+      window.addEventListener("online", again);
     }
 
+    // Replaced by the next pair's player: nothing more is sent from this one.
+    var retired = false;
+    self.retire = function () { retired = true; };
+
     function send(payload) {
+      if (retired) return;
       var request = fetch(d.voteUrl, {
         method: "POST",
         headers: { "Content-Type": "application/json", Accept: "application/json" },
@@ -282,7 +292,7 @@
             // goes on in place. Without it (the last pair, or a case the server decides on the
             // page), the trial page is loaded; replace: the back button never returns to an
             // answered pair.
-            if (!(body.next_trial && self.onNext && self.onNext(body))) {
+            if (!(body.next_trial && self.onNext && self.onNext(self, body))) {
               window.location.replace(d.nextUrl);
             }
           } else if (action === "closed") {
@@ -383,9 +393,12 @@
   // The next pair in place of the one just answered: a copy of the player as the server
   // rendered it (taken before it ran), with the next trial's attributes, and the bar's
   // progress; what the trial page would show, without loading it.
-  function nextPlayer(pristine, index, body) {
+  function nextPlayer(pristine, index, caller, body) {
+    // Only the player on screen goes on (an answer for one already replaced is not news).
+    if (players[index] !== caller) return true;
+    caller.retire();
     var next = body.next_trial;
-    var root = players[index].root;
+    var root = caller.root;
     var fresh = pristine.cloneNode(true);
     var d = fresh.dataset;
     d.trialId = String(next.trial_id);
@@ -424,7 +437,9 @@
 
   function start(root, pristine, index) {
     var player = new Player(root);
-    if (pristine) player.onNext = function (body) { return nextPlayer(pristine, index, body); };
+    if (pristine) {
+      player.onNext = function (caller, body) { return nextPlayer(pristine, index, caller, body); };
+    }
     return player;
   }
 
