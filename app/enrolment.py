@@ -302,25 +302,38 @@ def upcoming(besides: bool = False) -> sa.Select[Any]:
     expected answer, its stimulus's on-screen instruction) and the id of the trial after it,
     whose clip is preloaded (NULL when it is the last). Core, so a vote's own statement
     answers with the next pair (:mod:`app.vote_path`) instead of a trial page per pair;
-    ``besides`` as in :func:`_without_vote`."""
-    following = (
-        _without_vote(sa.select(Trial.id).correlate(None), besides)
-        .offset(1)
+    ``besides`` as in :func:`_without_vote`. One pass over the participant's trials: the one
+    after comes from ``lead`` over the same rows, and the instruction is read for the one
+    row kept."""
+    pending = (
+        _without_vote(
+            sa.select(
+                Trial.id.label("trial_id"),
+                Trial.plays,
+                Trial.kind,
+                Trial.expected,
+                Trial.stimulus_id,
+                sa.func.lead(Trial.id).over(order_by=Trial.position).label("following"),
+            ),
+            besides,
+        )
         .limit(1)
-        .scalar_subquery()
-        .label("following")
+        .subquery("pending")
     )
-    return _without_vote(
-        sa.select(
-            Trial.id.label("trial_id"),
-            Trial.plays,
-            Trial.kind,
-            Trial.expected,
-            Stimulus.instruction,
-            following,
-        ).join(Stimulus, Stimulus.id == Trial.stimulus_id),
-        besides,
-    ).limit(1)
+    instruction = (
+        sa.select(Stimulus.instruction)
+        .where(Stimulus.id == pending.c.stimulus_id)
+        .scalar_subquery()
+        .label("instruction")
+    )
+    return sa.select(
+        pending.c.trial_id,
+        pending.c.plays,
+        pending.c.kind,
+        pending.c.expected,
+        instruction,
+        pending.c.following,
+    )
 
 
 @cache
