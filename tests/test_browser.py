@@ -117,7 +117,7 @@ def test_pairs_go_on_in_place_with_their_instruction_progress_and_no_stale_resen
     shown: list[tuple[str, str | None]] = []
     try:
         page.goto(f"{live_server.url}/s/{slug}?PROLIFIC_PID=pp-8&STUDY_ID=st-8&SESSION_ID=se-8")
-        page.keyboard.press("Enter")
+        page.click("text=I agree")
         page.wait_for_url("**/instructions")
         page.click("#start")
         step = 0
