@@ -90,7 +90,7 @@ def test_a_vote_a_retry_and_a_double_click_take_the_usual_path(app, joined, orm_
 
 def test_the_usual_vote_is_two_statements_on_postgresql(app, joined, monkeypatch):
     if not app.config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql"):
-        pytest.skip("SQLite runs the second statement as three, in process")
+        pytest.skip("SQLite runs the second statement as four, in process")
 
     on_driver = _on_driver(monkeypatch)
     trial = joined.current_trial()
