@@ -323,7 +323,8 @@ class Vote(db.Model):
         sa.CheckConstraint(sa.column("choice").in_(CHOICES), name="choice"),
     )
     id: so.Mapped[int] = so.mapped_column(primary_key=True)
-    participant_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("participant.id"), index=True)
+    #: No index of its own: the unique (participant_id, trial_id) index leads with it.
+    participant_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("participant.id"))
     trial_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("trial.id"), index=True)
     #: Chosen by the browser per trial; a retried request carries the same key.
     idempotency_key: so.Mapped[str] = so.mapped_column(sa.String(64), unique=True)

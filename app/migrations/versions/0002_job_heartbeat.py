@@ -8,21 +8,22 @@ Revises: 0001
 Create Date: 2026-11-23 10:00:00
 
 """
+
 from alembic import op
 import sqlalchemy as sa
 
 
-revision = '0002_job_heartbeat'
-down_revision = '0001'
+revision = "0002_job_heartbeat"
+down_revision = "0001"
 branch_labels = None
 depends_on = None
 
 
 def upgrade():
-    with op.batch_alter_table('job', schema=None) as batch_op:
-        batch_op.add_column(sa.Column('heartbeat_at', sa.DateTime(), nullable=True))
+    with op.batch_alter_table("job", schema=None) as batch_op:
+        batch_op.add_column(sa.Column("heartbeat_at", sa.DateTime(), nullable=True))
 
 
 def downgrade():
-    with op.batch_alter_table('job', schema=None) as batch_op:
-        batch_op.drop_column('heartbeat_at')
+    with op.batch_alter_table("job", schema=None) as batch_op:
+        batch_op.drop_column("heartbeat_at")

@@ -9,22 +9,23 @@ Revises: 0005_experimenter_side
 Create Date: 2026-12-01 03:30:00
 
 """
+
 import sqlalchemy as sa
 from alembic import op
 
-revision = '0006_vote_choice_check'
-down_revision = '0005_experimenter_side'
+revision = "0006_vote_choice_check"
+down_revision = "0005_experimenter_side"
 branch_labels = None
 depends_on = None
 
 
 def upgrade():
-    with op.batch_alter_table('vote', schema=None) as batch_op:
+    with op.batch_alter_table("vote", schema=None) as batch_op:
         batch_op.create_check_constraint(
-            batch_op.f('ck_vote_choice'),
-            sa.column('choice').in_(['left', 'right', 'undecided']))
+            batch_op.f("ck_vote_choice"), sa.column("choice").in_(["left", "right", "undecided"])
+        )
 
 
 def downgrade():
-    with op.batch_alter_table('vote', schema=None) as batch_op:
-        batch_op.drop_constraint(batch_op.f('ck_vote_choice'), type_='check')
+    with op.batch_alter_table("vote", schema=None) as batch_op:
+        batch_op.drop_constraint(batch_op.f("ck_vote_choice"), type_="check")
