@@ -65,6 +65,19 @@ def _gone(page, trial: int, timeout: float = 30000) -> None:
     page.wait_for_selector(f'.player[data-trial-id="{trial}"]', state="detached", timeout=timeout)
 
 
+def trial_page_loads(page) -> list[str]:
+    """The trial pages ``page`` loads from now on (documents whose URL holds ``/trial``),
+    filled in as it goes."""
+    loads: list[str] = []
+    page.on(
+        "request",
+        lambda r: (
+            loads.append(r.url) if r.resource_type == "document" and "/trial" in r.url else None
+        ),
+    )
+    return loads
+
+
 def _ready_to_vote(page) -> None:
     """Wait for the preload, play the clip (Space), wait until voting is allowed."""
     page.wait_for_selector(".play:not([disabled])", timeout=20000)
@@ -98,7 +111,6 @@ def test_pairs_go_on_in_place_with_their_instruction_progress_and_no_stale_resen
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
     sent: list[int] = []  # the trial of every vote request
-    pages: list[str] = []  # trial pages loaded
 
     def votes(route):
         sent.append(json.loads(route.request.post_data)["trial_id"])
@@ -108,12 +120,7 @@ def test_pairs_go_on_in_place_with_their_instruction_progress_and_no_stale_resen
             route.continue_()
 
     page.route("**/api/v1/votes", votes)
-    page.on(
-        "request",
-        lambda r: (
-            pages.append(r.url) if r.resource_type == "document" and "/trial" in r.url else None
-        ),
-    )
+    pages = trial_page_loads(page)
     shown: list[tuple[str, str | None]] = []
     try:
         page.goto(f"{live_server.url}/s/{slug}?PROLIFIC_PID=pp-8&STUDY_ID=st-8&SESSION_ID=se-8")

@@ -20,7 +20,10 @@ import sqlalchemy as sa
 from app.extensions import db
 from app.models import Participant, Study, Trial
 from tests.conftest import create_test_study, login, make_clip
-from tests.test_browser import browser  # noqa: F401  (the chromium fixture)
+from tests.test_browser import (
+    browser,  # noqa: F401  (the chromium fixture)
+    trial_page_loads,
+)
 
 pytestmark = pytest.mark.browser
 
@@ -121,13 +124,7 @@ def _take_part(
     page = context.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
-    loads: list[str] = []  # trial pages loaded: the first, the reloads below, after the last
-    page.on(
-        "request",
-        lambda r: (
-            loads.append(r.url) if r.resource_type == "document" and "/trial" in r.url else None
-        ),
-    )
+    loads = trial_page_loads(page)  # the first, the reloads below, after the last
     stall = StalledClip(clip)
     page.route("**/video/*", stall.handle)
     done: dict[int, dict] = {}

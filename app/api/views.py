@@ -24,7 +24,7 @@ from app.limits import fits
 from app.medialog import MediaLogError, environment_fields
 from app.models import Job, Participant, Study, Trial
 from app.studies import participation
-from app.trials.rules import play_refusal
+from app.trials.rules import instructed_side, play_refusal
 from app.vote_path import CastVote, cast
 from app.voting import VoteOutcome, VoteRejected, record_vote, replay_policy
 
@@ -108,9 +108,6 @@ def _next_trial(token: str, row: Any) -> dict[str, Any]:
     """The next pair as ``participant/trial.html`` shows it, for the player to go on to
     without loading that page (``static/participant.js``); the page stays the reference."""
     following = row.following
-    instructed = None
-    if row.kind == "catch" and row.expected in ("left", "right") and not row.instruction:
-        instructed = row.expected
     video = url_for("participant.video", token=token, trial_id=row.trial_id)
     return {
         "trial_id": row.trial_id,
@@ -118,7 +115,7 @@ def _next_trial(token: str, row: Any) -> dict[str, Any]:
         "video_url": video,
         # The same route with the other trial's id (one URL build fewer a vote).
         "preload_url": None if following is None else f"{video.rsplit('/', 1)[0]}/{following}",
-        "instructed": instructed,
+        "instructed": instructed_side(row.kind, row.expected, lambda: row.instruction),
     }
 
 

@@ -257,6 +257,9 @@ def trial(token: str):  # type: ignore[no-untyped-def]
         total=total,
         spec=spec,
         following=following,
+        instructed=rules.instructed_side(
+            upcoming.kind, upcoming.expected, lambda: upcoming.stimulus.instruction
+        ),
         **player_settings(study, spec),
     )
     db.session.commit()

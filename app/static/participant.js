@@ -431,11 +431,11 @@
     old.load();  // lets the old clip's connection go
     root.parentNode.replaceChild(fresh, root);
     window.scrollTo(0, 0);  // where a loaded page starts (the reasons may have scrolled it)
-    players[index] = start(fresh, pristine, index);
+    players[index] = makePlayer(fresh, pristine, index);
     return true;
   }
 
-  function start(root, pristine, index) {
+  function makePlayer(root, pristine, index) {
     var player = new Player(root);
     if (pristine) {
       player.onNext = function (caller, body) { return nextPlayer(pristine, index, caller, body); };
@@ -445,7 +445,7 @@
 
   var players = Array.prototype.map.call(document.querySelectorAll(".player"), function (root, i) {
     // Trial players only (the practice has no trial id): a pristine copy for the next pair.
-    return start(root, root.dataset.trialId ? root.cloneNode(true) : null, i);
+    return makePlayer(root, root.dataset.trialId ? root.cloneNode(true) : null, i);
   });
 
   function current() { return players.filter(function (p) { return p.active(); })[0]; }

@@ -15,6 +15,7 @@ it (Le et al. 2012, sec. 8.1: "allowed to leave undecided choices if they cannot
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import Final, NamedTuple
@@ -208,3 +209,14 @@ def check_choice(choice: object, *, undecided_allowed: bool) -> VoteChoice:
     if not isinstance(choice, str) or choice not in allowed:
         raise ValueError(f"expected one of {', '.join(allowed)}, got {repr(choice)[:40]}")
     return VoteChoice(choice)
+
+
+def instructed_side(kind: str, expected: str | None, instruction: Callable[[], str]) -> str | None:
+    """The side a pair's page asks for in words ("For this pair, please choose left."): that
+    of an instructed attention check, a catch trial expecting left or right whose clip does
+    not carry its own on-screen instruction (``instruction()``, read only for such a trial);
+    None for every other pair. The one rule for the trial page and the vote's answer that
+    carries the next pair."""
+    if kind == "catch" and expected in (VoteChoice.LEFT, VoteChoice.RIGHT) and not instruction():
+        return expected
+    return None

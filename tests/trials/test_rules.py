@@ -152,3 +152,23 @@ def test_any_submitted_value_is_a_choice_or_one_line_refusal(value: object) -> N
         message = str(exc)
         assert message.startswith("expected one of left, right, undecided, got ")
         assert len(message) < 100
+
+
+def test_the_instructed_side_is_that_of_a_left_or_right_check_without_its_own_instruction():
+    read: list[str] = []
+
+    def instruction(text: str):
+        def get() -> str:
+            read.append(text)
+            return text
+
+        return get
+
+    assert rules.instructed_side("catch", "left", instruction("")) == "left"
+    assert rules.instructed_side("catch", "right", instruction("")) == "right"
+    # On screen in the clip: nothing in words. An identical pair expects "undecided".
+    assert rules.instructed_side("catch", "left", instruction("left")) is None
+    assert rules.instructed_side("catch", "undecided", instruction("")) is None
+    assert rules.instructed_side("trial", None, instruction("")) is None
+    # The instruction is read only for a check that could ask for a side.
+    assert read == ["", "", "left"]
