@@ -96,3 +96,15 @@ def test_on_session_runs_the_same_statements_in_the_sessions_transaction(app):
         assert driver.on_session(sa.update(Study).values(title="renamed"), {}) is None
         db.session.rollback()
     assert _emails(app) == []
+
+
+def test_a_pooled_connection_keeps_one_cursor_and_a_new_connection_makes_its_own(pg_app):
+    pid = sa.select(sa.func.pg_backend_pid().label("pid"))
+    with pg_app.app_context():
+        with driver.transaction() as tx:
+            first, backend = tx.cursor, tx.run(pid, {}).pid
+        with driver.transaction() as tx:  # the same pooled connection, the same cursor
+            assert tx.run(pid, {}).pid == backend and tx.cursor is first
+        db.engine.dispose()  # the pool's connections closed: their cursors go with them
+        with driver.transaction() as tx:
+            assert tx.cursor is not first and tx.run(pid, {}).pid != backend

@@ -396,3 +396,19 @@ def test_raw_vote_bodies_never_5xx(app, participant, web, body, chunked):
             answer = participant.client.post(path, data=body, content_type="application/json")
         assert answer.status_code < 500, answer.get_data(as_text=True)
         assert "Traceback" not in answer.get_data(as_text=True)
+
+
+@pytest.mark.parametrize(
+    ("token", "root"),
+    [("Ab_9-x.y~z", ""), ("Ab_9", "/under/a/proxy"), ("a b/c", ""), ("x", "/~token~")],
+)
+def test_the_participant_urls_of_a_vote_answer_are_url_fors(app, token, root):
+    from flask import url_for
+
+    from app.api.views import _participant_urls
+
+    for _ in range(2):  # built, then from the routes kept for this script root
+        with app.test_request_context("/api/v1/votes", base_url=f"http://h{root}"):
+            resume, video = _participant_urls(token)
+            assert resume == url_for("participant.resume", token=token)
+            assert f"{video}12" == url_for("participant.video", token=token, trial_id=12)
