@@ -10,9 +10,7 @@ participant and the schedule are stored together or not at all.
 from __future__ import annotations
 
 import datetime as dt
-import threading
-from collections import OrderedDict
-from functools import cache
+from functools import cache, lru_cache
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -67,30 +65,19 @@ class Design(NamedTuple):
     stimuli: dict[tuple[int, int, int, str | None, str | None], int]
 
 
-#: Designs read so far, by (study id, study slug): the slug, random for every study created,
-#: tells apart a study created later under a reused id (SQLite may reuse a deleted row's id,
-#: and a database created again starts its ids afresh).
-_DESIGNS: OrderedDict[tuple[int, str], Design] = OrderedDict()
-_DESIGNS_KEPT = 64
-_DESIGNS_LOCK = threading.Lock()
-
-
 def study_design(study: Study) -> Design:
     """The study's :class:`Design`, read in four plain queries the first time in this process
-    and kept for the :data:`_DESIGNS_KEPT` studies used last. Reading it through the ORM's lazy
-    relationships was five queries on every consent in the load benchmark's profile."""
-    key = (study.id, study.slug)
-    with _DESIGNS_LOCK:
-        found = _DESIGNS.get(key)
-        if found is not None:
-            _DESIGNS.move_to_end(key)
-            return found
-    found = _read_design(study.id)
-    with _DESIGNS_LOCK:
-        _DESIGNS[key] = found
-        while len(_DESIGNS) > _DESIGNS_KEPT:
-            _DESIGNS.popitem(last=False)
-    return found
+    and kept for the 64 studies used last. Reading it through the ORM's lazy relationships was
+    five queries on every consent in the load benchmark's profile."""
+    return _design(study.id, study.slug)
+
+
+@lru_cache(maxsize=64)
+def _design(study_id: int, slug: str) -> Design:
+    """Kept by study id and slug: the slug, random for every study created, tells apart a
+    study created later under a reused id (SQLite may reuse a deleted row's id, and a database
+    created again starts its ids afresh)."""
+    return _read_design(study_id)
 
 
 def _read_design(study_id: int) -> Design:

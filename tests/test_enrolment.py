@@ -248,17 +248,17 @@ def test_a_study_created_again_under_the_same_id_gets_its_own_design(app, web):
         ]
 
 
-def test_the_designs_kept_are_bounded(app, web, monkeypatch):
+def test_a_design_is_read_once_and_the_designs_kept_are_bounded(app, web):
     from app import enrolment
 
-    monkeypatch.setattr(enrolment, "_DESIGNS_KEPT", 2)
-    monkeypatch.setattr(enrolment, "_DESIGNS", type(enrolment._DESIGNS)())
-    ids = [web.study(), web.study(), web.study()]
+    ids = [web.study(), web.study()]
+    enrolment._design.cache_clear()
     with app.app_context():
-        for study_id in ids:
-            enrolment.study_design(db.session.get(Study, study_id))
-        kept = [key[0] for key in enrolment._DESIGNS]
-    assert kept == ids[1:]
+        for study_id in [*ids, *ids]:
+            study = db.session.get(Study, study_id)
+            assert enrolment.study_design(study) is enrolment.study_design(study)
+    found = enrolment._design.cache_info()
+    assert (found.misses, found.hits, found.maxsize) == (2, 6, 64)
 
 
 def test_a_trial_page_marks_the_participant_seen_and_counts_in_one_statement(app, participant, web):
