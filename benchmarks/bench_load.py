@@ -513,6 +513,15 @@ def participant_counts(text: str) -> list[int]:
     return counts
 
 
+def check_ready(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Stop, in one line, a run of no rounds or no participants, or one without PostgreSQL
+    (shared with ``bench_ab.py``)."""
+    if args.rounds < 1 or args.saturate < 1:
+        parser.error("--rounds and --saturate: expected a whole number of at least 1")
+    if not ensure_services(redis=False):
+        sys.exit("PostgreSQL is not reachable on 127.0.0.1:5432")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mode", choices=("open", "closed"), default="open")
@@ -558,10 +567,7 @@ def main() -> int:
         counts = participant_counts(args.participants)
     except ValueError as exc:
         parser.error(str(exc))
-    if args.rounds < 1 or args.saturate < 1:
-        parser.error("--rounds and --saturate: expected a whole number of at least 1")
-    if not ensure_services(redis=False):
-        sys.exit("PostgreSQL is not reachable on 127.0.0.1:5432")
+    check_ready(parser, args)
     import psycopg
 
     name = f"facepair_load_{secrets.token_hex(3)}"

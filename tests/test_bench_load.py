@@ -56,3 +56,14 @@ def test_the_steady_state_is_the_requests_sent_while_nearly_everyone_was_present
     # 90 % of 10 lets in the 9 present on the way up and down.
     assert tally.summary("vote", 0.9).startswith("22, ")
     assert Tally().summary("vote", 0.95) == "none" and Tally().window(0.95) == 0.0
+
+
+def test_the_ab_benchmark_takes_only_facepair_checkouts(tmp_path):
+    from pathlib import Path
+
+    from benchmarks.bench_ab import checkout
+
+    root = Path(__file__).resolve().parent.parent
+    assert checkout(str(root / "tests" / "..")) == root
+    with pytest.raises(ValueError, match=r": not a facepair checkout \(no app/__main__\.py\)$"):
+        checkout(str(tmp_path))
