@@ -106,11 +106,11 @@ def execute(cursor: Any, statement: DriverSQL, values: Mapping[str, Any]) -> Any
 def _cursor(raw: Any) -> Any:
     """A cursor on the pooled connection ``raw``, made once per driver connection and kept in
     the pool's record of it (creating one was a fiftieth of a vote's CPU in the load
-    benchmark's profile); the record forgets it with the connection."""
-    connection = raw.driver_connection
+    benchmark's profile); the record's ``info`` is cleared when its connection is closed or
+    invalidated, so a new connection makes its own."""
     kept = raw.info.get("driver_cursor")
-    if kept is None or kept.connection is not connection or kept.closed:
-        kept = raw.info["driver_cursor"] = connection.cursor()
+    if kept is None:
+        kept = raw.info["driver_cursor"] = raw.driver_connection.cursor()
     return kept
 
 

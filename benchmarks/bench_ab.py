@@ -33,7 +33,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from benchmarks import load_clients  # noqa: E402
-from benchmarks.bench_load import PG, check_ready, cpu_seconds, prepare  # noqa: E402
+from benchmarks.bench_load import PG, check_ready, cpu_seconds, prepare, trials_of  # noqa: E402
 from tests.support.services import wait_for_port  # noqa: E402
 
 
@@ -87,18 +87,11 @@ class Build:
 
     def enrol(self, rounds: int, per_round: int) -> None:
         """Consent ``rounds`` x ``per_round`` participants; each round gets its own."""
-        import psycopg
-
         base = f"http://127.0.0.1:{self.port}"
         tokens = asyncio.run(
             load_clients.consent_many(base, self.slug, rounds * per_round, timeout=60)
         )
-        with psycopg.connect(self.url.replace("postgresql+psycopg://", "postgresql://")) as conn:
-            rows = conn.execute(
-                "SELECT p.token, t.id FROM trial t JOIN participant p ON p.id = t.participant_id "
-                "WHERE p.token = ANY(%s) AND t.kind <> 'practice' ORDER BY t.position, p.id",
-                (tokens,),
-            ).fetchall()
+        rows = trials_of(self.url, tokens)
         self.rounds = []
         for first in range(0, len(tokens), per_round):
             mine = set(tokens[first : first + per_round])

@@ -398,6 +398,20 @@ def run_open(
         print("  error:", e)
 
 
+def trials_of(url: str, tokens: list[str]) -> list[tuple[str, int]]:
+    """(token, trial id) of the participants' real and catch trials, position by position
+    and participant by participant: round robin over them, as in a study, concurrent votes
+    come from different people, never 64 at once on one participant's row."""
+    import psycopg
+
+    with psycopg.connect(url.replace("postgresql+psycopg://", "postgresql://")) as conn:
+        return conn.execute(
+            "SELECT p.token, t.id FROM trial t JOIN participant p ON p.id = t.participant_id "
+            "WHERE p.token = ANY(%s) AND t.kind <> 'practice' ORDER BY t.position, p.id",
+            (tokens,),
+        ).fetchall()
+
+
 def saturated_votes(
     args: argparse.Namespace,
     slug: str,
@@ -406,17 +420,9 @@ def saturated_votes(
     server_pid: int,
 ) -> float:
     """facepair's vote endpoint driven saturated; returns votes per second."""
-    import psycopg
-
     base = f"http://127.0.0.1:{args.port}"
     tokens = asyncio.run(load_clients.consent_many(base, slug, args.saturate, timeout=args.timeout))
-    dsn = url.replace("postgresql+psycopg://", "postgresql://")
-    with psycopg.connect(dsn) as conn:
-        rows = conn.execute(
-            "SELECT p.token, t.id FROM trial t JOIN participant p ON p.id = t.participant_id "
-            "WHERE p.token = ANY(%s) AND t.kind <> 'practice' ORDER BY t.position, p.id",
-            (tokens,),
-        ).fetchall()
+    rows = trials_of(url, tokens)
     # Round robin over the participants, as in a study: concurrent votes come from different
     # people, never 64 at once on one participant's row.
     rng = np.random.default_rng(1)

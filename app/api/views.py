@@ -125,14 +125,15 @@ def _participant_urls(token: str) -> tuple[str, str]:
     (two builds were a twentieth of a vote's CPU in the load benchmark's profile), and a
     token ``url_for`` would quote is built the usual way."""
     routes = current_app.extensions.setdefault("facepair.participant_urls", {})
-    found = routes.get(request.script_root)
-    if found is None:
-        found = _built(_TOKEN)
-        if len(routes) < 8:  # the script roots a deployment has: one, or a few proxies
-            routes[request.script_root] = found
-    resume, video = found
-    if not _VERBATIM.fullmatch(token) or resume.count(_TOKEN) != 1 or video.count(_TOKEN) != 1:
+    root = request.script_root
+    if root not in routes and len(routes) < 8:  # a deployment's one root, or a few proxies'
+        built = _built(_TOKEN)
+        # None: the root itself holds the placeholder, so every vote builds its URLs.
+        routes[root] = built if all(url.count(_TOKEN) == 1 for url in built) else None
+    found = routes.get(root)
+    if found is None or not _VERBATIM.fullmatch(token):
         return _built(token)
+    resume, video = found
     return resume.replace(_TOKEN, token), video.replace(_TOKEN, token)
 
 
