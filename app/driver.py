@@ -11,7 +11,8 @@ dialect (:func:`compiled`) and run on a connection from the same pool, so the po
 apply.
 
 :func:`transaction` gives one transaction on such a connection. It commits only when asked;
-anything else rolls back. A driver error comes out as SQLAlchemy's (a lost connection is a
+anything else rolls back. :func:`autocommitted` runs one statement as its own transaction, in
+one round trip. A driver error comes out as SQLAlchemy's (a lost connection is a
 :class:`sqlalchemy.exc.OperationalError`, which ``app.web`` answers with 503), and a connection
 that failed is dropped from the pool, not handed out again. PostgreSQL only: on SQLite the same
 statements go through the session (:func:`on_session`). Bind processors apply as on
@@ -20,6 +21,7 @@ SQLAlchemy's path; column defaults computed in Python do not: a statement passes
 
 from __future__ import annotations
 
+import copy
 from collections import namedtuple
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
@@ -33,34 +35,50 @@ from app.extensions import db
 
 
 class DriverSQL(NamedTuple):
-    """A Core statement compiled for the driver: its SQL, its bound parameters' defaults (the
-    literals a statement binds, such as ``kind <> 'practice'``), the names it needs a value
-    for, the bind processors of its types (a JSON column's, say) and the class of the rows it
-    returns (named by its column labels), None if it returns none."""
+    """A Core statement compiled for the driver, with PostgreSQL's own placeholders (``$1``):
+    its SQL, the names of its parameters in their order, their defaults (the literals a
+    statement binds, such as ``kind <> 'practice'``), the names it needs a value for, the bind
+    processors of its types (a JSON column's, say) and the class of the rows it returns (named
+    by its column labels), None if it returns none."""
 
     sql: str
+    order: tuple[str, ...]
     defaults: dict[str, Any]
     required: frozenset[str]
     processors: dict[str, Any]
     row: Any
 
-    def params(self, values: Mapping[str, Any]) -> dict[str, Any]:
-        """The driver's parameters: ``values`` over the defaults, each through its type's bind
-        processor as on SQLAlchemy's own path (a JSON column's None is JSON ``null`` there,
-        not SQL NULL). A value the statement needs and ``values`` lacks is an error, as there,
-        not a NULL."""
+    def params(self, values: Mapping[str, Any]) -> list[Any]:
+        """The driver's parameters, in order: ``values`` over the defaults, each through its
+        type's bind processor as on SQLAlchemy's own path (a JSON column's None is JSON
+        ``null`` there, not SQL NULL). A value the statement needs and ``values`` lacks is an
+        error, as there, not a NULL."""
         missing = self.required.difference(values)
         if missing:
             raise sa.exc.ArgumentError(f"no value for {', '.join(sorted(missing))}")
         params = {**self.defaults, **values}
         for name, process in self.processors.items():
             params[name] = process(params[name])
-        return params
+        return [params[name] for name in self.order]
+
+
+@cache
+def _numbered(dialect: sa.Dialect) -> sa.Dialect:
+    """``dialect`` writing PostgreSQL's numbered placeholders (``$1``), which a
+    :class:`psycopg.RawCursor` sends as they are: psycopg parses a query's ``%(name)s``
+    placeholders on every execution once the query is over 4 KB (it caches shorter ones),
+    which was a third of a vote's CPU in the load benchmark's profile once the vote was one
+    statement of 5 KB. A copy, so that everything else the engine's dialect learnt of the
+    server compiles the same."""
+    numbered = copy.copy(dialect)
+    numbered.paramstyle = "numeric_dollar"
+    numbered.positional = True
+    return numbered
 
 
 @cache
 def _compiled(statement: Any, dialect: sa.Dialect) -> DriverSQL:
-    found = statement.compile(dialect=dialect)
+    found = statement.compile(dialect=_numbered(dialect))
     # A SELECT's columns, or an UPDATE's RETURNING: known here, so a row is made without the
     # driver describing each result (its description was a tenth of a vote in the profile).
     labels = list(statement.exported_columns.keys())
@@ -71,7 +89,8 @@ def _compiled(statement: Any, dialect: sa.Dialect) -> DriverSQL:
         process = bind.type.dialect_impl(dialect).bind_processor(dialect)
         if process is not None:
             processors[name] = process
-    return DriverSQL(str(found), dict(found.params), required, processors, row)
+    order = tuple(found.positiontup or ())
+    return DriverSQL(str(found), order, dict(found.params), required, processors, row)
 
 
 def compiled(statement: Any) -> DriverSQL:
@@ -104,13 +123,14 @@ def execute(cursor: Any, statement: DriverSQL, values: Mapping[str, Any]) -> Any
 
 
 def _cursor(raw: Any) -> Any:
-    """A cursor on the pooled connection ``raw``, made once per driver connection and kept in
+    """A raw cursor (numbered placeholders: :func:`_numbered`) on the pooled connection
+    ``raw``, made once per driver connection and kept in
     the pool's record of it (creating one was a fiftieth of a vote's CPU in the load
     benchmark's profile); the record's ``info`` is cleared when its connection is closed or
     invalidated, so a new connection makes its own."""
     kept = raw.info.get("driver_cursor")
     if kept is None:
-        kept = raw.info["driver_cursor"] = raw.driver_connection.cursor()
+        kept = raw.info["driver_cursor"] = psycopg.RawCursor(raw.driver_connection)
     return kept
 
 
@@ -141,6 +161,54 @@ def _as_sqlalchemy(exc: psycopg.Error, statement: str | None) -> sa.exc.DBAPIErr
     )
 
 
+def _failed(engine: sa.Engine, raw: Any, exc: BaseException, cursor: Any, sql: str | None) -> Any:
+    """What a failed use of the pooled connection ``raw`` raises: a driver error as
+    SQLAlchemy's, the connection invalidated if lost; anything else as it is, the connection
+    invalidated if interrupted (perhaps mid-statement)."""
+    if isinstance(exc, psycopg.Error):
+        if engine.dialect.is_disconnect(exc, raw.dbapi_connection, cursor):
+            # Lost: never handed out again (the pool's other connections are pinged once
+            # idle for a second; one used sooner answers 503 once, and the vote is resent).
+            raw.invalidate(exc)
+        return _as_sqlalchemy(exc, sql)
+    if not isinstance(exc, Exception):
+        raw.invalidate(exc)
+    return exc
+
+
+def autocommitted(statement: Any, values: Mapping[str, Any]) -> Any:
+    """Run the Core ``statement`` alone, in autocommit (its own transaction, committed by
+    PostgreSQL when it ends), on a connection from the engine's pool: the row it returns, if
+    any. One round trip where :func:`transaction` takes three (BEGIN, the statement,
+    COMMIT), which the load benchmark measured at a third of a vote's PostgreSQL CPU; for a
+    statement whose every outcome may stand committed. The connection goes back to the pool
+    out of autocommit, or is dropped."""
+    engine = db.engine
+    try:
+        raw = engine.raw_connection()
+    except psycopg.Error as exc:
+        raise _as_sqlalchemy(exc, None) from exc
+    found = _compiled(statement, engine.dialect)
+    conn = raw.driver_connection
+    cursor = None
+    try:
+        conn.autocommit = True
+        cursor = _cursor(raw)
+        return execute(cursor, found, values)
+    except BaseException as exc:
+        failed = _failed(engine, raw, exc, cursor, found.sql)
+        if failed is exc:
+            raise
+        raise failed from exc
+    finally:
+        if raw.dbapi_connection is not None and conn.autocommit:
+            try:
+                conn.autocommit = False
+            except psycopg.Error:
+                raw.invalidate()
+        raw.close()
+
+
 @contextmanager
 def transaction() -> Iterator[Transaction]:
     """A transaction on a connection from the engine's pool: committed by
@@ -154,17 +222,11 @@ def transaction() -> Iterator[Transaction]:
     try:
         tx = Transaction(raw, engine.dialect)
         yield tx
-    except psycopg.Error as exc:
-        cursor = tx.cursor if tx else None
-        if engine.dialect.is_disconnect(exc, raw.dbapi_connection, cursor):
-            # Lost: never handed out again (the pool's other connections are pinged once
-            # idle for a second; one used sooner answers 503 once, and the vote is resent).
-            raw.invalidate(exc)
-        raise _as_sqlalchemy(exc, tx.last if tx else None) from exc
     except BaseException as exc:
-        if not isinstance(exc, Exception):  # interrupted, perhaps mid-statement: drop it
-            raw.invalidate(exc)
-        raise
+        failed = _failed(engine, raw, exc, tx.cursor if tx else None, tx.last if tx else None)
+        if failed is exc:
+            raise
+        raise failed from exc
     finally:
         if (tx is None or not tx.committed) and raw.dbapi_connection is not None:
             try:

@@ -39,7 +39,8 @@ def test_compiled_once_with_its_literals_and_its_labels(pg_app):
     with pg_app.app_context():
         first = driver.compiled(statement)
         assert driver.compiled(statement) is first  # cached
-        assert "%(" in first.sql and first.row._fields == ("study_id", "seven")
+        assert "$1" in first.sql and "%(" not in first.sql  # PostgreSQL's own placeholders
+        assert first.row._fields == ("study_id", "seven")
         assert 7 in first.defaults.values()  # a literal the statement binds itself
         assert driver.compiled(sa.update(Study).values(title="x")).row is None
 
@@ -50,7 +51,16 @@ def test_a_missing_value_is_an_error_and_types_process_their_values(pg_app):
         with pytest.raises(sa.exc.ArgumentError, match="no value for at, email"):
             found.params({})
         as_json = sa.select(sa.bindparam("doc", type_=sa.JSON).label("doc"))
-        assert driver.compiled(as_json).params({"doc": None})["doc"] is not None  # JSON null
+        assert driver.compiled(as_json).params({"doc": None})[0] is not None  # JSON null
+        # A value bound twice is one parameter, in the order the SQL numbers them.
+        twice = sa.select(
+            (sa.bindparam("a", type_=sa.Integer) - sa.bindparam("b", type_=sa.Integer)).label("d"),
+            (sa.bindparam("b", type_=sa.Integer) * 10).label("e"),
+        )
+        found = driver.compiled(twice)
+        assert found.order[:2] == ("a", "b") and found.params({"b": 2, "a": 7}) == [7, 2, 10]
+        with driver.transaction() as tx:
+            assert tx.run(twice, {"a": 7, "b": 2}) == (5, 20)
         with driver.transaction() as tx:
             assert tx.run(as_json, {"doc": {"a": [1, 2]}}).doc == {"a": [1, 2]}
 
@@ -108,3 +118,40 @@ def test_a_pooled_connection_keeps_one_cursor_and_a_new_connection_makes_its_own
         db.engine.dispose()  # the pool's connections closed: their cursors go with them
         with driver.transaction() as tx:
             assert tx.cursor is not first and tx.run(pid, {}).pid != backend
+
+
+def test_an_autocommitted_statement_stands_and_its_connection_goes_back_in_a_transaction(
+    pg_app,
+):
+    pid = sa.select(sa.func.pg_backend_pid().label("pid"))
+    with pg_app.app_context():
+        row = driver.autocommitted(INSERT, {"email": "alone@example.org", "at": AT})
+        assert row.email == "alone@example.org"
+        # Committed by itself: another connection sees it before anything else runs here.
+        assert _emails(pg_app) == ["alone@example.org"]
+        assert driver.autocommitted(sa.update(Study).values(title="x"), {}) is None
+        backend = driver.autocommitted(pid, {}).pid
+        with driver.transaction() as tx:  # the same pooled connection, out of autocommit
+            assert tx.run(pid, {}).pid == backend
+            assert tx.raw.driver_connection.autocommit is False
+            tx.run(INSERT, {"email": "rolled-back@example.org", "at": AT})  # not committed
+        # A failed statement: SQLAlchemy's error, and the connection back out of autocommit.
+        with pytest.raises(sa.exc.IntegrityError):
+            driver.autocommitted(INSERT, {"email": "alone@example.org", "at": AT})
+        with db.engine.connect() as conn:  # the session's side of the same pool
+            assert conn.connection.driver_connection.autocommit is False
+    assert _emails(pg_app) == ["alone@example.org"]
+
+
+def test_a_lost_connection_under_an_autocommitted_statement_leaves_the_pool(pg_app):
+    pid = sa.select(sa.func.pg_backend_pid().label("pid"))
+    with pg_app.app_context():
+        backend = driver.autocommitted(pid, {}).pid
+        with psycopg.connect(
+            db.engine.url.set(drivername="postgresql").render_as_string(False), autocommit=True
+        ) as admin:
+            admin.execute("SELECT pg_terminate_backend(%s)", (backend,))
+        with pytest.raises(sa.exc.OperationalError):
+            driver.autocommitted(INSERT, {"email": "lost@example.org", "at": AT})
+        assert driver.autocommitted(pid, {}).pid != backend  # a live connection again
+    assert _emails(pg_app) == []
