@@ -256,19 +256,26 @@ def next_trials(participant: Participant, count: int) -> list[Trial]:
 # them again was a tenth of a trial page's CPU in the load benchmark's profile.
 
 
-def _without_vote(select: Any, besides: bool = False) -> Any:
-    """``select`` narrowed to the bound participant's trials without a vote, in order; with
-    ``besides``, also other than the bound ``trial_id`` (the trial voted on in the same
-    statement, whose vote that statement's snapshot does not hold).
+def _participant(participant: Any = None) -> Any:
+    """The participant a statement is about: the bound ``participant_id``, or the expression
+    ``participant`` (a statement that finds the participant itself, :mod:`app.vote_path`)."""
+    return sa.bindparam("participant_id") if participant is None else participant
+
+
+def _without_vote(select: Any, besides: bool = False, participant: Any = None) -> Any:
+    """``select`` narrowed to the participant's trials without a vote, in order (the bound
+    ``participant_id``, or ``participant``: :func:`_participant`); with ``besides``, also
+    other than the bound ``trial_id`` (the trial voted on in the same statement, whose vote
+    that statement's snapshot does not hold).
 
     The votes joined are the participant's own (a trial's vote is always its participant's):
     PostgreSQL then reads them by index, where joining on the trial alone let it scan every
     vote of every participant (2-3 ms a statement with 28,000 votes in the load benchmark)."""
+    who = _participant(participant)
     narrowed = select.outerjoin(
-        Vote,
-        sa.and_(Vote.participant_id == sa.bindparam("participant_id"), Vote.trial_id == Trial.id),
+        Vote, sa.and_(Vote.participant_id == who, Vote.trial_id == Trial.id)
     ).where(
-        Trial.participant_id == sa.bindparam("participant_id"),
+        Trial.participant_id == who,
         Trial.kind != "practice",
         Vote.id.is_(None),
     )
@@ -283,15 +290,15 @@ def _unanswered() -> sa.Select[tuple[Trial]]:
 
 
 @cache
-def upcoming(besides: bool = False) -> sa.Select[Any]:
+def upcoming(besides: bool = False, participant: Any = None) -> sa.Select[Any]:
     """The bound participant's next trial without a vote, as the trial page shows it: one
     row (none when every trial is answered) with what the page needs of it (its plays, kind,
     expected answer, its stimulus's on-screen instruction) and the id of the trial after it,
     whose clip is preloaded (NULL when it is the last). Core, so a vote's own statement
     answers with the next pair (:mod:`app.vote_path`) instead of a trial page per pair;
-    ``besides`` as in :func:`_without_vote`. One pass over the participant's trials: the one
-    after comes from ``lead`` over the same rows, and the instruction is read for the one
-    row kept."""
+    ``besides`` and ``participant`` as in :func:`_without_vote`. One pass over the
+    participant's trials: the one after comes from ``lead`` over the same rows, and the
+    instruction is read for the one row kept."""
     pending = (
         _without_vote(
             sa.select(
@@ -303,6 +310,7 @@ def upcoming(besides: bool = False) -> sa.Select[Any]:
                 sa.func.lead(Trial.id).over(order_by=Trial.position).label("following"),
             ),
             besides,
+            participant,
         )
         .limit(1)
         .subquery("pending")
@@ -333,18 +341,16 @@ def _seen() -> sa.Update:
     )
 
 
-def progress_counts() -> tuple[sa.ScalarSelect[int], sa.ScalarSelect[int]]:
-    """(answered, total) as scalar subqueries on the bound ``participant_id``: the votes, and
-    the real and catch trials (not the practice). The one definition of a participant's
-    progress, for :func:`progress` and the vote's own statement (:mod:`app.vote_path`)."""
-    answered = (
-        sa.select(sa.func.count(Vote.id))
-        .where(Vote.participant_id == sa.bindparam("participant_id"))
-        .scalar_subquery()
-    )
+def progress_counts(participant: Any = None) -> tuple[sa.ScalarSelect[int], sa.ScalarSelect[int]]:
+    """(answered, total) as scalar subqueries on the bound ``participant_id`` (or
+    ``participant``: :func:`_participant`): the votes, and the real and catch trials (not the
+    practice). The one definition of a participant's progress, for :func:`progress` and the
+    vote's own statements (:mod:`app.vote_path`)."""
+    who = _participant(participant)
+    answered = sa.select(sa.func.count(Vote.id)).where(Vote.participant_id == who).scalar_subquery()
     total = (
         sa.select(sa.func.count(Trial.id))
-        .where(Trial.participant_id == sa.bindparam("participant_id"), Trial.kind != "practice")
+        .where(Trial.participant_id == who, Trial.kind != "practice")
         .scalar_subquery()
     )
     return answered, total

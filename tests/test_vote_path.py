@@ -88,24 +88,55 @@ def test_a_vote_a_retry_and_a_double_click_take_the_usual_path(app, joined, orm_
         assert person.last_seen_at >= person.consented_at
 
 
-def test_the_usual_vote_is_two_statements_on_postgresql(app, joined, monkeypatch):
+def test_the_usual_vote_is_one_statement_on_postgresql_once_the_rules_are_known(
+    app, joined, monkeypatch
+):
     if not app.config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql"):
         pytest.skip("SQLite runs the second statement as four, in process")
+    from app import driver
 
     on_driver = _on_driver(monkeypatch)
-    trial = joined.current_trial()
+    transactions = []
+    original = driver.transaction
+
+    def counted():
+        transactions.append(1)
+        return original()
+
+    monkeypatch.setattr(driver, "transaction", counted)
+    first_trial = joined.current_trial()
     seen, stop = _statements(app)
     try:
-        first = joined.vote(trial, "left", key="retried-key-01")
-        again = joined.vote(trial, "left", key="retried-key-01")
+        first = joined.vote(first_trial, "left", key="retried-key-01")
+        again = joined.vote(first_trial, "left", key="retried-key-01")
+        double = joined.vote(first_trial, "right", key="clicked-twice-1")
+        second = joined.vote(first.json["next_trial"]["trial_id"], "right", key="second-key-01")
     finally:
         stop()
     assert first.status_code == 201 and first.json["answered"] == 1  # not the last: no finish
     assert again.status_code == 200 and again.json["status"] == "duplicate"
-    # Both on the driver (BEGIN and COMMIT are its own, not statements): read, then store
-    # with the next pair; SQLAlchemy ran none.
-    assert on_driver == ["SELECT", "WITH"] * 2, on_driver
+    assert again.json["vote"] == first.json["vote"] and again.json["answered"] == 1
+    assert double.status_code == 200 and double.json["vote"] == first.json["vote"]
+    assert second.status_code == 201 and second.json["answered"] == 2
+    assert second.json["vote"]["trial_id"] != first_trial
+    assert second.json["next_trial"]["trial_id"] not in (
+        first_trial,
+        second.json["vote"]["trial_id"],
+    )
+    # All on the driver (BEGIN and COMMIT are its own, not statements); SQLAlchemy ran none.
+    # The application's first vote reads, then stores with the next pair, in a transaction;
+    # once its study's rules are known, a vote is one statement, in autocommit.
+    assert on_driver == ["SELECT", "WITH", "WITH", "WITH", "WITH"], on_driver
+    assert len(transactions) == 1
     assert seen == [], seen
+    with app.app_context():
+        stored = db.session.scalars(sa.select(Vote).order_by(Vote.id)).all()
+        assert [(v.trial_id, v.choice, v.plays) for v in stored] == [
+            (first_trial, "left", 1),
+            (second.json["vote"]["trial_id"], "right", 1),
+        ]
+        person = db.session.scalar(sa.select(Participant))
+        assert person.last_seen_at >= stored[-1].voted_at
 
 
 def test_a_lost_database_connection_on_the_driver_path_is_a_503(app, joined, monkeypatch):
@@ -251,9 +282,11 @@ def test_the_vote_that_finishes_a_participant_stays_on_the_driver(
         # The page fetched by current_trial() is the session's; the vote is the driver's.
         assert seen == [], seen
     assert answer is not None and answer.json["answered"] == answer.json["total"]
-    # The last vote: read, store, ask for a failed check, mark finished (and give the list
-    # slot back, for the participant the report leaves out).
-    assert on_driver == ["SELECT", "WITH", "SELECT", "UPDATE" if attentive else "WITH"]
+    # The last vote: the one statement (the study's rules are known by then) leaves
+    # finishing to the transaction: read, store, ask for a failed check, mark finished (and
+    # give the list slot back, for the participant the report leaves out).
+    finish = "UPDATE" if attentive else "WITH"
+    assert on_driver == ["WITH", "SELECT", "WITH", "SELECT", finish], on_driver
     assert orm_calls == []
     with app.app_context():
         person = db.session.scalar(sa.select(Participant))
@@ -332,3 +365,145 @@ def test_the_answer_carries_the_next_pair_as_its_trial_page_shows_it(
     # Only the resent last vote of a participant left out for a missed check (answered
     # "left" whatever the clip said) takes the ORM path: they are dropped by then.
     assert len(orm_calls) <= (catch_kind == "onscreen")
+
+
+def _primed(app, joined) -> int:
+    """The participant's first vote, which gives the application its study's rules (PostgreSQL
+    only); the trial after it."""
+    if not app.config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql"):
+        pytest.skip("the vote in one statement is PostgreSQL's")
+    first = joined.vote(joined.current_trial(), "left")
+    assert first.status_code == 201
+    return first.json["next_trial"]["trial_id"]
+
+
+def _votes(app) -> list[tuple[int, str, int]]:
+    with app.app_context():
+        return [
+            (v.trial_id, v.choice, v.plays)
+            for v in db.session.scalars(sa.select(Vote).order_by(Vote.id))
+        ]
+
+
+def test_rules_changed_since_the_last_vote_are_the_studys_own(app, joined, monkeypatch):
+    trial = _primed(app, joined)
+    with app.app_context():
+        db.session.scalar(sa.select(Study)).allow_undecided = False
+        db.session.commit()
+    on_driver = _on_driver(monkeypatch)
+    refused = joined.vote(trial, "undecided")
+    # Accepted by the rules the application knew, so tried in one statement, which stored
+    # nothing: the study's rules are not those; the transaction's path refuses it.
+    assert refused.status_code == 400 and refused.json["error"].startswith("choice")
+    assert on_driver == ["WITH", "SELECT"]
+    assert len(_votes(app)) == 1
+    on_driver.clear()
+    stored = joined.vote(trial, "left")
+    assert stored.status_code == 201 and stored.json["answered"] == 2
+    assert on_driver == ["WITH", "SELECT", "WITH"]  # stored by the transaction, which learns
+    on_driver.clear()
+    assert joined.vote(stored.json["next_trial"]["trial_id"], "right").status_code == 201
+    assert on_driver == ["WITH"]  # the new rules are known
+    assert len(_votes(app)) == 3
+
+
+def test_a_closed_study_refuses_the_vote_the_last_rules_accept(app, joined, monkeypatch):
+    trial = _primed(app, joined)
+    with app.app_context():
+        db.session.scalar(sa.select(Study)).status = "closed"
+        db.session.commit()
+    on_driver = _on_driver(monkeypatch)
+    refused = joined.vote(trial, "left")
+    assert refused.status_code == 409 and refused.json["closed"] is True
+    assert on_driver == ["WITH", "SELECT"]
+    assert len(_votes(app)) == 1
+
+
+def test_the_servers_play_count_wins_over_the_pages_in_one_statement_too(app, joined, monkeypatch):
+    trial = _primed(app, joined)
+    for _ in range(2):
+        played = joined.client.post(
+            "/api/v1/plays", json={"token": joined.token, "trial_id": trial}
+        )
+        assert played.status_code == 200
+    on_driver = _on_driver(monkeypatch)
+    counted = joined.vote(trial, "left", plays=1)
+    assert counted.status_code == 201 and counted.json["vote"]["plays"] == 2
+    assert on_driver == ["WITH", "SELECT", "WITH"]  # the page's count was not the server's
+    following = counted.json["next_trial"]["trial_id"]
+    assert (
+        joined.client.post(
+            "/api/v1/plays", json={"token": joined.token, "trial_id": following}
+        ).status_code
+        == 200
+    )
+    on_driver.clear()
+    same = joined.vote(following, "right", plays=1)
+    assert same.status_code == 201 and same.json["vote"]["plays"] == 1
+    assert on_driver == ["WITH"]
+    assert [plays for *_, plays in _votes(app)] == [1, 2, 1]
+
+
+def test_a_vote_committed_while_the_statement_waited_is_counted(app, joined, monkeypatch):
+    """A vote of the same participant's, committed while the one statement waited for their
+    row, is missing from that statement's snapshot: it stores nothing, and the transaction's
+    path counts both."""
+    import threading
+    import time
+
+    import psycopg
+
+    from app.models import Trial
+
+    trial = _primed(app, joined)
+    with app.app_context():
+        person = db.session.scalar(sa.select(Participant))
+        other = db.session.scalar(
+            sa.select(Trial.id)
+            .where(Trial.participant_id == person.id, Trial.kind != "practice")
+            .order_by(Trial.position.desc())
+            .limit(1)
+        )
+        dsn = db.engine.url.set(drivername="postgresql").render_as_string(hide_password=False)
+    assert other != trial
+    on_driver = _on_driver(monkeypatch)
+    answers = []
+    with psycopg.connect(dsn) as blocker, psycopg.connect(dsn, autocommit=True) as watcher:
+        # Another request of theirs, holding their row: marked seen, its vote inserted.
+        blocker.execute("SELECT id FROM participant WHERE id = %s FOR UPDATE", (person.id,))
+        blocker.execute("UPDATE participant SET last_seen_at = now() WHERE id = %s", (person.id,))
+        blocker.execute(
+            "INSERT INTO vote (participant_id, trial_id, idempotency_key, choice, plays, "
+            "voted_at) VALUES (%s, %s, 'the-other-request', 'left', 1, now())",
+            (person.id, other),
+        )
+        voter = threading.Thread(target=lambda: answers.append(joined.vote(trial, "right")))
+        voter.start()
+        for _ in range(200):  # until the vote's statement waits for the row
+            waiting = watcher.execute(
+                "SELECT count(*) FROM pg_stat_activity WHERE wait_event_type = 'Lock'"
+            ).fetchone()[0]
+            if waiting:
+                break
+            time.sleep(0.02)
+        assert waiting, "the vote never waited for the participant's row"
+        blocker.commit()
+        voter.join(10)
+    (answer,) = answers
+    assert answer.status_code == 201 and answer.json["answered"] == 3
+    assert answer.json["next_trial"]["trial_id"] not in (trial, other)
+    assert on_driver == ["WITH", "SELECT", "WITH"]
+    assert sorted(t for t, *_ in _votes(app))[1:] == sorted([trial, other])
+
+
+def test_a_stop_rule_for_attention_checks_keeps_the_transaction(app, participant, web, monkeypatch):
+    study_id = web.study(design="all_ordered", catch=2, extra="[attention]\nmax_failed = 1\n")
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    participant.join(slug)
+    trial = _primed(app, participant)
+    on_driver = _on_driver(monkeypatch)
+    assert participant.vote(trial, "left").status_code == 201
+    # Never the one statement: a missed check may end the session, which the transaction's
+    # path (or the session's, for a missed check) decides.
+    assert on_driver[:1] == ["SELECT"], on_driver
