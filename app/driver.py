@@ -69,10 +69,12 @@ def _numbered(dialect: sa.Dialect) -> sa.Dialect:
     placeholders on every execution once the query is over 4 KB (it caches shorter ones),
     which was a third of a vote's CPU in the load benchmark's profile once the vote was one
     statement of 5 KB. A copy, so that everything else the engine's dialect learnt of the
-    server compiles the same."""
+    server compiles the same, with a preparer of its own (the engine's doubles every ``%`` for
+    psycopg's placeholders, which a raw cursor would send doubled)."""
     numbered = copy.copy(dialect)
     numbered.paramstyle = "numeric_dollar"
     numbered.positional = True
+    numbered.identifier_preparer = numbered.preparer(numbered)
     return numbered
 
 
@@ -180,7 +182,7 @@ def autocommitted(statement: Any, values: Mapping[str, Any]) -> Any:
     """Run the Core ``statement`` alone, in autocommit (its own transaction, committed by
     PostgreSQL when it ends), on a connection from the engine's pool: the row it returns, if
     any. One round trip where :func:`transaction` takes three (BEGIN, the statement,
-    COMMIT), which the load benchmark measured at a third of a vote's PostgreSQL CPU; for a
+    COMMIT), which in a bare psycopg loop took a quarter of a vote's PostgreSQL CPU; for a
     statement whose every outcome may stand committed. The connection goes back to the pool
     out of autocommit, or is dropped."""
     engine = db.engine
@@ -188,15 +190,15 @@ def autocommitted(statement: Any, values: Mapping[str, Any]) -> Any:
         raw = engine.raw_connection()
     except psycopg.Error as exc:
         raise _as_sqlalchemy(exc, None) from exc
-    found = _compiled(statement, engine.dialect)
     conn = raw.driver_connection
-    cursor = None
+    found = cursor = None
     try:
+        found = _compiled(statement, engine.dialect)
         conn.autocommit = True
         cursor = _cursor(raw)
         return execute(cursor, found, values)
     except BaseException as exc:
-        failed = _failed(engine, raw, exc, cursor, found.sql)
+        failed = _failed(engine, raw, exc, cursor, found.sql if found else None)
         if failed is exc:
             raise
         raise failed from exc

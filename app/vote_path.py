@@ -35,9 +35,13 @@ vote's PostgreSQL CPU by a quarter and the driver's by half. That statement stor
 only where the facts it reads are those the checks were given (the study's rules, the
 participant still taking part, the trial theirs, the page's play count the server's, not the
 last vote, no vote of theirs committed while it waited for their row); otherwise it stores
-nothing and the transaction decides, with the study's own facts. A server running one study
-at a time thus takes the transaction for the first vote after a start, the last vote of each
-participant, and votes racing on one participant's row.
+nothing (but, where it was accepted and met a key of another trial, the sign of life) and the
+transaction decides, with the study's own facts. A server running one study at a time thus
+takes the transaction for the first vote of each process, the last vote of each participant,
+a vote whose play count the page and the server disagree on, votes racing on one
+participant's row, and every vote of a study with a stop rule for attention checks (a missed
+one may end the session). Its processes keep one study's rules each: a server running studies
+with other rules at once pays a round trip more whenever the study changes.
 
 On the session's path (SQLite's), the vote that completes the schedule marks the participant
 finished (one more UPDATE), in the same transaction; where the report leaves them out for a
@@ -417,8 +421,8 @@ def _cast_at_once(
     token: str, trial_id: int, payload: dict[str, Any]
 ) -> CastVote | Literal["orm"] | None:
     """The usual vote in one statement, in autocommit (:func:`_at_once`), where the rules of
-    the study of this application's last vote on the driver (a server runs one study, or a
-    few, at a time) accept it: its fields come from the same functions as on the other paths
+    the study of this application's last vote on the driver (a server usually runs one study
+    at a time) accept it: its fields come from the same functions as on the other paths
     (:func:`app.voting.check_open`, :func:`app.voting.vote_fields`) on those rules, and the
     statement stores it only where the facts it reads are the facts those functions were given
     (:func:`_at_once` lists them), which makes the stored vote the one the other paths would
@@ -474,9 +478,11 @@ def _at_once() -> sa.Select[Any]:
       as :func:`app.voting.vote_fields` counts it;
     - the vote is not the participant's last (finishing them is the transaction's path);
     - no vote of the participant's committed while the statement waited for their row: the
-      row as locked is the row in the statement's snapshot (``xmin``), since every
-      transaction that stores a vote marks its participant seen. Otherwise the counts and
-      the next pair, read in that snapshot, would miss it.
+      row as locked is the row in the statement's snapshot (``xmin``). Every transaction that
+      stores a vote of a participant not dropped marks them seen, so changes that row (the
+      transaction's path, this statement, :func:`app.enrolment.touch` on the ORM's path);
+      only one of a dropped participant may not, and a dropped participant is not accepted
+      here. Otherwise the counts and the next pair, read in that snapshot, would miss it.
     """
     facts = (
         _facts()

@@ -155,3 +155,31 @@ def test_a_lost_connection_under_an_autocommitted_statement_leaves_the_pool(pg_a
             driver.autocommitted(INSERT, {"email": "lost@example.org", "at": AT})
         assert driver.autocommitted(pid, {}).pid != backend  # a live connection again
     assert _emails(pg_app) == []
+
+
+def test_a_percent_sign_reaches_postgresql_as_it_is(pg_app):
+    statement = sa.select(
+        (sa.bindparam("a", type_=sa.Integer) % 3).label("rest"),
+        sa.literal_column("'5%'").label("share"),
+    )
+    with pg_app.app_context():
+        assert "%%" not in driver.compiled(statement).sql
+        assert driver.autocommitted(statement, {"a": 7}) == (1, "5%")
+        with driver.transaction() as tx:
+            assert tx.run(statement, {"a": 8}) == (2, "5%")
+
+
+def test_an_autocommitted_statement_that_fails_to_compile_gives_its_connection_back(
+    pg_app, monkeypatch
+):
+    def broken(statement, dialect):
+        raise sa.exc.CompileError("a statement the dialect cannot write")
+
+    with pg_app.app_context():
+        monkeypatch.setattr(driver, "_compiled", broken)
+        with pytest.raises(sa.exc.CompileError):
+            driver.autocommitted(INSERT, {"email": "never@example.org", "at": AT})
+        assert db.engine.pool.checkedout() == 0
+        monkeypatch.undo()
+        assert driver.autocommitted(INSERT, {"email": "after@example.org", "at": AT}) is not None
+    assert _emails(pg_app) == ["after@example.org"]

@@ -9,6 +9,7 @@ import sqlalchemy as sa
 from app import voting
 from app.extensions import db
 from app.models import Participant, Study, Vote
+from tests.api.test_views import MEDIA  # a media log of every field
 
 
 @pytest.fixture
@@ -235,12 +236,17 @@ def test_the_drivers_vote_is_stored_as_the_sessions_is(app, joined, monkeypatch)
     monkeypatch.setattr(driver, "available", lambda: False)  # the session's path
     by_session = joined.current_trial()
     assert joined.vote(by_session, "left", key="by-the-session").status_code == 201
+    _stored_alike(app, by_driver, by_session)
+
+
+def _stored_alike(app, one: int, other: int) -> None:
+    """The votes on trials ``one`` and ``other`` are stored alike, column by column, in the
+    stored form itself (a JSON null and an SQL NULL read back differently), but for their
+    keys and times, which differ by design."""
     columns = [c.name for c in Vote.__table__.columns if c.name not in ("id", "trial_id")]
     with app.app_context():
-        rows = {}
-        for trial in (by_driver, by_session):
-            # The stored form itself: a JSON null and an SQL NULL read back alike.
-            rows[trial] = db.session.execute(
+        rows = [
+            db.session.execute(
                 sa.text(
                     "SELECT "
                     + ", ".join(f"{c}::text IS NULL, {c}::text" for c in columns)
@@ -248,10 +254,11 @@ def test_the_drivers_vote_is_stored_as_the_sessions_is(app, joined, monkeypatch)
                 ),
                 {"trial": trial},
             ).one()
-    same = {"idempotency_key", "voted_at"}  # differ by design
+            for trial in (one, other)
+        ]
     for i, name in enumerate(columns):
-        if name not in same:
-            assert rows[by_driver][2 * i : 2 * i + 2] == rows[by_session][2 * i : 2 * i + 2], name
+        if name not in ("idempotency_key", "voted_at"):
+            assert rows[0][2 * i : 2 * i + 2] == rows[1][2 * i : 2 * i + 2], name
 
 
 @pytest.mark.parametrize("attentive", [True, False], ids=["attentive", "left-out"])
@@ -481,7 +488,8 @@ def test_a_vote_committed_while_the_statement_waited_is_counted(app, joined, mon
         voter.start()
         for _ in range(200):  # until the vote's statement waits for the row
             waiting = watcher.execute(
-                "SELECT count(*) FROM pg_stat_activity WHERE wait_event_type = 'Lock'"
+                "SELECT count(*) FROM pg_stat_activity WHERE wait_event_type = 'Lock' "
+                "AND datname = current_database()"
             ).fetchone()[0]
             if waiting:
                 break
@@ -507,3 +515,53 @@ def test_a_stop_rule_for_attention_checks_keeps_the_transaction(app, participant
     # Never the one statement: a missed check may end the session, which the transaction's
     # path (or the session's, for a missed check) decides.
     assert on_driver[:1] == ["SELECT"], on_driver
+
+
+FIVE_LEVELS = '[answer]\nscale = 5\nreasons = ["lips", "head"]\n'
+
+
+def test_the_vote_in_one_statement_is_stored_as_the_transactions_is(
+    app, participant, web, monkeypatch
+):
+    study_id = web.study(design="all_ordered", extra=FIVE_LEVELS)
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    participant.join(slug)
+    if not app.config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql"):
+        pytest.skip("the vote in one statement is PostgreSQL's")
+    on_driver = _on_driver(monkeypatch)
+    answer = {"strength": 2, "reasons": ["head", "lips"], "media": MEDIA}
+    by_transaction = participant.current_trial()
+    first = participant.vote(by_transaction, "right", key="by-the-transaction", **answer)
+    at_once = first.json["next_trial"]["trial_id"]
+    second = participant.vote(at_once, "right", key="in-one-statement", **answer)
+    assert first.status_code == second.status_code == 201
+    assert second.json["vote"] == {**first.json["vote"], "trial_id": at_once}
+    assert on_driver == ["SELECT", "WITH", "WITH"]
+    _stored_alike(app, at_once, by_transaction)
+
+
+def test_a_dropped_or_screened_out_participant_is_not_voted_for_in_one_statement(
+    app, joined, monkeypatch, orm_calls
+):
+    trial = _primed(app, joined)
+    on_driver = _on_driver(monkeypatch)
+    for column in ("dropped_at", "screened_out_at"):
+        with app.app_context():
+            person = db.session.scalar(sa.select(Participant))
+            setattr(person, column, person.consented_at)
+            db.session.commit()
+        on_driver.clear()
+        answer = joined.vote(trial, "left")
+        assert on_driver == ["WITH"], column  # read, nothing stored: the ORM's path decides
+        assert len(orm_calls) == 1
+        orm_calls.clear()
+        if column == "screened_out_at":
+            assert answer.status_code == 409 and answer.json["closed"] is True
+        with app.app_context():
+            person = db.session.scalar(sa.select(Participant))
+            setattr(person, column, None)
+            db.session.commit()
+    with app.app_context():
+        # The first vote, and the dropped participant's, stored on rejoining (the ORM's way).
+        assert db.session.scalar(sa.select(sa.func.count(Vote.id))) == 2
