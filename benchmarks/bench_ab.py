@@ -22,6 +22,7 @@ import argparse
 import asyncio
 import os
 import secrets
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -143,6 +144,8 @@ class Build:
         self.server.terminate()
         self.server.wait(timeout=30)
         self.drop(admin)
+        if sys.exc_info()[0] is None:  # a failed run keeps its server's log
+            shutil.rmtree(self.media, ignore_errors=True)
 
     def drop(self, admin: Any) -> None:
         admin.execute(f'DROP DATABASE IF EXISTS "{self.database}" WITH (FORCE)')

@@ -41,6 +41,7 @@ import json
 import os
 import re
 import secrets
+import shutil
 import subprocess
 import sys
 import threading
@@ -567,7 +568,11 @@ def main() -> int:
     )
     parser.add_argument("--workers", type=int, default=4, help="gunicorn worker processes")
     parser.add_argument("--port", type=int, default=5077)
-    parser.add_argument("--keep", action="store_true", help="keep the database afterwards")
+    parser.add_argument(
+        "--keep",
+        action="store_true",
+        help="keep the database and its media folder (with the servers' logs) afterwards",
+    )
     args = parser.parse_args()
     try:
         counts = participant_counts(args.participants)
@@ -635,6 +640,8 @@ def main() -> int:
             stop_server(server)
         if not args.keep:
             admin.execute(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
+            if sys.exc_info()[0] is None:  # a failed run keeps its servers' logs
+                shutil.rmtree(media, ignore_errors=True)
         admin.close()
 
 
