@@ -69,7 +69,7 @@ def post_vote():  # type: ignore[no-untyped-def]
     if isinstance(payload, str):
         return _error(payload, 400)
     try:
-        # The usual case in two statements (app.vote_path); anything else, the ORM's way.
+        # The usual case in one or two statements (app.vote_path); anything else, the ORM's way.
         outcome: CastVote | VoteOutcome | None = cast(payload)
         if outcome is None:
             db.session.rollback()
