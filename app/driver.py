@@ -26,7 +26,7 @@ from collections import namedtuple
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from functools import cache
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, NoReturn
 
 import psycopg
 import sqlalchemy as sa
@@ -67,8 +67,8 @@ def _numbered(dialect: sa.Dialect) -> sa.Dialect:
     """``dialect`` writing PostgreSQL's numbered placeholders (``$1``), which a
     :class:`psycopg.RawCursor` sends as they are: psycopg parses a query's ``%(name)s``
     placeholders on every execution once the query is over 4 KB (it caches shorter ones),
-    which was a third of a vote's CPU in the load benchmark's profile once the vote was one
-    statement of 5 KB. A copy, so that everything else the engine's dialect learnt of the
+    which was a third of the vote view's CPU in the load benchmark's profile once the vote was
+    one statement of 5 KB. A copy, so that everything else the engine's dialect learnt of the
     server compiles the same, with a preparer of its own (the engine's doubles every ``%`` for
     psycopg's placeholders, which a raw cursor would send doubled)."""
     numbered = copy.copy(dialect)
@@ -126,10 +126,9 @@ def execute(cursor: Any, statement: DriverSQL, values: Mapping[str, Any]) -> Any
 
 def _cursor(raw: Any) -> Any:
     """A raw cursor (numbered placeholders: :func:`_numbered`) on the pooled connection
-    ``raw``, made once per driver connection and kept in
-    the pool's record of it (creating one was a fiftieth of a vote's CPU in the load
-    benchmark's profile); the record's ``info`` is cleared when its connection is closed or
-    invalidated, so a new connection makes its own."""
+    ``raw``, made once per driver connection and kept in the pool's record of it (creating one
+    was a fiftieth of a vote's CPU in the load benchmark's profile); the record's ``info`` is
+    cleared when its connection is closed or invalidated, so a new connection makes its own."""
     kept = raw.info.get("driver_cursor")
     if kept is None:
         kept = raw.info["driver_cursor"] = psycopg.RawCursor(raw.driver_connection)
@@ -163,8 +162,10 @@ def _as_sqlalchemy(exc: psycopg.Error, statement: str | None) -> sa.exc.DBAPIErr
     )
 
 
-def _failed(engine: sa.Engine, raw: Any, exc: BaseException, cursor: Any, sql: str | None) -> Any:
-    """What a failed use of the pooled connection ``raw`` raises: a driver error as
+def _failed(
+    engine: sa.Engine, raw: Any, exc: BaseException, cursor: Any, sql: str | None
+) -> NoReturn:
+    """Raise for a failed use of the pooled connection ``raw``: a driver error as
     SQLAlchemy's, the connection invalidated if lost; anything else as it is, the connection
     invalidated if interrupted (perhaps mid-statement)."""
     if isinstance(exc, psycopg.Error):
@@ -172,10 +173,10 @@ def _failed(engine: sa.Engine, raw: Any, exc: BaseException, cursor: Any, sql: s
             # Lost: never handed out again (the pool's other connections are pinged once
             # idle for a second; one used sooner answers 503 once, and the vote is resent).
             raw.invalidate(exc)
-        return _as_sqlalchemy(exc, sql)
+        raise _as_sqlalchemy(exc, sql) from exc
     if not isinstance(exc, Exception):
         raw.invalidate(exc)
-    return exc
+    raise exc
 
 
 def autocommitted(statement: Any, values: Mapping[str, Any]) -> Any:
@@ -198,10 +199,7 @@ def autocommitted(statement: Any, values: Mapping[str, Any]) -> Any:
         cursor = _cursor(raw)
         return execute(cursor, found, values)
     except BaseException as exc:
-        failed = _failed(engine, raw, exc, cursor, found.sql if found else None)
-        if failed is exc:
-            raise
-        raise failed from exc
+        _failed(engine, raw, exc, cursor, found.sql if found else None)
     finally:
         if raw.dbapi_connection is not None and conn.autocommit:
             try:
@@ -225,10 +223,7 @@ def transaction() -> Iterator[Transaction]:
         tx = Transaction(raw, engine.dialect)
         yield tx
     except BaseException as exc:
-        failed = _failed(engine, raw, exc, tx.cursor if tx else None, tx.last if tx else None)
-        if failed is exc:
-            raise
-        raise failed from exc
+        _failed(engine, raw, exc, tx.cursor if tx else None, tx.last if tx else None)
     finally:
         if (tx is None or not tx.committed) and raw.dbapi_connection is not None:
             try:

@@ -151,12 +151,11 @@ def _vote_values() -> dict[str, Any]:
     return {name: sa.bindparam(name, type_=V.c[name].type) for name in VOTE_COLUMNS}
 
 
-def _counts(inserted: Any = None, participant: Any = None) -> tuple[Any, Any]:
-    """(answered, total) over the participant's trials (the bound ``participant_id``, or
-    ``participant``); ``inserted`` adds a CTE's rows (its statement's snapshot does not hold
-    them)."""
+def _counts(inserted: Any = None) -> tuple[Any, Any]:
+    """(answered, total) over the participant's trials; ``inserted`` adds a CTE's rows (its
+    statement's snapshot does not hold them)."""
     answered: Any
-    answered, total = progress_counts(participant)
+    answered, total = progress_counts()
     if inserted is not None:
         answered = answered + sa.select(sa.func.count()).select_from(inserted).scalar_subquery()
     return answered.label("answered"), total.label("total")
@@ -411,10 +410,20 @@ _LAST_RULES = "facepair.vote_rules"
 _ANY_TRIAL = _TrialFacts(0, "trial", 0)
 
 
+#: The study's columns a vote in one statement compares with its rules (:class:`StudyRules`;
+#: ``settings`` as its text).
+_COMPARED = ("status", "allow_undecided", "replay", "max_plays", "settings_text")
+
+
 def _remember_rules(facts: Any) -> None:
-    current_app.extensions[_LAST_RULES] = StudyRules(
-        *(getattr(facts, f) for f in StudyRules._fields)
-    )
+    """Keep the rules of ``facts``'s study for the next vote, unless they hold a stop rule for
+    attention checks (a missed one may end the session, which the transaction decides)."""
+    if participation(facts).max_failed:
+        current_app.extensions.pop(_LAST_RULES, None)
+    else:
+        current_app.extensions[_LAST_RULES] = StudyRules(
+            *(getattr(facts, f) for f in StudyRules._fields)
+        )
 
 
 def _cast_at_once(
@@ -426,10 +435,10 @@ def _cast_at_once(
     (:func:`app.voting.check_open`, :func:`app.voting.vote_fields`) on those rules, and the
     statement stores it only where the facts it reads are the facts those functions were given
     (:func:`_at_once` lists them), which makes the stored vote the one the other paths would
-    store. None where there are no such rules, they refuse the vote, they hold a stop rule for
-    attention checks (a missed one may end the session), or the statement stored nothing for a
-    reason the transaction's path settles; "orm" for an unknown token or a participant
-    screened out or dropped."""
+    store. None where there are no such rules (none are kept for a study with a stop rule for
+    attention checks: :func:`_remember_rules`), they refuse the vote, or the statement stored
+    nothing for a reason the transaction's path settles; "orm" for an unknown token or a
+    participant screened out or dropped."""
     rules = current_app.extensions.get(_LAST_RULES)
     if rules is None:
         return None
@@ -438,8 +447,6 @@ def _cast_at_once(
         guessed = vote_fields(rules, _ANY_TRIAL, 0, payload)
     except VoteRejected:
         return None  # the study's own rules decide, in the transaction's path
-    if participation(rules).max_failed:
-        return None
     now = utcnow()
     values = dict.fromkeys(VOTE_COLUMNS)
     values.update(guessed, token=token, trial_id=trial_id, voted_at=now, now=now)
@@ -454,11 +461,6 @@ def _cast_at_once(
         return None  # the key is another trial's, or a concurrent request stored the vote
     answered, total = int(facts.answered), int(facts.total)
     return CastVote(vote, facts.inserted_id is not None, answered, total, _upcoming_of(facts))
-
-
-#: The study's columns a vote in one statement compares with its rules (:class:`StudyRules`;
-#: ``settings`` as its text).
-_COMPARED = ("status", "allow_undecided", "replay", "max_plays", "settings_text")
 
 
 @cache
@@ -484,9 +486,15 @@ def _at_once() -> sa.Select[Any]:
       only one of a dropped participant may not, and a dropped participant is not accepted
       here. Otherwise the counts and the next pair, read in that snapshot, would miss it.
     """
+    # In the snapshot, without this vote; on the participant alone (the trial is in the row).
+    before, total = (count.correlate(P) for count in progress_counts(P.c.id))
     facts = (
         _facts()
-        .add_columns(sa.literal_column("participant.xmin::text").label("locked"))
+        .add_columns(
+            sa.literal_column("participant.xmin::text").label("locked"),
+            before.label("answered_before"),
+            total.label("total"),
+        )
         .cte("facts")
     )
     snap = P.alias("snap")
@@ -495,7 +503,6 @@ def _at_once() -> sa.Select[Any]:
         .where(snap.c.id == facts.c.id)
         .scalar_subquery()
     )
-    answered, total = _counts(participant=facts.c.id)
     plays = sa.bindparam("plays", type_=V.c.plays.type)
     rules = [
         getattr(facts.c, name).is_not_distinct_from(
@@ -513,16 +520,15 @@ def _at_once() -> sa.Select[Any]:
             facts.c.trial_id.is_not(None),
             facts.c.kind != "practice",
             sa.func.coalesce(sa.func.nullif(facts.c.plays, 0), plays) == plays,
-            answered + 1 < total,
+            facts.c.answered_before + 1 < facts.c.total,
             facts.c.locked == snapshot,
         )
         .cte("accepted")
     )
-    computed = {"participant_id": accepted.c.id, "trial_id": accepted.c.trial_id}
-    row = [computed.get(name, sa.bindparam(name, type_=V.c[name].type)) for name in VOTE_COLUMNS]
+    row = {**_vote_values(), "participant_id": accepted.c.id, "trial_id": accepted.c.trial_id}
     inserted = (
         postgresql.insert(V)
-        .from_select(list(VOTE_COLUMNS), sa.select(*row))
+        .from_select(list(VOTE_COLUMNS), sa.select(*(row[name] for name in VOTE_COLUMNS)))
         .on_conflict_do_nothing()
         .returning(V.c.id)
         .cte("inserted")
@@ -536,11 +542,12 @@ def _at_once() -> sa.Select[Any]:
         .cte("seen")
     )
     following = upcoming(besides=True, participant=who).subquery("following")
+    added = sa.select(sa.func.count()).select_from(inserted).scalar_subquery()
     return sa.select(
         *facts.c,
         sa.exists(sa.select(accepted.c.id)).label("accepted"),
         sa.select(inserted.c.id).scalar_subquery().label("inserted_id"),
         sa.select(sa.func.count()).select_from(seen).scalar_subquery().label("seen"),
-        *_counts(inserted, who),
+        (facts.c.answered_before + added).label("answered"),
         *(c.label(f"next_{c.name}") for c in following.c),
     ).select_from(facts.outerjoin(following, sa.true()))
