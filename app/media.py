@@ -21,6 +21,7 @@ them (the check is the view's and the same for every backend):
 from __future__ import annotations
 
 import posixpath
+import re
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -175,12 +176,16 @@ def media_response(
     mimetype: str | None = None,
     cache_seconds: int = 0,
     headers: dict[str, str] | None = None,
+    download_name: str | None = None,
 ) -> Response:
     """Answer with the study's file ``rel`` through the configured backend; the caller has
     already checked that the asker may have it. 404 when there is no such file.
 
     ``cache_seconds`` is how long the browser may keep the bytes (``private``: never a shared
     cache); ``headers`` go on the answer that carries the bytes (the local and accel ones).
+    ``download_name`` is the file name the browser is told (``Content-Disposition: inline``,
+    on every backend); without it the stored name is told, which a participant's clip must
+    never be (docs/web.md, "Blinding").
     """
     if not rel:
         abort(404)
@@ -196,6 +201,8 @@ def media_response(
             params["ResponseContentType"] = mimetype
         if cache_seconds:
             params["ResponseCacheControl"] = f"private, max-age={cache_seconds}"
+        if download_name:
+            params["ResponseContentDisposition"] = _inline(download_name)
         url = s3_client(public=True).generate_presigned_url(
             "get_object", Params=params, ExpiresIn=int(current_app.config["MEDIA_URL_TTL"])
         )
@@ -216,14 +223,30 @@ def media_response(
         response.headers["X-Accel-Redirect"] = (
             f"{prefix}/{quote(path.relative_to(root).as_posix())}"
         )
+        if download_name:
+            # nginx passes the upstream's Content-Disposition on with the file it serves.
+            response.headers["Content-Disposition"] = _inline(download_name)
     else:
         # Range requests (conditional) let the browser seek and replay without refetching.
-        response = send_file(path, mimetype=mimetype, conditional=True, max_age=cache_seconds)
+        response = send_file(
+            path,
+            mimetype=mimetype,
+            conditional=True,
+            max_age=cache_seconds,
+            download_name=download_name,
+        )
     response.headers["Cache-Control"] = (
         f"private, max-age={cache_seconds}" if cache_seconds else "no-cache"
     )
     response.headers.update(headers or {})
     return response
+
+
+def _inline(name: str) -> str:
+    """``inline; filename="name"`` for a plain ASCII file name (the callers' names are)."""
+    if not re.fullmatch(r"[A-Za-z0-9._-]{1,80}", name):
+        raise ValueError(f"{name!r}: not a plain file name")
+    return f'inline; filename="{name}"'
 
 
 def _guess_type(path: Path) -> str:

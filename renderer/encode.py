@@ -5,6 +5,8 @@ up front so playback starts before the download ends), frame sizes divisible by 
 length is the track length: the audio is padded with silence (``apad``) and the output is cut
 at ``n_frames / fps`` (``-t``), so a short recording never ends the video early and a long one
 never lengthens it (``-shortest`` alone can die on a broken pipe when the audio is short).
+No input's metadata is copied (``-map_metadata -1``): the clip carries ffmpeg's own stream
+handler names and nothing else a participant could read a condition from.
 
 Frames are written to ffmpeg's stdin by a writer thread, so GL rendering (the caller's thread)
 and encoding (ffmpeg's process) overlap on two cores.
@@ -107,6 +109,12 @@ class ClipWriter:
                 "1",
             ]
         cmd += [
+            # Nothing of the inputs' tags (an audio file's title or handler name) reaches the
+            # clip a participant receives: its metadata may name what a condition is.
+            "-map_metadata",
+            "-1",
+            "-map_chapters",
+            "-1",
             "-c:v",
             "libx264",
             "-threads",

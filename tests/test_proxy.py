@@ -2,6 +2,7 @@
 participant's clip arrives through X-Accel-Redirect, whole and by range; another
 participant's clip and the internal location itself are refused from outside."""
 
+import re
 import shutil
 import socket
 import subprocess
@@ -96,6 +97,10 @@ def test_nginx_delivers_the_checked_clip_and_refuses_the_rest(live_server, proxy
     assert headers["Content-Type"] == "video/mp4"
     assert "X-Accel-Redirect" not in headers  # nginx acted on it, the browser never sees it
     assert headers["Cache-Control"].startswith("private")
+    # The name the browser is told is the pair's place, never the stored file's (blinding).
+    assert re.fullmatch(
+        r'inline; filename="(pair-\d\d|practice)\.mp4"', headers["Content-Disposition"]
+    )
 
     status, headers, body = _get(f"{proxy}/p/{me.token}/video/{mine[0]}", Range="bytes=0-99")
     assert status == 206 and body == expected[:100]

@@ -7,6 +7,8 @@ the application.
 
 from __future__ import annotations
 
+import hashlib
+import hmac
 import logging
 import math
 import re
@@ -16,6 +18,7 @@ from contextlib import contextmanager
 from typing import Any
 
 import sqlalchemy as sa
+from flask import current_app
 from sqlalchemy.exc import SQLAlchemyError
 
 from app import media
@@ -163,7 +166,7 @@ def render_stimulus(
 
     root = media_dir(study)
     settings = renderer.RenderSettings(**study.settings.get("render", {}))
-    rel = f"videos/{stim.clip.name}/{stim.left.name}__{stim.right.name}{_variant(stim)}.mp4"
+    rel = clip_file(study, stim)
     (root / rel).parent.mkdir(parents=True, exist_ok=True)
     left, right = (
         load_track(media.fetch(study, tracks[(condition, clip)]))
@@ -235,11 +238,15 @@ def _track_keys(stim: Stimulus) -> list[tuple[int, int]]:
     return [(stim.left_id, clips[0]), (stim.right_id, clips[1])]
 
 
-def _variant(stim: Stimulus) -> str:
-    """The file-name suffix of an attention-check or appropriateness clip."""
-    if stim.instruction:
-        return f"__press_{stim.instruction}"
-    return f"__foreign_{stim.foreign_side}" if stim.foreign_side else ""
+def clip_file(study: Study, stim: Stimulus) -> str:
+    """The stored name of a stimulus's clip: ``videos/<20 hex digits>.mp4``, an HMAC of the
+    study and stimulus under the app's secret key. It names no condition, side, attention
+    check or mismatched side, and cannot be guessed from the stimulus's number, so neither
+    an object key, a redirect nor a proxy's path tells a participant what the clip shows
+    (docs/web.md, "Blinding"); the same stimulus keeps its name when a job is retried."""
+    key = str(current_app.config["SECRET_KEY"]).encode()
+    digest = hmac.new(key, f"clip/{study.id}/{stim.id}".encode(), hashlib.sha256).hexdigest()
+    return f"videos/{digest[:20]}.mp4"
 
 
 def build_report(study: Study, progress: Callable[[int, int], None]) -> str:
@@ -273,8 +280,6 @@ TASKS: dict[str, Callable[[Study, Callable[[int, int], None]], str]] = {
 def run_job(job_id: int, *, echo: Callable[[int, int], None] | None = None) -> str:
     """Run job ``job_id``; its row ends ``done`` with a summary or ``failed`` with the error.
     Returns the final status."""
-    from flask import current_app
-
     job = db.session.get(Job, job_id)
     if job is None:
         log.warning("job %s vanished", job_id)
@@ -460,8 +465,6 @@ def sweep_stale(study_id: int, *, stale_after: float, redis_url: str | None = No
 
 def sweep_study_jobs(study_id: int) -> int:
     """:func:`sweep_stale` with the application's settings, committed."""
-    from flask import current_app
-
     swept = sweep_stale(
         study_id,
         stale_after=current_app.config["JOB_STALE_AFTER_SECONDS"],

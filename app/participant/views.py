@@ -272,7 +272,8 @@ def video(token: str, trial_id: int):  # type: ignore[no-untyped-def]
     trial = db.session.get(Trial, trial_id)
     if trial is None or trial.participant_id != participant.id:
         abort(404)
-    return _send_video(participant.study, trial.stimulus.video_path)
+    name = "practice.mp4" if trial.kind == "practice" else f"pair-{trial.position + 1:02d}.mp4"
+    return _send_video(participant.study, trial.stimulus.video_path, name)
 
 
 @bp.get("/p/<token>/practice.mp4")
@@ -281,13 +282,16 @@ def practice_video(token: str):  # type: ignore[no-untyped-def]
     stimulus = practice_stimulus(participant)
     if stimulus is None:
         abort(404)
-    return _send_video(participant.study, stimulus.video_path)
+    return _send_video(participant.study, stimulus.video_path, "practice.mp4")
 
 
-def _send_video(study: Study, rel: str | None):  # type: ignore[no-untyped-def]
-    # The URL names no condition, so the file name cannot give the answer away; the caller
-    # checked the clip is in this participant's schedule (app.media sends it, never first).
-    return media_response(study, rel, mimetype="video/mp4", cache_seconds=CLIP_CACHE_SECONDS)
+def _send_video(study: Study, rel: str | None, name: str):  # type: ignore[no-untyped-def]
+    # Blinding: the browser is told only the pair's place in this participant's schedule,
+    # never the stored name (docs/web.md, "Blinding"); the caller checked the clip is in
+    # this participant's schedule (app.media sends it, never first).
+    return media_response(
+        study, rel, mimetype="video/mp4", cache_seconds=CLIP_CACHE_SECONDS, download_name=name
+    )
 
 
 @bp.get("/p/<token>/done")

@@ -2,6 +2,7 @@
 
 import datetime as dt
 import types
+from pathlib import Path
 
 import numpy as np
 import sqlalchemy as sa
@@ -305,7 +306,7 @@ def test_render_job_lends_the_other_clips_motion_and_draws_the_instruction(
     calls = {}
 
     def record(left, right, audio, out, *, settings, cache_dir, progress=None, caption=None):
-        calls[f"{out.parent.name}/{out.name}"] = (left, right, audio.name, caption)
+        calls[out.name] = (left, right, audio.name, caption)
         out.write_bytes(b"video")
         return out
 
@@ -321,7 +322,12 @@ def test_render_job_lends_the_other_clips_motion_and_draws_the_instruction(
         }
         stimuli = db.session.scalars(sa.select(Stimulus)).all()
         assert all(s.video_path for s in stimuli)
-    left, right, audio, caption = calls["long/calm__calm__foreign_left.mp4"]
+        foreign = {
+            (s.clip.name, s.foreign_side): Path(s.video_path).name
+            for s in stimuli
+            if s.foreign_side and s.left.name == "calm"
+        }
+    left, right, audio, caption = calls[foreign[("long", "left")]]
     assert audio == "audio.wav" and caption is None
     assert right.equals(own[("calm", "long")])
     assert left.n_frames == right.n_frames  # the short clip's motion, held to length
@@ -329,7 +335,7 @@ def test_render_job_lends_the_other_clips_motion_and_draws_the_instruction(
         left.values[: own[("calm", "short")].n_frames], own[("calm", "short")].values
     )
     # on the short clip, the long clip's motion is cut to the short clip's length
-    left, right, _audio, _caption = calls["short/calm__calm__foreign_right.mp4"]
+    left, right, _audio, _caption = calls[foreign[("short", "right")]]
     assert left.equals(own[("calm", "short")])
     assert np.array_equal(right.values, own[("calm", "long")].values[: left.n_frames])
     captions = sorted(c for _l, _r, _a, c in calls.values() if c)
