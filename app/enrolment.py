@@ -15,7 +15,6 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import sqlalchemy as sa
-from sqlalchemy import orm as so
 
 from app.extensions import db
 from app.models import (
@@ -252,36 +251,21 @@ def next_trials(participant: Participant, count: int) -> list[Trial]:
     )
 
 
-# The statements every trial page and vote runs are built once, with bound parameters: building
-# them again was a tenth of a trial page's CPU in the load benchmark's profile.
+# The statements every trial page and vote runs are built once, with bound parameters.
 
 
-def _participant(participant: Any = None) -> Any:
-    """The participant a statement is about: the bound ``participant_id``, or the expression
-    ``participant`` (a statement that finds the participant itself, :mod:`app.vote_path`)."""
-    return sa.bindparam("participant_id") if participant is None else participant
-
-
-def _without_vote(select: Any, besides: bool = False, participant: Any = None) -> Any:
-    """``select`` narrowed to the participant's trials without a vote, in order (the bound
-    ``participant_id``, or ``participant``: :func:`_participant`); with ``besides``, also
-    other than the bound ``trial_id`` (the trial voted on in the same statement, whose vote
-    that statement's snapshot does not hold).
+def _without_vote(select: Any) -> Any:
+    """``select`` narrowed to the bound ``participant_id``'s trials without a vote, in order.
 
     The votes joined are the participant's own (a trial's vote is always its participant's):
-    PostgreSQL then reads them by index, where joining on the trial alone let it scan every
-    vote of every participant (2-3 ms a statement with 28,000 votes in the load benchmark)."""
-    who = _participant(participant)
-    narrowed = select.outerjoin(
-        Vote, sa.and_(Vote.participant_id == who, Vote.trial_id == Trial.id)
-    ).where(
-        Trial.participant_id == who,
-        Trial.kind != "practice",
-        Vote.id.is_(None),
+    PostgreSQL then reads them by index, where joining on the trial alone scans every vote of
+    every participant."""
+    who = sa.bindparam("participant_id")
+    return (
+        select.outerjoin(Vote, sa.and_(Vote.participant_id == who, Vote.trial_id == Trial.id))
+        .where(Trial.participant_id == who, Trial.kind != "practice", Vote.id.is_(None))
+        .order_by(Trial.position)
     )
-    if besides:
-        narrowed = narrowed.where(Trial.id != sa.bindparam("trial_id"))
-    return narrowed.order_by(Trial.position)
 
 
 @cache
@@ -290,14 +274,13 @@ def _unanswered() -> sa.Select[tuple[Trial]]:
 
 
 @cache
-def upcoming(besides: bool = False, participant: Any = None) -> sa.Select[Any]:
+def upcoming() -> sa.Select[Any]:
     """The bound participant's next trial without a vote, as the trial page shows it: one
     row (none when every trial is answered) with what the page needs of it (its plays, kind,
     expected answer, its stimulus's on-screen instruction) and the id of the trial after it,
-    whose clip is preloaded (NULL when it is the last). Core, so a vote's own statement
-    answers with the next pair (:mod:`app.vote_path`) instead of a trial page per pair;
-    ``besides`` and ``participant`` as in :func:`_without_vote`. One pass over the
-    participant's trials: the one after comes from ``lead`` over the same rows, and the
+    whose clip is preloaded (NULL when it is the last). The vote's answer carries it
+    (:func:`app.voting.record_vote`), so the browser needs no trial page per pair. One pass
+    over the participant's trials: the one after comes from ``lead`` over the same rows, and the
     instruction is read for the one row kept."""
     pending = (
         _without_vote(
@@ -308,9 +291,7 @@ def upcoming(besides: bool = False, participant: Any = None) -> sa.Select[Any]:
                 Trial.expected,
                 Trial.stimulus_id,
                 sa.func.lead(Trial.id).over(order_by=Trial.position).label("following"),
-            ),
-            besides,
-            participant,
+            )
         )
         .limit(1)
         .subquery("pending")
@@ -341,12 +322,11 @@ def _seen() -> sa.Update:
     )
 
 
-def progress_counts(participant: Any = None) -> tuple[sa.ScalarSelect[int], sa.ScalarSelect[int]]:
-    """(answered, total) as scalar subqueries on the bound ``participant_id`` (or
-    ``participant``: :func:`_participant`): the votes, and the real and catch trials (not the
-    practice). The one definition of a participant's progress, for :func:`progress` and the
-    vote's own statements (:mod:`app.vote_path`)."""
-    who = _participant(participant)
+def progress_counts() -> tuple[sa.ScalarSelect[int], sa.ScalarSelect[int]]:
+    """(answered, total) as scalar subqueries on the bound ``participant_id``: the votes, and
+    the real and catch trials (not the practice). The one definition of a participant's
+    progress (:func:`progress`)."""
+    who = sa.bindparam("participant_id")
     answered = sa.select(sa.func.count(Vote.id)).where(Vote.participant_id == who).scalar_subquery()
     total = (
         sa.select(sa.func.count(Trial.id))
@@ -463,12 +443,14 @@ def touch(participant: Participant) -> bool:
     ).all()
     if present:
         return True
+    # The row as it is now: a concurrent request of theirs may have finished them since it
+    # was read (SQLite reads without a lock).
+    db.session.refresh(participant)
     if participant.finished_at is not None:
         # Finished, and released because the report leaves them out: a resent last vote or a
         # late request, not a return from a pause. Nothing to rejoin, no slot to take back.
         return True
     if rejoin_policy(participant.study) == "refuse":
-        db.session.refresh(participant)
         return False
     returned = db.session.execute(
         sa.update(Participant)
@@ -491,44 +473,10 @@ def touch(participant: Participant) -> bool:
 
 def touch_with_progress(participant: Participant) -> tuple[int, int] | None:
     """:func:`touch`, then :func:`progress`: (answered, total), or None where ``touch`` says
-    the participant's session has ended. On PostgreSQL the usual case, a participant not
-    released as dropped, is one statement (the sign of life in a data-modifying CTE beside
-    both counts, the start of the first trial set there if still empty): a trial page's touch
-    and counts were two of its five statements. Not committed; ``participant`` is not
-    refreshed, but for ``started_at``. The counts are the statement's snapshot: a vote of the
-    same participant committed while its UPDATE waited for the row is not among them (the
-    progress shown is then one behind, which the next page corrects)."""
-    if db.session.get_bind().dialect.name == "postgresql":
-        row = db.session.execute(
-            _seen_with_progress(), {"participant_id": participant.id, "now": utcnow()}
-        ).one()
-        if row.seen:
-            # Set by this statement if still empty (a page loaded twice at once keeps the
-            # first), and known to the object without loading it again.
-            so.attributes.set_committed_value(participant, "started_at", row.started_at)
-            return int(row.answered or 0), int(row.total or 0)
+    the participant's session has ended. Not committed."""
     if not touch(participant):
         return None
     return progress(participant)
-
-
-@cache
-def _seen_with_progress() -> sa.Select[tuple[int, int, int]]:
-    now = sa.bindparam("now")
-    seen = (
-        sa.update(Participant.__table__)  # type: ignore[arg-type]
-        .where(Participant.id == sa.bindparam("participant_id"), Participant.dropped_at.is_(None))
-        .values(last_seen_at=now, started_at=sa.func.coalesce(Participant.started_at, now))
-        .returning(Participant.started_at)
-        .cte("seen")
-    )
-    answered, total = progress_counts()
-    return sa.select(
-        sa.select(sa.func.count()).select_from(seen).scalar_subquery().label("seen"),
-        sa.select(seen.c.started_at).scalar_subquery().label("started_at"),
-        answered.label("answered"),
-        total.label("total"),
-    )
 
 
 def progress(participant: Participant) -> tuple[int, int]:

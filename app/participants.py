@@ -194,8 +194,7 @@ def left_out(study: Any, participant_id: int, *, pilot: bool) -> bool:
 @cache
 def failed_catch() -> sa.Select[tuple[int]]:
     """A vote of the bound ``participant_id`` that failed a catch trial (at most one row): the
-    question :func:`left_out` asks, built once, also run on the driver by the vote that
-    finishes a schedule (:mod:`app.vote_path`)."""
+    question :func:`left_out` asks, built once."""
     return (
         sa.select(Vote.id)
         .join(Trial, Vote.trial_id == Trial.id)

@@ -1,23 +1,26 @@
 """Recording a vote exactly once.
 
-A vote is written when it is cast. Retried and double-clicked submissions carry the same
-idempotency key and are answered with the stored vote; the unique constraints on
-``vote.idempotency_key`` and ``vote(participant_id, trial_id)`` settle races between concurrent
-requests (the loser's INSERT fails, it rolls back and reads the winner's row).
+A vote is written when it is cast, by one path (:func:`record_vote`) on every database.
+Retried and double-clicked submissions carry the same idempotency key and are answered with the
+stored vote; the unique constraints on ``vote.idempotency_key`` and ``vote(participant_id,
+trial_id)`` settle races between concurrent requests (the loser's INSERT does nothing and it
+reads the winner's row), and the participant's row, locked for the request, stores one
+participant's votes one after the other.
 """
 
 from __future__ import annotations
 
 import datetime as dt
 from dataclasses import dataclass
-from typing import Any
+from functools import cache
+from typing import Any, NamedTuple
 
 import sqlalchemy as sa
 from sqlalchemy import orm as so
-from sqlalchemy.exc import IntegrityError
+from sqlalchemy.dialects import postgresql, sqlite
 
 from app import limits
-from app.enrolment import SESSION_ENDED, progress, touch
+from app.enrolment import SESSION_ENDED, progress, touch, upcoming
 from app.extensions import db
 from app.medialog import MediaLogError, media_fields
 from app.models import Participant, Study, Trial, Vote, utcnow
@@ -42,13 +45,27 @@ class VoteRejected(Exception):
         self.closed = closed
 
 
+class StoredVote(NamedTuple):
+    """What the answer to a vote repeats of the vote stored for its trial."""
+
+    trial_id: int
+    choice: str
+    plays: int
+    response_ms: int | None
+    strength: int | None
+
+
 @dataclass(frozen=True)
 class VoteOutcome:
-    vote: Vote
+    vote: StoredVote
     #: True when this request stored it; False when it was already stored (a retry).
     created: bool
     answered: int
     total: int
+    #: The next pair as the trial page shows it (:func:`app.enrolment.upcoming`'s row), read
+    #: in the vote's transaction; None when the schedule is done or the session has ended
+    #: (the browser then loads the trial page, which decides).
+    upcoming: Any = None
 
 
 def replay_policy(study: Study) -> rules.ReplayPolicy:
@@ -202,19 +219,55 @@ def _reasons(value: Any, offered: tuple[str, ...]) -> list[str] | None:
     return [str(v) for v in value]
 
 
-def _existing(participant: Participant, trial: Trial, key: str) -> Vote | None:
+@cache
+def _insert_vote(dialect: str) -> sa.Insert:
+    """The vote's INSERT, skipped where the trial already has a vote or the key is taken (the
+    unique constraints decide, so a race between two requests never raises): one statement
+    builder per dialect, whose ``ON CONFLICT DO NOTHING`` both PostgreSQL and SQLite know."""
+    insert = postgresql.insert if dialect == "postgresql" else sqlite.insert
+    columns = [c for c in Vote.__table__.columns if c.name != "id"]  # type: ignore[attr-defined]
+    return (
+        insert(Vote)
+        .values({c.name: sa.bindparam(c.name, type_=c.type) for c in columns})
+        .on_conflict_do_nothing()
+        .returning(Vote.id)
+    )
+
+
+def _stored(participant_id: int, trial_id: int, key: str) -> Vote | None:
+    """The vote that holds the trial or the key, as committed (a concurrent request's)."""
     return db.session.scalar(
-        sa.select(Vote).where(
+        sa.select(Vote)
+        .where(
             sa.or_(
                 Vote.idempotency_key == key,
-                sa.and_(Vote.participant_id == participant.id, Vote.trial_id == trial.id),
+                sa.and_(Vote.participant_id == participant_id, Vote.trial_id == trial_id),
             )
         )
+        .limit(1)
+    )
+
+
+def participant_for_vote(token: Any) -> Participant | None:
+    """The participant whose ``token`` a vote carries, their row locked until the request's
+    transaction ends (PostgreSQL; SQLite's writes are serial anyway): one participant's votes
+    are stored one after the other, so each sees every earlier one."""
+    if not isinstance(token, str) or not limits.fits(Participant.token, token):
+        return None
+    return db.session.scalar(
+        sa.select(Participant)
+        .where(Participant.token == token)
+        .options(so.joinedload(Participant.study))
+        .with_for_update(of=Participant)
     )
 
 
 def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcome:
     """Store the vote in ``payload`` once; the caller commits (one unit of work per request).
+    The one path every vote takes, on SQLite and PostgreSQL alike; each change of the
+    participant's state is made by its one function (:func:`app.enrolment.touch`,
+    :func:`screen_out`, :func:`app.participants.release_if_left_out`). ``participant`` comes
+    from :func:`participant_for_vote` (locked).
 
     Raises :class:`VoteRejected` for a request that is not a valid vote of this participant
     (another participant's trial, a bad choice, a key reused on another trial).
@@ -226,25 +279,25 @@ def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcom
         raise VoteRejected(SESSION_ENDED, 409, closed=True)
     participant_id, trial_id, key = participant.id, trial.id, fields["idempotency_key"]
     created = False
-    # A key already used on another trial fails the INSERT below and is found by _existing.
-    vote = trial.vote
+    vote: Vote | StoredVote | None = trial.vote
     if vote is None:
-        vote = Vote(participant_id=participant_id, trial_id=trial_id, **fields)
-        db.session.add(vote)
-        try:
-            db.session.flush()
-            created = True
-        except IntegrityError:
-            # A concurrent request with the same key or trial won the race: read its row.
-            db.session.rollback()
-            participant = db.session.get(Participant, participant_id)  # type: ignore[assignment]
-            trial = db.session.get(Trial, trial_id)  # type: ignore[assignment]
-            vote = _existing(participant, trial, key)
-            if vote is None:  # pragma: no cover - the constraint fired, so the row exists
-                raise
-    if vote.trial_id != trial_id or vote.participant_id != participant_id:
+        now = utcnow()
+        values = {c: None for c in _VOTE_COLUMNS}
+        values.update(fields, participant_id=participant_id, trial_id=trial_id, voted_at=now)
+        dialect = db.session.get_bind().dialect.name
+        created = db.session.scalar(_insert_vote(dialect), values) is not None
+        # Not inserted: a concurrent request stored this trial's vote first, or the key is
+        # another trial's; read what holds them.
+        vote = StoredVote(trial_id, **{f: fields[f] for f in _ANSWERED}) if created else None
+        if vote is None:
+            vote = _stored(participant_id, trial_id, key)
+            if vote is None:  # pragma: no cover - the constraint held, so the row exists
+                raise VoteRejected("the vote could not be stored; send it again", 503)
+    if vote.trial_id != trial_id or (
+        isinstance(vote, Vote) and vote.participant_id != participant_id
+    ):
         raise VoteRejected("idempotency_key: already used for another trial", 409)
-    if created and trial.kind == "catch" and vote.choice != trial.expected:
+    if created and trial.kind == "catch" and fields["choice"] != trial.expected:
         screen_out(participant)
     answered, total = progress(participant)
     if (
@@ -254,7 +307,26 @@ def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcom
     ):
         participant.finished_at = utcnow()
         release_if_left_out(participant)
-    return VoteOutcome(vote=vote, created=created, answered=answered, total=total)
+    following = None
+    if answered < total and participant.screened_out_at is None:
+        following = db.session.execute(upcoming(), {"participant_id": participant_id}).first()
+    return VoteOutcome(
+        vote=StoredVote(trial_id, *(getattr(vote, f) for f in _ANSWERED)),
+        created=created,
+        answered=answered,
+        total=total,
+        upcoming=following,
+    )
+
+
+#: What the answer repeats of a vote besides its trial (:class:`StoredVote`).
+_ANSWERED = ("choice", "plays", "response_ms", "strength")
+#: The vote's columns but its id: every one is bound by the INSERT.
+_VOTE_COLUMNS = tuple(
+    c.name
+    for c in Vote.__table__.columns  # type: ignore[attr-defined]
+    if c.name != "id"
+)
 
 
 def failed_checks(participant: Participant) -> int:

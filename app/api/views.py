@@ -15,9 +15,8 @@ from typing import Any
 
 import sqlalchemy as sa
 from flask import Blueprint, abort, current_app, jsonify, request, url_for
-from sqlalchemy import orm as so
 
-from app import driver, limits
+from app import limits
 from app.enrolment import progress as enrolment_progress
 from app.experimenter.auth import current_user, study_access
 from app.extensions import db
@@ -26,8 +25,7 @@ from app.medialog import MediaLogError, environment_fields
 from app.models import Job, Participant, Study, Trial
 from app.studies import participation
 from app.trials.rules import instructed_side, play_refusal
-from app.vote_path import CastVote, cast
-from app.voting import VoteOutcome, VoteRejected, record_vote, replay_policy
+from app.voting import VoteRejected, participant_for_vote, record_vote, replay_policy
 
 bp = Blueprint("api", __name__, url_prefix="/api/v1")
 
@@ -68,15 +66,11 @@ def post_vote():  # type: ignore[no-untyped-def]
     payload = _json_object()
     if isinstance(payload, str):
         return _error(payload, 400)
+    participant = participant_for_vote(payload.get("token"))
+    if participant is None:
+        return _error("unknown participant", 403)
     try:
-        # The usual case in one or two statements (app.vote_path); anything else, the ORM's way.
-        outcome: CastVote | VoteOutcome | None = cast(payload)
-        if outcome is None:
-            db.session.rollback()
-            participant = _participant_of(payload)
-            if participant is None:
-                return _error("unknown participant", 403)
-            outcome = record_vote(participant, payload)
+        outcome = record_vote(participant, payload)
     except VoteRejected as exc:
         db.session.rollback()
         if exc.closed:
@@ -98,11 +92,10 @@ def post_vote():  # type: ignore[no-untyped-def]
         "next": resume,
     }
     if outcome.answered >= outcome.total:
-        body["next_trial"] = None  # every pair answered, on whichever path
-    elif isinstance(outcome, CastVote) and outcome.upcoming is not None:
+        body["next_trial"] = None  # every pair answered
+    elif outcome.upcoming is not None:
         body["next_trial"] = _next_trial(video, outcome.upcoming)
-    if db.session.registry.has():  # the session's path (the driver's has committed its own)
-        db.session.commit()
+    db.session.commit()
     # The answer as jsonify would give it, without its indentation check and sorting: a
     # vote's answer is read by a script, not a person.
     return current_app.response_class(
@@ -156,24 +149,6 @@ def _next_trial(video: str, row: Any) -> dict[str, Any]:
     }
 
 
-def _participant_of(payload: dict[str, Any]) -> Participant | None:
-    token = payload.get("token")
-    if isinstance(token, str) and fits(Participant.token, token):
-        return db.session.scalar(_by_token(), {"token": token})
-    return None
-
-
-@cache
-def _by_token() -> sa.Select[tuple[Participant]]:
-    """The participant with their study (every caller reads its rules next: one query for
-    both), built once: building the eager-load option took 5 % of a vote in the profile."""
-    return (
-        sa.select(Participant)
-        .where(Participant.token == sa.bindparam("token"))
-        .options(so.joinedload(Participant.study))
-    )
-
-
 @cache
 def _play_facts() -> sa.Select[Any]:
     """The participant of a token with their study's replay policy and the trial, if theirs:
@@ -207,6 +182,11 @@ def _plays() -> sa.Select[tuple[int]]:
     return sa.select(Trial.plays).where(Trial.id == sa.bindparam("trial_id"))
 
 
+def _one_row(statement: Any, values: dict[str, Any]) -> Any:
+    """The one row ``statement`` returns, or None, in the request's transaction."""
+    return db.session.execute(statement, values).one_or_none()
+
+
 @bp.post("/plays")
 def post_play():  # type: ignore[no-untyped-def]
     """One play of a trial's clip, asked for before it starts: counted here, so the replay
@@ -218,32 +198,23 @@ def post_play():  # type: ignore[no-untyped-def]
     if not isinstance(token, str) or not fits(Participant.token, token):
         return _error("unknown participant", 403)
     if isinstance(trial_id, bool) or not isinstance(trial_id, int) or not fits(Trial.id, trial_id):
-        if _participant_of(payload) is None:
+        known = db.session.scalar(sa.select(Participant.id).where(Participant.token == token))
+        if known is None:
             return _error("unknown participant", 403)
         return _error("trial_id: expected a whole number", 400)
-    # Core statements, straight to the driver on PostgreSQL (app.driver): the ORM's work,
-    # then the session's, was most of a play's cost.
-    if driver.available():
-        with driver.transaction() as tx:
-            return _count_play(tx.run, tx.commit, token, trial_id)
-    return _count_play(driver.on_session, db.session.commit, token, trial_id)
-
-
-def _count_play(run: Any, commit: Any, token: str, trial_id: int):  # type: ignore[no-untyped-def]
-    """The play's answer, its statements run by ``run`` and committed by ``commit``."""
-    facts = run(_play_facts(), {"token": token, "trial_id": trial_id})
+    facts = _one_row(_play_facts(), {"token": token, "trial_id": trial_id})
     if facts is None:
         return _error("unknown participant", 403)
     if facts.trial_id is None or facts.kind == "practice":
         return _error("no such trial", 404)
     policy = replay_policy(facts)
     limit = policy.max_plays
-    counted = run(_one_more_play(), {"trial_id": trial_id, "limit": limit})
+    counted = _one_row(_one_more_play(), {"trial_id": trial_id, "limit": limit})
     if counted is None:
-        plays = run(_plays(), {"trial_id": trial_id}).plays
-        commit()  # nothing written; ends the transaction (SQLite's write lock) at once
+        plays = _one_row(_plays(), {"trial_id": trial_id}).plays
+        db.session.commit()  # nothing written; ends the transaction (SQLite's write lock) now
         return jsonify({"error": play_refusal(policy), "plays": plays, "plays_left": 0}), 409
-    commit()
+    db.session.commit()
     left = None if limit is None else max(0, limit - counted.plays)
     return jsonify({"plays": counted.plays, "plays_left": left}), 200
 
