@@ -1,91 +1,16 @@
 """facepair: perceptual paired-comparison studies of talking-face animation.
 
-``create_app`` builds the web application. Flask is imported inside it so that the pure
-packages (``app.stimuli``, ``app.trials``, ``app.analysis``) and the renderer stay free of the
-web stack: importing them never loads Flask.
+The package root holds the version and nothing that imports Flask: the pure packages
+(``app.stimuli``, ``app.trials``, ``app.analysis``) and the renderer import it without loading
+the web stack, which lives in ``app.web`` (``create_app``).
 """
 
 from __future__ import annotations
 
-import os
-from collections.abc import Mapping
 from importlib.metadata import PackageNotFoundError, version
-from typing import TYPE_CHECKING, Any
-
-if TYPE_CHECKING:
-    from flask import Flask
 
 try:
     # The one place the version is written is pyproject.toml.
     __version__ = version("facepair")
 except PackageNotFoundError:  # a source tree that was never installed
     __version__ = "0+unknown"
-
-
-def embedded_database_uri(instance_path: str) -> str:
-    """The default database: SQLite in the instance folder (the only one ``demo`` accepts)."""
-    return "sqlite:///" + os.path.join(instance_path, "facepair.sqlite")
-
-
-def create_app(config: Mapping[str, Any] | None = None) -> Flask:
-    """Application factory: defaults -> instance ``config.py`` -> environment -> ``config``.
-
-    The environment variables read are ``DATABASE_URL``, ``SECRET_KEY``, ``REDIS_URL``,
-    ``MEDIA_ROOT`` and ``TRUST_PROXY``. With no configuration the database is SQLite in the
-    instance folder (``FACEPAIR_INSTANCE`` moves that folder). Outside tests a real
-    ``SECRET_KEY`` is required: without one the factory raises :class:`app.errors.InputError`
-    naming the setting.
-    """
-    from flask import Flask
-
-    from app.extensions import init_extensions
-    from app.security import init_security
-    from app.web import init_web
-
-    app = Flask(
-        __name__, instance_relative_config=True, instance_path=os.environ.get("FACEPAIR_INSTANCE")
-    )
-    os.makedirs(app.instance_path, exist_ok=True)
-    app.config.from_mapping(
-        # None: refused outside tests (app.security.check_secret_key).
-        SECRET_KEY=None,
-        REQUIRE_SECRET_KEY=True,
-        # Reverse proxies in front of the app whose X-Forwarded-* headers are trusted.
-        TRUST_PROXY=0,
-        # Failed logins allowed per account and per client address (Flask-Limiter syntax).
-        LOGIN_LIMIT_PER_ACCOUNT="5 per minute; 30 per hour",
-        LOGIN_LIMIT_PER_ADDRESS="20 per minute; 200 per hour",
-        SQLALCHEMY_DATABASE_URI=embedded_database_uri(app.instance_path),
-        # No pre-ping on every checkout: a connection idle in the pool is pinged (app.web).
-        SQLALCHEMY_ENGINE_OPTIONS={},
-        MEDIA_ROOT=os.path.join(app.instance_path, "media"),
-        REDIS_URL=None,
-        # "process": a spawned local process; "inline": run at once (tests); RQ if REDIS_URL
-        # is set (app.jobs).
-        JOB_RUNNER="process",
-        # A running job silent this long (its process died) is swept as failed.
-        JOB_STALE_AFTER_SECONDS=900,
-        # Minutes without activity after which an unfinished participant counts as dropped.
-        DROPPED_AFTER_MINUTES=30,
-        MAX_CONTENT_LENGTH=200 * 1024 * 1024,
-        # Seconds a client is asked to wait (Retry-After) while the database is unreachable.
-        RETRY_AFTER_SECONDS=5,
-    )
-    from app.media import DEFAULTS as MEDIA_DEFAULTS
-    from app.media import init_media
-
-    # Who sends clips, audio and reports: Flask, the front proxy or a bucket (app.media).
-    app.config.from_mapping(MEDIA_DEFAULTS)
-    app.config.from_pyfile("config.py", silent=True)
-    if os.environ.get("DATABASE_URL"):
-        app.config["SQLALCHEMY_DATABASE_URI"] = os.environ["DATABASE_URL"]
-    for key in ("SECRET_KEY", "REDIS_URL", "MEDIA_ROOT", "TRUST_PROXY", *MEDIA_DEFAULTS):
-        if os.environ.get(key):
-            app.config[key] = os.environ[key]
-    if config:
-        app.config.update(config)
-    init_security(app)
-    init_media(app)
-    init_extensions(app)
-    init_web(app)
-    return app

@@ -122,13 +122,13 @@ def prepare(database_url: str, media: Path, folder: Path) -> tuple[str, int, int
     import sqlalchemy as sa
     from flask_migrate import upgrade
 
-    from app import create_app
-    from app.experimenter.auth import create_user
-    from app.extensions import db
-    from app.models import Stimulus
-    from app.storage import media_dir
-    from app.studies import create_study
     from app.trials.studyfile import loads_study
+    from app.web import create_app
+    from app.web.extensions import db
+    from app.web.infra.accounts import create_user
+    from app.web.infra.storage import media_dir
+    from app.web.models import Stimulus
+    from app.web.study.studies import create_study
 
     app = create_app(
         {

@@ -95,7 +95,7 @@ _MIGRATED: set[str] = set()
 
 
 def make_app(url: str, media: Path, **config):
-    from app import create_app
+    from app.web import create_app
 
     return create_app(
         {
@@ -119,14 +119,14 @@ def upgrade_database(url: str, media: Path) -> None:
     app = make_app(url, media)
     with app.app_context():
         upgrade()
-        from app.extensions import db
+        from app.web.extensions import db
 
         db.engine.dispose()
     _MIGRATED.add(url)
 
 
 def wipe_database(app) -> None:
-    from app.extensions import db
+    from app.web.extensions import db
 
     with app.app_context():
         db.session.remove()
@@ -286,8 +286,8 @@ def study_toml(
 
 
 def create_test_user(email: str = "exp@example.org", password: str = "correct horse"):
-    from app.experimenter.auth import create_user
-    from app.extensions import db
+    from app.web.extensions import db
+    from app.web.infra.accounts import create_user
 
     user = create_user(email, password)
     db.session.commit()
@@ -306,11 +306,11 @@ def create_test_study(
     """A study from a TOML file; with ``video`` every stimulus 'rendered' as that file."""
     import sqlalchemy as sa
 
-    from app.extensions import db
-    from app.models import Stimulus, User
-    from app.storage import media_dir
-    from app.studies import create_study
     from app.trials.studyfile import loads_study
+    from app.web.extensions import db
+    from app.web.infra.storage import media_dir
+    from app.web.models import Stimulus, User
+    from app.web.study.studies import create_study
 
     folder = tmp_path / f"study-src-{secrets.token_hex(3)}"
     folder.mkdir()
@@ -445,7 +445,7 @@ def live_server(tmp_path, tiny_video):
                 toml=study_toml,
             )
     finally:
-        from app.extensions import db
+        from app.web.extensions import db
 
         with app.app_context():
             db.engine.dispose()
@@ -463,10 +463,10 @@ def stub_pipeline(monkeypatch, tiny_video):
     video, the study then ready."""
     import sqlalchemy as sa
 
-    from app.extensions import db
-    from app.jobs import tasks
-    from app.models import Stimulus
-    from app.storage import media_dir
+    from app.web.extensions import db
+    from app.web.infra.storage import media_dir
+    from app.web.jobs import tasks
+    from app.web.models import Stimulus
 
     def fake_generate(study, progress):
         progress(1, 1)

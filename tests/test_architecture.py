@@ -30,14 +30,11 @@ WEB_FRAMEWORKS = (
     "redis",
     "gunicorn",
 )
-WEB = (
-    "app/*.py",
-    "app/api",
-    "app/participant",
-    "app/experimenter",
-    "app/questionnaire",
-    "app/jobs",
-)
+WEB = ("app/web",)
+#: The blueprints: they call the services, never each other.
+BLUEPRINTS = ("app.web.api", "app.web.participant", "app.web.experimenter", "app.web.questionnaire")
+#: The services and what they stand on: no request handling, so no blueprint.
+SERVICES = ("app/web/study", "app/web/infra", "app/web/jobs")
 GL = ("moderngl", "renderer.gl")
 
 
@@ -121,6 +118,35 @@ def test_the_web_never_imports_gl_and_loads_the_renderer_only_in_a_job() -> None
             if _is(name, GL) or (top and _is(name, ("renderer",))):
                 bad.append(f"{path.relative_to(REPO)}: {name}")
     assert not bad, bad
+
+
+def test_blueprints_never_import_each_other() -> None:
+    bad = []
+    for blueprint in BLUEPRINTS:
+        for path in _files(blueprint.replace(".", "/")):
+            for name, _ in imports(path):
+                others = tuple(b for b in BLUEPRINTS if b != blueprint)
+                if _is(name, others):
+                    bad.append(f"{path.relative_to(REPO)}: {name}")
+    assert not bad, bad
+
+
+def test_services_never_import_blueprints() -> None:
+    bad = [
+        f"{path.relative_to(REPO)}: {name}"
+        for package in SERVICES
+        for path in _files(package)
+        for name, _ in imports(path)
+        if _is(name, BLUEPRINTS)
+    ]
+    assert not bad, bad
+
+
+def test_the_package_root_imports_no_web() -> None:
+    """``app/__init__.py`` holds the version alone, so a type checker that follows a pure
+    package's ``from app.errors import ...`` never walks the web application."""
+    names = [name for name, _ in imports(REPO / "app" / "__init__.py")]
+    assert not [n for n in names if _is(n, WEB_FRAMEWORKS) or _is(n, ("app.web",))], names
 
 
 def test_trials_never_import_analysis() -> None:

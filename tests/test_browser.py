@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 import sqlalchemy as sa
 
-from app.extensions import db
-from app.models import Participant, Study, Trial, Vote
+from app.web.extensions import db
+from app.web.models import Participant, Study, Trial, Vote
 
 pytestmark = pytest.mark.browser
 

@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 import sqlalchemy as sa
 
-from app.extensions import db
-from app.models import Participant, Study, Trial
+from app.web.extensions import db
+from app.web.models import Participant, Study, Trial
 from tests.test_browser import (
     DESKTOP,
     _gone,

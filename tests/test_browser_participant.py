@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 import sqlalchemy as sa
 
-from app.extensions import db
-from app.models import Participant, Study, Trial
+from app.web.extensions import db
+from app.web.models import Participant, Study, Trial
 from tests.conftest import create_test_study, login, make_clip
 from tests.test_browser import (
     browser,  # noqa: F401  (the chromium fixture)

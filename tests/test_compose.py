@@ -42,7 +42,7 @@ def test_services_and_their_order():
 
 
 def test_the_web_health_check_hits_a_real_route(tmp_path):
-    from app import create_app
+    from app.web import create_app
 
     app = create_app(
         {
@@ -88,7 +88,7 @@ def test_the_proxy_fronts_the_app_and_serves_the_media_volume():
     assert mounts[env["MEDIA_ROOT"]] == next(
         v.split(":")[0] for v in web["volumes"] if v.split(":")[1] == env["MEDIA_ROOT"]
     )
-    from app.security import REPORT_CONTENT_SECURITY_POLICY
+    from app.web.infra.security import REPORT_CONTENT_SECURITY_POLICY
 
     assert f'Content-Security-Policy "{REPORT_CONTENT_SECURITY_POLICY}" always' in internal
 

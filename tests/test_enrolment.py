@@ -1,16 +1,16 @@
-"""Enrolment (``app.enrolment``): a reproducible schedule from the stored seed, lists balanced
-from the assignment table, and drop-outs who come back: a dropped participant who returns takes
-their list slot back (``rejoin = "resume"``) or is refused with a message (``rejoin =
-"refuse"``); the assignment table always agrees with who holds a slot."""
+"""Enrolment (``app.web.study.enrolment``): a reproducible schedule from the stored seed,
+lists balanced from the assignment table, and drop-outs who come back: a dropped participant
+who returns takes their list slot back (``rejoin = "resume"``) or is refused with a message
+(``rejoin = "refuse"``); the assignment table always agrees with who holds a slot."""
 
 import datetime as dt
 import re
 
 import sqlalchemy as sa
 
-from app.enrolment import release_dropped, schedule
-from app.extensions import db
-from app.models import Participant, Stimulus, Study, StudyList
+from app.web.extensions import db
+from app.web.models import Participant, Stimulus, Study, StudyList
+from app.web.study.enrolment import release_dropped, schedule
 
 
 def _slug(app, study_id: int) -> str:
@@ -115,7 +115,7 @@ def test_new_arrivals_are_balanced_over_those_still_taking_part(app, client, web
 
 
 def test_release_and_return_never_count_a_slot_twice(app, participant, web):
-    from app.enrolment import touch
+    from app.web.study.enrolment import touch
 
     study_id = web.study(design="all_ordered")
     token = participant.join(_slug(app, study_id))
@@ -173,8 +173,8 @@ def test_lists_are_balanced_from_the_assignment_table(app, client, web):
 
 
 def test_the_design_read_once_matches_the_studys_rows(app, participant, web):
-    from app import enrolment
-    from app.studies import design_pairs
+    from app.web.study import enrolment
+    from app.web.study.studies import design_pairs
 
     study_id = web.study(catch=1)  # counterbalanced: more than one list
     with app.app_context():
@@ -228,7 +228,7 @@ def test_a_consent_reads_the_design_only_the_first_time(app, client, web):
 
 
 def test_a_study_created_again_under_the_same_id_gets_its_own_design(app, web):
-    from app.studies import delete_study
+    from app.web.study.studies import delete_study
     from tests.conftest import ParticipantActions
 
     first = web.study(design="all_ordered")
@@ -249,7 +249,7 @@ def test_a_study_created_again_under_the_same_id_gets_its_own_design(app, web):
 
 
 def test_a_design_is_read_once_and_the_designs_kept_are_bounded(app, web):
-    from app import enrolment
+    from app.web.study import enrolment
 
     ids = [web.study(), web.study()]
     enrolment._design.cache_clear()
@@ -262,7 +262,7 @@ def test_a_design_is_read_once_and_the_designs_kept_are_bounded(app, web):
 
 
 def test_a_trial_page_marks_the_participant_seen_then_counts(app, participant, web):
-    from app.enrolment import progress, touch_with_progress
+    from app.web.study.enrolment import progress, touch_with_progress
 
     token = participant.join(_slug(app, web.study(design="all_ordered")))
     participant.vote(participant.current_trial())
@@ -283,12 +283,12 @@ def test_a_trial_page_marks_the_participant_seen_then_counts(app, participant, w
         assert counts == progress(person) and counts[0] == 1 and counts[1] > 1
         db.session.commit()
         assert person.last_seen_at > before
-    # The one sign of life (app.enrolment.touch), then both counts in one statement.
+    # The one sign of life (app.web.study.enrolment.touch), then both counts in one statement.
     assert statements == ["UPDATE", "SELECT"], statements
 
 
 def test_a_released_participant_s_trial_page_takes_the_slot_back_or_ends(app, participant, web):
-    from app.enrolment import touch_with_progress
+    from app.web.study.enrolment import touch_with_progress
 
     for rejoin, expected_slots in (("resume", 1), ("refuse", 0)):
         who = participant.__class__(app.test_client(), app)
@@ -321,7 +321,7 @@ def test_a_trial_page_sets_the_start_once(app, participant, web):
 
 
 def test_a_left_out_participant_s_resent_last_vote_takes_no_slot_back(app, participant, web):
-    from app.models import Trial
+    from app.web.models import Trial
 
     for rejoin in ("resume", "refuse"):
         who = participant.__class__(app.test_client(), app)

@@ -5,8 +5,8 @@ import re
 
 import sqlalchemy as sa
 
-from app.extensions import db
-from app.models import Job, Study, Trial
+from app.web.extensions import db
+from app.web.models import Job, Study, Trial
 
 
 def _run(app, participant, slug, *, catch_answer, finish=True):
@@ -73,7 +73,7 @@ def test_the_report_analyses_the_table_the_csv_holds(app, web, participant, tmp_
 
     from app.analysis.results import analyze
     from app.analysis.votes import VOTE_COLUMNS, read_votes
-    from app.exports import vote_rows, votes_csv, votes_table
+    from app.web.study.exports import vote_rows, votes_csv, votes_table
 
     study_id = web.study(design="all_ordered")
     with app.app_context():

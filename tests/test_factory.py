@@ -1,7 +1,7 @@
 import subprocess
 import sys
 
-from app import create_app
+from app.web import create_app
 
 
 def test_config_mapping_wins(tmp_path):

@@ -14,10 +14,10 @@ import sqlalchemy as sa
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from app import limits
 from app.errors import InputError
-from app.extensions import db
-from app.models import Participant, Study, Trial, User, Vote
+from app.web.extensions import db
+from app.web.infra import limits
+from app.web.models import Participant, Study, Trial, User, Vote
 
 FUZZ = settings(
     max_examples=2000,

@@ -10,10 +10,10 @@ import sqlalchemy as sa
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from app import media
 from app.errors import InputError
-from app.extensions import db
-from app.models import Participant, Stimulus, Study, Trial
+from app.web.extensions import db
+from app.web.infra import media
+from app.web.models import Participant, Stimulus, Study, Trial
 
 BUCKET = "facepair-test"
 LEAKS = ("X-Accel-Redirect", "Location")
@@ -180,7 +180,7 @@ def test_the_experimenter_report_and_preview_go_through_the_proxy(app, client, w
     ],
 )
 def test_a_media_setting_that_cannot_work_is_refused_by_name(tmp_path, setting, value):
-    from app import create_app
+    from app.web import create_app
 
     config = {
         "TESTING": True,
@@ -210,7 +210,7 @@ def test_a_worker_without_the_files_reads_and_writes_through_the_bucket(app, web
     another machine (no local copy) fetches it, and what it writes is in the bucket."""
     import shutil
 
-    from app.jobs.tasks import generate_tracks
+    from app.web.jobs.tasks import generate_tracks
 
     use_backend(app, "s3", request)
     study_id = web.study(video=False)
@@ -255,8 +255,8 @@ def test_a_report_name_never_sends_a_file_outside_the_studys_report(app, client,
 def test_deleted_participants_and_studies_leave_nothing_in_the_bucket(
     app, web, participant, request
 ):
-    from app.privacy import delete_participants
-    from app.studies import delete_study
+    from app.web.study.privacy import delete_participants
+    from app.web.study.studies import delete_study
 
     use_backend(app, "s3", request)
     study_id = web.study()
@@ -275,7 +275,7 @@ def test_deleted_participants_and_studies_leave_nothing_in_the_bucket(
             return {found["Key"] for found in listed}
 
         assert f"{prefix}report/votes.csv" in keys()
-        from app.exports import participant_label
+        from app.web.study.exports import participant_label
 
         number = db.session.scalar(
             sa.select(Participant.number).where(Participant.token == participant.token)
@@ -294,8 +294,8 @@ def test_a_store_that_is_away_fails_the_job_and_the_request_with_one_line(
 ):
     """``s3`` with the bucket unreachable: a job fails naming MEDIA_URL (no minutes of
     retries), and a page that writes to the bucket answers 503 with that line, not a 500."""
-    from app.jobs.tasks import run_job
-    from app.models import Job
+    from app.web.jobs.tasks import run_job
+    from app.web.models import Job
     from tests.conftest import csrf_token
 
     study_id = web.study()

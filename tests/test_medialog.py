@@ -2,7 +2,7 @@
 
 import pytest
 
-from app.medialog import MediaLogError, browser_of, environment_fields, media_fields
+from app.web.study.medialog import MediaLogError, browser_of, environment_fields, media_fields
 
 
 @pytest.mark.parametrize(

@@ -1,13 +1,13 @@
-"""The live monitor (``app.monitor``): tallies per pair, by choice and by condition."""
+"""The live monitor (``app.web.study.monitor``): tallies per pair, by choice and by condition."""
 
 import datetime as dt
 
 import sqlalchemy as sa
 
-from app.extensions import db
-from app.models import Study
-from app.monitor import study_monitor
 from app.trials.rules import CHOICES
+from app.web.extensions import db
+from app.web.models import Study
+from app.web.study.monitor import study_monitor
 
 
 def test_votes_are_tallied_per_choice_and_per_condition(app, participant, web):

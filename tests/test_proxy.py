@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 import sqlalchemy as sa
 
-from app.extensions import db
-from app.models import Participant, Study, Trial
+from app.web.extensions import db
+from app.web.models import Participant, Study, Trial
 from tests.conftest import ParticipantActions
 from tests.proxy import nginx_conf
 

@@ -3,9 +3,9 @@ page, and the finished participant sent there (the code shown as a fallback)."""
 
 import re
 
-from app.extensions import db
-from app.models import Study
-from app.recruitment import prolific_study_url
+from app.web.extensions import db
+from app.web.models import Study
+from app.web.study.recruitment import prolific_study_url
 
 
 def test_prolific_study_url_keeps_the_link_and_adds_the_placeholders():

@@ -4,9 +4,9 @@ import re
 
 import pytest
 
-from app import create_app
 from app.errors import InputError
-from app.security import safe_next
+from app.web import create_app
+from app.web.infra.security import safe_next
 
 
 def _bare(tmp_path, **config):
@@ -178,7 +178,7 @@ def test_successful_logins_do_not_count(app, web):
 def test_token_authenticated_endpoints_are_exactly_the_participant_json_ones(app):
     """Every JSON endpoint but the job status authenticates by the participant's token, so its
     session cookie is never read; a new endpoint must be placed on one side or the other."""
-    from app.security import token_authenticated
+    from app.web.infra.security import token_authenticated
 
     sides = {}
     for rule in app.url_map.iter_rules():
@@ -202,8 +202,8 @@ def test_a_vote_leaves_the_session_cookie_unread_and_unchanged(app, participant,
     from flask.sessions import SecureCookieSessionInterface
 
     study_id = web.study()
-    from app.extensions import db
-    from app.models import Study
+    from app.web.extensions import db
+    from app.web.models import Study
 
     with app.app_context():
         slug = db.session.get(Study, study_id).slug

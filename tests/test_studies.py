@@ -3,8 +3,8 @@
 import pytest
 
 from app.errors import InputError
-from app.studies import create_study
 from app.trials.studyfile import loads_study
+from app.web.study.studies import create_study
 from tests.conftest import create_test_user, write_tone_wav
 from tests.jobs.test_tasks import TOML
 
@@ -44,9 +44,9 @@ def test_the_stimulus_rows_are_what_some_schedule_shows(app, web, toml):
     ``variant_stimuli`` of the study file, stored once each."""
     import sqlalchemy as sa
 
-    from app.extensions import db
-    from app.models import Stimulus, Study
-    from app.studies import stimulus_combinations
+    from app.web.extensions import db
+    from app.web.models import Stimulus, Study
+    from app.web.study.studies import stimulus_combinations
 
     study_id = web.study(video=False, **toml)
     spec = loads_study(web.toml(**toml), check_files=False)

@@ -1,6 +1,6 @@
-"""The one vote path (``app.voting.record_vote``) as a participant's browser meets it: refusals,
-the vote that finishes a schedule, the next pair the answer carries, and a vote that waited for
-another of the same participant's; the same on SQLite and PostgreSQL."""
+"""The one vote path (``app.web.study.votes.record_vote``) as a participant's browser meets
+it: refusals, the vote that finishes a schedule, the next pair the answer carries, and a vote
+that waited for another of the same participant's; the same on SQLite and PostgreSQL."""
 
 import re
 import threading
@@ -9,8 +9,8 @@ import time
 import pytest
 import sqlalchemy as sa
 
-from app.extensions import db
-from app.models import Participant, Study, StudyList, Trial, Vote
+from app.web.extensions import db
+from app.web.models import Participant, Study, StudyList, Trial, Vote
 from tests.conftest import ParticipantActions
 
 
@@ -42,7 +42,7 @@ def test_another_participants_trial_and_a_closed_study_are_refused(app, client, 
 
 
 def test_the_last_vote_finishes_and_a_failed_check_gives_the_slot_back(app, participant, web):
-    from app.models import Trial
+    from app.web.models import Trial
     from tests.conftest import ParticipantActions
 
     study_id = web.study(design="all_ordered", catch=2)

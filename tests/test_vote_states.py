@@ -22,8 +22,8 @@ from hypothesis.stateful import (
     run_state_machine_as_test,
 )
 
-from app.extensions import db
-from app.models import Participant, Study, StudyList, Trial, Vote
+from app.web.extensions import db
+from app.web.models import Participant, Study, StudyList, Trial, Vote
 from tests.conftest import ParticipantActions
 
 MAX_FAILED = 2
@@ -224,7 +224,7 @@ def vote_machine(app, web, rejoin: str):
 
         @rule(who=st.integers(0, 2))
         def go_idle_and_be_released(self, who: int) -> None:
-            from app.enrolment import release_dropped
+            from app.web.study.enrolment import release_dropped
 
             person = self.people[who]
             with app.app_context():

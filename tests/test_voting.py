@@ -1,4 +1,4 @@
-"""Recording a vote (``app.voting``): the choice and replay checks come from
+"""Recording a vote (``app.web.study.votes``): the choice and replay checks come from
 ``app.trials.rules``, and the database refuses a choice the rules do not know."""
 
 import secrets
@@ -9,10 +9,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from sqlalchemy.exc import IntegrityError
 
-from app.extensions import db
-from app.models import Participant, Study, Vote
 from app.trials.rules import CHOICES, ReplayPolicy
-from app.voting import VoteRejected, may_vote, record_vote, replay_policy
+from app.web.extensions import db
+from app.web.models import Participant, Study, Vote
+from app.web.study.votes import VoteRejected, may_vote, record_vote, replay_policy
 
 
 def _person(app, participant, web, **toml) -> tuple[str, int]:

@@ -4,8 +4,8 @@ is replaced before a request gets it, without a ping on every checkout."""
 import pytest
 import sqlalchemy as sa
 
-from app import web
-from app.extensions import db
+from app.web import hooks as web
+from app.web.extensions import db
 
 
 def _backend_pid(app) -> int:

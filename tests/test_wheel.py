@@ -24,13 +24,13 @@ import pytest
 REPO = Path(__file__).resolve().parent.parent
 #: Files the installed package reads at run time; each must be in the wheel.
 PACKAGE_DATA = (
-    "app/static/participant.js",
-    "app/static/style.css",
-    "app/templates/base.html",
-    "app/migrations/env.py",
-    "app/migrations/alembic.ini",
-    "app/migrations/script.py.mako",
-    "app/migrations/versions/0001_initial_schema.py",
+    "app/web/static/participant.js",
+    "app/web/static/style.css",
+    "app/web/templates/base.html",
+    "app/web/migrations/env.py",
+    "app/web/migrations/alembic.ini",
+    "app/web/migrations/script.py.mako",
+    "app/web/migrations/versions/0001_initial_schema.py",
     "app/data/demo/speech.wav",
     "app/data/demo/ground_truth.fap",
     "app/data/demo/COPYING.cmu_arctic",

@@ -1,6 +1,6 @@
 """Web commands: ``facepair serve``, ``demo``, ``worker``, ``study create``, ``experimenter add``.
 
-The database schema comes from the migrations (``flask --app app db upgrade``); ``demo`` runs
+The database schema comes from the migrations (``flask --app app.web db upgrade``); ``demo`` runs
 that upgrade itself on the embedded SQLite default, every other command expects it done.
 """
 
@@ -20,7 +20,7 @@ DEMO_PASSWORD = "facepair-demo"
 
 
 def _app(**config: Any):  # type: ignore[no-untyped-def]
-    from app import create_app
+    from app.web import create_app
 
     return create_app(config or None)
 
@@ -36,8 +36,8 @@ def _demo_app():  # type: ignore[no-untyped-def]
     ``SECRET_KEY`` from the environment or a random key kept in the instance folder."""
     import os
 
-    from app import embedded_database_uri
-    from app.security import stored_secret_key
+    from app.web import embedded_database_uri
+    from app.web.infra.security import stored_secret_key
 
     probe = _offline_app()
     if probe.config["SQLALCHEMY_DATABASE_URI"] != embedded_database_uri(probe.instance_path):
@@ -54,7 +54,7 @@ def _demo_app():  # type: ignore[no-untyped-def]
 @contextmanager
 def _context(app):  # type: ignore[no-untyped-def]
     """An application context whose database connections are closed on the way out."""
-    from app.extensions import db
+    from app.web.extensions import db
 
     with app.app_context():
         try:
@@ -68,9 +68,9 @@ def _run_jobs(study_id: int, kinds: tuple[str, ...]) -> None:
     """Run jobs in this process with a progress bar each; a failed job is an error."""
     from tqdm import tqdm
 
-    from app.extensions import transaction
-    from app.jobs.tasks import run_job
-    from app.models import Job
+    from app.web.extensions import transaction
+    from app.web.jobs.tasks import run_job
+    from app.web.models import Job
 
     for kind in kinds:
         with transaction() as session:
@@ -84,7 +84,7 @@ def _run_jobs(study_id: int, kinds: tuple[str, ...]) -> None:
                 bar.refresh()
 
             status = run_job(job.id, echo=echo)
-        from app.extensions import db
+        from app.web.extensions import db
 
         job = db.session.get(Job, job.id)
         if status != "done":
@@ -125,10 +125,10 @@ def _run_jobs_apart(app, study_id: int, kinds: tuple[str, ...]) -> None:  # type
 def _create_study(path: Path, owner_email: str) -> int:
     import sqlalchemy as sa
 
-    from app.extensions import db
-    from app.models import User
-    from app.studies import create_study
     from app.trials.studyfile import load_study_file
+    from app.web.extensions import db
+    from app.web.models import User
+    from app.web.study.studies import create_study
 
     owner = db.session.scalar(sa.select(User).where(User.email == owner_email.lower()))
     if owner is None:
@@ -199,7 +199,7 @@ def worker(name: str | None) -> None:
     from redis import Redis
     from rq import Worker
 
-    from app.jobs.tasks import rq_horse_killed
+    from app.web.jobs.tasks import rq_horse_killed
 
     with app.app_context():
         Worker(
@@ -224,8 +224,8 @@ def create(study_file: Path, owner: str, render: bool, open_: bool) -> None:
     """Create a study from STUDY_FILE (TOML) for an experimenter."""
     from flask import url_for
 
-    from app.extensions import db
-    from app.models import Study
+    from app.web.extensions import db
+    from app.web.models import Study
 
     app = _offline_app()
     with _context(app):
@@ -251,8 +251,8 @@ def experimenter() -> None:
 @click.password_option(help="At least 8 characters.")
 def add(email: str, password: str) -> None:
     """Add an experimenter who can log in at /experimenter/login."""
-    from app.experimenter.auth import create_user
-    from app.extensions import db
+    from app.web.extensions import db
+    from app.web.infra.accounts import create_user
 
     app = _offline_app()
     with _context(app):
@@ -280,9 +280,9 @@ def demo(host: str, port: int, study_file: Path, no_serve: bool) -> None:
     import sqlalchemy as sa
     from flask_migrate import upgrade
 
-    from app.experimenter.auth import create_user
-    from app.extensions import db
-    from app.models import Study, User
+    from app.web.extensions import db
+    from app.web.infra.accounts import create_user
+    from app.web.models import Study, User
 
     app = _demo_app()
     with _context(app):

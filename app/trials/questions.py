@@ -23,8 +23,8 @@ from typing import Any, Final
 from app.errors import InputError
 from app.trials.fields import FieldReader, describe
 
-#: Automatic exclusion rules the report applies (``app.participants.AUTO_RULES``), repeated
-#: so that reading a study file needs no database.
+#: Automatic exclusion rules the report applies (``app.web.study.participants.AUTO_RULES``),
+#: repeated so that reading a study file needs no database.
 AUTO_EXCLUDE_RULES: Final = ("catch_failed", "unfinished")
 PAGES: Final = ("before", "after")
 QUESTION_TYPES: Final = ("choice", "number", "text")

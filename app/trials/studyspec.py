@@ -105,7 +105,7 @@ class StudySpec:
     rejoin: str = "resume"
     participation: ParticipationSpec = field(default_factory=ParticipationSpec)
     # -- the experimenter's side --
-    #: Automatic exclusion rules the report applies (``app.participants.AUTO_RULES``).
+    #: Automatic exclusion rules the report applies (``app.web.study.participants.AUTO_RULES``).
     auto_exclude: tuple[str, ...] = ("catch_failed", "unfinished")
     #: Questionnaire pages before and after the trials (:mod:`app.trials.questions`).
     questions: tuple[QuestionSpec, ...] = ()

@@ -5,8 +5,8 @@ import sqlalchemy as sa
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from app.extensions import db
-from app.models import Participant, Study, Trial, Vote
+from app.web.extensions import db
+from app.web.models import Participant, Study, Trial, Vote
 
 
 def _join(app, participant, web, **toml):
@@ -124,7 +124,7 @@ def test_progress_endpoint(app, client, participant, web):
 
 
 def test_job_status_needs_the_owner(app, client, web):
-    from app.models import Job
+    from app.web.models import Job
 
     study_id = web.study()
     with app.app_context():
@@ -164,7 +164,7 @@ def test_a_vote_on_a_closed_study_says_so_for_good(app, participant, web):
     ],
 )
 def test_database_unreachable_is_503_with_retry_after(tmp_path, url):
-    from app import create_app
+    from app.web import create_app
 
     app = create_app(
         {
@@ -201,7 +201,7 @@ MEDIA = {
 
 
 def test_the_media_log_is_stored_and_exported(app, participant, web):
-    from app.exports import votes_csv
+    from app.web.study.exports import votes_csv
 
     _join(app, participant, web)
     trial = participant.current_trial()
@@ -405,7 +405,7 @@ def test_raw_vote_bodies_never_5xx(app, participant, web, body, chunked):
 def test_the_participant_urls_of_a_vote_answer_are_url_fors(app, token, root):
     from flask import url_for
 
-    from app.api.views import _participant_urls
+    from app.web.api.views import _participant_urls
 
     for _ in range(2):  # built, then from the routes kept for this script root
         with app.test_request_context("/api/v1/votes", base_url=f"http://h{root}"):

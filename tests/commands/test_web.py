@@ -7,8 +7,8 @@ from click.testing import CliRunner
 from flask_migrate import upgrade
 
 from app.cli import main
-from app.extensions import db
-from app.models import Job, Stimulus, Study, User
+from app.web.extensions import db
+from app.web.models import Job, Stimulus, Study, User
 
 
 def _env(monkeypatch, app):
@@ -93,8 +93,8 @@ def test_demo_refuses_any_other_database(app, monkeypatch, tmp_path):
 def test_demo_sets_up_a_ready_study(monkeypatch, tmp_path, web):
     """The demo's wiring on its embedded SQLite file, with generation and rendering stubbed
     (the pipeline is tested on its own); the study file is the repository's example."""
-    from app import create_app
-    from app.jobs import tasks
+    from app.web import create_app
+    from app.web.jobs import tasks
 
     instance = tmp_path / "instance"
     monkeypatch.setenv("FACEPAIR_INSTANCE", str(instance))
@@ -106,7 +106,7 @@ def test_demo_sets_up_a_ready_study(monkeypatch, tmp_path, web):
         return "stub"
 
     def fake_render(study, progress):
-        from app.storage import media_dir
+        from app.web.infra.storage import media_dir
 
         for stimulus in db.session.scalars(
             sa.select(Stimulus).where(Stimulus.study_id == study.id)
@@ -158,11 +158,11 @@ def test_demo_sets_up_a_ready_study(monkeypatch, tmp_path, web):
 def test_demo_jobs_run_in_a_spawned_process(monkeypatch, tmp_path, web):
     """The demo's jobs run apart from the process that will serve: a failing job there is
     reported from the child (here: render before the tracks exist)."""
-    from app import create_app
     from app.commands.web import _run_jobs_apart
-    from app.experimenter.auth import create_user
-    from app.studies import create_study
     from app.trials.studyfile import load_study_file
+    from app.web import create_app
+    from app.web.infra.accounts import create_user
+    from app.web.study.studies import create_study
 
     monkeypatch.setenv("FACEPAIR_INSTANCE", str(tmp_path / "instance"))
     for name in ("DATABASE_URL", "SECRET_KEY", "MEDIA_ROOT"):

@@ -9,9 +9,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from app.errors import InputError
-from app.experimenter.create import form_error
-from app.extensions import db
-from app.models import Study
+from app.web.experimenter.create import form_error
+from app.web.extensions import db
+from app.web.models import Study
 
 
 def _token(page: str, prefix: str) -> str:

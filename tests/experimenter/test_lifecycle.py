@@ -8,9 +8,9 @@ import sqlalchemy as sa
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from app.extensions import db
-from app.models import Job, Participant, Stimulus, Study, StudyList, Vote
-from app.storage import media_dir
+from app.web.extensions import db
+from app.web.infra.storage import media_dir
+from app.web.models import Job, Participant, Stimulus, Study, StudyList, Vote
 
 
 def _page_token(client, study_id):

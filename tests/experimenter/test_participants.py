@@ -6,8 +6,8 @@ import re
 
 import sqlalchemy as sa
 
-from app.extensions import db
-from app.models import Participant, Study, StudyList, Trial
+from app.web.extensions import db
+from app.web.models import Participant, Study, StudyList, Trial
 
 
 def _slug(app, study_id):

@@ -7,8 +7,8 @@ import types
 import pytest
 import sqlalchemy as sa
 
-from app.extensions import db
-from app.models import Job, Participant, Stimulus, Study, Track, User
+from app.web.extensions import db
+from app.web.models import Job, Participant, Stimulus, Study, Track, User
 
 
 def _slug(app, study_id):
@@ -245,7 +245,7 @@ def test_monitor_export_and_report(app, client, participant, web):
 
 
 def test_report_applies_the_studys_exclusion_rules(app, participant, web):
-    from app.exports import write_report_files
+    from app.web.study.exports import write_report_files
 
     study_id = web.study(design="all_ordered")
     slug = _slug(app, study_id)
@@ -270,7 +270,7 @@ def _tmp_csv(text):
 
 
 def test_dropped_participants_give_their_slot_back(app, client, participant, web):
-    from app.models import StudyList
+    from app.web.models import StudyList
 
     study_id = web.study()
     token = participant.join(_slug(app, study_id))
@@ -323,7 +323,7 @@ def _generated_tracks(study: Study) -> None:
     """A zero track of every condition on the study's first clip, as 'generate' leaves them."""
     from app.stimuli.fapfile import write_fap
     from app.stimuli.track import MotionTrack
-    from app.storage import media_dir
+    from app.web.infra.storage import media_dir
 
     for condition in study.conditions:
         rel = f"tracks/s1/{condition.name}.fap"
@@ -367,7 +367,7 @@ def test_disk_full_on_upload_is_507_and_leaves_nothing(app, client, web, tmp_pat
     import errno
     import shutil
 
-    from app import studies
+    from app.web.study import studies
 
     copied = []
     copyfile = shutil.copyfile
@@ -414,8 +414,8 @@ def test_disk_full_on_upload_is_507_and_leaves_nothing(app, client, web, tmp_pat
 def test_disk_full_in_a_job_is_its_error(app, web, monkeypatch):
     import errno
 
-    from app.jobs import tasks
-    from app.jobs.tasks import run_job
+    from app.web.jobs import tasks
+    from app.web.jobs.tasks import run_job
 
     def full(study, progress):
         raise OSError(errno.ENOSPC, "No space left on device", "/srv/media/videos/a.mp4")
@@ -434,7 +434,7 @@ def test_disk_full_in_a_job_is_its_error(app, web, monkeypatch):
 
 
 def test_retry_resumes_from_the_clips_already_rendered(app, client, web, fake_renderer):
-    from app.storage import media_dir
+    from app.web.infra.storage import media_dir
 
     study_id = web.study(video=False, design="all_ordered")
     web.login(client)

@@ -12,11 +12,11 @@ from pathlib import Path
 import pytest
 import sqlalchemy as sa
 
-from app import jobs
-from app.extensions import db
-from app.jobs.clips import clip_job_id, finish_job_id
-from app.models import Job, Stimulus, Study
-from app.storage import media_dir
+from app.web import jobs
+from app.web.extensions import db
+from app.web.infra.storage import media_dir
+from app.web.jobs.clips import clip_job_id, finish_job_id
+from app.web.models import Job, Stimulus, Study
 from tests.conftest import create_test_study, make_app, upgrade_database, wipe_database
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -157,8 +157,8 @@ def test_two_workers_render_one_studys_clips_in_parallel(pg_app, tmp_path):
 def test_a_failing_clip_fails_the_row_by_name_and_the_rest_skip(app, web, monkeypatch):
     """Inside one process: the clip jobs' bodies, as a worker runs them."""
     import renderer
-    from app.jobs.clips import finish_render, render_clip
-    from app.jobs.tasks import generate_tracks
+    from app.web.jobs.clips import finish_render, render_clip
+    from app.web.jobs.tasks import generate_tracks
 
     study_id = web.study(video=False)
     with app.app_context():
@@ -193,8 +193,8 @@ def test_the_closing_job_fails_a_render_with_clips_missing(app, web):
         job = Job(study_id=study_id, kind="render", status="running")
         db.session.add(job)
         db.session.commit()
-        from app.jobs.clips import finish_render
-        from app.jobs.tasks import generate_tracks
+        from app.web.jobs.clips import finish_render
+        from app.web.jobs.tasks import generate_tracks
 
         generate_tracks(db.session.get(Study, study_id), lambda done, total: None)
         assert finish_render(job.id, 0) == "failed"
@@ -215,8 +215,8 @@ def test_a_split_render_waiting_for_workers_is_swept_only_when_rq_lost_it(app, w
     from rq import Queue
     from rq.job import Dependency
 
-    from app.jobs.tasks import sweep_stale
-    from app.models import utcnow
+    from app.web.jobs.tasks import sweep_stale
+    from app.web.models import utcnow
 
     redis_url = redis_url.rsplit("/", 1)[0] + "/13"
     study_id = web.study(video=False)

@@ -9,9 +9,9 @@ from concurrent.futures.process import BrokenProcessPool
 
 import sqlalchemy as sa
 
-from app import jobs
-from app.extensions import db
-from app.models import Job, utcnow
+from app.web import jobs
+from app.web.extensions import db
+from app.web.models import Job, utcnow
 
 
 def test_a_process_that_died_marks_its_row_failed(app, web):
@@ -98,7 +98,7 @@ def test_a_queued_row_held_by_a_live_process_is_kept(app, client, web):
 
 
 def test_a_row_swept_while_queued_never_starts(app, web):
-    from app.jobs.tasks import mark_failed, run_job
+    from app.web.jobs.tasks import mark_failed, run_job
 
     study_id = web.study(video=False)
     job_id = _queued(app, study_id, age=dt.timedelta(hours=1))

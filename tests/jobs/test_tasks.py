@@ -7,13 +7,13 @@ from pathlib import Path
 import numpy as np
 import sqlalchemy as sa
 
-from app.extensions import db
-from app.models import Job, Study, Track, utcnow
 from app.stimuli.generate import generate_conditions
 from app.stimuli.io import load_track
-from app.storage import media_dir
-from app.studies import create_study
 from app.trials.studyfile import loads_study
+from app.web.extensions import db
+from app.web.infra.storage import media_dir
+from app.web.models import Job, Study, Track, utcnow
+from app.web.study.studies import create_study
 from tests.conftest import create_test_user, write_tone_wav
 
 TOML = """
@@ -44,7 +44,7 @@ audio = "s1.wav"
 
 
 def test_named_conditions_keep_their_model_settings_and_render_settings(app, tmp_path):
-    from app.jobs.tasks import generate_tracks
+    from app.web.jobs.tasks import generate_tracks
 
     write_tone_wav(tmp_path / "s1.wav", seconds=1.0)
     spec = loads_study(TOML.format(), base_dir=tmp_path)
@@ -70,7 +70,7 @@ def test_named_conditions_keep_their_model_settings_and_render_settings(app, tmp
 
 
 def test_a_trackers_ground_truth_is_converted_and_its_gaps_reported(app, tmp_path):
-    from app.jobs.tasks import generate_tracks
+    from app.web.jobs.tasks import generate_tracks
     from tests.stimuli.capture.files import write_openface
 
     write_tone_wav(tmp_path / "s1.wav", seconds=1.0)
@@ -149,7 +149,7 @@ def test_a_job_rq_reports_failed_is_swept_with_its_error(app, client, web, redis
     from redis import Redis
     from rq import Queue, SimpleWorker
 
-    from app.jobs import QUEUE, rq_job_id
+    from app.web.jobs import QUEUE, rq_job_id
 
     app.config["REDIS_URL"] = redis_url
     study_id = web.study(video=False)
@@ -170,7 +170,7 @@ def test_a_job_rq_reports_failed_is_swept_with_its_error(app, client, web, redis
 
 
 def test_rq_failure_callback_marks_the_row(app, web, monkeypatch):
-    from app.jobs import tasks
+    from app.web.jobs import tasks
 
     monkeypatch.setenv("DATABASE_URL", app.config["SQLALCHEMY_DATABASE_URI"])
     monkeypatch.setenv("MEDIA_ROOT", app.config["MEDIA_ROOT"])
@@ -184,7 +184,7 @@ def test_rq_failure_callback_marks_the_row(app, web, monkeypatch):
 
 
 def test_run_job_keeps_a_heartbeat(app, web, monkeypatch):
-    from app.jobs import tasks
+    from app.web.jobs import tasks
 
     beats = []
 
@@ -206,8 +206,8 @@ def test_a_clip_longer_than_the_stale_timeout_keeps_its_job_alive(app, web, monk
     import time
 
     import renderer
-    from app.jobs import tasks
-    from app.models import Clip, Condition
+    from app.web.jobs import tasks
+    from app.web.models import Clip, Condition
 
     app.config["JOB_STALE_AFTER_SECONDS"] = 1.0
     study_id = web.study(video=False)
@@ -244,7 +244,7 @@ def test_a_progress_report_the_database_cannot_take_is_skipped(app, web, monkeyp
 
     from sqlalchemy.exc import OperationalError
 
-    from app.jobs import tasks
+    from app.web.jobs import tasks
 
     @contextmanager
     def away():
@@ -298,8 +298,8 @@ def test_render_job_lends_the_other_clips_motion_and_draws_the_instruction(
     """An appropriateness clip shows, on its foreign side, the motion made for the next clip,
     cut or held to this clip's length; an on-screen check gets its caption."""
     import renderer
-    from app.jobs.tasks import generate_tracks, render_clips
-    from app.models import Stimulus
+    from app.web.jobs.tasks import generate_tracks, render_clips
+    from app.web.models import Stimulus
 
     write_tone_wav(tmp_path / "long.wav", seconds=1.0)
     write_tone_wav(tmp_path / "short.wav", seconds=0.6)

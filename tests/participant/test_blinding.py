@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 import sqlalchemy as sa
 
-from app.extensions import db
-from app.models import Stimulus, Study
-from app.studies import create_study
 from app.trials.studyfile import loads_study
+from app.web.extensions import db
+from app.web.models import Stimulus, Study
+from app.web.study.studies import create_study
 from tests.conftest import create_test_user, csrf_token, write_tone_wav
 from tests.test_media import s3_env, s3_server, use_backend  # noqa: F401 (fixtures)
 
@@ -81,7 +81,7 @@ def _rendered_study(app, tmp_path, monkeypatch) -> str:
     """A study with every kind of stimulus, its tracks generated and clips rendered by the
     jobs; returns its slug."""
     import renderer
-    from app.jobs.tasks import generate_tracks, render_clips
+    from app.web.jobs.tasks import generate_tracks, render_clips
 
     monkeypatch.setattr(renderer, "render_pair", _fake_draw)
     for clip in ("c1", "c2"):
@@ -230,7 +230,7 @@ def test_nothing_a_participant_receives_names_what_a_clip_shows(
 def test_the_walk_would_see_a_name_if_one_were_sent(app, client, tmp_path, monkeypatch, request):
     """The attacker's check itself: a clip stored under the names the conditions had is read
     from the walk's bytes (so the test above cannot pass by receiving nothing)."""
-    from app.jobs import tasks
+    from app.web.jobs import tasks
 
     monkeypatch.setattr(
         tasks, "clip_file", lambda study, stim: f"videos/{stim.left.name}__{stim.right.name}.mp4"

@@ -2,8 +2,8 @@ import re
 
 import sqlalchemy as sa
 
-from app.extensions import db
-from app.models import Participant, Study, Trial, Vote
+from app.web.extensions import db
+from app.web.models import Participant, Study, Trial, Vote
 
 
 def _status(client, url):
@@ -150,7 +150,7 @@ def test_back_after_a_vote_never_shows_the_practice_again(app, client, participa
 
 
 def test_study_text_is_paragraphs_not_ragged_lines(app, client, participant, web):
-    from app.participant.views import paragraphs
+    from app.web.participant.views import paragraphs
 
     assert str(paragraphs("one\ntwo <b>\n\n  three\n")) == "<p>one two &lt;b&gt;</p><p>three</p>"
     token = participant.join(_slug(app, web.study()))

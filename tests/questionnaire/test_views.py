@@ -8,8 +8,8 @@ import sqlalchemy as sa
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from app.extensions import db
-from app.models import Participant, Study
+from app.web.extensions import db
+from app.web.models import Participant, Study
 
 QUESTIONS = """demographics = true
 [[questions]]

@@ -1,1 +1,0 @@
-"""API blueprint: JSON endpoints (votes, progress, job status)."""

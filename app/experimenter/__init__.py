@@ -1,1 +1,0 @@
-"""Experimenter blueprint: login, studies, jobs, recruitment, monitor, export, reports."""

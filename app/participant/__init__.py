@@ -1,1 +1,0 @@
-"""Participant blueprint: consent, instructions with a practice pair, trials, completion."""

@@ -1,1 +1,0 @@
-"""Questionnaire blueprint: the pages of questions before and after a participant's trials."""

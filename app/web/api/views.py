@@ -1,0 +1,271 @@
+"""JSON endpoints under ``/api/v1``.
+
+``POST /api/v1/votes`` is idempotent: the same ``idempotency_key`` (or a second vote on an
+answered trial) returns the stored vote with status 200 instead of 201. Participants
+authenticate with their token in the body (votes) or the URL (progress); job status needs the
+owning experimenter's login.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from functools import cache
+from typing import Any
+
+import sqlalchemy as sa
+from flask import abort, current_app, jsonify, request, url_for
+
+from app.trials.rules import instructed_side, play_refusal
+from app.web.api import bp
+from app.web.extensions import db
+from app.web.infra import limits
+from app.web.infra.accounts import current_user, study_access
+from app.web.infra.limits import fits
+from app.web.models import Job, Participant, Study, Trial
+from app.web.study.enrolment import progress as enrolment_progress
+from app.web.study.medialog import MediaLogError, environment_fields
+from app.web.study.studies import participation
+from app.web.study.votes import VoteRejected, participant_for_vote, record_vote, replay_policy
+
+#: A vote is a few hundred bytes; anything much larger is not one.
+MAX_BODY = 64 * 1024
+
+
+def _error(message: str, status: int):  # type: ignore[no-untyped-def]
+    return jsonify({"error": message}), status
+
+
+def _json_object() -> dict[str, Any] | str:
+    """The request's JSON object, or why there is none (one line naming the problem)."""
+    length = request.content_length
+    if (length or 0) > MAX_BODY:
+        return f"body: larger than {MAX_BODY // 1024} KB"
+    if not request.is_json:
+        return "body: expected a JSON object"
+    try:
+        if length is not None:
+            # Exactly Content-Length bytes (at most MAX_BODY, checked above) straight from the
+            # server's stream: werkzeug's guarded stream around it cost a tenth of a vote's
+            # CPU in the load benchmark's profile. A body without a length (chunked) goes
+            # through werkzeug, with its limits.
+            payload = json.loads(request.environ["wsgi.input"].read(length))
+        else:
+            payload = request.get_json(silent=True)
+    except RecursionError:
+        return "body: JSON nested too deeply"
+    except ValueError:  # not JSON, or not UTF-8
+        return "body: expected a JSON object"
+    return payload if isinstance(payload, dict) else "body: expected a JSON object"
+
+
+@bp.post("/votes")
+def post_vote():  # type: ignore[no-untyped-def]
+    payload = _json_object()
+    if isinstance(payload, str):
+        return _error(payload, 400)
+    participant = participant_for_vote(payload.get("token"))
+    if participant is None:
+        return _error("unknown participant", 403)
+    try:
+        outcome = record_vote(participant, payload)
+    except VoteRejected as exc:
+        db.session.rollback()
+        if exc.closed:
+            return jsonify({"error": exc.message, "closed": True}), exc.status
+        return _error(exc.message, exc.status)
+    vote = outcome.vote
+    resume, video = _participant_urls(payload["token"])
+    body = {
+        "status": "recorded" if outcome.created else "duplicate",
+        "vote": {
+            "trial_id": vote.trial_id,
+            "choice": vote.choice,
+            "plays": vote.plays,
+            "response_ms": vote.response_ms,
+            "strength": vote.strength,
+        },
+        "answered": outcome.answered,
+        "total": outcome.total,
+        "next": resume,
+    }
+    if outcome.answered >= outcome.total:
+        body["next_trial"] = None  # every pair answered
+    elif outcome.upcoming is not None:
+        body["next_trial"] = _next_trial(video, outcome.upcoming)
+    db.session.commit()
+    # The answer as jsonify would give it, without its indentation check and sorting: a
+    # vote's answer is read by a script, not a person.
+    return current_app.response_class(
+        json.dumps(body, separators=(",", ":")),
+        status=201 if outcome.created else 200,
+        mimetype="application/json",
+    )
+
+
+#: A token of only these characters (every token facepair issues) is one ``url_for`` writes
+#: as it is into a path.
+_VERBATIM = re.compile(r"[A-Za-z0-9_.~-]+")
+#: Stands for the token in the routes built once (:func:`_participant_urls`).
+_TOKEN = "~token~"
+
+
+def _participant_urls(token: str) -> tuple[str, str]:
+    """The participant's resume URL and their clips' URL up to the trial's id, as
+    ``url_for`` builds them; the routes are built once per application and script root
+    (two builds were a twentieth of a vote's CPU in the load benchmark's profile), and a
+    token ``url_for`` would quote is built the usual way."""
+    routes = current_app.extensions.setdefault("facepair.participant_urls", {})
+    root = request.script_root
+    if root not in routes and len(routes) < 8:  # a deployment's one root, or a few proxies'
+        built = _built(_TOKEN)
+        # None: the root itself holds the placeholder, so every vote builds its URLs.
+        routes[root] = built if all(url.count(_TOKEN) == 1 for url in built) else None
+    found = routes.get(root)
+    if found is None or not _VERBATIM.fullmatch(token):
+        return _built(token)
+    resume, video = found
+    return resume.replace(_TOKEN, token), video.replace(_TOKEN, token)
+
+
+def _built(token: str) -> tuple[str, str]:
+    video = url_for("participant.video", token=token, trial_id=0)
+    return url_for("participant.resume", token=token), video.removesuffix("0")
+
+
+def _next_trial(video: str, row: Any) -> dict[str, Any]:
+    """The next pair as ``participant/trial.html`` shows it, for the player to go on to
+    without loading that page (``static/participant.js``); the page stays the reference.
+    ``video`` is the participant's clip URL up to the trial's id."""
+    following = row.following
+    return {
+        "trial_id": row.trial_id,
+        "plays": row.plays,
+        "video_url": f"{video}{row.trial_id}",
+        "preload_url": None if following is None else f"{video}{following}",
+        "instructed": instructed_side(row.kind, row.expected, lambda: row.instruction),
+    }
+
+
+@cache
+def _play_facts() -> sa.Select[Any]:
+    """The participant of a token with their study's replay policy and the trial, if theirs:
+    one row, built once (a play is asked for before every clip)."""
+    return (
+        sa.select(Study.replay, Study.max_plays, Trial.id.label("trial_id"), Trial.kind)
+        .select_from(Participant)
+        .join(Study, Study.id == Participant.study_id)
+        .outerjoin(
+            Trial,
+            sa.and_(Trial.id == sa.bindparam("trial_id"), Trial.participant_id == Participant.id),
+        )
+        .where(Participant.token == sa.bindparam("token"))
+    )
+
+
+@cache
+def _one_more_play() -> sa.Update:
+    """The trial's play count up by one, unless it has reached ``limit`` (None: no limit)."""
+    limit = sa.bindparam("limit", type_=sa.Integer)
+    return (
+        sa.update(Trial)
+        .where(Trial.id == sa.bindparam("trial_id"), sa.or_(limit.is_(None), Trial.plays < limit))
+        .values(plays=Trial.plays + 1)
+        .returning(Trial.plays)
+    )
+
+
+@cache
+def _plays() -> sa.Select[tuple[int]]:
+    return sa.select(Trial.plays).where(Trial.id == sa.bindparam("trial_id"))
+
+
+def _one_row(statement: Any, values: dict[str, Any]) -> Any:
+    """The one row ``statement`` returns, or None, in the request's transaction."""
+    return db.session.execute(statement, values).one_or_none()
+
+
+@bp.post("/plays")
+def post_play():  # type: ignore[no-untyped-def]
+    """One play of a trial's clip, asked for before it starts: counted here, so the replay
+    policy holds across reloads. 409 when no play is left (``max_plays``)."""
+    payload = _json_object()
+    if isinstance(payload, str):
+        return _error(payload, 400)
+    token, trial_id = payload.get("token"), payload.get("trial_id")
+    if not isinstance(token, str) or not fits(Participant.token, token):
+        return _error("unknown participant", 403)
+    if isinstance(trial_id, bool) or not isinstance(trial_id, int) or not fits(Trial.id, trial_id):
+        known = db.session.scalar(sa.select(Participant.id).where(Participant.token == token))
+        if known is None:
+            return _error("unknown participant", 403)
+        return _error("trial_id: expected a whole number", 400)
+    facts = _one_row(_play_facts(), {"token": token, "trial_id": trial_id})
+    if facts is None:
+        return _error("unknown participant", 403)
+    if facts.trial_id is None or facts.kind == "practice":
+        return _error("no such trial", 404)
+    policy = replay_policy(facts)
+    limit = policy.max_plays
+    counted = _one_row(_one_more_play(), {"trial_id": trial_id, "limit": limit})
+    if counted is None:
+        plays = _one_row(_plays(), {"trial_id": trial_id}).plays
+        db.session.commit()  # nothing written; ends the transaction (SQLite's write lock) now
+        return jsonify({"error": play_refusal(policy), "plays": plays, "plays_left": 0}), 409
+    db.session.commit()
+    left = None if limit is None else max(0, limit - counted.plays)
+    return jsonify({"plays": counted.plays, "plays_left": left}), 200
+
+
+@bp.post("/participants/<token>/environment")
+def post_environment(token: str):  # type: ignore[no-untyped-def]
+    """The device and the viewing check, reported once before the first trial (a later
+    report replaces it until the first trial is shown)."""
+    participant = (
+        db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        if fits(Participant.token, token)
+        else None
+    )
+    if participant is None:
+        return _error("unknown participant", 404)
+    payload = _json_object()
+    if isinstance(payload, str):
+        return _error(payload, 400)
+    agent = limits.printable(request.user_agent.string)[:300]
+    try:
+        found = environment_fields(
+            payload, agent, min_face_px=participation(participant.study).min_face_px
+        )
+    except MediaLogError as exc:
+        return _error(str(exc), 400)
+    if participant.started_at is None or participant.environment is None:
+        participant.environment = found
+        db.session.commit()
+    return jsonify({"viewing_ok": found["viewing_ok"]}), 200
+
+
+@bp.get("/participants/<token>/progress")
+def progress(token: str):  # type: ignore[no-untyped-def]
+    participant = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+    if participant is None:
+        return _error("unknown participant", 404)
+    answered, total = enrolment_progress(participant)
+    return jsonify(
+        {"answered": answered, "total": total, "finished": participant.finished_at is not None}
+    )
+
+
+@bp.get("/jobs/<int:job_id>")
+def job_status(job_id: int):  # type: ignore[no-untyped-def]
+    user = current_user()
+    if user is None:
+        return _error("login required", 401)
+    job = db.session.get(Job, job_id)
+    if job is None or study_access(job.study, user.id) is None:
+        abort(404)
+    if job.status in ("queued", "running"):
+        from app.web.jobs.tasks import sweep_study_jobs
+
+        sweep_study_jobs(job.study_id)
+        db.session.refresh(job)
+    return jsonify(job.as_dict())

@@ -1,0 +1,97 @@
+"""The monitor's participant table and excluding a participant by hand."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import sqlalchemy as sa
+from flask import Response, flash, redirect, request, url_for
+
+from app.web.experimenter.forms import ExcludeForm
+from app.web.experimenter.views import _own_study, bp
+from app.web.extensions import db
+from app.web.infra.accounts import current_user, login_required, study_access
+from app.web.models import Participant, Study
+from app.web.study.privacy import pseudonym
+
+
+def participant_table(study: Study) -> dict[str, Any]:
+    """What the monitor's table needs: the rows, Prolific IDs as shown (pseudonyms unless the
+    experimenter asked to reveal them and may), and the exclusion form."""
+    from app.web.study.enrolment import dropped_after
+    from app.web.study.participants import AUTO_RULES, auto_rules, participant_rows
+
+    access = study_access(study, current_user().id)  # type: ignore[union-attr]
+    may_reveal = access in ("full", "owner")
+    reveal = may_reveal and request.args.get("reveal") == "1"
+    rows = participant_rows(study, dropped_after=dropped_after())
+    shown = {
+        row.id: (row.prolific_pid if reveal else pseudonym(study.pseudonym_key, row.prolific_pid))
+        for row in rows
+    }
+    return {
+        "participants": rows,
+        "prolific_shown": shown,
+        "reveal": reveal,
+        "may_reveal": may_reveal,
+        "exclude_form": ExcludeForm(),
+        "auto_rules": [AUTO_RULES[rule] for rule in auto_rules(study)],
+    }
+
+
+@bp.post("/studies/<int:study_id>/participants/exclude")
+@login_required
+def exclude_participant(study_id: int):  # type: ignore[no-untyped-def]
+    """Exclude a participant with a reason, or record a returned submission; their list slot
+    goes back to the list (``app.web.study.participants.remove``)."""
+    from app.web.study.participants import remove
+
+    study = _own_study(study_id, "full")
+    form = ExcludeForm()
+    back = redirect(url_for(".monitor", study_id=study.id))
+    if not form.validate_on_submit():
+        problems = "; ".join(f"{name}: {errors[0]}" for name, errors in form.errors.items())
+        flash(f"Nobody excluded ({problems}).", "error")
+        return back
+    number = (form.participant.data or "").strip().upper().removeprefix("P")
+    person = None
+    if number.isdigit() and len(number) <= 12:
+        person = db.session.scalar(
+            sa.select(Participant).where(
+                Participant.study_id == study.id, Participant.number == int(number)
+            )
+        )
+    if person is None:
+        flash("Nobody excluded: no participant of this study has that label.", "error")
+        return back
+    if person.excluded_at is not None:
+        flash(f"{form.participant.data} is already {person.exclusion_reason!r}.", "error")
+        return back
+    try:
+        remove(person, how=form.how.data or "", reason=form.reason.data or "")
+    except ValueError as exc:
+        flash(f"Nobody excluded: {exc}.", "error")
+        return back
+    db.session.commit()
+    flash(f"P{person.number:04d} {form.how.data}; their list slot is free again.", "ok")
+    return back
+
+
+@bp.get("/studies/<int:study_id>/answers.csv")
+@login_required
+def export_answers(study_id: int):  # type: ignore[no-untyped-def]
+    """The questionnaire answers, one row per participant (joined to the votes by label)."""
+    from werkzeug.utils import secure_filename
+
+    from app.web.study.questionnaires import answers_csv
+
+    study = _own_study(study_id)
+    pilot = request.args.get("pilot") == "only"
+    name = (secure_filename(study.title) or f"study-{study.id}") + (
+        "-pilot-answers" if pilot else "-answers"
+    )
+    return Response(
+        answers_csv(study, pilot=pilot),
+        mimetype="text/csv",
+        headers={"Content-Disposition": f'attachment; filename="{name}.csv"'},
+    )

@@ -1,0 +1,382 @@
+"""Experimenter pages under ``/experimenter``: each experimenter sees only their own studies."""
+
+from __future__ import annotations
+
+import sqlalchemy as sa
+from flask import (
+    Response,
+    abort,
+    current_app,
+    flash,
+    redirect,
+    render_template,
+    request,
+    session,
+    url_for,
+)
+from werkzeug.utils import secure_filename
+
+from app.web.experimenter import bp
+from app.web.experimenter.forms import (
+    ActionForm,
+    DeleteParticipantForm,
+    LoginForm,
+)
+from app.web.extensions import db, limiter
+from app.web.infra.accounts import (
+    ACCESS_LEVELS,
+    authenticate,
+    current_user,
+    login_required,
+    study_access,
+)
+from app.web.infra.media import media_response
+from app.web.infra.security import REPORT_CONTENT_SECURITY_POLICY, safe_next
+from app.web.infra.storage import media_file
+from app.web.jobs import enqueue
+from app.web.jobs.tasks import JOB_KINDS, sweep_study_jobs
+from app.web.models import Job, Stimulus, Study
+
+
+@bp.before_request
+def _load_user() -> None:
+    current_user()  # sets g.user for the templates
+
+
+def _own_study(study_id: int, need: str = "read") -> Study:
+    """The study if the logged-in experimenter has at least ``need`` access to it; 404 if they
+    have none (no leak that it exists), 403 if they may only look."""
+    study = db.session.get(Study, study_id)
+    user = current_user()
+    access = None if study is None or user is None else study_access(study, user.id)
+    if access is None:
+        abort(404)
+    if ACCESS_LEVELS.index(access) < ACCESS_LEVELS.index(need):
+        abort(403)
+    return study  # type: ignore[return-value]
+
+
+def _account_limits() -> str:
+    return current_app.config["LOGIN_LIMIT_PER_ACCOUNT"]
+
+
+def _address_limits() -> str:
+    return current_app.config["LOGIN_LIMIT_PER_ADDRESS"]
+
+
+def _login_account() -> str:
+    return "account:" + request.form.get("email", "").strip().lower()[:200]
+
+
+def _login_address() -> str:
+    return "address:" + (request.remote_addr or "unknown")
+
+
+def _login_failed(response: Response) -> bool:
+    # Only failed attempts count: a successful login redirects.
+    return response.status_code != 302
+
+
+@bp.route("/login", methods=["GET", "POST"])
+@limiter.limit(
+    _account_limits,
+    key_func=_login_account,
+    methods=["POST"],
+    deduct_when=_login_failed,
+    scope="login-account",
+)
+@limiter.limit(
+    _address_limits,
+    key_func=_login_address,
+    methods=["POST"],
+    deduct_when=_login_failed,
+    scope="login-address",
+)
+def login():  # type: ignore[no-untyped-def]
+    form = LoginForm()
+    if form.validate_on_submit():
+        user = authenticate(form.email.data or "", form.password.data or "")
+        if user is not None:
+            session.clear()
+            session["user_id"] = user.id
+            # Only paths on this site: an open redirect would hand the login to another site.
+            return redirect(safe_next(request.args.get("next"), url_for(".studies")))
+        flash("Unknown e-mail or wrong password.", "error")
+    return render_template("experimenter/login.html", form=form)
+
+
+@bp.post("/logout")
+def logout():  # type: ignore[no-untyped-def]
+    if ActionForm().validate_on_submit():
+        session.clear()
+    return redirect(url_for(".login"))
+
+
+@bp.get("/")
+@login_required
+def studies():  # type: ignore[no-untyped-def]
+    user = current_user()
+    from app.web.models import StudyShare
+
+    shared = sa.select(StudyShare.study_id).where(StudyShare.user_id == user.id)  # type: ignore[union-attr]
+    rows = db.session.scalars(
+        sa.select(Study)
+        .where(sa.or_(Study.owner_id == user.id, Study.id.in_(shared)))  # type: ignore[union-attr]
+        .order_by(Study.created_at.desc())
+    ).all()
+    return render_template("experimenter/studies.html", studies=rows, action=ActionForm())
+
+
+def _start(study: Study, kind: str) -> None:
+    """A new job row, committed, then handed to the runner; if the runner cannot take it the
+    row goes again (no orphan row) and the experimenter reads why."""
+    from app.web.jobs import EnqueueError
+
+    job = Job(study_id=study.id, kind=kind)
+    db.session.add(job)
+    db.session.commit()
+    try:
+        # After the commit: the worker must find the row.
+        enqueue(current_app._get_current_object(), job.id)  # type: ignore[attr-defined]
+    except EnqueueError as exc:
+        db.session.delete(job)
+        db.session.commit()
+        flash(
+            f"The {kind} job could not be started: {exc}. Nothing was queued; try again "
+            "once the job queue is back.",
+            "error",
+        )
+
+
+@bp.get("/studies/<int:study_id>")
+@login_required
+def study(study_id: int):  # type: ignore[no-untyped-def]
+    study = _own_study(study_id)
+    sweep_study_jobs(study.id)  # so the page never shows a dead job running
+    jobs = db.session.scalars(
+        sa.select(Job).where(Job.study_id == study.id).order_by(Job.id.desc()).limit(10)
+    ).all()
+    stimuli = db.session.scalars(
+        sa.select(Stimulus).where(Stimulus.study_id == study.id).order_by(Stimulus.id)
+    ).all()
+    link = url_for("participant.start", slug=study.slug, _external=True)
+    return render_template(
+        "experimenter/study.html",
+        study=study,
+        jobs=jobs,
+        stimuli=stimuli,
+        link=link,
+        action=ActionForm(),
+        forget=DeleteParticipantForm(),
+        **_study_extras(study, link),
+    )
+
+
+def _study_extras(study: Study, link: str) -> dict[str, object]:
+    """The study page's lifecycle, recruitment and sharing parts."""
+    from app.web.experimenter.forms import ConfirmForm, DeleteStudyForm, DuplicateForm, ShareForm
+    from app.web.experimenter.lifecycle import shares_of
+    from app.web.study.recruitment import completion_url, prolific_study_url
+    from app.web.study.studies import stimuli_locked
+
+    access = study_access(study, current_user().id)  # type: ignore[union-attr]
+    return {
+        "access": access,
+        "locked": stimuli_locked(study),
+        "pilot_link": url_for(".pilot", token=study.pilot_token, _external=True),
+        "prolific_url": prolific_study_url(link),
+        "completion_url": completion_url(study),
+        "confirm": ConfirmForm(),
+        "duplicate_form": DuplicateForm(),
+        "delete_form": DeleteStudyForm(),
+        "share_form": ShareForm(),
+        "shares": shares_of(study) if access == "owner" else [],
+    }
+
+
+@bp.post("/studies/<int:study_id>/jobs/<kind>")
+@login_required
+def start_job(study_id: int, kind: str):  # type: ignore[no-untyped-def]
+    from app.web.study.studies import stimuli_locked
+
+    study = _own_study(study_id, "full")
+    if kind not in JOB_KINDS or not ActionForm().validate_on_submit():
+        abort(400)
+    locked = stimuli_locked(study) if kind in ("generate", "render") else None
+    if locked:
+        flash(f"Nothing started: {locked}.", "error")
+    else:
+        _start(study, kind)
+    return redirect(url_for(".study", study_id=study.id))
+
+
+@bp.post("/studies/<int:study_id>/jobs/<int:job_id>/retry")
+@login_required
+def retry_job(study_id: int, job_id: int):  # type: ignore[no-untyped-def]
+    """Run a failed job again; a render resumes from the clips already rendered."""
+    study = _own_study(study_id, "full")
+    job = db.session.get(Job, job_id)
+    if job is None or job.study_id != study.id or not ActionForm().validate_on_submit():
+        abort(404)
+    if job.status != "failed":
+        flash(f"Only a failed job can be retried (this one is {job.status}).", "error")
+    else:
+        _start(study, job.kind)
+    return redirect(url_for(".study", study_id=study.id))
+
+
+@bp.post("/studies/<int:study_id>/status/<action>")
+@login_required
+def change_status(study_id: int, action: str):  # type: ignore[no-untyped-def]
+    from app.web.study.studies import change_status as apply
+
+    study = _own_study(study_id, "full")
+    if not ActionForm().validate_on_submit():
+        abort(400)
+    if action == "reopen":  # only with its confirmation (``lifecycle.reopen``)
+        abort(400)
+    if action == "open" and any(
+        s.video_path is None
+        for s in db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id))
+    ):
+        flash("Render the clips before opening recruitment.", "error")
+        return redirect(url_for(".study", study_id=study.id))
+    try:
+        apply(study, action)
+        if action == "open":
+            from app.web.study.participants import release_pilots
+
+            release_pilots(study)
+    except ValueError as exc:
+        flash(str(exc), "error")
+        return redirect(url_for(".study", study_id=study.id))
+    db.session.commit()
+    if action == "close":  # the report is regenerated when the study closes
+        _start(study, "report")
+    return redirect(url_for(".study", study_id=study.id))
+
+
+@bp.get("/studies/<int:study_id>/monitor")
+@login_required
+def monitor(study_id: int):  # type: ignore[no-untyped-def]
+    from app.web.study.enrolment import dropped_after, release_dropped
+    from app.web.study.monitor import study_monitor
+
+    study = _own_study(study_id)
+    release_dropped(study, after=dropped_after())
+    db.session.commit()
+    stats = study_monitor(study, dropped_after=dropped_after())
+    from app.web.experimenter.participants import participant_table
+
+    return render_template(
+        "experimenter/monitor.html", study=study, stats=stats, **participant_table(study)
+    )
+
+
+@bp.get("/studies/<int:study_id>/votes.csv")
+@login_required
+def export_votes(study_id: int):  # type: ignore[no-untyped-def]
+    from app.web.study.exports import votes_csv
+
+    study = _own_study(study_id)
+    pilot = request.args.get("pilot", "without")
+    if pilot not in ("without", "with", "only"):
+        pilot = "without"
+    name = (secure_filename(study.title) or f"study-{study.id}") + (
+        "" if pilot == "without" else f"-{pilot}-pilot"
+    )
+    return Response(
+        votes_csv(study, pilot=pilot),
+        mimetype="text/csv",
+        headers={"Content-Disposition": f'attachment; filename="{name}-votes.csv"'},
+    )
+
+
+@bp.get("/studies/<int:study_id>/participants.csv")
+@login_required
+def export_participants(study_id: int):  # type: ignore[no-untyped-def]
+    """Participants with pseudonymised Prolific IDs; ``?ids=raw`` for the real ones (payment)."""
+    from app.web.study.privacy import participants_csv
+
+    study = _own_study(study_id, "owner" if request.args.get("ids") == "raw" else "read")
+    raw = request.args.get("ids") == "raw"
+    name = (secure_filename(study.title) or f"study-{study.id}") + (
+        "-participants-prolific-ids" if raw else "-participants"
+    )
+    return Response(
+        participants_csv(study, raw_ids=raw),
+        mimetype="text/csv",
+        headers={
+            "Content-Disposition": f'attachment; filename="{name}.csv"',
+            "Cache-Control": "no-store",
+        },
+    )
+
+
+@bp.post("/studies/<int:study_id>/participants/delete")
+@login_required
+def delete_participant(study_id: int):  # type: ignore[no-untyped-def]
+    """Delete one participant's data on their request (the monitor and exports follow)."""
+    from app.web.study.privacy import delete_participants
+
+    study = _own_study(study_id, "full")
+    form = DeleteParticipantForm()
+    if not form.validate_on_submit():
+        problems = "; ".join(f"{name}: {errors[0]}" for name, errors in form.errors.items())
+        flash(f"Nothing deleted ({problems}).", "error")
+        return redirect(url_for(".study", study_id=study.id))
+    deleted = delete_participants(study, form.participant.data or "")
+    if not deleted.labels:
+        flash(
+            "Nothing deleted: no participant of this study has that label, Prolific ID or "
+            "pseudonym.",
+            "error",
+        )
+        return redirect(url_for(".study", study_id=study.id))
+    db.session.commit()
+    flash(
+        f"Deleted {', '.join(deleted.labels)}: {deleted.votes} votes, their schedule and "
+        "their Prolific IDs.",
+        "ok",
+    )
+    if study.status == "closed":  # the old report counted their votes
+        _start(study, "report")
+    return redirect(url_for(".study", study_id=study.id))
+
+
+@bp.get("/studies/<int:study_id>/report/")
+@bp.get("/studies/<int:study_id>/report/<path:name>")
+@login_required
+def report(study_id: int, name: str = "report.html"):  # type: ignore[no-untyped-def]
+    from app.web.study.exports import report_path
+
+    study = _own_study(study_id)
+    folder = report_path(study).parent
+    rel = f"{folder.name}/{name}"
+    try:
+        path = media_file(study, rel)
+    except ValueError:
+        abort(404)
+    # With a bucket (MEDIA_BACKEND = "s3") this machine may hold no copy of a written report.
+    in_bucket = current_app.config["MEDIA_BACKEND"] == "s3" and study.report_at is not None
+    if not path.is_file() and not in_bucket:
+        if name != "report.html":
+            abort(404)
+        return render_template("experimenter/no_report.html", study=study, action=ActionForm()), 404
+    return media_response(
+        study, rel, headers={"Content-Security-Policy": REPORT_CONTENT_SECURITY_POLICY}
+    )
+
+
+@bp.get("/studies/<int:study_id>/stimuli/<int:stimulus_id>.mp4")
+@login_required
+def preview(study_id: int, stimulus_id: int):  # type: ignore[no-untyped-def]
+    study = _own_study(study_id)
+    stimulus = db.session.get(Stimulus, stimulus_id)
+    if stimulus is None or stimulus.study_id != study.id or not stimulus.video_path:
+        abort(404)
+    return media_response(study, stimulus.video_path, mimetype="video/mp4")
+
+
+# The other experimenter pages add their routes to ``bp`` (one module per idea).
+from app.web.experimenter import create, lifecycle, participants  # noqa: E402, F401

@@ -1,0 +1,35 @@
+"""Where a study's files live: ``MEDIA_ROOT/study-<id>/`` (audio, tracks, videos, report)."""
+
+from __future__ import annotations
+
+import errno
+from pathlib import Path
+
+from flask import current_app
+
+from app.web.models import Study
+
+
+def media_dir(study: Study) -> Path:
+    path = Path(current_app.config["MEDIA_ROOT"]) / f"study-{study.id}"
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def media_file(study: Study, rel: str) -> Path:
+    """The absolute path of ``rel``, refusing anything outside the study's folder."""
+    root = media_dir(study).resolve()
+    path = (root / rel).resolve()
+    if root not in path.parents:
+        raise ValueError(f"{rel}: outside the study's media folder")
+    return path
+
+
+def disk_full(exc: BaseException) -> bool:
+    """Whether ``exc`` says the disk (or the account's quota) is full."""
+    return isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT)
+
+
+def disk_full_message(exc: OSError) -> str:
+    where = f" writing {Path(exc.filename).name}" if exc.filename else ""
+    return f"the server's disk is full{where}; free some space and try again"

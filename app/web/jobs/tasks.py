@@ -1,0 +1,474 @@
+"""The job bodies. Each runs inside an application context and reports progress on its row.
+
+The pure packages are imported inside the functions: the web process never loads the renderer's
+GL stack, and a missing optional part fails the job with one clear message instead of breaking
+the application.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import logging
+import math
+import re
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import sqlalchemy as sa
+from flask import current_app
+from sqlalchemy.exc import SQLAlchemyError
+
+from app.web.extensions import db, transaction
+from app.web.infra import media
+from app.web.infra.storage import disk_full, disk_full_message, media_dir
+from app.web.models import Clip, Job, Stimulus, Study, Track, utcnow
+
+log = logging.getLogger(__name__)
+
+JOB_KINDS = ("generate", "render", "report")
+
+
+def _progress(
+    job_id: int,
+    *,
+    min_interval: float = 0.5,
+    beat_every: float = 30.0,
+    echo: Callable[[int, int], None] | None = None,
+) -> Callable[[int, int], None]:
+    """A ``progress(done, total)`` callback that writes the job row at most every
+    ``min_interval`` seconds and passes each new value on to ``echo`` (e.g. a CLI progress
+    bar). Called again with the same values (from inside a long step, such as every frame of
+    one clip) it still refreshes the heartbeat every ``beat_every`` seconds, so a step longer
+    than JOB_STALE_AFTER_SECONDS is never mistaken for a dead process."""
+    state: dict[str, Any] = {"written_at": -math.inf, "written": None, "echoed": None}
+
+    def report(done: int, total: int) -> None:
+        values = (int(done), int(total))
+        if echo is not None and values != state["echoed"]:
+            state["echoed"] = values
+            echo(*values)
+        now = time.monotonic()
+        wait = beat_every if values == state["written"] else min_interval
+        if now - state["written_at"] < wait and done < total:
+            return
+        state["written_at"] = now
+        try:
+            with transaction() as session:
+                session.execute(
+                    sa.update(Job)
+                    .where(Job.id == job_id)
+                    .values(done=values[0], total=values[1], heartbeat_at=utcnow())
+                )
+        except SQLAlchemyError:
+            # The database is briefly away (a restart): the work goes on, the next report
+            # writes the row. Only an outage longer than the stale timeout fails the job.
+            log.warning("job %s: progress not recorded (database unreachable)", job_id)
+            return
+        state["written"] = values
+
+    return report
+
+
+def beat_interval(stale_after: float) -> float:
+    """How often a live job (or a queued one's holder) signs of life: well inside the time
+    after which the sweeper gives it up (a fifth of it, at most 30 s)."""
+    return max(0.05, min(30.0, stale_after / 5))
+
+
+def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
+    """Motion tracks of every condition on every clip (``app.stimuli.generate``)."""
+    from app.stimuli.generate import generate_conditions
+    from app.stimuli.io import load_track, save_track
+
+    root = media_dir(study)
+    models = [c for c in study.conditions if c.model != "upload"]
+    total = len(study.clips) * len(study.conditions)
+    done = 0
+    notes: list[str] = []
+    progress(done, total)
+    for clip in study.clips:
+        tracks = {}
+        if models:
+            result = generate_conditions(
+                media.fetch(study, clip.audio_path),
+                conditions={c.name: {"model": c.model, **c.params} for c in models},
+                ground_truth=(
+                    media.fetch(study, clip.ground_truth_path) if clip.ground_truth_path else None
+                ),
+                seed=study.seed,
+                eyes=study.settings.get("eyes", "still"),
+                normalize=bool(study.settings.get("normalize", False)),
+            )
+            tracks.update(result.tracks)
+            notes += [
+                f"clip {clip.name}: {n}"
+                for n in result.summary["notes"]
+                if n.startswith("ground truth imported")
+            ]
+        for condition in study.conditions:
+            rel = f"tracks/{clip.name}/{condition.name}.fap"
+            (root / rel).parent.mkdir(parents=True, exist_ok=True)
+            if condition.model == "upload":
+                source = condition.uploads.get(clip.name)
+                if source is None:
+                    raise ValueError(
+                        f"condition {condition.name}: no uploaded track for clip {clip.name}"
+                    )
+                save_track(load_track(media.fetch(study, source)), root / rel)
+            else:
+                save_track(tracks[condition.name], root / rel)
+            media.publish(study, rel)
+            _upsert_track(condition.id, clip.id, rel)
+            done += 1
+            progress(done, total)
+    db.session.commit()
+    return "; ".join([f"{done} tracks generated", *notes])
+
+
+def _upsert_track(condition_id: int, clip_id: int, rel: str) -> None:
+    track = db.session.scalar(
+        sa.select(Track).where(Track.condition_id == condition_id, Track.clip_id == clip_id)
+    )
+    if track is None:
+        db.session.add(Track(condition_id=condition_id, clip_id=clip_id, path=rel))
+    else:
+        track.path = rel
+
+
+def render_inputs(study: Study) -> tuple[dict[tuple[int, int], str], list[Stimulus]]:
+    """The study's track paths by (condition, clip) and its stimuli in order; raises when a
+    stimulus has no track to show yet."""
+    tracks = {
+        (t.condition_id, t.clip_id): t.path
+        for t in db.session.scalars(sa.select(Track).join(Clip).where(Clip.study_id == study.id))
+    }
+    stimuli = db.session.scalars(
+        sa.select(Stimulus).where(Stimulus.study_id == study.id).order_by(Stimulus.id)
+    ).all()
+    if any(key not in tracks for s in stimuli for key in _track_keys(s)):
+        raise ValueError("generate the tracks first: some conditions have no track yet")
+    return tracks, list(stimuli)
+
+
+def render_stimulus(
+    study: Study,
+    stim: Stimulus,
+    tracks: dict[tuple[int, int], str],
+    progress: Callable[[int, int], None],
+) -> str:
+    """Render one stimulus video (``renderer.render_pair``), record and publish it; returns
+    its path in the study's folder. ``progress(frame, frames)`` is called every frame."""
+    import renderer
+    from app.stimuli.io import load_track
+
+    root = media_dir(study)
+    settings = renderer.RenderSettings(**study.settings.get("render", {}))
+    rel = clip_file(study, stim)
+    (root / rel).parent.mkdir(parents=True, exist_ok=True)
+    left, right = (
+        load_track(media.fetch(study, tracks[(condition, clip)]))
+        for condition, clip in _track_keys(stim)
+    )
+    if stim.foreign_side:
+        # The lent motion is time-aligned to this clip's speech and trimmed to its length.
+        matched = right if stim.foreign_side == "left" else left
+        lent = (
+            (left if stim.foreign_side == "left" else right)
+            .resample(matched.fps)
+            .fit_length(matched.n_frames)
+        )
+        left, right = (lent, right) if stim.foreign_side == "left" else (left, lent)
+    caption = {"caption": f"press {stim.instruction}"} if stim.instruction else {}
+    renderer.render_pair(
+        left,
+        right,
+        media.fetch(study, stim.clip.audio_path),
+        root / rel,
+        settings=settings,
+        cache_dir=root / "cache",
+        progress=progress,
+        **caption,
+    )
+    media.publish(study, rel)
+    stim.video_path = rel
+    db.session.commit()
+    return rel
+
+
+def rendered(study: Study, stim: Stimulus) -> bool:
+    """Whether the stimulus's video is in place (a retried job keeps it)."""
+    return bool(stim.video_path) and media.stored(study, stim.video_path)
+
+
+def render_clips(study: Study, progress: Callable[[int, int], None]) -> str:
+    """Render every stimulus video of the study, one after the other in this process (an RQ
+    worker splits the render into one job per clip instead: ``app.web.jobs.clips``)."""
+    tracks, stimuli = render_inputs(study)
+    # A retried job resumes: clips rendered before (their file in place) are kept.
+    kept = sum(rendered(study, s) for s in stimuli)
+    for i, stim in enumerate(stimuli):
+        progress(i, len(stimuli))
+        if rendered(study, stim):
+            continue
+        # every frame is a sign of life: a clip may take longer than the stale timeout
+        render_stimulus(study, stim, tracks, lambda _frame, _frames, i=i: progress(i, len(stimuli)))
+    progress(len(stimuli), len(stimuli))
+    return rendering_finished(study, len(stimuli), kept)
+
+
+def rendering_finished(study: Study, total: int, kept: int, workers: int = 0) -> str:
+    """Mark a draft study ready once every clip is rendered; the job's closing message."""
+    if study.status == "draft":
+        study.status = "ready"
+    db.session.commit()
+    by = f" by {workers} workers" if workers > 1 else ""
+    return f"{total} clips rendered{by}" + (f" ({kept} kept from before)" if kept else "")
+
+
+def _track_keys(stim: Stimulus) -> list[tuple[int, int]]:
+    """(condition, clip) of the motion on each side: an appropriateness pair's foreign side
+    shows the motion made for its ``foreign_clip``."""
+    clips = [
+        stim.foreign_clip_id if stim.foreign_side == side and stim.foreign_clip_id else stim.clip_id
+        for side in ("left", "right")
+    ]
+    return [(stim.left_id, clips[0]), (stim.right_id, clips[1])]
+
+
+def clip_file(study: Study, stim: Stimulus) -> str:
+    """The stored name of a stimulus's clip: ``videos/<20 hex digits>.mp4``, an HMAC of the
+    study and stimulus under the app's secret key. It names no condition, side, attention
+    check or mismatched side, and cannot be guessed from the stimulus's number, so neither
+    an object key, a redirect nor a proxy's path tells a participant what the clip shows
+    (docs/web.md, "Blinding"); the same stimulus keeps its name when a job is retried."""
+    key = str(current_app.config["SECRET_KEY"]).encode()
+    digest = hmac.new(key, f"clip/{study.id}/{stim.id}".encode(), hashlib.sha256).hexdigest()
+    return f"videos/{digest[:20]}.mp4"
+
+
+def build_report(study: Study, progress: Callable[[int, int], None]) -> str:
+    """The analysis report of the votes so far (``app.analysis``), as HTML."""
+    from app.web.study.exports import write_report_files
+
+    progress(0, 1)
+    path = write_report_files(study)
+    media.publish_folder(study, path.parent.name)
+    study.report_at = utcnow()
+    db.session.commit()
+    progress(1, 1)
+    return f"report written: {path.name}"
+
+
+def failure_message(exc: BaseException) -> str:
+    """What the experimenter reads on a failed job's row."""
+    if disk_full(exc):
+        return disk_full_message(exc)  # type: ignore[arg-type]
+    text = str(exc)
+    return text if text.startswith(type(exc).__name__) else f"{type(exc).__name__}: {text}"
+
+
+TASKS: dict[str, Callable[[Study, Callable[[int, int], None]], str]] = {
+    "generate": generate_tracks,
+    "render": render_clips,
+    "report": build_report,
+}
+
+
+def run_job(job_id: int, *, echo: Callable[[int, int], None] | None = None) -> str:
+    """Run job ``job_id``; its row ends ``done`` with a summary or ``failed`` with the error.
+    Returns the final status."""
+    job = db.session.get(Job, job_id)
+    if job is None:
+        log.warning("job %s vanished", job_id)
+        return "failed"
+    study_id, kind = job.study_id, job.kind
+    # Only a queued row starts: one the sweeper gave up (and the experimenter may have retried)
+    # stays failed instead of rendering beside its retry.
+    started = db.session.execute(
+        sa.update(Job)
+        .where(Job.id == job_id, Job.status == "queued")
+        .values(status="running", heartbeat_at=utcnow())
+        .execution_options(synchronize_session=False)
+    )
+    db.session.commit()
+    if started.rowcount != 1:
+        log.warning("job %s is no longer queued; not started", job_id)
+        return str(db.session.scalar(sa.select(Job.status).where(Job.id == job_id)))
+    beat = beat_interval(current_app.config.get("JOB_STALE_AFTER_SECONDS", 900))
+    try:
+        study = db.session.get(Study, study_id)
+        progress = _progress(job_id, beat_every=beat, echo=echo)
+        if kind == "render" and _in_rq_worker():
+            from app.web.jobs.clips import split_render
+
+            if split_render(study, job_id, progress):  # type: ignore[arg-type]
+                return "running"  # its clip jobs end the row (app.web.jobs.clips)
+        message = TASKS[kind](study, progress)  # type: ignore[arg-type]
+        status = "done"
+    except Exception as exc:  # noqa: BLE001 - every failure must reach the experimenter
+        db.session.rollback()
+        log.exception("job %s (%s) failed", job_id, kind)
+        message = failure_message(exc)
+        status = "failed"
+    with transaction() as session:
+        job = session.get(Job, job_id)
+        job.status, job.message, job.finished_at = status, message, utcnow()  # type: ignore[union-attr]
+        if status == "done":
+            job.done = job.total = max(job.total, 1)  # type: ignore[union-attr]
+    return status
+
+
+def _in_rq_worker() -> bool:
+    from rq import get_current_job
+
+    return get_current_job() is not None
+
+
+@contextmanager
+def standalone_context() -> Iterator[None]:
+    """An application built from the environment, its connections closed on the way out."""
+    from app.web import create_app
+
+    # A job signs no session: it needs no deployment key.
+    with create_app({"REQUIRE_SECRET_KEY": False}).app_context():
+        try:
+            yield
+        finally:
+            db.session.remove()
+            db.engine.dispose()
+
+
+def run_job_standalone(job_id: int) -> None:
+    """Entry point for the RQ worker: builds the app from the environment."""
+    with standalone_context():
+        run_job(job_id)
+
+
+def mark_failed(job_id: int, reason: str) -> bool:
+    """Mark an unfinished job failed with ``reason``; False if it had already finished."""
+    with transaction() as session:
+        result = session.execute(
+            sa.update(Job)
+            .where(Job.id == job_id, Job.status.in_(("queued", "running")))
+            .values(status="failed", message=reason, finished_at=utcnow())
+        )
+    return result.rowcount == 1
+
+
+def rq_failed(job, connection, exc_type, exc_value, traceback) -> None:  # type: ignore[no-untyped-def]
+    """RQ's failure callback (an exception, a timeout, a killed work horse): the row says why."""
+    reason = failure_message(exc_value) if exc_value is not None else "failed in the worker"
+    with standalone_context():
+        mark_failed(int(job.args[0]), reason)
+
+
+def rq_horse_killed(job, retpid, ret_val, rusage) -> None:  # type: ignore[no-untyped-def]
+    """The RQ worker's handler for a work horse that died (SIGKILL, out of memory): RQ calls
+    no failure callback then, so the row is marked here, at once, with the signal."""
+    import os
+
+    how = (
+        f"killed by signal {os.WTERMSIG(ret_val)}"
+        if ret_val and os.WIFSIGNALED(ret_val)
+        else f"exited with status {ret_val}"
+    )
+    try:
+        mark_failed(int(job.args[0]), f"the process running it was {how}; retry it")
+    finally:  # the worker forks the next work horse: it must hold no database connection
+        db.session.remove()
+        db.engine.dispose()
+
+
+def _rq_states(app_redis_url: str, ids: list[int]) -> dict[int, tuple[str, str] | None]:
+    """RQ's status of each job and, for a failed one, the last line of its error (None: RQ no
+    longer knows it)."""
+    from redis import Redis
+    from rq.exceptions import NoSuchJobError
+    from rq.job import Job as RQJob
+
+    from app.web.jobs import rq_job_id
+    from app.web.jobs.clips import finish_job_id
+
+    connection = Redis.from_url(app_redis_url, socket_connect_timeout=2, socket_timeout=5)
+
+    def state_of(rq_id: str) -> tuple[str, str] | None:
+        try:
+            rq_job = RQJob.fetch(rq_id, connection=connection)
+        except NoSuchJobError:
+            return None
+        state = rq_job.get_status()
+        result = rq_job.latest_result() if state == "failed" else None
+        # the exception's own line ("module.Error: text"), not SQL or links printed after it
+        error = [
+            line
+            for line in ((result.exc_string if result else None) or "").splitlines()
+            if re.match(r"[A-Za-z_][\w.]*: ", line)
+        ]
+        # RQ's JobStatus is a str enum: its value is the word
+        return str(getattr(state, "value", state)), error[-1][:200] if error else ""
+
+    states: dict[int, tuple[str, str] | None] = {}
+    for job_id in ids:
+        states[job_id] = state_of(rq_job_id(job_id))
+        if states[job_id] is None or states[job_id][0] == "finished":  # type: ignore[index]
+            # A render split into clip jobs (app.web.jobs.clips) lives on in its closing job.
+            states[job_id] = state_of(finish_job_id(job_id)) or states[job_id]
+    return states
+
+
+def sweep_stale(study_id: int, *, stale_after: float, redis_url: str | None = None) -> int:
+    """Mark failed the study's unfinished jobs whose runner is gone: RQ no longer has them or
+    reports them failed; (any runner) running without a sign of life for ``stale_after``
+    seconds; (local runner) queued while the web process holding it has not renewed its
+    heartbeat for that long (it was restarted: its queue is gone). Returns how many rows
+    were swept. A Redis outage sweeps nothing through RQ."""
+    import datetime as dt
+
+    from redis.exceptions import RedisError
+
+    rows = db.session.execute(
+        sa.select(Job.id, Job.status, sa.func.coalesce(Job.heartbeat_at, Job.created_at)).where(
+            Job.study_id == study_id, Job.status.in_(("queued", "running"))
+        )
+    ).all()
+    cutoff = utcnow() - dt.timedelta(seconds=stale_after)
+    reasons: dict[int, str] = {}
+    for job_id, status, last_sign in rows:
+        if last_sign >= cutoff:
+            continue
+        if status == "running":
+            reasons[job_id] = (
+                f"no sign of life for over {stale_after:.0f} s: the process "
+                "running it stopped; retry it"
+            )
+        elif not redis_url:  # RQ is asked about its own queue below
+            reasons[job_id] = (
+                f"never started: the process holding it has not answered "
+                f"for over {stale_after:.0f} s (restarted?); retry it"
+            )
+    if redis_url and rows:
+        try:
+            states = _rq_states(redis_url, [r.id for r in rows if r.id not in reasons])
+        except RedisError:
+            states = {}
+        for job_id, known in states.items():
+            if known is None:
+                reasons[job_id] = "the job queue lost it: its worker stopped; retry it"
+            elif known[0] in ("failed", "stopped", "canceled"):
+                why = f" ({known[1]})" if known[1] else ""
+                reasons[job_id] = f"the job queue reports it {known[0]}{why}; retry it"
+    return sum(mark_failed(job_id, reason) for job_id, reason in reasons.items())
+
+
+def sweep_study_jobs(study_id: int) -> int:
+    """:func:`sweep_stale` with the application's settings, committed."""
+    swept = sweep_stale(
+        study_id,
+        stale_after=current_app.config["JOB_STALE_AFTER_SECONDS"],
+        redis_url=current_app.config.get("REDIS_URL"),
+    )
+    db.session.commit()
+    return swept

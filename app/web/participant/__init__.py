@@ -1,0 +1,7 @@
+"""Participant blueprint: consent, instructions with a practice pair, trials, completion."""
+
+from flask import Blueprint
+
+bp = Blueprint("participant", __name__)
+
+from app.web.participant import views  # noqa: E402, F401  (its routes register on bp)

@@ -1,0 +1,487 @@
+"""Enrolling a participant: balanced list assignment and a reproducible schedule, one transaction.
+
+The list comes from the assignment table (:class:`~app.web.models.StudyList`), never from counting
+participant rows: the least-filled list is chosen (``app.trials.assignment.choose_list``) and
+its count raised by a conditional UPDATE that only succeeds if nobody raised it meanwhile; on a
+lost race the counts are read again (bounded retry). The caller commits, so the count, the
+participant and the schedule are stored together or not at all.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+from functools import cache, lru_cache
+from typing import Any, NamedTuple
+
+import numpy as np
+import sqlalchemy as sa
+
+from app.trials import assignment, design
+from app.trials import schedule as schedules
+from app.web.extensions import db
+from app.web.models import (
+    Clip,
+    Condition,
+    Pair,
+    Participant,
+    Stimulus,
+    Study,
+    StudyList,
+    Trial,
+    Vote,
+    utcnow,
+)
+from app.web.study.studies import participation, practice_pair
+
+MAX_ATTEMPTS = 20
+#: What a dropped participant reads when the study's ``rejoin`` policy refuses their return.
+SESSION_ENDED = (
+    "your session ended after a long pause, and your place was given to another "
+    "participant; thank you for your time"
+)
+
+
+class EnrolmentBusy(RuntimeError):
+    """Too many simultaneous arrivals; the participant should simply retry."""
+
+
+class Design(NamedTuple):
+    """What every consent reads of a study's design: fixed once the study is created
+    (:func:`app.web.study.studies.create_study` writes these rows, only
+    :func:`app.web.study.studies.delete_study` removes them), so it is read once per process
+    (:func:`study_design`)."""
+
+    #: Clip names in the stored order, and each one's id.
+    clip_names: tuple[str, ...]
+    clips: dict[str, int]
+    #: Condition name -> id.
+    conditions: dict[str, int]
+    #: The pairs in the stored order, by condition names.
+    pairs: tuple[design.ConditionPair, ...]
+    #: (first condition id, second condition id) -> pair id, either way round.
+    pair_ids: dict[tuple[int, int], int]
+    n_lists: int
+    #: (clip id, left id, right id, instruction, foreign side) -> stimulus id.
+    stimuli: dict[tuple[int, int, int, str | None, str | None], int]
+
+
+def study_design(study: Study) -> Design:
+    """The study's :class:`Design`, read in four plain queries the first time in this process
+    and kept for the 64 studies used last. Reading it through the ORM's lazy relationships was
+    five queries on every consent in the load benchmark's profile."""
+    return _design(study.id, study.slug)
+
+
+@lru_cache(maxsize=64)
+def _design(study_id: int, slug: str) -> Design:
+    """Kept by study id and slug: the slug, random for every study created, tells apart a
+    study created later under a reused id (SQLite may reuse a deleted row's id, and a database
+    created again starts its ids afresh)."""
+    return _read_design(study_id)
+
+
+def _read_design(study_id: int) -> Design:
+    run = db.session.execute
+    clips = run(
+        sa.select(Clip.name, Clip.id).where(Clip.study_id == study_id).order_by(Clip.position)
+    ).all()
+    conditions = dict(
+        run(sa.select(Condition.name, Condition.id).where(Condition.study_id == study_id)).all()
+    )
+    names = {condition_id: name for name, condition_id in conditions.items()}
+    pairs = run(
+        sa.select(Pair.id, Pair.first_id, Pair.second_id)
+        .where(Pair.study_id == study_id)
+        .order_by(Pair.position)
+    ).all()
+    pair_ids: dict[tuple[int, int], int] = {}
+    for pair in pairs:
+        pair_ids.setdefault((pair.first_id, pair.second_id), pair.id)
+    for pair in pairs:
+        pair_ids.setdefault((pair.second_id, pair.first_id), pair.id)
+    n_lists = run(
+        sa.select(sa.func.count(StudyList.id)).where(StudyList.study_id == study_id)
+    ).scalar_one()
+    stimuli = {
+        (s.clip_id, s.left_id, s.right_id, s.instruction, s.foreign_side): s.id
+        for s in run(
+            sa.select(
+                Stimulus.id,
+                Stimulus.clip_id,
+                Stimulus.left_id,
+                Stimulus.right_id,
+                Stimulus.instruction,
+                Stimulus.foreign_side,
+            ).where(Stimulus.study_id == study_id)
+        )
+    }
+    return Design(
+        clip_names=tuple(name for name, _ in clips),
+        clips=dict(clips),
+        conditions=conditions,
+        pairs=tuple(design.ConditionPair(names[p.first_id], names[p.second_id]) for p in pairs),
+        pair_ids=pair_ids,
+        n_lists=int(n_lists),
+        stimuli=stimuli,
+    )
+
+
+def schedule(study: Study, *, seed: int, list_index: int) -> list[schedules.ScheduledTrial]:
+    """One participant's trials (:class:`app.trials.schedule.ScheduledTrial`), in presentation
+    order."""
+    settings = study.settings or {}
+    fixed = study_design(study)
+    return schedules.make_schedule(
+        clips=list(fixed.clip_names),
+        pairs=list(fixed.pairs),
+        design=study.design,
+        seed=seed,
+        list_index=list_index,
+        n_lists=fixed.n_lists,
+        catch_trials=study.catch_trials,
+        catch_kind=study.catch_kind,
+        practice_pair=practice_pair(study),
+        practice_clip=settings.get("practice_clip"),
+        block_by_clip=settings.get("block_by_clip", True),
+        mismatched=participation(study).mismatched,
+    )
+
+
+def participant_seed(study: Study, number: int) -> int:
+    """The schedule seed of the study's participant ``number``."""
+    return int(schedules.participant_seed(study.seed, number))
+
+
+def choose_list(study: Study, counts: dict[int, int]) -> int:
+    """The least-filled list; ties broken by a generator seeded from the study and arrivals."""
+    rng = np.random.default_rng([study.seed, sum(counts.values())])
+    return int(assignment.choose_list(counts, rng))
+
+
+def _take_list(study: Study) -> tuple[int, int, int]:
+    """Raise the count of the least-filled list; returns its id, its index and its arrivals
+    before."""
+    for _ in range(MAX_ATTEMPTS):
+        rows = db.session.execute(
+            sa.select(
+                StudyList.id, StudyList.index, StudyList.n_assigned, StudyList.n_arrived
+            ).where(StudyList.study_id == study.id)
+        ).all()
+        counts = {row.index: row.n_assigned for row in rows}
+        index = choose_list(study, counts)
+        row = next(r for r in rows if r.index == index)
+        # n_arrived only grows, so this guard cannot be fooled by a release in between.
+        result = db.session.execute(
+            sa.update(StudyList)
+            .where(
+                StudyList.id == row.id,
+                StudyList.n_assigned == row.n_assigned,
+                StudyList.n_arrived == row.n_arrived,
+            )
+            .values(n_assigned=StudyList.n_assigned + 1, n_arrived=StudyList.n_arrived + 1)
+            .execution_options(synchronize_session=False)
+        )
+        if result.rowcount == 1:
+            return row.id, row.index, row.n_arrived
+    raise EnrolmentBusy("too many participants arriving at once; please reload the page")
+
+
+def enrol(
+    study: Study,
+    *,
+    user_agent: str = "",
+    prolific_pid: str | None = None,
+    prolific_study_id: str | None = None,
+    prolific_session_id: str | None = None,
+    dropped_after: dt.timedelta | None = None,
+) -> Participant:
+    """Create a participant with a list, a seed and a schedule (not committed).
+
+    With ``dropped_after``, participants idle longer than that give their slots back first
+    (:func:`release_dropped`), so the new arrival is balanced over those still taking part.
+    """
+    if dropped_after is not None:
+        release_dropped(study, after=dropped_after)
+    fixed = study_design(study)
+    list_id, list_index, before = _take_list(study)
+    # (list, arrivals before) is unique per study, so this arrival number is too.
+    number = before * fixed.n_lists + list_index
+    seed = participant_seed(study, number)
+    participant = Participant(
+        study_id=study.id,
+        list_id=list_id,
+        number=number,
+        seed=seed,
+        user_agent=user_agent,
+        prolific_pid=prolific_pid,
+        prolific_study_id=prolific_study_id,
+        prolific_session_id=prolific_session_id,
+    )
+    db.session.add(participant)
+    db.session.flush()
+    clips, conditions = fixed.clips, fixed.conditions
+    rows = []
+    for item in schedule(study, seed=seed, list_index=list_index):
+        left, right = conditions[item.left], conditions[item.right]
+        rows.append(
+            {
+                "participant_id": participant.id,
+                "position": item.position,
+                "kind": item.kind,
+                "expected": item.expected,
+                "pair_id": fixed.pair_ids.get((left, right)),
+                "stimulus_id": fixed.stimuli[
+                    (clips[item.clip], left, right, item.instruction, item.foreign)
+                ],
+            }
+        )
+    db.session.execute(sa.insert(Trial), rows)
+    return participant
+
+
+def next_trial(participant: Participant) -> Trial | None:
+    """The participant's first trial without a vote (where a reload resumes)."""
+    found = next_trials(participant, 1)
+    return found[0] if found else None
+
+
+def next_trials(participant: Participant, count: int) -> list[Trial]:
+    """The participant's first ``count`` trials without a vote, in schedule order."""
+    return list(
+        db.session.scalars(_unanswered(), {"participant_id": participant.id, "count": count})
+    )
+
+
+# The statements every trial page and vote runs are built once, with bound parameters.
+
+
+def _without_vote(select: Any) -> Any:
+    """``select`` narrowed to the bound ``participant_id``'s trials without a vote, in order.
+
+    The votes joined are the participant's own (a trial's vote is always its participant's):
+    PostgreSQL then reads them by index, where joining on the trial alone scans every vote of
+    every participant."""
+    who = sa.bindparam("participant_id")
+    return (
+        select.outerjoin(Vote, sa.and_(Vote.participant_id == who, Vote.trial_id == Trial.id))
+        .where(Trial.participant_id == who, Trial.kind != "practice", Vote.id.is_(None))
+        .order_by(Trial.position)
+    )
+
+
+@cache
+def _unanswered() -> sa.Select[tuple[Trial]]:
+    return _without_vote(sa.select(Trial)).limit(sa.bindparam("count", type_=sa.Integer))
+
+
+@cache
+def upcoming() -> sa.Select[Any]:
+    """The bound participant's next trial without a vote, as the trial page shows it: one
+    row (none when every trial is answered) with what the page needs of it (its plays, kind,
+    expected answer, its stimulus's on-screen instruction) and the id of the trial after it,
+    whose clip is preloaded (NULL when it is the last). The vote's answer carries it
+    (:func:`app.web.study.votes.record_vote`), so the browser needs no trial page per pair. One pass
+    over the participant's trials: the one after comes from ``lead`` over the same rows, and the
+    instruction is read for the one row kept."""
+    pending = (
+        _without_vote(
+            sa.select(
+                Trial.id.label("trial_id"),
+                Trial.plays,
+                Trial.kind,
+                Trial.expected,
+                Trial.stimulus_id,
+                sa.func.lead(Trial.id).over(order_by=Trial.position).label("following"),
+            )
+        )
+        .limit(1)
+        .subquery("pending")
+    )
+    instruction = (
+        sa.select(Stimulus.instruction)
+        .where(Stimulus.id == pending.c.stimulus_id)
+        .scalar_subquery()
+        .label("instruction")
+    )
+    return sa.select(
+        pending.c.trial_id,
+        pending.c.plays,
+        pending.c.kind,
+        pending.c.expected,
+        instruction,
+        pending.c.following,
+    )
+
+
+@cache
+def _seen() -> sa.Update:
+    return (
+        sa.update(Participant)
+        .where(Participant.id == sa.bindparam("participant_id"), Participant.dropped_at.is_(None))
+        .values(last_seen_at=sa.bindparam("now"))
+        .returning(Participant)
+    )
+
+
+def progress_counts() -> tuple[sa.ScalarSelect[int], sa.ScalarSelect[int]]:
+    """(answered, total) as scalar subqueries on the bound ``participant_id``: the votes, and
+    the real and catch trials (not the practice). The one definition of a participant's
+    progress (:func:`progress`)."""
+    who = sa.bindparam("participant_id")
+    answered = sa.select(sa.func.count(Vote.id)).where(Vote.participant_id == who).scalar_subquery()
+    total = (
+        sa.select(sa.func.count(Trial.id))
+        .where(Trial.participant_id == who, Trial.kind != "practice")
+        .scalar_subquery()
+    )
+    return answered, total
+
+
+@cache
+def _progress() -> sa.Select[tuple[int, int]]:
+    return sa.select(*progress_counts())
+
+
+def practice_stimulus(participant: Participant) -> Stimulus | None:
+    """The clip of the practice pair on the instructions page (votes on it are never stored):
+    the schedule's practice trial, else the study's first rendered pair of two conditions."""
+    practice = db.session.scalar(
+        sa.select(Trial)
+        .where(Trial.participant_id == participant.id, Trial.kind == "practice")
+        .limit(1)
+    )
+    if practice is not None:
+        return practice.stimulus
+    study = participant.study
+    return db.session.scalar(
+        sa.select(Stimulus)
+        .where(
+            Stimulus.study_id == study.id,
+            Stimulus.video_path.is_not(None),
+            Stimulus.left_id != Stimulus.right_id,
+        )
+        .order_by(Stimulus.id)
+        .limit(1)
+    )
+
+
+def release_dropped(study: Study, *, after: dt.timedelta) -> int:
+    """Mark unfinished participants idle for longer than ``after`` as dropped and give their
+    list slots back (thesis-style balance over those who actually take part).
+
+    Each release is a conditional UPDATE that re-checks idleness on the row as it stands, so a
+    participant whose vote lands at the same moment is never both active and released, and
+    two releases never give one slot back twice.
+    """
+    cutoff = utcnow() - after
+    stale = db.session.execute(
+        sa.select(Participant.id, Participant.list_id).where(
+            Participant.study_id == study.id,
+            Participant.finished_at.is_(None),
+            Participant.dropped_at.is_(None),
+            Participant.last_seen_at < cutoff,
+        )
+    ).all()
+    released = 0
+    for participant_id, list_id in stale:
+        result = db.session.execute(
+            sa.update(Participant)
+            .where(
+                Participant.id == participant_id,
+                Participant.finished_at.is_(None),
+                Participant.dropped_at.is_(None),
+                Participant.last_seen_at < cutoff,
+            )
+            .values(dropped_at=utcnow())
+            .execution_options(synchronize_session=False)
+        )
+        if result.rowcount == 1:
+            move_slot(list_id, -1)
+            released += 1
+    if released:
+        db.session.expire_all()
+    return released
+
+
+def move_slot(list_id: int, change: int) -> None:
+    """Raise (+1, a participant takes a slot) or lower (-1, gives it back) a list's count."""
+    db.session.execute(
+        sa.update(StudyList)
+        .where(StudyList.id == list_id)
+        .values(n_assigned=StudyList.n_assigned + change)
+        .execution_options(synchronize_session=False)
+    )
+
+
+def dropped_after() -> dt.timedelta:
+    """The deployment's idle time after which an unfinished participant counts as dropped."""
+    from flask import current_app
+
+    return dt.timedelta(minutes=current_app.config["DROPPED_AFTER_MINUTES"])
+
+
+def rejoin_policy(study: Study) -> str:
+    """What a dropped participant meets on coming back: the study file's ``rejoin``."""
+    return str((study.settings or {}).get("rejoin", "resume"))
+
+
+def touch(participant: Participant) -> bool:
+    """A sign of life from ``participant``: last seen now. A participant released as dropped
+    takes their list slot back, unless the study's ``rejoin`` policy is ``refuse``: then
+    nothing changes and the answer is False (their session has ended).
+
+    Both steps are conditional UPDATEs on the participant row, so a release and a return
+    racing each other leave the row and the list count agreeing: a participant holds a slot
+    exactly when ``dropped_at`` is empty. Not committed: the caller's unit of work decides.
+    """
+    now = utcnow()
+    # RETURNING the row refreshes ``participant`` in the same round trip as the UPDATE (the
+    # vote path's profile showed the separate refresh as one of its nine queries).
+    present = db.session.scalars(
+        _seen(),
+        {"participant_id": participant.id, "now": now},
+        execution_options={"synchronize_session": False, "populate_existing": True},
+    ).all()
+    if present:
+        return True
+    # The row as it is now: a concurrent request of theirs may have finished them since it
+    # was read (SQLite reads without a lock).
+    db.session.refresh(participant)
+    if participant.finished_at is not None:
+        # Finished, and released because the report leaves them out: a resent last vote or a
+        # late request, not a return from a pause. Nothing to rejoin, no slot to take back.
+        return True
+    if rejoin_policy(participant.study) == "refuse":
+        return False
+    returned = db.session.execute(
+        sa.update(Participant)
+        # An excluded participant's or a pilot's slot stays given back.
+        .where(
+            Participant.id == participant.id,
+            Participant.dropped_at.is_not(None),
+            Participant.excluded_at.is_(None),
+            Participant.pilot.is_(False),
+            Participant.finished_at.is_(None),
+        )
+        .values(last_seen_at=now, dropped_at=None)
+        .execution_options(synchronize_session=False)
+    )
+    if returned.rowcount == 1:
+        move_slot(participant.list_id, +1)
+    db.session.refresh(participant)
+    return True
+
+
+def touch_with_progress(participant: Participant) -> tuple[int, int] | None:
+    """:func:`touch`, then :func:`progress`: (answered, total), or None where ``touch`` says
+    the participant's session has ended. Not committed."""
+    if not touch(participant):
+        return None
+    return progress(participant)
+
+
+def progress(participant: Participant) -> tuple[int, int]:
+    """(answered, total) over the participant's real and catch trials (not the practice)."""
+    # One round trip for both counts: every vote and every trial page asks for them.
+    row = db.session.execute(_progress(), {"participant_id": participant.id}).one()
+    return int(row[0] or 0), int(row[1] or 0)

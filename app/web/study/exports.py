@@ -1,0 +1,209 @@
+"""Votes in the analysis module's CSV schema, and the analysis report of a study.
+
+The column names come from ``app.analysis.votes.VOTE_COLUMNS`` (one place for the votes
+schema), with the media log and the answer details of each vote. Practice answers are never
+stored; catch trials (attention checks) are exported with ``kind = catch`` and the analysis
+leaves them out; appropriateness pairs are exported with their ``mismatched`` side and analysed
+on their own (``app.analysis.appropriateness``). Every row carries its participant's status,
+pseudonymised Prolific ID and, when the analysis is to leave them out, why
+(``app.web.study.participants``). Pilot participants are exported only when asked for
+(``pilot="with"`` or ``"only"``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+import sqlalchemy as sa
+
+from app.analysis.results import analyze
+from app.analysis.votes import VOTE_COLUMNS, VotesTable, read_votes, write_votes_csv
+from app.web.extensions import db
+from app.web.infra.storage import media_dir
+from app.web.models import Clip, Condition, Participant, Stimulus, Study, Trial, Vote
+
+
+def _iso(value: Any) -> str:
+    return value.isoformat(timespec="milliseconds") + "Z" if value is not None else ""
+
+
+def participant_label(number: int) -> str:
+    """How exports name a participant (``P0007``): the arrival number, nothing personal."""
+    return f"P{number:04d}"
+
+
+def vote_rows(study: Study, *, pilot: str = "without") -> list[dict[str, Any]]:
+    """One dict per stored vote of a real or catch trial, ordered by participant and trial
+    position; ``pilot`` is "without" (default), "with" or "only" the pilot participants."""
+    from app.web.study.enrolment import dropped_after
+    from app.web.study.participants import participant_rows
+    from app.web.study.privacy import pseudonym
+
+    people = {
+        row.id: row
+        for row in participant_rows(study, dropped_after=dropped_after())
+        if (pilot == "with") or (row.pilot == (pilot == "only"))
+    }
+    left = sa.orm.aliased(Condition)
+    right = sa.orm.aliased(Condition)
+    query = (
+        sa.select(
+            Vote,
+            Trial.position,
+            Trial.kind,
+            Participant.id,
+            Participant.number,
+            Participant.prolific_pid,
+            Clip.name,
+            left.name,
+            right.name,
+            Stimulus.foreign_side,
+        )
+        .join(Trial, Vote.trial_id == Trial.id)
+        .join(Participant, Vote.participant_id == Participant.id)
+        .join(Stimulus, Trial.stimulus_id == Stimulus.id)
+        .join(Clip, Stimulus.clip_id == Clip.id)
+        .join(left, Stimulus.left_id == left.id)
+        .join(right, Stimulus.right_id == right.id)
+        .where(Participant.study_id == study.id, Trial.kind.in_(("trial", "mismatch", "catch")))
+        .order_by(Participant.number, Trial.position)
+    )
+    rows = []
+    for (
+        vote,
+        position,
+        kind,
+        person,
+        number,
+        pid,
+        clip,
+        left_name,
+        right_name,
+        foreign,
+    ) in db.session.execute(query):
+        if person not in people:
+            continue
+        rows.append(
+            {
+                "participant": participant_label(number),
+                "clip": clip,
+                "left": left_name,
+                "right": right_name,
+                "choice": vote.choice,
+                "study": study.title,
+                "trial": position,
+                "response_ms": vote.response_ms,
+                "plays": vote.plays,
+                "presented_at": _iso(vote.presented_at),
+                "voted_at": _iso(vote.voted_at),
+                "strength": vote.strength,
+                "reasons": ";".join(vote.reasons or []),
+                "mismatched": foreign,
+                "watched_ms": vote.watched_ms,
+                "played_to_end": vote.played_to_end,
+                "stalls": vote.stalls,
+                "stall_ms": vote.stall_ms,
+                "focus_lost": vote.focus_lost,
+                "kind": kind,
+                "status": people[person].status,
+                "excluded": people[person].excluded,
+                "prolific_id": pseudonym(study.pseudonym_key, pid),
+            }
+        )
+    return rows
+
+
+def votes_table(study: Study, *, pilot: str = "without") -> VotesTable:
+    """The study's votes, validated once by the analysis reader's rules
+    (``app.analysis.votes.read_votes``): what the CSV export writes and the report analyses."""
+    rows = vote_rows(study, pilot=pilot)
+    return read_votes(pd.DataFrame(rows) if rows else pd.DataFrame(columns=list(VOTE_COLUMNS)))
+
+
+def votes_csv(study: Study, *, pilot: str = "without") -> str:
+    """The study's votes as CSV text (``app.analysis.votes.write_votes_csv``)."""
+    buffer = io.StringIO()
+    write_votes_csv(votes_table(study, pilot=pilot), buffer)
+    return buffer.getvalue()
+
+
+def report_path(study: Study) -> Path:
+    return media_dir(study) / "report" / "report.html"
+
+
+def write_report_files(study: Study) -> Path:
+    """Analyse the votes so far and write the report into the study's media folder: HTML and
+    PDF, headed by the study's title, design and participants. The votes analysed are those
+    written beside them as CSV (which ``facepair analyze`` reads back to the same report)."""
+    from app.analysis.report import write_report  # matplotlib: only when a report is written
+
+    path = report_path(study)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    csv_path = path.parent / "votes.csv"
+    # The report names the file it analysed: the one written here.
+    votes = dataclasses.replace(votes_table(study), source=str(csv_path))
+    write_votes_csv(votes, csv_path)
+    # exclusion rules as `facepair analyze --exclude` reads them (app.analysis.quality)
+    exclude = study.settings.get("exclude")
+    results = analyze(votes, conditions=[c.name for c in study.conditions], exclude=exclude)
+    results["study"] = report_head(study, results, exclude=exclude)
+    write_report(results, path, path.with_suffix(".pdf"))
+    return path
+
+
+def report_head(study: Study, results: dict[str, Any], *, exclude: str | None) -> dict[str, Any]:
+    """What the report says of the study itself (``app.analysis.document``'s study head)."""
+    import datetime as dt
+    import shlex
+
+    from app.analysis.document import counted
+
+    left_out = results["input"]["left_out"]
+    design = (
+        f"Design: {study.design}"
+        + (f" against {study.reference}" if study.reference else "")
+        + f"; conditions {', '.join(c.name for c in study.conditions)}; clips "
+        f"{', '.join(c.name for c in study.clips)}; question: {study.question!r}; "
+        + ("undecided answers allowed" if study.allow_undecided else "no undecided answer")
+        + f"; {counted(study.catch_trials, 'catch trial')} per participant; replay "
+        f"{study.replay}; target {counted(study.target_participants, 'participant')}."
+    )
+    included = results["input"]["participants"]
+    who = (
+        f"{counted(included, 'participant')} included, {len(left_out)} left out"
+        + (
+            " (" + "; ".join(f"{p}: {why}" for p, why in sorted(left_out.items())) + ")"
+            if left_out
+            else ""
+        )
+        + "."
+    )
+    command = [
+        "facepair",
+        "analyze",
+        "votes.csv",
+        "--report",
+        "report.html",
+        "--pdf",
+        "report.pdf",
+        "--conditions",
+        ",".join(c.name for c in study.conditions),
+    ]
+    if exclude:
+        command += ["--exclude", exclude]
+    from app.web.study.questionnaires import answers_summary
+
+    kept = {str(p) for p in results["participants"]}
+    return {
+        "title": study.title,
+        "design": design,
+        "participants": who,
+        "questionnaire": answers_summary(study, included=kept),
+        "date": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+        "command": shlex.join(command),
+        "votes_file": "votes.csv",
+    }

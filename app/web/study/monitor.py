@@ -1,0 +1,109 @@
+"""The live monitor of a study: who started, finished or dropped, votes per pair, timings."""
+
+from __future__ import annotations
+
+import datetime as dt
+import statistics
+from dataclasses import dataclass, field
+from typing import Any
+
+import sqlalchemy as sa
+
+from app.trials.rules import CHOICES, VoteChoice
+from app.web.extensions import db
+from app.web.models import Pair, Participant, Stimulus, Study, StudyList, Trial, Vote, utcnow
+
+
+@dataclass
+class PairStats:
+    label: str
+    votes: int = 0
+    choices: dict[str, int] = field(default_factory=lambda: dict.fromkeys(CHOICES, 0))
+    #: Votes for the pair's first / second condition, whichever side it was shown on.
+    first: int = 0
+    second: int = 0
+    median_ms: float | None = None
+
+
+def study_monitor(study: Study, *, dropped_after: dt.timedelta) -> dict[str, Any]:
+    """Counts and per-pair tallies; ``dropped`` = unfinished and idle longer than
+    ``dropped_after`` (or already released). Pilot participants are not counted (the
+    participant table lists them)."""
+    now = utcnow()
+    participants = db.session.scalars(
+        sa.select(Participant).where(Participant.study_id == study.id, Participant.pilot.is_(False))
+    ).all()
+    finished = sum(p.finished_at is not None for p in participants)
+    dropped = sum(
+        p.finished_at is None and (p.dropped_at is not None or now - p.last_seen_at > dropped_after)
+        for p in participants
+    )
+    started = len(participants)
+    pairs = {p.id: PairStats(p.label) for p in study.pairs}
+    first_of = {p.id: p.first_id for p in study.pairs}
+    times: dict[int, list[int]] = {pid: [] for pid in pairs}
+    all_times: list[int] = []
+    catch_total = catch_passed = 0
+    query = (
+        sa.select(
+            Vote.choice,
+            Vote.response_ms,
+            Trial.pair_id,
+            Trial.kind,
+            Trial.expected,
+            Trial.stimulus_id,
+        )
+        .join(Trial, Vote.trial_id == Trial.id)
+        .join(Participant, Vote.participant_id == Participant.id)
+        .where(Participant.study_id == study.id, Participant.pilot.is_(False))
+    )
+    left_of = dict(
+        db.session.execute(
+            sa.select(Stimulus.id, Stimulus.left_id).where(Stimulus.study_id == study.id)
+        ).all()
+    )
+    for choice, response_ms, pair_id, kind, expected, stimulus_id in db.session.execute(query):
+        if response_ms is not None:
+            all_times.append(response_ms)
+        if kind == "catch":
+            catch_total += 1
+            catch_passed += choice == expected
+            continue
+        if pair_id is None or pair_id not in pairs:
+            continue
+        stats = pairs[pair_id]
+        stats.votes += 1
+        stats.choices[choice] = stats.choices.get(choice, 0) + 1
+        if choice != VoteChoice.UNDECIDED:
+            chosen_left = choice == VoteChoice.LEFT
+            first_on_left = left_of[stimulus_id] == first_of[pair_id]
+            if chosen_left == first_on_left:
+                stats.first += 1
+            else:
+                stats.second += 1
+        if response_ms is not None:
+            times[pair_id].append(response_ms)
+    for pair_id, values in times.items():
+        if values:
+            pairs[pair_id].median_ms = statistics.median(values)
+    lists = db.session.execute(
+        sa.select(StudyList.index, StudyList.n_assigned)
+        .where(StudyList.study_id == study.id)
+        .order_by(StudyList.index)
+    ).all()
+    return {
+        "started": started,
+        "finished": finished,
+        "dropped": dropped,
+        "in_progress": started - finished - dropped,
+        "target": study.target_participants,
+        "votes": sum(s.votes for s in pairs.values()),
+        "median_ms": statistics.median(all_times) if all_times else None,
+        "pairs": list(pairs.values()),
+        "catch": {"total": catch_total, "passed": catch_passed},
+        "lists": [{"index": i, "assigned": n} for i, n in lists],
+    }
+
+
+def pair_label(pair: Pair | None) -> str:
+    return pair.label if pair is not None else "catch"

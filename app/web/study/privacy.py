@@ -1,0 +1,229 @@
+"""Participants' personal data: the participants export, pseudonymised by default, and
+deleting one participant's data on request.
+
+The only personal data stored are Prolific's ``PROLIFIC_PID`` and ``SESSION_ID`` (and the
+browser's user agent, never exported). An export shared for analysis carries a pseudonym in
+their place: ``anon-`` and the first 16 hex digits of HMAC-SHA256 over the ID, keyed with the
+study's own random ``pseudonym_key``. The same person keeps the same pseudonym across exports of
+a study, but nobody without the database can tell who it is, and pseudonyms of two studies
+cannot be linked. The raw IDs are exported only when asked for (to pay participants).
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import hmac
+import io
+import re
+import shutil
+from dataclasses import dataclass
+from typing import Any
+
+import sqlalchemy as sa
+
+from app.trials.rules import CHOICES
+from app.web.extensions import db
+from app.web.infra import media
+from app.web.models import Participant, Stimulus, Study, Trial, Vote
+from app.web.study.enrolment import move_slot
+from app.web.study.exports import participant_label, report_path
+
+#: Columns of the participants export, in order.
+PARTICIPANT_COLUMNS = (
+    "participant",
+    "prolific_pid",
+    "prolific_study_id",
+    "prolific_session_id",
+    "status",
+    "answered",
+    "catch_passed",
+    "catch_total",
+    "consented_at",
+    "started_at",
+    "finished_at",
+    "identical_left",
+    "identical_right",
+    "identical_undecided",
+    "browser",
+    "screen",
+    "viewport",
+    "dpr",
+    "touch",
+    "face_px",
+)
+#: Columns holding personal identifiers: pseudonymised unless the raw IDs are asked for.
+PERSONAL_COLUMNS = ("prolific_pid", "prolific_session_id")
+
+
+def pseudonym(key: str, identifier: str | None) -> str:
+    """The pseudonym of ``identifier`` under ``key`` (empty for no identifier).
+
+    >>> pseudonym("k", "5f2a0c") == pseudonym("k", "5f2a0c") != pseudonym("other", "5f2a0c")
+    True
+    >>> pseudonym("k", "5f2a0c").startswith("anon-"), pseudonym("k", None)
+    (True, '')
+    """
+    if not identifier:
+        return ""
+    digest = hmac.new(key.encode(), identifier.encode("utf-8", "surrogatepass"), hashlib.sha256)
+    return "anon-" + digest.hexdigest()[:16]
+
+
+def _iso(value: Any) -> str:
+    return value.isoformat(timespec="seconds") + "Z" if value is not None else ""
+
+
+def participant_rows(study: Study, *, raw_ids: bool = False) -> list[dict[str, Any]]:
+    """One dict per participant of ``study`` (columns :data:`PARTICIPANT_COLUMNS`), ordered by
+    arrival; Prolific IDs pseudonymised unless ``raw_ids``."""
+    answered = sa.func.count(Vote.id)
+    catch_total = sa.func.count(sa.case((Trial.kind == "catch", Vote.id)))
+    catch_passed = sa.func.count(
+        sa.case((sa.and_(Trial.kind == "catch", Vote.choice == Trial.expected), Vote.id))
+    )
+    same = sa.and_(Stimulus.left_id == Stimulus.right_id, Trial.kind != "mismatch")
+    # Pairs without a difference measure the side bias: an unbiased participant answers
+    # undecided, or left and right about equally often.
+    identical = {
+        choice: sa.func.count(sa.case((sa.and_(same, Vote.choice == choice), Vote.id))).label(
+            f"identical_{choice}"
+        )
+        for choice in CHOICES
+    }
+    counts = {
+        row.participant_id: row
+        for row in db.session.execute(
+            sa.select(
+                Vote.participant_id,
+                answered.label("answered"),
+                catch_total.label("catch_total"),
+                catch_passed.label("catch_passed"),
+                *identical.values(),
+            )
+            .join(Trial, Vote.trial_id == Trial.id)
+            .join(Stimulus, Trial.stimulus_id == Stimulus.id)
+            .join(Participant, Vote.participant_id == Participant.id)
+            .where(Participant.study_id == study.id)
+            .group_by(Vote.participant_id)
+        )
+    }
+    rows = []
+    for person in db.session.scalars(
+        sa.select(Participant).where(Participant.study_id == study.id).order_by(Participant.number)
+    ):
+        tally = counts.get(person.id)
+        status = (
+            "screened_out"
+            if person.screened_out_at
+            else "finished"
+            if person.finished_at
+            else "dropped"
+            if person.dropped_at
+            else "in_progress"
+        )
+        env = person.environment or {}
+        row = {
+            "participant": participant_label(person.number),
+            "prolific_pid": person.prolific_pid or "",
+            "prolific_study_id": person.prolific_study_id or "",
+            "prolific_session_id": person.prolific_session_id or "",
+            "status": status,
+            "answered": tally.answered if tally else 0,
+            "catch_passed": tally.catch_passed if tally else 0,
+            "catch_total": tally.catch_total if tally else 0,
+            "consented_at": _iso(person.consented_at),
+            "started_at": _iso(person.started_at),
+            "finished_at": _iso(person.finished_at),
+            **{f"identical_{c}": getattr(tally, f"identical_{c}") if tally else 0 for c in CHOICES},
+            "browser": " ".join(filter(None, (env.get("browser"), env.get("browser_version")))),
+            "screen": _size(env, "screen"),
+            "viewport": _size(env, "viewport"),
+            "dpr": env.get("dpr", ""),
+            "touch": env.get("touch", ""),
+            "face_px": env.get("face_px", ""),
+        }
+        if not raw_ids:
+            for column in PERSONAL_COLUMNS:
+                row[column] = pseudonym(study.pseudonym_key, row[column])
+        rows.append(row)
+    return rows
+
+
+def _size(environment: dict[str, Any], name: str) -> str:
+    width, height = environment.get(f"{name}_w"), environment.get(f"{name}_h")
+    return f"{width}x{height}" if width and height else ""
+
+
+def participants_csv(study: Study, *, raw_ids: bool = False) -> str:
+    """:func:`participant_rows` as CSV text with a header row."""
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=PARTICIPANT_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(participant_rows(study, raw_ids=raw_ids))
+    return buffer.getvalue()
+
+
+@dataclass(frozen=True)
+class Deleted:
+    """What a deletion removed: the participants' export labels and their vote count."""
+
+    labels: tuple[str, ...]
+    votes: int
+
+
+def find_participants(study: Study, identifier: str) -> list[Participant]:
+    """The participants of ``study`` that ``identifier`` names: an export label (``P0007``),
+    a raw Prolific ID or its pseudonym (a person who joined twice is found twice)."""
+    identifier = identifier.strip()
+    if not identifier:
+        return []
+    people = db.session.scalars(
+        sa.select(Participant).where(Participant.study_id == study.id).order_by(Participant.number)
+    ).all()
+    label = re.fullmatch(r"[Pp]0*(\d{1,9})", identifier)
+    return [
+        p
+        for p in people
+        if (label is not None and p.number == int(label.group(1)))
+        or (
+            p.prolific_pid
+            and identifier in (p.prolific_pid, pseudonym(study.pseudonym_key, p.prolific_pid))
+        )
+    ]
+
+
+def delete_participants(study: Study, identifier: str) -> Deleted:
+    """Delete every trace of the participants ``identifier`` names (:func:`find_participants`):
+    their votes, schedule and row. A participant still holding a list slot gives it back, so
+    balancing continues over the others. The study's report, which was computed with their
+    votes, is removed (the caller writes a new one). Not committed."""
+    people = find_participants(study, identifier)
+    if not people:
+        return Deleted((), 0)
+    ids = [p.id for p in people]
+    labels = tuple(participant_label(p.number) for p in people)
+    holding = [p.list_id for p in people if p.dropped_at is None]
+    votes = db.session.execute(
+        sa.delete(Vote)
+        .where(Vote.participant_id.in_(ids))
+        .execution_options(synchronize_session=False)
+    ).rowcount
+    db.session.execute(
+        sa.delete(Trial)
+        .where(Trial.participant_id.in_(ids))
+        .execution_options(synchronize_session=False)
+    )
+    for list_id in holding:
+        move_slot(list_id, -1)
+    db.session.execute(
+        sa.delete(Participant)
+        .where(Participant.id.in_(ids))
+        .execution_options(synchronize_session=False)
+    )
+    db.session.expire_all()
+    folder = report_path(study).parent
+    media.forget(study, folder.name)  # the report's votes.csv names them
+    shutil.rmtree(folder, ignore_errors=True)
+    study.report_at = None
+    return Deleted(labels, int(votes or 0))
