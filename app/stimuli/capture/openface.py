@@ -186,7 +186,9 @@ def read_openface(
             eye_angles = eye_in_head(seen_from, gaze[eye]) / AU_RADIANS
             faps[yaw_fap], faps[pitch_fap] = eye_angles[:, 0], eye_angles[:, 1]
         report_extra["gaze"] = (
-            "in the head's frame" if head is not None else "camera frame (no pose_R* columns)"
+            "turned from the camera's frame into the head's"
+            if head is not None
+            else "in the camera's frame (no pose_R* columns to turn it into the head's)"
         )
     if not faps:
         raise InputError(

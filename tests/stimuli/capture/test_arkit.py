@@ -133,3 +133,59 @@ def test_arkit_weights_of_one_frame_equal_those_of_the_track():
         assert np.allclose(column, [f[name] for f in frames])
     assert np.allclose(whole["JawOpen"], dense[:, 2] / 800.0)
     assert np.allclose(whole["HeadYaw"], dense[:, 48] * 1e-5)
+
+
+def write_subframe_take(path, n, values, early=()):
+    """A take whose frames in ``early`` were stamped a hair before their time: the app writes
+    frame 45 as ``44.999`` and frame 46 as ``46.000`` (60 fps)."""
+    lines = [",".join(HEADER)]
+    for k in range(n):
+        frames = k - (0.0004 if k in early else 0.0)
+        whole = int(np.floor(frames))
+        secs, ff = divmod(whole, 60)
+        fraction = int((frames - whole) * 1000)  # the app truncates to 3 digits
+        stamp = f"10:20:{secs:02d}:{ff:02d}.{fraction:03d}"
+        cells = [f"{float(values[h][k]) if h in values else 0.0:.8f}" for h in HEADER[2:]]
+        lines.append(",".join([stamp, "61", *cells]))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_subframe_rounding_of_timecodes_is_not_a_gap(tmp_path):
+    t, v = take()
+    path = write_subframe_take(tmp_path / "take.csv", 240, v, early=(45, 107, 190))
+    assert "00:44.999" in path.read_text() and "00:46.000" in path.read_text()
+    track = read_arkit_csv(path, 30.0)
+    report = track.metadata["capture"]
+    assert report["filled_frames"] == 0 and report["gaps"] == [] and report["duplicates"] == 0
+    assert report["capture_fps"] == 60 and report["timecode"].endswith("sub-frame fractions")
+    truth = 0.2 * np.sin(2 * np.pi * 0.25 * track.times) / 1e-5
+    np.testing.assert_allclose(track[49][2:-2], truth[2:-2], atol=30)
+    # a frame really dropped is still one
+    lines = path.read_text().splitlines()
+    del lines[1 + 150]
+    path.write_text("\n".join(lines) + "\n")
+    dropped = read_arkit_csv(path, 30.0).metadata["capture"]
+    assert dropped["filled_frames"] == 1 and dropped["gaps"] == [[2.5, 2.517]]
+    # digits that count something else (not fractions) leave the frame numbers alone
+    counter = write_live_link(tmp_path / "counter.csv", 240, v)
+    report = read_arkit_csv(counter, 30.0).metadata["capture"]
+    assert report["timecode"] == "frame numbers" and report["filled_frames"] == 0
+
+
+def test_columns_that_are_zero_in_every_frame_are_left_out_with_a_warning(tmp_path):
+    t, v = take()
+    for name in ("HeadYaw", "HeadPitch", "HeadRoll"):
+        v[name] = np.zeros(240)  # recorded with head rotation off
+    path = write_live_link(tmp_path / "take.csv", 240, v)
+    track = read_arkit_csv(path, 30.0)
+    assert not {48, 49, 50} & set(track.channels) and 3 in track.channels
+    report = track.metadata["capture"]
+    assert report["left_out"] == [48, 49, 50]
+    assert report["constant"]["HeadYaw"] == 0.0 and report["constant"]["JawOpen"] == 0.25
+    assert len(report["warnings"]) == 2 and all("\n" not in w for w in report["warnings"])
+    assert report["warnings"][1].startswith("FAP 48, 49, 50 left out")
+    r = CliRunner().invoke(main, ["capture", "import", str(path), "--out", str(tmp_path / "g.fap")])
+    assert r.exit_code == 0, r.output
+    assert "constant in every frame: " in r.output and "HeadPitch = 0" in r.output
+    assert "FAP 48, 49, 50 left out: their columns are 0 in every frame" in r.output

@@ -230,6 +230,14 @@ def test_cli_import_and_ground_truth_detection(tmp_path, repo_root):
     assert r.exit_code == 0, r.output
     assert "150 frames at 30 fps from 150 samples at 30 fps" in r.output
     assert "FAPs 3, 19, 20, 21, 22, 23, 24, 25, 26, 31" in r.output
+    assert "head relative to the take's median pose (pitch 1.47, yaw -2.98, roll 0.03" in r.output
+    assert "deg from the camera axis)" in r.output
+    assert "gaze: turned from the camera's frame into the head's" in r.output
+    r = CliRunner().invoke(
+        main,
+        ["capture", "import", str(src), "--out", str(tmp_path / "w.fap"), "--neutral", "1-2"],
+    )
+    assert r.exit_code == 0 and "head relative to the median pose over 1-2 s" in r.output
     assert load_track(tmp_path / "gt.fap").n_frames == 150
     assert load_track(src).channels == read_openface(src, FPS).channels  # by header
     out = tmp_path / "out"
@@ -254,7 +262,7 @@ def test_cli_import_and_ground_truth_detection(tmp_path, repo_root):
     bad = CliRunner().invoke(
         main, ["capture", "import", str(repo_root / "README.md"), "--out", str(tmp_path / "x.fap")]
     )
-    assert bad.exit_code == 2 and "not an OpenFace or Live Link Face CSV" in bad.output
+    assert bad.exit_code == 2 and "not a file facepair imports (openface, arkit" in bad.output
 
 
 @settings(
