@@ -144,3 +144,55 @@ def drop_video_frames(src, dst, frames):
         check=True,
     )
     return dst
+
+
+def write_a2f3d_csv(path: Path, times: np.ndarray, values: dict[str, np.ndarray]) -> Path:
+    """Audio2Face-3D's ``animation_frames.csv`` as its sample client writes it: one record
+    ``{"timeCode": t, "blendShapes": {name: weight}}`` a frame, ``pandas.json_normalize``,
+    ``to_csv`` with pandas' index (NVIDIA/Audio2Face-3D-Samples, a2f_3d/client/service.py).
+    Names are the 52 ARKit blendshapes in Live Link Face's spelling."""
+    import pandas
+
+    from app.stimuli.capture.arkit import BLENDSHAPES
+
+    frames = [
+        {
+            "timeCode": float(t),
+            "blendShapes": {n: float(values[n][k]) if n in values else 0.0 for n in BLENDSHAPES},
+        }
+        for k, t in enumerate(times)
+    ]
+    pandas.json_normalize(frames).to_csv(path)
+    return path
+
+
+def write_a2f_json(
+    path: Path, fps: float, values: dict[str, np.ndarray], n: int, names=None
+) -> Path:
+    """Audio2Face's blendshape-weights JSON ("Export blendshape weights as .json"; the layout
+    OpenFaceFX's export_a2f writes too): camelCase ARKit names in ``facsNames``."""
+    import json
+
+    from app.stimuli.capture.arkit import BLENDSHAPES
+
+    names = names or [b[0].lower() + b[1:] for b in BLENDSHAPES]
+    pascal = {b.lower(): b for b in BLENDSHAPES}
+    rows = [
+        [
+            float(values[pascal.get(m.lower(), m)][k])
+            if pascal.get(m.lower(), m) in values
+            else 0.0
+            for m in names
+        ]
+        for k in range(n)
+    ]
+    doc = {
+        "exportFps": fps,
+        "trackPath": "C:/takes/speech.wav",
+        "numPoses": len(names),
+        "numFrames": n,
+        "facsNames": names,
+        "weightMat": rows,
+    }
+    path.write_text(json.dumps(doc, indent=2))
+    return path
