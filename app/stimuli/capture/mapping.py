@@ -117,7 +117,14 @@ class FapMapping:
     def apply(
         self, column: Callable[[str], np.ndarray], available: set[str]
     ) -> dict[int, np.ndarray]:
-        """FAP -> values for every FAP whose columns are all ``available``."""
+        """FAP -> values for every FAP whose columns are all ``available`` (a value that
+        overflows is infinite, a lost sample for :func:`to_track`)."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            return self._apply(column, available)
+
+    def _apply(
+        self, column: Callable[[str], np.ndarray], available: set[str]
+    ) -> dict[int, np.ndarray]:
         out: dict[int, np.ndarray] = {}
         for fap in self.faps:
             if not all(name in available for name in self.columns_of(fap)):

@@ -39,7 +39,9 @@ imply (docs/stimuli.md); an AU45 of 3 is taken as fully closed. Every scale is a
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -134,35 +136,16 @@ def _gaze_directions(column, names: set[str], valid: np.ndarray) -> dict[str, np
     return None
 
 
-def read_openface(
-    path: str | Path,
-    fps: float = 30.0,
-    *,
-    min_confidence: float = MIN_CONFIDENCE,
-    max_gap_s: float = MAX_GAP_S,
-    mapping: FapMapping = OPENFACE_MAP,
-    neutral: Neutral | None = None,
-) -> MotionTrack:
-    """Read an OpenFace 2.0 CSV as a FAP track at ``fps`` (see the module docstring).
-
-    ``neutral`` says which pose the head is measured from (default: the take's median pose).
-    The track's ``metadata["capture"]`` reports dropped frames, filled gaps, the neutral
-    (``neutral``: method and its pitch, yaw, roll in degrees from the camera's axis), the gaze
-    source and the FAPs left out for want of columns (``missing``). Bad input: one
-    :class:`InputError` naming the file, row and column.
-    """
-    neutral = neutral or Neutral()
-    table = read_numeric_csv(path, check_header=_header_problem)
-    header, data, rows = table.header, table.values, table.lines
-    col = {name: i for i, name in enumerate(header)}
-    names = set(col)
-
-    def column(name: str) -> np.ndarray:
-        return data[:, col[name]]
-
-    valid = (column("success") > 0.5) & (column("confidence") >= min_confidence)
-    faps = mapping.apply(column, names)
-    report_extra: dict = {}
+def _head_and_eyes(
+    column: Callable[[str], np.ndarray],
+    names: set[str],
+    valid: np.ndarray,
+    neutral: Neutral,
+    path: str,
+) -> tuple[dict[int, np.ndarray], dict[str, Any]]:
+    """FAP 48-50 relative to the neutral and FAP 23-26 in the head's frame, and their report."""
+    faps: dict[int, np.ndarray] = {}
+    report_extra: dict[str, Any] = {}
     head = None
     if all(c in names for c in POSE):
         head = head_rotations(np.column_stack([column(c) for c in POSE]))
@@ -190,6 +173,39 @@ def read_openface(
             if head is not None
             else "in the camera's frame (no pose_R* columns to turn it into the head's)"
         )
+    return faps, report_extra
+
+
+def read_openface(
+    path: str | Path,
+    fps: float = 30.0,
+    *,
+    min_confidence: float = MIN_CONFIDENCE,
+    max_gap_s: float = MAX_GAP_S,
+    mapping: FapMapping = OPENFACE_MAP,
+    neutral: Neutral | None = None,
+) -> MotionTrack:
+    """Read an OpenFace 2.0 CSV as a FAP track at ``fps`` (see the module docstring).
+
+    ``neutral`` says which pose the head is measured from (default: the take's median pose).
+    The track's ``metadata["capture"]`` reports dropped frames, filled gaps, the neutral
+    (``neutral``: method and its pitch, yaw, roll in degrees from the camera's axis), the gaze
+    source and the FAPs left out for want of columns (``missing``). Bad input: one
+    :class:`InputError` naming the file, row and column.
+    """
+    neutral = neutral or Neutral()
+    table = read_numeric_csv(path, check_header=_header_problem)
+    header, data, rows = table.header, table.values, table.lines
+    col = {name: i for i, name in enumerate(header)}
+    names = set(col)
+
+    def column(name: str) -> np.ndarray:
+        return data[:, col[name]]
+
+    valid = (column("success") > 0.5) & (column("confidence") >= min_confidence)
+    with np.errstate(over="ignore", invalid="ignore"):  # overflowing values: lost samples
+        faps, report_extra = _head_and_eyes(column, names, valid, neutral, str(path))
+    faps.update(mapping.apply(column, names))
     if not faps:
         raise InputError(
             "no pose_R*, gaze_* or AU*_r columns to import (run "

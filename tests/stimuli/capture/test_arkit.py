@@ -1,6 +1,8 @@
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from app.cli import main
 from app.errors import InputError
@@ -189,3 +191,54 @@ def test_columns_that_are_zero_in_every_frame_are_left_out_with_a_warning(tmp_pa
     assert r.exit_code == 0, r.output
     assert "constant in every frame: " in r.output and "HeadPitch = 0" in r.output
     assert "FAP 48, 49, 50 left out: their columns are 0 in every frame" in r.output
+
+
+_STAMP = st.builds(
+    lambda h, m, s, f, d: f"{h:02d}:{m:02d}:{s:02d}:{f:02d}" + (f".{d}" if d else ""),
+    st.integers(0, 99999),
+    st.integers(0, 99),
+    st.integers(0, 99),
+    st.integers(0, 999),
+    st.text(alphabet="0123456789", max_size=4),
+)
+
+
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    st.lists(
+        st.tuples(
+            _STAMP,
+            st.lists(
+                st.sampled_from(["0", "0.5", "-1", "nan", "inf", "1e308", "x"]),
+                min_size=61,
+                max_size=61,
+            ),
+        ),
+        max_size=8,
+    ),
+    st.lists(st.text(alphabet="0123456789.,:- abx\n", max_size=30), max_size=4),
+)
+def test_junk_rows_are_one_input_error_never_a_crash(tmp_path, rows, junk):
+    path = tmp_path / "junk.csv"
+    lines = [",".join(HEADER), *(",".join([stamp, "61", *cells]) for stamp, cells in rows), *junk]
+    path.write_text("\n".join(lines))
+    try:
+        read_arkit_csv(path)
+    except InputError as exc:
+        assert "\n" not in str(exc) and "junk.csv" in str(exc)
+
+
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(st.binary(max_size=300))
+def test_any_bytes_are_a_track_or_one_input_error(tmp_path, data):
+    path = tmp_path / "bytes.csv"
+    path.write_bytes(b"Timecode,BlendShapeCount,JawOpen,HeadYaw\n" + data)
+    assert sniff_csv(path) in ("arkit", None)
+    try:
+        read_arkit_csv(path)
+    except InputError as exc:
+        assert "\n" not in str(exc) and "bytes.csv" in str(exc)

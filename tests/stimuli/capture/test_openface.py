@@ -276,3 +276,49 @@ def test_junk_rows_are_one_input_error_never_a_crash(tmp_path, rows):
         read_openface(path, FPS)
     except InputError as exc:
         assert "\n" not in str(exc)
+
+
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    st.lists(
+        st.lists(
+            st.sampled_from(["0", "1", "0.98", "-0.3", "3.2", "nan", "inf", "1e308"]),
+            min_size=20,
+            max_size=20,
+        ),
+        max_size=10,
+    ),
+    st.binary(max_size=100),
+)
+def test_any_numbers_or_bytes_are_a_track_or_one_input_error(tmp_path, rows, data):
+    header = [
+        "frame",
+        "face_id",
+        "timestamp",
+        "confidence",
+        "success",
+        "gaze_0_x",
+        "gaze_0_y",
+        "gaze_0_z",
+        "gaze_1_x",
+        "gaze_1_y",
+        "gaze_1_z",
+        "gaze_angle_x",
+        "gaze_angle_y",
+        "pose_Rx",
+        "pose_Ry",
+        "pose_Rz",
+        "AU01_r",
+        "AU02_r",
+        "AU04_r",
+        "AU45_r",
+    ]
+    path = tmp_path / "numbers.csv"
+    body = "\n".join(", ".join(r) for r in rows)
+    path.write_bytes((", ".join(header) + "\n" + body + "\n").encode() + data)
+    try:
+        read_openface(path, FPS)
+    except InputError as exc:
+        assert "\n" not in str(exc) and "numbers.csv" in str(exc)
