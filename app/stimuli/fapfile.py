@@ -438,7 +438,7 @@ def write_fap(
     name = " ".join(track.name.split()) or "facepair"
     out.write(f"2.1 {name} {fps} {track.n_frames}\n")
     dialect = _GRETA if greta else _XFACE
-    high, left_out = _high_level_rows(track, dialect)
+    kept, left_out = _high_level_rows(track, dialect)
     if left_out:
         out.write(f"# {left_out}\n")
     bits = ["0"] * len(dialect.faps)
@@ -446,11 +446,11 @@ def write_fap(
         bits[c - 1] = "1"
     mask = " ".join(bits) + "\n"
     for i in range(track.n_frames):
-        extra = [high[f][i] for f in sorted(high) if i in high[f]]
+        extra = [kept[f][i] for f in sorted(kept) if i in kept[f]]
         if extra:
             frame_bits = list(bits)
-            for f in sorted(high):
-                if i in high[f]:
+            for f in sorted(kept):
+                if i in kept[f]:
                     frame_bits[f - 1] = "1"
             out.write(" ".join(frame_bits) + "\n")
         else:
