@@ -29,7 +29,18 @@ def _save(track, out: str, samples: str) -> dict:
 @click.option(
     "--from",
     "kind",
-    type=click.Choice(["auto", "openface", "arkit", "a2f-csv", "a2f-json", "bvh"]),
+    type=click.Choice(
+        [
+            "auto",
+            "openface",
+            "arkit",
+            "a2f-csv",
+            "a2f-json",
+            "openfacefx-json",
+            "openfacefx-csv",
+            "bvh",
+        ]
+    ),
     default="auto",
     show_default=True,
     help="The tool that wrote SOURCE (auto: from its header or extension).",

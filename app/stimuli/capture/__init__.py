@@ -9,8 +9,9 @@ docs/capture.md):
   copy it write it (:mod:`~app.stimuli.capture.arkit`);
 * ``a2f-csv``: NVIDIA Audio2Face-3D's ``animation_frames.csv`` (``timeCode``,
   ``blendShapes.<name>``); ``a2f-json``: Audio2Face's blendshape-weights JSON
-  (``facsNames``, ``weightMat``, ``exportFps``), also written by OpenFaceFX
-  (:mod:`~app.stimuli.capture.weights`);
+  (``facsNames``, ``weightMat``, ``exportFps``), also written by OpenFaceFX;
+  ``openfacefx-json`` / ``openfacefx-csv``: OpenFaceFX's own keyframe tracks with ARKit
+  channels (:mod:`~app.stimuli.capture.weights`);
 * ``bvh``: a BVH skeleton's head and neck (GENEA's gesture data; :mod:`~app.stimuli.capture.bvh`).
 
 :func:`sniff` tells them apart by header (CSV), by content (JSON) or by extension (BVH);
@@ -30,15 +31,15 @@ if TYPE_CHECKING:
     from app.stimuli.track import MotionTrack
 
 #: Formats facepair imports.
-FORMATS = ("openface", "arkit", "a2f-csv", "a2f-json", "bvh")
+FORMATS = ("openface", "arkit", "a2f-csv", "a2f-json", "openfacefx-json", "openfacefx-csv", "bvh")
 
 
 def sniff_csv(path: str | Path) -> str | None:
-    """``"openface"``, ``"arkit"``, ``"a2f-csv"`` or ``None`` (not a tracker's CSV) from the
-    header line."""
+    """``"openface"``, ``"arkit"``, ``"a2f-csv"``, ``"openfacefx-csv"`` or ``None`` (not a
+    tracker's CSV) from the header line."""
     from app.stimuli.capture.arkit import is_arkit
     from app.stimuli.capture.openface import is_openface
-    from app.stimuli.capture.weights import is_a2f_csv
+    from app.stimuli.capture.weights import is_a2f_csv, is_openfacefx_csv
 
     try:
         with Path(path).open(newline="", encoding="utf-8-sig") as f:
@@ -55,6 +56,8 @@ def sniff_csv(path: str | Path) -> str | None:
         return "arkit"
     if is_a2f_csv(header):
         return "a2f-csv"
+    if is_openfacefx_csv(header):
+        return "openfacefx-csv"
     return None
 
 
@@ -71,9 +74,9 @@ def sniff(path: str | Path) -> str | None:
     if head[:9].upper() == b"HIERARCHY" or p.suffix.lower() == ".bvh":
         return "bvh"
     if head[:1] == b"{" or p.suffix.lower() == ".json":
-        from app.stimuli.capture.weights import is_a2f_json
+        from app.stimuli.capture.weights import json_kind
 
-        return "a2f-json" if is_a2f_json(p) else None
+        return json_kind(p)
     return sniff_csv(p)
 
 
@@ -99,6 +102,10 @@ def import_track(
         return weights.read_a2f_csv(path, fps, **gap)
     if kind == "a2f-json":
         return weights.read_a2f_json(path, fps, **gap)
+    if kind == "openfacefx-json":
+        return weights.read_openfacefx_json(path, fps, **gap)
+    if kind == "openfacefx-csv":
+        return weights.read_openfacefx_csv(path, fps, **gap)
     if kind == "bvh":
         return bvh.read_bvh(path, fps, neutral=options.get("neutral"), **gap)
     raise InputError(

@@ -265,3 +265,28 @@ def write_bvh(
         lines.append(" ".join(row))
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+def write_openfacefx(path: Path, fps: float, keys: dict[str, list[tuple[float, float]]]) -> Path:
+    """An OpenFaceFX track as its ``io_export`` writes it: ``to_dict`` for ``.json`` (format
+    ``openfacefx.track`` version 1, keys ``[time, value]`` rounded to 4 decimals), ``write_csv``
+    (``time,channel,value``, one row per key) otherwise."""
+    import json
+
+    if path.suffix == ".json":
+        doc = {
+            "format": "openfacefx.track",
+            "version": 1,
+            "fps": fps,
+            "duration": round(max(t for k in keys.values() for t, _ in k), 4),
+            "viseme_set": list(keys),
+            "channels": [
+                {"name": n, "keys": [[round(t, 4), v] for t, v in k]} for n, k in keys.items()
+            ],
+        }
+        path.write_text(json.dumps(doc, indent=2))
+    else:
+        rows = ["time,channel,value"]
+        rows += [f"{t:.4f},{n},{v:.4f}" for n, k in keys.items() for t, v in k]
+        path.write_text("\n".join(rows) + "\n")
+    return path

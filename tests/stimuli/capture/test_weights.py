@@ -11,7 +11,7 @@ from app.errors import InputError
 from app.stimuli.capture import import_track, sniff, sniff_csv
 from app.stimuli.capture.weights import read_a2f_csv, read_a2f_json
 from app.stimuli.io import load_track
-from tests.stimuli.capture.files import write_a2f3d_csv, write_a2f_json
+from tests.stimuli.capture.files import write_a2f3d_csv, write_a2f_json, write_openfacefx
 
 FPS = 30.0
 
@@ -182,3 +182,72 @@ def test_any_bytes_are_a_track_or_one_input_error(tmp_path, data):
             import_track(path, "a2f-json" if name.endswith("json") else "a2f-csv")
         except InputError as exc:
             assert "\n" not in str(exc) and name in str(exc)
+
+
+@pytest.mark.parametrize("name", ["take.track.json", "take.csv"])
+def test_openfacefx_keys_are_the_straight_line_between_them(tmp_path, name):
+    keys = {
+        "jawOpen": [(0.0, 0.0), (0.5, 0.5), (1.0, 0.1), (2.0, 0.1)],
+        "browInnerUp": [(0.0, 0.0), (1.2, 0.4), (2.0, 0.4)],
+        "PP": [(0.0, 0.0), (1.0, 1.0)],  # an Oculus viseme left in the track
+    }
+    path = write_openfacefx(tmp_path / name, 30.0, keys)
+    kind = "openfacefx-json" if name.endswith("json") else "openfacefx-csv"
+    assert sniff(path) == kind
+    track = import_track(path, fps=30.0)
+    assert track.n_frames == 61
+    t = track.times
+    jaw = np.interp(t, [0, 0.5, 1, 2], [0, 0.5, 0.1, 0.1])
+    np.testing.assert_allclose(track[3], 800 * jaw, atol=1e-9)
+    np.testing.assert_allclose(track[31], 100 * np.interp(t, [0, 1.2, 2], [0, 0.4, 0.4]))
+    assert track.metadata["capture"]["warnings"][-1] == (
+        "1 columns are not ARKit blendshapes and were not imported: 'PP'"
+    )
+
+
+def test_an_openfacefx_track_of_visemes_says_how_to_retarget(tmp_path):
+    path = write_openfacefx(tmp_path / "v.json", 30.0, {"PP": [(0.0, 0.0), (1.0, 1.0)]})
+    with pytest.raises(
+        InputError, match=r"v.json: no ARKit channel among 1 \(PP\).*--retarget arkit"
+    ):
+        import_track(path)
+
+
+@settings(
+    max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    channels=st.lists(
+        st.fixed_dictionaries(
+            {
+                "name": st.sampled_from(["jawOpen", "PP", "eyeBlinkLeft", ""]) | _json,
+                "keys": st.lists(
+                    st.lists(st.floats() | st.integers() | st.just(10**400), max_size=3), max_size=4
+                )
+                | _json,
+            }
+        ),
+        max_size=3,
+    ),
+    fps=_json,
+)
+def test_any_openfacefx_json_is_a_track_or_one_input_error(tmp_path, channels, fps):
+    path = tmp_path / "any.json"
+    path.write_text(json.dumps({"format": "openfacefx.track", "fps": fps, "channels": channels}))
+    try:
+        import_track(path)
+    except InputError as exc:
+        assert "\n" not in str(exc) and "any.json" in str(exc)
+
+
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(st.lists(st.text(alphabet="0123456789.,-e jawOpnPPx\n", max_size=30), max_size=10))
+def test_junk_openfacefx_csv_rows_are_one_input_error(tmp_path, rows):
+    path = tmp_path / "keys.csv"
+    path.write_text("time,channel,value\n" + "\n".join(rows))
+    try:
+        import_track(path)
+    except InputError as exc:
+        assert "\n" not in str(exc) and "keys.csv" in str(exc)
