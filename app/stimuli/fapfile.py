@@ -379,7 +379,10 @@ def _high_level_rows(
         return {}, "FAP 1 and 2 not written: their record in the track's metadata is damaged"
     names = " and ".join(f"FAP {f} ({FAPS[f].name})" for f in sorted(rows))
     if not same_timing:
-        return {}, f"{names} not written: the track was resampled, trimmed or padded since"
+        return (
+            {},
+            f"{names} not written: the track was resampled, trimmed or padded after they were read",
+        )
     if any(widths.get(f) != dialect.width(f) for f in rows):
         return {}, (
             f"{names} not written: they came with {', '.join(str(widths[f]) for f in rows)} "

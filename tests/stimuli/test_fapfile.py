@@ -461,7 +461,7 @@ def test_xface_high_level_values_keep_their_widths_or_are_named_as_left_out():
     assert f"# {note}" in greta.getvalue() and read_fap(io.StringIO(greta.getvalue())).equals(track)
     resampled = io.StringIO()
     note = write_fap(track.resample(60.0), resampled)
-    assert note is not None and note.endswith("the track was resampled, trimmed or padded since")
+    assert note is not None and note.endswith("resampled, trimmed or padded after they were read")
 
 
 def test_cli_greta_rewrite_keeps_the_viseme_mask(tmp_path):
