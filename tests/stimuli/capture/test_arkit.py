@@ -242,3 +242,28 @@ def test_any_bytes_are_a_track_or_one_input_error(tmp_path, data):
         read_arkit_csv(path)
     except InputError as exc:
         assert "\n" not in str(exc) and "bytes.csv" in str(exc)
+
+
+def test_a_take_in_openfacefx_layout_reads_by_column_name(tmp_path):
+    """OpenFaceFX's hello.arkit.csv: JawLeft before JawRight, MouthLeft before MouthRight,
+    HH:MM:SS:FF timecodes without digits after a point, rotations all 0 (a speech-driven
+    tool writes no head)."""
+    order = list(HEADER)
+    for a, b in (("JawRight", "JawLeft"), ("MouthRight", "MouthLeft")):
+        i, j = order.index(a), order.index(b)
+        order[i], order[j] = order[j], order[i]
+    t, v = take(n=120, app_fps=60)
+    for name in ("HeadYaw", "HeadPitch", "HeadRoll", "LeftEyeYaw", "RightEyeYaw"):
+        v[name] = np.zeros(120)
+    v["LeftEyePitch"] = v["RightEyePitch"] = np.zeros(120)
+    lines = [",".join(order)]
+    for k in range(120):
+        cells = [f"{float(v[h][k]) if h in v else 0.0:.6f}" for h in order[2:]]
+        lines.append(",".join([f"00:00:{k // 60:02d}:{k % 60:02d}", "61", *cells]))
+    path = tmp_path / "hello.arkit.csv"
+    path.write_text("\n".join(lines) + "\n")
+    track = read_arkit_csv(path, 30.0)
+    report = track.metadata["capture"]
+    assert report["timecode"] == "frame numbers" and report["filled_frames"] == 0
+    assert report["left_out"] == [48, 49, 50, 23, 24, 25, 26]
+    np.testing.assert_allclose(track[3], 200.0, atol=1e-6)  # JawOpen 0.25, found by name
