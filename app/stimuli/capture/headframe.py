@@ -18,9 +18,14 @@ frames, or the median over a calibration window in seconds.
 Gaze: OpenFace's gaze is a direction in the camera's frame (its wiki, "Output Format":
 ``gaze_0/1`` are "eye gaze direction vector in world coordinates"). :func:`eye_in_head` turns a
 direction into the head's frame, ``d_head = R^T d``, and reads the eyeball's yaw and pitch the
-way the renderer composes them (``Ry(yaw) @ Rx(pitch)`` turning +Z). It uses the head's
-rotation as measured, not relative to the neutral: the eyes turn in the head, whatever the
-camera's angle.
+way the renderer composes them (``Ry(yaw) @ Rx(pitch)`` turning +Z). The importers turn the
+gaze by the head *relative to the neutral*, ``d_head = R_rel^T d``: the avatar is seen from
+where the camera was, with the neutral pose facing it, so a speaker who addresses the lens
+from the neutral pose looks at the viewer, and eyes that stay on the lens while the head
+turns turn exactly against the imported head. (The anatomical eye-in-head rotation,
+``R^T d``, differs from it by the neutral's angle: a speaker 17 degrees below a laptop's
+camera who looks into it has eyes turned 17 degrees up in the head, and an avatar given
+those would look 17 degrees past its viewer.)
 
 Example
 -------

@@ -23,9 +23,10 @@ for the head and the eyes; docs/capture.md tabulates it with the source of each 
   world coordinates"; ``gaze_angle_x/y = atan2(g.x, -g.z), atan2(g.y, -g.z)`` of the mean of
   both eyes' vectors, ``GazeAnalysis::GetGazeAngle``). Stored as eye-in-head rotation, that
   turned the eyes with the head twice. The per-eye vectors ``gaze_1`` (the person's left eye,
-  rightmost in the image) and ``gaze_0`` (right eye) are rotated into the head's frame,
-  ``d = R_face^T F g``; a file without usable vectors (all zero) uses the mean direction
-  ``(tan x, tan y, -1)`` of the angles for both eyes.
+  rightmost in the image) and ``gaze_0`` (right eye) are rotated into the frame of the head
+  relative to the neutral, ``d = R_rel^T F g`` (the camera stands for the viewer: see
+  :mod:`~app.stimuli.capture.headframe`); a file without usable vectors (all zero) uses the
+  mean direction ``(tan x, tan y, -1)`` of the angles for both eyes.
 * Eyebrows FAP 31-36 from AU01 (inner raiser), AU02 (outer raiser) and AU04 (lowerer);
   eyelids FAP 19-22 from AU45 (blink); jaw FAP 3 from AU26.
 
@@ -146,14 +147,15 @@ def _head_and_eyes(
     """FAP 48-50 relative to the neutral and FAP 23-26 in the head's frame, and their report."""
     faps: dict[int, np.ndarray] = {}
     report_extra: dict[str, Any] = {}
-    head = None
+    head = None  # the head relative to the neutral: the eyes are turned by it
     if all(c in names for c in POSE):
-        head = head_rotations(np.column_stack([column(c) for c in POSE]))
-        relative, base = relative_to_neutral(head, column("timestamp"), valid, neutral, str(path))
+        measured = head_rotations(np.column_stack([column(c) for c in POSE]))
+        relative, base = relative_to_neutral(measured, column("timestamp"), valid, neutral, path)
         bad = ~np.all(np.isfinite(relative.reshape(len(relative), 9)), axis=1)
         angles = head_angles(np.where(bad[:, None, None], np.eye(3), relative)) / AU_RADIANS
         angles[bad] = np.nan
         faps.update({48: angles[:, 0], 49: angles[:, 1], 50: angles[:, 2]})
+        head = relative
         report_extra["neutral"] = {
             "method": neutral.method,
             "described": neutral.describe(),

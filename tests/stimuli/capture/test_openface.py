@@ -103,11 +103,11 @@ def test_head_is_relative_to_the_takes_neutral_pose(tmp_path):
         read_openface(path, FPS, neutral=Neutral.parse("20-30"))
 
 
-def _eyes_on_the_camera(n=240, vectors=True):
-    """A head turning +/- 20 degrees (two whole turns: median pose straight ahead) 60 cm in
-    front of the camera, both eyes fixed on it."""
+def _eyes_on_the_camera(n=240, vectors=True, offset=0.0):
+    """A head turning +/- 20 degrees about ``offset`` radians 60 cm in front of the camera,
+    both eyes fixed on it."""
     t = np.arange(n) / FPS
-    ry = 0.35 * np.sin(2 * np.pi * 0.25 * t)
+    ry = offset + 0.35 * np.sin(2 * np.pi * 0.25 * t)
     head_at = np.array([0.0, 0.0, 600.0])
     values = {"pose_Ry": ry, "pose_Tz": np.full(n, 600.0)}
     mean = np.zeros((n, 3))
@@ -125,11 +125,12 @@ def _eyes_on_the_camera(n=240, vectors=True):
     return t, values
 
 
-@pytest.mark.parametrize("vectors", [True, False])
-def test_eyes_that_stay_on_the_camera_turn_against_the_head(tmp_path, vectors):
+@pytest.mark.parametrize(("vectors", "offset"), [(True, 0.0), (False, 0.0), (True, -0.2)])
+def test_eyes_that_stay_on_the_camera_turn_against_the_head(tmp_path, vectors, offset):
     """OpenFace's gaze is in camera coordinates: eyes fixed on the camera while the head turns
-    must turn the other way in the head (stored as they were, the eyes did not move at all)."""
-    t, values = _eyes_on_the_camera(vectors=vectors)
+    must turn the other way in the head (stored as they were, the eyes did not move at all),
+    also when the take's neutral is turned 11 degrees away from the camera."""
+    t, values = _eyes_on_the_camera(vectors=vectors, offset=offset)
     track = read_openface(write_openface(tmp_path / "of.csv", t, values), FPS)
     head_yaw = track[49]
     assert np.ptp(head_yaw) > 0.6 / 1e-5  # +/- 20 degrees
