@@ -267,3 +267,20 @@ def test_a_take_in_openfacefx_layout_reads_by_column_name(tmp_path):
     assert report["timecode"] == "frame numbers" and report["filled_frames"] == 0
     assert report["left_out"] == [48, 49, 50, 23, 24, 25, 26]
     np.testing.assert_allclose(track[3], 200.0, atol=1e-6)  # JawOpen 0.25, found by name
+
+
+def test_samples_twice_a_timecode_frame_are_placed_by_their_fractions(tmp_path):
+    """ARKit at 60 Hz under 30 fps timecodes: frames 00.000, 00.500, 01.000, ... Read by frame
+    number alone, every other sample was a duplicate and half the take was dropped."""
+    t, v = take(n=240, app_fps=60)
+    lines = [",".join(HEADER)]
+    for k in range(240):
+        secs, half = divmod(k, 60)
+        ff, sub = divmod(half, 2)
+        cells = [f"{float(v[h][k]) if h in v else 0.0:.8f}" for h in HEADER[2:]]
+        lines.append(",".join([f"09:00:{secs:02d}:{ff:02d}.{sub * 5}00", "61", *cells]))
+    path = tmp_path / "take.csv"
+    path.write_text("\n".join(lines) + "\n")
+    report = read_arkit_csv(path, 30.0, app_fps=30.0).metadata["capture"]
+    assert report["capture_fps"] == 60 and report["duplicates"] == 0
+    assert report["samples"] == 240 and report["filled_frames"] == 0
