@@ -171,7 +171,7 @@ def read_a2f_json(
     p = Path(path)
     doc = _load_json(p)
     problem = _json_problem(doc)
-    if problem:
+    if problem or not isinstance(doc, dict):
         raise InputError(f"not an Audio2Face weights JSON: {problem}", path=p)
     names: list[str] = doc["facsNames"]
     try:
@@ -277,11 +277,15 @@ def read_openfacefx_json(
     for i, channel in enumerate(channels):
         pairs = channel.get("keys") if isinstance(channel, dict) else None
         name = channel.get("name") if isinstance(channel, dict) else None
-        ok = isinstance(name, str) and isinstance(pairs, list) and pairs
-        ok = ok and all(
-            isinstance(k, list) and len(k) == 2 and all(_finite(x) for x in k) for k in pairs
-        )
-        if not ok or name in keys:
+        if (
+            not isinstance(name, str)
+            or name in keys
+            or not isinstance(pairs, list)
+            or not pairs
+            or not all(
+                isinstance(k, list) and len(k) == 2 and all(_finite(x) for x in k) for k in pairs
+            )
+        ):
             raise InputError(
                 f"channel {i}: expected a new 'name' and 'keys' of [time, value] numbers", path=p
             )
