@@ -29,10 +29,21 @@ def _save(track, out: str, samples: str) -> dict:
 @click.option(
     "--from",
     "kind",
-    type=click.Choice(["openface", "arkit", "auto"]),
+    type=click.Choice(
+        [
+            "auto",
+            "openface",
+            "arkit",
+            "a2f-csv",
+            "a2f-json",
+            "openfacefx-json",
+            "openfacefx-csv",
+            "bvh",
+        ]
+    ),
     default="auto",
     show_default=True,
-    help="The tracker that wrote SOURCE (auto: from its header).",
+    help="The tool that wrote SOURCE (auto: from its header or extension).",
 )
 @click.option(
     "--out",
@@ -63,6 +74,14 @@ def _save(track, out: str, samples: str) -> dict:
     metavar="COLUMN",
     help="ARKit: turn the sign of a rotation column (e.g. HeadPitch); repeatable.",
 )
+@click.option(
+    "--neutral",
+    metavar="median|none|START-END",
+    default=None,
+    help="OpenFace and BVH: the head's neutral pose: the take's median (OpenFace's default), "
+    "none (the camera's or the skeleton's rest pose, BVH's default) or the median over a "
+    "calibration window in seconds.",
+)
 def import_(
     source: str,
     kind: str,
@@ -71,28 +90,39 @@ def import_(
     max_gap: float,
     min_confidence: float,
     flip: tuple[str, ...],
+    neutral: str | None,
 ) -> None:
-    """Import SOURCE (a tracker's CSV) as a FAP track, reporting lost frames and gaps."""
+    """Import SOURCE (a tracker's or a tool's file) as a FAP track, reporting lost frames,
+    gaps, the neutral pose and what could not be imported."""
     from app.errors import InputError
-    from app.stimuli.capture import sniff_csv
-    from app.stimuli.capture.arkit import ROTATIONS, arkit_mapping, read_arkit_csv
-    from app.stimuli.capture.openface import read_openface
+    from app.stimuli.capture import FORMATS, import_track, sniff
+    from app.stimuli.capture.arkit import ROTATIONS
+    from app.stimuli.capture.headframe import Neutral
 
     if kind == "auto":
-        kind = sniff_csv(source) or ""
+        kind = sniff(source) or ""
         if not kind:
             raise InputError(
-                "not an OpenFace or Live Link Face CSV (give --from)", path=source, line=1
+                f"not a file facepair imports ({', '.join(FORMATS)}; give --from)",
+                path=source,
+                line=1,
             )
     unknown = [f for f in flip if f.lower() not in {r.lower() for r in ROTATIONS}]
     if unknown or (flip and kind != "arkit"):
         raise InputError(
             f"--flip takes ARKit rotation columns ({', '.join(ROTATIONS)})", field="--flip"
         )
-    if kind == "openface":
-        track = read_openface(source, fps, min_confidence=min_confidence, max_gap_s=max_gap)
-    else:
-        track = read_arkit_csv(source, fps, max_gap_s=max_gap, mapping=arkit_mapping(flip=flip))
+    if neutral is not None and kind not in ("openface", "bvh"):
+        raise InputError("--neutral is for OpenFace and BVH files", field="--neutral")
+    track = import_track(
+        source,
+        kind,
+        fps,
+        max_gap_s=max_gap,
+        min_confidence=min_confidence,
+        flip=flip,
+        neutral=Neutral.parse(neutral) if neutral is not None else None,
+    )
     report = _save(track, out, "samples")
     if report["invalid_samples"] or report["filled_frames"]:
         spans = ", ".join(f"{a:.2f}-{b:.2f} s" for a, b in report["gaps"][:5])
@@ -101,6 +131,16 @@ def import_(
             f"frames filled by interpolation ({spans}"
             f"{', ...' if len(report['gaps']) > 5 else ''})"
         )
+    if "neutral" in report:
+        n = report["neutral"]
+        click.echo(
+            f"  head relative to {n['described']} (pitch {n['pitch_deg']:g}, yaw "
+            f"{n['yaw_deg']:g}, roll {n['roll_deg']:g} deg from {n.get('from', 'the camera axis')})"
+        )
+    if "gaze" in report:
+        click.echo(f"  gaze: {report['gaze']}")
+    for line in report.get("warnings", []):
+        click.echo(f"  {line}")
     for column, faps in report["missing"].items():
         click.echo(f"  no column {column}: FAP {', '.join(map(str, faps))} not imported")
 

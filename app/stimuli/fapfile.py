@@ -29,8 +29,12 @@ Reading rules, chosen so that a file never yields a silently wrong track:
 * The header's first token is the version, its last two the fps and the frame count (at most
   :data:`MAX_FRAMES`); what lies between is the name.
 * The first mask line sets the dialect; every mask line of the file must have its length.
-* FAP 1 and FAP 2 are high-level parameters, not motion: their values are read past, as is
-  Greta's extra entry. Values are integers in the 32-bit range.
+* FAP 1 (viseme) and FAP 2 (expression) are high-level parameters, not motion: they are not
+  channels of the track (nothing draws them), but their values are kept with it, frame by
+  frame as the file gave them, in ``metadata["high_level"]`` (:func:`high_level_note` says
+  what a file held), and :func:`write_fap` writes them back into the masks, so a rewrite in
+  the same dialect keeps them. Greta's extra entry is read past. Values are integers in the
+  32-bit range.
 * Files that facepair wrote in Greta style before this layout was known (first comment line
   exactly :data:`_WRITER_LINE`, 69-value masks) put a null FAP 0 first and FAP i at position
   i + 1, with the MPEG-4 widths; they are read that way, so they read back unchanged.
@@ -110,20 +114,30 @@ _EARLY_FACEPAIR_GRETA = _Dialect(
 
 
 @lru_cache(maxsize=256)
-def _layout(dialect: _Dialect, bits: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, int]:
-    """For a mask: the kept FAP columns (0-based), their places on the value line, the width.
+def _layout(
+    dialect: _Dialect, bits: tuple[int, ...]
+) -> tuple[np.ndarray, np.ndarray, int, tuple[tuple[int, int, int], ...]]:
+    """For a mask: the kept FAP columns (0-based), their places on the value line, the width,
+    and (FAP, place, width) of the masked high-level FAPs 1 and 2.
 
-    Places count from 1 (place 0 is the frame index). Kept are the low-level FAPs 3..68.
+    Places count from 1 (place 0 is the frame index). Columns are the low-level FAPs 3..68.
     """
-    columns, places, place = [], [], 1
+    columns, places, high, place = [], [], [], 1
     for fap, bit in zip(dialect.faps, bits, strict=True):
         if not bit:
             continue
-        if fap and fap not in _HIGH_LEVEL_WIDTH:
+        if fap in _HIGH_LEVEL_WIDTH:
+            high.append((fap, place, dialect.width(fap)))
+        elif fap:
             columns.append(fap - 1)
             places.append(place)
         place += dialect.width(fap)
-    return np.array(columns, dtype=np.intp), np.array(places, dtype=np.intp), place - 1
+    return (
+        np.array(columns, dtype=np.intp),
+        np.array(places, dtype=np.intp),
+        place - 1,
+        tuple(high),
+    )
 
 
 def _lines(f: IO[str]):
@@ -257,6 +271,7 @@ def _parse(f: IO[str], path: str) -> MotionTrack:
         )
     dialect: _Dialect | None = None
     frames: list[tuple[int, np.ndarray, np.ndarray]] = []
+    high_level: dict[str, list[list[int]]] = {}
     last_index = -1
     for k in range(0, len(body), 2):
         mask_no, mask_text = body[k]
@@ -274,7 +289,7 @@ def _parse(f: IO[str], path: str) -> MotionTrack:
         if any(m not in (0, 1) for m in mask):
             raise InputError("mask line: expected only 0 and 1", path=path, line=mask_no)
         bits = tuple(mask)
-        columns, places, width = _layout(dialect, bits)
+        columns, places, width, high = _layout(dialect, bits)
         vals = _ints(value_text.split(), path, value_no, "value line")
         if len(vals) != width + 1:
             raise _count_error(dialect, bits, len(vals), path, value_no)
@@ -294,6 +309,8 @@ def _parse(f: IO[str], path: str) -> MotionTrack:
             )
         last_index = index
         frames.append((index, columns, np.asarray(vals, dtype=np.float64)[places]))
+        for fap, place, n in high:
+            high_level.setdefault(str(fap), []).append([index, *vals[place : place + n]])
     if last_index < n_frames - 1:
         raise InputError(
             f"truncated: header says {n_frames} frames, the last frame index is {last_index}",
@@ -308,6 +325,14 @@ def _parse(f: IO[str], path: str) -> MotionTrack:
         kept[index, np.searchsorted(present, columns)] = row
     channels = tuple(int(i) + 1 for i in present)
     _fill_gaps(kept)
+    metadata = {}
+    if high_level and dialect is not None:
+        metadata["high_level"] = {
+            "widths": {str(f): dialect.width(f) for f in _HIGH_LEVEL_WIDTH},
+            "fps": fps,
+            "n_frames": n_frames,
+            "frames": high_level,
+        }
     return MotionTrack(
         fps,
         kept,
@@ -315,7 +340,56 @@ def _parse(f: IO[str], path: str) -> MotionTrack:
         name=name,
         source=meta.get("source", path),
         speaker=meta.get("speaker", ""),
+        metadata=metadata,
     )
+
+
+def high_level_note(track: MotionTrack) -> str | None:
+    """One line on the FAP 1 / FAP 2 values a .fap file held, or ``None``.
+
+    >>> text = "2.1 w 25 1\\n" + " ".join(["1"] + ["0"] * 68) + "\\n0 7\\n"
+    >>> high_level_note(read_fap(io.StringIO(text)))
+    'FAP 1 (viseme) in 1 frame kept with the track: high-level, not motion, so not drawn'
+    """
+    high = track.metadata.get("high_level")
+    if not isinstance(high, dict) or not high.get("frames"):
+        return None
+    parts = [
+        f"FAP {fap} ({FAPS[int(fap)].name}) in {len(rows)} frame{'s' if len(rows) != 1 else ''}"
+        for fap, rows in sorted(high["frames"].items())
+    ]
+    return f"{' and '.join(parts)} kept with the track: high-level, not motion, so not drawn"
+
+
+def _high_level_rows(
+    track: MotionTrack, dialect: _Dialect
+) -> tuple[dict[int, dict[int, list[int]]], str | None]:
+    """FAP -> frame -> values of the high-level FAPs to write, or why they cannot be."""
+    high = track.metadata.get("high_level")
+    if not isinstance(high, dict) or not high.get("frames"):
+        return {}, None
+    try:
+        widths = {int(f): int(w) for f, w in high["widths"].items()}
+        rows = {
+            int(f): {int(r[0]): [int(v) for v in r[1:]] for r in frames}
+            for f, frames in high["frames"].items()
+        }
+        same_timing = float(high["fps"]) == track.fps and int(high["n_frames"]) == track.n_frames
+    except (KeyError, TypeError, ValueError, IndexError):
+        return {}, "FAP 1 and 2 not written: their record in the track's metadata is damaged"
+    names = " and ".join(f"FAP {f} ({FAPS[f].name})" for f in sorted(rows))
+    if not same_timing:
+        return (
+            {},
+            f"{names} not written: the track was resampled, trimmed or padded after they were read",
+        )
+    if any(widths.get(f) != dialect.width(f) for f in rows):
+        return {}, (
+            f"{names} not written: they came with {', '.join(str(widths[f]) for f in rows)} "
+            f"value(s) a frame, the {dialect.name} takes "
+            f"{', '.join(str(dialect.width(f)) for f in rows)}"
+        )
+    return rows, None
 
 
 def _fill_gaps(values: np.ndarray) -> None:
@@ -328,8 +402,15 @@ def _fill_gaps(values: np.ndarray) -> None:
             col[missing] = np.interp(frames[missing], frames[~missing], col[~missing])
 
 
-def write_fap(track: MotionTrack, target: str | Path | IO[str], *, greta: bool = False) -> None:
+def write_fap(
+    track: MotionTrack, target: str | Path | IO[str], *, greta: bool = False
+) -> str | None:
     """Write ``track`` as a .fap file; values are rounded to integers (the format's type).
+
+    FAP 1 and 2 values read from a .fap file (``metadata["high_level"]``) are written back in
+    their frames' masks when the dialect gives them the same number of values and the track
+    has its frames; otherwise they are left out, and the returned line (also a comment in the
+    file) says which and why. Returns ``None`` when nothing was left out.
 
     The default writes 68-value masks, what Xface (and MPEG-4) read. ``greta=True`` writes what
     Greta writes: 69-value masks, FAP i at position i and one trailing extra entry (left 0),
@@ -359,15 +440,29 @@ def write_fap(track: MotionTrack, target: str | Path | IO[str], *, greta: bool =
     fps = int(track.fps) if float(track.fps).is_integer() else repr(track.fps)
     name = " ".join(track.name.split()) or "facepair"
     out.write(f"2.1 {name} {fps} {track.n_frames}\n")
-    bits = ["0"] * len((_GRETA if greta else _XFACE).faps)
+    dialect = _GRETA if greta else _XFACE
+    kept, left_out = _high_level_rows(track, dialect)
+    if left_out:
+        out.write(f"# {left_out}\n")
+    bits = ["0"] * len(dialect.faps)
     for c in track.channels:
         bits[c - 1] = "1"
     mask = " ".join(bits) + "\n"
     for i in range(track.n_frames):
-        out.write(mask)
-        out.write(" ".join([str(i), *map(str, ints[i].tolist())]) + "\n")
+        extra = [kept[f][i] for f in sorted(kept) if i in kept[f]]
+        if extra:
+            frame_bits = list(bits)
+            for f in sorted(kept):
+                if i in kept[f]:
+                    frame_bits[f - 1] = "1"
+            out.write(" ".join(frame_bits) + "\n")
+        else:
+            out.write(mask)
+        values = [str(v) for row in extra for v in row] + list(map(str, ints[i].tolist()))
+        out.write(" ".join([str(i), *values]) + "\n")
     text = out.getvalue()
     if isinstance(target, (str, Path)):
         Path(target).write_text(text, encoding="utf-8")
     else:
         target.write(text)
+    return left_out

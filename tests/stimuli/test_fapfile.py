@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from app.errors import InputError
-from app.stimuli.fapfile import read_fap, write_fap
+from app.stimuli.fapfile import high_level_note, read_fap, write_fap
 from app.stimuli.track import MotionTrack
 
 
@@ -412,3 +412,66 @@ def test_cli_convert_writes_either_dialect(tmp_path):
         assert read_fap(target).equals(read_fap(source))
     r = runner.invoke(main, ["stimuli", "convert", str(source), str(tmp_path / "o.csv"), "--greta"])
     assert r.exit_code == 2 and "Greta's dialect is a .fap format, not .csv" in r.output
+
+
+# -- FAP 1 (viseme) and FAP 2 (expression): kept with the track, written back ------------------
+
+
+def body(text):
+    """The header, mask and value lines of a .fap file (its comments aside)."""
+    return [line.strip() for line in text.splitlines() if line.strip() and line[0] != "#"]
+
+
+def test_a_greta_file_of_visemes_only_keeps_them_through_a_greta_rewrite():
+    only_viseme = f"2.1 w.fap 25 3\n{mask([1], 69)}\n0 4\n{mask([1], 69)}\n1 9\n{mask([], 69)}\n2\n"
+    track = read_fap(io.StringIO(only_viseme))
+    assert track.channels == ()
+    assert high_level_note(track) == (
+        "FAP 1 (viseme) in 2 frames kept with the track: high-level, not motion, so not drawn"
+    )
+    out = io.StringIO()
+    assert write_fap(track, out, greta=True) is None
+    assert body(out.getvalue()) == body(only_viseme)
+
+
+def test_greta_visemes_and_expressions_beside_motion_are_written_back_in_place():
+    text = f"2.1 g 30 2\n{mask([1, 2, 48], 69)}\n0 3 5 -250\n{mask([2, 48], 69)}\n1 6 -200\n"
+    track = read_fap(io.StringIO(text))
+    assert track.channels == (48,) and track[48].tolist() == [-250.0, -200.0]
+    assert track.metadata["high_level"]["frames"] == {"1": [[0, 3]], "2": [[0, 5], [1, 6]]}
+    out = io.StringIO()
+    write_fap(track, out, greta=True)
+    assert body(out.getvalue()) == body(text)
+    again = read_fap(io.StringIO(out.getvalue()))
+    assert again.equals(track) and again.metadata == track.metadata
+
+
+def test_xface_high_level_values_keep_their_widths_or_are_named_as_left_out():
+    text = f"2.1 v 30 1\n{mask([1, 2, 49])}\n0 1 2 50 0 1 2 3 4 5 6 -77\n"
+    track = read_fap(io.StringIO(text))
+    xface = io.StringIO()
+    assert write_fap(track, xface) is None
+    assert body(xface.getvalue()) == body(text)
+    greta = io.StringIO()
+    note = write_fap(track, greta, greta=True)
+    assert note == (
+        "FAP 1 (viseme) and FAP 2 (expression) not written: they came with 4, 6 value(s) a "
+        "frame, the 69-value mask: Greta, one value per masked position takes 1, 1"
+    )
+    assert f"# {note}" in greta.getvalue() and read_fap(io.StringIO(greta.getvalue())).equals(track)
+    resampled = io.StringIO()
+    note = write_fap(track.resample(60.0), resampled)
+    assert note is not None and note.endswith("resampled, trimmed or padded after they were read")
+
+
+def test_cli_greta_rewrite_keeps_the_viseme_mask(tmp_path):
+    from click.testing import CliRunner
+
+    from app.cli import main
+
+    source = tmp_path / "hello.fap"
+    source.write_text(GRETA_VISEME)
+    target = tmp_path / "again.fap"
+    r = CliRunner().invoke(main, ["stimuli", "convert", str(source), str(target), "--greta"])
+    assert r.exit_code == 0, r.output
+    assert body(target.read_text()) == body(GRETA_VISEME)

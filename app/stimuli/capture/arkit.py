@@ -5,9 +5,16 @@ BlendShapeCount,`` then the 52 ARKit blendshapes in the app's order (:data:`BLEN
 ``EyeBlinkLeft`` ... ``TongueOut``, coefficients 0-1) and 9 rotations ``HeadYaw, HeadPitch,
 HeadRoll, LeftEyeYaw, LeftEyePitch, LeftEyeRoll, RightEyeYaw, RightEyePitch, RightEyeRoll``
 (radians, the values the app also streams); ``BlendShapeCount`` is 61. ``Timecode`` is
-``HH:MM:SS:FF.sss``: frame ``FF`` of the app's frame rate (60 by default, 30 on request); the
-digits after the point are ignored (:func:`parse_timecode`). Columns are found by name,
-case-insensitively, so files from other ARKit recorders with the same names read too.
+``HH:MM:SS:FF.sss``: frame ``FF`` of the app's frame rate (60 by default, 30 on request).
+What the digits after the point hold differs between writers: a sub-frame fraction in the
+app's takes (so a frame stored a hair early reads ``44.999``, the next ``46.000``), a running
+counter (``01.001``, ``02.002``) in files written by speech-driven tools in this layout
+(NeuroSync), nothing at all in others (OpenFaceFX's ``hello.arkit.csv``). :func:`frame_times`
+reads the times both ways, with and without the fraction, and keeps the one whose steps are
+whole frames. Columns are found by name, case-insensitively, so files from other ARKit
+recorders with the same names read too. Columns that hold one value in every frame are
+reported; FAPs whose columns are all 0 (a take recorded with head rotation off) are left out
+with a warning rather than imported as a still head (:meth:`FapMapping.constant`).
 
 The mapping is :func:`arkit_mapping`; docs/capture.md tabulates it with the source of each
 sign: ARKit's face frame is x to the face's left, y up, z out of the face, so FAP 48-50 =
@@ -34,10 +41,9 @@ from pathlib import Path
 
 import numpy as np
 
-from app.errors import InputError
 from app.stimuli.capture.csvfile import read_numeric_csv
-from app.stimuli.capture.mapping import IRISD_CLOSED, LID_SHARE, FapMapping
-from app.stimuli.capture.timeline import MAX_GAP_S, to_track
+from app.stimuli.capture.mapping import IRISD_CLOSED, LID_SHARE, FapMapping, columns_to_track
+from app.stimuli.capture.timeline import MAX_GAP_S
 from app.stimuli.fap import AU_RADIANS
 from app.stimuli.track import MotionTrack
 
@@ -175,6 +181,45 @@ def parse_timecode(text: str, app_fps: float) -> float:
     return h * 3600 + mi * 60 + s + ff / app_fps
 
 
+def _irregular_steps(times: np.ndarray, app_fps: float) -> int:
+    """How many steps between stamps are not a whole number of frames (or are 0)."""
+    steps = np.diff(times) * app_fps
+    positive = steps[steps > 1e-9]
+    if not len(positive):
+        return len(steps)
+    unit = float(np.median(positive))
+    ratio = steps / unit
+    return int(np.sum((np.abs(ratio - np.round(ratio)) > 0.25) | (np.round(ratio) < 1)))
+
+
+def _subframe(text: str) -> float:
+    """The digits after a timecode's point as a fraction (0 without them)."""
+    m = _TIMECODE.match(text.strip())
+    return float("0." + m.group(5)) if m and m.group(5) else 0.0
+
+
+def frame_times(stamps: list[str], app_fps: float) -> tuple[np.ndarray, bool]:
+    """Seconds of each timecode, and whether the digits after the point were used.
+
+    Both readings are tried: frame numbers alone (:func:`parse_timecode`) and frame numbers
+    plus the digits after the point as a fraction of a frame. The reading with fewer steps
+    that are not whole frames wins; a tie keeps the frame numbers alone.
+
+    >>> stamps = ["00:00:00:43.000", "00:00:00:44.000", "00:00:00:44.999", "00:00:00:46.000"]
+    >>> times, fraction = frame_times(stamps, 60.0)
+    >>> (np.diff(times) * 60).round(3).tolist(), fraction
+    ([1.0, 0.999, 1.001], True)
+    """
+    whole = np.array([parse_timecode(s, app_fps) for s in stamps])
+    frac = np.array([_subframe(s) for s in stamps])
+    fine = whole + frac / app_fps
+    if not frac.any() or len(whole) < 2:
+        return whole, False
+    if _irregular_steps(fine, app_fps) < _irregular_steps(whole, app_fps):
+        return fine, True
+    return whole, False
+
+
 def read_arkit_csv(
     path: str | Path,
     fps: float = 30.0,
@@ -198,19 +243,17 @@ def read_arkit_csv(
     if app_fps is None:
         top = max(int(_TIMECODE.match(s).group(4)) for s in stamps)  # type: ignore[union-attr]
         app_fps = next((r for r in APP_RATES if r > top), 60.0)
-    times = np.array([parse_timecode(s, app_fps) for s in stamps])
+    times, fraction = frame_times(stamps, app_fps)
 
     def column(name: str) -> np.ndarray:
         return data[:, names[name.lower()]]
 
     available = {h for h in (*BLENDSHAPES, *ROTATIONS) if h.lower() in names}
-    faps = mapping.apply(column, available)
-    if not faps:
-        raise InputError("no blendshape or rotation column to import", path=p, line=1)
-    track, report = to_track(
-        times - times[0],
-        faps,
-        np.ones(len(times), bool),
+    track = columns_to_track(
+        mapping,
+        times,
+        column,
+        available,
         fps=fps,
         path=str(p),
         max_gap_s=max_gap_s,
@@ -218,8 +261,11 @@ def read_arkit_csv(
         name=p.stem,
         source=f"ARKit blendshape CSV {p.name}",
     )
-    report.update(app_fps=app_fps, missing=mapping.needs(available))
-    return mapping.limit(track).replace(metadata={**track.metadata, "capture": report})
+    track.metadata["capture"].update(
+        app_fps=app_fps,
+        timecode="frame numbers and their sub-frame fractions" if fraction else "frame numbers",
+    )
+    return track
 
 
 def _timecode_problem(text: str) -> str | None:

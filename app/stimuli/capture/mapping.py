@@ -17,9 +17,12 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
+from app.errors import InputError
+from app.stimuli.capture.timeline import MAX_GAP_S, to_track
 from app.stimuli.fap import AU_RADIANS
 from app.stimuli.track import MotionTrack
 
@@ -72,10 +75,56 @@ class FapMapping:
                     out.setdefault(name, []).append(fap)
         return out
 
+    def constant(
+        self, column: Callable[[str], np.ndarray], available: set[str]
+    ) -> tuple[dict[str, float], list[int], list[str]]:
+        """The columns the table reads that hold one value in every frame, the FAPs whose
+        columns are all 0 in every frame (a take recorded without them: head rotation off,
+        a tool that writes no eyes), and the one-line warnings that say so.
+
+        >>> m = FapMapping(angles={48: ("pitch", 1.0)}, sums={3: {"jaw": 800.0}})
+        >>> cols = {"pitch": np.zeros(3), "jaw": np.array([0.1, 0.2, 0.1])}
+        >>> m.constant(cols.__getitem__, set(cols))[:2]
+        ({'pitch': 0.0}, [48])
+        """
+        used = [n for n in dict.fromkeys(n for f in self.faps for n in self.columns_of(f))]
+        held: dict[str, float] = {}
+        for name in used:
+            if name in available:
+                values = column(name)
+                finite = values[np.isfinite(values)]
+                if finite.size and np.all(finite == finite[0]):
+                    held[name] = float(finite[0])
+        zero = {n for n, v in held.items() if v == 0.0}
+        left_out = [
+            f
+            for f in self.faps
+            if all(n in available for n in self.columns_of(f))
+            and all(n in zero for n in self.columns_of(f))
+        ]
+        lines = []
+        if held:
+            lines.append(
+                "constant in every frame: " + ", ".join(f"{n} = {v:.6g}" for n, v in held.items())
+            )
+        if left_out:
+            lines.append(
+                f"FAP {', '.join(map(str, left_out))} left out: their columns are 0 in every "
+                "frame (recorded without them), not a still face"
+            )
+        return held, left_out, lines
+
     def apply(
         self, column: Callable[[str], np.ndarray], available: set[str]
     ) -> dict[int, np.ndarray]:
-        """FAP -> values for every FAP whose columns are all ``available``."""
+        """FAP -> values for every FAP whose columns are all ``available`` (a value that
+        overflows is infinite, a lost sample for :func:`to_track`)."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            return self._apply(column, available)
+
+    def _apply(
+        self, column: Callable[[str], np.ndarray], available: set[str]
+    ) -> dict[int, np.ndarray]:
         out: dict[int, np.ndarray] = {}
         for fap in self.faps:
             if not all(name in available for name in self.columns_of(fap)):
@@ -91,3 +140,52 @@ class FapMapping:
                 terms = [w * column(name) for name, w in self.sums[fap].items()]
                 out[fap] = np.sum(terms, axis=0)
         return out
+
+
+def columns_to_track(
+    mapping: FapMapping,
+    times: np.ndarray,
+    column: Callable[[str], np.ndarray],
+    available: set[str],
+    *,
+    fps: float,
+    source: str,
+    path: str,
+    name: str = "",
+    rows: np.ndarray | None = None,
+    max_gap_s: float = MAX_GAP_S,
+) -> MotionTrack:
+    """A track from the columns of a weight file (ARKit blendshapes and rotations) at their
+    ``times`` (seconds, one sample per row): :meth:`FapMapping.apply`, the FAPs of all-zero
+    columns left out (:meth:`FapMapping.constant`), then
+    :func:`~app.stimuli.capture.timeline.to_track`. ``metadata["capture"]`` adds
+    ``missing``, ``constant``, ``left_out`` and ``warnings`` (one line each) to the time
+    report."""
+    faps = mapping.apply(column, available)
+    held, left_out, warnings = mapping.constant(column, available)
+    for fap in left_out:
+        faps.pop(fap, None)
+    if not faps:
+        raise InputError(
+            "no blendshape or rotation column to import"
+            + (" (every mapped column is 0 in every frame)" if left_out else ""),
+            path=path,
+            line=1,
+        )
+    t = np.asarray(times, dtype=np.float64)
+    track, report = to_track(
+        t - (t[0] if len(t) and np.isfinite(t[0]) else 0.0),
+        faps,
+        np.ones(len(t), bool),
+        fps=fps,
+        path=path,
+        max_gap_s=max_gap_s,
+        rows=rows,
+        name=name,
+        source=source,
+    )
+    extra: dict[str, Any] = dict(
+        missing=mapping.needs(available), constant=held, left_out=left_out, warnings=warnings
+    )
+    report.update(extra)
+    return mapping.limit(track).replace(metadata={**track.metadata, "capture": report})

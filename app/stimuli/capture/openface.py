@@ -7,12 +7,28 @@ landmarks, ``pose_Tx ... pose_Rx, pose_Ry, pose_Rz``, face landmarks, model para
 leading space (", "), values the same way. ``timestamp`` is in seconds, ``success`` is 0/1,
 angles are radians, AU intensities run 0-5.
 
-The mapping is :func:`openface_mapping`; docs/capture.md tabulates it with the source of each
-sign: OpenFace's camera frame is x right, y down, z away from the camera, so FAP 48 (head
-pitch, + down) = ``+pose_Rx``, FAP 49 (yaw, + to the face's left) = ``-pose_Ry``, FAP 50 (roll)
-= ``-pose_Rz``; gaze FAP 23-26 = ``+gaze_angle_x`` / ``+gaze_angle_y``; eyebrows FAP 31-36 from
-AU01 (inner raiser), AU02 (outer raiser) and AU04 (lowerer); eyelids FAP 19-22 from AU45
-(blink); jaw FAP 3 from AU26.
+The mapping is :func:`openface_mapping` for the AUs and :mod:`~app.stimuli.capture.headframe`
+for the head and the eyes; docs/capture.md tabulates it with the source of each sign.
+
+* Head, FAP 48-50: OpenFace's ``pose_R*`` are the head's rotation relative to the *camera*
+  (its wiki, "Output Format": "Rotation is in radians around X,Y,Z axes with the convention
+  R = Rx * Ry * Rz ... The rotation is in world coordinates with camera being the origin"),
+  so a take keeps the camera's angle. The camera frame is x right, y down, z away from the
+  camera; the face frame (x the face's left, y up, z out of the face) is the camera frame
+  turned half a turn about x, ``F = diag(1, -1, -1)``, so ``R_face = F R F``. Each frame is
+  then taken relative to the take's neutral (:class:`~app.stimuli.capture.headframe.Neutral`:
+  the median pose by default). Small angles reduce to the old table: FAP 48 = ``+pose_Rx``,
+  49 = ``-pose_Ry``, 50 = ``-pose_Rz``.
+* Eyes, FAP 23-26: OpenFace's gaze is in the camera's frame too ("eye gaze direction vector in
+  world coordinates"; ``gaze_angle_x/y = atan2(g.x, -g.z), atan2(g.y, -g.z)`` of the mean of
+  both eyes' vectors, ``GazeAnalysis::GetGazeAngle``). Stored as eye-in-head rotation, that
+  turned the eyes with the head twice. The per-eye vectors ``gaze_1`` (the person's left eye,
+  rightmost in the image) and ``gaze_0`` (right eye) are rotated into the frame of the head
+  relative to the neutral, ``d = R_rel^T F g`` (the camera stands for the viewer: see
+  :mod:`~app.stimuli.capture.headframe`); a file without usable vectors (all zero) uses the
+  mean direction ``(tan x, tan y, -1)`` of the angles for both eyes.
+* Eyebrows FAP 31-36 from AU01 (inner raiser), AU02 (outer raiser) and AU04 (lowerer);
+  eyelids FAP 19-22 from AU45 (blink); jaw FAP 3 from AU26.
 
 Angles become AU (1e-5 rad). The AU scales are a calibration, not a measurement: 25 ENS units
 per AU intensity puts a typical raise (intensity 1.5-2) at the 38-50 units the thesis' raises
@@ -24,38 +40,48 @@ imply (docs/stimuli.md); an AU45 of 3 is taken as fully closed. Every scale is a
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from app.errors import InputError
 from app.stimuli.capture.csvfile import read_numeric_csv
+from app.stimuli.capture.headframe import (
+    Neutral,
+    eye_in_head,
+    head_angles,
+    relative_to_neutral,
+    rotations,
+)
 from app.stimuli.capture.mapping import FapMapping
 from app.stimuli.capture.timeline import MAX_GAP_S, to_track
+from app.stimuli.fap import AU_RADIANS
 from app.stimuli.track import MotionTrack
 
 REQUIRED = ("frame", "timestamp", "confidence", "success")
 #: Frames whose landmark confidence is lower are treated as lost.
 MIN_CONFIDENCE = 0.75
+POSE = ("pose_Rx", "pose_Ry", "pose_Rz")
+GAZE_ANGLES = ("gaze_angle_x", "gaze_angle_y")
+#: The person's left eye (FAP 23, 25) is OpenFace's eye 1, the rightmost in the image.
+GAZE_VECTORS = {
+    "left": ("gaze_1_x", "gaze_1_y", "gaze_1_z"),
+    "right": ("gaze_0_x", "gaze_0_y", "gaze_0_z"),
+}
+#: The camera frame (x right, y down, z away) in the face frame (x left, y up, z out).
+CAMERA_TO_FACE = np.diag([1.0, -1.0, -1.0])
 
 
 def openface_mapping(
     brow: float = 25.0, jaw: float = 120.0, blink_closed: float = 3.0
 ) -> FapMapping:
-    """The table of the module docstring with its scales (FAPU per AU intensity)."""
+    """The AU table of the module docstring with its scales (FAPU per AU intensity)."""
     inner = {"AU01_r": brow, "AU04_r": -brow}
     middle = {"AU01_r": brow / 2, "AU02_r": brow / 2, "AU04_r": -brow}
     outer = {"AU02_r": brow, "AU04_r": -brow}
     return FapMapping(
-        angles={
-            48: ("pose_Rx", 1.0),
-            49: ("pose_Ry", -1.0),
-            50: ("pose_Rz", -1.0),
-            23: ("gaze_angle_x", 1.0),
-            24: ("gaze_angle_x", 1.0),
-            25: ("gaze_angle_y", 1.0),
-            26: ("gaze_angle_y", 1.0),
-        },
         sums={
             31: inner,
             32: inner,
@@ -84,6 +110,74 @@ def is_openface(header: list[str]) -> bool:
     return header[:2] == ["frame", "face_id"] and "success" in header
 
 
+def head_rotations(pose: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) face-frame head rotations ``F (Rx Ry Rz) F`` of OpenFace's ``pose_R*``
+    (n, 3), radians; non-finite rows give NaN matrices."""
+    ok = np.all(np.isfinite(pose), axis=1)
+    rot = rotations("XYZ", np.where(ok[:, None], pose, 0.0))
+    rot = CAMERA_TO_FACE @ rot @ CAMERA_TO_FACE
+    rot[~ok] = np.nan
+    return rot
+
+
+def _gaze_directions(column, names: set[str], valid: np.ndarray) -> dict[str, np.ndarray] | None:
+    """Per-eye gaze directions in the face frame (n, 3), from the vectors when they are unit
+    vectors in the valid frames, else from the mean angles; None without gaze columns."""
+    if all(c in names for cols in GAZE_VECTORS.values() for c in cols):
+        vec = {e: np.column_stack([column(c) for c in cols]) for e, cols in GAZE_VECTORS.items()}
+        norms = np.concatenate([np.linalg.norm(v[valid], axis=1) for v in vec.values()])
+        if norms.size and np.median(norms) > 0.9:
+            return {eye: v @ CAMERA_TO_FACE for eye, v in vec.items()}
+    if all(c in names for c in GAZE_ANGLES):
+        with np.errstate(invalid="ignore", over="ignore"):
+            tx, ty = np.tan(column("gaze_angle_x")), np.tan(column("gaze_angle_y"))
+        mean = np.column_stack([tx, ty, -np.ones(len(valid))])
+        face = mean @ CAMERA_TO_FACE
+        return {"left": face, "right": face}
+    return None
+
+
+def _head_and_eyes(
+    column: Callable[[str], np.ndarray],
+    names: set[str],
+    valid: np.ndarray,
+    neutral: Neutral,
+    path: str,
+) -> tuple[dict[int, np.ndarray], dict[str, Any]]:
+    """FAP 48-50 relative to the neutral and FAP 23-26 in the head's frame, and their report."""
+    faps: dict[int, np.ndarray] = {}
+    report_extra: dict[str, Any] = {}
+    head = None  # the head relative to the neutral: the eyes are turned by it
+    if all(c in names for c in POSE):
+        measured = head_rotations(np.column_stack([column(c) for c in POSE]))
+        relative, base = relative_to_neutral(measured, column("timestamp"), valid, neutral, path)
+        bad = ~np.all(np.isfinite(relative.reshape(len(relative), 9)), axis=1)
+        angles = head_angles(np.where(bad[:, None, None], np.eye(3), relative)) / AU_RADIANS
+        angles[bad] = np.nan
+        faps.update({48: angles[:, 0], 49: angles[:, 1], 50: angles[:, 2]})
+        head = relative
+        report_extra["neutral"] = {
+            "method": neutral.method,
+            "described": neutral.describe(),
+            "pitch_deg": round(float(np.degrees(base[0])), 2),
+            "yaw_deg": round(float(np.degrees(base[1])), 2),
+            "roll_deg": round(float(np.degrees(base[2])), 2),
+        }
+    gaze = _gaze_directions(column, names, valid)
+    if gaze is not None:
+        still = np.broadcast_to(np.eye(3), (len(valid), 3, 3))
+        seen_from = still if head is None else np.where(np.isfinite(head), head, still)
+        for eye, (yaw_fap, pitch_fap) in (("left", (23, 25)), ("right", (24, 26))):
+            eye_angles = eye_in_head(seen_from, gaze[eye]) / AU_RADIANS
+            faps[yaw_fap], faps[pitch_fap] = eye_angles[:, 0], eye_angles[:, 1]
+        report_extra["gaze"] = (
+            "turned from the camera's frame into the head's"
+            if head is not None
+            else "in the camera's frame (no pose_R* columns to turn it into the head's)"
+        )
+    return faps, report_extra
+
+
 def read_openface(
     path: str | Path,
     fps: float = 30.0,
@@ -91,28 +185,35 @@ def read_openface(
     min_confidence: float = MIN_CONFIDENCE,
     max_gap_s: float = MAX_GAP_S,
     mapping: FapMapping = OPENFACE_MAP,
+    neutral: Neutral | None = None,
 ) -> MotionTrack:
     """Read an OpenFace 2.0 CSV as a FAP track at ``fps`` (see the module docstring).
 
-    The track's ``metadata["capture"]`` reports dropped frames, filled gaps and the FAPs
-    left out for want of columns (``missing``). Bad input: one :class:`InputError` naming the
-    file, row and column.
+    ``neutral`` says which pose the head is measured from (default: the take's median pose).
+    The track's ``metadata["capture"]`` reports dropped frames, filled gaps, the neutral
+    (``neutral``: method and its pitch, yaw, roll in degrees from the camera's axis), the gaze
+    source and the FAPs left out for want of columns (``missing``). Bad input: one
+    :class:`InputError` naming the file, row and column.
     """
+    neutral = neutral or Neutral()
     table = read_numeric_csv(path, check_header=_header_problem)
     header, data, rows = table.header, table.values, table.lines
     col = {name: i for i, name in enumerate(header)}
+    names = set(col)
 
     def column(name: str) -> np.ndarray:
         return data[:, col[name]]
 
-    faps = mapping.apply(column, set(col))
+    valid = (column("success") > 0.5) & (column("confidence") >= min_confidence)
+    with np.errstate(over="ignore", invalid="ignore"):  # overflowing values: lost samples
+        faps, report_extra = _head_and_eyes(column, names, valid, neutral, str(path))
+    faps.update(mapping.apply(column, names))
     if not faps:
         raise InputError(
-            "no pose_R*, gaze_angle_* or AU*_r columns to import (run "
+            "no pose_R*, gaze_* or AU*_r columns to import (run "
             "FeatureExtraction with -pose -gaze -aus)",
             path=path,
         )
-    valid = (column("success") > 0.5) & (column("confidence") >= min_confidence)
     track, report = to_track(
         column("timestamp"),
         faps,
@@ -124,5 +225,9 @@ def read_openface(
         name=Path(path).stem,
         source=f"OpenFace 2.0 CSV {Path(path).name}",
     )
-    report["missing"] = mapping.needs(set(col))
+    missing = mapping.needs(names)
+    for cols, given in ((POSE, [48, 49, 50]), (GAZE_ANGLES, [23, 24, 25, 26])):
+        if given[0] not in faps:
+            missing.update({c: given for c in cols if c not in names})
+    report.update(report_extra, missing=missing)
     return mapping.limit(track).replace(metadata={**track.metadata, "capture": report})

@@ -27,6 +27,9 @@ from app.stimuli.track import MotionTrack
 
 #: Longest gap filled by interpolation, seconds; longer gaps are an error.
 MAX_GAP_S = 0.5
+#: Capture rates accepted, frames a second, and the longest take, seconds (a bound on memory).
+RATE_RANGE = (1.0, 2000.0)
+MAX_DURATION_S = 4 * 3600.0
 
 
 def to_track(
@@ -69,6 +72,17 @@ def to_track(
     if len(positive) == 0:
         raise InputError("all usable frames have the same time stamp", path=path)
     capture_fps = capture_rate(tv)
+    if not RATE_RANGE[0] <= capture_fps <= RATE_RANGE[1]:
+        raise InputError(
+            f"the time stamps give {capture_fps:.3g} frames a second; expected "
+            f"{RATE_RANGE[0]:g}-{RATE_RANGE[1]:g} (are they in seconds?)",
+            path=path,
+        )
+    if tv[-1] - tv[0] > MAX_DURATION_S:
+        raise InputError(
+            f"the take lasts {tv[-1] - tv[0]:.3g} s, more than {MAX_DURATION_S / 3600:g} hours",
+            path=path,
+        )
     grid_index = np.round((tv - tv[0]) * capture_fps).astype(np.int64)
     n_grid = int(grid_index[-1]) + 1
     duplicates = int(len(grid_index) - len(np.unique(grid_index)))

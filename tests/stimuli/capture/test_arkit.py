@@ -1,6 +1,8 @@
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from app.cli import main
 from app.errors import InputError
@@ -133,3 +135,152 @@ def test_arkit_weights_of_one_frame_equal_those_of_the_track():
         assert np.allclose(column, [f[name] for f in frames])
     assert np.allclose(whole["JawOpen"], dense[:, 2] / 800.0)
     assert np.allclose(whole["HeadYaw"], dense[:, 48] * 1e-5)
+
+
+def write_subframe_take(path, n, values, early=()):
+    """A take whose frames in ``early`` were stamped a hair before their time: the app writes
+    frame 45 as ``44.999`` and frame 46 as ``46.000`` (60 fps)."""
+    lines = [",".join(HEADER)]
+    for k in range(n):
+        frames = k - (0.0004 if k in early else 0.0)
+        whole = int(np.floor(frames))
+        secs, ff = divmod(whole, 60)
+        fraction = int((frames - whole) * 1000)  # the app truncates to 3 digits
+        stamp = f"10:20:{secs:02d}:{ff:02d}.{fraction:03d}"
+        cells = [f"{float(values[h][k]) if h in values else 0.0:.8f}" for h in HEADER[2:]]
+        lines.append(",".join([stamp, "61", *cells]))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_subframe_rounding_of_timecodes_is_not_a_gap(tmp_path):
+    t, v = take()
+    path = write_subframe_take(tmp_path / "take.csv", 240, v, early=(45, 107, 190))
+    assert "00:44.999" in path.read_text() and "00:46.000" in path.read_text()
+    track = read_arkit_csv(path, 30.0)
+    report = track.metadata["capture"]
+    assert report["filled_frames"] == 0 and report["gaps"] == [] and report["duplicates"] == 0
+    assert report["capture_fps"] == 60 and report["timecode"].endswith("sub-frame fractions")
+    truth = 0.2 * np.sin(2 * np.pi * 0.25 * track.times) / 1e-5
+    np.testing.assert_allclose(track[49][2:-2], truth[2:-2], atol=30)
+    # a frame really dropped is still one
+    lines = path.read_text().splitlines()
+    del lines[1 + 150]
+    path.write_text("\n".join(lines) + "\n")
+    dropped = read_arkit_csv(path, 30.0).metadata["capture"]
+    assert dropped["filled_frames"] == 1 and dropped["gaps"] == [[2.5, 2.517]]
+    # digits that count something else (not fractions) leave the frame numbers alone
+    counter = write_live_link(tmp_path / "counter.csv", 240, v)
+    report = read_arkit_csv(counter, 30.0).metadata["capture"]
+    assert report["timecode"] == "frame numbers" and report["filled_frames"] == 0
+
+
+def test_columns_that_are_zero_in_every_frame_are_left_out_with_a_warning(tmp_path):
+    t, v = take()
+    for name in ("HeadYaw", "HeadPitch", "HeadRoll"):
+        v[name] = np.zeros(240)  # recorded with head rotation off
+    path = write_live_link(tmp_path / "take.csv", 240, v)
+    track = read_arkit_csv(path, 30.0)
+    assert not {48, 49, 50} & set(track.channels) and 3 in track.channels
+    report = track.metadata["capture"]
+    assert report["left_out"] == [48, 49, 50]
+    assert report["constant"]["HeadYaw"] == 0.0 and report["constant"]["JawOpen"] == 0.25
+    assert len(report["warnings"]) == 2 and all("\n" not in w for w in report["warnings"])
+    assert report["warnings"][1].startswith("FAP 48, 49, 50 left out")
+    r = CliRunner().invoke(main, ["capture", "import", str(path), "--out", str(tmp_path / "g.fap")])
+    assert r.exit_code == 0, r.output
+    assert "constant in every frame: " in r.output and "HeadPitch = 0" in r.output
+    assert "FAP 48, 49, 50 left out: their columns are 0 in every frame" in r.output
+
+
+_STAMP = st.builds(
+    lambda h, m, s, f, d: f"{h:02d}:{m:02d}:{s:02d}:{f:02d}" + (f".{d}" if d else ""),
+    st.integers(0, 99999),
+    st.integers(0, 99),
+    st.integers(0, 99),
+    st.integers(0, 999),
+    st.text(alphabet="0123456789", max_size=4),
+)
+
+
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    st.lists(
+        st.tuples(
+            _STAMP,
+            st.lists(
+                st.sampled_from(["0", "0.5", "-1", "nan", "inf", "1e308", "x"]),
+                min_size=61,
+                max_size=61,
+            ),
+        ),
+        max_size=8,
+    ),
+    st.lists(st.text(alphabet="0123456789.,:- abx\n", max_size=30), max_size=4),
+)
+def test_junk_rows_are_one_input_error_never_a_crash(tmp_path, rows, junk):
+    path = tmp_path / "junk.csv"
+    lines = [",".join(HEADER), *(",".join([stamp, "61", *cells]) for stamp, cells in rows), *junk]
+    path.write_text("\n".join(lines))
+    try:
+        read_arkit_csv(path)
+    except InputError as exc:
+        assert "\n" not in str(exc) and "junk.csv" in str(exc)
+
+
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(st.binary(max_size=300))
+def test_any_bytes_are_a_track_or_one_input_error(tmp_path, data):
+    path = tmp_path / "bytes.csv"
+    path.write_bytes(b"Timecode,BlendShapeCount,JawOpen,HeadYaw\n" + data)
+    assert sniff_csv(path) in ("arkit", None)
+    try:
+        read_arkit_csv(path)
+    except InputError as exc:
+        assert "\n" not in str(exc) and "bytes.csv" in str(exc)
+
+
+def test_a_take_in_openfacefx_layout_reads_by_column_name(tmp_path):
+    """OpenFaceFX's hello.arkit.csv: JawLeft before JawRight, MouthLeft before MouthRight,
+    HH:MM:SS:FF timecodes without digits after a point, rotations all 0 (a speech-driven
+    tool writes no head)."""
+    order = list(HEADER)
+    for a, b in (("JawRight", "JawLeft"), ("MouthRight", "MouthLeft")):
+        i, j = order.index(a), order.index(b)
+        order[i], order[j] = order[j], order[i]
+    t, v = take(n=120, app_fps=60)
+    for name in ("HeadYaw", "HeadPitch", "HeadRoll", "LeftEyeYaw", "RightEyeYaw"):
+        v[name] = np.zeros(120)
+    v["LeftEyePitch"] = v["RightEyePitch"] = np.zeros(120)
+    lines = [",".join(order)]
+    for k in range(120):
+        cells = [f"{float(v[h][k]) if h in v else 0.0:.6f}" for h in order[2:]]
+        lines.append(",".join([f"00:00:{k // 60:02d}:{k % 60:02d}", "61", *cells]))
+    path = tmp_path / "hello.arkit.csv"
+    path.write_text("\n".join(lines) + "\n")
+    track = read_arkit_csv(path, 30.0)
+    report = track.metadata["capture"]
+    assert report["timecode"] == "frame numbers" and report["filled_frames"] == 0
+    assert report["left_out"] == [48, 49, 50, 23, 24, 25, 26]
+    np.testing.assert_allclose(track[3], 200.0, atol=1e-6)  # JawOpen 0.25, found by name
+
+
+def test_samples_twice_a_timecode_frame_are_placed_by_their_fractions(tmp_path):
+    """ARKit at 60 Hz under 30 fps timecodes: frames 00.000, 00.500, 01.000, ... Read by frame
+    number alone, every other sample was a duplicate and half the take was dropped."""
+    t, v = take(n=240, app_fps=60)
+    lines = [",".join(HEADER)]
+    for k in range(240):
+        secs, half = divmod(k, 60)
+        ff, sub = divmod(half, 2)
+        cells = [f"{float(v[h][k]) if h in v else 0.0:.8f}" for h in HEADER[2:]]
+        lines.append(",".join([f"09:00:{secs:02d}:{ff:02d}.{sub * 5}00", "61", *cells]))
+    path = tmp_path / "take.csv"
+    path.write_text("\n".join(lines) + "\n")
+    report = read_arkit_csv(path, 30.0, app_fps=30.0).metadata["capture"]
+    assert report["capture_fps"] == 60 and report["duplicates"] == 0
+    assert report["samples"] == 240 and report["filled_frames"] == 0

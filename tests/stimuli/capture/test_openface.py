@@ -7,6 +7,7 @@ from hypothesis import strategies as st
 from app.cli import main
 from app.errors import InputError
 from app.stimuli.capture import sniff_csv
+from app.stimuli.capture.headframe import Neutral
 from app.stimuli.capture.openface import read_openface
 from app.stimuli.io import load_track
 from tests.stimuli.capture.files import openface_header, write_openface
@@ -39,12 +40,16 @@ def test_known_signals_map_to_faps_with_their_signs_and_units(tmp_path):
     assert sniff_csv(path) == "openface"
     track = read_openface(path, FPS)
     assert track.n_frames == 300 and track.fps == FPS
-    # radians -> AU (1e-5 rad), OpenFace printed 3 decimals: 100 AU resolution
-    np.testing.assert_allclose(track[48], np.round(v["pose_Rx"], 3) / 1e-5, atol=1e-6)
-    np.testing.assert_allclose(track[49], -np.round(v["pose_Ry"], 3) / 1e-5, atol=1e-6)
-    np.testing.assert_allclose(track[50], -np.round(v["pose_Rz"], 3) / 1e-5, atol=1e-6)
-    np.testing.assert_allclose(track[23], track[24])
-    np.testing.assert_allclose(track[25], -0.05 / 1e-5)  # looking up: negative pitch (down +)
+    # radians -> AU (1e-5 rad), relative to the median pose; small angles: the old linear table
+    # (the Euler orders of OpenFace, Rx Ry Rz, and of the renderer, Ry Rx Rz, differ at second
+    # order, up to 0.1 x 0.2 rad here)
+    for fap, name, sign in ((48, "pose_Rx", 1), (49, "pose_Ry", -1), (50, "pose_Rz", -1)):
+        angle = np.round(v[name], 3)
+        expected = sign * (angle - np.median(angle)) / 1e-5
+        np.testing.assert_allclose(track[fap], expected, atol=2500, err_msg=str(fap))
+    np.testing.assert_allclose(track[23], track[24])  # one mean direction for both eyes
+    assert np.corrcoef(track[23], v["gaze_angle_x"] + v["pose_Ry"])[0, 1] > 0.99
+    assert track[25].mean() < 0  # looking up: negative pitch (down +)
     np.testing.assert_allclose(track[31], 25 * v["AU01_r"])
     np.testing.assert_allclose(track[33], 25 * (v["AU01_r"] + 1.0) / 2)
     np.testing.assert_allclose(track[35], 25.0)
@@ -53,6 +58,87 @@ def test_known_signals_map_to_faps_with_their_signs_and_units(tmp_path):
     )
     assert track[3].mean() == pytest.approx(60.0)
     assert track.metadata["capture"]["missing"] == {}
+
+
+def _axis(axis, a):
+    c, s = np.cos(a), np.sin(a)
+    m = {"x": [[1, 0, 0], [0, c, -s], [0, s, c]], "y": [[c, 0, s], [0, 1, 0], [-s, 0, c]]}
+    return np.array(m.get(axis, [[c, -s, 0], [s, c, 0], [0, 0, 1]]))
+
+
+def test_head_angles_are_openfaces_rotation_in_the_renderers_order(tmp_path):
+    """FAP 48-50 rebuild OpenFace's R = Rx Ry Rz (camera frame) as Ry(yaw) Rx(pitch) Rz(roll)
+    in the face frame (x left, y up, z out of the face): F R F with F = diag(1, -1, -1)."""
+    t, _, v = known_motion()
+    path = write_openface(tmp_path / "of.csv", t, v)
+    track = read_openface(path, FPS, neutral=Neutral("none"))
+    f = np.diag([1.0, -1.0, -1.0])
+    for k in (0, 37, 120, 299):
+        rx, ry, rz = (round(float(v[c][k]), 3) for c in ("pose_Rx", "pose_Ry", "pose_Rz"))
+        camera = _axis("x", rx) @ _axis("y", ry) @ _axis("z", rz)
+        pitch, yaw, roll = (track[c][k] * 1e-5 for c in (48, 49, 50))
+        rebuilt = _axis("y", yaw) @ _axis("x", pitch) @ _axis("z", roll)
+        np.testing.assert_allclose(rebuilt, f @ camera @ f, atol=1e-9)
+    assert track.metadata["capture"]["neutral"]["method"] == "none"
+
+
+def test_head_is_relative_to_the_takes_neutral_pose(tmp_path):
+    """A camera below the face reads 17 degrees of pitch in every frame: by default the head
+    is measured from the take's median pose; a calibration window picks its own neutral."""
+    t = np.arange(300) / FPS
+    nod = 0.1 * np.sin(2 * np.pi * 0.5 * t)
+    offset = 0.3 + np.where(t < 1.0, -0.2, 0.0)  # the first second: looking down at notes
+    path = write_openface(tmp_path / "of.csv", t, {"pose_Rx": offset + nod})
+    track = read_openface(path, FPS)
+    truth = np.round(offset + nod, 3)
+    np.testing.assert_allclose(track[48], (truth - np.median(truth)) / 1e-5, atol=1e-6)
+    neutral = track.metadata["capture"]["neutral"]
+    assert neutral["pitch_deg"] == pytest.approx(np.degrees(np.median(truth)), abs=0.01)
+    assert abs(track[48][t >= 1].mean()) < 0.03 / 1e-5  # not the camera's 17 degrees
+    window = read_openface(path, FPS, neutral=Neutral.parse("0-0.9"))
+    np.testing.assert_allclose(window[48], (truth - np.median(truth[t <= 0.9])) / 1e-5, atol=1e-6)
+    camera = read_openface(path, FPS, neutral=Neutral("none"))
+    np.testing.assert_allclose(camera[48], truth / 1e-5, atol=1e-6)
+    with pytest.raises(InputError, match="no usable frame in the calibration window 20-30 s"):
+        read_openface(path, FPS, neutral=Neutral.parse("20-30"))
+
+
+def _eyes_on_the_camera(n=240, vectors=True, offset=0.0):
+    """A head turning +/- 20 degrees about ``offset`` radians 60 cm in front of the camera,
+    both eyes fixed on it."""
+    t = np.arange(n) / FPS
+    ry = offset + 0.35 * np.sin(2 * np.pi * 0.25 * t)
+    head_at = np.array([0.0, 0.0, 600.0])
+    values = {"pose_Ry": ry, "pose_Tz": np.full(n, 600.0)}
+    mean = np.zeros((n, 3))
+    for eye, dx in (("0", -32.0), ("1", 32.0)):  # eye 0 is the leftmost in the image
+        centre = head_at + np.column_stack(
+            [dx * np.cos(ry), np.zeros(n), -dx * np.sin(ry)]
+        )  # Ry turns the eye's offset about the head's centre
+        gaze = -centre / np.linalg.norm(centre, axis=1, keepdims=True)
+        mean += gaze / 2
+        if vectors:
+            for k, axis in enumerate("xyz"):
+                values[f"gaze_{eye}_{axis}"] = gaze[:, k]
+    values["gaze_angle_x"] = np.arctan2(mean[:, 0], -mean[:, 2])
+    values["gaze_angle_y"] = np.arctan2(mean[:, 1], -mean[:, 2])
+    return t, values
+
+
+@pytest.mark.parametrize(("vectors", "offset"), [(True, 0.0), (False, 0.0), (True, -0.2)])
+def test_eyes_that_stay_on_the_camera_turn_against_the_head(tmp_path, vectors, offset):
+    """OpenFace's gaze is in camera coordinates: eyes fixed on the camera while the head turns
+    must turn the other way in the head (stored as they were, the eyes did not move at all),
+    also when the take's neutral is turned 11 degrees away from the camera."""
+    t, values = _eyes_on_the_camera(vectors=vectors, offset=offset)
+    track = read_openface(write_openface(tmp_path / "of.csv", t, values), FPS)
+    head_yaw = track[49]
+    assert np.ptp(head_yaw) > 0.6 / 1e-5  # +/- 20 degrees
+    eyes = (track[23] + track[24]) / 2
+    np.testing.assert_allclose(eyes, -head_yaw, atol=0.004 / 1e-5)  # 0.2 degrees
+    # a left eye looking right of its axis, a right eye left of it: they converge on the lens
+    assert (track[23] - track[24]).mean() < 0 if vectors else np.allclose(track[23], track[24])
+    np.testing.assert_allclose(track[25], 0.0, atol=0.002 / 1e-5)
 
 
 def test_lost_frames_are_filled_and_reported(tmp_path):
@@ -68,12 +154,13 @@ def test_lost_frames_are_filled_and_reported(tmp_path):
         success=success,
         confidence=conf,
     )
-    track = read_openface(path, FPS)
+    track = read_openface(path, FPS, neutral=Neutral("none"))
     report = track.metadata["capture"]
     assert report["invalid_samples"] == 6 and report["filled_frames"] == 9
     assert track.n_frames == 300
-    # outside the gaps the nod is the file's; inside, a straight line between its ends
-    truth = v["pose_Rx"] / 1e-5
+    # outside the gaps the nod is the whole take's; inside, a straight line between its ends
+    whole = write_openface(tmp_path / "whole.csv", t, v)
+    truth = read_openface(whole, FPS, neutral=Neutral("none"))[48]
     filled = np.r_[40, 41, 150, np.arange(100, 105) + 2, 200 + 3]
     outside = np.setdiff1d(np.arange(300), filled)
     np.testing.assert_allclose(track[48][outside], truth[outside], atol=60)
@@ -144,6 +231,14 @@ def test_cli_import_and_ground_truth_detection(tmp_path, repo_root):
     assert r.exit_code == 0, r.output
     assert "150 frames at 30 fps from 150 samples at 30 fps" in r.output
     assert "FAPs 3, 19, 20, 21, 22, 23, 24, 25, 26, 31" in r.output
+    assert "head relative to the take's median pose (pitch 1.47, yaw -2.98, roll 0.03" in r.output
+    assert "deg from the camera axis)" in r.output
+    assert "gaze: turned from the camera's frame into the head's" in r.output
+    r = CliRunner().invoke(
+        main,
+        ["capture", "import", str(src), "--out", str(tmp_path / "w.fap"), "--neutral", "1-2"],
+    )
+    assert r.exit_code == 0 and "head relative to the median pose over 1-2 s" in r.output
     assert load_track(tmp_path / "gt.fap").n_frames == 150
     assert load_track(src).channels == read_openface(src, FPS).channels  # by header
     out = tmp_path / "out"
@@ -168,7 +263,7 @@ def test_cli_import_and_ground_truth_detection(tmp_path, repo_root):
     bad = CliRunner().invoke(
         main, ["capture", "import", str(repo_root / "README.md"), "--out", str(tmp_path / "x.fap")]
     )
-    assert bad.exit_code == 2 and "not an OpenFace or Live Link Face CSV" in bad.output
+    assert bad.exit_code == 2 and "not a file facepair imports (openface, arkit" in bad.output
 
 
 @settings(
@@ -182,3 +277,49 @@ def test_junk_rows_are_one_input_error_never_a_crash(tmp_path, rows):
         read_openface(path, FPS)
     except InputError as exc:
         assert "\n" not in str(exc)
+
+
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    st.lists(
+        st.lists(
+            st.sampled_from(["0", "1", "0.98", "-0.3", "3.2", "nan", "inf", "1e308"]),
+            min_size=20,
+            max_size=20,
+        ),
+        max_size=10,
+    ),
+    st.binary(max_size=100),
+)
+def test_any_numbers_or_bytes_are_a_track_or_one_input_error(tmp_path, rows, data):
+    header = [
+        "frame",
+        "face_id",
+        "timestamp",
+        "confidence",
+        "success",
+        "gaze_0_x",
+        "gaze_0_y",
+        "gaze_0_z",
+        "gaze_1_x",
+        "gaze_1_y",
+        "gaze_1_z",
+        "gaze_angle_x",
+        "gaze_angle_y",
+        "pose_Rx",
+        "pose_Ry",
+        "pose_Rz",
+        "AU01_r",
+        "AU02_r",
+        "AU04_r",
+        "AU45_r",
+    ]
+    path = tmp_path / "numbers.csv"
+    body = "\n".join(", ".join(r) for r in rows)
+    path.write_bytes((", ".join(header) + "\n" + body + "\n").encode() + data)
+    try:
+        read_openface(path, FPS)
+    except InputError as exc:
+        assert "\n" not in str(exc) and "numbers.csv" in str(exc)

@@ -31,3 +31,11 @@ def test_duplicates_gaps_and_backwards_time():
         to_track(
             np.array([0.0, 0.1]), {48: np.zeros(2)}, np.array([True, False]), fps=10.0, source="x"
         )
+
+
+def test_time_stamps_that_are_not_seconds_are_refused_before_allocating():
+    with pytest.raises(InputError, match=r"give 1e-10 frames a second; expected 1-2000"):
+        to_track(np.array([0.0, 1e10]), {48: np.zeros(2)}, np.ones(2, bool), fps=30.0, source="x")
+    with pytest.raises(InputError, match=r"lasts 1e\+05 s, more than 4 hours"):
+        t = np.r_[np.arange(10) / 30.0, 1e5 + np.arange(10) / 30.0]
+        to_track(t, {48: np.zeros(20)}, np.ones(20, bool), fps=30.0, source="x", max_gap_s=1e9)
