@@ -30,7 +30,9 @@ Example
 
 from __future__ import annotations
 
+import base64
 import io
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -38,6 +40,13 @@ from typing import Any
 import numpy as np
 
 from app.errors import InputError
+from renderer.gltfdecode import (
+    check_required,
+    decode_ktx2,
+    texture_source,
+    texture_transform,
+    unpack,
+)
 
 #: glTF accessor component type -> numpy dtype (glTF 2.0 sec. 3.6.2.2).
 COMPONENT_TYPES = {
@@ -78,6 +87,9 @@ class GltfScene:
     uvs: np.ndarray | None = None
     texture: np.ndarray | None = None
     untextured_colors: np.ndarray | None = None
+    # VRM expressions (0.x blendShapeMaster groups, 1.0 VRMC_vrm.expressions) by name, each the
+    # weighted sum of the morph targets it binds: name -> (dpos, dnormal), (n, 3)
+    expressions: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
 
 def _load(path: Path):
@@ -86,19 +98,28 @@ def _load(path: Path):
     if not path.is_file():
         raise InputError("avatar file not found", path=path)
     try:
-        if path.suffix.lower() == ".gltf":
-            gltf = pygltflib.GLTF2().load_json(str(path))
-        else:
-            gltf = pygltflib.GLTF2().load_binary(str(path))
+        with warnings.catch_warnings():  # pygltflib warns of several buffers: unpack() joins them
+            warnings.simplefilter("ignore")
+            if path.suffix.lower() == ".gltf":
+                gltf = pygltflib.GLTF2().load_json(str(path))
+            else:
+                gltf = pygltflib.GLTF2().load_binary(str(path))
         if gltf is None:
             raise ValueError("not a glTF file")
-        gltf.convert_buffers(pygltflib.BufferFormat.BINARYBLOB)
+        glb = gltf.binary_blob() or b""
     except InputError:
         raise
     except Exception as exc:  # pygltflib raises assorted types on malformed files
         reason = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else type(exc).__name__
         raise InputError(f"not a readable glTF 2.0 / VRM file: {reason}", path=path) from None
-    return gltf, gltf.binary_blob() or b""
+    check_required(gltf, path)
+    try:
+        return gltf, unpack(gltf, glb, path)
+    except InputError:
+        raise
+    except (IndexError, KeyError, TypeError, ValueError, AttributeError) as exc:
+        reason = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else type(exc).__name__
+        raise InputError(f"malformed glTF buffers: {reason}", path=path) from None
 
 
 def _accessor(gltf, blob: bytes, index: int, path: Path) -> np.ndarray:
@@ -176,15 +197,17 @@ def _texture_rgb(gltf, blob: bytes, texture_index: int, base: Path) -> np.ndarra
     import imageio.v3 as iio
 
     try:
-        image = gltf.images[gltf.textures[texture_index].source]
+        image = gltf.images[texture_source(gltf, texture_index)]
         if image.bufferView is not None:
             view = gltf.bufferViews[image.bufferView]
             data = blob[view.byteOffset or 0 : (view.byteOffset or 0) + view.byteLength]
-            pixels = iio.imread(io.BytesIO(data))
-        elif image.uri and not image.uri.startswith("data:"):
-            pixels = iio.imread(base / image.uri)
+        elif image.uri and image.uri.startswith("data:"):
+            data = base64.b64decode(image.uri.split(",", 1)[1])
+        elif image.uri:
+            data = (base / image.uri).read_bytes()
         else:
             return None
+        pixels = decode_ktx2(data) if data[:5] == b"\xabKTX " else iio.imread(io.BytesIO(data))
     except Exception:  # an unreadable texture falls back to the material's colour
         return None
     pixels = np.asarray(pixels, dtype=np.float64)
@@ -217,7 +240,7 @@ def _colors(
         if info is not None and uv_index is not None:
             rgb = _texture_rgb(gltf, blob, info.index, path.parent)
             if rgb is not None:
-                uv = _accessor(gltf, blob, uv_index, path)[:, :2]
+                uv = texture_transform(info, _accessor(gltf, blob, uv_index, path)[:, :2])
                 texture = (info.index, uv, rgb)
                 uv = np.where((uv >= 0) & (uv <= 1), uv, uv % 1.0)  # repeat, edges kept
                 h, w = rgb.shape[:2]
@@ -346,6 +369,9 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
                     raise InputError(f"skin {node.skin}: joint index beyond its joints", path=path)
                 nodes = np.asarray(skin.joints)[joints]
                 weights = _accessor(gltf, blob, prim.attributes.WEIGHTS_0, path)
+                bind = _bind_transforms(gltf, blob, skin, world, path)
+                if bind is not None:
+                    pos, nrm, deltas = _to_rest(bind[joints], weights, pos, nrm, deltas)
             else:
                 m = world[i]
                 pos = pos @ m[:3, :3].T + m[:3, 3]
@@ -358,6 +384,8 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
             col, plain, texture = _colors(gltf, blob, prim, n, path)
             parts.append(
                 {
+                    "mesh": node.mesh,
+                    "by_index": [deltas[name] for name in _target_names(mesh, prim)],
                     "pos": pos,
                     "nrm": nrm,
                     "tri": tri + offset,
@@ -399,6 +427,7 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
         humanoid=humanoid,
         extras=gltf.extras if isinstance(gltf.extras, dict) else {},
     )
+    scene.expressions = _vrm_expressions(gltf, parts, len(vertices))
     shared = {p["texture"][0] if p["texture"] else None for p in parts}
     if len(shared) == 1 and None not in shared:
         image = parts[0]["texture"][2]
@@ -410,6 +439,109 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
     return scene
 
 
+def _vrm_binds(gltf) -> dict[str, list[tuple[int, int, float]]]:
+    """VRM expression name -> its morph target binds as (mesh, target index, weight 0..1).
+
+    VRM 0.x: ``extensions.VRM.blendShapeMaster.blendShapeGroups``, each with a ``presetName``
+    (``unknown`` for custom ones, then its ``name``) and ``binds`` of mesh, index and a weight of
+    0-100. VRM 1.0: ``extensions.VRMC_vrm.expressions.preset`` and ``.custom``, each with
+    ``morphTargetBinds`` of node, index and a weight of 0-1.
+    """
+    ext = gltf.extensions or {}
+    out: dict[str, list[tuple[int, int, float]]] = {}
+    vrm1 = ext.get("VRMC_vrm") if isinstance(ext.get("VRMC_vrm"), dict) else None
+    if vrm1 is not None:
+        expressions = vrm1.get("expressions") or {}
+        for group in ("preset", "custom"):
+            for name, spec in (expressions.get(group) or {}).items():
+                binds = spec.get("morphTargetBinds") if isinstance(spec, dict) else None
+                for b in binds or []:
+                    node = gltf.nodes[int(b["node"])]
+                    if node.mesh is not None:
+                        out.setdefault(str(name), []).append(
+                            (node.mesh, int(b["index"]), float(b.get("weight", 1.0)))
+                        )
+        return out
+    vrm0 = ext.get("VRM") if isinstance(ext.get("VRM"), dict) else None
+    groups = ((vrm0 or {}).get("blendShapeMaster") or {}).get("blendShapeGroups") or []
+    for g in groups:
+        if not isinstance(g, dict):
+            continue
+        preset = str(g.get("presetName") or "unknown")
+        name = str(g.get("name") or preset) if preset == "unknown" else preset
+        for b in g.get("binds") or []:
+            out.setdefault(name, []).append(
+                (int(b["mesh"]), int(b["index"]), float(b.get("weight", 100.0)) / 100.0)
+            )
+    return out
+
+
+def _vrm_expressions(
+    gltf, parts: list[dict[str, Any]], n: int
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Each VRM expression as the weighted sum of the morph targets it binds, on every vertex."""
+    out = {}
+    for name, binds in _vrm_binds(gltf).items():
+        dp, dn = np.zeros((n, 3)), np.zeros((n, 3))
+        start = 0
+        for part in parts:
+            stop = start + len(part["pos"])
+            for mesh, index, weight in binds:
+                if part["mesh"] == mesh and 0 <= index < len(part["by_index"]):
+                    dp[start:stop] += weight * part["by_index"][index][0]
+                    dn[start:stop] += weight * part["by_index"][index][1]
+            start = stop
+        if np.abs(dp).any():
+            out[name] = (dp, dn)
+    return out
+
+
+def _bind_transforms(gltf, blob: bytes, skin, world: np.ndarray, path: Path) -> np.ndarray | None:
+    """Each joint's ``world @ inverseBindMatrix``, or None where all are the identity.
+
+    A skinned vertex at rest sits at the weighted sum of these times its stored position (glTF
+    2.0 sec. 3.7.3). Exporters usually bind at the rest pose, so they are the identity; quantising
+    tools (gltfpack, glTF-Transform ``quantize``) fold the dequantisation into the inverse bind
+    matrices instead of the node, which a skinned mesh ignores.
+    """
+    if skin.inverseBindMatrices is None:
+        return None
+    ibm = _accessor(gltf, blob, skin.inverseBindMatrices, path)
+    if ibm.shape != (len(skin.joints), 16):
+        raise InputError("skin: inverseBindMatrices do not match its joints", path=path)
+    bind = world[np.asarray(skin.joints)] @ ibm.reshape(-1, 4, 4).transpose(0, 2, 1)
+    if np.allclose(bind, np.eye(4), atol=1e-6):
+        return None
+    return bind
+
+
+def _to_rest(
+    bind: np.ndarray,
+    weights: np.ndarray,
+    pos: np.ndarray,
+    nrm: np.ndarray | None,
+    deltas: dict[str, tuple[np.ndarray, np.ndarray]],
+) -> tuple[np.ndarray, np.ndarray | None, dict[str, tuple[np.ndarray, np.ndarray]]]:
+    """Vertices (and normals, target deltas) skinned to the rest pose by linear blend skinning."""
+    total = weights.sum(axis=1, keepdims=True)
+    w = weights / np.where(total > 0, total, 1.0)
+    m = np.einsum("vj,vjab->vab", w, bind)  # (n, 4, 4) per-vertex blend
+    lin = m[:, :3, :3]
+    pos = np.einsum("vab,vb->va", lin, pos) + m[:, :3, 3]
+    inv_t = np.linalg.inv(lin).transpose(0, 2, 1)
+    # normals and their deltas turn with the mesh but keep their length (the dequantisation is
+    # a uniform scale in practice): the inverse transpose divided by its mean scale
+    inv_t /= np.cbrt(np.abs(np.linalg.det(inv_t)))[:, None, None]
+    if nrm is not None:
+        nrm = np.einsum("vab,vb->va", inv_t, nrm)
+        nrm = nrm / np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-12)
+    deltas = {
+        name: (np.einsum("vab,vb->va", lin, dp), np.einsum("vab,vb->va", inv_t, dn))
+        for name, (dp, dn) in deltas.items()
+    }
+    return pos, nrm, deltas
+
+
 def _turn_half_round(scene: GltfScene) -> None:
     """Turn a -z facing (VRM 0.x) scene by 180 degrees about y, in place."""
     flip = np.array([-1.0, 1.0, -1.0])
@@ -417,5 +549,6 @@ def _turn_half_round(scene: GltfScene) -> None:
     if scene.normals is not None:
         scene.normals = scene.normals * flip
     scene.targets = {k: (dp * flip, dn * flip) for k, (dp, dn) in scene.targets.items()}
+    scene.expressions = {k: (dp * flip, dn * flip) for k, (dp, dn) in scene.expressions.items()}
     turn = np.diag([-1.0, 1.0, -1.0, 1.0])
     scene.world = turn @ scene.world

@@ -48,11 +48,11 @@ def test_driven_table_names_shapes_bones_and_their_faps():
 
 
 def test_missing_blendshape_names_it_and_its_faps(exported_head, tmp_path):
-    path = _edited(exported_head, tmp_path, _rename_target("JawOpen", "mouth_open"))
+    path = _edited(exported_head, tmp_path, _rename_target("jawOpen", "mouth_open"))
     with pytest.raises(InputError) as err:
         load_avatar(path)
     message = str(err.value)
-    assert "blendshape JawOpen (FAP 3)" in message and "\n" not in message
+    assert "blendshape jawOpen (FAP 3)" in message and "\n" not in message
     assert str(path) in message
     # the sidecar renames it, and the avatar loads
     path.with_name("avatar.avatar.json").write_text(
@@ -75,7 +75,7 @@ def test_bone_names_match_common_rig_spellings(exported_head, tmp_path):
 
 
 def test_cli_reports_a_missing_blendshape_in_one_line(exported_head, tmp_path):
-    path = _edited(exported_head, tmp_path, _rename_target("EyeBlinkLeft", "blink"))
+    path = _edited(exported_head, tmp_path, _rename_target("eyeBlinkLeft", "blink"))
     track = tmp_path / "t.csv"
     track.write_text("# fps=30\nframe,fap49\n0,0\n1,100\n")
     result = CliRunner().invoke(
@@ -94,7 +94,7 @@ def test_cli_reports_a_missing_blendshape_in_one_line(exported_head, tmp_path):
         ],
     )
     assert result.exit_code == 2, result.output
-    assert "EyeBlinkLeft (FAP 19, 21)" in result.output
+    assert "eyeBlinkLeft (FAP 19, 21)" in result.output
     assert "Traceback" not in result.output and len(result.output.strip().splitlines()) == 1
 
 

@@ -46,6 +46,12 @@ def test_vrm0_avatar_faces_the_camera_and_names_its_bones(exported_head, tmp_pat
         for node in gltf.nodes:
             if node.translation:
                 node.translation = [-node.translation[0], node.translation[1], -node.translation[2]]
+        # the inverse bind matrices turn with the bones (F M F, F = diag(-1, 1, -1, 1))
+        acc = gltf.accessors[gltf.skins[0].inverseBindMatrices]
+        at = gltf.bufferViews[acc.bufferView].byteOffset + (acc.byteOffset or 0)
+        ibm = np.frombuffer(blob, np.float32, acc.count * 16, at).reshape(-1, 4, 4)
+        turn = np.diag([-1.0, 1.0, -1.0, 1.0]).astype(np.float32)
+        blob[at : at + ibm.nbytes] = (turn @ ibm @ turn).astype(np.float32).tobytes()
         gltf.set_binary_blob(bytes(blob))
         gltf.extras = {}
 
