@@ -31,8 +31,8 @@ lip FAP (inner / outer)       negative                     positive
 16 / 17 push lower / upper    mouthRollLower / Upper       mouthShrugLower / Upper
 ============================  ===========================  =============================
 
-A side FAP that is zero takes its lip's middle value (FAP 4 for 8, 9; FAP 5 for 10, 11), so a
-track with the middle lips only (the demo's, most trackers') moves the whole lip. Inner and
+Where both side FAPs of a lip are zero they take its middle value (FAP 4 for 8, 9; FAP 5 for
+10, 11), so a track with the middle lips only (the demo's, most trackers') moves the whole lip. Inner and
 outer FAPs are merged as Xface does: where one of a pair is zero the other stands for both,
 else their mean. Corners drawn in are a pucker with the lips together and a funnel with them
 apart: the inward weight is shared by ``open = min((-FAP 4 - FAP 5)^+ / LIP, 1)``, funnel =
@@ -112,9 +112,11 @@ def mouth_weights(faps: np.ndarray) -> dict[str, np.ndarray]:
         return np.maximum(x, 0.0) / LIP
 
     mid_up, mid_low = lip(4), lip(5)
-    side = {
-        k: np.where(lip(k) == 0, mid_up if k in (8, 9) else mid_low, lip(k)) for k in (8, 9, 10, 11)
-    }
+    side = {}
+    for mid, pair in ((mid_up, (8, 9)), (mid_low, (10, 11))):
+        given = (lip(pair[0]) != 0) | (lip(pair[1]) != 0)
+        for k in pair:
+            side[k] = np.where(given, lip(k), mid)
     inward = (pos(-lip(6)) + pos(-lip(7))) / 2
     opening = np.minimum(pos(-mid_up) + pos(-mid_low), 1.0)
     return {

@@ -1,6 +1,7 @@
 """Reading glTF: VRM orientation and humanoid bones, textures, and .gltf with embedded data."""
 
 import io
+from pathlib import Path
 
 import imageio.v3 as iio
 import numpy as np
@@ -195,6 +196,98 @@ def test_a_corrupted_gltf_reads_or_is_an_input_error(tmp_path, edits):
             items[index % len(items)][key] = [value] if key == "nodes" else value
     path = tmp_path / "c.gltf"
     path.write_text(json.dumps(doc))
+    try:
+        read_gltf(path)
+    except InputError as err:
+        assert "\n" not in str(err)
+
+
+# Compressed avatars as they are delivered (files made by tests/renderer/data/
+# make_compressed_avatars.py with gltfpack 1.3, glTF-Transform 4.5 and basisu 1.16).
+DATA = Path(__file__).parent / "data"
+COMPRESSED = ["head-gltfpack.glb", "head-draco.glb", "head-ktx2.glb"]
+
+
+def _matched(ref, scene):
+    """Each vertex of ``scene`` paired with the export's vertex it came from: the nearest in
+    position, ties (lips and eyelids that meet, UV seams) broken by targets, normals and UVs."""
+    from scipy.spatial import cKDTree
+
+    names = sorted(ref.targets)
+    r = np.concatenate([ref.targets[k][0] for k in names], axis=1)
+    s = np.concatenate([scene.targets[k][0] for k in names], axis=1)
+    dist, idx = cKDTree(ref.vertices).query(scene.vertices, k=8)
+    cost = (
+        np.abs(s[:, None] - r[idx]).max(axis=2)
+        + np.abs(scene.normals[:, None] - ref.normals[idx]).max(axis=2)
+        + np.abs(scene.uvs[:, None] - ref.uvs[idx]).max(axis=2)
+        + 1e3 * (dist > 1e-4)
+    )
+    return idx[np.arange(len(idx)), cost.argmin(axis=1)], r, s
+
+
+@pytest.mark.parametrize("name", COMPRESSED)
+def test_compressed_avatar_reads_as_the_exported_head(exported_head, name):
+    ref, scene = read_gltf(exported_head), read_gltf(DATA / name)
+    assert sorted(scene.targets) == sorted(ref.targets) and len(scene.targets) == 27
+    best, r, s = _matched(ref, scene)
+    assert len(np.unique(best)) > 0.95 * len(ref.vertices)  # exact duplicates pair alike
+    # 14-bit positions over a 0.5 m head: a step of 30 um; the morph deltas alike
+    assert np.abs(scene.vertices - ref.vertices[best]).max() < 4e-5
+    assert np.abs(s - r[best]).max() < 4e-5
+    assert np.abs(scene.uvs - ref.uvs[best]).max() < 2e-4  # 12-bit UVs
+    assert np.median(np.abs(scene.normals - ref.normals[best]).max(axis=1)) < 0.02
+    face = load_avatar(DATA / name)
+    assert {"JawOpen", "MouthClose", "MouthUpperUpLeft"} <= set(face.targets)
+
+
+def test_ktx2_texture_is_transcoded_as_the_png_it_was_made_from():
+    png, ktx2 = read_gltf(DATA / "head-gltfpack.glb"), read_gltf(DATA / "head-ktx2.glb")
+    assert ktx2.texture is not None and ktx2.texture.shape == png.texture.shape == (64, 64, 3)
+    # ETC1S is lossy: a few levels of 255 on average
+    assert np.abs(ktx2.texture.astype(float) - png.texture).mean() < 8
+
+
+def _requiring(src, path, extension):
+    gltf = pygltflib.GLTF2().load_binary(str(src))
+    gltf.extensionsRequired = [*(gltf.extensionsRequired or []), extension]
+    gltf.extensionsUsed = [*(gltf.extensionsUsed or []), extension]
+    gltf.save_binary(str(path))
+    return path
+
+
+@pytest.mark.parametrize(
+    "extension,command",
+    [
+        ("EXT_texture_webp", "gltf-transform png in.glb out.glb"),
+        ("KHR_materials_variants", "gltfpack -i in.glb -o out.glb -noq"),
+    ],
+)
+def test_an_unread_required_extension_is_named_with_its_conversion(tmp_path, extension, command):
+    path = _requiring(DATA / "head-gltfpack.glb", tmp_path / "a.glb", extension)
+    with pytest.raises(InputError) as err:
+        read_gltf(path)
+    message = str(err.value)
+    assert "\n" not in message and message.startswith(str(path))
+    assert f"requires the glTF extension {extension}" in message and command in message
+
+
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    name=st.sampled_from(COMPRESSED),
+    flips=st.lists(st.tuples(st.floats(0, 1), st.integers(1, 255)), min_size=1, max_size=8),
+)
+def test_corrupted_compressed_data_reads_or_is_an_input_error(tmp_path, name, flips):
+    """Bytes flipped anywhere in the binary chunk (meshopt streams, Draco data, KTX2)."""
+    data = bytearray((DATA / name).read_bytes())
+    json_len = int.from_bytes(data[12:16], "little")
+    start = 20 + json_len + 8
+    for where, xor in flips:
+        data[start + int(where * (len(data) - start - 1))] ^= xor
+    path = tmp_path / "c.glb"
+    path.write_bytes(bytes(data))
     try:
         read_gltf(path)
     except InputError as err:
