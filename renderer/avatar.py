@@ -136,6 +136,7 @@ class AvatarRig(Rig):
         self.n0 = face.normals()
         self.weights = {"head": np.asarray(face.weights["head"], dtype=np.float64)}
         self.names = list(face.targets)
+        self.drives = face.drives
         dpos = np.stack([face.targets[k][0] for k in self.names]).astype(np.float32)
         dnrm = np.stack([face.targets[k][1] for k in self.names]).astype(np.float32)
         self.zone = np.flatnonzero((np.abs(dpos) > 0).any(axis=(0, 2)))
@@ -159,7 +160,7 @@ class AvatarRig(Rig):
 
         f = np.asarray(faps, dtype=np.float64)
         w = {**arkit_weights(f), **mouth_weights(f)}
-        drives = self.face.drives
+        drives = self.drives
         coeff = np.clip(
             [np.mean([float(w[s]) for s in drives.get(k, (k,))]) for k in self.names], 0.0, 1.0
         ).astype(np.float32)

@@ -223,6 +223,8 @@ def _unpack_draco(gltf, prim, draco, blob: bytes, append, where: str, path: Path
     faces = np.asarray(mesh.faces, dtype=np.uint32).reshape(-1)
     prim.indices = add(faces, prim.indices, "SCALAR")
     n = len(np.asarray(mesh.points).reshape(-1, 3))
+    if n == 0:
+        raise InputError(f"{where}: Draco data holds no vertices", path=path)
     for name, unique in (draco.get("attributes") or {}).items():
         target = getattr(prim.attributes, name, None)
         if target is None:
@@ -234,15 +236,14 @@ def _unpack_draco(gltf, prim, draco, blob: bytes, append, where: str, path: Path
         data = data.reshape(n, -1) if data.size % n == 0 else data
         kind = gltf.accessors[target].type
         acc = gltf.accessors[target]
-        dtype = (
+        widths: dict[int, np.dtype[Any]] = {5121: np.dtype(np.uint8), 5123: np.dtype(np.uint16)}
+        dtype: np.dtype[Any] = (
             np.dtype(np.float32)
             if data.dtype.kind == "f"
-            else {5121: np.dtype(np.uint8), 5123: np.dtype(np.uint16)}.get(
-                acc.componentType, np.dtype(np.uint32)
-            )
+            else widths.get(acc.componentType, np.dtype(np.uint32))
         )
         if data.dtype.kind != "f" and acc.normalized:  # normalised integers kept as fractions
-            data = data / float(np.iinfo(dtype).max)
+            data = data / float(np.iinfo(dtype.str).max)
             dtype = np.dtype(np.float32)
         setattr(prim.attributes, name, add(data.astype(dtype), target, kind))
     prim.extensions = {
