@@ -32,9 +32,9 @@ lip FAP (inner / outer)       negative                     positive
 ============================  ===========================  =============================
 
 Where both side FAPs of a lip are zero they take its middle value (FAP 4 for 8, 9; FAP 5 for
-10, 11), so a track with the middle lips only (the demo's, most trackers') moves the whole lip. Inner and
-outer FAPs are merged as Xface does: where one of a pair is zero the other stands for both,
-else their mean. Corners drawn in are a pucker with the lips together and a funnel with them
+10, 11), so a track with the middle lips only (the demo's, most trackers') moves the whole lip.
+Inner and outer FAPs are merged as Xface does: where one of a pair is zero the other stands for
+both, else their mean. Corners drawn in are a pucker with the lips together and a funnel with them
 apart: the inward weight is shared by ``open = min((-FAP 4 - FAP 5)^+ / LIP, 1)``, funnel =
 inward x open, pucker = inward x (1 - open). The amplitude is a calibration, as the brows' 100
 and the jaw's 800 units are: :data:`LIP` = 200 units at weight 1 (MNS is about 30 mm / 1024,
