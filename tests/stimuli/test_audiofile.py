@@ -318,3 +318,25 @@ def test_the_checked_path_hands_praat_no_file(tmp_path, monkeypatch):
     load_sound(_encode(src, tmp_path / "a.flac", "-c:a", "flac"))
     assert opened and all(isinstance(a, np.ndarray) for a in opened)
     assert not any(isinstance(a, str | os.PathLike) for a in opened)
+
+
+def test_a_compressed_file_longer_than_the_limit_is_refused(tmp_path):
+    x, _ = harmonic_glide(150, 150, 3.0)
+    write_wav(tmp_path / "long.wav", x)
+    mp3 = _encode(tmp_path / "long.wav", tmp_path / "long.mp3", "-c:a", "libmp3lame")
+    with pytest.raises(InputError, match=r"audio is 3\.\d s long; the limit is 1 s"):
+        read_audio(mp3, max_duration=1.0)
+
+
+def test_the_cli_refuses_a_broken_file_with_exit_2_and_one_line(tmp_path):
+    from click.testing import CliRunner
+
+    from app.cli import main
+
+    bad = _id3_then_noise(tmp_path / "speech.wav")
+    result = CliRunner().invoke(
+        main, ["stimuli", "generate", "--audio", str(bad), "--out", str(tmp_path / "out")]
+    )
+    assert result.exit_code == 2
+    lines = [ln for ln in result.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and str(bad) in lines[0] and "MP3" in lines[0]
