@@ -54,6 +54,10 @@ CONVERSIONS: dict[str, str] = {
 _GENERIC = "gltfpack -i in.glb -o out.glb -noq (or export it again without the extension)"
 #: Bytes the decoded views of one file may take (a head is a few MB; morph deltas compress well).
 MAX_DECODED_BYTES = 1 << 30
+#: Most a meshopt view may expand (the vertex codec spends at least one bit per byte of even an
+#: all-zero stream, 64x; the files of tests/renderer/data expand at most 53x), checked before
+#: the decoder allocates what a header claims.
+MAX_RATIO = 256
 _ALIGN = 16
 
 
@@ -161,8 +165,10 @@ def _meshopt_view(ext: dict[str, Any], buffers: list[bytes], i: int, path: Path)
         start, length = int(ext.get("byteOffset", 0)), int(ext["byteLength"])
         count, stride = int(ext["count"]), int(ext["byteStride"])
         mode, filt = str(ext["mode"]), str(ext.get("filter", "NONE"))
-        if start + length > len(src) or not 0 < count * stride <= MAX_DECODED_BYTES:
+        if start + length > len(src):
             raise ValueError("the compressed data does not fit its buffer")
+        if not 0 < count * stride <= min(MAX_RATIO * length + 65536, MAX_DECODED_BYTES):
+            raise ValueError(f"{count} x {stride} bytes cannot come from {length} compressed")
         rows = meshopt.decode_gltf_buffer(src[start : start + length], count, stride, mode, filt)
     except (KeyError, TypeError, ValueError, IndexError, RuntimeError) as exc:
         raise InputError(

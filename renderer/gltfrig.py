@@ -35,7 +35,7 @@ def vrm_binds(gltf) -> dict[str, list[tuple[int, int, float]]]:
                     node = gltf.nodes[int(b["node"])]
                     if node.mesh is not None:
                         out.setdefault(str(name), []).append(
-                            (node.mesh, int(b["index"]), float(b.get("weight", 1.0)))
+                            (node.mesh, int(b["index"]), _weight(b.get("weight", 1.0), 1.0))
                         )
         return out
     vrm0 = ext.get("VRM") if isinstance(ext.get("VRM"), dict) else None
@@ -47,9 +47,17 @@ def vrm_binds(gltf) -> dict[str, list[tuple[int, int, float]]]:
         name = str(g.get("name") or preset) if preset == "unknown" else preset
         for b in g.get("binds") or []:
             out.setdefault(name, []).append(
-                (int(b["mesh"]), int(b["index"]), float(b.get("weight", 100.0)) / 100.0)
+                (int(b["mesh"]), int(b["index"]), _weight(b.get("weight", 100.0), 100.0))
             )
     return out
+
+
+def _weight(value: Any, full: float) -> float:
+    """A bind's weight as a fraction of ``full`` (VRM 0.x: 100, 1.0: 1)."""
+    w = float(value)
+    if not np.isfinite(w):
+        raise ValueError(f"expression weight {value!r} is not a finite number")
+    return w / full
 
 
 def vrm_expressions(

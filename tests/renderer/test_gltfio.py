@@ -304,3 +304,54 @@ def test_ktx2_codecs_transcode_to_known_pixels(codec, tolerance):
     got = decode_ktx2((DATA / f"checker-{codec}.ktx2").read_bytes())
     assert got.shape == (16, 16, 4)
     assert np.abs(got[..., :3] - want).max() <= tolerance
+
+
+def test_a_meshopt_view_claiming_more_than_it_can_hold_is_refused(tmp_path):
+    gltf = pygltflib.GLTF2().load_binary(str(DATA / "head-gltfpack.glb"))
+    view = next(v for v in gltf.bufferViews if v.extensions.get("EXT_meshopt_compression"))
+    view.extensions["EXT_meshopt_compression"]["count"] = 2**28  # 4 GB of 16-byte vertices
+    gltf.save_binary(str(tmp_path / "a.glb"))
+    with pytest.raises(InputError, match="cannot come from"):
+        read_gltf(tmp_path / "a.glb")
+
+
+_JSON = st.recursive(
+    st.none() | st.booleans() | st.integers(-3, 5) | st.floats(-2, 200) | st.text(max_size=6),
+    lambda inner: (
+        st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=8), inner, max_size=3)
+    ),
+    max_leaves=12,
+)
+
+
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    version=st.sampled_from(["VRM", "VRMC_vrm"]),
+    binds=st.lists(
+        st.fixed_dictionaries({"mesh": _JSON, "node": _JSON, "index": _JSON, "weight": _JSON}),
+        max_size=3,
+    ),
+    name=st.text(max_size=10),
+    junk=_JSON,
+)
+def test_any_vrm_expressions_read_or_are_an_input_error(tmp_path, version, binds, name, junk):
+    import copy
+    import json
+
+    doc = copy.deepcopy(TINY)
+    if version == "VRM":
+        groups = [{"name": name, "presetName": "unknown", "binds": binds}, junk]
+        doc["extensions"] = {"VRM": {"blendShapeMaster": {"blendShapeGroups": groups}}}
+    else:
+        expr = {"preset": {name: {"morphTargetBinds": binds}}, "custom": junk}
+        doc["extensions"] = {"VRMC_vrm": {"expressions": expr}}
+    path = tmp_path / "v.gltf"
+    path.write_text(json.dumps(doc))
+    try:
+        scene = read_gltf(path)
+    except InputError as err:
+        assert "\n" not in str(err)
+    else:
+        assert all(np.isfinite(dp).all() for dp, _ in scene.expressions.values())
