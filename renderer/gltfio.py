@@ -193,28 +193,57 @@ def _local(node) -> np.ndarray:
     return m
 
 
-def _texture_rgb(gltf, blob: bytes, texture_index: int, base: Path) -> np.ndarray | None:
-    """The base colour image of texture ``texture_index`` as (h, w, 3) floats, or None."""
+def _image_pixels(gltf, blob: bytes, index: int | None, base: Path) -> np.ndarray | None:
     import imageio.v3 as iio
 
+    if index is None:
+        return None
+    image = gltf.images[index]
+    if image.bufferView is not None:
+        view = gltf.bufferViews[image.bufferView]
+        data = blob[view.byteOffset or 0 : (view.byteOffset or 0) + view.byteLength]
+    elif image.uri and image.uri.startswith("data:"):
+        data = base64.b64decode(image.uri.split(",", 1)[1])
+    elif image.uri:
+        data = (base / image.uri).read_bytes()
+    else:
+        return None
+    return decode_ktx2(data) if data[:5] == b"\xabKTX " else iio.imread(io.BytesIO(data))
+
+
+def _texture_rgb(gltf, blob: bytes, texture_index: int, base: Path) -> np.ndarray | None:
+    """The base colour image of texture ``texture_index`` as (h, w, 3) floats, or None.
+
+    The KHR_texture_basisu (KTX2) source first, then the texture's own ``source`` (the
+    fallback PNG or JPEG such files may carry).
+    """
     try:
-        image = gltf.images[texture_source(gltf, texture_index)]
-        if image.bufferView is not None:
-            view = gltf.bufferViews[image.bufferView]
-            data = blob[view.byteOffset or 0 : (view.byteOffset or 0) + view.byteLength]
-        elif image.uri and image.uri.startswith("data:"):
-            data = base64.b64decode(image.uri.split(",", 1)[1])
-        elif image.uri:
-            data = (base / image.uri).read_bytes()
-        else:
-            return None
-        pixels = decode_ktx2(data) if data[:5] == b"\xabKTX " else iio.imread(io.BytesIO(data))
-    except Exception:  # an unreadable texture falls back to the material's colour
+        sources = dict.fromkeys(
+            (texture_source(gltf, texture_index), _plain_source(gltf, texture_index))
+        )
+    except (IndexError, TypeError, AttributeError):
+        return None
+    pixels = None
+    for index in sources:
+        try:
+            pixels = _image_pixels(gltf, blob, index, base)
+        except Exception:  # an unreadable texture falls back to the material's colour
+            pixels = None
+        if pixels is not None:
+            break
+    if pixels is None:
         return None
     pixels = np.asarray(pixels, dtype=np.float64)
     if pixels.ndim == 2:
         pixels = pixels[..., None].repeat(3, axis=2)
     return pixels[..., :3] / (65535.0 if pixels.max() > 255 else 255.0)
+
+
+def _plain_source(gltf, texture_index: int) -> int | None:
+    try:
+        return gltf.textures[texture_index].source
+    except (IndexError, TypeError):
+        return None
 
 
 def _colors(

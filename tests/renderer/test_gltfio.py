@@ -355,3 +355,26 @@ def test_any_vrm_expressions_read_or_are_an_input_error(tmp_path, version, binds
         assert "\n" not in str(err)
     else:
         assert all(np.isfinite(dp).all() for dp, _ in scene.expressions.values())
+
+
+def test_a_ktx2_texture_that_fails_falls_back_to_the_textures_own_source(tmp_path):
+    import json
+    import struct
+
+    raw = (DATA / "head-gltfpack.glb").read_bytes()
+    n = struct.unpack("<I", raw[12:16])[0]
+    doc, blob = json.loads(raw[20 : 20 + n]), raw[28 + n :]
+    broken = b"\xabKTX 20\xbb\r\n\x1a\n" + bytes(64)  # a KTX2 signature, nothing usable
+    doc["bufferViews"].append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(broken)})
+    doc["buffers"][0]["byteLength"] = len(blob) + len(broken)
+    doc["images"].append({"bufferView": len(doc["bufferViews"]) - 1, "mimeType": "image/ktx2"})
+    doc["textures"][0]["extensions"] = {"KHR_texture_basisu": {"source": len(doc["images"]) - 1}}
+    doc["extensionsUsed"].append("KHR_texture_basisu")
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    blob += broken + b"\x00" * (-len(broken) % 4)
+    body = struct.pack("<I4s", len(text), b"JSON") + text
+    body += struct.pack("<I4s", len(blob), b"BIN\x00") + blob
+    (tmp_path / "a.glb").write_bytes(b"glTF" + struct.pack("<II", 2, 12 + len(body)) + body)
+    fallback, png = read_gltf(tmp_path / "a.glb"), read_gltf(DATA / "head-gltfpack.glb")
+    np.testing.assert_array_equal(fallback.texture, png.texture)
