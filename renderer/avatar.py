@@ -38,6 +38,8 @@ from app.stimuli.capture.arkit import ARKIT_MAP, BLENDSHAPES, arkit_weights
 from renderer.deform import EYE_TURNS, HEAD_TURNS, Rig, about, fap_rotation
 from renderer.face import MOUTH_FEATURE_POINTS, Face, fapu_from_feature_points, vertex_normals
 from renderer.gltfio import GltfScene, read_gltf
+from renderer.lips import MOUTH_SHAPES, mouth_faps, mouth_weights
+from renderer.shapenames import VRM_PRESETS, arkit_spelling, canonical
 from renderer.skin import ZoneNormals, one_ring
 
 #: Avatar file suffixes ``RenderSettings.face`` accepts.
@@ -69,7 +71,10 @@ def driven() -> tuple[dict[str, list[int]], dict[str, list[int]]]:
 
 
 def shape_faps(name: str) -> np.ndarray:
-    """The 68 FAP values blendshape ``name`` stands for at weight 1 (the ARKit table)."""
+    """The 68 FAP values blendshape ``name`` stands for at weight 1 (the ARKit table, or the
+    lips' table of :mod:`renderer.lips` for a mouth shape)."""
+    if name in MOUTH_SHAPES:
+        return mouth_faps(name)
     column = {n: np.array([1.0 if n == name else 0.0]) for n in BLENDSHAPES}
     out = np.zeros(68)
     for fap, values in ARKIT_MAP.apply(column.__getitem__, set(BLENDSHAPES)).items():
@@ -85,11 +90,14 @@ def _canonical(name: str) -> str:
 class AvatarFace(Face):
     """A :class:`Face` read from a glTF / VRM avatar: morph targets and bone pivots besides.
 
-    targets : ARKit name -> (dpos, dnormal) float32 (n, 3) at weight 1.
+    targets : shape -> (dpos, dnormal) float32 (n, 3) at weight 1, keyed by the ARKit table's
+        name it stands for (or a VRM preset's name standing for several).
+    drives : shape -> the ARKit table names whose mean weight drives it (absent: its own key).
     eye_pivots : ``"l"`` / ``"r"`` -> eye bone position.
     """
 
     targets: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    drives: dict[str, tuple[str, ...]] = field(default_factory=dict)
     eye_pivots: dict[str, np.ndarray] = field(default_factory=dict)
     file_normals: np.ndarray | None = None
 
@@ -107,6 +115,8 @@ class AvatarFace(Face):
             h.update(name.encode())
             for arr in self.targets[name]:
                 h.update(np.ascontiguousarray(arr).tobytes())
+        for name in sorted(self.drives):
+            h.update(("drives " + name + ":" + ",".join(self.drives[name])).encode())
         for side in sorted(self.eye_pivots):
             h.update(np.asarray(self.eye_pivots[side], dtype=np.float64).tobytes())
         return h.hexdigest()
@@ -126,6 +136,7 @@ class AvatarRig(Rig):
         self.n0 = face.normals()
         self.weights = {"head": np.asarray(face.weights["head"], dtype=np.float64)}
         self.names = list(face.targets)
+        self.drives = face.drives
         dpos = np.stack([face.targets[k][0] for k in self.names]).astype(np.float32)
         dnrm = np.stack([face.targets[k][1] for k in self.names]).astype(np.float32)
         self.zone = np.flatnonzero((np.abs(dpos) > 0).any(axis=(0, 2)))
@@ -148,8 +159,11 @@ class AvatarRig(Rig):
         from renderer.deform import FaceFrame
 
         f = np.asarray(faps, dtype=np.float64)
-        w = arkit_weights(f)
-        coeff = np.clip([float(w[k]) for k in self.names], 0.0, 1.0).astype(np.float32)
+        w = {**arkit_weights(f), **mouth_weights(f)}
+        drives = self.drives
+        coeff = np.clip(
+            [np.mean([float(w[s]) for s in drives.get(k, (k,))]) for k in self.names], 0.0, 1.0
+        ).astype(np.float32)
         pos, nrm = self.v0.copy(), self.n0.copy()
         on = np.flatnonzero(coeff)
         if len(on):
@@ -246,6 +260,42 @@ def _sidecar(path: Path, scene: GltfScene) -> dict[str, Any]:
     return spec
 
 
+def _find_shape(wanted: str, names: list[str], renamed: dict[str, Any]) -> int | None:
+    """Index of blendshape ``wanted`` in ``names``: the sidecar's name for it (keyed in any
+    convention), else the same shape in any naming convention (:func:`canonical`)."""
+    target = {canonical(k): v for k, v in renamed.items()}.get(canonical(wanted))
+    if isinstance(target, str):
+        return names.index(target) if target in names else None
+    keys = [canonical(n) for n in names]
+    key = canonical(wanted)
+    return keys.index(key) if key in keys else None
+
+
+def _shapes(
+    scene: GltfScene, needed: list[str], renamed: dict[str, Any]
+) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], dict[str, tuple[str, ...]]]:
+    """The avatar's shape for each ARKit name it has (the table's and the mouth's), by name in
+    any convention, then by VRM preset (:data:`VRM_PRESETS`) for those still missing."""
+    pool = dict(scene.targets)
+    pool.update({k: v for k, v in scene.expressions.items() if k not in pool})
+    names = list(pool)
+    shapes: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    drives: dict[str, tuple[str, ...]] = {}
+    for k in dict.fromkeys([*needed, *MOUTH_SHAPES]):
+        i = _find_shape(k, names, renamed)
+        if i is not None:
+            shapes[k] = pool[names[i]]
+    covered = set(shapes)
+    presets = {canonical(n): n for n in scene.expressions}
+    for key, stands in VRM_PRESETS.items():
+        if key in presets and not covered & set(stands):
+            slot = stands[0] if len(stands) == 1 else presets[key]
+            shapes[slot] = scene.expressions[presets[key]]
+            drives[slot] = stands
+            covered |= set(stands)
+    return shapes, drives
+
+
 def _find(wanted: str, names: list[str], renamed: dict[str, Any]) -> int | None:
     """Index of ``wanted`` in ``names``: the sidecar's name for it, else a case- and
     punctuation-blind match, else a name ending in it (``J_Bip_C_Head``, ``mixamorig:Head``)."""
@@ -276,8 +326,8 @@ def load_avatar(path: str | Path) -> AvatarFace:
     scene = read_gltf(path)
     spec = _sidecar(path, scene)
     shapes_needed, bones_needed = driven()
-    names = list(scene.targets)
-    found = {k: _find(k, names, spec.get("blendshapes", {})) for k in shapes_needed}
+    shapes, drives = _shapes(scene, list(shapes_needed), spec.get("blendshapes", {}))
+    covered = set(shapes) | {s for d in drives.values() for s in d}
     nodes = {
         k: (
             spec["bones"][k]
@@ -287,9 +337,9 @@ def load_avatar(path: str | Path) -> AvatarFace:
         for k in bones_needed
     }
     lacking = [
-        f"blendshape {k} (FAP {', '.join(map(str, shapes_needed[k]))})"
-        for k, i in found.items()
-        if i is None
+        f"blendshape {arkit_spelling(k)} (FAP {', '.join(map(str, faps))})"
+        for k, faps in shapes_needed.items()
+        if k not in covered
     ]
     lacking += [
         f"bone {k} (FAP {', '.join(map(str, bones_needed[k]))})"
@@ -302,10 +352,7 @@ def load_avatar(path: str | Path) -> AvatarFace:
             f"{path.stem}.avatar.json, see docs/renderer.md)",
             path=path,
         )
-    targets = {
-        k: tuple(a.astype(np.float32) for a in scene.targets[names[i]])  # type: ignore[index]
-        for k, i in found.items()
-    }
+    targets = {k: (dp.astype(np.float32), dn.astype(np.float32)) for k, (dp, dn) in shapes.items()}
     total = np.maximum(scene.influence_weights.sum(axis=1), 1e-12)
 
     def share(node: int) -> np.ndarray:
@@ -355,7 +402,8 @@ def load_avatar(path: str | Path) -> AvatarFace:
         groups=groups,
         weights={"head": head},
         name=path.stem,
-        targets=targets,  # type: ignore[arg-type]
+        targets=targets,
+        drives=drives,
         eye_pivots=pivots,
         file_normals=scene.normals,
         uvs=scene.uvs,

@@ -1,10 +1,13 @@
 """The built-in head as a glTF 2.0 avatar with ARKit-named morph targets (``face export``).
 
-Each blendshape the ARKit table drives (:func:`renderer.avatar.driven`) is baked as the
-built-in deformation of the FAPs it stands for at weight 1 (:func:`renderer.avatar.shape_faps`):
-``JawOpen`` is the jaw opened by FAP 3 = 800, ``BrowInnerUp`` the inner and middle brows
-raised by 100 and 50 units, and so on, with the normals of the deformed skin as normal
-deltas. The skeleton carries the VRM humanoid names the avatar reader looks for:
+Each blendshape the ARKit table drives (:func:`renderer.avatar.driven`) and each mouth shape of
+:mod:`renderer.lips` is baked as the built-in deformation of the FAPs it stands for at weight 1
+(:func:`renderer.avatar.shape_faps`): ``jawOpen`` is the jaw opened by FAP 3 = 800,
+``browInnerUp`` the inner and middle brows raised by 100 and 50 units, ``mouthUpperUpLeft`` the
+upper lip's left raised by 200 units, and so on, with the normals of the deformed skin as
+normal deltas. Targets are named in ARKit's own spelling (``eyeBlinkLeft``, Apple's
+``ARFaceAnchor.BlendShapeLocation``), which three.js, Blender add-ons and ARKit rigs expect.
+The skeleton carries the VRM humanoid names the avatar reader looks for:
 ``upperChest`` (the shoulders, which never turn), ``head`` at feature point 7.1 (the vertices
 weighted by the head's ``head`` layer, so the neck blends as on the built-in head), and
 ``leftEye`` / ``rightEye`` at the eyeball centres. Feature points and the hidden-outline group
@@ -16,10 +19,10 @@ glTF's (+y up, +z forward, +x the face's left), which are Xface's.
 Example
 -------
 >>> import tempfile, os
->>> from renderer.avatar import load_avatar
+>>> from renderer.gltfio import read_gltf
 >>> path = export_builtin_head(os.path.join(tempfile.mkdtemp(), "head.glb"))
->>> sorted(load_avatar(path).targets)[:3]
-['BrowDownLeft', 'BrowDownRight', 'BrowInnerUp']
+>>> sorted(read_gltf(path).targets)[:3]
+['browDownLeft', 'browDownRight', 'browInnerUp']
 """
 
 from __future__ import annotations
@@ -32,6 +35,8 @@ from renderer.avatar import driven, shape_faps
 from renderer.deform import Rig
 from renderer.gltfwrite import MeshOut, write_glb
 from renderer.headmodel import builtin_face
+from renderer.lips import MOUTH_SHAPES
+from renderer.shapenames import arkit_spelling
 
 #: Model units (millimetres) to glTF's metres.
 METRES = 0.001
@@ -42,9 +47,10 @@ def export_builtin_head(path: str | Path) -> Path:
     face = builtin_face()
     rig = Rig(face)
     targets = {}
-    for name in driven()[0]:
+    for name in (*driven()[0], *MOUTH_SHAPES):
         frame = rig.deform(shape_faps(name))
-        targets[name] = ((frame.positions - rig.v0) * METRES, frame.normals - rig.n0)
+        delta = (frame.positions - rig.v0) * METRES, frame.normals - rig.n0
+        targets[arkit_spelling(name)] = delta
     n = face.n_vertices
     head_w = np.asarray(rig.weights["head"], dtype=np.float64)
     joints = np.zeros((n, 4), np.uint8)

