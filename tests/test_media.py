@@ -275,7 +275,7 @@ def test_deleted_participants_and_studies_leave_nothing_in_the_bucket(
             return {found["Key"] for found in listed}
 
         assert f"{prefix}report/votes.csv" in keys()
-        from app.web.study.exports import participant_label
+        from app.web.study.labels import participant_label
 
         number = db.session.scalar(
             sa.select(Participant.number).where(Participant.token == participant.token)

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from app.web.extensions import db
 from app.web.models import Participant, Study, StudyList, Trial, Vote
-from app.web.study.privacy import pseudonym
+from app.web.study.labels import pseudonym
 
 PID = "5f2a0c7e9b1d3e4f5a6b7c8d"
 
@@ -168,7 +168,7 @@ def test_nothing_is_deleted_without_a_match_or_confirmation(app, client, web):
 
 
 def test_a_deletion_removes_the_report_computed_with_their_votes(app, client, web):
-    from app.web.study.exports import report_path
+    from app.web.infra.storage import report_path
 
     study_id = web.study()
     _join(app, _slug(app, study_id), PID)

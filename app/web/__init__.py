@@ -19,6 +19,12 @@ from typing import Any
 
 from flask import Flask
 
+from app.web.extensions import init_extensions
+from app.web.hooks import init_web
+from app.web.infra.media import DEFAULTS as MEDIA_DEFAULTS
+from app.web.infra.media import init_media
+from app.web.infra.security import init_security
+
 
 def embedded_database_uri(instance_path: str) -> str:
     """The default database: SQLite in the instance folder (the only one ``demo`` accepts)."""
@@ -34,9 +40,6 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
     ``SECRET_KEY`` is required: without one the factory raises :class:`app.errors.InputError`
     naming the setting.
     """
-    from app.web.extensions import init_extensions
-    from app.web.hooks import init_web
-    from app.web.infra.security import init_security
 
     app = Flask(
         __name__, instance_relative_config=True, instance_path=os.environ.get("FACEPAIR_INSTANCE")
@@ -67,8 +70,6 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
         # Seconds a client is asked to wait (Retry-After) while the database is unreachable.
         RETRY_AFTER_SECONDS=5,
     )
-    from app.web.infra.media import DEFAULTS as MEDIA_DEFAULTS
-    from app.web.infra.media import init_media
 
     # Who sends clips, audio and reports: Flask, the front proxy or a bucket (infra.media).
     app.config.from_mapping(MEDIA_DEFAULTS)

@@ -9,9 +9,18 @@ import weakref
 from typing import TYPE_CHECKING, Any
 
 import sqlalchemy as sa
-from flask import abort, render_template
+from flask import abort, current_app, jsonify, redirect, render_template, request, url_for
 
 from app.errors import InputError
+from app.web.api import bp as api_bp
+from app.web.experimenter import bp as experimenter_bp
+from app.web.extensions import csrf, db
+from app.web.infra import limits
+from app.web.infra.limits import INT32, text_problem
+from app.web.participant import bp as participant_bp
+from app.web.questionnaire import bp as questionnaire_bp
+from app.web.questionnaire.views import questionnaire_first
+from app.web.study.recruitment import REDIRECT_SECONDS, participant_completion_url
 
 if TYPE_CHECKING:
     from flask import Flask
@@ -37,9 +46,9 @@ def ping_idle_connections(engine: sa.Engine) -> None:
 
     A database restart takes longer than that, so the first request after one still gets a
     live connection, as with the pool's ``pre_ping``; but a busy server, whose connections go
-    straight back out, no longer pays a round trip per checkout (a twentieth of a vote's CPU
-    in the load benchmark's profile). A connection that breaks while in use (the database
-    stopped mid-request) invalidates the pool and answers 503 with Retry-After
+    straight back out, no longer pays a round trip per checkout. A connection that breaks
+    while in use (the database stopped mid-request) invalidates the pool and answers 503
+    with Retry-After
     (:func:`_database_unavailable`), as before.
     """
 
@@ -62,7 +71,6 @@ def ping_idle_connections(engine: sa.Engine) -> None:
 
 
 def _identifier_fits(value: object) -> bool:
-    from app.web.infra.limits import INT32, text_problem
 
     if isinstance(value, int):
         return INT32[0] <= value <= INT32[1]
@@ -70,9 +78,6 @@ def _identifier_fits(value: object) -> bool:
 
 
 def _bad_input(exc: InputError):  # type: ignore[no-untyped-def]
-    from flask import jsonify
-
-    from app.web.extensions import db
 
     db.session.rollback()
     if _wants_json():
@@ -81,7 +86,6 @@ def _bad_input(exc: InputError):  # type: ignore[no-untyped-def]
 
 
 def _wants_json() -> bool:
-    from flask import request
 
     return request.blueprint == "api" or request.accept_mimetypes.best == "application/json"
 
@@ -89,9 +93,6 @@ def _wants_json() -> bool:
 def _database_unavailable(exc: Exception):  # type: ignore[no-untyped-def]
     """The database cannot be reached (or is restarting): 503 with Retry-After, so the
     participant's browser keeps the vote and sends it again, instead of a 500."""
-    from flask import current_app, jsonify
-
-    from app.web.extensions import db
 
     current_app.logger.warning("database unavailable: %s", str(exc).splitlines()[0])
     try:
@@ -112,14 +113,6 @@ def _database_unavailable(exc: Exception):  # type: ignore[no-untyped-def]
 
 
 def init_web(app: Flask) -> None:
-    from app.web import models  # noqa: F401  (the models register on db.metadata)
-    from app.web.api import bp as api_bp
-    from app.web.experimenter import bp as experimenter_bp
-    from app.web.extensions import csrf, db
-    from app.web.infra import limits
-    from app.web.participant import bp as participant_bp
-    from app.web.questionnaire import bp as questionnaire_bp
-    from app.web.questionnaire.views import questionnaire_first
 
     app.register_blueprint(participant_bp)
     app.register_blueprint(questionnaire_bp)
@@ -130,7 +123,6 @@ def init_web(app: Flask) -> None:
     # The JSON API authenticates participants by the token in the request body, not a cookie,
     # so a cross-site form cannot forge a vote; experimenter endpoints there are GET only.
     csrf.exempt(api_bp)
-    from app.web.study.recruitment import REDIRECT_SECONDS, participant_completion_url
 
     # The completion page sends a finished participant on (``app.web.study.recruitment``).
     app.jinja_env.globals.update(
@@ -167,6 +159,5 @@ def init_web(app: Flask) -> None:
 
     @app.get("/")
     def index():  # type: ignore[no-untyped-def]
-        from flask import redirect, url_for
 
         return redirect(url_for("experimenter.studies"))

@@ -22,6 +22,7 @@ from app.web.extensions import db
 from app.web.infra import limits
 from app.web.infra.accounts import current_user, study_access
 from app.web.infra.limits import fits
+from app.web.jobs.tasks import sweep_study_jobs
 from app.web.models import Job, Participant, Study, Trial
 from app.web.study.enrolment import progress as enrolment_progress
 from app.web.study.medialog import MediaLogError, environment_fields
@@ -46,9 +47,9 @@ def _json_object() -> dict[str, Any] | str:
     try:
         if length is not None:
             # Exactly Content-Length bytes (at most MAX_BODY, checked above) straight from the
-            # server's stream: werkzeug's guarded stream around it cost a tenth of a vote's
-            # CPU in the load benchmark's profile. A body without a length (chunked) goes
-            # through werkzeug, with its limits.
+            # server's stream, without werkzeug's guarded stream around it, which a vote's
+            # few hundred bytes do not need. A body without a length (chunked) goes through
+            # werkzeug, with its limits.
             payload = json.loads(request.environ["wsgi.input"].read(length))
         else:
             payload = request.get_json(silent=True)
@@ -113,8 +114,8 @@ _TOKEN = "~token~"
 def _participant_urls(token: str) -> tuple[str, str]:
     """The participant's resume URL and their clips' URL up to the trial's id, as
     ``url_for`` builds them; the routes are built once per application and script root
-    (two builds were a twentieth of a vote's CPU in the load benchmark's profile), and a
-    token ``url_for`` would quote is built the usual way."""
+    (every vote answers with both), and a token ``url_for`` would quote is built the usual
+    way."""
     routes = current_app.extensions.setdefault("facepair.participant_urls", {})
     root = request.script_root
     if root not in routes and len(routes) < 8:  # a deployment's one root, or a few proxies'
@@ -264,8 +265,6 @@ def job_status(job_id: int):  # type: ignore[no-untyped-def]
     if job is None or study_access(job.study, user.id) is None:
         abort(404)
     if job.status in ("queued", "running"):
-        from app.web.jobs.tasks import sweep_study_jobs
-
         sweep_study_jobs(job.study_id)
         db.session.refresh(job)
     return jsonify(job.as_dict())

@@ -4,4 +4,5 @@ from flask import Blueprint
 
 bp = Blueprint("experimenter", __name__, url_prefix="/experimenter")
 
-from app.web.experimenter import views  # noqa: E402, F401  (its routes register on bp)
+# Each module adds its routes to ``bp`` (one module per idea).
+from app.web.experimenter import create, lifecycle, participants, views  # noqa: E402, F401

@@ -17,12 +17,13 @@ from flask import flash, redirect, render_template, request, url_for
 from wtforms import SelectChoice
 
 from app.errors import InputError
-from app.web.experimenter import uploads
+from app.trials.studyfile import MODELS, loads_study, parse_study
+from app.web.experimenter import bp, uploads
 from app.web.experimenter.forms import StudyFileForm, StudyWebForm
-from app.web.experimenter.views import bp
 from app.web.extensions import db
 from app.web.infra.accounts import current_user, login_required
 from app.web.infra.storage import disk_full, disk_full_message
+from app.web.study.studies import create_study
 
 #: How the form's parts read in an error, by the parser's field name.
 _FORM_FIELDS = {
@@ -130,8 +131,6 @@ def form_error(exc: InputError, data: dict[str, Any]) -> InputError:
 
 def _create(file_form: StudyFileForm, web_form: StudyWebForm, folder: Path):  # type: ignore[no-untyped-def]
     """The study the submitted form describes (not committed), or None; raises InputError."""
-    from app.trials.studyfile import loads_study, parse_study
-    from app.web.study.studies import create_study
 
     user = current_user()
     if file_form.submit.data:
@@ -174,7 +173,6 @@ def _create(file_form: StudyFileForm, web_form: StudyWebForm, folder: Path):  # 
 @bp.route("/studies/new", methods=["GET", "POST"])
 @login_required
 def new_study():  # type: ignore[no-untyped-def]
-    from app.trials.studyfile import MODELS
 
     file_form = StudyFileForm(prefix="file")
     web_form = StudyWebForm(prefix="web")

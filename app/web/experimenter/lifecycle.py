@@ -6,6 +6,8 @@ from __future__ import annotations
 import sqlalchemy as sa
 from flask import abort, flash, redirect, render_template, url_for
 
+from app.web.experimenter import bp
+from app.web.experimenter.access import own_study
 from app.web.experimenter.forms import (
     ActionForm,
     ConfirmForm,
@@ -13,10 +15,12 @@ from app.web.experimenter.forms import (
     DuplicateForm,
     ShareForm,
 )
-from app.web.experimenter.views import _own_study, bp
 from app.web.extensions import db
 from app.web.infra.accounts import current_user, login_required
+from app.web.infra.limits import fits
 from app.web.models import Stimulus, Study, StudyShare, User
+from app.web.study.enrolment import enrol
+from app.web.study.studies import change_status, delete_study, duplicate_study
 
 
 @bp.get("/pilot/<token>")
@@ -27,8 +31,6 @@ def pilot(token: str):  # type: ignore[no-untyped-def]
     participant is flagged, so their votes stay out of exports and the analysis unless asked
     for, and their list slot goes back when recruitment opens.
     """
-    from app.web.infra.limits import fits
-    from app.web.study.enrolment import enrol
 
     study = None
     if fits(Study.pilot_token, token):
@@ -57,9 +59,8 @@ def pilot(token: str):  # type: ignore[no-untyped-def]
 @login_required
 def reopen(study_id: int):  # type: ignore[no-untyped-def]
     """Open a closed study again: only with the tick (its report becomes provisional)."""
-    from app.web.study.studies import change_status
 
-    study = _own_study(study_id, "full")
+    study = own_study(study_id, "full")
     if not ConfirmForm().validate_on_submit():
         flash("Not reopened: tick the box to confirm.", "error")
         return redirect(url_for(".study", study_id=study.id))
@@ -76,9 +77,8 @@ def reopen(study_id: int):  # type: ignore[no-untyped-def]
 @bp.post("/studies/<int:study_id>/duplicate")
 @login_required
 def duplicate(study_id: int):  # type: ignore[no-untyped-def]
-    from app.web.study.studies import duplicate_study
 
-    study = _own_study(study_id, "full")
+    study = own_study(study_id, "full")
     form = DuplicateForm()
     if not form.validate_on_submit():
         abort(400)
@@ -91,9 +91,8 @@ def duplicate(study_id: int):  # type: ignore[no-untyped-def]
 @bp.post("/studies/<int:study_id>/delete")
 @login_required
 def delete(study_id: int):  # type: ignore[no-untyped-def]
-    from app.web.study.studies import delete_study
 
-    study = _own_study(study_id, "owner")
+    study = own_study(study_id, "owner")
     form = DeleteStudyForm()
     if not form.validate_on_submit() or (form.title.data or "").strip() != study.title.strip():
         flash("Nothing deleted: type the study's title exactly to confirm.", "error")
@@ -108,7 +107,7 @@ def delete(study_id: int):  # type: ignore[no-untyped-def]
 @bp.post("/studies/<int:study_id>/shares")
 @login_required
 def share(study_id: int):  # type: ignore[no-untyped-def]
-    study = _own_study(study_id, "owner")
+    study = own_study(study_id, "owner")
     form = ShareForm()
     if not form.validate_on_submit():
         problems = "; ".join(f"{name}: {errors[0]}" for name, errors in form.errors.items())
@@ -134,7 +133,7 @@ def share(study_id: int):  # type: ignore[no-untyped-def]
 @bp.post("/studies/<int:study_id>/shares/<int:share_id>/remove")
 @login_required
 def unshare(study_id: int, share_id: int):  # type: ignore[no-untyped-def]
-    study = _own_study(study_id, "owner")
+    study = own_study(study_id, "owner")
     row = db.session.get(StudyShare, share_id)
     if row is None or row.study_id != study.id or not ActionForm().validate_on_submit():
         abort(404)

@@ -6,25 +6,28 @@ from typing import Any
 
 import sqlalchemy as sa
 from flask import Response, flash, redirect, request, url_for
+from werkzeug.utils import secure_filename
 
+from app.web.experimenter import bp
+from app.web.experimenter.access import own_study
 from app.web.experimenter.forms import ExcludeForm
-from app.web.experimenter.views import _own_study, bp
 from app.web.extensions import db
 from app.web.infra.accounts import current_user, login_required, study_access
 from app.web.models import Participant, Study
-from app.web.study.privacy import pseudonym
+from app.web.study.enrolment import dropped_after
+from app.web.study.labels import pseudonym
+from app.web.study.participants import AUTO_RULES, auto_rules, participant_table, remove
+from app.web.study.questionnaires import answers_csv
 
 
-def participant_table(study: Study) -> dict[str, Any]:
+def monitor_table(study: Study) -> dict[str, Any]:
     """What the monitor's table needs: the rows, Prolific IDs as shown (pseudonyms unless the
     experimenter asked to reveal them and may), and the exclusion form."""
-    from app.web.study.enrolment import dropped_after
-    from app.web.study.participants import AUTO_RULES, auto_rules, participant_rows
 
     access = study_access(study, current_user().id)  # type: ignore[union-attr]
     may_reveal = access in ("full", "owner")
     reveal = may_reveal and request.args.get("reveal") == "1"
-    rows = participant_rows(study, dropped_after=dropped_after())
+    rows = participant_table(study, dropped_after=dropped_after())
     shown = {
         row.id: (row.prolific_pid if reveal else pseudonym(study.pseudonym_key, row.prolific_pid))
         for row in rows
@@ -44,9 +47,8 @@ def participant_table(study: Study) -> dict[str, Any]:
 def exclude_participant(study_id: int):  # type: ignore[no-untyped-def]
     """Exclude a participant with a reason, or record a returned submission; their list slot
     goes back to the list (``app.web.study.participants.remove``)."""
-    from app.web.study.participants import remove
 
-    study = _own_study(study_id, "full")
+    study = own_study(study_id, "full")
     form = ExcludeForm()
     back = redirect(url_for(".monitor", study_id=study.id))
     if not form.validate_on_submit():
@@ -81,11 +83,8 @@ def exclude_participant(study_id: int):  # type: ignore[no-untyped-def]
 @login_required
 def export_answers(study_id: int):  # type: ignore[no-untyped-def]
     """The questionnaire answers, one row per participant (joined to the votes by label)."""
-    from werkzeug.utils import secure_filename
 
-    from app.web.study.questionnaires import answers_csv
-
-    study = _own_study(study_id)
+    study = own_study(study_id)
     pilot = request.args.get("pilot") == "only"
     name = (secure_filename(study.title) or f"study-{study.id}") + (
         "-pilot-answers" if pilot else "-answers"

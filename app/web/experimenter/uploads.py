@@ -19,6 +19,7 @@ from typing import Any
 
 from flask import current_app
 
+from app.trials.fields import upload_name
 from app.web.models import new_token
 
 KEEP_HOURS = 24
@@ -35,7 +36,6 @@ def safe_upload_name(filename: str) -> str:
     >>> safe_upload_name("C:\\\\Users\\\\me\\\\speech.wav"), safe_upload_name("../.env")
     ('speech.wav', '')
     """
-    from app.trials.fields import upload_name
 
     name = upload_name(filename or "")
     if not name or name.startswith(".") or any(ord(c) < 32 or c == "\x7f" for c in name):

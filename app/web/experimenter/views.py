@@ -17,14 +17,20 @@ from flask import (
 from werkzeug.utils import secure_filename
 
 from app.web.experimenter import bp
+from app.web.experimenter.access import own_study
 from app.web.experimenter.forms import (
     ActionForm,
+    ConfirmForm,
     DeleteParticipantForm,
+    DeleteStudyForm,
+    DuplicateForm,
     LoginForm,
+    ShareForm,
 )
+from app.web.experimenter.lifecycle import shares_of
+from app.web.experimenter.participants import monitor_table
 from app.web.extensions import db, limiter
 from app.web.infra.accounts import (
-    ACCESS_LEVELS,
     authenticate,
     current_user,
     login_required,
@@ -32,28 +38,23 @@ from app.web.infra.accounts import (
 )
 from app.web.infra.media import media_response
 from app.web.infra.security import REPORT_CONTENT_SECURITY_POLICY, safe_next
-from app.web.infra.storage import media_file
-from app.web.jobs import enqueue
+from app.web.infra.storage import media_file, report_path
+from app.web.jobs import EnqueueError, enqueue
 from app.web.jobs.tasks import JOB_KINDS, sweep_study_jobs
-from app.web.models import Job, Stimulus, Study
+from app.web.models import Job, Stimulus, Study, StudyShare
+from app.web.study.enrolment import dropped_after, release_dropped
+from app.web.study.exports import votes_csv
+from app.web.study.monitor import study_monitor
+from app.web.study.participants import release_pilots
+from app.web.study.privacy import delete_participants, participants_csv
+from app.web.study.recruitment import completion_url, prolific_study_url
+from app.web.study.studies import change_status as apply
+from app.web.study.studies import stimuli_locked
 
 
 @bp.before_request
 def _load_user() -> None:
     current_user()  # sets g.user for the templates
-
-
-def _own_study(study_id: int, need: str = "read") -> Study:
-    """The study if the logged-in experimenter has at least ``need`` access to it; 404 if they
-    have none (no leak that it exists), 403 if they may only look."""
-    study = db.session.get(Study, study_id)
-    user = current_user()
-    access = None if study is None or user is None else study_access(study, user.id)
-    if access is None:
-        abort(404)
-    if ACCESS_LEVELS.index(access) < ACCESS_LEVELS.index(need):
-        abort(403)
-    return study  # type: ignore[return-value]
 
 
 def _account_limits() -> str:
@@ -116,7 +117,6 @@ def logout():  # type: ignore[no-untyped-def]
 @login_required
 def studies():  # type: ignore[no-untyped-def]
     user = current_user()
-    from app.web.models import StudyShare
 
     shared = sa.select(StudyShare.study_id).where(StudyShare.user_id == user.id)  # type: ignore[union-attr]
     rows = db.session.scalars(
@@ -130,7 +130,6 @@ def studies():  # type: ignore[no-untyped-def]
 def _start(study: Study, kind: str) -> None:
     """A new job row, committed, then handed to the runner; if the runner cannot take it the
     row goes again (no orphan row) and the experimenter reads why."""
-    from app.web.jobs import EnqueueError
 
     job = Job(study_id=study.id, kind=kind)
     db.session.add(job)
@@ -151,7 +150,7 @@ def _start(study: Study, kind: str) -> None:
 @bp.get("/studies/<int:study_id>")
 @login_required
 def study(study_id: int):  # type: ignore[no-untyped-def]
-    study = _own_study(study_id)
+    study = own_study(study_id)
     sweep_study_jobs(study.id)  # so the page never shows a dead job running
     jobs = db.session.scalars(
         sa.select(Job).where(Job.study_id == study.id).order_by(Job.id.desc()).limit(10)
@@ -174,10 +173,6 @@ def study(study_id: int):  # type: ignore[no-untyped-def]
 
 def _study_extras(study: Study, link: str) -> dict[str, object]:
     """The study page's lifecycle, recruitment and sharing parts."""
-    from app.web.experimenter.forms import ConfirmForm, DeleteStudyForm, DuplicateForm, ShareForm
-    from app.web.experimenter.lifecycle import shares_of
-    from app.web.study.recruitment import completion_url, prolific_study_url
-    from app.web.study.studies import stimuli_locked
 
     access = study_access(study, current_user().id)  # type: ignore[union-attr]
     return {
@@ -197,9 +192,8 @@ def _study_extras(study: Study, link: str) -> dict[str, object]:
 @bp.post("/studies/<int:study_id>/jobs/<kind>")
 @login_required
 def start_job(study_id: int, kind: str):  # type: ignore[no-untyped-def]
-    from app.web.study.studies import stimuli_locked
 
-    study = _own_study(study_id, "full")
+    study = own_study(study_id, "full")
     if kind not in JOB_KINDS or not ActionForm().validate_on_submit():
         abort(400)
     locked = stimuli_locked(study) if kind in ("generate", "render") else None
@@ -214,7 +208,7 @@ def start_job(study_id: int, kind: str):  # type: ignore[no-untyped-def]
 @login_required
 def retry_job(study_id: int, job_id: int):  # type: ignore[no-untyped-def]
     """Run a failed job again; a render resumes from the clips already rendered."""
-    study = _own_study(study_id, "full")
+    study = own_study(study_id, "full")
     job = db.session.get(Job, job_id)
     if job is None or job.study_id != study.id or not ActionForm().validate_on_submit():
         abort(404)
@@ -228,9 +222,8 @@ def retry_job(study_id: int, job_id: int):  # type: ignore[no-untyped-def]
 @bp.post("/studies/<int:study_id>/status/<action>")
 @login_required
 def change_status(study_id: int, action: str):  # type: ignore[no-untyped-def]
-    from app.web.study.studies import change_status as apply
 
-    study = _own_study(study_id, "full")
+    study = own_study(study_id, "full")
     if not ActionForm().validate_on_submit():
         abort(400)
     if action == "reopen":  # only with its confirmation (``lifecycle.reopen``)
@@ -244,8 +237,6 @@ def change_status(study_id: int, action: str):  # type: ignore[no-untyped-def]
     try:
         apply(study, action)
         if action == "open":
-            from app.web.study.participants import release_pilots
-
             release_pilots(study)
     except ValueError as exc:
         flash(str(exc), "error")
@@ -259,26 +250,22 @@ def change_status(study_id: int, action: str):  # type: ignore[no-untyped-def]
 @bp.get("/studies/<int:study_id>/monitor")
 @login_required
 def monitor(study_id: int):  # type: ignore[no-untyped-def]
-    from app.web.study.enrolment import dropped_after, release_dropped
-    from app.web.study.monitor import study_monitor
 
-    study = _own_study(study_id)
+    study = own_study(study_id)
     release_dropped(study, after=dropped_after())
     db.session.commit()
     stats = study_monitor(study, dropped_after=dropped_after())
-    from app.web.experimenter.participants import participant_table
 
     return render_template(
-        "experimenter/monitor.html", study=study, stats=stats, **participant_table(study)
+        "experimenter/monitor.html", study=study, stats=stats, **monitor_table(study)
     )
 
 
 @bp.get("/studies/<int:study_id>/votes.csv")
 @login_required
 def export_votes(study_id: int):  # type: ignore[no-untyped-def]
-    from app.web.study.exports import votes_csv
 
-    study = _own_study(study_id)
+    study = own_study(study_id)
     pilot = request.args.get("pilot", "without")
     if pilot not in ("without", "with", "only"):
         pilot = "without"
@@ -296,9 +283,8 @@ def export_votes(study_id: int):  # type: ignore[no-untyped-def]
 @login_required
 def export_participants(study_id: int):  # type: ignore[no-untyped-def]
     """Participants with pseudonymised Prolific IDs; ``?ids=raw`` for the real ones (payment)."""
-    from app.web.study.privacy import participants_csv
 
-    study = _own_study(study_id, "owner" if request.args.get("ids") == "raw" else "read")
+    study = own_study(study_id, "owner" if request.args.get("ids") == "raw" else "read")
     raw = request.args.get("ids") == "raw"
     name = (secure_filename(study.title) or f"study-{study.id}") + (
         "-participants-prolific-ids" if raw else "-participants"
@@ -317,9 +303,8 @@ def export_participants(study_id: int):  # type: ignore[no-untyped-def]
 @login_required
 def delete_participant(study_id: int):  # type: ignore[no-untyped-def]
     """Delete one participant's data on their request (the monitor and exports follow)."""
-    from app.web.study.privacy import delete_participants
 
-    study = _own_study(study_id, "full")
+    study = own_study(study_id, "full")
     form = DeleteParticipantForm()
     if not form.validate_on_submit():
         problems = "; ".join(f"{name}: {errors[0]}" for name, errors in form.errors.items())
@@ -348,9 +333,8 @@ def delete_participant(study_id: int):  # type: ignore[no-untyped-def]
 @bp.get("/studies/<int:study_id>/report/<path:name>")
 @login_required
 def report(study_id: int, name: str = "report.html"):  # type: ignore[no-untyped-def]
-    from app.web.study.exports import report_path
 
-    study = _own_study(study_id)
+    study = own_study(study_id)
     folder = report_path(study).parent
     rel = f"{folder.name}/{name}"
     try:
@@ -371,12 +355,8 @@ def report(study_id: int, name: str = "report.html"):  # type: ignore[no-untyped
 @bp.get("/studies/<int:study_id>/stimuli/<int:stimulus_id>.mp4")
 @login_required
 def preview(study_id: int, stimulus_id: int):  # type: ignore[no-untyped-def]
-    study = _own_study(study_id)
+    study = own_study(study_id)
     stimulus = db.session.get(Stimulus, stimulus_id)
     if stimulus is None or stimulus.study_id != study.id or not stimulus.video_path:
         abort(404)
     return media_response(study, stimulus.video_path, mimetype="video/mp4")
-
-
-# The other experimenter pages add their routes to ``bp`` (one module per idea).
-from app.web.experimenter import create, lifecycle, participants  # noqa: E402, F401

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 from urllib.parse import quote
 
-from flask import abort, current_app, redirect, send_file
+from flask import abort, current_app, redirect, render_template, send_file
 
 from app.errors import InputError
 from app.web.infra.storage import media_dir, media_file
@@ -84,7 +84,6 @@ def init_media(app: Flask) -> None:
     check_media_settings(app)
 
     def unavailable(exc: MediaStoreError):  # type: ignore[no-untyped-def]
-        from flask import render_template
 
         current_app.logger.warning("%s", exc)
         return render_template("error.html", message=str(exc), status=503), 503

@@ -17,8 +17,10 @@ from urllib.parse import urlsplit
 
 from flask import request
 from flask.sessions import SecureCookieSessionInterface
+from werkzeug.middleware.proxy_fix import ProxyFix
 
 from app.errors import InputError
+from app.web.extensions import limiter
 
 if TYPE_CHECKING:
     from flask import Flask, Response
@@ -153,8 +155,6 @@ def init_security(app: Flask) -> None:
     app.session_interface = ForwardedSecureSessionInterface()
     proxies = int(app.config.get("TRUST_PROXY") or 0)
     if proxies > 0:
-        from werkzeug.middleware.proxy_fix import ProxyFix
-
         app.wsgi_app = ProxyFix(  # type: ignore[method-assign]
             app.wsgi_app,
             x_for=proxies,
@@ -164,7 +164,6 @@ def init_security(app: Flask) -> None:
             x_prefix=proxies,
         )
     app.after_request(_security_headers)
-    from app.web.extensions import limiter
 
     app.config.setdefault("RATELIMIT_STORAGE_URI", app.config.get("REDIS_URL") or "memory://")
     # A Redis outage must not lock experimenters out: fall back to per-process counting.
@@ -179,9 +178,8 @@ def _limit_only_the_experimenter_side(app: Flask, limiter: Any) -> None:
     """Run the limiter's per-request check on the experimenter's pages only.
 
     The limits are the login's (its decorators check them, and count only failed attempts);
-    the check the limiter installs before every request found nothing to limit on the
-    participant side but still cost a tenth of a play request's CPU in the load benchmark's
-    profile.
+    the check the limiter installs before every request finds nothing to limit on the
+    participant side, whose requests are the most frequent, so it is not run there.
     """
     funcs = app.before_request_funcs.setdefault(None, [])
     check = limiter._check_request_limit

@@ -33,3 +33,8 @@ def disk_full(exc: BaseException) -> bool:
 def disk_full_message(exc: OSError) -> str:
     where = f" writing {Path(exc.filename).name}" if exc.filename else ""
     return f"the server's disk is full{where}; free some space and try again"
+
+
+def report_path(study: Study) -> Path:
+    """Where the study's HTML report is written (the PDF and figures beside it)."""
+    return media_dir(study) / "report" / "report.html"

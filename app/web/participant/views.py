@@ -244,8 +244,8 @@ def trial(token: str):  # type: ignore[no-untyped-def]
     if participant.started_at is None:
         participant.started_at = utcnow()
     answered, total = counts
-    # Rendered before the commit, which expires every loaded row: rendering after it read
-    # the participant, study and trials again (four queries per page in the profile).
+    # Rendered before the commit, which expires every loaded row: rendering after it would
+    # read the participant, study and trials again.
     page = render_template(
         "participant/trial.html",
         participant=participant,

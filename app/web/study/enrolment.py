@@ -15,6 +15,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import sqlalchemy as sa
+from flask import current_app
 
 from app.trials import assignment, design
 from app.trials import schedule as schedules
@@ -67,8 +68,8 @@ class Design(NamedTuple):
 
 def study_design(study: Study) -> Design:
     """The study's :class:`Design`, read in four plain queries the first time in this process
-    and kept for the 64 studies used last. Reading it through the ORM's lazy relationships was
-    five queries on every consent in the load benchmark's profile."""
+    and kept for the 64 studies used last, instead of the ORM's lazy relationships on every
+    consent."""
     return _design(study.id, study.slug)
 
 
@@ -415,7 +416,6 @@ def move_slot(list_id: int, change: int) -> None:
 
 def dropped_after() -> dt.timedelta:
     """The deployment's idle time after which an unfinished participant counts as dropped."""
-    from flask import current_app
 
     return dt.timedelta(minutes=current_app.config["DROPPED_AFTER_MINUTES"])
 
@@ -435,8 +435,7 @@ def touch(participant: Participant) -> bool:
     exactly when ``dropped_at`` is empty. Not committed: the caller's unit of work decides.
     """
     now = utcnow()
-    # RETURNING the row refreshes ``participant`` in the same round trip as the UPDATE (the
-    # vote path's profile showed the separate refresh as one of its nine queries).
+    # RETURNING the row refreshes ``participant`` in the same round trip as the UPDATE.
     present = db.session.scalars(
         _seen(),
         {"participant_id": participant.id, "now": now},

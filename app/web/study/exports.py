@@ -13,6 +13,7 @@ pseudonymised Prolific ID and, when the analysis is to leave them out, why
 from __future__ import annotations
 
 import dataclasses
+import datetime as dt
 import io
 from pathlib import Path
 from typing import Any
@@ -23,29 +24,21 @@ import sqlalchemy as sa
 from app.analysis.results import analyze
 from app.analysis.votes import VOTE_COLUMNS, VotesTable, read_votes, write_votes_csv
 from app.web.extensions import db
-from app.web.infra.storage import media_dir
+from app.web.infra.storage import report_path
 from app.web.models import Clip, Condition, Participant, Stimulus, Study, Trial, Vote
-
-
-def _iso(value: Any) -> str:
-    return value.isoformat(timespec="milliseconds") + "Z" if value is not None else ""
-
-
-def participant_label(number: int) -> str:
-    """How exports name a participant (``P0007``): the arrival number, nothing personal."""
-    return f"P{number:04d}"
+from app.web.study.enrolment import dropped_after
+from app.web.study.labels import iso_time, participant_label, pseudonym
+from app.web.study.participants import participant_table
+from app.web.study.questionnaires import answers_summary
 
 
 def vote_rows(study: Study, *, pilot: str = "without") -> list[dict[str, Any]]:
     """One dict per stored vote of a real or catch trial, ordered by participant and trial
     position; ``pilot`` is "without" (default), "with" or "only" the pilot participants."""
-    from app.web.study.enrolment import dropped_after
-    from app.web.study.participants import participant_rows
-    from app.web.study.privacy import pseudonym
 
     people = {
         row.id: row
-        for row in participant_rows(study, dropped_after=dropped_after())
+        for row in participant_table(study, dropped_after=dropped_after())
         if (pilot == "with") or (row.pilot == (pilot == "only"))
     }
     left = sa.orm.aliased(Condition)
@@ -98,8 +91,8 @@ def vote_rows(study: Study, *, pilot: str = "without") -> list[dict[str, Any]]:
                 "trial": position,
                 "response_ms": vote.response_ms,
                 "plays": vote.plays,
-                "presented_at": _iso(vote.presented_at),
-                "voted_at": _iso(vote.voted_at),
+                "presented_at": iso_time(vote.presented_at),
+                "voted_at": iso_time(vote.voted_at),
                 "strength": vote.strength,
                 "reasons": ";".join(vote.reasons or []),
                 "mismatched": foreign,
@@ -131,10 +124,6 @@ def votes_csv(study: Study, *, pilot: str = "without") -> str:
     return buffer.getvalue()
 
 
-def report_path(study: Study) -> Path:
-    return media_dir(study) / "report" / "report.html"
-
-
 def write_report_files(study: Study) -> Path:
     """Analyse the votes so far and write the report into the study's media folder: HTML and
     PDF, headed by the study's title, design and participants. The votes analysed are those
@@ -157,7 +146,6 @@ def write_report_files(study: Study) -> Path:
 
 def report_head(study: Study, results: dict[str, Any], *, exclude: str | None) -> dict[str, Any]:
     """What the report says of the study itself (``app.analysis.document``'s study head)."""
-    import datetime as dt
     import shlex
 
     from app.analysis.document import counted
@@ -195,7 +183,6 @@ def report_head(study: Study, results: dict[str, Any], *, exclude: str | None) -
     ]
     if exclude:
         command += ["--exclude", exclude]
-    from app.web.study.questionnaires import answers_summary
 
     kept = {str(p) for p in results["participants"]}
     return {

@@ -29,6 +29,7 @@ from app.trials.questions import AUTO_EXCLUDE_RULES
 from app.web.extensions import db
 from app.web.models import Participant, Study, StudyList, Trial, Vote, utcnow
 from app.web.study.enrolment import move_slot
+from app.web.study.labels import participant_label
 
 STATUSES = ("started", "finished", "dropped", "excluded", "returned")
 #: How a participant is taken out by hand: the status it gives.
@@ -100,10 +101,9 @@ def exclusion_reason(row: ParticipantRow, rules: tuple[str, ...]) -> str:
     return ""
 
 
-def participant_rows(study: Study, *, dropped_after: dt.timedelta) -> list[ParticipantRow]:
+def participant_table(study: Study, *, dropped_after: dt.timedelta) -> list[ParticipantRow]:
     """Every participant of ``study`` (pilots included) in arrival order, with their catch
     score, side bias and median response time from their votes."""
-    from app.web.study.exports import participant_label
 
     now = utcnow()
     rules = auto_rules(study)

@@ -12,8 +12,6 @@ cannot be linked. The raw IDs are exported only when asked for (to pay participa
 from __future__ import annotations
 
 import csv
-import hashlib
-import hmac
 import io
 import re
 import shutil
@@ -25,9 +23,10 @@ import sqlalchemy as sa
 from app.trials.rules import CHOICES
 from app.web.extensions import db
 from app.web.infra import media
+from app.web.infra.storage import report_path
 from app.web.models import Participant, Stimulus, Study, Trial, Vote
 from app.web.study.enrolment import move_slot
-from app.web.study.exports import participant_label, report_path
+from app.web.study.labels import iso_time, participant_label, pseudonym
 
 #: Columns of the participants export, in order.
 PARTICIPANT_COLUMNS = (
@@ -56,25 +55,7 @@ PARTICIPANT_COLUMNS = (
 PERSONAL_COLUMNS = ("prolific_pid", "prolific_session_id")
 
 
-def pseudonym(key: str, identifier: str | None) -> str:
-    """The pseudonym of ``identifier`` under ``key`` (empty for no identifier).
-
-    >>> pseudonym("k", "5f2a0c") == pseudonym("k", "5f2a0c") != pseudonym("other", "5f2a0c")
-    True
-    >>> pseudonym("k", "5f2a0c").startswith("anon-"), pseudonym("k", None)
-    (True, '')
-    """
-    if not identifier:
-        return ""
-    digest = hmac.new(key.encode(), identifier.encode("utf-8", "surrogatepass"), hashlib.sha256)
-    return "anon-" + digest.hexdigest()[:16]
-
-
-def _iso(value: Any) -> str:
-    return value.isoformat(timespec="seconds") + "Z" if value is not None else ""
-
-
-def participant_rows(study: Study, *, raw_ids: bool = False) -> list[dict[str, Any]]:
+def participants_export_rows(study: Study, *, raw_ids: bool = False) -> list[dict[str, Any]]:
     """One dict per participant of ``study`` (columns :data:`PARTICIPANT_COLUMNS`), ordered by
     arrival; Prolific IDs pseudonymised unless ``raw_ids``."""
     answered = sa.func.count(Vote.id)
@@ -132,9 +113,9 @@ def participant_rows(study: Study, *, raw_ids: bool = False) -> list[dict[str, A
             "answered": tally.answered if tally else 0,
             "catch_passed": tally.catch_passed if tally else 0,
             "catch_total": tally.catch_total if tally else 0,
-            "consented_at": _iso(person.consented_at),
-            "started_at": _iso(person.started_at),
-            "finished_at": _iso(person.finished_at),
+            "consented_at": iso_time(person.consented_at),
+            "started_at": iso_time(person.started_at),
+            "finished_at": iso_time(person.finished_at),
             **{f"identical_{c}": getattr(tally, f"identical_{c}") if tally else 0 for c in CHOICES},
             "browser": " ".join(filter(None, (env.get("browser"), env.get("browser_version")))),
             "screen": _size(env, "screen"),
@@ -156,11 +137,11 @@ def _size(environment: dict[str, Any], name: str) -> str:
 
 
 def participants_csv(study: Study, *, raw_ids: bool = False) -> str:
-    """:func:`participant_rows` as CSV text with a header row."""
+    """:func:`participants_export_rows` as CSV text with a header row."""
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=PARTICIPANT_COLUMNS, lineterminator="\n")
     writer.writeheader()
-    writer.writerows(participant_rows(study, raw_ids=raw_ids))
+    writer.writerows(participants_export_rows(study, raw_ids=raw_ids))
     return buffer.getvalue()
 
 

@@ -17,14 +17,16 @@ from typing import Any
 
 import sqlalchemy as sa
 
-from app.trials.questions import PAGES, QuestionSpec
+from app.trials.questions import PAGES, ExperimenterSideReader, QuestionSpec
 from app.web.extensions import db
 from app.web.models import Participant, Study
+from app.web.study.enrolment import dropped_after
+from app.web.study.labels import participant_label, pseudonym
+from app.web.study.participants import participant_table
 
 
 def study_questions(study: Study, page: str | None = None) -> list[QuestionSpec]:
     """The study's questions (of one page, or all), in file order."""
-    from app.trials.questions import ExperimenterSideReader
 
     tables = (study.settings or {}).get("questions") or []
     reader = ExperimenterSideReader("study", Path("."))  # questions name no files
@@ -54,13 +56,10 @@ def save_answers(participant: Participant, page: str, values: dict[str, Any]) ->
 def answers_csv(study: Study, *, pilot: bool = False) -> str:
     """One row per participant who answered anything: label, status, pseudonymised Prolific
     ID, then one column per question (the ``participant`` column joins it to the votes)."""
-    from app.web.study.enrolment import dropped_after
-    from app.web.study.participants import participant_rows
-    from app.web.study.privacy import pseudonym
 
     questions = study_questions(study)
     rows = {
-        r.id: r for r in participant_rows(study, dropped_after=dropped_after()) if r.pilot == pilot
+        r.id: r for r in participant_table(study, dropped_after=dropped_after()) if r.pilot == pilot
     }
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
@@ -98,7 +97,6 @@ def _cell(value: Any) -> str:
 def answers_summary(study: Study, included: set[str] | None = None) -> list[dict[str, Any]]:
     """Per question, what the participants (those labelled in ``included``, or all but pilots)
     answered: counts per option, median and range of numbers, the texts."""
-    from app.web.study.exports import participant_label
 
     people = db.session.scalars(
         sa.select(Participant).where(Participant.study_id == study.id, Participant.pilot.is_(False))
