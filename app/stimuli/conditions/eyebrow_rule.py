@@ -31,7 +31,7 @@ Choices where the text leaves room (documented in ``docs/stimuli.md``):
   crossing less than ``min_gap_s`` after a release starts no new raise (default
   :data:`MIN_GAP_S`, 0.5 s; 0 is the thesis' rule, where a crossing during the release ramp
   starts a new raise). In fast speech the pitch crosses the threshold on nearly every
-  stressed syllable; without a gap the brows of a fast synthetic voice were up 58 % of the
+  stressed syllable; without a gap the brows of a fast synthetic voice were up 52 % of the
   time, and brows that drop and rise again within half a second read as a flicker.
 
 Example
