@@ -13,7 +13,7 @@ sampler's draws through a causal first-order low-pass of time constant :data:`HE
 offset over :data:`SACCADE_S` (the mean of the last ``round(SACCADE_S * fps)`` offsets). With
 the draws shown as they are and saccades in one frame, the head had up to 1.6 times and the
 gaze 3.3 times the reference speaker's share of variance above 4 Hz on held-out speech; now
-0.5-1.1 and 0.7-0.8 times. Both are times, so any frame rate gets the same motion.
+0.5-1.1 and 0.7-0.9 times. Both are times, so any frame rate gets the same motion.
 
 Randomness: one ``numpy`` generator per random process, spawned from ``SeedSequence(seed)``:
 the head's start noise (eq. 5) and Langevin steps, the blink intervals (eq. 19) and the
