@@ -3,14 +3,20 @@
 The thesis (sec. 4.3) and Le, Ma & Deng (2012, sec. 8) compare conditions that differ in
 head (and eyebrow) motion only. If one condition carried the captured gaze and blinks and
 another generated its own, participants could judge the eyes instead. facepair therefore sets
-FAPs 19-26 once per clip and writes the same columns into every condition's track:
+FAPs 19-26 once per clip and writes the same columns into every condition's track, so both
+faces of a pair blink and move their eyes together:
 
-- ``still``: open eyes looking ahead, no blinks (all eye FAPs 0). The default, as Le et al.
-  kept the eyes out of their head-motion comparisons.
+- ``generated`` (the default): gaze and eyelids from the live model of Le et al. (sec. 6-7,
+  :mod:`app.stimuli.live`: NDCCA gaze with fixations, log-normal blinks), generated once
+  from the speech with the study's seed. When the conditions include ``live_gmm``,
+  :func:`app.stimuli.generate.generate_conditions` takes that condition's own gaze and blinks
+  instead, so the live model keeps its eyes and every other face gets the same ones. A face
+  that never blinks in 15 s is the first thing a participant notices; people blink about
+  15-20 times a minute while talking (L sec. 7.1).
+- ``still``: open eyes looking ahead, no blinks (all eye FAPs 0): the thesis' faces, whose eyes
+  did not move, and Le et al.'s head-only comparisons.
 - ``ground_truth``: the captured gaze and eyelids, aligned to the audio (the eye FAPs the
   capture has; those it lacks stay neutral).
-- ``generated``: gaze and eyelids from the live model of Le et al. (:mod:`app.stimuli.live`,
-  NDCCA gaze and log-normal blinks), generated once from the speech with the study's seed.
 
 Example
 -------
@@ -35,7 +41,7 @@ from app.stimuli.track import MotionTrack
 #: The eye FAPs a study setting controls: eyelids 19-22 and gaze 23-26.
 EYE_CHANNELS: tuple[int, ...] = EYELIDS + GAZE
 EYE_MODES: tuple[str, ...] = ("still", "ground_truth", "generated")
-DEFAULT_EYES = "still"
+DEFAULT_EYES = "generated"
 
 
 def check_eyes(mode: str) -> str:

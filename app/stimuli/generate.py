@@ -26,10 +26,11 @@ import numpy as np
 
 from app.errors import InputError
 from app.stimuli.conditions import DISPLAY_NAMES, condition_class, make_condition
-from app.stimuli.eyes import DEFAULT_EYES, check_eyes, eye_channels
+from app.stimuli.eyes import DEFAULT_EYES, EYE_CHANNELS, check_eyes, eye_channels
 from app.stimuli.io import load_track, save_track
 from app.stimuli.measures import measure_track
 from app.stimuli.normalize import normalize_tracks
+from app.stimuli.posture import DEFAULT_POSTURE, check_posture, rest_posture, share_posture
 from app.stimuli.progress import Progress, progress_steps
 from app.stimuli.speech import SpeechFeatures, extract_features
 from app.stimuli.track import MotionTrack, align_to_features
@@ -101,6 +102,7 @@ def generate_conditions(
     pitch_floor: float | None = None,
     pitch_ceiling: float | None = None,
     condition_params: Mapping[str, Mapping[str, Any]] | None = None,
+    posture: str = DEFAULT_POSTURE,
 ) -> GenerationResult:
     """Generate the tracks of ``conditions`` for one recording.
 
@@ -109,13 +111,17 @@ def generate_conditions(
     is a track or a .fap/.csv path (``None``: the conditions that need it refuse, the others
     do without). ``models`` gives a fitted model file per condition name, used instead of
     fitting. ``eyes`` sets gaze and eyelids for every condition alike
-    (:mod:`app.stimuli.eyes`). ``normalize`` scales and offsets every condition's head angles
-    to the ground truth's mean and sd (thesis sec. 5.3). ``pitch_floor``/``pitch_ceiling``:
+    (:mod:`app.stimuli.eyes`). ``posture``: ``"shared"`` gives every condition the ground
+    truth's rest head pose, ``"per_condition"`` keeps each condition's own, as in the thesis'
+    experiment 1 (:mod:`app.stimuli.posture`). ``normalize`` scales and offsets every
+    condition's head angles to the ground truth's mean and sd (thesis sec. 5.3).
+    ``pitch_floor``/``pitch_ceiling``:
     the speaker's F0 range, estimated from the recording where ``None``.
     ``progress(done, total)`` is called after each step.
     """
     requests = parse_conditions(conditions)
     check_eyes(eyes)
+    check_posture(posture)
     if ground_truth is None and any(m == "ground_truth" for m, _ in requests.values()):
         raise InputError("the ground_truth condition needs --ground-truth FILE", field="conditions")
     if normalize and ground_truth is None:
@@ -155,7 +161,17 @@ def generate_conditions(
         described[name] = {"model": model, **cond.describe()}
         step()
 
-    eye_cols = eye_channels(eyes, features, gt_aligned, seed=seed)
+    rest = rest_posture(gt_aligned) if posture == "shared" else None
+    if rest is not None:
+        tracks = share_posture(tracks, rest)
+
+    live = [n for n, (m, _) in requests.items() if m == "live_gmm"]
+    if eyes == "generated" and live:  # the live model's own eyes, for every face alike
+        eye_cols = {c: tracks[live[0]][c].copy() for c in EYE_CHANNELS}
+        eyes_from = f"condition {live[0]} (live_gmm)"
+    else:
+        eye_cols = eye_channels(eyes, features, gt_aligned, seed=seed)
+        eyes_from = {"generated": "the shipped live model"}.get(eyes, eyes)
     tracks = {
         name: t.with_channels(eye_cols).replace(metadata={**t.metadata, "eyes": eyes})
         for name, t in tracks.items()
@@ -173,6 +189,14 @@ def generate_conditions(
     summary = _summary(
         audio_path, features, gt_track, gt_aligned, tracks, described, factors, seed, eyes
     )
+    summary["eyes_from"] = eyes_from
+    summary["posture"] = {
+        "mode": posture,
+        "rest_head_au": rest,
+        "rest_from": None
+        if rest is None
+        else ("median of the ground truth" if gt_aligned is not None else "neutral"),
+    }
     step()
     return GenerationResult(tracks, features, _jsonable(summary))
 

@@ -234,24 +234,31 @@ def remove_octave_jumps(
     """Unvoice frames whose F0 jumps by about an octave from their neighbourhood.
 
     Autocorrelation pitch trackers halve or double F0 on a few frames (e.g. a 371 Hz frame in
-    a 126 Hz male voice). A voiced frame whose F0 is more than ``max_octaves`` octaves from the
-    median of the voiced frames within ``window_s / 2`` on either side is set to 0 (unvoiced),
-    so eq. 35's spline bridges it. A genuine pitch accent rises over 100-200 ms and stays
-    within about half an octave of that median. Returns the cleaned F0 and the frames removed.
+    a 126 Hz male voice), and with a wide pitch range (a fixed 75-600 Hz for a 75 Hz voice) a
+    short voiced stretch between pauses can read as a multiple of the voice's F0. A voiced
+    frame whose F0 is more than ``max_octaves`` octaves from the median of its neighbourhood is
+    set to 0 (unvoiced), so eq. 35's spline bridges it. The neighbourhood is the
+    ``2 * round(window_s * fps / 2) + 1`` voiced frames nearest to it in order (shifted
+    inwards at the ends of the recording): within ``window_s`` in fluent speech, and reaching
+    across the pauses around an isolated stretch, whose own frames would otherwise be their
+    only neighbours. A genuine pitch accent rises over 100-200 ms and stays within about half
+    an octave of that median. Returns the cleaned F0 and the frames removed.
 
     >>> remove_octave_jumps(np.array([120, 122, 250, 121, 119, 0, 118.0]), 30.0)[0].tolist()
     [120.0, 122.0, 0.0, 121.0, 119.0, 0.0, 118.0]
+    >>> isolated = np.r_[np.full(6, 80.0), np.zeros(6), np.full(3, 360.0), np.zeros(6), 80, 81]
+    >>> remove_octave_jumps(isolated, 30.0)[1]
+    3
     """
     f0 = np.asarray(f0, dtype=np.float64).copy()
     idx = np.flatnonzero(f0 > 0)
     if len(idx) < 3:
         return f0, 0
     half = max(int(round(window_s * fps / 2)), 1)
+    width = min(2 * half + 1, len(idx))
     log_f0 = np.log2(f0[idx])
-    # neighbours of voiced frame i: voiced frames whose index lies within +-half frames
-    lo = np.searchsorted(idx, idx - half, side="left")
-    hi = np.searchsorted(idx, idx + half, side="right")
-    medians = np.array([np.median(log_f0[a:b]) for a, b in zip(lo, hi, strict=True)])
+    starts = np.clip(np.arange(len(idx)) - half, 0, len(idx) - width)
+    medians = np.median(log_f0[starts[:, None] + np.arange(width)], axis=1)
     bad = idx[np.abs(log_f0 - medians) > max_octaves]
     f0[bad] = 0.0
     return f0, int(len(bad))

@@ -27,6 +27,7 @@ from typing import Any, Final
 
 from app.errors import InputError
 from app.stimuli.eyes import DEFAULT_EYES, EYE_MODES
+from app.stimuli.posture import DEFAULT_POSTURE, POSTURES
 from app.trials.design import PAIR_DESIGNS, ConditionPair
 from app.trials.fields import MISSING, describe
 from app.trials.participation import PARTICIPATION_KEYS, read_participation
@@ -154,6 +155,7 @@ _TOP_KEYS: Final = (
     "redirect_url",
     "block_by_clip",
     "eyes",
+    "posture",
     "normalize",
     "rejoin",
     "render",
@@ -214,6 +216,7 @@ class _StudyReader(ExperimenterSideReader):
         clips = self.clips(top)
         conditions = self.conditions(top, clips)
         eyes, normalize, render = self.stimulus_settings(top, clips)
+        posture = self.choice(top, "posture", "posture", POSTURES, DEFAULT_POSTURE)
         exclude = self.text(top, "exclude", "exclude", "")
         names = [c.name for c in conditions]
         if design == "reference":
@@ -252,6 +255,7 @@ class _StudyReader(ExperimenterSideReader):
             practice_clip=practice_clip,
             block_by_clip=bool(block_by_clip),
             eyes=eyes,
+            posture=posture,
             normalize=normalize,
             render=render,
             exclude=exclude,

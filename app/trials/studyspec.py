@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any, Final
 
 from app.stimuli.eyes import DEFAULT_EYES
+from app.stimuli.posture import DEFAULT_POSTURE
 from app.trials.design import ConditionPair, build_pairs
 from app.trials.fields import key_text
 from app.trials.participation import ParticipationSpec
@@ -99,6 +100,9 @@ class StudySpec:
     practice_clip: str | None = None
     block_by_clip: bool = True
     eyes: str = DEFAULT_EYES
+    #: Head rest posture of the conditions (:mod:`app.stimuli.posture`): ``shared`` or
+    #: ``per_condition`` (the thesis' experiment 1).
+    posture: str = DEFAULT_POSTURE
     normalize: bool = False
     render: Mapping[str, Any] = field(default_factory=dict)
     exclude: str = ""
@@ -193,6 +197,8 @@ class StudySpec:
             out["redirect_url"] = self.redirect_url
         out["block_by_clip"] = self.block_by_clip
         out["eyes"] = self.eyes
+        if self.posture != DEFAULT_POSTURE:
+            out["posture"] = self.posture
         out["normalize"] = self.normalize
         out["rejoin"] = self.rejoin
         out["auto_exclude"] = list(self.auto_exclude)

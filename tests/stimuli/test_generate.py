@@ -54,6 +54,15 @@ def test_cli_writes_tracks_summary_and_plot(repo_root, tmp_path):
     }
     summary = json.loads((out / "summary.json").read_text())
     assert "default head model" in summary["conditions"]["speech_driven"]["head_model"]
+    assert summary["eyes"] == "generated" and summary["posture"]["mode"] == "shared"
+    args = ["stimuli", "generate", "--audio", str(demo / "speech.wav"), "--no-plot"]
+    thesis = CliRunner().invoke(
+        main,
+        [*args, "--out", str(tmp_path / "t"), "--posture", "per_condition", "--eyes", "still"],
+    )
+    assert thesis.exit_code == 0, thesis.output
+    summary = json.loads((tmp_path / "t" / "summary.json").read_text())
+    assert summary["eyes"] == "still" and summary["posture"]["mode"] == "per_condition"
     bad = CliRunner().invoke(
         main,
         [
@@ -214,3 +223,86 @@ def test_greta_ground_truth_passes_through_unchanged(repo_root, tmp_path, greta)
     # the same positions masked, less the viseme and Greta's extra entry; 69 values with --greta
     bits = ["1" if p in expected else "0" for p in range(1, 70 if greta else 69)]
     assert body[::2] == [bits] * 120
+
+
+def test_by_default_every_condition_rests_in_the_ground_truths_posture(repo_root):
+    """NO_PROSODY and RANDOM faced the camera while the ground truth (and SPEECH_DRIVEN, which
+    took its mean) were turned by the capture's posture: participants could judge that."""
+    audio, gt = demo_args(repo_root)
+    result = generate_conditions(audio, ground_truth=gt, seed=1)
+    truth = result.tracks["ground_truth"]
+    rest = {c: float(np.median(truth[c])) for c in (48, 49, 50)}
+    assert max(abs(v) for v in rest.values()) * 180 / np.pi * 1e-5 > 1  # a posture, not 0
+    for name, track in result.tracks.items():
+        for c in (48, 49, 50):
+            assert np.median(track[c]) == pytest.approx(rest[c], abs=1e-6), (name, c)
+    np.testing.assert_array_equal(result.tracks["none"][49], rest[49])
+    np.testing.assert_allclose(truth[48], load_track(gt)[48][:120], atol=1e-6)  # unchanged
+    posture = result.summary["posture"]
+    assert posture["mode"] == "shared" and posture["rest_from"] == "median of the ground truth"
+    assert posture["rest_head_au"]["49"] == pytest.approx(rest[49])
+
+
+def test_per_condition_posture_is_the_thesis_experiment_1(repo_root):
+    audio, gt = demo_args(repo_root)
+    shared = generate_conditions(audio, ground_truth=gt, seed=1)
+    own = generate_conditions(audio, ground_truth=gt, seed=1, posture="per_condition")
+    assert np.all(own.tracks["none"][49] == 0)
+    assert own.tracks["speech_driven"][49].mean() == pytest.approx(
+        own.tracks["ground_truth"][49].mean(), abs=1e-6
+    )
+    for name in own.tracks:  # the motion itself is the same, only its posture moved
+        d = shared.tracks[name][49] - own.tracks[name][49]
+        assert np.ptp(d) < 1e-6
+        np.testing.assert_array_equal(shared.tracks[name][31], own.tracks[name][31])
+    assert own.summary["posture"] == {
+        "mode": "per_condition",
+        "rest_head_au": None,
+        "rest_from": None,
+    }
+    with pytest.raises(InputError, match="posture must be one of shared, per_condition"):
+        generate_conditions(audio, conditions="none", posture="front")
+
+
+def test_without_a_ground_truth_the_shared_rest_is_neutral(repo_root):
+    audio, _ = demo_args(repo_root)
+    result = generate_conditions(audio, conditions="none,random,speech_driven", seed=1)
+    for track in result.tracks.values():
+        for c in (48, 49, 50):
+            assert abs(np.median(track[c])) < 1e-6
+    assert result.summary["posture"]["rest_from"] == "neutral"
+
+
+def test_by_default_both_faces_blink_and_look_around_together(repo_root):
+    audio, gt = demo_args(repo_root)
+    result = generate_conditions(audio, ground_truth=gt, seed=1)
+    assert result.summary["eyes"] == "generated"
+    tracks = list(result.tracks.values())
+    for c in range(19, 27):
+        for t in tracks[1:]:
+            np.testing.assert_array_equal(t[c], tracks[0][c])
+    assert tracks[0][19].max() > 512  # an upper lid more than half closed: a blink
+    assert np.ptp(tracks[0][23]) > 0  # the gaze moves
+
+
+def test_a_live_model_keeps_its_own_eyes_and_shares_them(repo_root):
+    """The live model fitted on this recording has its own gaze and blinks; they were
+    replaced by the shipped model's, and now every face of the clip gets them."""
+    from app.stimuli.eyes import eye_channels
+    from app.stimuli.live.condition import LiveGmmCondition
+    from app.stimuli.speech import extract_features
+    from app.stimuli.track import align_to_features
+
+    audio, gt = demo_args(repo_root)
+    result = generate_conditions(
+        audio, conditions="live_gmm,none", ground_truth=gt, seed=3, eyes="generated"
+    )
+    feats = extract_features(audio)
+    truth = load_track(gt)
+    own = LiveGmmCondition().fit(feats, align_to_features(truth, feats)).generate(feats, seed=3)
+    shipped = eye_channels("generated", feats, seed=3)
+    assert any(not np.array_equal(own[c], shipped[c]) for c in range(19, 27))
+    for c in range(19, 27):
+        np.testing.assert_array_equal(result.tracks["live_gmm"][c], own[c])
+        np.testing.assert_array_equal(result.tracks["none"][c], own[c])
+    assert result.summary["eyes_from"] == "condition live_gmm (live_gmm)"

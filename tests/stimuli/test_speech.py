@@ -200,6 +200,17 @@ def test_octave_jumps_are_unvoiced_and_accents_kept():
     assert cond.max() == 200.0  # the spline bridges the errors: no 371 Hz raise trigger
 
 
+def test_an_octave_error_between_pauses_is_unvoiced():
+    """A short voiced stretch alone between two pauses: its neighbours are across the pauses."""
+    f0 = np.r_[np.full(8, 80.0), np.zeros(5), np.full(3, 360.0), np.zeros(5), np.full(8, 82.0)]
+    clean, removed = remove_octave_jumps(f0, 30.0)
+    assert removed == 3 and np.all(clean[13:16] == 0)
+    np.testing.assert_array_equal(clean[:8], f0[:8])
+    np.testing.assert_array_equal(clean[-8:], f0[-8:])
+    alone = np.r_[np.zeros(5), np.full(3, 360.0), np.zeros(5)]  # nothing to compare with
+    assert remove_octave_jumps(alone, 30.0)[1] == 0
+
+
 def test_demo_speaker_has_no_octave_error_left(demo_wav):
     feats = extract_features(demo_wav)
     voiced = feats.f0[feats.voiced]

@@ -45,7 +45,8 @@ def test_minimal_study_gets_the_documented_defaults(
     assert spec.practice == ConditionPair("none", "ground_truth") and spec.practice_clip is None
     assert spec.block_by_clip and spec.redirect_url is None
     assert len(spec.pairs()) == 9 and spec.n_lists() == 2
-    assert (spec.eyes, spec.normalize, dict(spec.render)) == ("still", False, {})
+    assert (spec.eyes, spec.normalize, dict(spec.render)) == ("generated", False, {})
+    assert spec.posture == "shared"
     assert spec.rejoin == "resume"
     trials = spec.schedule(seed=1, list_index=1)
     assert len(trials) == 1 + 18 and trials[0].kind == "practice"
@@ -251,6 +252,7 @@ BAD_FIELDS: list[tuple[dict[str, Any], str]] = [
     ({"clips.0.ground_truth": "media/s2.wav"}, "clips[0].ground_truth: expected a .fap or .csv"),
     ({"clips.0.ground_truth": ""}, "clips[0].ground_truth: must not be empty"),
     ({"eyes": "closed"}, "eyes: expected one of still, ground_truth, generated, got 'closed'"),
+    ({"posture": "front"}, "posture: expected one of shared, per_condition, got 'front'"),
     ({"normalize": "yes"}, "normalize: expected true or false, got 'yes'"),
     (
         {"normalize": True, "clips.0.ground_truth": DELETE, "conditions": TWO_MODELS},
@@ -429,6 +431,18 @@ def test_stimulus_settings_are_read_and_round_trip(
     assert dict(spec.render) == {"size": 256, "antialias": "msaa", "look": "plain"}
     again = parse_study(spec.to_dict(), source="study.toml", base_dir=study_dir)
     assert (again.eyes, again.normalize, dict(again.render)) == ("generated", True, spec.render)
+    assert "posture" not in spec.to_dict()  # the default is not written
+
+
+def test_the_thesis_per_condition_posture_is_a_study_setting(
+    make_study_data: StudyData, study_dir: Path
+) -> None:
+    data = make_study_data()
+    data.update(posture="per_condition", eyes="still")
+    spec = parse_study(data, source="study.toml", base_dir=study_dir)
+    assert (spec.posture, spec.eyes) == ("per_condition", "still")
+    again = parse_study(spec.to_dict(), source="study.toml", base_dir=study_dir)
+    assert again.posture == "per_condition"
 
 
 def test_the_rejoin_policy_is_read_and_round_trips(

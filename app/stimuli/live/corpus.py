@@ -90,7 +90,8 @@ def speech_take(
     pitch_ceiling: float = 400.0,
 ) -> SpeechFeatures:
     """Speech features of a take of about ``seconds``: utterances of ``sound`` in voices drawn
-    (seeded) from ``voices``, each followed by a pause of :data:`PAUSE_S`.
+    (seeded) from ``voices``, each followed by a pause of :data:`PAUSE_S`. The same seed gives
+    the same take in any process (Praat's random generator is seeded for the resynthesis).
 
     ``pitch_floor``/``pitch_ceiling`` are the analysis range of the take's features (the
     voices reach about 250 Hz); the resynthesis reads the source with 75-300 Hz.
@@ -99,7 +100,13 @@ def speech_take(
         raise ValueError("no voices to draw from")
     rng = np.random.default_rng(seed)
     rate = float(sound.sampling_frequency)
-    rendered = [resynthesise(sound, v).values[0] for v in voices]
+    # Praat's overlap-add fills unvoiced stretches from its own random generator: seeded here,
+    # or every process would make another take from the same seed
+    parselmouth.praat.run(f"random_initializeWithSeedUnsafelyButPredictably ({int(seed)})")
+    try:
+        rendered = [resynthesise(sound, v).values[0] for v in voices]
+    finally:
+        parselmouth.praat.run("random_initializeSafelyAndUnpredictably ()")
     pieces: list[np.ndarray] = []
     total = 0
     while total < seconds * rate:

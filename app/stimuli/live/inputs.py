@@ -8,12 +8,13 @@ loudness ``l_t`` (sec. 4, "Speech feature extraction"). Here:
   see :mod:`app.stimuli.live.head`);
 - loudness is the intensity in dB re 2e-5 Pa floored at :data:`LOUDNESS_FLOOR_DB` (digital
   silence comes out of Praat near -300 dB, which would dominate any standardisation);
-- both contours are smoothed by the paper's 3-frame (0.125 s at its 24 fps) contour filter
-  (sec. 4, "we apply a contour smoothing filter with a window size of 3 frames"), here a
-  causal moving average over the current and the two previous frames
-  (:func:`smooth_contour`, :class:`ContourSmoother`), so that a live stream can apply it: the
-  paper's generator reads only past and current speech (sec. 5.2). Unvoiced frames stay
-  unvoiced; a voiced frame averages the voiced frames of its window;
+- both contours are smoothed by the paper's contour filter (sec. 4, "a contour smoothing
+  filter with a window size of 3 frames (0.125 second)", at its 24 fps). The window is a time,
+  :data:`SMOOTH_S`, so it is :func:`smooth_frames` ``= round(0.125 fps)`` frames: 3 at 24 fps,
+  4 at 30 fps, 8 at 60 fps. Here it is a causal moving average over the current and the
+  previous frames (:func:`smooth_contour`, :class:`ContourSmoother`), so that a live stream
+  can apply it: the paper's generator reads only past and current speech (sec. 5.2).
+  Unvoiced frames stay unvoiced; a voiced frame averages the voiced frames of its window;
 - both are standardised with the training data's mean and standard deviation
   (:class:`SpeechScale`);
 - the blink model's *mode* (sec. 7.1: talking or listening) is decided from loudness alone:
@@ -27,7 +28,9 @@ Example
 12.0
 >>> scale.threshold_db
 45.0
->>> smooth_contour(np.array([0.0, 0.0, 30.0, 30.0, 30.0])).tolist()
+>>> smooth_frames(24.0), smooth_frames(30.0)
+(3, 4)
+>>> smooth_contour(np.array([0.0, 0.0, 30.0, 30.0, 30.0]), 3).tolist()
 [0.0, 0.0, 10.0, 20.0, 30.0]
 """
 
@@ -48,8 +51,13 @@ TALK_MARGIN_DB = 20.0
 #: Standardised inputs are clipped to this many sd: the mixtures know nothing beyond, and a
 #: wild reading (a clipped microphone, a glitch) must not throw the head or the eyes.
 Z_LIMIT = 6.0
-#: Width of the contour smoothing filter in frames (Le, Ma & Deng 2012 sec. 4).
-SMOOTH_FRAMES = 3
+#: Width of the contour smoothing filter, seconds (Le, Ma & Deng 2012 sec. 4: 3 frames at 24 fps).
+SMOOTH_S = 0.125
+
+
+def smooth_frames(fps: float, seconds: float = SMOOTH_S) -> int:
+    """Frames of the contour smoothing window at ``fps``: ``round(seconds * fps)``, at least 1."""
+    return max(1, int(round(seconds * fps)))
 
 
 def semitones(f0: np.ndarray) -> np.ndarray:
@@ -67,7 +75,7 @@ def loudness(intensity_db: np.ndarray) -> np.ndarray:
     return np.maximum(x, LOUDNESS_FLOOR_DB)
 
 
-def smooth_contour(x: np.ndarray, width: int = SMOOTH_FRAMES) -> np.ndarray:
+def smooth_contour(x: np.ndarray, width: int) -> np.ndarray:
     """Causal moving average of a contour: each frame the mean of the finite values among it
     and the ``width - 1`` frames before it; NaN (unvoiced) frames stay NaN.
 
@@ -89,7 +97,7 @@ def smooth_contour(x: np.ndarray, width: int = SMOOTH_FRAMES) -> np.ndarray:
 class ContourSmoother:
     """Streaming form of :func:`smooth_contour`: feed one frame, get its smoothed value."""
 
-    def __init__(self, width: int = SMOOTH_FRAMES) -> None:
+    def __init__(self, width: int) -> None:
         self._past: deque[float] = deque(maxlen=max(int(width), 1) - 1)
 
     def step(self, x: float) -> float:
@@ -104,9 +112,11 @@ class ContourSmoother:
 
 
 def smoothed_inputs(
-    f0: np.ndarray, intensity_db: np.ndarray, width: int = SMOOTH_FRAMES
+    f0: np.ndarray, intensity_db: np.ndarray, fps: float, seconds: float = SMOOTH_S
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Pitch (semitones, NaN unvoiced) and loudness (dB) of one take, smoothed causally."""
+    """Pitch (semitones, NaN unvoiced) and loudness (dB) of one take at ``fps``, smoothed
+    causally over ``seconds`` (:func:`smooth_frames`)."""
+    width = smooth_frames(fps, seconds)
     return smooth_contour(semitones(f0), width), smooth_contour(loudness(intensity_db), width)
 
 

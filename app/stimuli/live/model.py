@@ -25,7 +25,7 @@ from app.stimuli.fap import DEG_PER_AU, EYELIDS, GAZE, HEAD_PITCH, HEAD_ROLL, HE
 from app.stimuli.live.eyelids import EyelidModel, fit_eyelid_model
 from app.stimuli.live.gaze import FixationModel, GazeModel, fit_fixation_model, fit_gaze_model
 from app.stimuli.live.head import HeadModel, fit_head_model
-from app.stimuli.live.inputs import SpeechScale, smoothed_inputs, talking_mode
+from app.stimuli.live.inputs import SMOOTH_S, SpeechScale, smoothed_inputs, talking_mode
 from app.stimuli.live.mixture import Mixture, MixtureBank
 from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
@@ -106,7 +106,7 @@ def train_live_model(
         raise InputError(
             f"{n} frames is too little to train on (need at least 100)", path=truths[0].name or None
         )
-    contours = [smoothed_inputs(f.f0, f.intensity) for f in feats]  # per take: causal
+    contours = [smoothed_inputs(f.f0, f.intensity, fps) for f in feats]  # per take: causal
     pitch_st = np.concatenate([p for p, _ in contours])
     loud_db = np.concatenate([lo for _, lo in contours])
     scale = SpeechScale.fit_contours(pitch_st, loud_db)
@@ -168,6 +168,7 @@ def train_live_model(
         "audio": sorted({str(f.metadata.get("audio", "")) for f in feats}),
         "n_components": n_components,
         "seed": seed,
+        "input_smoothing_s": SMOOTH_S,
         "head_weights": [float(w) for w in head.weights],
         "gaze_enabled": gaze.enabled,
         "gaze_canonical_correlations": [float(c) for c in gaze.correlations],

@@ -6,7 +6,7 @@ from app.stimuli.conditions import make_condition
 from app.stimuli.conditions.head_arx import DEFAULT_MODEL_PATH
 from app.stimuli.conditions.speech_driven import resolve_threshold
 from app.stimuli.reference_speaker import synthesize_reference
-from app.stimuli.speech import SpeechFeatures
+from app.stimuli.speech import SpeechFeatures, features_from_samples
 from tests.stimuli.conditions.test_eyebrow_rule import known_contours
 
 
@@ -65,7 +65,10 @@ def test_a_long_hold_warns():
 def test_auto_thresholds():
     feats = known_features()
     assert resolve_threshold("auto", "f0", feats) == np.percentile(feats.f0, 75)
-    assert resolve_threshold("auto", "intensity", feats) == np.median(feats.intensity) - 20
+    voiced_db = feats.intensity[feats.voiced]
+    assert resolve_threshold("auto", "intensity", feats) == np.percentile(voiced_db, 30)
+    louder = SpeechFeatures(30.0, feats.f0, np.linspace(50, 80, feats.n_frames), feats.f0)
+    assert resolve_threshold("auto", "intensity", louder) == pytest.approx(59.0)  # 30 % up
     assert resolve_threshold("210", "f0", feats) == 210.0
     with pytest.raises(InputError, match="number or 'auto'"):
         resolve_threshold("high", "f0", feats)
@@ -157,3 +160,35 @@ def test_head_mean_is_the_ground_truths():
     track = make_condition("speech_driven").fit(feats, gt).generate(feats)
     for c in (48, 49, 50):
         np.testing.assert_allclose(track[c].mean(), gt[c].mean(), atol=1e-6)
+
+
+def test_the_spline_across_digital_silence_raises_no_brow():
+    """A falling glide, 1 s of digital silence, the same glide: eq. 35's spline climbs from
+    150 to 300 Hz inside the silence and crossed the threshold there (12 frames of raise)."""
+    from tests.stimuli.conftest import harmonic_glide
+
+    glide, _ = harmonic_glide(300, 150, 1.0)
+    feats = features_from_samples(np.r_[glide, np.zeros(16000), glide], 16000, 30.0)
+    track = make_condition("speech_driven").generate(feats)
+    info = track.metadata["eyebrows"]
+    silent = ~feats.voiced & (feats.intensity < info["intensity_threshold_db"])
+    assert silent[35:55].all()
+    assert np.all(track[31][31:60] == 0)
+    for start, _ in info["raises"]:
+        assert feats.voiced[start]
+        assert feats.intensity[start] >= info["intensity_threshold_db"]
+    assert 60 <= info["raises"][-1][0] <= 65  # speech resumes at 295 Hz, after 152 Hz
+
+
+def test_raises_are_apart_by_the_minimum_gap():
+    f0 = np.full(90, 150.0)
+    for k in (10, 25, 40, 64):
+        f0[k : k + 3] = 250.0
+    intensity = np.where(np.isin(np.arange(90), [9, 10, 24, 25, 39, 40, 63, 64]), 70.0, 40.0)
+    feats = SpeechFeatures(30.0, f0, intensity, f0.copy())
+    thesis = make_condition("speech_driven", min_gap_s=0, **THESIS).generate(feats)
+    assert thesis.metadata["eyebrows"]["raises"] == [[10, 19], [25, 34], [40, 49], [64, 73]]
+    gapped = make_condition("speech_driven", **THESIS).generate(feats)  # 0.5 s = 15 frames
+    assert gapped.metadata["eyebrows"]["raises"] == [[10, 19], [40, 49], [64, 73]]
+    with pytest.raises(InputError, match="min_gap_s"):
+        make_condition("speech_driven", min_gap_s=-1)

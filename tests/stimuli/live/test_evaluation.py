@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from app.stimuli.fap import DEG_PER_AU
+from app.stimuli.live.corpus import TRAIN_VOICES, speech_take
 from app.stimuli.live.evaluation import (
     CHANNELS,
     blink_rate,
@@ -57,28 +58,40 @@ def test_compare_motion_of_a_scaled_copy():
 @pytest.fixture(scope="module")
 def split():
     sound, _ = load_sound(Path(__file__).resolve().parents[3] / "app/data/demo/speech.wav")
-    return held_out_split(sound)
+    return held_out_split(sound, seconds=60.0, test_takes=2)  # 3 x 60 s to train, 2 x 60 s to test
 
 
 def test_split_is_explicit_and_disjoint(split):
     train_seeds = {t.metadata["seed"] for _, t in split.train}
     test_seeds = {t.metadata["seed"] for _, t in split.test}
-    assert train_seeds == {0, 1, 2} and test_seeds == {100, 101, 102, 103}
+    assert train_seeds == {0, 1, 2} and test_seeds == {100, 101}
     train_voices = {tuple(v) for f, _ in split.train for v in f.metadata["voices"]}
     test_voices = {tuple(v) for f, _ in split.test for v in f.metadata["voices"]}
     assert not train_voices & test_voices
-    assert all(f.n_frames == 3600 for f, _ in split.train + split.test)
+    assert all(f.n_frames == 1800 for f, _ in split.train + split.test)
+
+
+def test_a_take_is_the_same_for_the_same_seed():
+    """Praat's overlap-add draws random numbers in unvoiced stretches; unseeded, every take
+    (and so every held-out figure) differed from run to run."""
+    sound, _ = load_sound(Path(__file__).resolve().parents[3] / "app/data/demo/speech.wav")
+    a, b = (speech_take(sound, TRAIN_VOICES[:1], 6.0, seed=4) for _ in range(2))
+    np.testing.assert_array_equal(a.f0, b.f0)
+    np.testing.assert_array_equal(a.intensity, b.intensity)
+    other = speech_take(sound, TRAIN_VOICES[:1], 6.0, seed=5)
+    assert not np.array_equal(a.intensity, other.intensity)
 
 
 @pytest.mark.slow
 def test_held_out_motion_moves_like_the_reference_speaker(split):
-    # Trained on three takes, generated on four others (other voices, other motion seeds).
+    # Trained on three takes, generated on two others (other voices, other motion seeds).
     model = train_live_model([f for f, _ in split.train], [t for _, t in split.train])
     fig = evaluate_held_out(model, split.test, seeds=(0, 1))  # one seed alone varies by 0.2
     head = slice(0, 3)
-    # Measured (docs/live.md, two seeds): head sd 0.98-1.13 of the truth's, power above 4 Hz
-    # 0.004-0.019 against 0.003-0.020; gaze sd 2.6 and 4.0 deg against 2.8 and 4.8.
+    # Measured (this split, two seeds): head sd 0.92-1.08 of the truth's; the share of the
+    # variance above 4 Hz 0.45-0.93 of the truth's for head and gaze (without the low-pass on
+    # the shown pose and the 0.1-s saccades: head roll 1.36, gaze yaw 3.36 and pitch 3.05).
     assert np.all((fig.sd_ratio[head] > 0.75) & (fig.sd_ratio[head] < 1.35)), fig.table()
-    assert np.all(fig.jitter[head] < fig.jitter_truth[head] + 0.01), fig.table()
+    assert np.all(fig.jitter <= 1.25 * fig.jitter_truth), fig.table()
     assert np.all(fig.sd[3:] > 2.0) and np.all(fig.sd_ratio[3:] > 0.6), fig.table()
     assert 10.0 < fig.blinks_per_min < 30.0, fig.table()

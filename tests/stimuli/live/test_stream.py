@@ -109,3 +109,54 @@ def test_blink_intervals_follow_the_fitted_log_normals(live_model):
         assert stats.kstest(gaps[sel], fitted.cdf).pvalue > 0.01
     # The two modes really differ here (known: talking median 1.8 s, listening 3.7 s).
     assert np.median(gaps[mode]) < np.median(gaps[~mode])
+
+
+def _gazeless_model(live_training_data):
+    from app.stimuli.live.model import train_live_model
+
+    features, truth = live_training_data
+    return train_live_model(
+        features.slice(0, 300), truth.select((48, 49, 50)).fit_length(300), n_components=2
+    )
+
+
+@pytest.mark.parametrize("fps", [30.0, 60.0])
+def test_a_saccade_takes_a_tenth_of_a_second_at_any_frame_rate(live_training_data, fps):
+    """A fixation offset that jumps by 6 deg at 1 s: the eyes get there over 0.1 s (3 frames at
+    30 fps, 6 at 60), not in the one frame that put a jitter into the gaze."""
+    model = _gazeless_model(live_training_data)
+    assert not model.gaze.enabled  # the gaze is the fixation offset alone
+    gen = LiveGenerator(model, fps=fps, seed=0)
+    gen._fixations.step = lambda time, talking: np.array([6.0 if time >= 1.0 - 1e-9 else 0.0, 0])
+    n = int(1.5 * fps)
+    yaw = gen.run(np.full(n, 120.0), np.full(n, 65.0))[:, OUTPUT_CHANNELS.index(23)] * 1e-5
+    yaw = np.degrees(yaw)
+    k, steps = int(fps), round(0.1 * fps)
+    np.testing.assert_allclose(yaw[:k], 0.0, atol=1e-9)
+    np.testing.assert_allclose(yaw[k : k + steps], 6.0 * np.arange(1, steps + 1) / steps)
+    np.testing.assert_allclose(yaw[k + steps :], 6.0)
+
+
+@pytest.mark.parametrize("fps", [30.0, 60.0])
+def test_the_shown_pose_is_the_draws_low_passed_in_time(live_training_data, fps, monkeypatch):
+    """Draws that step from rest to rest + 1 deg at 1 s: the shown pose follows
+    1 - exp(-t / 0.02 s) whatever the frame rate, and the sampler still sees the draws."""
+    from app.stimuli.live.head import HeadModel
+
+    model = _gazeless_model(live_training_data)
+    rest = model.head.kin_mean[:3]
+    gen = LiveGenerator(model, fps=fps, seed=0)
+    seen = []
+
+    def draw(self, start, prev1, prev2, fps_, coeffs, rng):
+        seen.append(prev1.copy())
+        return rest + (1.0 if gen.frame >= fps else 0.0)
+
+    monkeypatch.setattr(HeadModel, "sample", draw)
+    n = int(1.2 * fps)
+    pitch = gen.run(np.full(n, 120.0), np.full(n, 65.0))[:, OUTPUT_CHANNELS.index(48)]
+    pitch = np.degrees(pitch * 1e-5) - rest[1]
+    t = (np.arange(n) - fps + 1) / fps  # 1 / fps at the first frame of the step
+    want = np.where(t > 0, 1.0 - np.exp(-t / 0.02), 0.0)
+    np.testing.assert_allclose(pitch, want, atol=1e-9)
+    np.testing.assert_allclose(seen[int(fps) + 1], rest + 1.0)  # the draw, not the shown pose
