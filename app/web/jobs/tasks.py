@@ -80,8 +80,10 @@ def beat_interval(stale_after: float) -> float:
 
 def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
     """Motion tracks of every condition on every clip (``app.stimuli.generate``)."""
+    from app.stimuli.eyes import DEFAULT_EYES
     from app.stimuli.generate import generate_conditions
     from app.stimuli.io import load_track, save_track
+    from app.stimuli.posture import DEFAULT_POSTURE
 
     root = media_dir(study)
     models = [c for c in study.conditions if c.model != "upload"]
@@ -99,7 +101,8 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
                     media.fetch(study, clip.ground_truth_path) if clip.ground_truth_path else None
                 ),
                 seed=study.seed,
-                eyes=study.settings.get("eyes", "still"),
+                eyes=study.settings.get("eyes", DEFAULT_EYES),
+                posture=study.settings.get("posture", DEFAULT_POSTURE),
                 normalize=bool(study.settings.get("normalize", False)),
             )
             tracks.update(result.tracks)

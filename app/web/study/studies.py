@@ -132,6 +132,7 @@ def create_study(
             "practice_clip": spec.practice_clip,
             "block_by_clip": spec.block_by_clip,
             "eyes": spec.eyes,
+            "posture": spec.posture,
             "normalize": spec.normalize,
             "rejoin": spec.rejoin,
             "render": {**spec.render, **(render or {})},
