@@ -33,20 +33,37 @@ import numpy as np
 
 
 def mouth_box(
-    points: np.ndarray, width: int, height: int, *, block: int, margin: float
+    points: np.ndarray,
+    width: int,
+    height: int,
+    *,
+    block: int,
+    margin: float,
+    cover: np.ndarray | None = None,
+    pad: float = 0.0,
 ) -> tuple[int, int, int, int]:
     """Mosaic box ``(x0, y0, x1, y1)`` (pixels, end-exclusive) around projected points.
 
-    The box is the points' bounding box grown by ``margin`` times its larger side, snapped
-    outwards to multiples of ``block`` (so every block is whole) and clipped to the image.
+    The box is the points' bounding box grown by ``margin`` times its larger side, and, with
+    ``cover``, also holds those points' bounding box grown by ``pad`` pixels (the region the
+    clip's mouth moves through, :mod:`renderer.mouthregion`); it is snapped outwards to
+    multiples of ``block`` (so every block is whole) and clipped to the image.
+
+    >>> mouth_box(np.array([[10.0, 10.0], [20.0, 14.0]]), 64, 64, block=8, margin=0.0,
+    ...           cover=np.array([[12.0, 30.0]]), pad=1.0)
+    (8, 8, 24, 32)
     """
     lo = points.min(axis=0)
     hi = points.max(axis=0)
     grow = margin * float(np.max(hi - lo))
-    x0 = int(np.floor((lo[0] - grow) / block)) * block
-    y0 = int(np.floor((lo[1] - grow) / block)) * block
-    x1 = int(np.ceil((hi[0] + grow) / block)) * block
-    y1 = int(np.ceil((hi[1] + grow) / block)) * block
+    lo, hi = lo - grow, hi + grow
+    if cover is not None and len(cover):
+        lo = np.minimum(lo, cover.min(axis=0) - pad)
+        hi = np.maximum(hi, cover.max(axis=0) + pad)
+    x0 = int(np.floor(lo[0] / block)) * block
+    y0 = int(np.floor(lo[1] / block)) * block
+    x1 = int(np.ceil(hi[0] / block)) * block
+    y1 = int(np.ceil(hi[1] / block)) * block
     x0, y0 = min(max(x0, 0), width), min(max(y0, 0), height)
     x1 = min(max(x1, x0), x0 + (width - x0) // block * block)
     y1 = min(max(y1, y0), y0 + (height - y0) // block * block)
@@ -113,6 +130,26 @@ def pixelate_reference(
         where=face.reshape(ny, block, nx, block),
     )
     return image
+
+
+def pixelate_face(
+    image: np.ndarray, box: tuple[int, int, int, int], block: int, background: np.ndarray
+) -> np.ndarray:
+    """Fill each ``block`` cell of ``box`` in ``image`` with the mean colour of its face
+    pixels, on those pixels only (background pixels are neither averaged in nor painted).
+
+    The frame the renderer pixelates is the face with its mouth at rest
+    (:class:`renderer.pipeline`), so this is :func:`pixelate_reference` with the image as its
+    own reference. Works in place and returns ``image``.
+
+    >>> bg = np.array([9, 9, 9], np.uint8)
+    >>> img = np.full((4, 4, 3), 9, np.uint8); img[:, :2] = [[100], [200], [100], [200]]
+    >>> out = pixelate_face(img, (0, 0, 4, 4), 4, bg)
+    >>> int(out[0, 0, 0]), int(out[1, 1, 0]), int(out[0, 3, 0])
+    (150, 150, 9)
+    """
+    x0, y0, x1, y1 = box
+    return pixelate_reference(image, image[y0:y1, x0:x1], box, block, background)
 
 
 def _face_mask(pixels: np.ndarray, background: np.ndarray) -> np.ndarray:
