@@ -40,6 +40,7 @@ EYE_RADIUS = 12.0
 COVER_RADIUS = EYE_RADIUS + 0.45  # the skin over the eyeball, under the lids (radius + 0.8, 1)
 PIVOT_71 = (0.0, -40.0, -18.0)  # top of the spine: head rotation pivot
 JAW_HINGE = (0.0, -4.0, 10.0)  # temporo-mandibular joint axis (parallel to x)
+EAR_POSITION = np.array([66.0, 2.0, -4.0])  # where the left ear meets the head
 N_AZIMUTH, N_ELEVATION = 64, 52
 
 
@@ -135,7 +136,7 @@ def builtin_face(look: str = "textured") -> Face:
                     centre, radius, EYE_RADIUS + 0.25, upper=upper, side=side, lashes=textured
                 )
             )
-        parts.append(ear(np.array([sx * 66.0, 2.0, -4.0]), sx, textured=textured))
+        parts.append(ear(np.array([sx, 1.0, 1.0]) * EAR_POSITION, sx, textured=textured))
     skin = parts[0]
     loop = skin.groups["mouth_loop"]
     parts.append(
