@@ -20,6 +20,8 @@ LIPS = np.array([0.66, 0.34, 0.34])
 HAIR = np.array([0.20, 0.14, 0.10])
 BROW = np.array([0.26, 0.18, 0.13])
 LAYER_DEFAULTS = {"head": 1.0}
+#: Jaw weights below this are cut (the rest rescaled to stay continuous).
+JAW_WEIGHT_FLOOR = 0.06
 
 
 @dataclass
@@ -257,7 +259,7 @@ def skin_grid(
     el_v = np.concatenate([E.ravel(), [np.pi / 2], np.full(len(slit), el[m])])
     az_v = np.concatenate([A.ravel(), [0.0], A.ravel()[slit]])
     side = smoothstep(half_width - 3, half_width + 10, np.abs(verts[:, 0]))
-    tt = np.clip((el_v - el[m]) / np.radians(12.0), -1, 1)
+    tt = np.clip((el_v - el[m]) / np.radians(9.0), -1, 1)
     lateral = 0.5 * (1 - np.sin(np.pi / 2 * tt))
     span = (el_v < el[m]).astype(float)
     span[lower_copy] = 1.0
@@ -268,6 +270,9 @@ def skin_grid(
         * smoothstep(np.radians(100), np.radians(70), np.abs(az_v))
         * smoothstep(np.radians(-84.0), np.radians(-60.0), el_v)
     )
+    # no tail of tiny weights: skin that would move by a hundredth of a millimetre stays, so
+    # the region the jaw moves, which the mouth mosaic covers, ends below the cheekbones
+    jaw = np.clip((jaw - JAW_WEIGHT_FLOOR) / (1.0 - JAW_WEIGHT_FLOOR), 0.0, 1.0)
     lower_lip = (el_v < el[m]).astype(float)
     lower_lip[lower_copy] = 1.0
     upper_lip = 1.0 - lower_lip

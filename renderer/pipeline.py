@@ -17,7 +17,7 @@ import os
 from collections import deque
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from multiprocessing import shared_memory
 from typing import Any
@@ -31,17 +31,20 @@ from renderer.avatar import AvatarFace, AvatarRig
 from renderer.deform import MOUTH_FAPS_INDEX, FaceFrame, Rig
 from renderer.face import MOUTH_FEATURE_POINTS, Face
 from renderer.gl import FaceCanvas, project
-from renderer.mosaic import mouth_box, pixelate_face
+from renderer.mosaic import cells_meeting, mouth_box, pixelate_face
 from renderer.mouthregion import MotionEnvelope, motion_envelope
 
 
 @dataclass
 class RenderedFrame:
-    """One output frame and, per face (left to right), its mosaic box in frame pixels."""
+    """One output frame and, per face (left to right), its mosaic: the box in frame pixels
+    and which of the box's cells are blocks (rows, columns of cells; the others are the
+    frame as drawn)."""
 
     index: int
     image: np.ndarray  # (H, W, 3) uint8, reused between frames: copy to keep
     boxes: list[tuple[int, int, int, int]]
+    cells: list[np.ndarray] = field(default_factory=list)
 
 
 @lru_cache(maxsize=4)
@@ -119,30 +122,36 @@ class _Drawer:
             faps[MOUTH_FAPS_INDEX] = 0.0
             at_rest.append(rig.deform(faps))
         image = self.canvas.draw(at_rest, out)
-        boxes = []
+        boxes, masks = [], []
         for k, frame in enumerate(at_rest):
-            x0, y0, x1, y1 = self.mosaic_box(frame)
+            (x0, y0, x1, y1), cells = self.mosaic_cells(frame)
             box = (x0 + k * size, y0, x1 + k * size, y1)
-            pixelate_face(image, box, block, self.canvas.background_u8)
+            pixelate_face(image, box, block, self.canvas.background_u8, cells)
             boxes.append(box)
-        return RenderedFrame(i, image, boxes)
+            masks.append(cells)
+        return RenderedFrame(i, image, boxes, masks)
 
-    def mosaic_box(self, frame: FaceFrame) -> tuple[int, int, int, int]:
-        """The mosaic's box in a face's pixels: the mouth at rest grown by the margin, and the
-        region the clip's mouth moves through (:attr:`envelope`) posed as ``frame``."""
+    def mosaic_cells(self, frame: FaceFrame) -> tuple[tuple[int, int, int, int], np.ndarray]:
+        """The mosaic in a face's pixels: its box and its cells (rows, columns; True for a
+        block). The blocks are the cells of the mouth at rest grown by the margin, and the
+        cells that meet the region the clip's mouth moves through (:attr:`envelope`, posed
+        as ``frame``, grown by :data:`ENVELOPE_PAD`): a tilted or turned head's mosaic follows
+        its lower face instead of filling a box up to the eyes."""
         assert self.envelope is not None and self.mosaic_block
-        vp, size = self.canvas.vp, self.size
+        vp, size, block = self.canvas.vp, self.size, self.mosaic_block
         mouth = project(vp, self.rig.world_points(frame, MOUTH_FEATURE_POINTS), size)
         moves = project(vp, self.envelope.world(frame), size)
-        return mouth_box(
-            mouth,
-            size,
-            size,
-            block=self.mosaic_block,
-            margin=self.mosaic_margin,
-            cover=moves,
-            pad=ENVELOPE_PAD,
+        margin = self.mosaic_margin
+        box = mouth_box(
+            mouth, size, size, block=block, margin=margin, cover=moves, pad=ENVELOPE_PAD
         )
+        lips = mouth_box(mouth, size, size, block=block, margin=margin)
+        x0, y0 = box[:2]
+        cells = cells_meeting(moves, box, block, ENVELOPE_PAD)
+        rows = slice((lips[1] - y0) // block, (lips[3] - y0) // block)
+        cols = slice((lips[0] - x0) // block, (lips[2] - x0) // block)
+        cells[rows, cols] = True
+        return box, cells
 
     def release(self) -> None:
         self.canvas.release()
@@ -182,12 +191,13 @@ def _worker_start(args: tuple, ring_name: str, ring_shape: tuple[int, ...]) -> N
 
 
 def _worker_draw(jobs: list[tuple[int, int]]) -> list[tuple[int, int, list]]:
-    """Draw frames ``(index, slot)`` into their ring slots; returns ``(index, slot, boxes)``."""
+    """Draw frames ``(index, slot)`` into their ring slots; returns ``(index, slot, boxes,
+    cells)``."""
     drawer, ring = _WORKER["drawer"], _WORKER["ring"]
     out = []
     for i, slot in jobs:
         frame = drawer.draw(i, ring[slot])
-        out.append((i, slot, frame.boxes))
+        out.append((i, slot, frame.boxes, frame.cells))
     return out
 
 
@@ -285,9 +295,9 @@ def _render_parallel(
                 nxt = next(todo, None)
                 if nxt is not None:
                     pending.append(pool.apply_async(_worker_draw, (nxt,)))
-                for i, slot, boxes in done:
+                for i, slot, boxes, cells in done:
                     np.copyto(image, ring[slot])
-                    yield RenderedFrame(i, image, boxes)
+                    yield RenderedFrame(i, image, boxes, cells)
         del ring
     finally:
         shm.close()
