@@ -92,7 +92,9 @@ REQUIRED_GROUPS: tuple[str, ...] = ("eyeball_l", "eyeball_r")
 #: (:mod:`renderer.edges`).
 #: ``uv_seam`` marks vertices split for the texture only (twins at one position with different
 #: texture coordinates): they share one normal (:meth:`Face.normals`).
-OPTIONAL_GROUPS: tuple[str, ...] = ("hidden_outline", "uv_seam")
+#: ``mouth_interior`` marks the inside of the mouth (cavity, teeth, tongue), which closed lips
+#: hide: the mosaic's face, drawn with the mouth at rest, is drawn without it.
+OPTIONAL_GROUPS: tuple[str, ...] = ("hidden_outline", "uv_seam", "mouth_interior")
 
 #: Optional per-vertex weight layers (0..1) a face may supply instead of the derived defaults.
 WEIGHT_LAYERS: tuple[str, ...] = (

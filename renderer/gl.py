@@ -406,11 +406,18 @@ class FaceCanvas:
         if face.textured:
             uv = np.asarray(face.uvs)[face.triangles]
             flat = (uv == uv[:, :1]).all(axis=(1, 2))
-        order = [flat, ~flat]
+        # the inside of the mouth (cavity, teeth, tongue) at both ends, so a face whose lips
+        # are closed, where none of it can show, is drawn without it (draw)
+        inside = np.zeros(face.n_vertices, bool)
+        inside[face.groups.get("mouth_interior", [])] = True
+        interior = inside[face.triangles].all(axis=1)
+        order = [flat & interior, flat & ~interior, ~flat & ~interior, ~flat & interior]
         self.index = ctx.buffer(
             np.concatenate([face.triangles[m] for m in order]).astype("i4").tobytes()
         )
         ends = np.cumsum([int(m.sum()) for m in order])
+        #: the triangles of a face with its lips closed: all but the inside of the mouth
+        self.closed_mouth = (int(ends[0]), int(ends[2]))
         self.dynamic = [
             (
                 ctx.buffer(reserve=face.n_vertices * 3 * 4),
@@ -435,7 +442,7 @@ class FaceCanvas:
                 for pos, nrm in self.dynamic
             ]
             self.runs = [
-                [(0, ends[0], fv), (ends[0], ends[1], v)]
+                [(0, ends[1], fv), (ends[1], ends[3], v)]
                 for v, fv in zip(self.vaos, self.flat_vaos, strict=True)
             ]
         self.edges = None
@@ -496,15 +503,22 @@ class FaceCanvas:
             if hi > lo:
                 vao.render(self._modes[2], vertices=3 * (hi - lo), first=3 * lo)
 
-    def draw(self, frames: list[FaceFrame], out: np.ndarray | None = None) -> np.ndarray:
+    def draw(
+        self, frames: list[FaceFrame], out: np.ndarray | None = None, *, lips_closed: bool = False
+    ) -> np.ndarray:
         """Draw one frame per face (left to right) into ``out`` (default: a buffer reused by the
-        next draw); returns the (H, W, 3) uint8 frame, top row first."""
+        next draw); returns the (H, W, 3) uint8 frame, top row first.
+
+        ``lips_closed``: every frame has its jaw and lip FAPs at zero (the mouth at rest the
+        mosaic shows), so the inside of the mouth (the ``mouth_interior`` group) is hidden
+        behind the lips and not drawn: the same pixels, a thousand triangles fewer.
+        """
         ctx, size = self.ctx, self.size
         solid = self._modes[0]
         out = self.buffer if out is None else out
         if self.texture is not None:  # another canvas of this context may have bound its own
             self.texture.use(location=0)
-        n = self.rig.face.n_triangles
+        first, end = self.closed_mouth if lips_closed else (0, self.rig.face.n_triangles)
         for k, frame in enumerate(frames):
             positions, normals = self.rig.posed(frame)
             self.dynamic[k][0].write(positions)
@@ -513,7 +527,7 @@ class FaceCanvas:
             ctx.enable_only(solid)
             ctx.viewport = (0, 0, size, size)
             self.fbo.clear(*self.background, 1.0)
-            self._render(k, 0, n)
+            self._render(k, first, end)
             if self.edges is not None:
                 self._overdraw_edges(k, positions, self.edges)
             if self.samples:

@@ -104,7 +104,8 @@ def oral_cavity(margin: np.ndarray, lower: np.ndarray, jaw: np.ndarray, mouth_y:
         "lower_lip": low,
         "upper_lip": 1.0 - low,
     }
-    groups = {"hidden_outline": np.arange(len(verts))}
+    everything = np.arange(len(verts))
+    groups = {"hidden_outline": everything, "mouth_interior": everything}
     return Part(verts, tris, colour, groups, layers)
 
 
@@ -180,4 +181,5 @@ def mouth_parts(mouth_y: float) -> Part:
     """Teeth and tongue, their outlines hidden behind the lips."""
     mouth = merge([teeth(mouth_y), tongue(mouth_y)])
     mouth.groups["hidden_outline"] = np.arange(len(mouth.vertices))
+    mouth.groups["mouth_interior"] = np.arange(len(mouth.vertices))
     return mouth

@@ -121,7 +121,7 @@ class _Drawer:
             faps = d[i].copy()
             faps[MOUTH_FAPS_INDEX] = 0.0
             at_rest.append(rig.deform(faps))
-        image = self.canvas.draw(at_rest, out)
+        image = self.canvas.draw(at_rest, out, lips_closed=True)
         boxes, masks = [], []
         for k, frame in enumerate(at_rest):
             (x0, y0, x1, y1), cells = self.mosaic_cells(frame)
