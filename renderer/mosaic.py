@@ -155,12 +155,22 @@ def pixelate_face(
     (150, 150, 9, 50)
     """
     x0, y0, x1, y1 = box
-    if cells is None or cells.all():
-        return pixelate_reference(image, image[y0:y1, x0:x1], box, block, background)
+    if x1 <= x0 or y1 <= y0:
+        return image
+    ny, nx = (y1 - y0) // block, (x1 - x0) // block
     region = image[y0:y1, x0:x1]
-    filled = pixelate_reference(region.copy(), region, (0, 0, x1 - x0, y1 - y0), block, background)
-    keep = np.repeat(np.repeat(cells, block, axis=0), block, axis=1)
-    np.copyto(region, filled, where=keep[..., None])
+    face = _face_mask(region, background)
+    mean, _ = _face_means(region, face, block, background)
+    where = face.reshape(ny, block, nx, block)
+    if cells is not None:
+        where = where & cells[:, None, :, None]
+    # whole pixels as 3-byte items, as in pixelate_reference
+    colours = np.ascontiguousarray(mean, dtype=np.uint8).view("V3")[..., 0]
+    np.copyto(
+        region.view("V3")[..., 0].reshape(ny, block, nx, block),
+        colours[:, None, :, None],
+        where=where,
+    )
     return image
 
 

@@ -27,7 +27,7 @@ from renderer.headparts import SKIN, Part, ellipsoid_mesh, merge
 from renderer.sdf import smoothstep
 
 NECK_BASE_Y = -215.0
-NECK_RINGS, NECK_SEGMENTS = 12, 28
+NECK_RINGS, NECK_SEGMENTS = 10, 28
 
 
 def neck_and_shoulders() -> Part:
@@ -79,7 +79,7 @@ def ear(pos: np.ndarray, sx: float, *, textured: bool = False) -> Part:
     middle, the antihelix ridge around it, the helix rolled over at the rim, and the
     lobe below. Faces outwards and backwards as an ear stands off the skull.
     """
-    n_rings, n_seg = 9, 24
+    n_rings, n_seg = 8, 18
     r = np.linspace(0.0, 1.0, n_rings)
     a = np.linspace(0.0, 2 * np.pi, n_seg, endpoint=False)
     R, A = np.meshgrid(r, a, indexing="ij")
