@@ -68,7 +68,7 @@ def oral_cavity(margin: np.ndarray, lower: np.ndarray, jaw: np.ndarray, mouth_y:
         ring[:, 1] = mouth_y + sign * arch * np.where(lower, down, up)
         ring[:, 2] -= depth
         rows.append(ring)
-        t = (r + 1) / len(CAVITY_ROWS)
+        t = np.array((r + 1) / len(CAVITY_ROWS))
         colours.append(MUCOSA + (THROAT - MUCOSA) * smoothstep(0.0, 0.8, t))
         # the corners' weight blends to a half inside, as the cheeks' inner walls stretch
         weights.append(np.where(corner, jaw + smoothstep(0.0, 0.4, t) * (0.5 - jaw), jaw))

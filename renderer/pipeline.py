@@ -190,7 +190,7 @@ def _worker_start(args: tuple, ring_name: str, ring_shape: tuple[int, ...]) -> N
     _WORKER["ring"] = np.ndarray(ring_shape, np.uint8, buffer=shm.buf)
 
 
-def _worker_draw(jobs: list[tuple[int, int]]) -> list[tuple[int, int, list]]:
+def _worker_draw(jobs: list[tuple[int, int]]) -> list[tuple[int, int, list, list]]:
     """Draw frames ``(index, slot)`` into their ring slots; returns ``(index, slot, boxes,
     cells)``."""
     drawer, ring = _WORKER["drawer"], _WORKER["ring"]
