@@ -4,7 +4,9 @@ Generates two conditions' tracks (speech-driven and Perlin prosody) for 60 s of 
 then renders and encodes the pair clip with :func:`renderer.render_pair` (GL drawing in worker
 processes, H.264 + AAC encoding in ffmpeg's, overlapped) and prints frames per second, the
 ratio to real time (target: at least 4x faster than real time on a 2-core CPU machine) and the
-CPU time per frame of this process and its children. Then the parts alone, in this process:
+CPU time per frame of this process and its children, and that CPU as a ratio of the bare
+pipeline's (``benchmarks/bare_renderer.py``: the same head drawn twice, one read-back, the same
+x264 settings), run alternately with it. Then the parts alone, in this process:
 deformation, drawing (GL + read-back), mosaic, and encoding of the same frames.
 
 The built-in head is measured in each of its looks in the same run (``--look``, default both:
@@ -67,6 +69,7 @@ def main() -> None:
     )
     args = parser.parse_args()
     # here, not at the top: see the module's docstring
+    from bare_renderer import bare_pair_clip  # the comparator, beside this script
     from synthetic import write_speech  # benchmarks/synthetic.py, beside this script
 
     from app.stimuli.generate import generate_conditions
@@ -88,6 +91,7 @@ def main() -> None:
             for look in looks
         }
         runs: dict[str, tuple[list[float], list[list[float]]]] = {k: ([], []) for k in looks}
+        bare: list[float] = []  # CPU seconds of the bare pipeline's clip, per round
         for r in range(args.repeat):
             for look, settings in every.items():
                 before = _cpu_seconds()
@@ -95,12 +99,22 @@ def main() -> None:
                 render_pair(left, right, wav, Path(d) / f"pair{r}.mp4", settings=settings)
                 runs[look][0].append(time.perf_counter() - start)
                 runs[look][1].append([b - a for a, b in zip(before, _cpu_seconds(), strict=True)])
+            # the comparator, alternating with facepair so both meet the same load
+            before = _cpu_seconds()
+            bare_pair_clip(every[looks[-1]], left.n_frames, left.fps, wav, Path(d) / f"bare{r}.mp4")
+            bare.append(sum(_cpu_seconds()) - sum(before))
         print(
             f"device: {device_name()} (EGL; GLCONTEXT_DEVICE_INDEX="
             f"{os.environ.get('GLCONTEXT_DEVICE_INDEX', 'unset')})"
         )
+        bare_ms = 1e3 * float(np.median(bare)) / left.n_frames
+        print(
+            f"bare pipeline ({looks[-1]} head drawn twice, one read-back, same x264 settings, "
+            f"benchmarks/bare_renderer.py): CPU per pair frame {bare_ms:.1f} ms "
+            f"(rounds: {', '.join(f'{1e3 * b / left.n_frames:.1f}' for b in bare)})"
+        )
         for look, settings in every.items():
-            _report(args, left, right, wav, Path(d), look, settings, *runs[look])
+            _report(args, left, right, wav, Path(d), look, settings, *runs[look], bare_ms)
 
 
 def _report(
@@ -113,6 +127,7 @@ def _report(
     settings: RenderSettings,
     times: list[float],
     cpu: list[list[float]],
+    bare_ms: float,
 ) -> None:
     """Print the figures of one look: the clip's, then its parts' alone."""
     n, fps = left.n_frames, left.fps
@@ -130,9 +145,12 @@ def _report(
         f"best {best:.2f} s = {n / best:.0f} fps = {clip_seconds / best:.1f}x real time; "
         f"median {median:.2f} s = {clip_seconds / median:.1f}x real time (target >= 4x)"
     )
+    per_round = [1e3 * sum(c) / n for c in cpu]
     print(
         f"CPU per pair frame: {own + children:.1f} ms ({own:.1f} this process, "
-        f"{children:.1f} workers + ffmpeg)"
+        f"{children:.1f} workers + ffmpeg) = {(own + children) / bare_ms:.2f}x the bare "
+        f"pipeline's (rounds: {', '.join(f'{p / bare_ms:.2f}x' for p in per_round)}; "
+        f"goal <= 1.15x)"
     )
 
     # the parts alone, on the first 600 frames

@@ -7,7 +7,9 @@ side (plain, per-vertex colour, against textured, the default), whole and around
 The pair frame is frame 45 of the demo speech (app/data/demo/speech.wav): speech-driven prosody on
 the left, Perlin-noise prosody on the right, mouths hidden by the default mosaic. The avatar
 frame draws them on the built-in head exported as glTF (``facepair face export``), through
-the ARKit blendshapes and bones an avatar is driven by.
+the ARKit blendshapes and bones an avatar is driven by. The contact sheets of extreme poses
+(docs/img/extreme-poses*.png) show the built-in head over the pose box a capture reaches with
+the jaw closed, half open and fully open, with and without the mosaic.
 """
 
 from __future__ import annotations
@@ -58,6 +60,57 @@ def looks_side_by_side() -> list[Path]:
     return out
 
 
+#: The contact sheet's poses (yaw, pitch, roll in degrees; pitch > 0 bows the head): the
+#: corners of the box a capture reaches, a 20 degree roll and the crown seen from above.
+EXTREME_POSES = ((-35, -20, 0), (35, -20, 15), (35, 20, -15), (0, 0, 20), (0, 20, 0))
+EXTREME_JAWS = (0, 350, 1024)
+
+
+def extreme_poses(size: int = 256) -> list[Path]:
+    """Contact sheets of the built-in head at the extremes: rows the jaw closed, at 350 (what
+    the synthetic ground truth reaches) and at 1024 (its full range), columns the poses of
+    :data:`EXTREME_POSES`; one with the mouth shown, one with the default mosaic (each cell a
+    clip of its own, so the mosaic covers that clip's jaw)."""
+    import imageio.v3 as iio
+
+    from renderer.pipeline import render_frames
+
+    unit = np.radians(1.0) / 1e-5  # FAP units (1e-5 rad) per degree
+    out = []
+    for name, block in (("extreme-poses.png", 0), ("extreme-poses-mosaic.png", 16)):
+        rows = []
+        for jaw in EXTREME_JAWS:
+            cells = []
+            for yaw, pitch, roll in EXTREME_POSES:
+                track = MotionTrack.from_channels(
+                    30.0,
+                    {
+                        3: np.array([float(jaw)]),
+                        48: np.array([pitch * unit]),
+                        49: np.array([yaw * unit]),
+                        50: np.array([roll * unit]),
+                    },
+                )
+                frames = render_frames(
+                    [track], load_builtin(), size=size, mosaic_block=block, mosaic_margin=0.15
+                )
+                cells.append(next(frames).image.copy())
+                frames.close()
+                cells.append(np.full((size, 4, 3), 255, np.uint8))
+            rows.append(np.hstack(cells[:-1]))
+            rows.append(np.full((4, rows[-1].shape[1], 3), 255, np.uint8))
+        path = OUT / name
+        iio.imwrite(path, np.vstack(rows[:-1]))
+        out.append(path)
+    return out
+
+
+def load_builtin():
+    from renderer.headmodel import builtin_face
+
+    return builtin_face()
+
+
 def main() -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     settings = RenderSettings()
@@ -87,6 +140,8 @@ def main() -> None:
     print(pair)
     print(on_avatar)
     for path in looks_side_by_side():
+        print(path)
+    for path in extreme_poses():
         print(path)
 
 

@@ -28,7 +28,7 @@ from renderer.face import Face
 from renderer.gl import check_antialias
 from renderer.pipeline import align_tracks, render_frames
 
-RENDERER_VERSION = "1.4"
+RENDERER_VERSION = "1.5"
 
 Progress = Callable[[int, int], None]
 

@@ -361,12 +361,35 @@ class Rig:
         moved = pos @ rot.T
         moved += frame.head[:3, 3].astype(np.float32)
         turned = nrm @ rot.T
-        still, blend, w = self._still, self._blend, self._blend_w
+        still, blend = self._still, self._blend
         moved[still], turned[still] = pos[still], nrm[still]
-        moved[blend] = pos[blend] + w * (moved[blend] - pos[blend])
-        t = nrm[blend] + w * (turned[blend] - nrm[blend])
-        turned[blend] = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-12)
+        if len(blend):
+            moved[blend], turned[blend] = self._bend(frame.head, pos[blend], nrm[blend])
         return moved, turned
+
+    def _bend(
+        self, head: np.ndarray, pos: np.ndarray, nrm: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The blended vertices (a neck) turned by their weight's share of the head's turn
+        about the pivot: ``w`` times its angle about its axis (Rodrigues' formula), so a
+        ring half way down the neck turns half as far and the neck bends with the head; a
+        blend of positions instead sheared it and left it standing upright under a rolled
+        head."""
+        rot = head[:3, :3]
+        angle = float(np.arccos(np.clip((np.trace(rot) - 1.0) / 2.0, -1.0, 1.0)))
+        if angle < 1e-9:
+            return pos, nrm
+        axis = np.array([rot[2, 1] - rot[1, 2], rot[0, 2] - rot[2, 0], rot[1, 0] - rot[0, 1]])
+        axis = axis / max(float(np.linalg.norm(axis)), 1e-12)
+        theta = (self._blend_w * angle).astype(np.float32)  # (n, 1)
+        c, s = np.cos(theta), np.sin(theta)
+        k = axis.astype(np.float32)
+
+        def turn(v: np.ndarray) -> np.ndarray:
+            return v * c + np.cross(k, v) * s + np.outer(v @ k, k) * (1.0 - c)
+
+        pivot = self.pivot.astype(np.float32)
+        return turn(pos - pivot) + pivot, turn(nrm)
 
     def mouth_at_rest(self, frame: FaceFrame, faps: np.ndarray) -> FaceFrame:
         """``frame`` (deformed from ``faps``) as it would be with the jaw and lip FAPs at zero:

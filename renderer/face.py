@@ -90,7 +90,11 @@ REQUIRED_GROUPS: tuple[str, ...] = ("eyeball_l", "eyeball_r")
 #: Optional vertex groups: ``hidden_outline`` marks vertices whose outline never shows (inside
 #: the head, under the skin); edges between two of them are not anti-aliased
 #: (:mod:`renderer.edges`).
-OPTIONAL_GROUPS: tuple[str, ...] = ("hidden_outline",)
+#: ``uv_seam`` marks vertices split for the texture only (twins at one position with different
+#: texture coordinates): they share one normal (:meth:`Face.normals`).
+#: ``mouth_interior`` marks the inside of the mouth (cavity, teeth, tongue), which closed lips
+#: hide: the mosaic's face, drawn with the mouth at rest, is drawn without it.
+OPTIONAL_GROUPS: tuple[str, ...] = ("hidden_outline", "uv_seam", "mouth_interior")
 
 #: Optional per-vertex weight layers (0..1) a face may supply instead of the derived defaults.
 WEIGHT_LAYERS: tuple[str, ...] = (
@@ -188,8 +192,12 @@ class Face:
         return np.array([0.0, eyes_y - 0.5 * self.fapu["ENS0"], self.pivot()[2]])
 
     def normals(self) -> np.ndarray:
-        """Area-weighted vertex normals of the neutral mesh, float32 (n, 3)."""
-        return vertex_normals(self.vertices, self.triangles)
+        """Area-weighted vertex normals of the neutral mesh, float32 (n, 3); the vertices of
+        the ``uv_seam`` group that share a position share their summed normal."""
+        seam = self.groups.get("uv_seam")
+        if seam is None or not len(seam):
+            return vertex_normals(self.vertices, self.triangles)
+        return vertex_normals(self.vertices, self.triangles, weld=np.asarray(seam))
 
     def content_hash(self) -> str:
         """SHA-256 of everything that changes how the face renders (for the clip cache)."""
@@ -237,14 +245,25 @@ def fapu_from_feature_points(fp: dict[str, np.ndarray]) -> dict[str, float]:
     }
 
 
-def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Area-weighted vertex normals (unit length; zero-area vertices get +z)."""
+def vertex_normals(
+    vertices: np.ndarray, triangles: np.ndarray, weld: np.ndarray | None = None
+) -> np.ndarray:
+    """Area-weighted vertex normals (unit length; zero-area vertices get +z).
+
+    ``weld``: vertex indices among which those at one position sum their normals (twins
+    split for the texture, :mod:`renderer.uvseam`).
+    """
     v = np.asarray(vertices, dtype=np.float64)
     t = np.asarray(triangles)
     fn = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
     n = np.zeros_like(v)
     for k in range(3):
         np.add.at(n, t[:, k], fn)
+    if weld is not None and len(weld):
+        _, place = np.unique(v[weld], axis=0, return_inverse=True)
+        summed = np.zeros((int(place.max()) + 1, 3))
+        np.add.at(summed, place.ravel(), n[weld])
+        n[weld] = summed[place.ravel()]
     length = np.linalg.norm(n, axis=1, keepdims=True)
     n = np.where(length > 1e-12, n / np.maximum(length, 1e-12), np.array([0.0, 0.0, 1.0]))
     return n.astype(np.float32)

@@ -20,7 +20,6 @@ from app.errors import InputError
 from renderer import defaults
 from renderer.deform import FaceFrame, Rig
 from renderer.edges import EdgeTable, edge_table, overdraw_edges
-from renderer.face import MOUTH_FEATURE_POINTS
 
 _VERTEX = """
 #version 330
@@ -399,26 +398,26 @@ class FaceCanvas:
         if face.uvs is not None and face.texture is not None:
             self.uv_buffer = ctx.buffer(np.asarray(face.uvs, "f4").tobytes())
             self.texture = albedo_texture(ctx, face.texture)
-        # the lower face (triangles within 1.5 MW0 of the mouth) first: drawn alone, it is what
-        # a mosaic's reference shows (draw); the order changes no pixel, as adjacent triangles
-        # never both fill a pixel of their shared edge
-        mouth = np.mean([face.feature_points[n] for n in MOUTH_FEATURE_POINTS], axis=0)
-        near = np.linalg.norm(face.vertices - mouth, axis=1) < 1.5 * face.fapu["MW0"]
-        lower = near[face.triangles].any(axis=1)
-        self.n_lower = int(lower.sum())
         # a textured face's triangles whose corners share one UV (eyes, teeth, neck, clothes
         # on the built-in head: half its pixels) show one texel: drawn without the texture
-        # fetch, which is most of what the texture costs on llvmpipe. Order: lower flat,
-        # lower textured, upper textured, upper flat, so each pass is at most three draws
+        # fetch, which is most of what the texture costs on llvmpipe. Order: flat, textured,
+        # so a pass is at most two draws
         flat = np.zeros(face.n_triangles, bool)
         if face.textured:
             uv = np.asarray(face.uvs)[face.triangles]
             flat = (uv == uv[:, :1]).all(axis=(1, 2))
-        order = [lower & flat, lower & ~flat, ~lower & ~flat, ~lower & flat]
+        # the inside of the mouth (cavity, teeth, tongue) at both ends, so a face whose lips
+        # are closed, where none of it can show, is drawn without it (draw)
+        inside = np.zeros(face.n_vertices, bool)
+        inside[face.groups.get("mouth_interior", [])] = True
+        interior = inside[face.triangles].all(axis=1)
+        order = [flat & interior, flat & ~interior, ~flat & ~interior, ~flat & interior]
         self.index = ctx.buffer(
             np.concatenate([face.triangles[m] for m in order]).astype("i4").tobytes()
         )
         ends = np.cumsum([int(m.sum()) for m in order])
+        #: the triangles of a face with its lips closed: all but the inside of the mouth
+        self.closed_mouth = (int(ends[0]), int(ends[2]))
         self.dynamic = [
             (
                 ctx.buffer(reserve=face.n_vertices * 3 * 4),
@@ -443,7 +442,7 @@ class FaceCanvas:
                 for pos, nrm in self.dynamic
             ]
             self.runs = [
-                [(0, ends[0], fv), (ends[0], ends[2], v), (ends[2], ends[3], fv)]
+                [(0, ends[1], fv), (ends[1], ends[3], v)]
                 for v, fv in zip(self.vaos, self.flat_vaos, strict=True)
             ]
         self.edges = None
@@ -505,31 +504,22 @@ class FaceCanvas:
                 vao.render(self._modes[2], vertices=3 * (hi - lo), first=3 * lo)
 
     def draw(
-        self,
-        frames: list[FaceFrame],
-        out: np.ndarray | None = None,
-        references: list[tuple[FaceFrame | None, tuple[int, int, int, int]]] | None = None,
+        self, frames: list[FaceFrame], out: np.ndarray | None = None, *, lips_closed: bool = False
     ) -> np.ndarray:
         """Draw one frame per face (left to right) into ``out`` (default: a buffer reused by the
         next draw); returns the (H, W, 3) uint8 frame, top row first.
 
-        ``references``: per face, a second frame (the mouth at rest) and a box ``(x0, y0, x1,
-        y1)`` in that face's pixels: the second frame's lower face, drawn alone before the face
-        and only inside the box, is left in :attr:`regions` (the mosaic's reference, see
-        :func:`renderer.mosaic.pixelate_reference`). A second frame of None stands for the
-        face's own: the box is then read from its drawing once the lower face is drawn, which
-        gives the same pixels without drawing it twice.
+        ``lips_closed``: every frame has its jaw and lip FAPs at zero (the mouth at rest the
+        mosaic shows), so the inside of the mouth (the ``mouth_interior`` group) is hidden
+        behind the lips and not drawn: the same pixels, a thousand triangles fewer.
         """
         ctx, size = self.ctx, self.size
-        solid, blended, triangles = self._modes
+        solid = self._modes[0]
         out = self.buffer if out is None else out
         if self.texture is not None:  # another canvas of this context may have bound its own
             self.texture.use(location=0)
-        self.regions: list[np.ndarray | None] = [None] * len(frames)
+        first, end = self.closed_mouth if lips_closed else (0, self.rig.face.n_triangles)
         for k, frame in enumerate(frames):
-            reference, box = references[k] if references is not None else (frame, None)
-            if reference is not None and box is not None:
-                self.regions[k] = self._draw_box(k, reference, box)
             positions, normals = self.rig.posed(frame)
             self.dynamic[k][0].write(positions)
             self.dynamic[k][1].write(normals)
@@ -537,13 +527,7 @@ class FaceCanvas:
             ctx.enable_only(solid)
             ctx.viewport = (0, 0, size, size)
             self.fbo.clear(*self.background, 1.0)
-            n = self.rig.face.n_triangles
-            if reference is None and box is not None:  # the box's reference: the lower face
-                self._render(k, 0, self.n_lower)
-                self.regions[k] = self._read_box(box)
-                self._render(k, self.n_lower, n)
-            else:
-                self._render(k, 0, n)
+            self._render(k, first, end)
             if self.edges is not None:
                 self._overdraw_edges(k, positions, self.edges)
             if self.samples:
@@ -551,39 +535,6 @@ class FaceCanvas:
             self.resolved.read_into(self.face_buffer, components=3)
             out[:, k * size : (k + 1) * size] = self.face_buffer[::-1]
         return out
-
-    def _draw_box(
-        self, k: int, frame: FaceFrame, box: tuple[int, int, int, int]
-    ) -> np.ndarray | None:
-        """Draw the lower face of ``frame`` inside ``box`` only (with face ``k``'s buffers);
-        the box's pixels."""
-        if box[2] <= box[0] or box[3] <= box[1]:
-            return None
-        positions, normals = self.rig.posed(frame)
-        self.dynamic[k][0].write(positions)
-        self.dynamic[k][1].write(normals)
-        self.fbo.use()
-        self.ctx.enable_only(self._modes[0])
-        self.ctx.viewport = (0, 0, self.size, self.size)
-        self.ctx.scissor = self._gl_box(box)
-        self.fbo.clear(*self.background, 1.0, viewport=self.ctx.scissor)
-        self._render(k, 0, self.n_lower)
-        self.ctx.scissor = None
-        return self._read_box(box)
-
-    def _gl_box(self, box: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
-        x0, y0, x1, y1 = box
-        return x0, self.size - y1, x1 - x0, y1 - y0  # GL rows run bottom-up
-
-    def _read_box(self, box: tuple[int, int, int, int]) -> np.ndarray | None:
-        """The pixels of ``box`` as drawn so far, top row first (None for an empty box)."""
-        x0, y0, x1, y1 = box
-        if x1 <= x0 or y1 <= y0:
-            return None
-        if self.samples:
-            self.ctx.copy_framebuffer(self.resolved, self.fbo)
-        data = self.resolved.read(viewport=self._gl_box(box), components=3)
-        return np.frombuffer(data, np.uint8).reshape(y1 - y0, x1 - x0, 3)[::-1]
 
     def _overdraw_edges(self, k: int, positions: np.ndarray, table: EdgeTable) -> None:
         solid, blended, triangles = self._modes

@@ -27,6 +27,8 @@ import numpy as np
 
 from renderer import headparts as hp
 from renderer.face import OPTIONAL_GROUPS, REQUIRED_GROUPS, Face, fapu_from_feature_points
+from renderer.mouthparts import mouth_parts, oral_cavity
+from renderer.neckear import ear, neck_and_shoulders
 from renderer.sdf import capsule, ellipsoid, ray_surface, smax, smin
 
 #: Ray origin inside the head: the skin is star-shaped about it.
@@ -38,6 +40,7 @@ EYE_RADIUS = 12.0
 COVER_RADIUS = EYE_RADIUS + 0.45  # the skin over the eyeball, under the lids (radius + 0.8, 1)
 PIVOT_71 = (0.0, -40.0, -18.0)  # top of the spine: head rotation pivot
 JAW_HINGE = (0.0, -4.0, 10.0)  # temporo-mandibular joint axis (parallel to x)
+EAR_POSITION = np.array([66.0, 2.0, -4.0])  # where the left ear meets the head
 N_AZIMUTH, N_ELEVATION = 64, 52
 
 
@@ -133,9 +136,19 @@ def builtin_face(look: str = "textured") -> Face:
                     centre, radius, EYE_RADIUS + 0.25, upper=upper, side=side, lashes=textured
                 )
             )
-        parts.append(hp.ear(np.array([sx * 73.0, 2.0, -4.0]), sx))
-    parts.append(hp.mouth_cavity(MOUTH_Y))
-    parts.append(hp.neck_and_shoulders())
+        parts.append(ear(np.array([sx, 1.0, 1.0]) * EAR_POSITION, sx, textured=textured))
+    skin = parts[0]
+    loop = skin.groups["mouth_loop"]
+    parts.append(
+        oral_cavity(
+            skin.vertices[loop],
+            skin.layers["lower_lip"][loop] > 0.5,
+            skin.layers["jaw"][loop],
+            MOUTH_Y,
+        )
+    )
+    parts.append(mouth_parts(MOUTH_Y))
+    parts.append(neck_and_shoulders())
     texture = None
     if textured:
         from renderer.skintexture import cached_skin_texture, white_uv

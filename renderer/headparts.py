@@ -20,6 +20,8 @@ LIPS = np.array([0.66, 0.34, 0.34])
 HAIR = np.array([0.20, 0.14, 0.10])
 BROW = np.array([0.26, 0.18, 0.13])
 LAYER_DEFAULTS = {"head": 1.0}
+#: Jaw weights below this are cut (the rest rescaled to stay continuous).
+JAW_WEIGHT_FLOOR = 0.06
 
 
 @dataclass
@@ -257,13 +259,20 @@ def skin_grid(
     el_v = np.concatenate([E.ravel(), [np.pi / 2], np.full(len(slit), el[m])])
     az_v = np.concatenate([A.ravel(), [0.0], A.ravel()[slit]])
     side = smoothstep(half_width - 3, half_width + 10, np.abs(verts[:, 0]))
-    tt = np.clip((el_v - el[m]) / np.radians(12.0), -1, 1)
+    tt = np.clip((el_v - el[m]) / np.radians(9.0), -1, 1)
     lateral = 0.5 * (1 - np.sin(np.pi / 2 * tt))
     span = (el_v < el[m]).astype(float)
     span[lower_copy] = 1.0
-    jaw = ((1 - side) * span + side * lateral) * smoothstep(
-        np.radians(100), np.radians(70), np.abs(az_v)
+    # the skin under the chin stretches to the throat, which stays with the neck: an under-
+    # jaw turning rigidly with the chin swung back into the neck as the jaw opened
+    jaw = (
+        ((1 - side) * span + side * lateral)
+        * smoothstep(np.radians(100), np.radians(70), np.abs(az_v))
+        * smoothstep(np.radians(-84.0), np.radians(-60.0), el_v)
     )
+    # no tail of tiny weights: skin that would move by a hundredth of a millimetre stays, so
+    # the region the jaw moves, which the mouth mosaic covers, ends below the cheekbones
+    jaw = np.clip((jaw - JAW_WEIGHT_FLOOR) / (1.0 - JAW_WEIGHT_FLOOR), 0.0, 1.0)
     lower_lip = (el_v < el[m]).astype(float)
     lower_lip[lower_copy] = 1.0
     upper_lip = 1.0 - lower_lip
@@ -296,12 +305,33 @@ def skin_grid(
     fps["8.1"] = near((0.0, mouth_y + 6.4), front)
     fps["8.2"] = near((0.0, mouth_y - 10.0), front)
     fps["2.10"] = near((0.0, -93.0), front)
-    fps["2.1"] = near((0.0, -108.0), front)
+    # the chin's lowest point in front (MPEG-4 2.1), not the skin under the jaw: the jaw
+    # turns so that this point drops by FAP 3 x MNS0 / 1024, and a point under the jaw, near
+    # the hinge's depth, had turned it twice as far
+    chin = front[verts[front, 2] > 60.0]
+    fps["2.1"] = chin[[int(np.argmin(np.abs(verts[chin, 0]) * 10.0 + verts[chin, 1]))]]
     fps["9.15"] = near((0.0, -37.0), front)
     fps["9.3"] = front[[int(np.argmax(verts[front, 2]))]]
     groups = {f"fp:{k}": v for k, v in fps.items()}
+    # the lips' inner edge as a loop, for the cavity behind it (renderer.mouthparts): the
+    # upper margin from corner to corner, then the lower margin back (the slit's columns
+    # at the back of the head, where x is small too, are not the mouth)
+    lips = verts[slit, 2] > 40.0
+    upper_edge, lower_edge = slit[lips], lower_copy[lips]
+    corners = [int(upper_edge[0]) - 1, int(upper_edge[-1]) + 1]
+    groups["mouth_loop"] = np.concatenate(
+        [[corners[0]], upper_edge, [corners[1]], lower_edge[::-1]]
+    )
     layers = {"jaw": jaw, "lower_lip": lower_lip, "upper_lip": upper_lip}
-    return Part(verts, tris, colors, groups, layers, uvs)
+    skin = Part(verts, tris, colors, groups, layers, uvs)
+    if not textured:
+        return skin
+    from renderer.uvseam import split_seams
+
+    columns = np.concatenate(
+        [np.arange(n_elevation * n_azimuth) % n_azimuth, [-1], slit % n_azimuth]
+    )
+    return split_seams(skin, columns, n_azimuth, pole)
 
 
 def _lathe(polar: np.ndarray, colours: np.ndarray, n_seg: int) -> tuple[np.ndarray, ...]:
@@ -464,57 +494,3 @@ def ellipsoid_mesh(centre, radii, colour, n_rings: int = 12, n_seg: int = 24) ->
     v, t, _ = _lathe(polar, np.zeros((n_rings, 4)), n_seg)
     verts = np.asarray(centre) + v[:, [0, 1, 2]] * np.asarray(radii)
     return Part(verts, t, np.tile(np.asarray(colour, dtype=float), (len(verts), 1)))
-
-
-def ear(pos: np.ndarray, sx: float) -> Part:
-    """A simple ear: a flattened ellipsoid turned slightly forward."""
-    part = ellipsoid_mesh((0, 0, 0), (5.0, 29.0, 16.0), np.append(SKIN * 0.95, 0.15), 8, 14)
-    ang = np.radians(-25.0 * sx)
-    rot = np.array([[np.cos(ang), 0, np.sin(ang)], [0, 1, 0], [-np.sin(ang), 0, np.cos(ang)]])
-    part.vertices = part.vertices @ rot.T + pos
-    return part
-
-
-def mouth_cavity(mouth_y: float) -> Part:
-    """Dark oral cavity behind the lips, with upper teeth and jaw-borne lower teeth."""
-    cav = ellipsoid_mesh((0, mouth_y - 5, 70), (22, 16, 17), (0.20, 0.06, 0.06, 0.05), 8, 16)
-    cav.layers["jaw"] = smoothstep(mouth_y + 2, mouth_y - 8, cav.vertices[:, 1])
-    parts = [cav]
-    for upper in (True, False):
-        ang = np.radians(np.linspace(-62, 62, 15))
-        ys = (
-            np.array([mouth_y + 7.5, mouth_y + 0.6])
-            if upper
-            else np.array([mouth_y - 0.6, mouth_y - 6.5])
-        )
-        rad = 19.5 if upper else 18.5
-        Y, A = np.meshgrid(ys, ang, indexing="ij")
-        v = np.stack([rad * np.sin(A), Y, 68.0 + rad * np.cos(A)], -1).reshape(-1, 3)
-        tooth = Part(
-            v,
-            _grid_triangles(2, len(ang), wrap=False)[:, ::-1],
-            np.tile([0.90, 0.88, 0.80, 0.4], (len(v), 1)),
-        )
-        if not upper:
-            tooth.layers["jaw"] = np.ones(len(v))
-        parts.append(tooth)
-    mouth = merge(parts)
-    mouth.groups["hidden_outline"] = np.arange(len(mouth.vertices))  # behind the lips
-    return mouth
-
-
-def neck_and_shoulders() -> Part:
-    """Neck (blending from still at the base to following the head) and shoulders (still)."""
-    ys = np.linspace(-215, -55, 8)
-    ang = np.linspace(0, 2 * np.pi, 28, endpoint=False)
-    Y, A = np.meshgrid(ys, ang, indexing="ij")
-    v = np.stack([50 * np.sin(A), Y, -6 + 54 * np.cos(A)], -1).reshape(-1, 3)
-    neck = Part(
-        v,
-        _grid_triangles(len(ys), len(ang), wrap=True),
-        np.tile(np.append(SKIN * 0.92, 0.12), (len(v), 1)),
-        layers={"head": smoothstep(-160, -70, v[:, 1])},
-    )
-    torso = ellipsoid_mesh((0, -224, -10), (190, 70, 95), (0.27, 0.31, 0.40, 0.05), 10, 24)
-    torso.layers["head"] = np.zeros(len(torso.vertices))
-    return merge([neck, torso])

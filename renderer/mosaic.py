@@ -33,20 +33,37 @@ import numpy as np
 
 
 def mouth_box(
-    points: np.ndarray, width: int, height: int, *, block: int, margin: float
+    points: np.ndarray,
+    width: int,
+    height: int,
+    *,
+    block: int,
+    margin: float,
+    cover: np.ndarray | None = None,
+    pad: float = 0.0,
 ) -> tuple[int, int, int, int]:
     """Mosaic box ``(x0, y0, x1, y1)`` (pixels, end-exclusive) around projected points.
 
-    The box is the points' bounding box grown by ``margin`` times its larger side, snapped
-    outwards to multiples of ``block`` (so every block is whole) and clipped to the image.
+    The box is the points' bounding box grown by ``margin`` times its larger side, and, with
+    ``cover``, also holds those points' bounding box grown by ``pad`` pixels (the region the
+    clip's mouth moves through, :mod:`renderer.mouthregion`); it is snapped outwards to
+    multiples of ``block`` (so every block is whole) and clipped to the image.
+
+    >>> mouth_box(np.array([[10.0, 10.0], [20.0, 14.0]]), 64, 64, block=8, margin=0.0,
+    ...           cover=np.array([[12.0, 30.0]]), pad=1.0)
+    (8, 8, 24, 32)
     """
     lo = points.min(axis=0)
     hi = points.max(axis=0)
     grow = margin * float(np.max(hi - lo))
-    x0 = int(np.floor((lo[0] - grow) / block)) * block
-    y0 = int(np.floor((lo[1] - grow) / block)) * block
-    x1 = int(np.ceil((hi[0] + grow) / block)) * block
-    y1 = int(np.ceil((hi[1] + grow) / block)) * block
+    lo, hi = lo - grow, hi + grow
+    if cover is not None and len(cover):
+        lo = np.minimum(lo, cover.min(axis=0) - pad)
+        hi = np.maximum(hi, cover.max(axis=0) + pad)
+    x0 = int(np.floor(lo[0] / block)) * block
+    y0 = int(np.floor(lo[1] / block)) * block
+    x1 = int(np.ceil(hi[0] / block)) * block
+    y1 = int(np.ceil(hi[1] / block)) * block
     x0, y0 = min(max(x0, 0), width), min(max(y0, 0), height)
     x1 = min(max(x1, x0), x0 + (width - x0) // block * block)
     y1 = min(max(y1, y0), y0 + (height - y0) // block * block)
@@ -113,6 +130,94 @@ def pixelate_reference(
         where=face.reshape(ny, block, nx, block),
     )
     return image
+
+
+def pixelate_face(
+    image: np.ndarray,
+    box: tuple[int, int, int, int],
+    block: int,
+    background: np.ndarray,
+    cells: np.ndarray | None = None,
+) -> np.ndarray:
+    """Fill each ``block`` cell of ``box`` in ``image`` with the mean colour of its face
+    pixels, on those pixels only (background pixels are neither averaged in nor painted).
+
+    ``cells`` (rows, columns of cells) picks the cells to fill (default: all). The frame the
+    renderer pixelates is the face with its mouth at rest (:mod:`renderer.pipeline`), so this
+    is :func:`pixelate_reference` with the image as its own reference. Works in place and
+    returns ``image``.
+
+    >>> bg = np.array([9, 9, 9], np.uint8)
+    >>> img = np.full((4, 8, 3), 9, np.uint8); img[:, :2] = [[[100]], [[200]], [[100]], [[200]]]
+    >>> img[:, 4:6] = 50
+    >>> out = pixelate_face(img, (0, 0, 8, 4), 4, bg, cells=np.array([[True, False]]))
+    >>> int(out[0, 0, 0]), int(out[1, 1, 0]), int(out[0, 3, 0]), int(out[0, 4, 0])
+    (150, 150, 9, 50)
+    """
+    x0, y0, x1, y1 = box
+    if x1 <= x0 or y1 <= y0:
+        return image
+    ny, nx = (y1 - y0) // block, (x1 - x0) // block
+    region = image[y0:y1, x0:x1]
+    face = _face_mask(region, background)
+    mean, _ = _face_means(region, face, block, background)
+    where = face.reshape(ny, block, nx, block)
+    if cells is not None:
+        where = where & cells[:, None, :, None]
+    # whole pixels as 3-byte items, as in pixelate_reference
+    colours = np.ascontiguousarray(mean, dtype=np.uint8).view("V3")[..., 0]
+    np.copyto(
+        region.view("V3")[..., 0].reshape(ny, block, nx, block),
+        colours[:, None, :, None],
+        where=where,
+    )
+    return image
+
+
+def cells_meeting(
+    polygon: np.ndarray, box: tuple[int, int, int, int], block: int, pad: float = 0.0
+) -> np.ndarray:
+    """Which ``block`` cells of ``box`` (rows, columns) meet the convex ``polygon`` (k, 2)
+    (pixels, any order of its corners) grown by ``pad`` pixels.
+
+    Separating axes (Gottschalk, Lin & Manocha, "OBBTree", SIGGRAPH 1996): a cell and a
+    convex polygon are apart exactly when their projections part on one of the cell's two
+    axes or on one of the polygon's edge normals.
+
+    >>> square = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]])
+    >>> cells_meeting(square, (0, 0, 24, 8), 8).astype(int).tolist()
+    [[1, 1, 0]]
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    x0, y0, x1, y1 = box
+    ny, nx = (y1 - y0) // block, (x1 - x0) // block
+    if ny == 0 or nx == 0 or len(polygon) == 0:
+        return np.zeros((ny, nx), bool)
+    try:
+        corners = polygon[ConvexHull(polygon).vertices]
+    except QhullError:  # flat or a point: its bounding box's corners
+        lo, hi = polygon.min(axis=0), polygon.max(axis=0)
+        corners = np.array([lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]])
+    ys, xs = np.mgrid[0:ny, 0:nx]
+    lo = np.stack([x0 + xs * block - pad, y0 + ys * block - pad], -1).reshape(-1, 2)
+    hi = lo + block + 2 * pad
+    meets = (
+        (lo[:, 0] <= corners[:, 0].max())
+        & (hi[:, 0] >= corners[:, 0].min())
+        & (lo[:, 1] <= corners[:, 1].max())
+        & (hi[:, 1] >= corners[:, 1].min())
+    )
+    edges = np.roll(corners, -1, axis=0) - corners
+    normals = np.column_stack([-edges[:, 1], edges[:, 0]])
+    on_poly = corners @ normals.T  # (k, edges)
+    p_lo, p_hi = on_poly.min(axis=0), on_poly.max(axis=0)
+    cell = np.stack(
+        [lo, np.column_stack([hi[:, 0], lo[:, 1]]), hi, np.column_stack([lo[:, 0], hi[:, 1]])], 1
+    )
+    on_cell = cell @ normals.T  # (cells, 4, edges)
+    apart = (on_cell.max(axis=1) < p_lo) | (on_cell.min(axis=1) > p_hi)
+    return (meets & ~apart.any(axis=1)).reshape(ny, nx)
 
 
 def _face_mask(pixels: np.ndarray, background: np.ndarray) -> np.ndarray:

@@ -17,7 +17,7 @@ import os
 from collections import deque
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from multiprocessing import shared_memory
 from typing import Any
@@ -28,19 +28,23 @@ from app.errors import InputError
 from app.stimuli.track import MotionTrack
 from renderer import defaults
 from renderer.avatar import AvatarFace, AvatarRig
-from renderer.deform import MOUTH_FAPS_INDEX, Rig
+from renderer.deform import MOUTH_FAPS_INDEX, FaceFrame, Rig
 from renderer.face import MOUTH_FEATURE_POINTS, Face
 from renderer.gl import FaceCanvas, project
-from renderer.mosaic import mouth_box, pixelate_reference
+from renderer.mosaic import cells_meeting, mouth_box, pixelate_face
+from renderer.mouthregion import MotionEnvelope, motion_envelope
 
 
 @dataclass
 class RenderedFrame:
-    """One output frame and, per face (left to right), its mosaic box in frame pixels."""
+    """One output frame and, per face (left to right), its mosaic: the box in frame pixels
+    and which of the box's cells are blocks (rows, columns of cells; the others are the
+    frame as drawn)."""
 
     index: int
     image: np.ndarray  # (H, W, 3) uint8, reused between frames: copy to keep
     boxes: list[tuple[int, int, int, int]]
+    cells: list[np.ndarray] = field(default_factory=list)
 
 
 @lru_cache(maxsize=4)
@@ -67,9 +71,9 @@ def align_tracks(tracks: list[MotionTrack], fps: float | None) -> list[MotionTra
     return [t if t.n_frames == n else t.fit_length(n) for t in out]
 
 
-#: How far below the lower lip at rest the mosaic reaches, in MNS0: the lower lip of a jaw
-#: opened by FAP 3 = 512 (half an MNS0) stays under it.
-JAW_ALLOWANCE = 0.5
+#: Pixels the mosaic reaches past the region the mouth moves through: the edge overdraw's
+#: strip (one pixel outside a silhouette, :mod:`renderer.edges`) and a pixel of rounding.
+ENVELOPE_PAD = 2.0
 
 #: Fewer frames than this are drawn in-process: starting a worker costs about a second.
 PARALLEL_MIN_FRAMES = 240
@@ -77,7 +81,13 @@ CHUNK_FRAMES = 6
 
 
 class _Drawer:
-    """Draws frames of fixed tracks: deform, GL draw, mouth mosaic."""
+    """Draws frames of fixed tracks: deform, GL draw, mouth mosaic.
+
+    With the mosaic, each face is drawn with its mouth at rest (the jaw and lip FAPs at zero)
+    and the box covers everything the clip's mouth moves (:mod:`renderer.mouthregion`): the
+    pixels outside it are those of the moving mouth's drawing, and the blocks inside take their
+    colours from the mouth at rest, so nothing of the mouth's motion shows, one drawing a face.
+    """
 
     def __init__(
         self,
@@ -89,48 +99,59 @@ class _Drawer:
         background: tuple[float, float, float],
         mosaic_block: int | None,
         mosaic_margin: float,
+        envelope: MotionEnvelope | None = None,
     ) -> None:
         self.rig = rig_for(face)
         self.dense, self.size = dense, size
         self.mosaic_block, self.mosaic_margin = mosaic_block, mosaic_margin
+        self.envelope = envelope
+        if mosaic_block and envelope is None:
+            self.envelope = motion_envelope(self.rig, dense)
         self.canvas = FaceCanvas(
             self.rig, size, len(dense), antialias=antialias, samples=samples, background=background
         )
 
     def draw(self, i: int, out: np.ndarray | None = None) -> RenderedFrame:
         rig, size, block = self.rig, self.size, self.mosaic_block
-        deformed = [rig.deform(d[i]) for d in self.dense]
         if not block:
+            deformed = [rig.deform(d[i]) for d in self.dense]
             return RenderedFrame(i, self.canvas.draw(deformed, out), [])
-        # the mosaic comes from the mouth at rest: its box and its colours (mosaic.py); a
-        # mouth already at rest is read from the face's own drawing (None)
-        references = []
-        for d, frame in zip(self.dense, deformed, strict=True):
-            moving = d[i][MOUTH_FAPS_INDEX].any()
-            rest = rig.mouth_at_rest(frame, d[i]) if moving else frame
-            box = mouth_box(
-                self._mouth_pixels(rest), size, size, block=block, margin=self.mosaic_margin
-            )
-            references.append((rest if moving else None, box))
-        image = self.canvas.draw(deformed, out, references)
-        boxes = []
-        for k, (_, (x0, y0, x1, y1)) in enumerate(references):
+        at_rest = []
+        for d in self.dense:
+            faps = d[i].copy()
+            faps[MOUTH_FAPS_INDEX] = 0.0
+            at_rest.append(rig.deform(faps))
+        image = self.canvas.draw(at_rest, out, lips_closed=True)
+        boxes, masks = [], []
+        for k, frame in enumerate(at_rest):
+            (x0, y0, x1, y1), cells = self.mosaic_cells(frame)
             box = (x0 + k * size, y0, x1 + k * size, y1)
-            region = self.canvas.regions[k]
-            if region is not None:
-                pixelate_reference(image, region, box, block, self.canvas.background_u8)
+            pixelate_face(image, box, block, self.canvas.background_u8, cells)
             boxes.append(box)
-        return RenderedFrame(i, image, boxes)
+            masks.append(cells)
+        return RenderedFrame(i, image, boxes, masks)
 
-    def _mouth_pixels(self, frame) -> np.ndarray:
-        """Projected mouth points of a mouth-at-rest frame, and the lower lip as far down as an
-        open jaw takes it (``JAW_ALLOWANCE``), so the box covers an open mouth without
-        growing with it."""
-        rig = self.rig
-        pts = rig.world_points(frame, MOUTH_FEATURE_POINTS)
-        down = frame.head[:3, :3] @ np.array([0.0, -JAW_ALLOWANCE * rig.face.fapu["MNS0"], 0.0])
-        lower = rig.world_points(frame, ("2.3", "8.2", "2.8", "2.9")) + down
-        return project(self.canvas.vp, np.vstack([pts, lower]), self.size)
+    def mosaic_cells(self, frame: FaceFrame) -> tuple[tuple[int, int, int, int], np.ndarray]:
+        """The mosaic in a face's pixels: its box and its cells (rows, columns; True for a
+        block). The blocks are the cells of the mouth at rest grown by the margin, and the
+        cells that meet the region the clip's mouth moves through (:attr:`envelope`, posed
+        as ``frame``, grown by :data:`ENVELOPE_PAD`): a tilted or turned head's mosaic follows
+        its lower face instead of filling a box up to the eyes."""
+        assert self.envelope is not None and self.mosaic_block
+        vp, size, block = self.canvas.vp, self.size, self.mosaic_block
+        mouth = project(vp, self.rig.world_points(frame, MOUTH_FEATURE_POINTS), size)
+        moves = project(vp, self.envelope.world(frame), size)
+        margin = self.mosaic_margin
+        box = mouth_box(
+            mouth, size, size, block=block, margin=margin, cover=moves, pad=ENVELOPE_PAD
+        )
+        lips = mouth_box(mouth, size, size, block=block, margin=margin)
+        x0, y0 = box[:2]
+        cells = cells_meeting(moves, box, block, ENVELOPE_PAD)
+        rows = slice((lips[1] - y0) // block, (lips[3] - y0) // block)
+        cols = slice((lips[0] - x0) // block, (lips[2] - x0) // block)
+        cells[rows, cols] = True
+        return box, cells
 
     def release(self) -> None:
         self.canvas.release()
@@ -169,13 +190,14 @@ def _worker_start(args: tuple, ring_name: str, ring_shape: tuple[int, ...]) -> N
     _WORKER["ring"] = np.ndarray(ring_shape, np.uint8, buffer=shm.buf)
 
 
-def _worker_draw(jobs: list[tuple[int, int]]) -> list[tuple[int, int, list]]:
-    """Draw frames ``(index, slot)`` into their ring slots; returns ``(index, slot, boxes)``."""
+def _worker_draw(jobs: list[tuple[int, int]]) -> list[tuple[int, int, list, list]]:
+    """Draw frames ``(index, slot)`` into their ring slots; returns ``(index, slot, boxes,
+    cells)``."""
     drawer, ring = _WORKER["drawer"], _WORKER["ring"]
     out = []
     for i, slot in jobs:
         frame = drawer.draw(i, ring[slot])
-        out.append((i, slot, frame.boxes))
+        out.append((i, slot, frame.boxes, frame.cells))
     return out
 
 
@@ -202,7 +224,19 @@ def render_frames(
     """
     dense = [t.dense() for t in tracks]
     indices = list(frames if frames is not None else range(tracks[0].n_frames))
-    args = (dense, face, size, antialias, samples, background, mosaic_block, mosaic_margin)
+    # the region the mouth moves through, from the whole clip's tracks (frames picks a part)
+    envelope = motion_envelope(rig_for(face), dense) if mosaic_block else None
+    args = (
+        dense,
+        face,
+        size,
+        antialias,
+        samples,
+        background,
+        mosaic_block,
+        mosaic_margin,
+        envelope,
+    )
     if workers > 1 and len(indices) >= PARALLEL_MIN_FRAMES:
         yield from _render_parallel(args, indices, workers, (size, size * len(tracks), 3))
         return
@@ -261,9 +295,9 @@ def _render_parallel(
                 nxt = next(todo, None)
                 if nxt is not None:
                     pending.append(pool.apply_async(_worker_draw, (nxt,)))
-                for i, slot, boxes in done:
+                for i, slot, boxes, cells in done:
                     np.copyto(image, ring[slot])
-                    yield RenderedFrame(i, image, boxes)
+                    yield RenderedFrame(i, image, boxes, cells)
         del ring
     finally:
         shm.close()

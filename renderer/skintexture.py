@@ -144,23 +144,33 @@ def _pores(rng: np.random.Generator, shape: tuple[int, int], per_mm2: float) -> 
 
 
 class _Projected:
-    """Maps in millimetres, sampled on the head by a front (x, y) and a side (z, y) projection
-    blended by the normal, so the pattern keeps its scale around the cheeks."""
+    """Maps in millimetres, sampled on the head by a front (x, y), a side (z, y) and a top
+    (x, z) projection blended by the normal, so the pattern keeps its scale around the cheeks
+    and over the crown (triplanar mapping). Without the top one, the crown, facing up, took
+    the front and side maps edge-on: their patterns ran across it in lines, and a seam ran
+    along its middle where the two met."""
 
     LO = np.array([-130.0, -140.0])  # x (or z) and y of the maps' first texel, mm
 
     def __init__(self, position: np.ndarray, normal: np.ndarray) -> None:
         self.front = (position[..., [1, 0]] - self.LO[::-1]) / _NOISE_MM
         self.side = (position[..., [1, 2]] - self.LO[::-1]) / _NOISE_MM
+        self.top = (position[..., [2, 0]] - self.LO[[0, 0]]) / _NOISE_MM
         self.w_side = smoothstep(0.45, 0.85, np.abs(normal[..., 0]))
+        self.w_top = smoothstep(0.55, 0.85, normal[..., 1])
         self.shape = (int(280 / _NOISE_MM), int(260 / _NOISE_MM))
 
-    def sample(self, front: np.ndarray, side: np.ndarray) -> np.ndarray:
+    def sample(self, front: np.ndarray, side: np.ndarray, top: np.ndarray | None = None):
+        """The maps at each texel (``top`` None: the front map serves on the crown too)."""
         from scipy.ndimage import map_coordinates
 
         a = map_coordinates(front, np.moveaxis(self.front, -1, 0), order=1, mode="grid-wrap")
         b = map_coordinates(side, np.moveaxis(self.side, -1, 0), order=1, mode="grid-wrap")
-        return a * (1 - self.w_side) + b * self.w_side
+        out = a * (1 - self.w_side) + b * self.w_side
+        if top is None:
+            return out
+        c = map_coordinates(top, np.moveaxis(self.top, -1, 0), order=1, mode="grid-wrap")
+        return out * (1 - self.w_top) + c * self.w_top
 
 
 #: Frontal map of the brows: x from :data:`_BROW_X0`, y from :data:`_BROW_Y0`, mm per texel.
@@ -239,9 +249,13 @@ def skin_texture(
     proj = _Projected(pos, normal)
     shape = proj.shape
 
+    # the top maps from their own stream, so the front and side maps stay as they were
+    crown_rng = np.random.default_rng(seed + 1)
+
     def noise(sigma_mm: tuple[float, float]) -> np.ndarray:
         sigma = (sigma_mm[0] / _NOISE_MM, sigma_mm[1] / _NOISE_MM)
-        return proj.sample(_noise_map(rng, shape, sigma), _noise_map(rng, shape, sigma))
+        top = _noise_map(crown_rng, shape, sigma)  # rows z, columns x: hair combed back
+        return proj.sample(_noise_map(rng, shape, sigma), _noise_map(rng, shape, sigma), top)
 
     mottle, blotch = noise((5.0, 5.0)), noise((3.5, 3.5))
     grain = noise((0.45, 0.45))

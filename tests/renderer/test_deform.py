@@ -175,13 +175,43 @@ def test_posed_turns_the_head_about_7_1_and_the_eyes_about_their_centres():
     on_eye = rotation("y", 0.1) @ (rig.v0[eye] - centre) + centre
     np.testing.assert_allclose(pos[eye], rotation("y", 0.2) @ (on_eye - pivot) + pivot, atol=1e-3)
     np.testing.assert_allclose(np.linalg.norm(nrm, axis=1), 1.0, atol=1e-5)
-    # down the neck the turn fades in with the head weight
+    # down the neck each vertex turns by its head weight's share of the angle: it bends
     neck = int(np.argmin(np.abs(w - 0.5)))
     assert 0.2 < w[neck] < 0.8
-    turned = rotation("y", 0.2) @ (rig.v0[neck] - pivot) + pivot
-    np.testing.assert_allclose(
-        pos[neck], rig.v0[neck] + w[neck] * (turned - rig.v0[neck]), atol=1e-3
-    )
+    turned = rotation("y", 0.2 * w[neck]) @ (rig.v0[neck] - pivot) + pivot
+    np.testing.assert_allclose(pos[neck], turned, atol=1e-3)
+    np.testing.assert_allclose(nrm[neck], rotation("y", 0.2 * w[neck]) @ rig.n0[neck], atol=1e-5)
+
+
+def test_a_rolled_head_bends_its_neck():
+    # rolled 20 degrees, the neck's rings turn more the higher they are: the neck leans with
+    # the head (a blend of positions kept every ring upright, a broken neck under the head)
+    from renderer.deform import rotation
+
+    rig = Rig(builtin_face())
+    faps = np.zeros(68)
+    faps[50 - 1] = np.radians(20.0) / 1e-5
+    pos, _ = rig.posed(rig.deform(faps))
+    w = rig.weights["head"]
+    blend = np.flatnonzero((w > 0.05) & (w < 0.95))
+    # each ring's axis: the line through the centres of its vertices at one weight
+    heights = np.unique(np.round(w[blend], 3))
+    tilt = []
+    for h in heights[:: max(1, len(heights) // 6)]:
+        ring = blend[np.round(w[blend], 3) == h]
+        if len(ring) < 8:
+            continue
+        a, b = pos[ring], rig.v0[ring]
+        # the ring's plane normal: least-squares plane through the posed ring
+        n_posed = np.linalg.svd(a - a.mean(axis=0))[2][-1]
+        n_rest = np.linalg.svd(b - b.mean(axis=0))[2][-1]
+        angle = np.degrees(np.arccos(min(1.0, abs(float(n_posed @ n_rest)))))
+        # a ring turned by its share of the roll about z tilts its plane by this much
+        share = rotation("z", np.radians(20.0 * h)) @ n_rest
+        expected = np.degrees(np.arccos(min(1.0, abs(float(share @ n_rest)))))
+        tilt.append(angle)
+        assert angle == pytest.approx(expected, abs=0.5)
+    assert len(tilt) >= 3 and tilt == sorted(tilt) and tilt[-1] > 8.0
 
 
 _MOVING = (

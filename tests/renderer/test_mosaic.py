@@ -81,3 +81,29 @@ def test_pixelate_reference_is_the_mean_face_colour_of_the_reference_per_cell(
     reference[:block] = background  # a row of cells with no reference face pixel
     expected = _reference_mosaic_by_cells(image, reference, box, block, background)
     assert np.array_equal(pixelate_reference(image, reference, box, block, background), expected)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 2**31),
+    block=st.sampled_from([4, 8, 16]),
+    pad=st.sampled_from([0.0, 2.0]),
+)
+def test_cells_meeting_misses_no_cell_the_polygon_reaches(seed, block, pad):
+    from renderer.mosaic import cells_meeting
+
+    rng = np.random.default_rng(seed)
+    polygon = rng.uniform(0, 96, (int(rng.integers(3, 12)), 2))
+    box = (0, 0, 96, 96)
+    cells = cells_meeting(polygon, box, block, pad)
+    # a dense sampling of the polygon (convex combinations of its corners), grown by pad
+    w = rng.dirichlet(np.ones(len(polygon)), 4000)
+    inside = w @ polygon
+    for dx, dy in ((0, 0), (pad, 0), (-pad, 0), (0, pad), (0, -pad)):
+        p = np.clip(inside + [dx, dy], 0, 95.999)
+        assert cells[(p[:, 1] // block).astype(int), (p[:, 0] // block).astype(int)].all()
+    # and nothing far from it
+    lo, hi = polygon.min(axis=0) - pad - block, polygon.max(axis=0) + pad + block
+    ys, xs = np.nonzero(cells)
+    assert (xs * block >= lo[0] - block).all() and ((xs + 1) * block <= hi[0] + block).all()
+    assert (ys * block >= lo[1] - block).all() and ((ys + 1) * block <= hi[1] + block).all()
