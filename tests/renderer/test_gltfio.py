@@ -216,7 +216,8 @@ def _matched(ref, scene):
     names = sorted(ref.targets)
     r = np.concatenate([ref.targets[k][0] for k in names], axis=1)
     s = np.concatenate([scene.targets[k][0] for k in names], axis=1)
-    dist, idx = cKDTree(ref.vertices).query(scene.vertices, k=8)
+    # k covers the crown pole, one vertex per texture column (renderer/uvseam.py)
+    dist, idx = cKDTree(ref.vertices).query(scene.vertices, k=96)
     cost = (
         np.abs(s[:, None] - r[idx]).max(axis=2)
         + np.abs(scene.normals[:, None] - ref.normals[idx]).max(axis=2)
