@@ -2,7 +2,7 @@
 
 A built-in parametric head (or a bring-your-own OBJ + feature-point file) is deformed by the
 FAPs of each frame, drawn headless with OpenGL (moderngl, EGL), its mouth hidden by a mosaic,
-and encoded as a browser-playable H.264/AAC MP4. No Flask here; see docs/renderer.md.
+and encoded as a browser-playable H.264/AAC MP4. No Flask here; see docs/reference/renderer.md.
 """
 
 from renderer.api import (

@@ -45,7 +45,8 @@ class RenderSettings:
     samples : multisample anti-aliasing samples for ``antialias="msaa"`` (2, 4 or 8).
     fps : output frame rate; None takes the (first) track's.
     face : a face JSON file (bring your own face) or a glTF 2.0 / VRM avatar with ARKit
-        blendshapes (``.glb``, ``.gltf``, ``.vrm``; see docs/renderer.md); None = built-in head.
+        blendshapes (``.glb``, ``.gltf``, ``.vrm``; see docs/reference/renderer.md); None = built-in
+        head.
     background : RGB in 0..1.
     look : the built-in head's look: ``"textured"`` (skin texture, strand brows, eyelashes;
         the default) or ``"plain"`` (per-vertex colour, the head before the texture); not

@@ -13,7 +13,7 @@ Names are matched without regard to case. Blendshapes: the morph target names (`
 ``JawOpen`` or a prefixed ``blendShape1.jawOpen``). Bones: the VRM humanoid (0.x or 1.0), or
 the node names. A sidecar ``<file stem>.avatar.json`` beside the avatar (or the same object
 under ``extras.facepair`` of the glTF root) renames either and may place MPEG-4 feature
-points (see docs/renderer.md, "Avatars")::
+points (see docs/reference/renderer.md, "Avatars")::
 
     {"blendshapes": {"JawOpen": "mouth_open"}, "bones": {"head": "J_Head"},
      "feature_points": {"2.2": 812, "3.5": [0.03, 1.52, 0.09]}, "groups": {...}}
@@ -349,7 +349,7 @@ def load_avatar(path: str | Path) -> AvatarFace:
     if lacking:
         raise InputError(
             "missing " + "; ".join(lacking) + " (rename them in "
-            f"{path.stem}.avatar.json, see docs/renderer.md)",
+            f"{path.stem}.avatar.json, see docs/reference/renderer.md)",
             path=path,
         )
     targets = {k: (dp.astype(np.float32), dn.astype(np.float32)) for k, (dp, dn) in shapes.items()}

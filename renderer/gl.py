@@ -271,7 +271,7 @@ def device_name() -> str:
 
     EGL picks the device; set ``GLCONTEXT_DEVICE_INDEX`` (read by moderngl's glcontext when it
     makes the context, and inherited by the worker processes) to choose another one of the
-    machine's EGL devices (0 is the first; see docs/renderer.md, "On a GPU").
+    machine's EGL devices (0 is the first; see docs/reference/renderer.md, "On a GPU").
     """
     return str(context().info["GL_RENDERER"])
 

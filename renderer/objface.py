@@ -1,6 +1,6 @@
 """Bring your own face: a Wavefront OBJ mesh plus a JSON file of MPEG-4 feature points.
 
-The JSON file (format ``facepair-face/1``; documented in docs/renderer.md)::
+The JSON file (format ``facepair-face/1``; documented in docs/reference/renderer.md)::
 
     {
       "format": "facepair-face/1",

@@ -1,4 +1,4 @@
-"""The import arrows of docs/architecture.md, read from the source with ``ast``.
+"""The import arrows of docs/developer/architecture.md, read from the source with ``ast``.
 
 The pure packages (``app.stimuli``, ``app.trials``, ``app.analysis``, ``renderer``) import
 neither a web framework nor the web layer; the web layer never imports moderngl or the GL

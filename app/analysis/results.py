@@ -5,7 +5,7 @@ The layout: ``{"clips": {CLIP: SECTION}, "pooled": SECTION,
 "participants": {ID: {...}}}`` plus ``"conditions"``, ``"input"`` (source, votes, skipped bad
 rows) and ``"options"`` (how undecided votes were treated, bootstrap settings). A SECTION holds
 ballots, undecided, confusion, scores, paired_t, agreement, sign_tests and scale; see
-docs/analysis.md for every field. The result is plain JSON (NaN written as null).
+docs/reference/analysis.md for every field. The result is plain JSON (NaN written as null).
 """
 
 from __future__ import annotations

@@ -196,7 +196,7 @@ def _marker_options(fn):
                 "--constants",
                 "constants_path",
                 type=click.Path(dir_okay=False),
-                help="JSON of marker constants (kp, ky, apexes, ...; see docs/capture.md)"
+                help="JSON of marker constants (kp, ky, apexes, ...; see docs/reference/capture.md)"
                 ", e.g. written by `capture calibrate`.",
             ),
             click.option(

@@ -16,7 +16,7 @@ def face() -> None:
 )
 def export(out: str) -> None:
     """Write the built-in head as a glTF avatar: ARKit-named morph targets, a head and two
-    eye bones, feature points in its extras (docs/renderer.md, "Avatars")."""
+    eye bones, feature points in its extras (docs/reference/renderer.md, "Avatars")."""
     from app.errors import InputError
     from renderer.faceexport import export_builtin_head
 

@@ -188,7 +188,7 @@ def serve(host: str, port: int, workers: int, dev: bool) -> None:
 )
 def worker(name: str | None) -> None:
     """Run an RQ worker for the background jobs (needs REDIS_URL); start one on each machine
-    that should render (docs/web.md, "Render workers")."""
+    that should render (docs/operations.md, "Render workers")."""
     app = _offline_app()
     url = app.config.get("REDIS_URL")
     if not url:

@@ -2,9 +2,9 @@
 
 Follows ISO/IEC 14496-2 Annex C as implemented by the open players Greta and Xface (the
 project reference ``mpeg4-fap``: "The 68 FAPs", "Feature points (FDP)" and "FAPU"; see also
-``docs/stimuli.md``, "The .fap format"): 68 FAPs, each with a unit (a FAPU), one- or two-way
-motion, the direction a positive value moves the face and the feature point it moves. "Left" is
-the face's own left; the axes are Xface's: +x the face's left, +y up, +z forward (towards the
+``docs/reference/stimuli.md``, "The .fap format"): 68 FAPs, each with a unit (a FAPU), one- or
+two-way motion, the direction a positive value moves the face and the feature point it moves. "Left"
+is the face's own left; the axes are Xface's: +x the face's left, +y up, +z forward (towards the
 viewer).
 
 The thesis (sec. 3.2) maps captured marker motion to these FAPs; the channel groups below are

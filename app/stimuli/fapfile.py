@@ -1,6 +1,6 @@
 """Read and write MPEG-4 FAP stream files (.fap) in the two dialects Xface and Greta play.
 
-Format (``docs/stimuli.md``, "The .fap format"; ISO/IEC 14496-2 for the FAPs)::
+Format (``docs/reference/stimuli.md``, "The .fap format"; ISO/IEC 14496-2 for the FAPs)::
 
     # comment lines start with '#'
     2.1 <name, may contain spaces> <fps> <number of frames>

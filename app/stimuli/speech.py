@@ -8,7 +8,7 @@ are treated as missing and filled by a cubic spline through the voiced frames, a
 clipped to [0, max observed F0] (eq. 35). Sec. 4.3.4.2 adds 1-second (30-frame) mean-filtered
 contours so the head model works at two time scales.
 
-Audio handling (documented behaviour, see ``docs/stimuli.md``):
+Audio handling (documented behaviour, see ``docs/reference/stimuli.md``):
 
 - WAV (8/16/24/32-bit PCM, 32/64-bit float) read directly; MP3, FLAC, M4A/AAC, Ogg, WebM,
   AIFF and CAF decoded by ffmpeg in a subprocess (:mod:`app.stimuli.audiofile`). Praat gets

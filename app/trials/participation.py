@@ -1,7 +1,7 @@
 """The participant's side of a study file: answer scale, reason tags, attention screening,
 viewing conditions and appropriateness pairs.
 
-These keys sit in one block of the study file (``docs/studyfile.md``, "The participant's
+These keys sit in one block of the study file (``docs/reference/studyfile.md``, "The participant's
 side") and follow today's evaluation interfaces for generated motion: the GENEA challenge's
 HEMVIP2 5-level scale (clearly / slightly left, cannot decide, slightly / clearly right) and
 its appropriateness test (the same motion once with its own speech and once with another

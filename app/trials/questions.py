@@ -1,9 +1,9 @@
 """Questionnaire pages of a study: questions before the trials and after them.
 
-A study file's ``[[questions]]`` (docs/studyfile.md) each give a name (the column of the answers
-export), the text shown, the page (``before`` the trials or ``after`` them), a type and whether
-an answer is required. Types: ``choice`` (one of ``choices``), ``number`` (between ``min`` and
-``max``, both optional) and ``text`` (at most ``max_length`` characters). ``demographics =
+A study file's ``[[questions]]`` (docs/reference/studyfile.md) each give a name (the column of the
+answers export), the text shown, the page (``before`` the trials or ``after`` them), a type and
+whether an answer is required. Types: ``choice`` (one of ``choices``), ``number`` (between ``min``
+and ``max``, both optional) and ``text`` (at most ``max_length`` characters). ``demographics =
 true`` puts :data:`DEMOGRAPHICS` first on the ``before`` page: age band, gender, native
 language, corrected vision and experience with animation, the sample description a methods
 section needs. (The seeds' own experiments - thesis sec. 5.2, five subjects; Le, Ma & Deng 2012,

@@ -8,8 +8,8 @@ animation do you consider to be more realistic motion-wise?"), the pair design
 (:mod:`app.trials.rules`), plus what a remote study needs: consent text, a completion code, a
 redirect URL, a target number of participants and the seed every schedule derives from.
 
-Every key is documented in ``docs/studyfile.md``; ``app/data/examples/study.toml`` is a complete
-example.
+Every key is documented in ``docs/reference/studyfile.md``; ``app/data/examples/study.toml`` is a
+complete example.
 Every mistake is one :class:`~app.errors.InputError` line naming the file and the field, e.g.
 ``study.toml: design: expected one of all_ordered, reference, unordered_counterbalanced, got
 'foo'``. Relative paths are resolved against the directory of the study file.
@@ -168,7 +168,7 @@ _TOP_KEYS: Final = (
     "conditions",
     "clips",
     *PARTICIPATION_KEYS,
-    # -- the experimenter's side (docs/studyfile.md, "Participants and questionnaires") --
+    # -- the experimenter's side (docs/reference/studyfile.md, "Participants and questionnaires") --
     "auto_exclude",
     "demographics",
     "questions",
@@ -180,7 +180,8 @@ class _StudyReader(ExperimenterSideReader):
 
     def study(self, data: Mapping[str, Any]) -> StudySpec:
         top = self.table(data, "", _TOP_KEYS)
-        # read in the order of docs/studyfile.md, so errors come top-down as a user fixes them
+        # read in the order of docs/reference/studyfile.md, so errors come top-down as a user fixes
+        # them
         title = self.text(top, "title", "title", nonempty=True)
         question = self.text(top, "question", "question", nonempty=True)
         instructions = self.text(top, "instructions", "instructions", "")

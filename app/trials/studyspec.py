@@ -77,7 +77,7 @@ class ClipSpec:
 
 @dataclass(frozen=True, slots=True)
 class StudySpec:
-    """A validated study; see ``docs/studyfile.md`` for the meaning of every field."""
+    """A validated study; see ``docs/reference/studyfile.md`` for the meaning of every field."""
 
     title: str
     question: str

@@ -2,7 +2,7 @@
 pipeline from IR video (:mod:`~app.stimuli.capture.markers`).
 
 Formats (:data:`FORMATS`; mappings, units, signs and sources in the importer modules and
-docs/capture.md):
+docs/reference/capture.md):
 
 * ``openface``: OpenFace 2.0 FeatureExtraction CSV (:mod:`~app.stimuli.capture.openface`);
 * ``arkit``: ARKit blendshape CSV in Live Link Face's layout, as the app and the tools that

@@ -16,7 +16,7 @@ recorders with the same names read too. Columns that hold one value in every fra
 reported; FAPs whose columns are all 0 (a take recorded with head rotation off) are left out
 with a warning rather than imported as a still head (:meth:`FapMapping.constant`).
 
-The mapping is :func:`arkit_mapping`; docs/capture.md tabulates it with the source of each
+The mapping is :func:`arkit_mapping`; docs/reference/capture.md tabulates it with the source of each
 sign: ARKit's face frame is x to the face's left, y up, z out of the face, so FAP 48-50 =
 ``+HeadPitch``, ``+HeadYaw``, ``+HeadRoll``; gaze FAP 23-26 from the eye rotations; eyebrows
 FAP 31-36 from ``BrowInnerUp``, ``BrowOuterUp*`` and ``BrowDown*`` (100 units per 1.0);

@@ -1,7 +1,7 @@
 """One tracker-to-FAP mapping table: angles, weighted sums, eyelid closure and jaw opening.
 
 Each importer states its table as a :class:`FapMapping` (see ``openface.py`` and ``arkit.py``
-for the tables and their sources, and docs/capture.md); :meth:`FapMapping.apply` turns the
+for the tables and their sources, and docs/reference/capture.md); :meth:`FapMapping.apply` turns the
 tracker's columns into FAP columns, and :meth:`FapMapping.needs` says which FAPs a file cannot
 give for want of which column.
 

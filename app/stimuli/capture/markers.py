@@ -8,7 +8,7 @@ yaw and roll from the head frame, lip opening with its pitch correction, eyebrow
 post-average correction, Gaussian squashing (:mod:`~app.stimuli.capture.marker_faps`); then
 every sample placed at its time stamp and resampled to the study's rate
 (:func:`~app.stimuli.capture.timeline.to_track`: dropped and duplicated frames at 29.97 fps),
-and the 5-frame non-causal mean on the eyebrows. Docs: docs/capture.md, "Marker capture".
+and the 5-frame non-causal mean on the eyebrows. Docs: docs/reference/capture.md, "Marker capture".
 
 Example
 -------

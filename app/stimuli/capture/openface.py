@@ -8,7 +8,7 @@ leading space (", "), values the same way. ``timestamp`` is in seconds, ``succes
 angles are radians, AU intensities run 0-5.
 
 The mapping is :func:`openface_mapping` for the AUs and :mod:`~app.stimuli.capture.headframe`
-for the head and the eyes; docs/capture.md tabulates it with the source of each sign.
+for the head and the eyes; docs/reference/capture.md tabulates it with the source of each sign.
 
 * Head, FAP 48-50: OpenFace's ``pose_R*`` are the head's rotation relative to the *camera*
   (its wiki, "Output Format": "Rotation is in radians around X,Y,Z axes with the convention
@@ -32,7 +32,7 @@ for the head and the eyes; docs/capture.md tabulates it with the source of each 
 
 Angles become AU (1e-5 rad). The AU scales are a calibration, not a measurement: 25 ENS units
 per AU intensity puts a typical raise (intensity 1.5-2) at the 38-50 units the thesis' raises
-imply (docs/stimuli.md); an AU45 of 3 is taken as fully closed. Every scale is a parameter
+imply (docs/reference/stimuli.md); an AU45 of 3 is taken as fully closed. Every scale is a parameter
 (:func:`openface_mapping`). Frames with ``success = 0`` or ``confidence`` under
 :data:`MIN_CONFIDENCE` are gaps, filled linearly up to
 :data:`~app.stimuli.capture.timeline.MAX_GAP_S`.

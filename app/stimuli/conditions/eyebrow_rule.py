@@ -7,7 +7,7 @@ frequency signal, with an appropriate offset value. In addition, the eyebrow dis
 maintained for a minimum of 300ms and terminated once the energy level dropped below 45dB with
 a gradual motion to neutral state that lasted three additional video frames."
 
-Choices where the text leaves room (documented in ``docs/stimuli.md``):
+Choices where the text leaves room (documented in ``docs/reference/stimuli.md``):
 
 - A raise starts on frame ``k`` when ``F0c[k-1] < threshold <= F0c[k]``, counting only the
   frames that are voiced and at or above the intensity threshold: ``k`` must be such a frame,

@@ -13,7 +13,7 @@ and reports what it used.
 
 Models are saved as JSON (``format: facepair-head-arx``). facepair ships one fitted on the demo
 data, :data:`DEFAULT_MODEL_PATH`, used when a speech-driven track is asked for without ground
-truth; regenerate it with ``facepair stimuli fit-head-model`` (see ``docs/stimuli.md``).
+truth; regenerate it with ``facepair stimuli fit-head-model`` (see ``docs/reference/stimuli.md``).
 """
 
 from __future__ import annotations

@@ -29,8 +29,8 @@ Thresholds take a number or ``"auto"`` (the default):
   of a release starts no new raise; ``min_gap_s=0`` with ``f0_threshold=207`` and
   ``intensity_threshold=45`` is the thesis' rule exactly.
 
-Measured (``docs/stimuli.md``, ``tests/stimuli/test_voices.py``): with the defaults, the share
-of time raised that Table 8's mean and sd imply is 0.26-0.33 on the demo speech and on a low
+Measured (``docs/reference/stimuli.md``, ``tests/stimuli/test_voices.py``): with the defaults, the
+share of time raised that Table 8's mean and sd imply is 0.26-0.33 on the demo speech and on a low
 male, a high female and a fast synthetic voice (thesis S2 0.32, S7 0.28).
 """
 

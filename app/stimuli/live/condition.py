@@ -29,7 +29,7 @@ from app.stimuli.track import MotionTrack
 if TYPE_CHECKING:
     from app.stimuli.live.model import LiveModel
 
-#: The model trained on the demo reference speaker (rebuild command in docs/live.md).
+#: The model trained on the demo reference speaker (rebuild command in docs/reference/live.md).
 DEFAULT_MODEL_PATH = data_path("models", "live_gmm_default.npz")
 
 
@@ -92,7 +92,7 @@ class LiveGmmCondition(ConditionModel):
             if not path.exists():
                 raise InputError(
                     "live model file not found (train one with `facepair stimuli "
-                    "train-live`, see docs/live.md)",
+                    "train-live`, see docs/reference/live.md)",
                     path=path,
                 )
             self.model = load_model(path)

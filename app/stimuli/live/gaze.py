@@ -17,8 +17,8 @@ Synthesis per frame (eq. 13-15): ``e^_t = Ce U' phi(h_t)``, smoothed
 ``e^_t = lambda1 e^_t + lambda2 A* e^_{t-1}`` (0.7 and 0.3; ``e^_{t-1}`` is the previous smoothed
 value, zero before the first frame), and ``e_t = V*' e^_t`` (de-standardised).
 
-*Departure (measured, docs/live.md): fixations.* Eq. 13-15 give the gaze that head and loudness
-predict, a conditional mean. Where most of the gaze is not predicted by them (gaze shifts
+*Departure (measured, docs/reference/live.md): fixations.* Eq. 13-15 give the gaze that head and
+loudness predict, a conditional mean. Where most of the gaze is not predicted by them (gaze shifts
 between fixation targets), that mean barely moves: on held-out speech of the reference speaker
 the NDCCA gaze has an sd of 0.2-0.3 deg against the ground truth's 3-5 deg. The unpredicted
 part is therefore generated as the paper generates blinks (sec. 7.1, eq. 16, 19): saccades at

@@ -26,8 +26,8 @@ non-differentiable point the paper mentions). The search starts from the previou
 ``N(0, sigma^2)`` (eq. 5), sigma being the per-axis standard deviation of the frame-to-frame
 change of the training poses, and takes 17 gradient steps (the paper's mean iteration count).
 
-*Departure (measured, docs/live.md):* the paper climbs to the local maximum of J; here each
-of the 17 steps is a Metropolis-adjusted Langevin step (a gradient step plus Gaussian noise,
+*Departure (measured, docs/reference/live.md):* the paper climbs to the local maximum of J; here
+each of the 17 steps is a Metropolis-adjusted Langevin step (a gradient step plus Gaussian noise,
 accepted with the Metropolis-Hastings probability), so the pose is a draw from the
 distribution ``exp(J)`` of eq. 3 near the previous pose instead of its mode. The maximum has
 about 40 % of the ground truth's head sd on held-out speech, since the part of the motion that

@@ -4,9 +4,9 @@
 chains them (sec. 3): head (sec. 5) on (head pose, pitch, loudness); gaze (sec. 6) on
 (ground-truth head pose, loudness) -> gaze; eyelids (sec. 7) on gaze -> lids and the blinks.
 
-File format (``.npz``, read with ``allow_pickle=False``; see docs/live.md): numeric arrays named
-below plus ``meta``, a UTF-8 JSON document stored as a uint8 array, holding the format name and
-version, the frame rate, the settings and the training summary (frames, fps, channels, ...).
+File format (``.npz``, read with ``allow_pickle=False``; see docs/reference/live.md): numeric arrays
+named below plus ``meta``, a UTF-8 JSON document stored as a uint8 array, holding the format name
+and version, the frame rate, the settings and the training summary (frames, fps, channels, ...).
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ current and past input is read. The offline path (:meth:`LiveGenerator.run`,
 :func:`generate_track`) is a loop over :meth:`LiveGenerator.step`, so streaming and offline
 generation give identical frames for the same seed.
 
-Jitter (departures, docs/live.md): the pose shown, and passed on to the gaze, is the head
+Jitter (departures, docs/reference/live.md): the pose shown, and passed on to the gaze, is the head
 sampler's draws through a causal first-order low-pass of time constant :data:`HEAD_SMOOTH_S`
 (the sampler's state stays the draws), and a saccade moves the eyes to their new fixation
 offset over :data:`SACCADE_S` (the mean of the last ``round(SACCADE_S * fps)`` offsets). With

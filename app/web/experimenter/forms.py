@@ -113,7 +113,8 @@ class StudyWebForm(FlaskForm):
         "Redirect URL after completion", validators=[Optional(), URL(require_tld=False)]
     )
     seed = IntegerField("Seed", default=0, validators=[NumberRange(min=0)])
-    # -- stimuli (docs/stimuli.md) and the participant's page (docs/studyfile.md) --
+    # -- stimuli (docs/reference/stimuli.md) and the participant's page
+    # (docs/reference/studyfile.md) --
     eyes = SelectField(
         "Gaze and eyelids, the same in every condition", choices=EYES_CHOICES, default=DEFAULT_EYES
     )

@@ -184,7 +184,7 @@ def media_response(
     cache); ``headers`` go on the answer that carries the bytes (the local and accel ones).
     ``download_name`` is the file name the browser is told (``Content-Disposition: inline``,
     on every backend); without it the stored name is told, which a participant's clip must
-    never be (docs/web.md, "Blinding").
+    never be (docs/reference/web.md, "Blinding").
     """
     if not rel:
         abort(404)

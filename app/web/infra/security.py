@@ -1,7 +1,7 @@
 """What stands between the platform and a hostile request: the secret key, session cookies,
 the reverse proxy, security headers, safe redirects and login rate limits.
 
-Every setting is read from the application's configuration (``docs/web.md``, "Deploying
+Every setting is read from the application's configuration (``docs/operations.md``, "Deploying
 safely"): ``SECRET_KEY`` (required outside tests), ``TRUST_PROXY`` (how many reverse proxies
 set ``X-Forwarded-*``), ``LOGIN_LIMIT_PER_ACCOUNT`` and ``_PER_ADDRESS``, and ``REDIS_URL``
 (shared limiter storage).

@@ -246,7 +246,7 @@ def clip_file(study: Study, stim: Stimulus) -> str:
     study and stimulus under the app's secret key. It names no condition, side, attention
     check or mismatched side, and cannot be guessed from the stimulus's number, so neither
     an object key, a redirect nor a proxy's path tells a participant what the clip shows
-    (docs/web.md, "Blinding"); the same stimulus keeps its name when a job is retried."""
+    (docs/reference/web.md, "Blinding"); the same stimulus keeps its name when a job is retried."""
     key = str(current_app.config["SECRET_KEY"]).encode()
     digest = hmac.new(key, f"clip/{study.id}/{stim.id}".encode(), hashlib.sha256).hexdigest()
     return f"videos/{digest[:20]}.mp4"

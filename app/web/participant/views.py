@@ -285,7 +285,7 @@ def practice_video(token: str):  # type: ignore[no-untyped-def]
 
 def _send_video(study: Study, rel: str | None, name: str):  # type: ignore[no-untyped-def]
     # Blinding: the browser is told only the pair's place in this participant's schedule,
-    # never the stored name (docs/web.md, "Blinding"); the caller checked the clip is in
+    # never the stored name (docs/reference/web.md, "Blinding"); the caller checked the clip is in
     # this participant's schedule (app.web.infra.media sends it, never first).
     return media_response(
         study, rel, mimetype="video/mp4", cache_seconds=CLIP_CACHE_SECONDS, download_name=name

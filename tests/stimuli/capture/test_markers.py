@@ -25,7 +25,7 @@ from renderer.markers import (
 )
 from tests.stimuli.capture.files import drop_video_frames
 
-SIZE = 128  # small for speed; docs/capture.md gives the 368 px figures
+SIZE = 128  # small for speed; docs/reference/capture.md gives the 368 px figures
 LOOK = MarkerLook(noise=2.0)
 
 
