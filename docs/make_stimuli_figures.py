@@ -11,7 +11,7 @@ on the frame where the speech-driven raise is highest.
 
 It also prints the share of time SPEECH_DRIVEN's brows are raised on the demo speech and the
 three test voices (tests/stimuli/data/), next to the share Table 8 implies, and the live
-model's variance above 4 Hz against the reference speaker's (docs/live.md, "Figures").
+model's variance above 4 Hz against the reference speaker's (docs/reference/live.md, "Figures").
 """
 
 from __future__ import annotations
