@@ -11,6 +11,6 @@ RUN apt-get update && apt-get install -y --no-install-recommends libegl1 libgl1-
 COPY --from=build /dist/ /tmp/dist/
 RUN pip install --no-cache-dir /tmp/dist/*.whl && rm -rf /tmp/dist
 WORKDIR /srv/facepair
-ENV FLASK_APP=app
+ENV FLASK_APP=app.web
 EXPOSE 8000
 CMD ["gunicorn", "--bind", "0.0.0.0:8000", "--workers", "3", "--threads", "4", "--worker-class", "gthread", "app.web:create_app()"]

@@ -32,7 +32,7 @@ def main() -> None:
 
 
 def _register() -> None:
-    from app.commands import analyze, capture, face, plan, render, stimuli, web
+    from app.commands import analyze, capture, face, plan, render, stimuli, studies, web
 
     main.add_command(stimuli.stimuli)
     main.add_command(capture.capture)
@@ -41,6 +41,7 @@ def _register() -> None:
     main.add_command(analyze.analyze)
     main.add_command(plan.plan)
     web.register(main)
+    studies.register(main)
 
 
 _register()

@@ -1,7 +1,8 @@
-"""Web commands: ``facepair serve``, ``demo``, ``worker``, ``study create``, ``experimenter add``.
+"""Web commands: ``facepair serve``, ``demo``, ``worker``, ``experimenter add``.
 
-The database schema comes from the migrations (``flask --app app.web db upgrade``); ``demo`` runs
-that upgrade itself on the embedded SQLite default, every other command expects it done.
+The database schema comes from the migrations (``facepair db upgrade``, :mod:`app.commands.db`);
+``demo`` runs that upgrade itself on the embedded SQLite default, every other command expects it
+done (and says so in one line where it is not: :func:`app.commands.db.migrated`).
 """
 
 from __future__ import annotations
@@ -211,37 +212,6 @@ def worker(name: str | None) -> None:
 
 
 @click.group()
-def study() -> None:
-    """Create studies from study files."""
-
-
-@study.command("create")
-@click.argument("study_file", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--owner", required=True, help="E-mail of the owning experimenter.")
-@click.option("--render", is_flag=True, help="Generate the tracks and render the clips now.")
-@click.option("--open", "open_", is_flag=True, help="Open recruitment (implies --render).")
-def create(study_file: Path, owner: str, render: bool, open_: bool) -> None:
-    """Create a study from STUDY_FILE (TOML) for an experimenter."""
-    from flask import url_for
-
-    from app.web.extensions import db
-    from app.web.models import Study
-
-    app = _offline_app()
-    with _context(app):
-        study_id = _create_study(study_file, owner)
-        if render or open_:
-            _run_jobs(study_id, ("generate", "render"))
-        if open_:
-            db.session.get(Study, study_id).status = "open"  # type: ignore[union-attr]
-            db.session.commit()
-        slug = db.session.get(Study, study_id).slug  # type: ignore[union-attr]
-        with app.test_request_context():
-            link = url_for("participant.start", slug=slug)
-    click.echo(f"study {study_id} created; participant link: {link}")
-
-
-@click.group()
 def experimenter() -> None:
     """Manage experimenter accounts."""
 
@@ -315,5 +285,5 @@ def demo(host: str, port: int, study_file: Path, no_serve: bool) -> None:
 
 
 def register(main: click.Group) -> None:
-    for command in (serve, worker, study, experimenter, demo):
+    for command in (serve, worker, experimenter, demo):
         main.add_command(command)

@@ -34,7 +34,7 @@ class Base(so.DeclarativeBase):
 
 
 #: Alembic scripts ship inside the package, so an installed wheel migrates too
-#: (``flask --app app.web db upgrade`` in a checkout, ``facepair demo``).
+#: (``facepair db upgrade`` in a checkout, ``facepair demo``).
 MIGRATIONS = Path(__file__).resolve().parent / "migrations"
 
 db = SQLAlchemy(model_class=Base)

@@ -1,0 +1,165 @@
+"""``facepair study create/list/open/pause/close/reopen/export``: a study's life cycle from the
+shell, with the same rules as the experimenter's pages (:mod:`app.web.study.studies`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from app.commands.db import migrated
+from app.commands.web import _context, _create_study, _offline_app, _run_jobs
+from app.errors import InputError
+
+
+def _study(study_id: int):  # type: ignore[no-untyped-def]
+    from app.web.extensions import db
+    from app.web.models import Study
+
+    found = db.session.get(Study, study_id)
+    if found is None:
+        raise InputError(f"no study {study_id} (see 'facepair study list')", field="STUDY_ID")
+    return found
+
+
+@click.group()
+def study() -> None:
+    """Create, list, open, close and export studies."""
+
+
+@study.command("create")
+@click.argument("study_file", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--owner", required=True, help="E-mail of the owning experimenter.")
+@click.option("--render", is_flag=True, help="Generate the tracks and render the clips now.")
+@click.option("--open", "open_", is_flag=True, help="Open recruitment (implies --render).")
+def create(study_file: Path, owner: str, render: bool, open_: bool) -> None:
+    """Create a study from STUDY_FILE (TOML) for an experimenter."""
+    from flask import url_for
+
+    from app.web.extensions import db
+    from app.web.models import Study
+
+    app = _offline_app()
+    with _context(app):
+        migrated()
+        study_id = _create_study(study_file, owner)
+        if render or open_:
+            _run_jobs(study_id, ("generate", "render"))
+        if open_:
+            db.session.get(Study, study_id).status = "open"  # type: ignore[union-attr]
+            db.session.commit()
+        slug = db.session.get(Study, study_id).slug  # type: ignore[union-attr]
+        with app.test_request_context():
+            link = url_for("participant.start", slug=slug)
+    click.echo(f"study {study_id} created; participant link: {link}")
+
+
+@study.command("list")
+@click.option("--owner", default=None, help="Only the studies of this experimenter (e-mail).")
+def list_studies(owner: str | None) -> None:
+    """One line per study: id, status, participants (finished), votes, slug and title."""
+    import sqlalchemy as sa
+
+    from app.web.extensions import db
+    from app.web.models import Participant, Study, User, Vote
+
+    with _context(_offline_app()):
+        migrated()
+        people = (
+            sa.select(
+                Participant.study_id,
+                sa.func.count(Participant.id).label("joined"),
+                sa.func.count(Participant.finished_at).label("finished"),
+            )
+            .group_by(Participant.study_id)
+            .subquery()
+        )
+        votes = (
+            sa.select(Participant.study_id, sa.func.count(Vote.id).label("votes"))
+            .join(Vote, Vote.participant_id == Participant.id)
+            .group_by(Participant.study_id)
+            .subquery()
+        )
+        query = (
+            sa.select(Study, people.c.joined, people.c.finished, votes.c.votes)
+            .outerjoin(people, people.c.study_id == Study.id)
+            .outerjoin(votes, votes.c.study_id == Study.id)
+            .order_by(Study.id)
+        )
+        if owner:
+            query = query.join(User, User.id == Study.owner_id).where(User.email == owner.lower())
+        rows = db.session.execute(query).all()
+        if not rows:
+            click.echo("no studies")
+        for found, joined, finished, count in rows:
+            click.echo(
+                f"{found.id:>4}  {found.status:<7} {joined or 0:>5} joined "
+                f"({finished or 0} finished) {count or 0:>6} votes  {found.slug}  {found.title}"
+            )
+
+
+def _transition(action: str):  # type: ignore[no-untyped-def]
+    @click.argument("study_id", type=int)
+    def command(study_id: int) -> None:
+        from app.web.extensions import db
+        from app.web.study.studies import change_status
+
+        with _context(_offline_app()):
+            migrated()
+            found = _study(study_id)
+            try:
+                state = change_status(found, action)
+            except ValueError as exc:
+                raise InputError(str(exc), field="STUDY_ID") from None
+            db.session.commit()
+        click.echo(f"study {study_id} is {state}")
+
+    command.__doc__ = f"{action.capitalize()} recruitment of study STUDY_ID (as its page does)."
+    return study.command(action)(command)
+
+
+for _action in ("open", "pause", "close", "reopen"):
+    _transition(_action)
+
+
+@study.command("export")
+@click.argument("study_id", type=int)
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Folder for votes.csv, participants.csv and answers.csv.",
+)
+@click.option(
+    "--pilots",
+    is_flag=True,
+    help="Also the pilots' votes (marked in votes.csv) and answers (answers-pilot.csv).",
+)
+def export(study_id: int, out: Path, pilots: bool) -> None:
+    """Write the study's votes, participants (Prolific IDs pseudonymised) and questionnaire
+    answers as the experimenter's downloads are."""
+    from app.web.study.exports import votes_csv
+    from app.web.study.privacy import participants_csv
+    from app.web.study.questionnaires import answers_csv
+
+    with _context(_offline_app()):
+        migrated()
+        found = _study(study_id)
+        files = {
+            "votes.csv": votes_csv(found, pilot="with" if pilots else "without"),
+            "participants.csv": participants_csv(found),
+            "answers.csv": answers_csv(found),
+        }
+        if pilots:
+            files["answers-pilot.csv"] = answers_csv(found, pilot=True)
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in files.items():
+        (out / name).write_text(text, encoding="utf-8")
+    click.echo(f"study {study_id}: {', '.join(files)} written to {out}")
+
+
+def register(main: click.Group) -> None:
+    from app.commands.db import db
+
+    for command in (db, study):
+        main.add_command(command)

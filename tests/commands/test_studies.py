@@ -1,0 +1,79 @@
+"""``facepair db`` and ``facepair study list/open/pause/close/reopen/export``: a study's life
+cycle from the shell, with one line and exit 2 for every mistake."""
+
+import csv
+import io
+
+import sqlalchemy as sa
+from click.testing import CliRunner
+
+from app.cli import main
+from app.web.extensions import db
+from app.web.models import Study
+from tests.conftest import ParticipantActions
+
+
+def _env(monkeypatch, app):
+    monkeypatch.setenv("DATABASE_URL", app.config["SQLALCHEMY_DATABASE_URI"])
+    monkeypatch.setenv("MEDIA_ROOT", app.config["MEDIA_ROOT"])
+
+
+def test_db_upgrade_and_current_on_an_empty_database(monkeypatch, tmp_path):
+    monkeypatch.setenv("DATABASE_URL", f"sqlite:///{tmp_path / 'new.sqlite'}")
+    runner = CliRunner()
+    before = runner.invoke(main, ["db", "current"])
+    assert before.exit_code == 0 and "no schema yet" in before.output
+    listed = runner.invoke(main, ["study", "list"])
+    assert listed.exit_code == 2
+    assert listed.output.strip() == (
+        "facepair: error: the database has no schema yet: run 'facepair db upgrade'"
+    )
+    upgraded = runner.invoke(main, ["db", "upgrade"])
+    assert upgraded.exit_code == 0 and "(was empty)" in upgraded.output
+    after = runner.invoke(main, ["db", "current"])
+    assert after.exit_code == 0 and after.output.strip().endswith("(up to date)")
+    again = runner.invoke(main, ["db", "upgrade"])
+    assert again.exit_code == 0 and "was" not in again.output
+    assert runner.invoke(main, ["study", "list"]).output.strip() == "no studies"
+
+
+def test_list_open_close_and_export(app, monkeypatch, web):
+    _env(monkeypatch, app)
+    study_id = web.study(status="ready")
+    runner = CliRunner()
+    listed = runner.invoke(main, ["study", "list"])
+    assert listed.exit_code == 0, listed.output
+    assert f"{study_id:>4}  ready" in listed.output and "Test study" in listed.output
+    assert runner.invoke(main, ["study", "list", "--owner", "else@x.org"]).output.strip() == (
+        "no studies"
+    )
+
+    opened = runner.invoke(main, ["study", "open", str(study_id)])
+    assert opened.exit_code == 0 and opened.output.strip() == f"study {study_id} is open"
+    again = runner.invoke(main, ["study", "open", str(study_id)])
+    assert again.exit_code == 2
+    assert again.output.strip() == "facepair: error: STUDY_ID: cannot open a study that is open"
+
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    person = ParticipantActions(app.test_client(), app)
+    person.join(slug)
+    assert person.vote(person.current_trial(), "right").status_code == 201
+
+    closed = runner.invoke(main, ["study", "close", str(study_id)])
+    assert closed.exit_code == 0 and closed.output.strip() == f"study {study_id} is closed"
+    with app.app_context():
+        assert db.session.get(Study, study_id).status == "closed"
+    out = app.instance_path + "/export"
+    exported = runner.invoke(main, ["study", "export", str(study_id), "--out", out])
+    assert exported.exit_code == 0, exported.output
+    with open(f"{out}/votes.csv", encoding="utf-8") as handle:
+        votes = list(csv.DictReader(handle))
+    assert [v["choice"] for v in votes] == ["right"]
+    with open(f"{out}/participants.csv", encoding="utf-8") as handle:
+        people = list(csv.DictReader(io.StringIO(handle.read())))
+    assert [p["participant"] for p in people] == [votes[0]["participant"]]
+    missing = runner.invoke(main, ["study", "close", "999"])
+    assert missing.exit_code == 2 and "no study 999" in missing.output
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count(Study.id))) == 1
