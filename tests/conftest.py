@@ -15,7 +15,14 @@ from pathlib import Path
 
 import pytest
 
-from tests.support.services import PG_HOST, PG_PORT, REDIS_PORT, ensure_services
+from tests.support.services import (
+    PG_DATABASE_PREFIX,
+    PG_HOST,
+    PG_PORT,
+    REDIS_PORT,
+    ensure_services,
+    redis_databases,
+)
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -56,7 +63,7 @@ def postgres_url():
     ensure_services()
     import psycopg
 
-    name = f"facepair_test_{secrets.token_hex(4)}"
+    name = f"{PG_DATABASE_PREFIX}_{secrets.token_hex(4)}"
     try:
         admin = psycopg.connect(
             f"host={PG_HOST} port={PG_PORT} user=postgres dbname=postgres", autocommit=True
@@ -73,12 +80,13 @@ def postgres_url():
 
 @pytest.fixture(scope="session")
 def redis_url():
-    """The local Redis (database 15, flushed before use), or skip."""
+    """The local Redis, on this process's own database (``redis_databases``: 15 unless the
+    environment says otherwise), flushed before use; or skip."""
     ensure_services()
     from redis import Redis
     from redis.exceptions import RedisError
 
-    url = f"redis://127.0.0.1:{REDIS_PORT}/15"
+    url = f"redis://127.0.0.1:{REDIS_PORT}/{redis_databases()[0]}"
     try:
         Redis.from_url(url, socket_connect_timeout=1).flushdb()
     except RedisError as exc:

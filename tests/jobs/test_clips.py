@@ -18,6 +18,7 @@ from app.web.infra.storage import media_dir
 from app.web.jobs.clips import clip_job_id, finish_job_id
 from app.web.models import Job, Stimulus, Study
 from tests.conftest import create_test_study, make_app, upgrade_database, wipe_database
+from tests.support.services import redis_databases
 
 ROOT = Path(__file__).resolve().parents[2]
 # Three conditions, every ordered pair: six small clips (64 px, half a second).
@@ -39,7 +40,7 @@ def pg_app(postgres_url, redis_url, tmp_path):
     a Redis database of its own: the other job tests empty theirs."""
     from redis import Redis
 
-    redis_url = redis_url.rsplit("/", 1)[0] + "/13"
+    redis_url = redis_url.rsplit("/", 1)[0] + f"/{redis_databases()[1]}"
 
     with Redis.from_url(redis_url) as connection:
         connection.flushdb()  # no queued job of another run
@@ -218,7 +219,7 @@ def test_a_split_render_waiting_for_workers_is_swept_only_when_rq_lost_it(app, w
     from app.web.jobs.tasks import sweep_stale
     from app.web.models import utcnow
 
-    redis_url = redis_url.rsplit("/", 1)[0] + "/13"
+    redis_url = redis_url.rsplit("/", 1)[0] + f"/{redis_databases()[1]}"
     study_id = web.study(video=False)
     long_ago = utcnow() - dt.timedelta(hours=2)
     with app.app_context():

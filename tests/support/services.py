@@ -7,13 +7,33 @@ of the application.
 
 from __future__ import annotations
 
+import os
 import shutil
 import socket
 import subprocess
 import time
 from pathlib import Path
 
-PG_HOST, PG_PORT, REDIS_PORT = "127.0.0.1", 5432, 6379
+#: Where the services are, from the environment (defaults: this machine's usual ports), so two
+#: suites or benchmarks on one host can each be pointed at their own.
+PG_HOST = os.environ.get("FACEPAIR_TEST_PG_HOST", "127.0.0.1")
+PG_PORT = int(os.environ.get("FACEPAIR_TEST_PG_PORT", "5432"))
+REDIS_PORT = int(os.environ.get("FACEPAIR_TEST_REDIS_PORT", "6379"))
+#: The prefix of the throwaway PostgreSQL databases a run creates (and drops).
+PG_DATABASE_PREFIX = os.environ.get("FACEPAIR_TEST_DB_PREFIX", "facepair_test")
+
+
+def redis_databases() -> tuple[int, int]:
+    """The two Redis databases a test process may flush: ``FACEPAIR_TEST_REDIS_DB`` (default
+    15) and the one below it, moved down by two for each further pytest-xdist worker (gw1 takes
+    13 and 12), so parallel workers never flush each other's."""
+    base = int(os.environ.get("FACEPAIR_TEST_REDIS_DB", "15"))
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "gw0")
+    index = int(worker[2:]) if worker[2:].isdigit() else 0
+    first = base - 2 * index
+    if first < 1:
+        raise RuntimeError(f"no Redis database left for xdist worker {worker} below {base}")
+    return first, first - 1
 
 
 def port_open(port: int, host: str = "127.0.0.1") -> bool:
@@ -68,8 +88,6 @@ def process_stat(pid: int) -> tuple[str, str, int, float]:
     """(command name, state, parent pid, user + system CPU seconds) of a process, from
     ``/proc/<pid>/stat``; OSError if it is gone. The name is in parentheses and may hold
     spaces, so the fields are counted from its closing one."""
-    import os
-
     stat = Path(f"/proc/{pid}/stat").read_text()
     name = stat[stat.index("(") + 1 : stat.rindex(")")]
     fields = stat[stat.rindex(")") + 1 :].split()
