@@ -10,6 +10,8 @@ PY := $(VENV)/bin/python
 STAMP_RUN := $(VENV)/.installed-runtime
 STAMP := $(VENV)/.installed-test
 PORT ?= 5000
+# pytest-xdist workers for make test (each takes its own test databases: tests/support/services.py).
+TEST_WORKERS ?= 2
 HOST ?= 127.0.0.1
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # Debian packages: EGL/Mesa for headless rendering, chromium + driver for browser tests,
@@ -48,7 +50,7 @@ debs-demo:
 	fi
 
 test: $(STAMP) debs-test lint
-	$(PY) -m pytest
+	$(PY) -m pytest -n $(TEST_WORKERS)
 
 demo: $(STAMP_RUN) debs-demo
 	$(VENV)/bin/facepair demo --host $(HOST) --port $(PORT)

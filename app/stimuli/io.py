@@ -16,8 +16,9 @@ IMPORT_FPS = 30.0
 def load_track(path: str | Path, fps: float | None = None) -> MotionTrack:
     """Read a ``.fap`` or ``.csv`` motion track (``fps`` for a CSV without a ``# fps=`` line).
 
-    A ``.csv`` written by a tracker (OpenFace 2.0, Live Link Face; :mod:`app.stimuli.capture`)
-    is recognised by its header and imported at ``fps`` (default 30).
+    A ``.csv`` written by a tracker or a tool (OpenFace 2.0, Live Link Face, Audio2Face-3D;
+    :mod:`app.stimuli.capture`) is recognised by its header, a ``.json`` (Audio2Face,
+    OpenFaceFX) by its keys and a ``.bvh`` by its skeleton, and imported at ``fps`` (default 30).
     """
     suffix = Path(path).suffix.lower()
     if suffix == ".fap":
@@ -29,7 +30,14 @@ def load_track(path: str | Path, fps: float | None = None) -> MotionTrack:
         if kind is not None:
             return import_track(path, kind, fps or IMPORT_FPS)
         return read_track_csv(path, fps=fps)
-    raise InputError(f"unknown motion track type {suffix!r}: expected .fap or .csv", path=path)
+    if suffix in (".json", ".bvh"):
+        # A speech-driven tool's weights (Audio2Face, OpenFaceFX) or a BVH skeleton's head.
+        from app.stimuli.capture import import_track
+
+        return import_track(path, None, fps or IMPORT_FPS)
+    raise InputError(
+        f"unknown motion track type {suffix!r}: expected .fap, .csv, .json or .bvh", path=path
+    )
 
 
 def save_track(track: MotionTrack, path: str | Path, *, greta: bool = False) -> None:

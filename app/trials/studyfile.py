@@ -47,7 +47,7 @@ __all__ = [
 ]
 
 AUDIO_SUFFIXES: Final = (".wav", ".flac", ".ogg", ".mp3", ".aiff", ".aif")
-TRACK_SUFFIXES: Final = (".fap", ".csv")
+TRACK_SUFFIXES: Final = (".fap", ".csv", ".json", ".bvh")
 
 
 def load_study_file(

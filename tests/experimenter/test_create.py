@@ -82,6 +82,44 @@ def test_a_file_the_study_names_but_nobody_uploaded_is_named(app, client, web, r
     ) in response.get_data(as_text=True).replace("&#39;", "'")
 
 
+def test_a_bad_speech_or_track_file_is_refused_at_upload_by_its_name(
+    app, client, web, repo_root, tmp_path
+):
+    """An mp3 renamed .wav (an ID3 header and noise) and a truncated ground truth are refused
+    before any study exists, naming the uploaded file, never a server path: they never become
+    a failed generation job."""
+    web.user()
+    web.login(client)
+    text = (repo_root / "app" / "data" / "examples" / "study.toml").read_text()
+    demo = repo_root / "app" / "data" / "demo"
+    fake = tmp_path / "speech.wav"
+    fake.write_bytes(b"ID3\x03\x00\x00\x00\x00\x00\x21" + bytes(range(256)) * 20)
+    cut = tmp_path / "ground_truth.fap"
+    cut.write_text("\n".join((demo / "ground_truth.fap").read_text().splitlines()[:3]) + "\nxx\n")
+    for media, name in (
+        ((fake, demo / "ground_truth.fap"), "speech.wav"),
+        ((demo / "speech.wav", cut), "ground_truth.fap"),
+    ):
+        response = _post(
+            client,
+            {
+                "file-csrf_token": _token(_new_page(client), "file"),
+                "file-submit": "1",
+                "file-study_file": (io.BytesIO(text.encode()), "study.toml"),
+                "file-media": _files(*media),
+            },
+        )
+        page = response.get_data(as_text=True).replace("&#39;", "'")
+        assert response.status_code == 400, page
+        error = re.search(r'class="error"[^>]*>([^<]+)<', page) or re.search(
+            rf"({re.escape(name)}: [^<]+)", page
+        )
+        assert error and error.group(1).startswith(f"{name}: "), page[:2000]
+        assert str(tmp_path) not in page and app.config["MEDIA_ROOT"] not in page
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count(Study.id))) == 0
+
+
 def test_a_failed_upload_keeps_its_files_for_the_next_attempt(app, client, web, tmp_path):
     web.user()
     web.login(client)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[2] / "app" / "static" / "participant.js"
+SCRIPT = Path(__file__).resolve().parents[2] / "app" / "web" / "static" / "participant.js"
 # Just enough of a browser for the script to load on a page without a player.
 HARNESS = """
 global.window = { localStorage: null, addEventListener: function () {} };

@@ -104,10 +104,12 @@ def test_header_claiming_256m_samples_is_refused_before_allocating(tmp_path):
     message = _one_line_naming(err, bad)
     assert "truncated" in message and "268435456 samples" in message
     # Peak memory of a fresh process reading it: it used to reach 2.2 GB before the limit.
+    # VmHWM is the new process's own (ru_maxrss starts from the forking parent's on Linux).
     code = (
-        "import resource\nfrom app.stimuli.speech import load_sound\n"
+        "from app.stimuli.speech import load_sound\n"
         f"try:\n    load_sound({str(bad)!r})\nexcept ValueError:\n    pass\n"
-        "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)"
+        "status = open('/proc/self/status').read().split('VmHWM:')[1]\n"
+        "print(status.split()[0])"
     )
     done = subprocess.run(
         [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120

@@ -23,6 +23,7 @@ from app.web.experimenter.forms import StudyFileForm, StudyWebForm
 from app.web.extensions import db
 from app.web.infra.accounts import current_user, login_required
 from app.web.infra.storage import disk_full, disk_full_message
+from app.web.study.inputs import check_study_inputs
 from app.web.study.studies import create_study
 
 #: How the form's parts read in an error, by the parser's field name.
@@ -146,6 +147,7 @@ def _create(file_form: StudyFileForm, web_form: StudyWebForm, folder: Path):  # 
         source = studies[0].name
         text = studies[0].read_bytes().decode("utf-8", errors="replace")
         spec = loads_study(text, source=source, base_dir=folder / "media", by_name=True)
+        check_study_inputs(spec)
         try:
             return create_study(user, spec, source_toml=text)  # type: ignore[arg-type]
         except InputError as exc:
@@ -164,6 +166,10 @@ def _create(file_form: StudyFileForm, web_form: StudyWebForm, folder: Path):  # 
         data = _web_form_mapping(web_form, folder)
         try:
             spec = parse_study(data, source="form", base_dir=folder, confine=True)
+        except InputError as exc:
+            raise form_error(exc, data) from None
+        check_study_inputs(spec)
+        try:
             return create_study(user, spec)  # type: ignore[arg-type]
         except InputError as exc:
             raise form_error(exc, data) from None
