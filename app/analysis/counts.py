@@ -111,9 +111,15 @@ def count_votes(votes: VotesTable, conditions: Sequence[str] | None = None) -> V
 def _categorical(column: pd.Series) -> pd.Categorical:
     """A column as a categorical of the values it holds (the reader's columns already are one;
     a filtered table keeps categories no row uses any more)."""
-    if isinstance(column.dtype, pd.CategoricalDtype):
-        return pd.Categorical(column).remove_unused_categories()
-    return pd.Categorical(column)
+    if not isinstance(column.dtype, pd.CategoricalDtype):
+        return pd.Categorical(column)
+    codes = column.cat.codes.to_numpy()
+    categories = column.cat.categories
+    used = np.bincount(codes[codes >= 0], minlength=len(categories)) > 0
+    if used.all():
+        return pd.Categorical(column)
+    kept = np.where(codes >= 0, (np.cumsum(used) - 1)[codes], -1)
+    return pd.Categorical.from_codes(kept, categories=categories[used])
 
 
 def ballots(tensor: np.ndarray) -> np.ndarray:

@@ -198,14 +198,17 @@ def _participants(counts: VoteCounts) -> dict[str, Any]:
     won = wins(t)
     beats = won > np.swapaxes(won, -1, -2)
     table = consistence_table(beats)
-    scores = won.sum(axis=-1)
+    scores = won.sum(axis=-1).tolist()
+    votes = t.sum(axis=(1, 2, 3)).tolist()
+    undecided = t[..., 2].sum(axis=(1, 2)).tolist()
+    clips = (counts.tensor.sum(axis=(2, 3, 4)) > 0).sum(axis=1).tolist()
     out: dict[str, Any] = {}
     for q, pid in enumerate(counts.participants):
         out[pid] = {
-            "votes": int(t[q].sum()),
-            "undecided": int(t[q][..., 2].sum()),
-            "clips": int((counts.tensor[q].sum(axis=(1, 2, 3)) > 0).sum()),
-            "ballots": {c: int(v) for c, v in zip(counts.conditions, scores[q], strict=True)},
+            "votes": votes[q],
+            "undecided": undecided[q],
+            "clips": clips[q],
+            "ballots": dict(zip(counts.conditions, scores[q], strict=True)),
             "consistence": consistence_row(table, q),
         }
     return out

@@ -171,21 +171,32 @@ class _Block:
     blank: np.ndarray
 
 
-def _distinct(values: np.ndarray, strip: bool) -> tuple[np.ndarray, np.ndarray]:
+def _distinct(
+    values: np.ndarray, strip: bool, *, unique: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
     """Codes and distinct (stripped) values of an object column of ``str``: every rule below
-    runs once per distinct value, not once per row."""
-    codes, uniques = pd.factorize(values)
-    uniques = np.asarray(uniques, dtype=object)
+    runs once per distinct value, not once per row. A column expected to be ``unique`` (times)
+    is not hashed: each row is its own value."""
+    n = len(values)
+    if n and (values == "").all():  # an optional column the export leaves empty
+        return np.zeros(n, dtype=np.int32), np.array([""], dtype=object)
+    if unique:
+        codes, uniques = np.arange(n, dtype=np.int32), values
+    else:
+        found, uniques = pd.factorize(values)
+        codes, uniques = found.astype(np.int32), np.asarray(uniques, dtype=object)
     if strip and uniques.size:
         stripped = np.empty(uniques.size, dtype=object)
         stripped[:] = [u.strip() for u in uniques]
+        if unique:
+            return codes, stripped
         merged, uniques = pd.factorize(stripped)
-        codes, uniques = merged[codes], np.asarray(uniques, dtype=object)
-    return codes.astype(np.int32), uniques
+        codes, uniques = merged[codes].astype(np.int32), np.asarray(uniques, dtype=object)
+    return codes, uniques
 
 
-def _typed(spec: VoteColumn, distinct: np.ndarray) -> tuple[Any, list[str | None]]:
-    """Typed value and problem (None: fine) of each distinct value of one column."""
+def _typed(spec: VoteColumn, distinct: np.ndarray) -> tuple[Any, dict[int, str]]:
+    """Typed value of each distinct value of one column, and the problem of the bad ones."""
     empty = distinct == ""
     text = pd.Series(distinct, dtype=object)
     bad: np.ndarray = np.zeros(distinct.size, dtype=bool)
@@ -213,10 +224,11 @@ def _typed(spec: VoteColumn, distinct: np.ndarray) -> tuple[Any, list[str | None
         when = pd.to_datetime(text.where(~empty), errors="coerce", utc=True, format="ISO8601")
         value = when.dt.tz_localize(None).to_numpy().astype("datetime64[us]")
         bad, what = np.isnat(value) & ~empty, "expected an ISO 8601 time, got {!r}"
-    problems: list[str | None] = [
-        "missing value" if spec.required and e else what.format(d) if b else None
-        for d, e, b in zip(distinct, empty, bad, strict=True)
-    ]
+    flagged = np.flatnonzero(bad | (empty & spec.required))
+    problems = {
+        int(k): "missing value" if spec.required and empty[k] else what.format(distinct[k])
+        for k in flagged
+    }
     return value, problems
 
 
@@ -227,16 +239,21 @@ def _type_block(
     strip: bool,
     path: str | None,
     conditions: Sequence[str] | None,
+    drop_blank: bool = True,
     known: Mapping[int, InputError] | None = None,
 ) -> _Block:
     """Type and check one block of raw columns (object arrays of ``str``, one per header name).
 
     A row's problem is that of its first bad column in :data:`COLUMN_SPECS` order, else a
     condition outside ``conditions`` (left before right); ``known`` (row -> error, e.g. a wrong
-    field count) wins over both.
+    field count) wins over both. Blank rows (every field empty) are no votes when
+    ``drop_blank`` (files); in a frame they are rows like any other.
     """
     n, lines = len(lines), np.abs(lines)
-    distinct = {name: _distinct(raw, strip) for name, raw in columns.items()}
+    distinct = {
+        name: _distinct(raw, strip, unique=name in _SPEC and _SPEC[name].kind == "time")
+        for name, raw in columns.items()
+    }
     blank = np.ones(n, dtype=bool)
     for codes, values_of in distinct.values():
         blank &= (values_of == "")[codes]
@@ -249,17 +266,19 @@ def _type_block(
             continue
         codes, values_of = distinct[spec.name]
         value, messages = _typed(spec, values_of)
-        bad = np.array([m is not None for m in messages], dtype=bool)
-        for pos in np.flatnonzero(bad[codes]).tolist():
+        bad = np.zeros(values_of.size, dtype=bool)
+        bad[list(messages)] = True
+        for pos in np.flatnonzero(bad[codes]).tolist() if messages else []:
             if pos not in problems:
-                message = str(messages[codes[pos]])
+                message = messages[int(codes[pos])]
                 problems[pos] = InputError(
                     message, path=path, line=int(lines[pos]), field=spec.name
                 )
+        # kept as codes and one value per code (times: one per row) until the frame is built
+        small = codes.astype(np.min_scalar_type(max(values_of.size - 1, 0)))
+        values[spec.name] = value[codes] if spec.kind == "time" else (small, value)
         if spec.kind != "text":
-            values[spec.name] = value[codes]
             continue
-        values[spec.name] = (codes, values_of)
         if conditions is not None and spec.name in ("left", "right"):
             unknown = ~np.isin(values_of, list(conditions)) & (values_of != "")
             expected = ", ".join(conditions)
@@ -276,16 +295,19 @@ def _type_block(
     for pos, error in outside.items():
         problems.setdefault(pos, error)
     problems.update(known or {})
+    if drop_blank:  # a blank line carries no vote, so nothing is wrong with it
+        problems = {pos: e for pos, e in problems.items() if not blank[pos]}
+    else:
+        blank[:] = False
     return _Block(values, lines, problems, blank)
 
 
 def _absent(spec: VoteColumn, n: int) -> Any:
     """An optional column the file does not have: every value empty."""
-    if spec.kind == "text":
-        return np.zeros(n, dtype=np.int32), np.array([""], dtype=object)
     if spec.kind == "time":
         return np.full(n, np.datetime64("NaT"), dtype="datetime64[us]")
-    return np.full(n, np.nan)
+    empty = np.array([""], dtype=object) if spec.kind == "text" else np.array([np.nan])
+    return np.zeros(n, dtype=np.uint8), empty
 
 
 def _frame(blocks: list[_Block]) -> pd.DataFrame:
@@ -304,10 +326,15 @@ def _frame(blocks: list[_Block]) -> pd.DataFrame:
                 [inverse[o + c] for (c, _), o in zip(pieces, offsets, strict=False)]
                 or [np.zeros(0, np.int64)]
             )
-            column: Any = pd.Categorical.from_codes(codes, categories=cats.astype(object))
-            column = column.remove_unused_categories()
+            used = np.bincount(codes, minlength=cats.size) > 0  # those of dropped rows go
+            codes = (np.cumsum(used) - 1)[codes]
+            column: Any = pd.Categorical.from_codes(codes, categories=cats[used].astype(object))
         else:
-            joined = np.concatenate(pieces) if pieces else _absent(spec, 0)
+            joined = (
+                np.concatenate(pieces or [_absent(spec, 0)])
+                if spec.kind == "time"
+                else np.concatenate([v[c] for c, v in pieces] or [np.zeros(0)])
+            )
             if spec.kind == "choice":
                 column = pd.Categorical.from_codes(joined.astype(np.int8), categories=CHOICES)
             elif spec.kind == "time":
@@ -325,12 +352,12 @@ def _frame(blocks: list[_Block]) -> pd.DataFrame:
                 )
         out[spec.name] = pd.Series(column, copy=False)
         del pieces
-    return pd.DataFrame(out)
+    return pd.DataFrame(out, copy=False)
 
 
-def _keep(block: _Block, drop_blank: bool) -> _Block:
-    """The block without its bad rows (and blank ones, for files)."""
-    keep = ~block.blank if drop_blank else np.ones(len(block.lines), dtype=bool)
+def _keep(block: _Block) -> _Block:
+    """The block without its bad and blank rows."""
+    keep = ~block.blank
     keep[list(block.problems)] = False
     if keep.all():
         return block
@@ -359,14 +386,14 @@ def _frame_columns(source: pd.DataFrame) -> dict[str, np.ndarray]:
 
 def _blocks(
     source: str | Path | pd.DataFrame, path: str | None, conditions: Sequence[str] | None
-) -> Iterator[tuple[_Block, bool]]:
-    """Typed blocks of the source and whether blank rows are dropped (files only)."""
+) -> Iterator[_Block]:
+    """Typed blocks of the source; :data:`_RESTART` when the block reader gives up."""
     kw: dict[str, Any] = {"path": path, "conditions": conditions}
     if isinstance(source, pd.DataFrame):
         _check_header([str(c) for c in source.columns], None)
         columns = _frame_columns(source)
         lines = np.arange(2, len(source) + 2, dtype=np.int64)
-        yield _type_block(columns, lines, strip=True, **kw), False
+        yield _type_block(columns, lines, strip=True, drop_blank=False, **kw)
         return
     file = Path(source)
     head = read_header(file)
@@ -374,16 +401,16 @@ def _blocks(
         _check_header(head[0], path)
         try:
             for columns, lines, strip in plain_blocks(file, head[0], head[1]):
-                yield _type_block(columns, lines, strip=strip, **kw), True
+                yield _type_block(columns, lines, strip=strip, **kw)
             return
         except NotPlain:
             pass  # the caller drops what it has and reads again below
-        yield _RESTART, True
+        yield _RESTART
     header, (columns, lines, _), count_errors = exact_rows(file)
     _check_header(header, path)
     known = np.flatnonzero(lines < 0)
     errors = dict(zip(known.tolist(), count_errors, strict=True))
-    yield _type_block(columns, lines, strip=True, known=errors, **kw), True
+    yield _type_block(columns, lines, strip=True, known=errors, **kw)
 
 
 _RESTART = _Block({}, np.zeros(0, np.int64), {}, np.zeros(0, bool))
@@ -418,7 +445,7 @@ def read_votes(
     kept: list[_Block] = []
     first: InputError | None = None
     skipped, problems = 0, []
-    for block, drop_blank in _blocks(source, path, conditions):
+    for block in _blocks(source, path, conditions):
         if block is _RESTART:
             kept, first, skipped, problems = [], None, 0, []
             continue
@@ -428,7 +455,7 @@ def read_votes(
             skipped += len(ordered)
             problems.extend(str(e) for e in ordered[: _MAX_PROBLEMS_KEPT - len(problems)])
         if skip_bad_rows or first is None:
-            kept.append(_keep(block, drop_blank))
+            kept.append(_keep(block))
     if first is not None and not skip_bad_rows:
         more = (
             f" (and {skipped - 1} more bad rows; --skip-bad-rows drops them)" if skipped > 1 else ""
