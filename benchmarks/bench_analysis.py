@@ -5,7 +5,8 @@ export's 23 columns, through ``write_votes_csv``), then runs in alternating roun
 fresh child process:
 
 - comparator: ``pandas.read_csv(path)`` with its defaults, nothing else;
-- facepair: ``read_votes(path)`` and ``analyze(table, bootstrap=0)``, every statistic.
+- facepair: ``read_votes(path)`` and ``analyze(table, bootstrap=0, mixed_model=False)``, every
+  statistic but the mixed model (``--mixed`` adds one run with it, timed on its own line).
 
 Each child reports its wall time (imports excluded) and its peak resident memory
 (``resource.getrusage(RUSAGE_SELF).ru_maxrss``, imports included, and the imports alone).
@@ -17,6 +18,7 @@ Run from the repository root:
     PYTHONPATH=$PWD python benchmarks/bench_analysis.py            # 1,000 participants, ~1 min
     PYTHONPATH=$PWD python benchmarks/bench_analysis.py --full     # 10,000: 1.6 M votes
     PYTHONPATH=$PWD python benchmarks/bench_analysis.py --extras   # also bootstrap, report, plan
+    PYTHONPATH=$PWD python benchmarks/bench_analysis.py --mixed    # and the mixed model once
 """
 
 from __future__ import annotations
@@ -52,7 +54,7 @@ base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 start = time.perf_counter()
 table = read_votes(sys.argv[1])
 read = time.perf_counter() - start
-results = analyze(table, bootstrap=0)
+results = analyze(table, bootstrap=0, mixed_model=sys.argv[2] == "mixed")
 wall = time.perf_counter() - start
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 print(json.dumps({"wall": wall, "read": read, "rows": results["input"]["votes"],
@@ -60,10 +62,10 @@ print(json.dumps({"wall": wall, "read": read, "rows": results["input"]["votes"],
 """
 
 
-def _child(code: str, path: Path) -> dict[str, float]:
+def _child(code: str, path: Path, *args: str) -> dict[str, float]:
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     out = subprocess.run(
-        [sys.executable, "-c", code, str(path)],
+        [sys.executable, "-c", code, str(path), *args],
         check=True,
         capture_output=True,
         text=True,
@@ -83,18 +85,18 @@ def write_votes(path: Path, participants: int) -> int:
     return write_votes_csv(votes, path)
 
 
-def compare(path: Path, rounds: int) -> None:
+def compare(path: Path, rounds: int, mixed: bool) -> None:
     """Alternating rounds of the comparator and facepair; prints medians, ratio and memory.
     A first round of each warms the page cache and is not counted."""
     size = path.stat().st_size
-    _child(_CHILD_PANDAS, path), _child(_CHILD_FACEPAIR, path)
+    _child(_CHILD_PANDAS, path), _child(_CHILD_FACEPAIR, path, "plain")
     bare, ours = [], []
     for k in range(rounds):
         for name, code, into in (
             ("pandas", _CHILD_PANDAS, bare),
             ("facepair", _CHILD_FACEPAIR, ours),
         ):
-            r = _child(code, path)
+            r = _child(code, path, "plain")
             into.append(r)
             extra = f", read {r['read']:.2f} s" if "read" in r else ""
             print(
@@ -112,10 +114,10 @@ def compare(path: Path, rounds: int) -> None:
         f"CSV: {size / 1e6:.1f} MB, {ours[0]['rows']:,} votes; {rounds} alternating rounds "
         "after one warm-up round each"
     )
-    print(f"comparator  pandas.read_csv(path)           {t_bare:6.2f} s  (median)")
+    print(f"comparator  pandas.read_csv(path)  {t_bare:6.2f} s  (median)")
     print(
-        f"facepair    read_votes + analyze(bootstrap=0) {t_ours:6.2f} s  (median; "
-        f"reading {t_read:.2f} s)"
+        f"facepair    read_votes + analyze(bootstrap=0, mixed_model=False)  {t_ours:6.2f} s  "
+        f"(median; reading {t_read:.2f} s)"
     )
     print(
         f"ratio facepair / comparator: {t_ours / t_bare:.2f} (of the medians); per round "
@@ -127,6 +129,13 @@ def compare(path: Path, rounds: int) -> None:
         f"(imports alone {base_ours / 1e6:.0f} MB; target <= 3x); "
         f"comparator {peak_bare / 1e6:.0f} MB = {peak_bare / size:.2f}x"
     )
+    if mixed:
+        r = _child(_CHILD_FACEPAIR, path, "mixed")
+        print(
+            f"with the mixed model (one run): {r['wall']:.2f} s = {r['wall'] / t_bare:.2f}x the "
+            f"comparator's median, the model alone {r['wall'] - t_ours:.2f} s more; peak RSS "
+            f"{r['peak_kb'] * 1024 / 1e6:.0f} MB = {r['peak_kb'] * 1024 / size:.2f}x the CSV"
+        )
 
 
 def _best(fn, repeat: int = 3) -> tuple[float, object]:
@@ -168,6 +177,9 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--votes", type=Path, help="reuse (or keep) the votes CSV at this path")
     parser.add_argument("--extras", action="store_true", help="bootstrap, report and plan too")
+    parser.add_argument(
+        "--mixed", action="store_true", help="also one run with the mixed model (mixed_btd)"
+    )
     args = parser.parse_args()
     participants = 10000 if args.full else args.participants
     with tempfile.TemporaryDirectory() as tmp:
@@ -179,7 +191,7 @@ def main() -> None:
                 f"wrote {n:,} votes ({participants:,} participants x 10 clips x 16 ordered "
                 f"pairs) in {time.perf_counter() - start:.1f} s"
             )
-        compare(path, args.rounds)
+        compare(path, args.rounds, args.mixed)
         if args.extras:
             extras(path, Path(tmp))
 

@@ -204,11 +204,19 @@ class _Model:
         return _Solve(dz, a_inv_g - x @ dz, s_inv, a_inv, x)
 
     def mode(
-        self, var: np.ndarray, z: np.ndarray, b: np.ndarray, max_iter: int = 50
-    ) -> tuple[np.ndarray, np.ndarray, _Solve, bool]:
+        self,
+        var: np.ndarray,
+        z: np.ndarray,
+        b: np.ndarray,
+        t: dict[str, Any] | None = None,
+        *,
+        tol: float = 1e-7,
+        max_iter: int = 50,
+    ) -> tuple[np.ndarray, np.ndarray, _Solve, bool, dict[str, Any]]:
         """The joint mode of fixed and random effects for the given variances (Newton steps
-        with step halving from ``z``, ``b``) and the solve at the mode."""
-        t = self.terms(z, b)
+        with step halving from ``z``, ``b``; ``t`` their :meth:`terms` if known, which do not
+        depend on the variances), the solve there and its terms."""
+        t = self.terms(z, b) if t is None else t
         f = self.penalised(z, b, var, t["ll"])
         for _ in range(max_iter):
             try:
@@ -224,12 +232,13 @@ class _Model:
                     break
                 scale /= 2.0
             else:  # no step decreases F beyond rounding: this is the mode
-                return z, b, step, True
+                return z, b, step, True, t
             z, b, t, f = z_new, b_new, t_new, f_new
             moved = max(np.abs(scale * step.dz).max(), np.abs(scale * step.db).max(initial=0.0))
-            if moved < 1e-7:
-                return z, b, self.solve(z, b, var, t), True
-        return z, b, _Solve(np.zeros_like(z), np.zeros_like(b), np.eye(self.m), None, None), False
+            if moved < tol:
+                return z, b, self.solve(z, b, var, t), True, t
+        failed = _Solve(np.zeros_like(z), np.zeros_like(b), np.eye(self.m), None, None)
+        return z, b, failed, False, t
 
     def variance_update(
         self, z: np.ndarray, b: np.ndarray, at: _Solve, var: np.ndarray
@@ -267,6 +276,7 @@ class _Solve:
 MODEL = "Bradley-Terry-Davidson with participant x condition and clip x condition random effects"
 ESTIMATOR = "penalised quasi-likelihood, REML variances (Schall's update); Wald intervals"
 MIN_VARIANCE = 1e-8  # a random effect taken as absent
+CRAWL_VARIANCE = 0.01  # sd 0.1
 NEGLIGIBLE_VARIANCE = 4e-4  # sd 0.02 log-worth units (0.018 JOD): taken as absent
 
 
@@ -291,13 +301,19 @@ def fit_mixed_btd(t: np.ndarray, *, max_iter: int = 200, tol: float = 1e-5) -> M
     if votes == 0 or n < 2:
         return failed("no votes on pairs of different conditions")
     model = _Model(t)
-    state = {"z": np.zeros(model.m), "b": np.zeros((P, n)), "ok": True, "updates": 0}
+    state: dict[str, Any] = {
+        "z": np.zeros(model.m),
+        "b": np.zeros((P, n)),
+        "t": None,
+        "ok": True,
+        "updates": 0,
+    }
 
     def schall(log_var: np.ndarray) -> np.ndarray:
         """One variance update in log variances, from the mode at ``exp(log_var)``."""
         var = np.exp(log_var)
-        z, b, at, ok = model.mode(var, state["z"], state["b"])
-        state.update(z=z, b=b, ok=state["ok"] and ok, updates=state["updates"] + 1)
+        z, b, at, ok, t = model.mode(var, state["z"], state["b"], state["t"], tol=1e-6)
+        state.update(z=z, b=b, t=t, ok=state["ok"] and ok, updates=state["updates"] + 1)
         update = model.variance_update(z, b, at, var)
         new = np.where(np.isnan(update), var, update)
         new = np.where(new < NEGLIGIBLE_VARIANCE, MIN_VARIANCE, new)  # EM crawls near 0
@@ -306,7 +322,7 @@ def fit_mixed_btd(t: np.ndarray, *, max_iter: int = 200, tol: float = 1e-5) -> M
     # SQUAREM (Varadhan & Roland 2008, Scand. J. Stat. 35, 335-353, scheme S3): two updates
     # and an extrapolation along them per cycle; the fixed point is Schall's.
     log_var = np.log(np.array([0.25, 0.25]))
-    settled = False
+    settled, probed = False, np.zeros(2, dtype=bool)
     for _ in range(max_iter):
         one = schall(log_var)
         two = schall(one)
@@ -315,17 +331,26 @@ def fit_mixed_btd(t: np.ndarray, *, max_iter: int = 200, tol: float = 1e-5) -> M
             log_var, settled = two, True
             break
         alpha = min(-1.0, -float(np.linalg.norm(r) / max(np.linalg.norm(v), 1e-12)))
-        jump = np.clip(log_var - 2.0 * alpha * r + alpha**2 * v, np.log(MIN_VARIANCE), 3.0)
-        saved = dict(state)
+        jump = log_var - 2.0 * alpha * r + alpha**2 * v
+        # at most a factor e**1.5 beyond the plain updates, and not below NEGLIGIBLE_VARIANCE:
+        # the update there, not the jump, decides on 0
+        jump = np.clip(two + np.clip(jump - two, -1.5, 1.5), np.log(NEGLIGIBLE_VARIANCE), 3.0)
+        # a small variance still falling at nearly the same pace is EM's crawl towards 0:
+        # try NEGLIGIBLE_VARIANCE at once (its update says whether 0 is the answer)
+        crawl = (r < 0) & (two - one < 0.5 * r) & (two < np.log(CRAWL_VARIANCE)) & ~probed
+        jump = np.where(crawl, np.log(NEGLIGIBLE_VARIANCE), jump)
+        jump = np.where(two <= np.log(MIN_VARIANCE) + 1e-9, two, jump)  # absent stays so
+        saved = {key: state[key] for key in ("z", "b", "t", "ok")}
         try:
             new = schall(jump)
         except np.linalg.LinAlgError:
-            new, state["ok"] = two, False
+            state["ok"] = False
         if not state["ok"]:  # the extrapolation went too far: keep the plain updates
             state.update(saved)
             new = schall(two)
         if not state["ok"]:
             break
+        probed |= crawl & (new > np.log(NEGLIGIBLE_VARIANCE))  # 0 is not the answer: no more
         done = np.abs(new - log_var).max() < tol
         log_var = new
         if done:
@@ -334,7 +359,7 @@ def fit_mixed_btd(t: np.ndarray, *, max_iter: int = 200, tol: float = 1e-5) -> M
     var = np.exp(log_var)
     iterations = int(state["updates"])
     z, b = state["z"], state["b"]
-    z, b, at, ok = model.mode(var, z, b)
+    z, b, at, ok, _ = model.mode(var, z, b, state["t"], tol=1e-9)
     if not (ok and settled and np.all(np.isfinite(z)) and np.abs(z[: model.nf]).max() < BOUND):
         return failed("the fit did not converge")
     cov = at.s_inv[: model.nf, : model.nf]

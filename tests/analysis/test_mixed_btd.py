@@ -93,3 +93,20 @@ def test_a_few_simulated_studies_land_near_the_truth():
     np.testing.assert_allclose(result["mean_estimate"], result["truth"], atol=0.12)
     assert result["coverage_theta"] >= 0.75
     assert abs(result["mean_sd"][0] - 0.5) < 0.15
+
+
+def test_the_analysis_reports_it_beside_the_fixed_model(tmp_path):
+    from app.analysis import analyze
+    from app.analysis.document import Table, build_document
+    from app.analysis.simulate import simulate_votes
+
+    votes = simulate_votes({"a": -0.5, "b": 0.0, "c": 0.6}, participants=12, seed=3)
+    r = analyze(votes, bootstrap=0)
+    m = r["pooled"]["mixed_btd"]
+    assert r["options"]["mixed_model"] and m["participants"] == 12 and m["clips"] == 2
+    assert m["scores"]["a"] < m["scores"]["b"] < m["scores"]["c"]
+    assert m["sd_participant"] is not None and m["estimator"].startswith("penalised")
+    tables = [b for b in build_document(r) if isinstance(b, Table)]
+    mixed = next(t for t in tables if t.caption.startswith("Table 9b"))
+    assert [row[0] for row in mixed.rows] == ["a", "b", "c"]
+    assert analyze(votes, bootstrap=0, mixed_model=False)["pooled"]["mixed_btd"] is None
