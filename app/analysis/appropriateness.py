@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from app.analysis.json_values import json_number
@@ -30,12 +31,19 @@ from app.analysis.votes import VotesTable
 def _is_pair(frame: pd.DataFrame) -> pd.Series:
     if "mismatched" not in frame:
         return pd.Series(False, index=frame.index)
-    return frame["mismatched"].astype(str).str.strip().isin(("left", "right"))
+    side = frame["mismatched"]
+    if isinstance(side.dtype, pd.CategoricalDtype):  # the reader's: test each category once
+        hit = side.cat.categories.astype(str).str.strip().isin(("left", "right"))
+        codes = side.cat.codes.to_numpy()
+        return pd.Series(np.where(codes >= 0, hit[codes], False), index=frame.index)
+    return side.astype(str).str.strip().isin(("left", "right"))
 
 
 def without_appropriateness(table: VotesTable) -> VotesTable:
     """The table without appropriateness pairs (for the pair comparisons)."""
     keep = ~_is_pair(table.frame)
+    if keep.all():
+        return table
     return VotesTable(
         table.frame[keep].reset_index(drop=True), table.skipped, table.problems, table.source
     )
@@ -49,7 +57,7 @@ def appropriateness(frame: pd.DataFrame) -> dict[str, dict[str, Any]]:
     for condition, rows in pairs.groupby("left", sort=True):
         matched = int(
             (
-                (rows["choice"] != rows["mismatched"].str.strip())
+                (rows["choice"].astype(str) != rows["mismatched"].astype(str).str.strip())
                 & rows["choice"].isin(("left", "right"))
             ).sum()
         )

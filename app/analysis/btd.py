@@ -134,7 +134,14 @@ def _setup(counts: np.ndarray) -> tuple[bool, np.ndarray]:
 
 
 def _finite(beta: np.ndarray, ties: bool) -> np.ndarray:
-    return np.all(np.isfinite(beta), axis=-1) & (np.abs(beta).max(axis=-1) < BOUND)
+    """A maximum inside the bounds: every parameter, and the spread of the scores (with a
+    condition that wins every comparison the scores part without end while their mean stays
+    0, so each alone can look bounded)."""
+    n = beta.shape[-1] - 1 - int(ties)
+    spread = np.ptp(beta[..., :n], axis=-1) if n else np.zeros(beta.shape[:-1])
+    return (
+        np.all(np.isfinite(beta), axis=-1) & (np.abs(beta).max(axis=-1) < BOUND) & (spread < BOUND)
+    )
 
 
 def fit_btd(counts: np.ndarray) -> BTDFit:

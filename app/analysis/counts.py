@@ -79,24 +79,24 @@ def count_votes(votes: VotesTable, conditions: Sequence[str] | None = None) -> V
     A vote naming a condition outside an explicit list raises :class:`InputError`.
     """
     frame = votes.frame
+    people, clip_cat = _categorical(frame["participant"]), _categorical(frame["clip"])
+    left_cat, right_cat = _categorical(frame["left"]), _categorical(frame["right"])
+    seen = set(map(str, left_cat.categories)) | set(map(str, right_cat.categories))
     if conditions is None:
-        names = tuple(sorted(set(frame["left"]) | set(frame["right"])))
+        names = tuple(sorted(seen))
     else:
         names = tuple(dict.fromkeys(str(c).strip() for c in conditions))
         if not names or any(not c for c in names):
             raise InputError("give at least one non-empty condition name", field="conditions")
-        unknown = sorted((set(frame["left"]) | set(frame["right"])) - set(names))
+        unknown = sorted(seen - set(names))
         if unknown:
             raise InputError(
                 f"votes name conditions not in the list: {', '.join(unknown)}",
                 path=votes.source,
                 field="conditions",
             )
-    people = pd.Categorical(frame["participant"])
-    clip_cat = pd.Categorical(frame["clip"])
-    cond_index = {c: i for i, c in enumerate(names)}
-    left = frame["left"].map(cond_index).to_numpy(dtype=np.int64)
-    right = frame["right"].map(cond_index).to_numpy(dtype=np.int64)
+    left = left_cat.set_categories(names).codes.astype(np.int64)
+    right = right_cat.set_categories(names).codes.astype(np.int64)
     choice = pd.Categorical(frame["choice"], categories=CHOICES).codes.astype(np.int64)
     n_p, n_k, n_c = len(people.categories), len(clip_cat.categories), len(names)
     flat = (
@@ -106,6 +106,20 @@ def count_votes(votes: VotesTable, conditions: Sequence[str] | None = None) -> V
     return VoteCounts(
         tuple(map(str, people.categories)), tuple(map(str, clip_cat.categories)), names, tensor
     )
+
+
+def _categorical(column: pd.Series) -> pd.Categorical:
+    """A column as a categorical of the values it holds (the reader's columns already are one;
+    a filtered table keeps categories no row uses any more)."""
+    if not isinstance(column.dtype, pd.CategoricalDtype):
+        return pd.Categorical(column)
+    codes = column.cat.codes.to_numpy()
+    categories = column.cat.categories
+    used = np.bincount(codes[codes >= 0], minlength=len(categories)) > 0
+    if used.all():
+        return pd.Categorical(column)
+    kept = np.where(codes >= 0, (np.cumsum(used) - 1)[codes], -1)
+    return pd.Categorical.from_codes(kept, categories=categories[used])
 
 
 def ballots(tensor: np.ndarray) -> np.ndarray:

@@ -19,6 +19,7 @@ from app.analysis.document import (
     fmt,
     fmt_p,
 )
+from app.analysis.mixed_document import MIXED_TEXT, mixed_blocks
 
 METHOD_TEXT = (
     "Participant-level tests: for each pair (a, b), each participant's net preference "
@@ -33,6 +34,7 @@ METHOD_TEXT = (
     "D = g·π_i + π_j + ν·√(π_i π_j); maximum likelihood, scores log π with mean 0, percentile "
     "bootstrap intervals over participants; JOD = score / ln 3 (1 JOD = 75 % of decided votes). "
     "Identical-clip pairs are left out of the fit.",
+    MIXED_TEXT,
     "Participant quality: side bias (binomial test of left against right), undecided share, "
     "Kendall's τ_b with the model's consensus ranking, identical pairs answered undecided, "
     "median response time, and pwcmp's outlier distance (Q1 − L_p) / IQR of the leave-one-out "
@@ -339,6 +341,7 @@ def inference_blocks(r: dict[str, Any]) -> list[Block]:
             figures.btd_figure(r),
         ),
         _btd_table(r),
+        *mixed_blocks(r),
         Heading("Participant quality"),
         *_quality_blocks(r),
     ]

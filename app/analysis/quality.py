@@ -35,7 +35,6 @@ import pandas as pd
 
 from app.analysis.btd import fit_btd, leave_one_out_loglik
 from app.analysis.counts import VoteCounts, wins
-from app.analysis.json_values import json_number
 from app.analysis.signtest import sign_test_p
 from app.errors import InputError
 
@@ -142,27 +141,48 @@ def participant_quality(counts: VoteCounts, frame: pd.DataFrame) -> dict[str, di
     tau = tau_b(won, consensus)
     outlier = _outlier_distance(leave_one_out_loglik(t))
     times = pd.to_numeric(frame["response_ms"], errors="coerce").astype(float)
-    median_ms = times.groupby(frame["participant"]).median()
+    people = list(counts.participants)
+    median_ms = _aligned(times.groupby(frame["participant"]).median(), people)
     side_p = sign_test_p(left, right)
-    media = _media_measures(frame)
-    out = {}
-    for q, pid in enumerate(counts.participants):
-        out[pid] = {
-            "votes": int(left[q] + right[q] + und[q]),
-            "side_left": json_number(left[q] / decided[q]) if decided[q] else None,
-            "side_p": json_number(side_p[q]) if decided[q] else None,
-            "undecided": json_number(und[q] / (decided[q] + und[q])),
-            "tau": json_number(tau[q]),
-            "catch": json_number(same[q, :, 2].sum() / same_votes[q]) if same_votes[q] else None,
-            "catch_trials": int(same_votes[q]),
-            "median_ms": json_number(median_ms.get(pid, np.nan)),
-            "outlier": json_number(outlier[q]),
-            "same_left": json_number(same[q, :, 0].sum() / same[q, :, :2].sum())
-            if same[q, :, :2].sum()
-            else None,
-            **{name: json_number(media[name].get(pid, np.nan)) for name in media},
+    media = {k: _aligned(v, people) for k, v in _media_measures(frame).items()}
+    with np.errstate(invalid="ignore", divide="ignore"):
+        same_decided = same[:, :, :2].sum(axis=(1, 2))
+        columns = {
+            "votes": (left + right + und).astype(np.int64).tolist(),
+            "side_left": _nullable(np.where(decided > 0, left / decided, np.nan)),
+            "side_p": _nullable(np.where(decided > 0, side_p, np.nan)),
+            "undecided": _nullable(und / (decided + und)),
+            "tau": _nullable(tau),
+            "catch": _nullable(
+                np.where(same_votes > 0, same[:, :, 2].sum(axis=1) / same_votes, np.nan)
+            ),
+            "catch_trials": same_votes.astype(np.int64).tolist(),
+            "median_ms": _nullable(median_ms),
+            "outlier": _nullable(outlier),
+            "same_left": _nullable(
+                np.where(same_decided > 0, same[:, :, 0].sum(axis=1) / same_decided, np.nan)
+            ),
+            **{name: _nullable(values) for name, values in media.items()},
         }
-    return out
+    names = list(columns)
+    return {
+        pid: dict(zip(names, row, strict=True))
+        for pid, row in zip(people, zip(*columns.values(), strict=True), strict=True)
+    }
+
+
+def _nullable(values: np.ndarray) -> list[float | None]:
+    """Floats as JSON holds them: NaN and infinities as None."""
+    v = np.asarray(values, dtype=float)
+    return [x if ok else None for x, ok in zip(v.tolist(), np.isfinite(v).tolist(), strict=True)]
+
+
+def _aligned(per_participant: pd.Series, people: list[str]) -> np.ndarray:
+    """A per-participant series as an array in ``people``'s order (NaN for the missing)."""
+    values = pd.Series(
+        per_participant.to_numpy(dtype=float), index=per_participant.index.astype(str)
+    )
+    return values.reindex(people).to_numpy(dtype=float)
 
 
 def _media_measures(frame: pd.DataFrame) -> dict[str, pd.Series]:

@@ -30,6 +30,7 @@ from app.analysis.counts import (
     wins,
 )
 from app.analysis.json_values import json_number as _num
+from app.analysis.mixed_btd import mixed_btd_summary
 from app.analysis.participant_level import one_judgement_per_participant, participant_level_tests
 from app.analysis.quality import (
     QUALITY_FIELDS,
@@ -198,14 +199,17 @@ def _participants(counts: VoteCounts) -> dict[str, Any]:
     won = wins(t)
     beats = won > np.swapaxes(won, -1, -2)
     table = consistence_table(beats)
-    scores = won.sum(axis=-1)
+    scores = won.sum(axis=-1).tolist()
+    votes = t.sum(axis=(1, 2, 3)).tolist()
+    undecided = t[..., 2].sum(axis=(1, 2)).tolist()
+    clips = (counts.tensor.sum(axis=(2, 3, 4)) > 0).sum(axis=1).tolist()
     out: dict[str, Any] = {}
     for q, pid in enumerate(counts.participants):
         out[pid] = {
-            "votes": int(t[q].sum()),
-            "undecided": int(t[q][..., 2].sum()),
-            "clips": int((counts.tensor[q].sum(axis=(1, 2, 3)) > 0).sum()),
-            "ballots": {c: int(v) for c, v in zip(counts.conditions, scores[q], strict=True)},
+            "votes": votes[q],
+            "undecided": undecided[q],
+            "clips": clips[q],
+            "ballots": dict(zip(counts.conditions, scores[q], strict=True)),
             "consistence": consistence_row(table, q),
         }
     return out
@@ -266,6 +270,7 @@ def analyze(
     confidence: float = 0.95,
     anchor: str | None = None,
     exclude: str | Sequence[str] | None = None,
+    mixed_model: bool = True,
 ) -> dict[str, Any]:
     """Every statistic for a votes table (or a votes CSV path / frame).
 
@@ -275,7 +280,9 @@ def analyze(
     scale, the model and the effect sizes; ``anchor`` fixes that condition at 0 on the Case V
     scale instead of the mean. ``exclude`` holds participant-quality rules such as
     ``"catch<1.0,side_p<0.001"`` (:mod:`app.analysis.quality`); participants matching one are
-    left out of every statistic and listed under ``quality.excluded``.
+    left out of every statistic and listed under ``quality.excluded``. ``mixed_model`` adds
+    the Bradley-Terry-Davidson model with participant and clip random effects to the pooled
+    section (:mod:`app.analysis.mixed_btd`; its cost grows with participants x clips).
     """
     if undecided not in UNDECIDED_TREATMENTS:
         raise InputError(
@@ -331,6 +338,9 @@ def analyze(
     pooled = _section(counts.tensor.sum(axis=1), names, **kw)
     participants = _participants(counts)
     pooled["consistence"] = _consistence_summary(participants, len(names))
+    pooled["mixed_btd"] = (
+        mixed_btd_summary(counts.tensor, names, confidence=confidence) if mixed_model else None
+    )
     return {
         "conditions": list(names),
         "input": {
@@ -353,6 +363,7 @@ def analyze(
             "scale": "Thurstone Case V, least squares, JOD units",
             "jod_sigma": JOD_SIGMA,
             "exclude": [str(r) for r in rules],
+            "mixed_model": mixed_model,
         },
         "clips": clips,
         "pooled": pooled,

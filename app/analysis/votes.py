@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import csv
 import io
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -26,6 +26,7 @@ from typing import IO, Any
 import numpy as np
 import pandas as pd
 
+from app.analysis.csv_blocks import NotPlain, exact_rows, plain_blocks, read_header
 from app.errors import InputError
 from app.trials.rules import CHOICES
 
@@ -119,8 +120,9 @@ class VotesTable:
     """Validated votes plus an honest account of what was left out.
 
     ``frame`` has every column of :data:`VOTE_COLUMNS` (absent optional ones are empty),
-    text columns as ``str``, ``choice`` restricted to :data:`CHOICES`, counts as ``Int64``,
-    ``response_ms`` as ``Float64``, times as UTC ``datetime64``. ``skipped`` counts the bad rows
+    text columns as categoricals of stripped ``str`` (categories sorted, only those used),
+    ``choice`` a categorical of :data:`CHOICES`, counts as ``Int64``, numbers as ``Float64``,
+    flags as ``boolean``, times as UTC ``datetime64[us]``. ``skipped`` counts the bad rows
     dropped under ``skip_bad_rows``; ``problems`` keeps the first of their one-line messages.
     """
 
@@ -131,73 +133,6 @@ class VotesTable:
 
     def __len__(self) -> int:
         return len(self.frame)
-
-
-def _read_fast(path: Path) -> tuple[list[str], pd.DataFrame] | None:
-    """The C parser's reading when the file is plain (one line per row, equal field counts)."""
-    try:
-        raw = path.read_bytes()
-        frame = pd.read_csv(
-            io.BytesIO(raw),
-            dtype=str,
-            keep_default_na=False,
-            skip_blank_lines=False,
-            encoding="utf-8-sig",
-        )
-    except (OSError, ValueError, pd.errors.ParserError, UnicodeDecodeError):
-        return None
-    lines = raw.count(b"\n") + (0 if raw.endswith(b"\n") else 1)
-    first = raw.decode("utf-8-sig", errors="replace").split("\n", 1)[0]
-    header = next(csv.reader([first]), [])
-    if b'"' in raw or len(frame) != lines - 1 or list(frame.columns) != header:
-        return None  # quoting, blank lines, repeated names: the exact path counts lines itself
-    commas = {row.count(b",") for row in raw.rstrip(b"\r\n").split(b"\n")}
-    if commas != {len(header) - 1}:
-        return None  # a row with too few or too many fields
-    blank = (frame.apply(lambda c: c.str.strip()) == "").all(axis=1).to_numpy()
-    if blank.any():
-        return None
-    return [str(c).strip() for c in frame.columns], frame
-
-
-def _read_rows(path: Path) -> tuple[list[str], list[list[str]], list[int], list[InputError]]:
-    """Header, rows padded to the header's width, their line numbers, and field-count errors."""
-    try:
-        handle = path.open(newline="", encoding="utf-8-sig")
-    except OSError as exc:
-        raise InputError(f"cannot read votes file ({exc.strerror})", path=path) from None
-    with handle:
-        reader = csv.reader(handle)
-        try:
-            header = next(reader)
-        except StopIteration:
-            raise InputError("empty file; expected a header line", path=path, line=1) from None
-        except (csv.Error, UnicodeDecodeError) as exc:
-            raise InputError(f"not a CSV file ({exc})", path=path, line=1) from None
-        width = len(header)
-        rows: list[list[str]] = []
-        lines: list[int] = []
-        count_errors: list[InputError] = []
-        try:
-            for row in reader:
-                if not row or all(not cell.strip() for cell in row):
-                    continue  # blank lines carry no vote
-                if len(row) != width:
-                    count_errors.append(
-                        InputError(
-                            f"expected {width} fields like the header, got {len(row)}",
-                            path=path,
-                            line=reader.line_num,
-                        )
-                    )
-                    row = (row + [""] * width)[:width]
-                    lines.append(-reader.line_num)  # negative: already known bad
-                else:
-                    lines.append(reader.line_num)
-                rows.append(row)
-        except (csv.Error, UnicodeDecodeError) as exc:
-            raise InputError(f"unreadable CSV ({exc})", path=path, line=reader.line_num) from None
-    return [h.strip() for h in header], rows, lines, count_errors
 
 
 def _check_header(columns: Sequence[str], path: str | None, *, writing: bool = False) -> None:
@@ -224,66 +159,261 @@ def _check_header(columns: Sequence[str], path: str | None, *, writing: bool = F
         )
 
 
-def _validate(raw: pd.DataFrame) -> tuple[pd.DataFrame, list[tuple[int, str, str]]]:
-    """Typed frame and, per bad row, (row position, field, message); vectorised per column."""
-    n = len(raw)
-    bad: dict[int, tuple[str, str]] = {}
-    out: dict[str, Any] = {}
+@dataclass
+class _Block:
+    """One block of rows, typed and checked: per column its values (text: codes and distinct
+    values; choice: codes into CHOICES; the others: a float or datetime64 array), the line of
+    each row, the one-line message of each bad row and which rows are blank."""
 
-    def flag(mask: np.ndarray, name: str, message_of) -> None:
-        for pos in np.flatnonzero(mask):
-            if pos not in bad:
-                bad[int(pos)] = (name, message_of(int(pos)))
+    values: dict[str, Any]
+    lines: np.ndarray
+    problems: dict[int, InputError]
+    blank: np.ndarray
 
+
+def _distinct(
+    values: np.ndarray, strip: bool, *, unique: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
+    """Codes and distinct (stripped) values of an object column of ``str``: every rule below
+    runs once per distinct value, not once per row. A column expected to be ``unique`` (times)
+    is not hashed: each row is its own value."""
+    n = len(values)
+    if n and (values == "").all():  # an optional column the export leaves empty
+        return np.zeros(n, dtype=np.int32), np.array([""], dtype=object)
+    if unique:
+        codes, uniques = np.arange(n, dtype=np.int32), values
+    else:
+        found, uniques = pd.factorize(values)
+        codes, uniques = found.astype(np.int32), np.asarray(uniques, dtype=object)
+    if strip and uniques.size:
+        stripped = np.empty(uniques.size, dtype=object)
+        stripped[:] = [u.strip() for u in uniques]
+        if unique:
+            return codes, stripped
+        merged, uniques = pd.factorize(stripped)
+        codes, uniques = merged[codes].astype(np.int32), np.asarray(uniques, dtype=object)
+    return codes, uniques
+
+
+def _typed(spec: VoteColumn, distinct: np.ndarray) -> tuple[Any, dict[int, str]]:
+    """Typed value of each distinct value of one column, and the problem of the bad ones."""
+    empty = distinct == ""
+    text = pd.Series(distinct, dtype=object)
+    bad: np.ndarray = np.zeros(distinct.size, dtype=bool)
+    if spec.kind == "choice":
+        low = [d.lower() for d in distinct]
+        value: Any = np.array([CHOICES.index(x) if x in CHOICES else -1 for x in low], np.int8)
+        bad = (value < 0) & ~empty
+        what = "unknown choice {!r} (expected left, right or undecided)"
+    elif spec.kind == "text":
+        value, what = distinct, ""
+    elif spec.kind == "flag":
+        value = np.array([float(FLAGS[x]) if x in FLAGS else np.nan for x in text.str.lower()])
+        bad, what = np.isnan(value) & ~empty, "expected true or false, got {!r}"
+    elif spec.kind in ("count", "number"):
+        value = pd.to_numeric(text.where(~empty), errors="coerce").to_numpy(dtype=float, copy=True)
+        with np.errstate(invalid="ignore"):
+            wrong = ~np.isfinite(value) | (value < 0)
+            if spec.kind == "count":  # and exact in the Int64 it becomes
+                wrong |= (value != np.floor(value)) | (value >= 2.0**53)
+        bad = wrong & ~empty
+        value[bad] = np.nan
+        what = "expected " + ("a whole number >= 0" if spec.kind == "count" else "a number >= 0")
+        what += ", got {!r}"
+    else:  # time
+        when = pd.to_datetime(text.where(~empty), errors="coerce", utc=True, format="ISO8601")
+        value = when.dt.tz_localize(None).to_numpy().astype("datetime64[us]")
+        bad, what = np.isnat(value) & ~empty, "expected an ISO 8601 time, got {!r}"
+    flagged = np.flatnonzero(bad | (empty & spec.required))
+    problems = {
+        int(k): "missing value" if spec.required and empty[k] else what.format(distinct[k])
+        for k in flagged
+    }
+    return value, problems
+
+
+def _type_block(
+    columns: Mapping[str, np.ndarray],
+    lines: np.ndarray,
+    *,
+    strip: bool,
+    path: str | None,
+    conditions: Sequence[str] | None,
+    drop_blank: bool = True,
+    known: Mapping[int, InputError] | None = None,
+) -> _Block:
+    """Type and check one block of raw columns (object arrays of ``str``, one per header name).
+
+    A row's problem is that of its first bad column in :data:`COLUMN_SPECS` order, else a
+    condition outside ``conditions`` (left before right); ``known`` (row -> error, e.g. a wrong
+    field count) wins over both. Blank rows (every field empty) are no votes when
+    ``drop_blank`` (files); in a frame they are rows like any other.
+    """
+    n, lines = len(lines), np.abs(lines)
+    distinct = {
+        name: _distinct(raw, strip, unique=name in _SPEC and _SPEC[name].kind == "time")
+        for name, raw in columns.items()
+    }
+    blank = np.ones(n, dtype=bool)
+    for codes, values_of in distinct.values():
+        blank &= (values_of == "")[codes]
+    problems: dict[int, InputError] = {}
+    outside: dict[int, InputError] = {}
+    values: dict[str, Any] = {}
     for spec in COLUMN_SPECS:
-        col = (
-            raw[spec.name].astype(str).str.strip()
-            if spec.name in raw
-            else pd.Series([""] * n, index=raw.index, dtype=str)
-        )
-        empty = (col == "").to_numpy()
-        if spec.required:
-            flag(empty, spec.name, lambda _p: "missing value")
-        if spec.kind == "choice":
-            low = col.str.lower()
-            wrong = ~low.isin(CHOICES).to_numpy() & ~empty
-            flag(
-                wrong,
-                spec.name,
-                lambda p, c=col: (
-                    f"unknown choice {c.iloc[p]!r} (expected left, right or undecided)"
-                ),
+        if spec.name not in distinct:
+            values[spec.name] = _absent(spec, n)
+            continue
+        codes, values_of = distinct[spec.name]
+        value, messages = _typed(spec, values_of)
+        bad = np.zeros(values_of.size, dtype=bool)
+        bad[list(messages)] = True
+        for pos in np.flatnonzero(bad[codes]).tolist() if messages else []:
+            if pos not in problems:
+                message = messages[int(codes[pos])]
+                problems[pos] = InputError(
+                    message, path=path, line=int(lines[pos]), field=spec.name
+                )
+        # kept as codes and one value per code (times: one per row) until the frame is built
+        small = codes.astype(np.min_scalar_type(max(values_of.size - 1, 0)))
+        values[spec.name] = value[codes] if spec.kind == "time" else (small, value)
+        if spec.kind != "text":
+            continue
+        if conditions is not None and spec.name in ("left", "right"):
+            unknown = ~np.isin(values_of, list(conditions)) & (values_of != "")
+            expected = ", ".join(conditions)
+            for pos in np.flatnonzero(unknown[codes]).tolist():
+                outside.setdefault(
+                    pos,
+                    InputError(
+                        f"unknown condition {values_of[codes[pos]]!r} (expected one of {expected})",
+                        path=path,
+                        line=int(lines[pos]),
+                        field=spec.name,
+                    ),
+                )
+    for pos, error in outside.items():
+        problems.setdefault(pos, error)
+    problems.update(known or {})
+    if drop_blank:  # a blank line carries no vote, so nothing is wrong with it
+        problems = {pos: e for pos, e in problems.items() if not blank[pos]}
+    else:
+        blank[:] = False
+    return _Block(values, lines, problems, blank)
+
+
+def _absent(spec: VoteColumn, n: int) -> Any:
+    """An optional column the file does not have: every value empty."""
+    if spec.kind == "time":
+        return np.full(n, np.datetime64("NaT"), dtype="datetime64[us]")
+    empty = np.array([""], dtype=object) if spec.kind == "text" else np.array([np.nan])
+    return np.zeros(n, dtype=np.uint8), empty
+
+
+def _frame(blocks: list[_Block]) -> pd.DataFrame:
+    """Join the kept rows of every block into the typed frame of :class:`VotesTable`,
+    one column at a time (the blocks' pieces of a column are freed as it is built)."""
+    out: dict[str, Any] = {}
+    for spec in COLUMN_SPECS:
+        pieces = [b.values.pop(spec.name) for b in blocks]
+        if spec.kind == "text":
+            cats, inverse = np.unique(
+                np.concatenate([d for _, d in pieces] or [np.zeros(0, object)]),
+                return_inverse=True,
             )
-            out[spec.name] = low.to_numpy(dtype=object)
-        elif spec.kind == "text":
-            out[spec.name] = col.to_numpy(dtype=object)
-        elif spec.kind == "flag":
-            low = col.str.lower()
-            truth = low.map(FLAGS)
-            wrong = (truth.isna().to_numpy()) & ~empty
-            flag(wrong, spec.name, lambda p, c=col: f"expected true or false, got {c.iloc[p]!r}")
-            out[spec.name] = truth.astype("boolean")
-        elif spec.kind in ("count", "number"):
-            num = pd.to_numeric(col.where(~empty), errors="coerce")
-            fraction = (num != np.floor(num)).fillna(False) if spec.kind == "count" else False
-            wrong = (~empty) & (num.isna() | (num < 0) | fraction).to_numpy()
-            what = "a whole number >= 0" if spec.kind == "count" else "a number >= 0"
-            flag(wrong, spec.name, lambda p, c=col, w=what: f"expected {w}, got {c.iloc[p]!r}")
-            num = num.where(~wrong)  # the row is reported; keep the column typed
-            out[spec.name] = num.astype("Int64" if spec.kind == "count" else "Float64")
-        else:  # time
-            when = pd.to_datetime(col.where(~empty), errors="coerce", utc=True, format="ISO8601")
-            wrong = (~empty) & when.isna().to_numpy()
-            flag(wrong, spec.name, lambda p, c=col: f"expected an ISO 8601 time, got {c.iloc[p]!r}")
-            out[spec.name] = when
-    frame = pd.DataFrame(
-        {
-            k: (v if isinstance(v, pd.Series) else pd.Series(v, index=raw.index))
-            for k, v in out.items()
-        }
-    )
-    problems = [(pos, f, m) for pos, (f, m) in sorted(bad.items())]
-    return frame, problems
+            offsets = np.cumsum([0] + [len(d) for _, d in pieces])
+            codes = np.concatenate(
+                [inverse[o + c] for (c, _), o in zip(pieces, offsets, strict=False)]
+                or [np.zeros(0, np.int64)]
+            )
+            used = np.bincount(codes, minlength=cats.size) > 0  # those of dropped rows go
+            codes = (np.cumsum(used) - 1)[codes]
+            column: Any = pd.Categorical.from_codes(codes, categories=cats[used].astype(object))
+        else:
+            joined = (
+                np.concatenate(pieces or [_absent(spec, 0)])
+                if spec.kind == "time"
+                else np.concatenate([v[c] for c, v in pieces] or [np.zeros(0)])
+            )
+            if spec.kind == "choice":
+                column = pd.Categorical.from_codes(joined.astype(np.int8), categories=CHOICES)
+            elif spec.kind == "time":
+                column = pd.DatetimeIndex(joined).tz_localize("UTC")
+            else:
+                missing = np.isnan(joined)
+                column = (
+                    pd.arrays.BooleanArray(joined == 1.0, missing)
+                    if spec.kind == "flag"
+                    else pd.arrays.IntegerArray(
+                        np.where(missing, 0, joined).astype(np.int64), missing
+                    )
+                    if spec.kind == "count"
+                    else pd.arrays.FloatingArray(np.where(missing, 0.0, joined), missing)
+                )
+        out[spec.name] = pd.Series(column, copy=False)
+        del pieces
+    return pd.DataFrame(out, copy=False)
+
+
+def _keep(block: _Block) -> _Block:
+    """The block without its bad and blank rows."""
+    keep = ~block.blank
+    keep[list(block.problems)] = False
+    if keep.all():
+        return block
+    values = {
+        k: (v[0][keep], v[1]) if isinstance(v, tuple) else v[keep] for k, v in block.values.items()
+    }
+    return _Block(values, block.lines[keep], {}, block.blank[keep])
+
+
+def _frame_columns(source: pd.DataFrame) -> dict[str, np.ndarray]:
+    """An in-memory frame's columns as object arrays of ``str`` (missing values empty)."""
+    out = {}
+    for name in source.columns:
+        if name in out:
+            continue
+        col = source[name]
+        col = col.iloc[:, 0] if isinstance(col, pd.DataFrame) else col
+        values = np.empty(len(col), dtype=object)
+        values[:] = [
+            v if isinstance(v, str) else "" if v is None or v is pd.NA or v != v else str(v)
+            for v in col.to_numpy(dtype=object)
+        ]
+        out[str(name)] = values
+    return out
+
+
+def _blocks(
+    source: str | Path | pd.DataFrame, path: str | None, conditions: Sequence[str] | None
+) -> Iterator[_Block]:
+    """Typed blocks of the source; :data:`_RESTART` when the block reader gives up."""
+    kw: dict[str, Any] = {"path": path, "conditions": conditions}
+    if isinstance(source, pd.DataFrame):
+        _check_header([str(c) for c in source.columns], None)
+        columns = _frame_columns(source)
+        lines = np.arange(2, len(source) + 2, dtype=np.int64)
+        yield _type_block(columns, lines, strip=True, drop_blank=False, **kw)
+        return
+    file = Path(source)
+    head = read_header(file)
+    if head is not None:
+        _check_header(head[0], path)
+        try:
+            for columns, lines, strip in plain_blocks(file, head[0], head[1]):
+                yield _type_block(columns, lines, strip=strip, **kw)
+            return
+        except NotPlain:
+            pass  # the caller drops what it has and reads again below
+        yield _RESTART
+    header, (columns, lines, _), count_errors = exact_rows(file)
+    _check_header(header, path)
+    known = np.flatnonzero(lines < 0)
+    errors = dict(zip(known.tolist(), count_errors, strict=True))
+    yield _type_block(columns, lines, strip=True, known=errors, **kw)
+
+
+_RESTART = _Block({}, np.zeros(0, np.int64), {}, np.zeros(0, bool))
 
 
 def read_votes(
@@ -300,75 +430,38 @@ def read_votes(
     ``skip_bad_rows``, is dropped and counted in :attr:`VotesTable.skipped`. A header that does
     not match the format always raises.
 
+    A plain file (no quotes, every line with the header's number of fields) is read a block at
+    a time by pandas' C parser (:mod:`app.analysis.csv_blocks`) and each block typed at once:
+    every rule runs on the distinct values of a column, text columns become categoricals, so
+    only one block's text is ever held as Python strings. Any other file is read whole by the
+    csv module with the same rules and messages.
+
     >>> t = read_votes(pd.DataFrame({"participant": ["p1"], "clip": ["s2"], "left": ["a"],
     ...                              "right": ["b"], "choice": ["Left"]}))
     >>> t.frame.loc[0, "choice"], t.skipped
     ('left', 0)
     """
-    if isinstance(source, pd.DataFrame):
-        path = None
-        _check_header(list(source.columns), None)
-        raw = source.astype(object).where(source.notna(), "")
-        lines = list(range(2, len(raw) + 2))
-        count_errors: list[InputError] = []
-    else:
-        path = str(source)
-        fast = _read_fast(Path(source))
-        if fast is not None:
-            header, raw = fast
-            raw.columns = header
-            _check_header(header, path)
-            lines, count_errors = list(range(2, len(raw) + 2)), []
-        else:
-            header, rows, lines, count_errors = _read_rows(Path(source))
-            _check_header(header, path)
-            raw = (
-                pd.DataFrame(rows, columns=header, dtype=object)
-                if rows
-                else pd.DataFrame({h: pd.Series([], dtype=object) for h in header})
-            )
-    raw = raw.loc[:, [c for c in raw.columns if c in _SPEC]]  # extra columns are ignored
-    frame, problems = _validate(raw.reset_index(drop=True))
-    line_arr = np.abs(np.asarray(lines, dtype=np.int64))
-    messages = {
-        int(pos): InputError(m, path=path, line=int(line_arr[pos]), field=f)
-        for pos, f, m in problems
-    }
-    known_bad = [i for i, ln in enumerate(lines) if ln < 0]
-    for i, msg in zip(known_bad, count_errors, strict=True):
-        messages[i] = msg
-    if conditions is not None:
-        allowed = set(conditions)
-        for name in ("left", "right"):
-            outside = ~frame[name].isin(allowed).to_numpy()
-            for pos in np.flatnonzero(outside):
-                messages.setdefault(
-                    int(pos),
-                    InputError(
-                        f"unknown condition {frame[name].iloc[pos]!r} (expected one of "
-                        f"{', '.join(conditions)})",
-                        path=path,
-                        line=int(line_arr[pos]),
-                        field=name,
-                    ),
-                )
-    if messages and not skip_bad_rows:
-        first = messages[min(messages)]
+    path = None if isinstance(source, pd.DataFrame) else str(source)
+    kept: list[_Block] = []
+    first: InputError | None = None
+    skipped, problems = 0, []
+    for block in _blocks(source, path, conditions):
+        if block is _RESTART:
+            kept, first, skipped, problems = [], None, 0, []
+            continue
+        if block.problems:
+            ordered = [block.problems[k] for k in sorted(block.problems)]
+            first = ordered[0] if first is None else first
+            skipped += len(ordered)
+            problems.extend(str(e) for e in ordered[: _MAX_PROBLEMS_KEPT - len(problems)])
+        if skip_bad_rows or first is None:
+            kept.append(_keep(block))
+    if first is not None and not skip_bad_rows:
         more = (
-            f" (and {len(messages) - 1} more bad rows; --skip-bad-rows drops them)"
-            if len(messages) > 1
-            else ""
+            f" (and {skipped - 1} more bad rows; --skip-bad-rows drops them)" if skipped > 1 else ""
         )
         raise InputError(first.message + more, path=first.path, line=first.line, field=first.field)
-    keep = np.ones(len(frame), dtype=bool)
-    keep[list(messages)] = False
-    ordered = [str(messages[k]) for k in sorted(messages)]
-    return VotesTable(
-        frame[keep].reset_index(drop=True),
-        skipped=len(messages),
-        problems=ordered[:_MAX_PROBLEMS_KEPT],
-        source=path,
-    )
+    return VotesTable(_frame(kept), skipped=skipped, problems=problems, source=path)
 
 
 def _column_text(values: pd.Series, kind: str) -> list[str]:

@@ -41,6 +41,21 @@ def _summary(results: dict[str, Any]) -> str:
         f"participant-level Wilcoxon tests: {len(wil)} of "
         f"{len(pooled['participant_level'])} pairs differ (Holm p < .05)"
     )
+    mixed = pooled.get("mixed_btd")
+    if mixed and mixed["sd_participant"] is not None:
+        lines.append(
+            f"mixed model (participant and clip random effects): sd participant "
+            f"{mixed['sd_participant']:.3f}, sd clip "
+            + ("-" if mixed["sd_clip"] is None else f"{mixed['sd_clip']:.3f}")
+            + "; JOD "
+            + ", ".join(
+                f"{c} {mixed['jod'][c]:+.2f}"
+                for c in results["conditions"]
+                if mixed["jod"][c] is not None
+            )
+        )
+    elif mixed:
+        lines.append(f"mixed model: not fitted ({mixed['note']})")
     excluded = results["quality"]["excluded"]
     if results["quality"]["rules"]:
         lines.append(
@@ -100,6 +115,13 @@ def _summary(results: dict[str, Any]) -> str:
     help="Leave out participants matching any rule, e.g. 'catch<1.0,side_p<0.001' "
     "(fields: side_left, side_p, undecided, tau, catch, median_ms, outlier).",
 )
+@click.option(
+    "--mixed-model/--no-mixed-model",
+    default=True,
+    show_default=True,
+    help="Also fit Bradley-Terry-Davidson with participant and clip random effects "
+    "(its time grows with participants x clips).",
+)
 def analyze(
     votes: str,
     json_path: str | None,
@@ -112,6 +134,7 @@ def analyze(
     seed: int,
     anchor: str | None,
     exclude: str | None,
+    mixed_model: bool,
 ) -> None:
     """Analyse the votes of a paired-comparison study (CSV) and report the results."""
     from tqdm import tqdm
@@ -139,6 +162,7 @@ def analyze(
             seed=seed,
             anchor=anchor,
             exclude=exclude,
+            mixed_model=mixed_model,
         )
         bar.update()
         if json_path is not None:

@@ -202,3 +202,10 @@ def test_conditions_never_compared_get_null():
     r = btd_summary(t, ["A", "B", "C"], bootstrap=50)
     assert r["scores"]["C"] is None and "never compared: C" in r["note"]
     assert r["scores"]["A"] is not None
+
+
+def test_two_conditions_one_winning_every_vote_has_no_estimate():
+    counts = np.zeros((2, 2, 3))
+    counts[0, 1, 0] = counts[1, 0, 1] = 12  # condition 0 chosen on either side
+    fit = fit_btd(counts)
+    assert not fit.converged and np.isnan(fit.theta).all() and "no finite" in fit.note

@@ -253,3 +253,137 @@ def test_media_log_columns_read_write_and_refuse_nonsense(tmp_path):
     bad = text.replace("TRUE", "maybe")
     with pytest.raises(InputError, match="played_to_end.*expected true or false"):
         read_votes(_write(tmp_path, bad, "bad.csv"))
+
+
+# --- the block reader: plain files in blocks, every other file through the csv module ---
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from app.analysis import csv_blocks  # noqa: E402
+
+_HEADER = "participant,clip,left,right,choice,trial,response_ms,voted_at,played_to_end,extra"
+_CELLS = {
+    "participant": st.sampled_from(["p1", " p1", "p2 ", "", "P 3", "é"]),
+    "clip": st.sampled_from(["s1", "s2", ""]),
+    "left": st.sampled_from(["a", "b", " a"]),
+    "right": st.sampled_from(["a", "b", "c"]),
+    "choice": st.sampled_from(["left", "Right", " undecided ", "maybe", ""]),
+    "trial": st.sampled_from(["1", "2.0", "1.5", "-1", "x", "", "inf", "1e3", "1e300"]),
+    "response_ms": st.sampled_from(["100", "0.5", "-3", "nan", "", " 7 ", "fast"]),
+    "voted_at": st.sampled_from(
+        ["2026-03-02T09:00:00Z", "2026-03-02T10:00:00+01:00", "", "yesterday", "2026-13-40"]
+    ),
+    "played_to_end": st.sampled_from(["true", "NO", "1", "", "maybe"]),
+    "extra": st.sampled_from(["", "x", " "]),
+}
+_ROW = st.tuples(*_CELLS.values()).map(",".join)
+_LINE = st.one_of(_ROW, _ROW, _ROW, st.just(""), st.just(",,,,,,,,,"))
+
+
+def _outcome(path, **kw):
+    try:
+        t = read_votes(path, **kw)
+    except InputError as err:
+        return str(err).replace(str(path), "FILE")
+    return t.frame, t.skipped, [p.replace(str(path), "FILE") for p in t.problems]
+
+
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    lines=st.lists(_LINE, max_size=12),
+    crlf=st.booleans(),
+    block=st.sampled_from([16, 64, 1 << 20]),
+    skip=st.booleans(),
+)
+def test_block_reader_and_csv_module_agree(tmp_path, monkeypatch, lines, crlf, block, skip):
+    """A plain file read in blocks gives what the csv module gives for the same rows (there
+    forced by quoting the header): same frame, same skipped rows, same messages and lines."""
+    monkeypatch.setattr(csv_blocks, "BLOCK_BYTES", block)
+    end = "\r\n" if crlf else "\n"
+    body = end.join(lines) + (end if lines else "")
+    plain = tmp_path / "plain.csv"
+    quoted = tmp_path / "quoted.csv"
+    plain.write_bytes((_HEADER + end + body).encode())
+    quoted.write_bytes(('"participant"' + _HEADER[11:] + end + body).encode())
+    fast, exact = _outcome(plain, skip_bad_rows=skip), _outcome(quoted, skip_bad_rows=skip)
+    if isinstance(fast, str) or isinstance(exact, str):
+        assert fast == exact
+        return
+    pd.testing.assert_frame_equal(fast[0], exact[0])
+    assert fast[1:] == exact[1:]
+
+
+def test_a_plain_file_never_reaches_the_csv_module(tmp_path, monkeypatch):
+    def refuse(path):
+        raise AssertionError("the exact reader was used")
+
+    monkeypatch.setattr("app.analysis.votes.exact_rows", refuse)
+    monkeypatch.setattr(csv_blocks, "BLOCK_BYTES", 40)
+    rows = "".join(f"p{k % 7},s{k % 3},a,b,{('left', 'right')[k % 2]}\n" for k in range(50))
+    t = read_votes(_write(tmp_path, "participant,clip,left,right,choice\n" + rows))
+    assert len(t) == 50 and t.frame["participant"].cat.categories.tolist() == [
+        f"p{k}" for k in range(7)
+    ]
+    assert t.frame["choice"].tolist()[:3] == ["left", "right", "left"]
+
+
+def test_bad_row_in_a_late_block_keeps_its_line_number(tmp_path, monkeypatch):
+    monkeypatch.setattr(csv_blocks, "BLOCK_BYTES", 32)
+    rows = ["p,s,a,b,left"] * 40
+    rows[36] = "p,s,a,b,sideways"
+    rows[10] = ""  # a blank line is no vote but still a line
+    path = _write(tmp_path, "participant,clip,left,right,choice\n" + "\n".join(rows) + "\n")
+    with pytest.raises(InputError, match="unknown choice 'sideways'") as err:
+        read_votes(path)
+    assert err.value.line == 38 and err.value.field == "choice"
+    t = read_votes(path, skip_bad_rows=True)
+    assert len(t) == 38 and t.skipped == 1 and t.problems[0].startswith(f"{path}:38: choice:")
+
+
+def test_a_quote_after_the_first_block_restarts_with_the_exact_reader(tmp_path, monkeypatch):
+    monkeypatch.setattr(csv_blocks, "BLOCK_BYTES", 32)
+    rows = ["p,s,a,b,left"] * 30 + ['"p,2",s,a,b,right', "p,s,a,b,maybe"]
+    path = _write(tmp_path, "participant,clip,left,right,choice\n" + "\n".join(rows) + "\n")
+    with pytest.raises(InputError, match="unknown choice 'maybe'") as err:
+        read_votes(path)
+    assert err.value.line == 33
+    t = read_votes(path, skip_bad_rows=True)
+    assert len(t) == 31 and set(t.frame["participant"]) == {"p", "p,2"} and t.skipped == 1
+
+
+@pytest.mark.parametrize("value", ["inf", "1e300", "nan"])
+def test_a_count_that_is_not_a_finite_whole_number_is_a_bad_row(tmp_path, value):
+    path = _write(tmp_path, f"participant,clip,left,right,choice,trial\np,c,a,b,left,{value}\n")
+    with pytest.raises(InputError, match="whole number") as err:
+        read_votes(path)
+    assert err.value.line == 2 and err.value.field == "trial"
+
+
+def test_text_columns_are_categoricals_of_the_values_kept(tmp_path):
+    t = read_votes(_write(tmp_path, GOOD + ",s2,a,b,left\n"), skip_bad_rows=True)
+    assert isinstance(t.frame["participant"].dtype, pd.CategoricalDtype)
+    assert t.frame["participant"].cat.categories.tolist() == ["p1", "p2"]
+    assert t.frame["choice"].cat.categories.tolist() == ["left", "right", "undecided"]
+
+
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    body=st.lists(st.sampled_from(list('ab1-.:TZ ,"\r\n\x00\ufeffé\xa0') + ["left"])).map("".join),
+    raw=st.binary(max_size=40),
+    block=st.sampled_from([8, 1 << 20]),
+)
+def test_any_bytes_read_or_fail_with_one_line(tmp_path, monkeypatch, body, raw, block):
+    monkeypatch.setattr(csv_blocks, "BLOCK_BYTES", block)
+    for data in (("participant,clip,left,right,choice,trial\n" + body).encode(), raw):
+        path = tmp_path / "any.csv"
+        path.write_bytes(data)
+        for skip in (False, True):
+            try:
+                read_votes(path, skip_bad_rows=skip)
+            except InputError as err:
+                assert "\n" not in str(err)

@@ -174,3 +174,19 @@ def test_plan_bad_input_exits_2_with_one_line():
         out = CliRunner().invoke(main, ["plan", *args])
         lines = [ln for ln in out.output.splitlines() if ln.strip()]
         assert out.exit_code == 2 and len(lines) == 1 and "Traceback" not in out.output
+
+
+def test_the_summary_names_the_mixed_model_unless_left_out(tmp_path):
+    from app.analysis import write_votes_csv
+    from app.analysis.simulate import simulate_votes
+
+    write_votes_csv(
+        simulate_votes({"a": -0.5, "b": 0.0, "c": 0.6}, participants=10, seed=2), tmp_path / "v.csv"
+    )
+    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--bootstrap", "0"])
+    assert out.exit_code == 0, out.output
+    assert "mixed model (participant and clip random effects): sd participant" in out.output
+    out = CliRunner().invoke(
+        main, ["analyze", str(tmp_path / "v.csv"), "--bootstrap", "0", "--no-mixed-model"]
+    )
+    assert out.exit_code == 0 and "mixed model" not in out.output

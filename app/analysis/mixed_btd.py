@@ -1,0 +1,469 @@
+"""Bradley-Terry-Davidson with crossed participant and clip random effects.
+
+The fixed model (:mod:`app.analysis.btd`; Davidson 1970, Davidson & Beaver 1977) gives every
+vote the same worths. Here participant p and clip k shift each condition's log worth:
+
+    a_pki = theta_i + b_pi + c_ki,   b_pi ~ N(0, sd_participant^2),   c_ki ~ N(0, sd_clip^2)
+
+all independent, and a vote with condition i on the left and j on the right is a multinomial
+logit with the Davidson tie and the side effect (lambda = log g, kappa = log nu):
+
+    log P(left) - log P(right)     = lambda + a_pki - a_pkj
+    log P(undecided) - log P(right) = kappa + (a_pki + a_pkj) / 2 - a_pkj
+
+Between decided votes this is the logistic mixed model of the preference, logit P(i over j)
+= lambda + theta_i - theta_j + (b_pi - b_pj) + (c_ki - c_kj): a participant or clip effect is a
+condition-by-participant (-clip) interaction, crossed, the random slopes a reviewer asks for.
+Undecided votes are kept as Davidson ties (their own outcome), not split into half wins.
+
+Estimator (Laplace approximation, as lme4's ``glmer`` with ``nAGQ = 0`` but with the fixed
+effects integrated too, i.e. REML-like; Breslow & Clayton 1993, JASA 88, 9-25, sec. 2; Bates
+et al. 2015, J. Stat. Softw. 67(1), sec. 5):
+
+1. for given standard deviations, the joint mode of fixed and random effects maximises the
+   log-likelihood minus the Gaussian penalty sum(b^2) / (2 sd_p^2) + sum(c^2) / (2 sd_c^2) (a
+   concave problem: Newton steps with step halving);
+2. the standard deviations minimise the Laplace approximation of minus the log marginal
+   likelihood, F(mode) + q_p log sd_p + q_c log sd_c + log det(H) / 2, where H is the Hessian of
+   F at the mode over all effects (L-BFGS-B over log sd, each evaluation starting from the last
+   mode);
+3. the covariance of the fixed effects is the fixed block of H^-1 (Wald intervals, normal
+   quantile), the scores theta centred to mean 0.
+
+H is block-diagonal in the participants' effects: every linear solve and log-determinant goes
+through the Schur complement of that block, so the cost is linear in participants.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from app.analysis.btd import BOUND, JOD_PER_LOG_WORTH, fit_btd
+from app.analysis.json_values import json_number
+
+_CHUNK = 2000  # participants per pass when the Hessian is accumulated (bounded memory)
+
+
+@dataclass(frozen=True)
+class MixedBTDFit:
+    """Scores theta (mean 0) with standard errors, side factor gamma, tie parameter nu, the
+    random-effect standard deviations and the Laplace objective at the optimum."""
+
+    theta: np.ndarray
+    se: np.ndarray
+    gamma: float
+    log_gamma_se: float
+    nu: float
+    log_nu_se: float
+    sd_participant: float
+    sd_clip: float
+    votes: int
+    converged: bool
+    note: str | None = None
+    iterations: int = 0  # variance updates
+
+
+class _Model:
+    """Dense effects z = (theta, lambda[, kappa], c) and participant effects b (P, n), with the
+    vote counts ``t`` (P, K, n, n, 3), same-condition pairs set to 0."""
+
+    def __init__(self, t: np.ndarray) -> None:
+        self.P, self.K, self.n = t.shape[:3]
+        self.t = t
+        self.total = t.sum(axis=-1)
+        self.ties = bool(t[..., 2].sum() > 0)
+        self.use_p, self.use_c = self.P > 1, self.K > 1
+        self.nf = self.n + 1 + int(self.ties)  # fixed effects
+        self.m = self.nf + (self.K * self.n if self.use_c else 0)
+
+    def terms(self, z: np.ndarray, b: np.ndarray) -> dict[str, Any]:
+        """Log-likelihood, its gradient and minus its Hessian in blocks: dense-dense C,
+        participant blocks A (P, n, n) and participant-dense B (P, n, m).
+
+        Every vote's worths are a = theta + b_p + c_k, so the derivatives are taken in the
+        (participant, clip) worths first and summed over clips, participants or both: sums
+        over axes, no scatter. Local variables of a vote (i left, j right): a_i, a_j, lambda,
+        kappa; minus the Hessian of its log-likelihood in them is J' W J with
+        W = N (diag(pi) - pi pi') and J the outcomes' coefficients.
+        """
+        P, K, n, m, nf = self.P, self.K, self.n, self.m, self.nf
+        lam = z[n]
+        kap = z[n + 1] if self.ties else 0.0
+        c = z[nf:].reshape(K, n) if self.use_c else np.zeros((K, n))
+        ll, gz, gb = 0.0, np.zeros(m), np.zeros((P, n))
+        cc, aa, bb = np.zeros((m, m)), np.zeros((P, n, n)), np.zeros((P, n, m))
+        eye = np.eye(n, dtype=bool)
+        for p0 in range(0, P, _CHUNK):
+            p1 = min(P, p0 + _CHUNK)
+            y, total = self.t[p0:p1], self.total[p0:p1]
+            a = z[:n] + b[p0:p1, None, :] + c[None]  # (Pc, K, n)
+            a_i, a_j = a[..., :, None], a[..., None, :]
+            e_l, e_r = lam + a_i + 0.0 * a_j, a_j + 0.0 * a_i
+            e_t = kap + (a_i + a_j) / 2.0 if self.ties else np.full_like(e_l, -np.inf)
+            top = np.maximum(np.maximum(e_l, e_r), e_t)
+            x_l, x_r, x_t = np.exp(e_l - top), np.exp(e_r - top), np.exp(e_t - top)
+            d = x_l + x_r + x_t
+            log_d = top + np.log(d)
+            pl, pr, pt = x_l / d, x_r / d, x_t / d
+            tie = y[..., 2] * np.where(np.isfinite(e_t), e_t, 0.0) if self.ties else 0.0
+            ll += float((y[..., 0] * e_l + y[..., 1] * e_r + tie - total * log_d).sum())
+            g_l, g_r, g_t = y[..., 0] - total * pl, y[..., 1] - total * pr, y[..., 2] - total * pt
+            g_a = (g_l + g_t / 2.0).sum(axis=-1) + (g_r + g_t / 2.0).sum(axis=-2)  # (Pc, K, n)
+            w_ll, w_rr, w_tt = total * pl * (1 - pl), total * pr * (1 - pr), total * pt * (1 - pt)
+            w_lr, w_lt, w_rt = -total * pl * pr, -total * pl * pt, -total * pr * pt
+            h_ii = w_ll + w_lt + w_tt / 4.0
+            h_jj = w_rr + w_rt + w_tt / 4.0
+            h_ij = w_lr + (w_lt + w_rt) / 2.0 + w_tt / 4.0
+            h_aa = h_ij + np.swapaxes(h_ij, -1, -2)  # (Pc, K, n, n), symmetric
+            h_aa[..., eye] = h_ii.sum(axis=-1) + h_jj.sum(axis=-2)
+            h_al = (w_ll + w_lt / 2.0).sum(axis=-1) + (w_lr + w_lt / 2.0).sum(axis=-2)
+            h_ak = (w_lt + w_tt / 2.0).sum(axis=-1) + (w_rt + w_tt / 2.0).sum(axis=-2)
+            # dense gradient and C
+            gz[:n] += g_a.sum(axis=(0, 1))
+            gz[n] += g_l.sum()
+            cc[:n, :n] += h_aa.sum(axis=(0, 1))
+            cc[:n, n] += h_al.sum(axis=(0, 1))
+            cc[n, n] += w_ll.sum()
+            if self.ties:
+                gz[n + 1] += g_t.sum()
+                cc[:n, n + 1] += h_ak.sum(axis=(0, 1))
+                cc[n, n + 1] += w_lt.sum()
+                cc[n + 1, n + 1] += w_tt.sum()
+            if self.use_c:
+                gz[nf:] += g_a.sum(axis=0).ravel()
+                per_clip = h_aa.sum(axis=0)  # (K, n, n)
+                for k in range(K):
+                    block = slice(nf + k * n, nf + (k + 1) * n)
+                    cc[block, block] += per_clip[k]
+                    cc[:n, block] += per_clip[k]
+                cc[n, nf:] += h_al.sum(axis=0).ravel()
+                if self.ties:
+                    cc[n + 1, nf:] += h_ak.sum(axis=0).ravel()
+            if self.use_p:
+                gb[p0:p1] = g_a.sum(axis=1)
+                aa[p0:p1] = h_aa.sum(axis=1)
+                bb[p0:p1, :, :n] = aa[p0:p1]
+                bb[p0:p1, :, n] = h_al.sum(axis=1)
+                if self.ties:
+                    bb[p0:p1, :, n + 1] = h_ak.sum(axis=1)
+                if self.use_c:
+                    bb[p0:p1, :, nf:] = np.swapaxes(h_aa, 1, 2).reshape(p1 - p0, n, K * n)
+        upper = np.triu(cc, 1)
+        cc = np.triu(cc) + upper.T  # filled above the diagonal only
+        return {"ll": ll, "gz": gz, "gb": gb, "C": cc, "A": aa, "B": bb}
+
+    def penalised(self, z: np.ndarray, b: np.ndarray, var: np.ndarray, ll: float) -> float:
+        """F: minus the log-likelihood plus the random effects' Gaussian penalty (and the
+        (sum theta)^2 / 2 that fixes theta's mean without moving the maximum)."""
+        f = -ll + 0.5 * float(z[: self.n].sum()) ** 2
+        if self.use_p:
+            f += 0.5 * float((b**2).sum()) / var[0]
+        if self.use_c:
+            f += 0.5 * float((z[self.nf :] ** 2).sum()) / var[1]
+        return f
+
+    def active(self, var: np.ndarray) -> tuple[bool, bool]:
+        """Which random effects are in the model: present in the design, variance not 0."""
+        return self.use_p and var[0] > MIN_VARIANCE, self.use_c and var[1] > MIN_VARIANCE
+
+    def solve(self, z: np.ndarray, b: np.ndarray, var: np.ndarray, t: dict[str, Any]) -> _Solve:
+        """The Newton step of F (H^-1 times its gradient) through the Schur complement of the
+        participant blocks, with the pieces of H^-1 the variance update needs. An absent
+        effect (variance 0) is held at 0: its step returns it there."""
+        n, m, nf = self.n, self.m, self.nf
+        use_p, use_c = self.active(var)
+        gz = -t["gz"]
+        gz[:n] += z[:n].sum()
+        s = t["C"].copy()
+        s[:n, :n] += 1.0
+        if use_c:
+            gz[nf:] += z[nf:] / var[1]
+            s[nf:, nf:] += np.eye(m - nf) / var[1]
+        elif m > nf:
+            s[nf:, :], s[:, nf:] = 0.0, 0.0
+            s[nf:, nf:] = np.eye(m - nf)
+            gz[nf:] = z[nf:]
+        if not use_p:
+            s_inv = np.linalg.inv(s)
+            return _Solve(s_inv @ gz, b.copy(), s_inv, None, None)
+        bb = t["B"].copy()
+        if not use_c:
+            bb[:, :, nf:] = 0.0
+        gb = -t["gb"] + b / var[0]
+        a_inv = np.linalg.inv(t["A"] + np.eye(n) / var[0])
+        x = a_inv @ bb  # A^-1 B, (P, n, m)
+        s -= np.tensordot(bb, x, axes=([0, 1], [0, 1]))
+        s_inv = np.linalg.inv(s)
+        a_inv_g = np.matmul(a_inv, gb[:, :, None])[:, :, 0]
+        dz = s_inv @ (gz - np.tensordot(bb, a_inv_g, axes=([0, 1], [0, 1])))
+        return _Solve(dz, a_inv_g - x @ dz, s_inv, a_inv, x)
+
+    def mode(
+        self,
+        var: np.ndarray,
+        z: np.ndarray,
+        b: np.ndarray,
+        t: dict[str, Any] | None = None,
+        *,
+        tol: float = 1e-7,
+        max_iter: int = 50,
+    ) -> tuple[np.ndarray, np.ndarray, _Solve, bool, dict[str, Any]]:
+        """The joint mode of fixed and random effects for the given variances (Newton steps
+        with step halving from ``z``, ``b``; ``t`` their :meth:`terms` if known, which do not
+        depend on the variances), the solve there and its terms."""
+        t = self.terms(z, b) if t is None else t
+        f = self.penalised(z, b, var, t["ll"])
+        for _ in range(max_iter):
+            try:
+                step = self.solve(z, b, var, t)
+            except np.linalg.LinAlgError:
+                break
+            scale = 1.0
+            for _half in range(30):
+                z_new, b_new = z - scale * step.dz, b - scale * step.db
+                t_new = self.terms(z_new, b_new)
+                f_new = self.penalised(z_new, b_new, var, t_new["ll"])
+                if f_new <= f + 1e-10 * max(1.0, abs(f)):
+                    break
+                scale /= 2.0
+            else:  # no step decreases F beyond rounding: this is the mode
+                return z, b, step, True, t
+            z, b, t, f = z_new, b_new, t_new, f_new
+            moved = max(np.abs(scale * step.dz).max(), np.abs(scale * step.db).max(initial=0.0))
+            if moved < tol:
+                return z, b, self.solve(z, b, var, t), True, t
+        failed = _Solve(np.zeros_like(z), np.zeros_like(b), np.eye(self.m), None, None)
+        return z, b, failed, False, t
+
+    def variance_update(
+        self, z: np.ndarray, b: np.ndarray, at: _Solve, var: np.ndarray
+    ) -> np.ndarray:
+        """Schall's (1991) REML update: var = (sum of squared modes + trace of their block of
+        H^-1) / number of effects, for the participant and the clip effects (NaN: not in the
+        design; an absent effect stays absent, the update cannot leave 0)."""
+        out = np.full(2, np.nan)
+        use_p, use_c = self.active(var)
+        if self.use_p:
+            out[0] = MIN_VARIANCE
+        if use_p and at.a_inv is not None and at.x is not None:
+            trace = np.trace(at.a_inv, axis1=1, axis2=2).sum() + float(
+                ((at.x @ at.s_inv) * at.x).sum()
+            )
+            out[0] = (float((b**2).sum()) + trace) / b.size
+        if self.use_c:
+            out[1] = MIN_VARIANCE
+        if use_c:
+            c = z[self.nf :]
+            trace_c = float(np.trace(at.s_inv[self.nf :, self.nf :]))
+            out[1] = (float((c**2).sum()) + trace_c) / c.size
+        return out
+
+
+@dataclass(frozen=True)
+class _Solve:
+    dz: np.ndarray
+    db: np.ndarray
+    s_inv: np.ndarray  # the dense block of H^-1 (fixed and clip effects)
+    a_inv: np.ndarray | None
+    x: np.ndarray | None  # A^-1 B
+
+
+MODEL = "Bradley-Terry-Davidson with participant x condition and clip x condition random effects"
+ESTIMATOR = "penalised quasi-likelihood, REML variances (Schall's update); Wald intervals"
+MIN_VARIANCE = 1e-8  # a random effect taken as absent
+CRAWL_VARIANCE = 0.01  # sd 0.1
+NEGLIGIBLE_VARIANCE = 4e-4  # sd 0.02 log-worth units (0.018 JOD): taken as absent
+
+
+def fit_mixed_btd(t: np.ndarray, *, max_iter: int = 200, tol: float = 1e-5) -> MixedBTDFit:
+    """Fit the model to a (P, K, n, n, 3) count tensor (:class:`app.analysis.counts.VoteCounts`):
+    penalised quasi-likelihood (Breslow & Clayton 1993) with REML variances by Schall's
+    update, alternated with Newton steps to the joint mode until the variances settle.
+
+    >>> rng = np.random.default_rng(0)
+    >>> t = rng.poisson(3.0, (6, 3, 2, 2, 3)); f = fit_mixed_btd(t); f.converged, f.theta.shape
+    (True, (2,))
+    """
+    t = np.array(t, dtype=float)
+    P, K, n = t.shape[:3]
+    t[:, :, np.arange(n), np.arange(n)] = 0.0  # same-condition pairs carry no preference
+    votes = int(t.sum())
+    nan = np.full(n, np.nan)
+
+    def failed(note: str) -> MixedBTDFit:
+        return MixedBTDFit(nan, nan, *[np.nan] * 6, votes, False, note)
+
+    if votes == 0 or n < 2:
+        return failed("no votes on pairs of different conditions")
+    model = _Model(t)
+    state: dict[str, Any] = {
+        "z": np.zeros(model.m),
+        "b": np.zeros((P, n)),
+        "t": None,
+        "ok": True,
+        "updates": 0,
+    }
+
+    def schall(log_var: np.ndarray) -> np.ndarray:
+        """One variance update in log variances, from the mode at ``exp(log_var)``."""
+        var = np.exp(log_var)
+        z, b, at, ok, t = model.mode(var, state["z"], state["b"], state["t"], tol=1e-6)
+        state.update(z=z, b=b, t=t, ok=state["ok"] and ok, updates=state["updates"] + 1)
+        update = model.variance_update(z, b, at, var)
+        new = np.where(np.isnan(update), var, update)
+        new = np.where(new < NEGLIGIBLE_VARIANCE, MIN_VARIANCE, new)  # EM crawls near 0
+        return np.log(new)
+
+    # SQUAREM (Varadhan & Roland 2008, Scand. J. Stat. 35, 335-353, scheme S3): two updates
+    # and an extrapolation along them per cycle; the fixed point is Schall's.
+    log_var = np.log(np.array([0.25, 0.25]))
+    settled, probed = False, np.zeros(2, dtype=bool)
+    for _ in range(max_iter):
+        one = schall(log_var)
+        two = schall(one)
+        r, v = one - log_var, two - 2.0 * one + log_var
+        if np.abs(r).max() < tol:
+            log_var, settled = two, True
+            break
+        alpha = min(-1.0, -float(np.linalg.norm(r) / max(np.linalg.norm(v), 1e-12)))
+        jump = log_var - 2.0 * alpha * r + alpha**2 * v
+        # at most a factor e**1.5 beyond the plain updates, and not below NEGLIGIBLE_VARIANCE:
+        # the update there, not the jump, decides on 0
+        jump = np.clip(two + np.clip(jump - two, -1.5, 1.5), np.log(NEGLIGIBLE_VARIANCE), 3.0)
+        # a small variance still falling at nearly the same pace is EM's crawl towards 0:
+        # try NEGLIGIBLE_VARIANCE at once (its update says whether 0 is the answer)
+        crawl = (r < 0) & (two - one < 0.5 * r) & (two < np.log(CRAWL_VARIANCE)) & ~probed
+        jump = np.where(crawl, np.log(NEGLIGIBLE_VARIANCE), jump)
+        jump = np.where(two <= np.log(MIN_VARIANCE) + 1e-9, two, jump)  # absent stays so
+        saved = {key: state[key] for key in ("z", "b", "t", "ok")}
+        try:
+            new = schall(jump)
+        except np.linalg.LinAlgError:
+            state["ok"] = False
+        if not state["ok"]:  # the extrapolation went too far: keep the plain updates
+            state.update(saved)
+            new = schall(two)
+        if not state["ok"]:
+            break
+        probed |= crawl & (new > np.log(NEGLIGIBLE_VARIANCE))  # 0 is not the answer: no more
+        done = np.abs(new - log_var).max() < tol
+        log_var = new
+        if done:
+            settled = True
+            break
+    var = np.exp(log_var)
+    iterations = int(state["updates"])
+    z, b = state["z"], state["b"]
+    z, b, at, ok, _ = model.mode(var, z, b, state["t"], tol=1e-9)
+    if not (ok and settled and np.all(np.isfinite(z)) and np.abs(z[: model.nf]).max() < BOUND):
+        return failed("the fit did not converge")
+    cov = at.s_inv[: model.nf, : model.nf]
+    centre = np.eye(n) - 1.0 / n
+    cov_theta = centre @ cov[:n, :n] @ centre
+    notes = {
+        (True, True): None,
+        (True, False): "one clip: no clip effect",
+        (False, True): "one participant: no participant effect",
+        (False, False): "one participant and one clip: the fixed model",
+    }
+    return MixedBTDFit(
+        theta=z[:n] - z[:n].mean(),
+        se=np.sqrt(np.clip(np.diag(cov_theta), 0.0, None)),
+        gamma=float(np.exp(z[n])),
+        log_gamma_se=float(np.sqrt(cov[n, n])),
+        nu=float(np.exp(z[n + 1])) if model.ties else 0.0,
+        log_nu_se=float(np.sqrt(cov[n + 1, n + 1])) if model.ties else np.nan,
+        sd_participant=_sd(var[0]) if model.use_p else np.nan,
+        sd_clip=_sd(var[1]) if model.use_c else np.nan,
+        votes=votes,
+        converged=True,
+        note=notes[(model.use_p, model.use_c)],
+        iterations=iterations,
+    )
+
+
+def _sd(var: float) -> float:
+    return 0.0 if var <= MIN_VARIANCE else float(np.sqrt(var))
+
+
+def mixed_btd_summary(
+    t: np.ndarray, names: Sequence[str], confidence: float = 0.95
+) -> dict[str, Any]:
+    """The model as JSON for a (P, K, n, n, 3) tensor: scores (log worth, mean 0) with Wald
+    intervals and in JOD, gamma and nu with intervals (Wald on the log scale), the standard
+    deviations of the participant and clip effects. Conditions never compared get null."""
+    t = np.asarray(t, dtype=float)
+    t = t[t.sum(axis=(1, 2, 3, 4)) > 0]
+    t = t[:, t.sum(axis=(0, 2, 3, 4)) > 0]
+    n = len(names)
+    off = ~np.eye(n, dtype=bool)
+    pair = np.where(off, t.sum(axis=(0, 1, 4)), 0.0)
+    active = np.flatnonzero((pair + pair.T).sum(axis=1) > 0)
+    sub = t[:, :, active][:, :, :, active]
+    fixed = fit_btd(sub.sum(axis=(0, 1))) if active.size >= 2 else None
+    fit = (
+        fit_mixed_btd(sub)
+        if fixed is not None and fixed.converged
+        else MixedBTDFit(
+            np.zeros(0),
+            np.zeros(0),
+            *[np.nan] * 6,
+            int(sub.sum()),
+            False,
+            "no finite estimate, as for the fixed model: " + str(fixed.note),
+        )
+        if fixed is not None
+        else MixedBTDFit(
+            np.zeros(0),
+            np.zeros(0),
+            *[np.nan] * 6,
+            0,
+            False,
+            "fewer than two conditions were compared",
+        )
+    )
+    zq = float(stats.norm.ppf(0.5 + confidence / 2.0))
+    scores: dict[str, Any] = {c: None for c in names}
+    ci: dict[str, Any] = {c: [None, None] for c in names}
+    se: dict[str, Any] = {c: None for c in names}
+    if fit.converged:
+        for q, c in enumerate(active.tolist()):
+            scores[names[c]] = json_number(fit.theta[q])
+            se[names[c]] = json_number(fit.se[q])
+            ci[names[c]] = [
+                json_number(fit.theta[q] - zq * fit.se[q]),
+                json_number(fit.theta[q] + zq * fit.se[q]),
+            ]
+
+    def interval(value: float, log_se: float) -> list[Any]:
+        if not (fit.converged and value > 0):
+            return [None, None]
+        return [json_number(value * np.exp(-zq * log_se)), json_number(value * np.exp(zq * log_se))]
+
+    return {
+        "model": MODEL,
+        "estimator": ESTIMATOR,
+        "scores": scores,
+        "se": se,
+        "ci": ci,
+        "jod": {c: None if v is None else v * JOD_PER_LOG_WORTH for c, v in scores.items()},
+        "jod_ci": {
+            c: [None if v is None else v * JOD_PER_LOG_WORTH for v in iv] for c, iv in ci.items()
+        },
+        "gamma": json_number(fit.gamma) if fit.converged else None,
+        "gamma_ci": interval(fit.gamma, fit.log_gamma_se),
+        "nu": json_number(fit.nu) if fit.converged else None,
+        "nu_ci": interval(fit.nu, fit.log_nu_se),
+        "sd_participant": json_number(fit.sd_participant) if fit.converged else None,
+        "sd_clip": json_number(fit.sd_clip) if fit.converged else None,
+        "n": fit.votes,
+        "participants": int(t.shape[0]),
+        "clips": int(t.shape[1]),
+        "iterations": fit.iterations,
+        "note": fit.note,
+    }

@@ -1,0 +1,112 @@
+import numpy as np
+import pytest
+
+from app.analysis.btd import fit_btd
+from app.analysis.mixed_btd import _Model, fit_mixed_btd, mixed_btd_summary
+from app.analysis.mixed_coverage import Truth, coverage, simulate_counts
+
+
+def _study(truth, participants, clips, seed):
+    return simulate_counts(truth, participants, clips, np.random.default_rng(seed))
+
+
+def test_derivatives_match_finite_differences():
+    rng = np.random.default_rng(3)
+    t = _study(Truth(), 5, 3, 1)
+    model = _Model(t)
+    z = rng.normal(0, 0.3, model.m)
+    b = rng.normal(0, 0.3, (model.P, model.n))
+    at = model.terms(z, b)
+    flat = np.concatenate([z, b.ravel()])
+
+    def ll(x):
+        return model.terms(x[: model.m], x[model.m :].reshape(b.shape))["ll"]
+
+    h = 1e-5
+    eye = np.eye(flat.size)
+    grad = np.array([(ll(flat + h * e) - ll(flat - h * e)) / (2 * h) for e in eye])
+    np.testing.assert_allclose(grad[: model.m], at["gz"], atol=1e-5)
+    np.testing.assert_allclose(grad[model.m :], at["gb"].ravel(), atol=1e-5)
+
+    def gradient(x):
+        g = model.terms(x[: model.m], x[model.m :].reshape(b.shape))
+        return np.concatenate([g["gz"], g["gb"].ravel()])
+
+    hess = -np.array([(gradient(flat + h * e) - gradient(flat - h * e)) / (2 * h) for e in eye])
+    m = model.m
+    np.testing.assert_allclose(hess[:m, :m], at["C"], atol=1e-4)
+    blocks = hess[m:, m:].reshape(model.P, model.n, model.P, model.n)
+    for p in range(model.P):
+        np.testing.assert_allclose(blocks[p, :, p, :], at["A"][p], atol=1e-4)
+    np.testing.assert_allclose(hess[m:, :m].reshape(model.P, model.n, m), at["B"], atol=1e-4)
+
+
+def test_a_large_study_recovers_its_effects():
+    truth = Truth(theta=(-0.6, -0.1, 0.2, 0.5), gamma=1.3, nu=0.4, sd_participant=0.5, sd_clip=0.3)
+    fit = fit_mixed_btd(_study(truth, 300, 12, 7))
+    assert fit.converged
+    np.testing.assert_allclose(fit.theta, np.array(truth.theta) - 0.0, atol=0.12)
+    assert abs(fit.sd_participant - 0.5) < 0.08 and abs(fit.sd_clip - 0.3) < 0.12
+    assert abs(fit.gamma - 1.3) < 0.08 and abs(fit.nu - 0.4) < 0.05
+    assert np.all(fit.se > 0) and np.all(fit.se < 0.15)
+
+
+def test_without_random_variation_it_is_the_fixed_model():
+    truth = Truth(sd_participant=0.0, sd_clip=0.0)
+    t = _study(truth, 60, 4, 2)
+    fit = fit_mixed_btd(t)
+    fixed = fit_btd(t.sum(axis=(0, 1)))
+    assert fit.converged and fit.sd_participant < 0.1 and fit.sd_clip < 0.1
+    np.testing.assert_allclose(fit.theta, fixed.theta, atol=0.03)
+    assert abs(fit.gamma - fixed.gamma) < 0.02 and abs(fit.nu - fixed.nu) < 0.02
+
+
+def test_one_clip_has_no_clip_effect():
+    fit = fit_mixed_btd(_study(Truth(), 40, 1, 4))
+    assert fit.converged and np.isnan(fit.sd_clip) and fit.note == "one clip: no clip effect"
+
+
+def test_a_condition_that_wins_everything_is_not_fitted():
+    t = np.zeros((3, 2, 2, 2, 3))
+    t[:, :, 0, 1, 0] = 2  # condition 0 on the left always chosen
+    t[:, :, 1, 0, 1] = 2  # and on the right
+    out = mixed_btd_summary(t, ["a", "b"])
+    assert out["scores"] == {"a": None, "b": None} and "no finite" in out["note"]
+
+
+def test_summary_reports_intervals_around_the_scores():
+    out = mixed_btd_summary(_study(Truth(), 30, 6, 5), ["a", "b", "c", "d"])
+    for c in "abcd":
+        low, high = out["ci"][c]
+        assert low < out["scores"][c] < high
+        assert out["jod_ci"][c][0] == pytest.approx(low / np.log(3))
+    assert out["gamma_ci"][0] < out["gamma"] < out["gamma_ci"][1]
+    assert out["participants"] == 30 and out["clips"] == 6
+
+
+def test_a_few_simulated_studies_land_near_the_truth():
+    """A small version of the coverage study of docs/analysis.md (python -m
+    app.analysis.mixed_coverage --studies 200): estimates near the truth, intervals that
+    mostly hold it."""
+    result = coverage(studies=6, participants=30, clips=8, seed=11)
+    assert result["failed"] == 0
+    np.testing.assert_allclose(result["mean_estimate"], result["truth"], atol=0.12)
+    assert result["coverage_theta"] >= 0.75
+    assert abs(result["mean_sd"][0] - 0.5) < 0.15
+
+
+def test_the_analysis_reports_it_beside_the_fixed_model(tmp_path):
+    from app.analysis import analyze
+    from app.analysis.document import Table, build_document
+    from app.analysis.simulate import simulate_votes
+
+    votes = simulate_votes({"a": -0.5, "b": 0.0, "c": 0.6}, participants=12, seed=3)
+    r = analyze(votes, bootstrap=0)
+    m = r["pooled"]["mixed_btd"]
+    assert r["options"]["mixed_model"] and m["participants"] == 12 and m["clips"] == 2
+    assert m["scores"]["a"] < m["scores"]["b"] < m["scores"]["c"]
+    assert m["sd_participant"] is not None and m["estimator"].startswith("penalised")
+    tables = [b for b in build_document(r) if isinstance(b, Table)]
+    mixed = next(t for t in tables if t.caption.startswith("Table 9b"))
+    assert [row[0] for row in mixed.rows] == ["a", "b", "c"]
+    assert analyze(votes, bootstrap=0, mixed_model=False)["pooled"]["mixed_btd"] is None
