@@ -186,6 +186,20 @@ def vote_machine(app, web, rejoin: str):
             status = self.expected(person, trial, choice, key)
             assert answer.status_code == status, (answer.status_code, status, answer.json)
 
+        @rule(who=st.integers(0, 2), attentive=st.booleans(), choice=st.sampled_from(CHOICES))
+        def vote_the_rest(self, who: int, attentive: bool, choice: str) -> None:
+            """Every pair the participant has left, one after the other (a finishing run)."""
+            person = self.people[who]
+            for trial in sorted(person.real):
+                if trial in person.votes or person.screened:
+                    continue
+                kind, wanted = person.trials[trial]
+                given = wanted if (attentive or kind != "catch") and wanted else choice
+                key = secrets.token_hex(8)
+                answer = person.actions.vote(trial, given, key=key)
+                status = self.expected(person, trial, given, key)
+                assert answer.status_code == status, (answer.status_code, status, answer.json)
+
         @rule(who=st.integers(0, 2), pick=st.integers(0, 50), choice=st.sampled_from(CHOICES))
         def race(self, who: int, pick: int, choice: str) -> None:
             """The same vote sent twice at once (a double click on two connections)."""

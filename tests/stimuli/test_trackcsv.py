@@ -55,4 +55,4 @@ def test_bad_csv_names_line_and_field(tmp_path, text, expected):
 
 def test_unknown_extension(tmp_path):
     with pytest.raises(InputError, match="expected .fap, .csv, .json or .bvh"):
-        load_track(tmp_path / "x.bvh")
+        load_track(tmp_path / "x.xyz")

@@ -235,7 +235,7 @@ BAD_FIELDS: list[tuple[dict[str, Any], str]] = [
                 "tracks": {"s2": "media/x.txt", "s7": "media/up_s7.fap"},
             }
         },
-        "conditions[0].tracks.s2: expected a .fap or .csv file, got 'media/x.txt'",
+        "conditions[0].tracks.s2: expected a .fap or .csv or .json or .bvh file, got 'media/x.txt'",
     ),
     (
         {"clips.1.ground_truth": DELETE},
