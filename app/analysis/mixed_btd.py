@@ -296,7 +296,9 @@ def fit_mixed_btd(t: np.ndarray, *, max_iter: int = 200, tol: float = 1e-5) -> M
     nan = np.full(n, np.nan)
 
     def failed(note: str) -> MixedBTDFit:
-        return MixedBTDFit(nan, nan, *[np.nan] * 6, votes, False, note)
+        return MixedBTDFit(
+            nan, nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, votes, False, note
+        )
 
     if votes == 0 or n < 2:
         return failed("no votes on pairs of different conditions")
@@ -330,7 +332,7 @@ def fit_mixed_btd(t: np.ndarray, *, max_iter: int = 200, tol: float = 1e-5) -> M
         if np.abs(r).max() < tol:
             log_var, settled = two, True
             break
-        alpha = min(-1.0, -float(np.linalg.norm(r) / max(np.linalg.norm(v), 1e-12)))
+        alpha = min(-1.0, -float(np.linalg.norm(r)) / max(float(np.linalg.norm(v)), 1e-12))
         jump = log_var - 2.0 * alpha * r + alpha**2 * v
         # at most a factor e**1.5 beyond the plain updates, and not below NEGLIGIBLE_VARIANCE:
         # the update there, not the jump, decides on 0
@@ -412,7 +414,12 @@ def mixed_btd_summary(
         else MixedBTDFit(
             np.zeros(0),
             np.zeros(0),
-            *[np.nan] * 6,
+            np.nan,
+            np.nan,
+            np.nan,
+            np.nan,
+            np.nan,
+            np.nan,
             int(sub.sum()),
             False,
             "no finite estimate, as for the fixed model: " + str(fixed.note),
@@ -421,7 +428,12 @@ def mixed_btd_summary(
         else MixedBTDFit(
             np.zeros(0),
             np.zeros(0),
-            *[np.nan] * 6,
+            np.nan,
+            np.nan,
+            np.nan,
+            np.nan,
+            np.nan,
+            np.nan,
             0,
             False,
             "fewer than two conditions were compared",

@@ -108,7 +108,7 @@ def _print(result: dict[str, object]) -> None:
         f"{result['confidence']:.0%} Wald intervals"
     )
     print(f"{'parameter':<10} {'truth':>7} {'mean est.':>9} {'coverage':>8}")
-    rows = zip(
+    rows = zip(  # type: ignore[call-overload]
         result["parameters"],  # type: ignore[arg-type]
         result["truth"],  # type: ignore[arg-type]
         result["mean_estimate"],  # type: ignore[arg-type]

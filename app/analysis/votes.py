@@ -444,7 +444,7 @@ def read_votes(
     path = None if isinstance(source, pd.DataFrame) else str(source)
     kept: list[_Block] = []
     first: InputError | None = None
-    skipped, problems = 0, []
+    skipped, problems = 0, list[str]()
     for block in _blocks(source, path, conditions):
         if block is _RESTART:
             kept, first, skipped, problems = [], None, 0, []
