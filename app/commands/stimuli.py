@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
+
+if TYPE_CHECKING:
+    from app.stimuli.track import MotionTrack
 
 
 @click.group()
@@ -44,6 +48,23 @@ def convert(source: str, target: str, fps: float | None, greta: bool) -> None:
         f"{target}: {track.n_frames} frames at {track.fps:g} fps, "
         f"FAPs {', '.join(map(str, track.channels)) or 'none'}"
     )
+    for note in convert_notes(track):
+        click.echo(f"  note: {note}")
+
+
+def convert_notes(track: MotionTrack) -> list[str]:
+    """The lines a conversion owes its user: high-level FAPs kept, a capture's losses."""
+    from app.stimuli.fapfile import high_level_note
+    from app.stimuli.generate import capture_note
+
+    notes = []
+    high = high_level_note(track)
+    if high:
+        notes.append(high)
+    capture = track.metadata.get("capture")
+    if isinstance(capture, dict) and {"samples", "capture_fps"} <= capture.keys():
+        notes.append(capture_note(track.source, capture))
+    return notes
 
 
 def _speech_options(f):
@@ -72,7 +93,7 @@ def _speech_options(f):
     "--audio",
     required=True,
     type=click.Path(dir_okay=False),
-    help="Speech recording (WAV or FLAC).",
+    help="Speech recording: WAV, FLAC, MP3, M4A/AAC or Ogg, mono or stereo (decoded to mono).",
 )
 @click.option(
     "--out", required=True, type=click.Path(dir_okay=False), help="Track to write (.fap or .csv)."
@@ -171,7 +192,7 @@ def fit_head_model(
     "--audio",
     required=True,
     type=click.Path(dir_okay=False),
-    help="Speech recording (WAV or FLAC).",
+    help="Speech recording: WAV, FLAC, MP3, M4A/AAC or Ogg, mono or stereo (decoded to mono).",
 )
 @click.option(
     "--ground-truth",
@@ -320,6 +341,8 @@ def generate(
     click.echo(
         f"{audio}: {feats.n_frames} frames at {feats.fps:g} fps, {feats.voiced.mean():.0%} voiced"
     )
+    if feats.metadata.get("audio_file"):
+        click.echo(f"  audio: {feats.metadata['audio_file']}")
     for path in written:
         click.echo(f"  wrote {path}")
     for note in result.summary["notes"]:

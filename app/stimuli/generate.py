@@ -305,16 +305,20 @@ def _summary(
     }
 
 
-def capture_note(source: str, capture: Mapping[str, Any]) -> str:
-    """One line on an imported ground truth: lost samples, filled frames, FAPs left out."""
+def capture_note(source: str, capture: Mapping[str, Any], what: str = "ground truth") -> str:
+    """One line on an imported ground truth (or another imported track, ``what``): lost
+    samples, filled frames, FAPs absent from the file and the importer's warnings."""
     note = (
-        f"ground truth imported from {source}: {capture['samples']} samples at "
+        f"{what} imported from {source}: {capture['samples']} samples at "
         f"{capture['capture_fps']:g} fps, {capture['invalid_samples']} lost, "
         f"{capture['filled_frames']} frames filled by interpolation"
     )
     missing = sorted({f for faps in capture.get("missing", {}).values() for f in faps})
     if missing:
         note += f"; FAPs {', '.join(map(str, missing))} absent from the file"
+    warnings = [str(w) for w in capture.get("warnings", ()) or ()]
+    if warnings:
+        note += "; " + "; ".join(warnings)
     return note
 
 

@@ -151,13 +151,21 @@ def extract_features(
     a male voice); one left ``None`` is estimated from the recording in two passes
     (:func:`speaker_pitch_range`). Octave jumps are then removed (:func:`remove_octave_jumps`).
     The intensity window follows Praat's convention of 3.2 periods of the pitch floor.
+    ``metadata["audio_file"]`` is the decoder's one line on the file and what was done to it
+    (:attr:`app.stimuli.audiofile.DecodedAudio.summary`: container, rate, channels, mixing).
     """
     _check_range(pitch_floor, pitch_ceiling)
     if not np.isfinite(fps) or fps <= 0:
         raise InputError(f"fps must be positive, got {fps!r}", field="fps")
-    sound, n_channels = load_sound(audio_path, max_duration=max_duration)
+    decoded = _check_wav_header(Path(audio_path), max_duration)
+    sound = parselmouth.Sound(decoded.samples, decoded.sample_rate)
     feats = _features(sound, fps, pitch_floor, pitch_ceiling)
-    feats.metadata.update(audio=str(audio_path), channels=n_channels, mixed_to_mono=n_channels > 1)
+    feats.metadata.update(
+        audio=str(audio_path),
+        channels=decoded.channels,
+        mixed_to_mono=decoded.channels > 1,
+        audio_file=decoded.summary,
+    )
     return feats
 
 

@@ -344,3 +344,33 @@ def test_render_job_lends_the_other_clips_motion_and_draws_the_instruction(
     assert np.array_equal(right.values, own[("calm", "long")].values[: left.n_frames])
     captions = sorted(c for _l, _r, _a, c in calls.values() if c)
     assert captions == ["press left", "press left", "press right", "press right"]
+
+
+def test_a_teams_own_system_output_is_a_condition_with_its_import_said(app, tmp_path):
+    """A study-file condition that reads a track file per clip: Audio2Face-3D's CSV export,
+    converted from ARKit weights to FAPs and reported in the job's message."""
+    from app.web.jobs.tasks import generate_tracks
+    from tests.stimuli.capture.files import write_a2f3d_csv
+
+    write_tone_wav(tmp_path / "s1.wav", seconds=1.0)
+    t = np.arange(30) / 30.0
+    write_a2f3d_csv(
+        tmp_path / "ours_s1.csv",
+        t,
+        {"BrowInnerUp": np.where(t > 0.5, 0.4, 0.0), "JawOpen": 0.3 + 0 * t},
+    )
+    text = TOML.format().replace(
+        'name = "lively"\nmodel = "random"', 'name = "ours"\ntracks = { s1 = "ours_s1.csv" }'
+    )
+    spec = loads_study(text, base_dir=tmp_path)
+    with app.app_context():
+        study = create_study(create_test_user(), spec)
+        db.session.commit()
+        message = generate_tracks(db.session.get(Study, study.id), lambda done, total: None)
+        ours = next(t for t in db.session.scalars(sa.select(Track)) if t.condition.name == "ours")
+        track = load_track(media_dir(study) / ours.path)
+    assert message.startswith("2 tracks generated; clip s1: ours: track imported from s1.csv")
+    # the export has no head rotation and all-zero columns: said, not imported as a still face
+    assert "48, 49, 50 absent from the file" in message, message
+    assert "their columns are 0 in every frame" in message
+    assert track[31].max() == 40 and track[31][:10].max() == 0  # the inner brow raise, in FAP units

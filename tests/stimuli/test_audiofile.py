@@ -1,5 +1,6 @@
 """Audio as people have it: sniffed containers, checked WAV headers, ffmpeg in a subprocess."""
 
+import json
 import os
 import struct
 import subprocess
@@ -342,3 +343,30 @@ def test_the_cli_refuses_a_broken_file_with_exit_2_and_one_line(tmp_path):
     assert result.exit_code == 2
     lines = [ln for ln in result.output.splitlines() if ln.strip()]
     assert len(lines) == 1 and str(bad) in lines[0] and "MP3" in lines[0]
+
+
+def test_the_generate_summary_states_the_audio_conversion(tmp_path):
+    from click.testing import CliRunner
+
+    from app.cli import main
+
+    src, _ = _stereo_source(tmp_path)
+    flac = _encode(src, tmp_path / "take.flac", "-c:a", "flac")
+    result = CliRunner().invoke(
+        main,
+        [
+            "stimuli",
+            "generate",
+            "--audio",
+            str(flac),
+            "--out",
+            str(tmp_path / "out"),
+            "--conditions",
+            "none",
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    line = next(ln for ln in result.output.splitlines() if ln.startswith("  audio: "))
+    assert "take.flac: FLAC (flac)" in line and "mixed to mono (mean of 2 channels)" in line
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["speech"]["audio_file"] == line.removeprefix("  audio: ")

@@ -475,3 +475,16 @@ def test_cli_greta_rewrite_keeps_the_viseme_mask(tmp_path):
     r = CliRunner().invoke(main, ["stimuli", "convert", str(source), str(target), "--greta"])
     assert r.exit_code == 0, r.output
     assert body(target.read_text()) == body(GRETA_VISEME)
+
+
+def test_cli_convert_says_which_high_level_faps_it_kept(tmp_path):
+    from click.testing import CliRunner
+
+    from app.cli import main
+
+    source = tmp_path / "hello.fap"
+    source.write_text(GRETA_VISEME)
+    r = CliRunner().invoke(main, ["stimuli", "convert", str(source), str(tmp_path / "o.fap")])
+    assert r.exit_code == 0, r.output
+    notes = [ln for ln in r.output.splitlines() if ln.startswith("  note: ")]
+    assert len(notes) == 1 and "FAP 1 (viseme)" in notes[0] and "kept" in notes[0], r.output

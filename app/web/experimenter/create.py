@@ -60,7 +60,11 @@ def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
     for name in names("tracks"):
         condition, _, clip_name = Path(name).stem.partition("__")
         if not clip_name:
-            raise InputError("expected <condition>__<clip>.fap", path=name, field="tracks")
+            raise InputError(
+                "expected <condition>__<clip> with .fap, .csv, .json or .bvh",
+                path=name,
+                field="tracks",
+            )
         uploaded.setdefault(condition, {})[clip_name] = f"tracks/{name}"
     conditions += [{"name": c, "tracks": t} for c, t in uploaded.items()]
     data: dict[str, Any] = {

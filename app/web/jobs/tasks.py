@@ -15,6 +15,7 @@ import re
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 import sqlalchemy as sa
@@ -81,7 +82,7 @@ def beat_interval(stale_after: float) -> float:
 def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
     """Motion tracks of every condition on every clip (``app.stimuli.generate``)."""
     from app.stimuli.eyes import DEFAULT_EYES
-    from app.stimuli.generate import generate_conditions
+    from app.stimuli.generate import capture_note, generate_conditions
     from app.stimuli.io import load_track, save_track
     from app.stimuli.posture import DEFAULT_POSTURE
 
@@ -120,7 +121,12 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
                     raise ValueError(
                         f"condition {condition.name}: no uploaded track for clip {clip.name}"
                     )
-                save_track(load_track(media.fetch(study, source)), root / rel)
+                uploaded = load_track(media.fetch(study, source))
+                capture = uploaded.metadata.get("capture")
+                if capture:  # a tool's own output (Audio2Face, OpenFaceFX, BVH...): say what
+                    note = capture_note(Path(source).name, capture, what="track")
+                    notes.append(f"clip {clip.name}: {condition.name}: {note}")
+                save_track(uploaded, root / rel)
             else:
                 save_track(tracks[condition.name], root / rel)
             media.publish(study, rel)
