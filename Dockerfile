@@ -13,4 +13,5 @@ RUN pip install --no-cache-dir /tmp/dist/*.whl && rm -rf /tmp/dist
 WORKDIR /srv/facepair
 ENV FLASK_APP=app.web
 EXPOSE 8000
-CMD ["gunicorn", "--bind", "0.0.0.0:8000", "--workers", "3", "--threads", "4", "--worker-class", "gthread", "app.web:create_app()"]
+# Timeouts, request limits and an access log without identifying values: app/web/serving.py.
+CMD ["gunicorn", "-c", "python:app.web.serving", "--bind", "0.0.0.0:8000", "--workers", "3", "app.web:create_app()"]

@@ -23,6 +23,32 @@ class FacepairGroup(click.Group):
         except InputError as exc:
             click.echo(f"facepair: error: {exc}", err=True)
             sys.exit(2)
+        except Exception as exc:
+            line = database_problem(exc)
+            if line is None:
+                raise
+            click.echo(f"facepair: error: {line}", err=True)
+            sys.exit(2)
+
+
+def database_problem(exc: BaseException) -> str | None:
+    """One line for a database that is not ready (no schema, an older one, unreachable), or
+    None for any other error (which keeps its traceback: a bug)."""
+    if type(exc).__module__ != "sqlalchemy.exc":
+        return None
+    text = str(getattr(exc, "orig", exc)).lower()
+    if (
+        "no such table" in text
+        or "no such column" in text
+        or ("does not exist" in text and ("relation" in text or "column" in text))
+    ):
+        return "the database has no schema or an older one: run 'facepair db upgrade'"
+    if type(exc).__name__ == "OperationalError" and (
+        "connect" in text or "connection" in text or "unable to open" in text
+    ):
+        first = text.strip().splitlines()[0] if text.strip() else type(exc).__name__
+        return f"the database (DATABASE_URL) cannot be reached: {first}"
+    return None
 
 
 @click.group(cls=FacepairGroup)

@@ -48,7 +48,7 @@ def bare_app(dsn: str) -> Flask:
 def main() -> None:
     from gunicorn.app.base import BaseApplication
 
-    from app.commands.web import gunicorn_settings
+    from app.web.serving import settings as gunicorn_settings
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dsn", required=True)

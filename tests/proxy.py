@@ -15,6 +15,10 @@ def nginx_conf(folder: Path, *, upstream: str, media: Path, port: int) -> Path:
         ("server web:8000;", f"server {upstream};"),
         ("alias /srv/media/;", f"alias {media.resolve()}/;"),
         ("listen 80;", f"listen 127.0.0.1:{port};"),
+        (
+            "access_log /var/log/nginx/access.log facepair_private;",
+            f"access_log {folder / 'access.log'} facepair_private;",
+        ),
     ):
         assert old in server, old
         server = server.replace(old, new)

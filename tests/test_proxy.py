@@ -109,3 +109,49 @@ def test_nginx_delivers_the_checked_clip_and_refuses_the_rest(live_server, proxy
     assert status == 404 and "X-Accel-Redirect" not in headers
     status, _, body = _get(f"{proxy}/_protected/study-{study_id}/videos/{clip.name}")
     assert status == 404 and body != expected
+
+
+def test_nginx_logs_no_token_nor_prolific_id(live_server, proxy, tmp_path):
+    app = live_server.app
+    study_id = live_server.study()
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    me = ParticipantActions(app.test_client(), app)
+    me.join(slug)
+    pid = "5f3c2a9e8d7b6a5f4e3d2c1b"
+    _get(f"{proxy}/s/{slug}?PROLIFIC_PID={pid}&SESSION_ID=sess-secret")
+    _get(f"{proxy}/p/{me.token}/trial")
+    _get(f"{proxy}/p/{me.token}/video/{_trials(app, me.token)[0]}")
+    _get(f"{proxy}/api/v1/participants/{me.token}/progress")
+    _get(f"{proxy}/experimenter/pilot/{me.token}")
+    time.sleep(0.3)  # nginx writes its log line after the answer
+    log = (tmp_path / "nginx" / "access.log").read_text()
+    assert '"GET /p/<token>/trial"' in log and '"GET /p/<token>/video/' in log
+    assert '"GET /api/v1/participants/<token>/progress"' in log
+    assert f'"GET /s/{slug}"' in log
+    for secret in (me.token, pid, "sess-secret", "127.0.0.1"):
+        assert secret not in log, log
+
+
+def test_nginx_refuses_a_consent_flood_from_one_address(live_server, proxy):
+    """limit_req: 10 consent posts a minute and a burst of 10 from one address; then 429
+    from nginx, before the app. GETs of the study link are not counted."""
+    app = live_server.app
+    app.config["CONSENT_LIMIT_PER_ADDRESS"] = ""  # the app's own limit out of the way
+    app.config["CONSENT_LIMIT_PER_STUDY"] = ""
+    study_id = live_server.study()
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    for _ in range(25):
+        assert _get(f"{proxy}/s/{slug}")[0] == 200
+    codes = []
+    for _ in range(25):
+        request = urllib.request.Request(f"{proxy}/s/{slug}", data=b"agree=1", method="POST")
+        try:
+            with urllib.request.urlopen(request, timeout=10) as answer:
+                codes.append(answer.status)
+        except urllib.error.HTTPError as refused:
+            with refused:
+                codes.append(refused.code)
+    # the app refuses a form without its CSRF token (400); nginx refuses the flood (429)
+    assert codes.count(429) >= 10 and 429 not in codes[:11], codes

@@ -13,7 +13,10 @@ def _bare(tmp_path, **config):
     return create_app({"SQLALCHEMY_DATABASE_URI": f"sqlite:///{tmp_path}/x.db", **config})
 
 
-@pytest.mark.parametrize("key", [None, "", "dev-only-change-me", "short-key"])
+@pytest.mark.parametrize(
+    "key",
+    [None, "", "dev-only-change-me", "short-key", "a" * 16, "a" * 64, "abababababababab" * 2],
+)
 def test_no_real_secret_key_is_refused_outside_tests(tmp_path, monkeypatch, key):
     monkeypatch.delenv("SECRET_KEY", raising=False)
     with pytest.raises(InputError) as caught:
@@ -22,8 +25,13 @@ def test_no_real_secret_key_is_refused_outside_tests(tmp_path, monkeypatch, key)
 
 
 def test_a_real_secret_key_is_accepted(tmp_path, monkeypatch):
-    monkeypatch.setenv("SECRET_KEY", "f" * 64)
-    assert _bare(tmp_path).secret_key == "f" * 64
+    import secrets
+
+    key = secrets.token_hex(32)
+    monkeypatch.setenv("SECRET_KEY", key)
+    assert _bare(tmp_path).secret_key == key
+    for other in (secrets.token_urlsafe(32), secrets.token_hex(16)):
+        assert _bare(tmp_path, SECRET_KEY=other).secret_key == other
 
 
 @pytest.mark.parametrize(

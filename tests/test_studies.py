@@ -61,3 +61,48 @@ def test_the_stimulus_rows_are_what_some_schedule_shows(app, web, toml):
             for s in db.session.scalars(sa.select(Stimulus).order_by(Stimulus.id))
         ]
     assert stored == expected
+
+
+def _sized(n_conditions: int, n_clips: int, design: str = "all_ordered") -> str:
+    conditions = "".join(
+        f'\n[[conditions]]\nname = "c{i}"\nmodel = "random"\n' for i in range(n_conditions)
+    )
+    clips = "".join(f'\n[[clips]]\nname = "s{i}"\naudio = "s1.wav"\n' for i in range(n_clips))
+    return (
+        f'title = "Sized"\nquestion = "Which?"\ndesign = "{design}"\npractice = false\n'
+        + conditions
+        + clips
+    )
+
+
+@pytest.mark.parametrize(
+    "conditions,clips,field,fragment",
+    [
+        (200, 1, "conditions", "200 conditions, at most 20 (MAX_CONDITIONS)"),
+        (2, 101, "clips", "101 clips, at most 100 (MAX_CLIPS)"),
+        (20, 3, "design", "1200 trials a participant, at most 1000"),
+    ],
+)
+def test_a_study_beyond_the_caps_is_refused_in_one_line(
+    app, tmp_path, conditions, clips, field, fragment
+):
+    write_tone_wav(tmp_path / "s1.wav", seconds=0.5)
+    spec = loads_study(_sized(conditions, clips), base_dir=tmp_path)
+    with app.app_context():
+        user = create_test_user()
+        with pytest.raises(InputError) as caught:
+            create_study(user, spec)
+    message = str(caught.value)
+    assert message.startswith(f"{field}: ") and fragment in message and "\n" not in message
+
+
+def test_the_caps_are_configurable(app, tmp_path):
+    write_tone_wav(tmp_path / "s1.wav", seconds=0.5)
+    spec = loads_study(_sized(3, 2), base_dir=tmp_path)  # 9 pairs x 2 clips = 18 trials
+    app.config["MAX_TRIALS_PER_PARTICIPANT"] = 17
+    with app.app_context():
+        user = create_test_user()
+        with pytest.raises(InputError, match="18 trials a participant, at most 17"):
+            create_study(user, spec)
+        app.config["MAX_TRIALS_PER_PARTICIPANT"] = 18
+        assert create_study(user, spec).design == "all_ordered"

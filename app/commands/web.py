@@ -16,7 +16,7 @@ import click
 from app.data import data_path
 from app.errors import InputError
 
-DEMO_EMAIL = "demo@facepair.local"
+DEMO_EMAIL = "demo@example.org"
 DEMO_PASSWORD = "facepair-demo"
 
 
@@ -143,26 +143,21 @@ def _create_study(path: Path, owner_email: str) -> int:
     return study.id
 
 
-def gunicorn_settings(host: str, port: int, workers: int) -> dict[str, object]:
-    """How ``facepair serve`` runs gunicorn (the load benchmark's bare baseline runs the same)."""
-    return {
-        "bind": f"{host}:{port}",
-        "workers": workers,
-        "threads": 4,
-        "worker_class": "gthread",
-        "accesslog": "-",
-    }
-
-
 def _serve(app, host: str, port: int, workers: int, dev: bool) -> None:  # type: ignore[no-untyped-def]
     if dev:
         app.run(host=host, port=port, threaded=True, use_reloader=False)
         return
     from gunicorn.app.base import BaseApplication
 
+    from app.web.serving import proxy_warning, settings
+
+    warning = proxy_warning(int(app.config.get("TRUST_PROXY") or 0))
+    if warning:
+        click.echo(warning, err=True)
+
     class Server(BaseApplication):  # type: ignore[misc]
         def load_config(self) -> None:
-            for key, value in gunicorn_settings(host, port, workers).items():
+            for key, value in settings(host, port, workers).items():
                 self.cfg.set(key, value)
 
         def load(self):  # type: ignore[no-untyped-def]
@@ -218,20 +213,42 @@ def experimenter() -> None:
 
 @experimenter.command("add")
 @click.argument("email")
-@click.password_option(help="At least 8 characters.")
+@click.password_option(help="At least 12 characters, not a common password.")
 def add(email: str, password: str) -> None:
     """Add an experimenter who can log in at /experimenter/login."""
+    from app.commands.db import migrated
     from app.web.extensions import db
     from app.web.infra.accounts import create_user
 
     app = _offline_app()
     with _context(app):
-        try:
-            create_user(email, password)
-            db.session.commit()
-        except ValueError as exc:
-            raise InputError(str(exc), field="--password") from None
-    click.echo(f"experimenter {email.lower()} added")
+        migrated()
+        user = create_user(email, password)
+        db.session.commit()
+        click.echo(f"experimenter {user.email} added")
+
+
+@experimenter.command("password")
+@click.argument("email")
+@click.password_option(help="The new password: at least 12 characters, not a common one.")
+def password(email: str, password: str) -> None:
+    """Set an experimenter's password and end every login they have (all their browsers)."""
+    import sqlalchemy as sa
+
+    from app.commands.db import migrated
+    from app.web.extensions import db
+    from app.web.infra.accounts import change_password
+    from app.web.models import User
+
+    app = _offline_app()
+    with _context(app):
+        migrated()
+        user = db.session.scalar(sa.select(User).where(User.email == email.strip().lower()))
+        if user is None:
+            raise InputError(f"no experimenter {email.strip().lower()}", field="email")
+        ended = change_password(user, password)
+        db.session.commit()
+        click.echo(f"password of {user.email} changed; {ended} login(s) ended")
 
 
 @click.command()

@@ -54,6 +54,19 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
         # Failed logins allowed per account and per client address (Flask-Limiter syntax).
         LOGIN_LIMIT_PER_ACCOUNT="5 per minute; 30 per hour",
         LOGIN_LIMIT_PER_ADDRESS="20 per minute; 200 per hour",
+        # The largest study a deployment takes (one-line refusal at creation).
+        MAX_CONDITIONS=20,
+        MAX_CLIPS=100,
+        MAX_TRIALS_PER_PARTICIPANT=1000,
+        # An experimenter's login ends after this long without a request, and this long after
+        # it began whatever happens (app.web.infra.accounts).
+        SESSION_IDLE_MINUTES=60,
+        SESSION_ABSOLUTE_HOURS=12,
+        # Consents (new participants) allowed per client address in one study, and per study
+        # from all addresses (Flask-Limiter syntax; "" for no limit). A lab whose participants
+        # share one address raises the first (docs/reference/configuration.md).
+        CONSENT_LIMIT_PER_ADDRESS="10 per minute; 30 per hour",
+        CONSENT_LIMIT_PER_STUDY="120 per minute",
         SQLALCHEMY_DATABASE_URI=embedded_database_uri(app.instance_path),
         # No pre-ping on every checkout: a connection idle in the pool is pinged (app.web).
         SQLALCHEMY_ENGINE_OPTIONS={},

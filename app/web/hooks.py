@@ -20,6 +20,7 @@ from app.web.infra.limits import INT32, text_problem
 from app.web.participant import bp as participant_bp
 from app.web.questionnaire import bp as questionnaire_bp
 from app.web.questionnaire.views import questionnaire_first
+from app.web.serving import record_route
 from app.web.study.recruitment import REDIRECT_SECONDS, participant_completion_url
 
 if TYPE_CHECKING:
@@ -130,6 +131,13 @@ def init_web(app: Flask) -> None:
     )
 
     limits.install(db.session)
+
+    @app.after_request
+    def _route_for_the_access_log(response):  # type: ignore[no-untyped-def]
+        # The route's template, not the path: the access log names nobody (app.web.serving).
+        record_route(request.environ, request.url_rule.rule if request.url_rule else None)
+        return response
+
     app.register_error_handler(InputError, _bad_input)
     # Connection refused, a server restarting, a pool that cannot hand out a connection.
     for error in (sa.exc.OperationalError, sa.exc.InterfaceError, sa.exc.TimeoutError):

@@ -105,6 +105,22 @@ class Study(db.Model):
     )
 
 
+class LoginSession(db.Model):
+    """An experimenter's login, kept on the server so it can be ended (ASVS 3.3): the signed
+    cookie holds only a random key, whose SHA-256 is stored here (a database read does not
+    give a usable cookie)."""
+
+    id: so.Mapped[int] = so.mapped_column(primary_key=True)
+    user_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("user.id"), index=True)
+    #: SHA-256 (hex) of the key in the session cookie.
+    key_hash: so.Mapped[str] = so.mapped_column(sa.String(64), unique=True)
+    created_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
+    #: The last request seen (written at most once a minute): the idle timeout counts from it.
+    seen_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
+    #: Set by logout, "log out everywhere" or a password change; the cookie is then refused.
+    ended_at: so.Mapped[dt.datetime | None] = so.mapped_column()
+
+
 #: What a collaborator may do with a shared study: look (read) or everything but delete (full).
 SHARE_ACCESS = ("read", "full")
 

@@ -27,11 +27,13 @@ def test_experimenter_add_and_study_create(app, monkeypatch, tmp_path, web):
     _env(monkeypatch, app)
     runner = CliRunner()
     added = runner.invoke(
-        main, ["experimenter", "add", "Lab@Example.org"], input="long enough pw\nlong enough pw\n"
+        main,
+        ["experimenter", "add", "Lab@Example.org"],
+        input="long enough passphrase\nlong enough passphrase\n",
     )
     assert added.exit_code == 0, added.output
     short = runner.invoke(main, ["experimenter", "add", "x@example.org", "--password", "short"])
-    assert short.exit_code == 2 and "password: at least 8 characters" in short.output
+    assert short.exit_code == 2 and "password: at least 12 characters" in short.output
     path = _study_file(tmp_path, web)
     created = runner.invoke(main, ["study", "create", str(path), "--owner", "lab@example.org"])
     assert created.exit_code == 0, created.output
@@ -135,14 +137,14 @@ def test_demo_sets_up_a_ready_study(monkeypatch, tmp_path, web):
     )
     assert result.exit_code == 0, result.output
     assert "participant:   http://127.0.0.1:5077/s/" in result.output
-    assert "login:         demo@facepair.local / facepair-demo" in result.output
+    assert "login:         demo@example.org / facepair-demo" in result.output
     assert apart == [("generate", "render")]  # never rendered in the serving process
     key = (instance / "secret_key").read_text().strip()
     assert len(key) >= 32 and (instance / "secret_key").stat().st_mode & 0o077 == 0
     app = create_app({"TESTING": True})
     assert app.config["SQLALCHEMY_DATABASE_URI"].endswith("instance/facepair.sqlite")
     with app.app_context():
-        user = db.session.scalar(sa.select(User).where(User.email == "demo@facepair.local"))
+        user = db.session.scalar(sa.select(User).where(User.email == "demo@example.org"))
         assert user.check_password("facepair-demo")
         study = db.session.scalar(sa.select(Study))
         assert study.status == "open" and study.slug in result.output

@@ -1,9 +1,11 @@
 import re
 
+import pytest
 import sqlalchemy as sa
 
 from app.web.extensions import db
 from app.web.models import Participant, Study, Trial, Vote
+from tests.conftest import csrf_token
 
 
 def _status(client, url):
@@ -125,14 +127,61 @@ def test_plays_are_counted_by_the_server_and_a_reload_gives_none_back(
         assert db.session.scalar(sa.select(Vote.plays)) == 2
 
 
-def test_a_prolific_id_enrols_once_and_resumes(app, client, participant, web):
+def test_a_prolific_id_enrols_once_and_resumes_with_its_session_id(app, client, participant, web):
     slug = _slug(app, web.study())
     token = participant.join(slug, "PROLIFIC_PID=same&STUDY_ID=s&SESSION_ID=a")
     client.delete_cookie(f"fp-{web_study_id(app, slug)}")  # another device: no cookie
-    again = client.get(f"/s/{slug}?PROLIFIC_PID=same&STUDY_ID=s&SESSION_ID=b")
+    again = client.get(f"/s/{slug}?PROLIFIC_PID=same&STUDY_ID=s&SESSION_ID=a")
     assert again.status_code == 302 and again.headers["Location"].endswith(f"/p/{token}")
     with app.app_context():
         assert db.session.scalar(sa.select(sa.func.count(Participant.id))) == 1
+
+
+@pytest.mark.parametrize(
+    "query",
+    [
+        "PROLIFIC_PID=victim",  # the ID alone
+        "PROLIFIC_PID=victim&STUDY_ID=s&SESSION_ID=other",  # another attempt's session
+        "PROLIFIC_PID=victim&STUDY_ID=s&SESSION_ID=",
+    ],
+)
+def test_a_prolific_id_alone_takes_over_nobody(app, participant, web, query):
+    """Another browser with the victim's Prolific ID (and no or another SESSION_ID) gets a
+    page saying the study was started, with what to do, and nothing of the victim's: no
+    participant link, no cookie; GET and the consent POST alike."""
+    slug = _slug(app, web.study())
+    token = participant.join(slug, "PROLIFIC_PID=victim&STUDY_ID=s&SESSION_ID=a")
+    stranger = app.test_client()
+    for answer in (
+        stranger.get(f"/s/{slug}?{query}"),
+        stranger.post(
+            f"/s/{slug}",
+            data={"csrf_token": csrf_token(stranger, f"/s/{slug}"), **_fields(query)},
+        ),
+    ):
+        body = answer.get_data(as_text=True)
+        assert answer.status_code == 409 and "already started this study" in body
+        assert token not in body and token not in answer.headers.get("Location", "")
+        assert "Set-Cookie" not in answer.headers or token not in answer.headers["Set-Cookie"]
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count(Participant.id))) == 1
+    # The victim's own browser still resumes by its cookie.
+    assert participant.client.get(f"/s/{slug}").headers["Location"].endswith(f"/p/{token}")
+
+
+def _fields(query: str) -> dict[str, str]:
+    return dict(part.split("=", 1) for part in query.split("&"))
+
+
+def test_session_id_rule():
+    from types import SimpleNamespace
+
+    from app.web.participant.views import resumes
+
+    stored = SimpleNamespace(prolific_session_id="a")
+    assert resumes(stored, "a")
+    assert not resumes(stored, "b") and not resumes(stored, None) and not resumes(stored, "")
+    assert not resumes(SimpleNamespace(prolific_session_id=None), None)
 
 
 def web_study_id(app, slug):
@@ -251,3 +300,51 @@ def test_the_page_takes_its_answers_keys_and_replay_rule_from_the_rules(
     buttons = re.findall(r'data-choice="(\w+)" data-key="(\w+)"', page)
     assert buttons == [(a.choice, a.key) for a in answers(scale=3, undecided_allowed=False)]
     assert 'data-max-plays="2"' in page and 'data-needs-end="no"' in page
+
+
+def _consent(client, slug, **fields):
+    return client.post(
+        f"/s/{slug}", data={"csrf_token": csrf_token(client, f"/s/{slug}"), **fields}
+    )
+
+
+def test_one_address_cannot_flood_a_study_with_consents(app, web):
+    """200 consents from one address took 255 list slots against a target of 20; now the
+    address gets 10 a minute, then a page asking it to wait (429, Retry-After), while another
+    address still enrols and a returning participant still resumes."""
+    slug = _slug(app, web.study())
+    flood = app.test_client()
+    codes = []
+    for _ in range(14):
+        flood.delete_cookie(f"fp-{web_study_id(app, slug)}")  # a fresh browser each time
+        codes.append(_consent(flood, slug).status_code)
+    assert codes[:10] == [302] * 10 and set(codes[10:]) == {429}
+    refused = _consent(flood, slug)
+    assert "Please wait a moment" in refused.get_data(as_text=True)
+    assert int(refused.headers["Retry-After"]) > 0
+    other = app.test_client()
+    other.environ_base["REMOTE_ADDR"] = "10.9.8.7"
+    assert _consent(other, slug).status_code == 302
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count(Participant.id))) == 11
+
+
+def test_resumes_and_refused_forms_do_not_count_against_the_address(app, participant, web):
+    slug = _slug(app, web.study())
+    participant.join(slug)
+    for _ in range(15):  # the same browser coming back: resumed, not enrolled
+        assert participant.client.post(f"/s/{slug}").status_code in (302, 400)
+    other_study = _slug(app, web.study())
+    assert _consent(participant.client, other_study).status_code == 302
+
+
+def test_the_consent_limits_are_configurable_and_can_be_switched_off(app, web):
+    app.config["CONSENT_LIMIT_PER_ADDRESS"] = ""
+    app.config["CONSENT_LIMIT_PER_STUDY"] = "3 per minute"
+    slug = _slug(app, web.study())
+    codes = []
+    for i in range(5):
+        client = app.test_client()
+        client.environ_base["REMOTE_ADDR"] = f"10.0.0.{i + 1}"
+        codes.append(_consent(client, slug).status_code)
+    assert codes == [302, 302, 302, 429, 429]

@@ -55,6 +55,12 @@ class LoginForm(FlaskForm):
     submit = SubmitField("Log in")
 
 
+class PasswordForm(FlaskForm):
+    current = PasswordField("Current password", validators=[DataRequired()])
+    password = PasswordField("New password (at least 12 characters)", validators=[DataRequired()])
+    submit = SubmitField("Change password")
+
+
 class ActionForm(FlaskForm):
     """A bare form for buttons that change state (only the CSRF token)."""
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import secrets
+
 import sqlalchemy as sa
 from flask import (
     Response,
@@ -14,8 +16,10 @@ from flask import (
     session,
     url_for,
 )
+from itsdangerous import BadSignature, URLSafeSerializer
 from werkzeug.utils import secure_filename
 
+from app.errors import InputError
 from app.web.experimenter import bp
 from app.web.experimenter.access import own_study
 from app.web.experimenter.forms import (
@@ -25,6 +29,7 @@ from app.web.experimenter.forms import (
     DeleteStudyForm,
     DuplicateForm,
     LoginForm,
+    PasswordForm,
     ShareForm,
 )
 from app.web.experimenter.lifecycle import shares_of
@@ -32,8 +37,12 @@ from app.web.experimenter.participants import monitor_table
 from app.web.extensions import db, limiter
 from app.web.infra.accounts import (
     authenticate,
+    change_password,
     current_user,
+    end_login,
+    end_logins,
     login_required,
+    start_login,
     study_access,
 )
 from app.web.infra.media import media_response
@@ -65,12 +74,56 @@ def _address_limits() -> str:
     return current_app.config["LOGIN_LIMIT_PER_ADDRESS"]
 
 
+#: A browser that has logged in to an account before carries a signed device cookie for it
+#: (OWASP's "device cookies" against lock-out): its failed logins count in a bucket of their
+#: own, so an attacker who exhausts an address's or an account's limit does not lock out the
+#: experimenter on their own computer.
+DEVICE_COOKIE = "fp-device"
+DEVICE_DAYS = 180
+
+
+def _device_serializer() -> URLSafeSerializer:
+    return URLSafeSerializer(current_app.secret_key, salt="facepair-login-device")
+
+
+def _known_device() -> str | None:
+    """The id of this browser's device cookie, if it was issued for the e-mail being tried."""
+    raw = request.cookies.get(DEVICE_COOKIE)
+    if not raw:
+        return None
+    try:
+        data = _device_serializer().loads(raw)
+    except BadSignature:
+        return None
+    email = request.form.get("email", "").strip().lower()
+    if isinstance(data, dict) and data.get("email") == email and isinstance(data.get("id"), str):
+        return data["id"]
+    return None
+
+
 def _login_account() -> str:
-    return "account:" + request.form.get("email", "").strip().lower()[:200]
+    account = "account:" + request.form.get("email", "").strip().lower()[:200]
+    device = _known_device()
+    return f"{account}:device:{device}" if device else account
 
 
 def _login_address() -> str:
-    return "address:" + (request.remote_addr or "unknown")
+    device = _known_device()
+    return f"device:{device}" if device else "address:" + (request.remote_addr or "unknown")
+
+
+def _remember_device(response: Response, email: str) -> Response:
+    value = _device_serializer().dumps({"email": email, "id": secrets.token_urlsafe(12)})
+    response.set_cookie(
+        DEVICE_COOKIE,
+        value,
+        max_age=DEVICE_DAYS * 86400,
+        httponly=True,
+        samesite="Lax",
+        secure=request.is_secure,
+        path=url_for(".login"),
+    )
+    return response
 
 
 def _login_failed(response: Response) -> bool:
@@ -98,10 +151,11 @@ def login():  # type: ignore[no-untyped-def]
     if form.validate_on_submit():
         user = authenticate(form.email.data or "", form.password.data or "")
         if user is not None:
-            session.clear()
-            session["user_id"] = user.id
+            start_login(user)
+            db.session.commit()
             # Only paths on this site: an open redirect would hand the login to another site.
-            return redirect(safe_next(request.args.get("next"), url_for(".studies")))
+            answer = redirect(safe_next(request.args.get("next"), url_for(".studies")))
+            return _remember_device(answer, user.email)
         flash("Unknown e-mail or wrong password.", "error")
     return render_template("experimenter/login.html", form=form)
 
@@ -109,6 +163,46 @@ def login():  # type: ignore[no-untyped-def]
 @bp.post("/logout")
 def logout():  # type: ignore[no-untyped-def]
     if ActionForm().validate_on_submit():
+        end_login()
+    return redirect(url_for(".login"))
+
+
+@bp.get("/account")
+@login_required
+def account():  # type: ignore[no-untyped-def]
+    return render_template(
+        "experimenter/account.html", form=PasswordForm(), everywhere=ActionForm()
+    )
+
+
+@bp.post("/account/password")
+@login_required
+def account_password():  # type: ignore[no-untyped-def]
+    form = PasswordForm()
+    user = current_user()
+    assert user is not None  # login_required
+    if form.validate_on_submit():
+        if not user.check_password(form.current.data or ""):
+            flash("current password: not the account's password.", "error")
+        else:
+            try:
+                ended = change_password(user, form.password.data or "")
+            except InputError as exc:
+                flash(f"{exc}.", "error")
+            else:
+                db.session.commit()
+                flash(f"Password changed; {ended} other login(s) ended.", "info")
+                return redirect(url_for(".account"))
+    status = 400
+    return render_template("experimenter/account.html", form=form, everywhere=ActionForm()), status
+
+
+@bp.post("/account/logout-everywhere")
+@login_required
+def logout_everywhere():  # type: ignore[no-untyped-def]
+    user = current_user()
+    if ActionForm().validate_on_submit() and user is not None:
+        end_logins(user)
         session.clear()
     return redirect(url_for(".login"))
 

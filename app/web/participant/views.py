@@ -13,6 +13,7 @@ from typing import Any
 import sqlalchemy as sa
 from flask import (
     abort,
+    current_app,
     g,
     make_response,
     redirect,
@@ -27,7 +28,7 @@ from wtforms import HiddenField, SubmitField
 
 from app.trials import rules
 from app.trials.participation import ParticipationSpec
-from app.web.extensions import db
+from app.web.extensions import db, limiter
 from app.web.infra import limits
 from app.web.infra.limits import fits
 from app.web.infra.media import media_response
@@ -118,7 +119,54 @@ def _by_prolific_id(study: Study, pid: str | None) -> Participant | None:
     )
 
 
+def _consent_address_limits() -> str:
+    return str(current_app.config.get("CONSENT_LIMIT_PER_ADDRESS") or "")
+
+
+def _consent_study_limits() -> str:
+    return str(current_app.config.get("CONSENT_LIMIT_PER_STUDY") or "")
+
+
+def _no_address_limit() -> bool:
+    return not _consent_address_limits()
+
+
+def _no_study_limit() -> bool:
+    return not _consent_study_limits()
+
+
+def _consent_address() -> str:
+    return f"consent:{request.view_args.get('slug') if request.view_args else ''}:" + (
+        request.remote_addr or "unknown"
+    )
+
+
+def _consent_study() -> str:
+    return f"consent:{request.view_args.get('slug') if request.view_args else ''}"
+
+
+def _enrolled(_response: Any) -> bool:
+    # Only a new participant counts: a resume, a refused form or the consent page do not.
+    return bool(g.get("enrolled"))
+
+
 @bp.route("/s/<slug>", methods=["GET", "POST"])
+@limiter.limit(
+    _consent_address_limits,
+    key_func=_consent_address,
+    methods=["POST"],
+    deduct_when=_enrolled,
+    exempt_when=_no_address_limit,
+    scope="consent-address",
+)
+@limiter.limit(
+    _consent_study_limits,
+    key_func=_consent_study,
+    methods=["POST"],
+    deduct_when=_enrolled,
+    exempt_when=_no_study_limit,
+    scope="consent-study",
+)
 def start(slug: str):  # type: ignore[no-untyped-def]
     study = _study(slug)
     token = request.cookies.get(_cookie_name(study))
@@ -130,11 +178,12 @@ def start(slug: str):  # type: ignore[no-untyped-def]
         )
         if known is not None:
             return redirect(url_for(".resume", token=known.token))
-    # One Prolific ID takes part once: its second arrival (another device, cleared cookies)
-    # resumes the first, as a single-use link would.
+    # One Prolific ID takes part once. Its second arrival resumes the first only with what
+    # only that participant has: this browser's cookie (above) or Prolific's per-attempt
+    # SESSION_ID as stored. A Prolific ID alone is no credential: anyone may type one.
     known = _by_prolific_id(study, request.values.get("PROLIFIC_PID"))
     if known is not None:
-        return _with_cookie(redirect(url_for(".resume", token=known.token)), study, known)
+        return _resume_known(study, known, request.values.get("SESSION_ID"))
     if study.status != "open":
         return render_template("participant/unavailable.html", study=study), 503
     form = ConsentForm(data={k: request.args.get(k, "") for k in PROLIFIC_FIELDS})
@@ -148,6 +197,7 @@ def start(slug: str):  # type: ignore[no-untyped-def]
             # Read before the commit expires them: afterwards each was a query of its own.
             token, cookie = participant.token, _cookie_name(study)
             db.session.commit()
+            g.enrolled = True
             answer = make_response(redirect(url_for(".resume", token=token)))
             return _set_cookie(answer, cookie, token)
         except IntegrityError:
@@ -157,10 +207,33 @@ def start(slug: str):  # type: ignore[no-untyped-def]
             participant = _by_prolific_id(study, ids["prolific_pid"])  # type: ignore[assignment]
             if participant is None:  # pragma: no cover - the constraint fired, so it exists
                 raise
-        return _with_cookie(
-            make_response(redirect(url_for(".resume", token=participant.token))), study, participant
-        )
+        return _resume_known(study, participant, ids["prolific_session_id"])
     return render_template("participant/consent.html", study=study, form=form)
+
+
+@bp.errorhandler(429)
+def too_many_consents(error: Any):  # type: ignore[no-untyped-def]
+    """The consent limits above: a page that says to wait (Flask-Limiter adds Retry-After)."""
+    response = make_response(render_template("participant/busy.html"), 429)
+    response.headers["Cache-Control"] = "no-store"
+    return response
+
+
+def resumes(participant: Participant, session_id: str | None) -> bool:
+    """Whether an arrival with this participant's Prolific ID and ``session_id`` (Prolific's
+    per-attempt ``SESSION_ID``) may take over the participant without the study's cookie:
+    only with the same, non-empty session ID as stored at consent."""
+    stored = participant.prolific_session_id
+    return bool(stored) and session_id == stored
+
+
+def _resume_known(study: Study, participant: Participant, session_id: str | None):  # type: ignore[no-untyped-def]
+    if resumes(participant, session_id):
+        return _with_cookie(
+            redirect(url_for(".resume", token=participant.token)), study, participant
+        )
+    # Nothing handed over: no link, no cookie; the page says what to do instead.
+    return _no_store(render_template("participant/already_started.html", study=study)), 409
 
 
 @bp.get("/p/<token>")

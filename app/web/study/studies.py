@@ -9,8 +9,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import sqlalchemy as sa
+from flask import current_app
 
 from app.analysis.quality import parse_rules
+from app.errors import InputError
 from app.trials import design
 from app.trials.participation import ParticipationSpec
 from app.trials.schedule import foreign_clip, shown_stimuli, variant_stimuli
@@ -99,6 +101,27 @@ def _copy(study: Study, source: Path, rel: str) -> str:
     return rel
 
 
+def check_caps(spec: StudySpec, *, max_conditions: int, max_clips: int, max_trials: int) -> None:
+    """Refuse, in one line naming the field, a study larger than the deployment allows: every
+    condition and clip is rendered, and every participant's trials are stored at consent, so
+    200 conditions (40,000 ordered pairs a participant) would tie up the server. Counted in
+    that order, so a huge design is refused before its schedule is built."""
+    if len(spec.conditions) > max_conditions:
+        raise InputError(
+            f"{len(spec.conditions)} conditions, at most {max_conditions} (MAX_CONDITIONS)",
+            field="conditions",
+        )
+    if len(spec.clips) > max_clips:
+        raise InputError(f"{len(spec.clips)} clips, at most {max_clips} (MAX_CLIPS)", field="clips")
+    trials = len(spec.schedule(seed=spec.seed, list_index=0))
+    if trials > max_trials:
+        raise InputError(
+            f"{trials} trials a participant, at most {max_trials} (MAX_TRIALS_PER_PARTICIPANT): "
+            "fewer conditions or clips, or another design",
+            field="design",
+        )
+
+
 def create_study(
     owner: User, spec: StudySpec, *, source_toml: str = "", render: dict[str, Any] | None = None
 ) -> Study:
@@ -107,6 +130,13 @@ def create_study(
     study file's ``exclude`` rules are checked here (:func:`app.analysis.quality.parse_rules`).
     Not committed: the caller's unit of work decides."""
     parse_rules(spec.exclude)  # a bad rule: one line naming the field, before any row exists
+    config = current_app.config
+    check_caps(
+        spec,
+        max_conditions=int(config["MAX_CONDITIONS"]),
+        max_clips=int(config["MAX_CLIPS"]),
+        max_trials=int(config["MAX_TRIALS_PER_PARTICIPANT"]),
+    )
     study = Study(
         owner_id=owner.id,
         title=spec.title,

@@ -1,0 +1,252 @@
+"""Experimenter accounts (OWASP ASVS 4.0 L1, V2 and V3): logins kept on the server and ended by
+logout, "log out everywhere" and a password change; idle and absolute timeouts; passwords and
+e-mail addresses checked; no account enumeration by timing; no lock-out of a known device."""
+
+import datetime as dt
+import time
+
+import pytest
+import sqlalchemy as sa
+from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from app.cli import main
+from app.errors import InputError
+from app.web.extensions import db
+from app.web.infra.accounts import authenticate, create_user, login_is_live, password_problem
+from app.web.infra.passwords import is_common
+from app.web.models import LoginSession, User
+from tests.conftest import csrf_token
+
+DASHBOARD = "/experimenter/"
+
+
+def _logged_in(app, web):
+    web.user()
+    client = app.test_client()
+    assert web.login(client).status_code == 302
+    return client
+
+
+def _copy(client, app):
+    """Another browser holding a copy of ``client``'s cookies (a stolen session)."""
+    thief = app.test_client()
+    for cookie in client._cookies.values():
+        thief.set_cookie(cookie.key, cookie.value, domain=cookie.domain, path=cookie.path)
+    return thief
+
+
+def _post(client, url, **data):
+    return client.post(
+        url, data={"csrf_token": csrf_token(client, "/experimenter/account"), **data}
+    )
+
+
+def test_a_cookie_copied_before_logout_opens_nothing_after_it(app, web):
+    client = _logged_in(app, web)
+    thief = _copy(client, app)
+    assert thief.get(DASHBOARD).status_code == 200
+    assert _post(client, "/experimenter/logout").status_code == 302
+    assert client.get(DASHBOARD).status_code == 302
+    assert thief.get(DASHBOARD).status_code == 302  # the copy names an ended login
+
+
+def test_log_out_everywhere_ends_every_browsers_login(app, web):
+    first = _logged_in(app, web)
+    second = app.test_client()
+    assert web.login(second).status_code == 302
+    assert _post(first, "/experimenter/account/logout-everywhere").status_code == 302
+    assert first.get(DASHBOARD).status_code == 302 and second.get(DASHBOARD).status_code == 302
+    with app.app_context():
+        ended = db.session.scalars(sa.select(LoginSession.ended_at)).all()
+        assert len(ended) == 2 and all(ended)
+
+
+def test_a_password_change_ends_the_other_logins_and_keeps_this_one(app, web):
+    mine = _logged_in(app, web)
+    other = app.test_client()
+    assert web.login(other).status_code == 302
+    weak = _post(
+        mine, "/experimenter/account/password", current="correct horse", password="password1234"
+    )
+    assert weak.status_code == 400 and "common password" in weak.get_data(as_text=True)
+    wrong = _post(
+        mine, "/experimenter/account/password", current="not it", password="a new long passphrase"
+    )
+    assert wrong.status_code == 400
+    changed = _post(
+        mine,
+        "/experimenter/account/password",
+        current="correct horse",
+        password="a new long passphrase",
+    )
+    assert changed.status_code == 302
+    assert mine.get(DASHBOARD).status_code == 200 and other.get(DASHBOARD).status_code == 302
+    with app.app_context():
+        assert authenticate("exp@example.org", "a new long passphrase") is not None
+        assert authenticate("exp@example.org", "correct horse") is None
+
+
+def test_idle_and_absolute_timeouts_end_a_login(app, web):
+    client = _logged_in(app, web)
+    with app.app_context():
+        record = db.session.scalar(sa.select(LoginSession))
+        record.seen_at -= dt.timedelta(minutes=app.config["SESSION_IDLE_MINUTES"] + 1)
+        db.session.commit()
+    assert client.get(DASHBOARD).status_code == 302
+    client = app.test_client()
+    assert web.login(client).status_code == 302
+    with app.app_context():
+        record = db.session.scalars(sa.select(LoginSession).order_by(LoginSession.id)).all()[-1]
+        record.created_at -= dt.timedelta(hours=app.config["SESSION_ABSOLUTE_HOURS"])
+        db.session.commit()
+    assert client.get(DASHBOARD).status_code == 302
+
+
+def test_login_liveness_rule():
+    now = dt.datetime(2026, 12, 3, 12, 0)
+    live = LoginSession(created_at=now - dt.timedelta(hours=1), seen_at=now, ended_at=None)
+    assert login_is_live(live, now, idle=60, absolute=12)
+    assert not login_is_live(live, now + dt.timedelta(minutes=61), idle=60, absolute=12)
+    assert not login_is_live(live, now, idle=60, absolute=1)
+    live.ended_at = now
+    assert not login_is_live(live, now, idle=60, absolute=12)
+
+
+def test_a_cookie_from_before_kept_logins_is_refused(app, web):
+    """The old cookie held the user id alone: anyone who could sign one was anyone."""
+    user_id = web.user()
+    client = app.test_client()
+    with client.session_transaction() as session:
+        session["user_id"] = user_id
+    assert client.get(DASHBOARD).status_code == 302
+
+
+@pytest.mark.parametrize(
+    "password,problem",
+    [
+        ("password", "at least 12 characters"),
+        ("12345678", "at least 12 characters"),
+        ("password1234", "common password"),
+        ("aaaaaaaaaaaa", "common password"),
+        ("qwertyuiop123", "common password"),
+        ("x" * 129, "at most 128 characters"),
+    ],
+)
+def test_weak_passwords_are_refused(password, problem):
+    assert problem in (password_problem(password) or "")
+
+
+def test_good_passphrases_pass():
+    for password in ("correct horse battery", "Tr0ub4dor&3-staple", "facepair-demo-2026"):
+        assert password_problem(password) is None, password
+    assert is_common("iloveyou1234") and not is_common("correct horse battery")
+
+
+@pytest.mark.parametrize("email", ["not-an-email", "a@b", "two@@example.org", "x@example"])
+def test_addresses_that_are_not_e_mail_are_refused(app, email):
+    with app.app_context(), pytest.raises(InputError) as caught:
+        create_user(email, "correct horse battery")
+    assert str(caught.value).startswith("email: not an e-mail address")
+
+
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(email=st.text(max_size=60), password=st.text(max_size=140))
+def test_any_account_input_is_an_account_or_one_line(app, email, password):
+    with app.app_context():
+        try:
+            create_user(email, password)
+        except InputError as exc:
+            assert "\n" not in str(exc) and str(exc).split(":")[0] in ("email", "password")
+        finally:
+            db.session.rollback()
+
+
+def test_an_unknown_e_mail_costs_what_a_wrong_password_does(app, web):
+    web.user()
+
+    def timed(email):
+        with app.app_context():
+            start = time.perf_counter()
+            assert authenticate(email, "wrong password") is None
+            return time.perf_counter() - start
+
+    timed("nobody@example.org")  # the dummy hash is made once
+    known = sorted(timed("exp@example.org") for _ in range(5))[2]
+    unknown = sorted(timed("nobody@example.org") for _ in range(5))[2]
+    # Both run one password hash (about 0.1 s); before, an unknown address took ~1/15 of it.
+    assert unknown > 0.5 * known, (known, unknown)
+
+
+def test_an_address_flood_does_not_lock_out_a_known_device(app, web):
+    """20 failures a minute from a lab's NAT address lock that address; the experimenter whose
+    browser logged in before (the device cookie) still gets in with the right password."""
+    web.user()
+    mine = app.test_client()
+    assert web.login(mine).status_code == 302  # the device cookie is issued
+    assert _post(mine, "/experimenter/logout").status_code == 302
+    attacker = app.test_client()  # same address: the test clients share 127.0.0.1
+    codes = [web.login(attacker, f"nobody{i}@example.org").status_code for i in range(25)]
+    assert 429 in codes
+    assert web.login(app.test_client()).status_code == 429  # an unknown browser: limited
+    assert web.login(mine).status_code == 302  # the known one: in
+
+
+def test_an_account_flood_does_not_lock_out_its_owner(app, web):
+    web.user()
+    mine = app.test_client()
+    assert web.login(mine).status_code == 302
+    attacker = app.test_client()
+    attacker.environ_base["REMOTE_ADDR"] = "10.6.6.6"
+    codes = [web.login(attacker, password=f"guess {i}").status_code for i in range(10)]
+    assert codes[-1] == 429 and web.login(attacker).status_code == 429
+    assert web.login(mine).status_code == 302
+
+
+def test_cli_add_errors_are_one_line(app, monkeypatch, tmp_path):
+    from tests.commands.test_web import _env
+
+    _env(monkeypatch, app)
+    runner = CliRunner()
+    ok = runner.invoke(
+        main, ["experimenter", "add", "lab@example.org", "--password", "a long passphrase"]
+    )
+    assert ok.exit_code == 0, ok.output
+    for args, fragment in (
+        (["lab@example.org", "--password", "another long one"], "already exists"),
+        (["not-an-email", "--password", "another long one"], "not an e-mail address"),
+        (["x@example.org", "--password", "password1234"], "common password"),
+    ):
+        result = runner.invoke(main, ["experimenter", "add", *args])
+        lines = [ln for ln in result.output.splitlines() if ln.strip()]
+        assert result.exit_code == 2 and len(lines) == 1 and fragment in lines[0], result.output
+
+
+def test_cli_against_an_unmigrated_database_is_one_line(monkeypatch, tmp_path):
+    monkeypatch.setenv("DATABASE_URL", f"sqlite:///{tmp_path}/empty.db")
+    monkeypatch.setenv("FACEPAIR_INSTANCE", str(tmp_path / "instance"))
+    for args in (
+        ["experimenter", "add", "lab@example.org", "--password", "a long passphrase"],
+        ["study", "list"],
+    ):
+        result = CliRunner().invoke(main, args)
+        lines = [ln for ln in result.output.splitlines() if ln.strip()]
+        assert result.exit_code == 2 and len(lines) == 1, result.output
+        assert "facepair db upgrade" in lines[0] and "Traceback" not in result.output
+
+
+def test_cli_password_change_ends_logins(app, monkeypatch, web):
+    from tests.commands.test_web import _env
+
+    client = _logged_in(app, web)
+    _env(monkeypatch, app)
+    result = CliRunner().invoke(
+        main, ["experimenter", "password", "exp@example.org", "--password", "a fresh passphrase"]
+    )
+    assert result.exit_code == 0 and "1 login(s) ended" in result.output, result.output
+    assert client.get(DASHBOARD).status_code == 302
+    with app.app_context():
+        assert db.session.scalar(sa.select(User.email)) == "exp@example.org"
