@@ -15,7 +15,7 @@ MIXED_TEXT = (
     "P(i over j) = log g + a_pki − a_pkj. Undecided votes stay Davidson ties. Fitted by "
     "penalised quasi-likelihood (Breslow & Clayton 1993) with REML variances by Schall's "
     "update (1991); Wald intervals from the fixed block of the inverse Hessian. Validated by "
-    "simulation with known effects (coverage in docs/analysis.md)."
+    "simulation with known effects (coverage in docs/reference/analysis.md)."
 )
 
 
