@@ -170,6 +170,9 @@ def test_plan_bad_input_exits_2_with_one_line():
         ["--effects", "a=0,b"],
         ["--effects", "a=0,b=1", "--participants", "x"],
         ["--effects", "a=0,b=1", "--pilot", "app/data/examples/votes.csv"],
+        ["--adaptive", "8,x"],
+        ["--adaptive", "2"],
+        ["--adaptive", "8", "--spread-jod", "-1"],
     ):
         out = CliRunner().invoke(main, ["plan", *args])
         lines = [ln for ln in out.output.splitlines() if ln.strip()]
@@ -190,3 +193,15 @@ def test_the_summary_names_the_mixed_model_unless_left_out(tmp_path):
         main, ["analyze", str(tmp_path / "v.csv"), "--bootstrap", "0", "--no-mixed-model"]
     )
     assert out.exit_code == 0 and "mixed model" not in out.output
+
+
+def test_plan_compares_the_adaptive_design_with_the_full_one(tmp_path):
+    out = CliRunner().invoke(
+        main,
+        ["plan", "--adaptive", "8", "--simulations", "10", "--json", str(tmp_path / "a.json")],
+    )
+    assert out.exit_code == 0, out.output
+    assert "Kendall tau" in out.output and "95% CI width (JOD)" in out.output
+    result = json.loads((tmp_path / "a.json").read_text())[0]
+    assert result["conditions"] == 8 and result["full_votes"] == 2 * 8 * 7
+    assert result["reached"]["kendall"]["adaptive"] is not None
