@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from app.analysis.json_values import json_number
+from app.analysis.json_values import json_row
 from app.analysis.ttest import holm
 
 MIN_CELLS_BEYOND_CLIPS = 2  # at least one residual degree of freedom after slope and intercepts
@@ -153,19 +153,7 @@ def objective_to_perceptual(
         "cells": len(cells),
         "clips": len({k for k, _ in cells}),
         "confidence": confidence,
-        "measures": [
-            {
-                key: (
-                    [json_number(v) for v in value]
-                    if isinstance(value, list)
-                    else json_number(value)
-                    if isinstance(value, float)
-                    else value
-                )
-                for key, value in r.items()
-            }
-            for r in rows
-        ],
+        "measures": [json_row(r) for r in rows],
         "skipped": skipped,
     }
 

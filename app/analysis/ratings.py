@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from app.analysis.json_values import json_number
+from app.analysis.json_values import json_number, json_row
 from app.analysis.ttest import holm
 from app.errors import InputError
 
@@ -119,17 +119,7 @@ def mixed_mos(
         "sd_participant": json_number(sd.get("participant", np.nan)),
         "sd_clip": json_number(sd.get("clip", np.nan)),
         "sd_residual": json_number(residual),
-        "contrasts": [
-            {
-                k: [json_number(v) for v in val]
-                if isinstance(val, list)
-                else json_number(val)
-                if isinstance(val, float)
-                else val
-                for k, val in r.items()
-            }
-            for r in contrasts
-        ],
+        "contrasts": [json_row(r) for r in contrasts],
         "n": int(len(y)),
         "converged": converged,
         "note": note,
