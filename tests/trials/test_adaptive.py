@@ -123,3 +123,14 @@ def test_it_never_proposes_a_pair_it_cannot_show(n, seed, raw):
         assert pair in different
     else:
         assert pair is None
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(2, 10), st.integers(0, 2**32 - 1), st.floats(0.01, 30.0))
+def test_every_pairs_gain_is_finite_and_not_negative(n, seed, scale):
+    rng = np.random.default_rng(seed)
+    root = rng.normal(size=(n, n)) * scale
+    post = ScorePosterior(rng.normal(0, scale, n), root @ root.T + 1e-6 * np.eye(n))
+    gain = information_gain(post)
+    assert np.all(np.isfinite(gain)) and np.all(gain >= -1e-12)
+    np.testing.assert_allclose(gain, gain.T, rtol=1e-9, atol=1e-15)
