@@ -110,6 +110,9 @@ def _print_adaptive(results: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+MAX_ADAPTIVE_CONDITIONS = 30  # beyond, one simulated study takes minutes
+
+
 def _plan_adaptive(
     text: str, spread: float, passes: int, simulations: int, seed: int, json_path: str | None
 ) -> None:
@@ -117,9 +120,13 @@ def _plan_adaptive(
     from app.trials.adaptive import MIN_CONDITIONS
 
     parts = [p.strip() for p in text.split(",")]
-    if not all(p.isdigit() for p in parts) or any(int(p) < 3 for p in parts):
+    if not all(p.isascii() and p.isdigit() for p in parts) or any(
+        not 3 <= int(p) <= MAX_ADAPTIVE_CONDITIONS for p in parts
+    ):
         raise InputError(
-            f"expected condition counts >= 3 such as 8,12, got {text!r}", field="adaptive"
+            f"expected condition counts from 3 to {MAX_ADAPTIVE_CONDITIONS} such as 8,12, "
+            f"got {text!r}",
+            field="adaptive",
         )
     if not (np.isfinite(spread) and spread > 0):
         raise InputError(f"must be a number > 0, got {spread}", field="spread-jod")

@@ -1,6 +1,9 @@
 import json
+import re
 
 from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from app.cli import main
 
@@ -260,3 +263,11 @@ def test_bad_measures_are_one_line(tmp_path):
         )
         lines = [ln for ln in out.output.splitlines() if ln.strip()]
         assert out.exit_code == 2 and len(lines) == 1 and "Traceback" not in out.output
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.text(max_size=12).filter(lambda t: not re.fullmatch(r"\s*\d+(\s*,\s*\d+)*\s*", t)))
+def test_any_other_adaptive_text_is_one_line(text):
+    out = CliRunner().invoke(main, ["plan", "--adaptive", text, "--simulations", "10"])
+    lines = [ln for ln in out.output.splitlines() if ln.strip()]
+    assert out.exit_code == 2 and len(lines) == 1 and "Traceback" not in out.output
