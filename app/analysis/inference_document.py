@@ -19,7 +19,7 @@ from app.analysis.document import (
     fmt,
     fmt_p,
 )
-from app.analysis.mixed_document import MIXED_TEXT, mixed_blocks
+from app.analysis.mixed_document import MIXED_TEXT, mixed_blocks, objective_blocks
 
 METHOD_TEXT = (
     "Participant-level tests: for each pair (a, b), each participant's net preference "
@@ -342,6 +342,7 @@ def inference_blocks(r: dict[str, Any]) -> list[Block]:
         ),
         _btd_table(r),
         *mixed_blocks(r),
+        *objective_blocks(r),
         Heading("Participant quality"),
         *_quality_blocks(r),
     ]

@@ -15,7 +15,7 @@ MIXED_TEXT = (
     "P(i over j) = log g + a_pki − a_pkj. Undecided votes stay Davidson ties. Fitted by "
     "penalised quasi-likelihood (Breslow & Clayton 1993) with REML variances by Schall's "
     "update (1991); Wald intervals from the fixed block of the inverse Hessian. Validated by "
-    "simulation with known effects (coverage in docs/analysis.md)."
+    "simulation with known effects (coverage in docs/reference/analysis.md)."
 )
 
 
@@ -66,5 +66,48 @@ def mixed_blocks(r: dict[str, Any]) -> list[Block]:
             rows,
             note=f"{m['model']}; {m['estimator']}.",
             numeric=[False] + [True] * 6,
+        ),
+    ]
+
+
+def objective_blocks(r: dict[str, Any]) -> list[Block]:
+    """Objective measures against the per-clip scores (:mod:`app.analysis.objective`): the
+    measures whose slope is most certain first; nothing when no measures were given."""
+    o = r.get("objective")
+    if not o:
+        return []
+    head = Heading("Objective measures and the preference")
+    if not o["measures"]:
+        return [head, Paragraph("No objective measure varied across the clips' conditions.")]
+    ci = int(round(100 * o["confidence"]))
+    shown = o["measures"][:15]
+    text = (
+        f"Each objective measure of the condition tracks (summary.json of the generated "
+        f"stimuli) regressed on the per-clip Bradley-Terry-Davidson scores (JOD), one intercept "
+        f"per clip, over {o['cells']} clip x condition cells of {o['clips']} clips: slope in "
+        f"JOD per standard deviation of the measure, {ci} % t intervals, Holm over the "
+        f"{len(o['measures'])} measures. With so few cells, read a measure as predictive only "
+        "where its interval excludes 0 after Holm."
+    )
+    rows = [
+        [
+            m["measure"],
+            fmt(m["slope"]),
+            _ci(m["ci"]),
+            fmt(m["p"], 4),
+            fmt(m["p_holm"], 4),
+            fmt(m["r2_within"]),
+        ]
+        for m in shown
+    ]
+    return [
+        head,
+        Paragraph(text),
+        Table(
+            f"Table 9c. Objective measures against the preference (the {len(shown)} with the "
+            "smallest p).",
+            ["measure", "slope (JOD/SD)", f"{ci}% CI", "p", "p (Holm)", "R² within clips"],
+            rows,
+            numeric=[False] + [True] * 5,
         ),
     ]

@@ -8,6 +8,8 @@ from typing import Any
 
 import click
 
+from app.errors import InputError
+
 
 def _summary(results: dict[str, Any]) -> str:
     """A short terminal table: ballots, scale and the agreement test, pooled over clips."""
@@ -63,6 +65,25 @@ def _summary(results: dict[str, Any]) -> str:
             + (", ".join(excluded) if excluded else "nobody")
         )
     return "\n".join(lines)
+
+
+def read_summaries(items: tuple[str, ...]) -> dict[str, dict[str, Any]]:
+    """``("CLIP=PATH", ...)`` -> ``{clip: summary.json}``; a bad item is one line."""
+    out: dict[str, dict[str, Any]] = {}
+    for item in items:
+        clip, eq, path = item.partition("=")
+        if not eq or not clip.strip() or not path.strip():
+            raise InputError(f"expected CLIP=SUMMARY.json, got {item!r}", field="measures")
+        try:
+            data = json.loads(Path(path).read_text(encoding="utf-8"))
+        except OSError as exc:
+            raise InputError(f"cannot read: {exc.strerror}", path=Path(path)) from None
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise InputError(f"not JSON: {exc}", path=Path(path)) from None
+        if not isinstance(data, dict) or not isinstance(data.get("conditions"), dict):
+            raise InputError("expected a summary.json with 'conditions'", path=Path(path))
+        out[clip.strip()] = data
+    return out
 
 
 @click.command("analyze")
@@ -122,6 +143,14 @@ def _summary(results: dict[str, Any]) -> str:
     help="Also fit Bradley-Terry-Davidson with participant and clip random effects "
     "(its time grows with participants x clips).",
 )
+@click.option(
+    "--measures",
+    "measures_paths",
+    multiple=True,
+    metavar="CLIP=SUMMARY",
+    help="The objective measures of a clip's conditions (summary.json of facepair stimuli "
+    "generate), e.g. 's1=out/s1/summary.json'; repeat per clip. Regressed on the scores.",
+)
 def analyze(
     votes: str,
     json_path: str | None,
@@ -135,6 +164,7 @@ def analyze(
     anchor: str | None,
     exclude: str | None,
     mixed_model: bool,
+    measures_paths: tuple[str, ...],
 ) -> None:
     """Analyse the votes of a paired-comparison study (CSV) and report the results."""
     from tqdm import tqdm
@@ -146,6 +176,7 @@ def analyze(
     if pdf_path is not None and html_path is None:
         raise click.UsageError("--pdf needs --report (both come from the same content)")
     names = None if conditions is None else [c.strip() for c in conditions.split(",") if c.strip()]
+    summaries = read_summaries(measures_paths)
     steps = 2 + (html_path is not None) + (pdf_path is not None and html_path is not None)
     with tqdm(total=steps, desc="analyze", unit="step", disable=None) as bar:
         table = read_votes(votes, skip_bad_rows=skip_bad_rows, conditions=names)
@@ -164,6 +195,18 @@ def analyze(
             exclude=exclude,
             mixed_model=mixed_model,
         )
+        if summaries:
+            from app.analysis.objective import (
+                measures_from_summaries,
+                objective_to_perceptual,
+                report_scores,
+            )
+
+            results["objective"] = objective_to_perceptual(
+                measures_from_summaries(summaries),
+                report_scores(results),
+                confidence=results["options"]["confidence"],
+            )
         bar.update()
         if json_path is not None:
             Path(json_path).write_text(

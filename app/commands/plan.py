@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import click
+import numpy as np
 
 from app.errors import InputError
 
@@ -80,7 +81,104 @@ def _print(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _print_adaptive(results: list[dict[str, Any]]) -> str:
+    first = results[0]
+    lines = [
+        f"adaptive (expected information gain, ASAP) against the full design: "
+        f"{first['simulations']} simulated studies per row, true scores evenly spread over "
+        f"{first['spread_jod']:g} JOD, nu = {first['nu']:g}; votes each design needs to reach "
+        f"the full design's accuracy after {first['passes']} participants",
+        f"  {'conditions':>10}  {'measure':<20} {'target':>7} {'full':>7} {'adaptive':>8} "
+        f"{'ratio':>6}",
+    ]
+    labels = {
+        "kendall": "Kendall tau",
+        "spearman": "Spearman rho",
+        "ci_width_jod": "95% CI width (JOD)",
+    }
+    for r in results:
+        for metric, label in labels.items():
+            row = r["reached"][metric]
+            full, adaptive = row["full"], row["adaptive"]
+            ratio = "-" if full is None or adaptive is None else f"{adaptive / full:.2f}"
+            lines.append(
+                f"  {r['conditions']:>10}  {label:<20} {row['target']:7.3f} "
+                + ("      -" if full is None else f"{full:7.0f}")
+                + (" " * 8 + "-" if adaptive is None else f" {adaptive:8.0f}")
+                + f" {ratio:>6}"
+            )
+    return "\n".join(lines)
+
+
+MAX_ADAPTIVE_CONDITIONS = 30  # beyond, one simulated study takes minutes
+
+
+def _plan_adaptive(
+    text: str, spread: float, passes: int, simulations: int, seed: int, json_path: str | None
+) -> None:
+    from app.analysis.adaptive_plan import AdaptivePlan, compare_designs
+    from app.trials.adaptive import MIN_CONDITIONS
+
+    parts = [p.strip() for p in text.split(",")]
+    if not all(p.isascii() and p.isdigit() for p in parts) or any(
+        not 3 <= int(p) <= MAX_ADAPTIVE_CONDITIONS for p in parts
+    ):
+        raise InputError(
+            f"expected condition counts from 3 to {MAX_ADAPTIVE_CONDITIONS} such as 8,12, "
+            f"got {text!r}",
+            field="adaptive",
+        )
+    if not (np.isfinite(spread) and spread > 0):
+        raise InputError(f"must be a number > 0, got {spread}", field="spread-jod")
+    results = [
+        compare_designs(
+            AdaptivePlan(
+                conditions=int(p),
+                spread_jod=spread,
+                participants=passes + 3,
+                simulations=simulations,
+            ),
+            passes=passes,
+            seed=seed,
+        )
+        for p in parts
+    ]
+    if json_path is not None:
+        Path(json_path).write_text(
+            json.dumps(results, indent=1, allow_nan=False) + "\n", encoding="utf-8"
+        )
+    small = [p for p in parts if int(p) < MIN_CONDITIONS]
+    if small:
+        click.echo(
+            f"note: a study file's adaptive design needs {MIN_CONDITIONS} or more conditions"
+        )
+    click.echo(_print_adaptive(results))
+
+
 @click.command("plan")
+@click.option(
+    "--adaptive",
+    "adaptive_text",
+    default=None,
+    metavar="N,N",
+    help="Instead of power: simulate the adaptive design against the full one for these "
+    "numbers of conditions, e.g. '8,12'.",
+)
+@click.option(
+    "--spread-jod",
+    type=float,
+    default=3.0,
+    show_default=True,
+    help="With --adaptive: range of the true scores (JOD).",
+)
+@click.option(
+    "--passes",
+    type=click.IntRange(1, 20),
+    default=2,
+    show_default=True,
+    help="With --adaptive: the accuracy to reach is the full design's after this many "
+    "participants.",
+)
 @click.option(
     "--effects",
     default=None,
@@ -129,7 +227,12 @@ def _print(result: dict[str, Any]) -> str:
     show_default=True,
     help="Tie parameter nu (undecided votes); ignored with --pilot.",
 )
-@click.option("--simulations", type=click.IntRange(10, 1000000), default=1000, show_default=True)
+@click.option(
+    "--simulations",
+    type=click.IntRange(10, 1000000),
+    default=None,
+    help="Simulated studies per row (default 1000; 100 with --adaptive).",
+)
 @click.option("--alpha", type=float, default=0.05, show_default=True)
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option(
@@ -147,6 +250,9 @@ def _print(result: dict[str, Any]) -> str:
     help="Write the power-against-participants plot (PNG) here.",
 )
 def plan(
+    adaptive_text: str | None,
+    spread_jod: float,
+    passes: int,
     effects: str | None,
     pilot: str | None,
     conditions: str | None,
@@ -155,13 +261,20 @@ def plan(
     votes: int | None,
     gamma: float,
     nu: float,
-    simulations: int,
+    simulations: int | None,
     alpha: float,
     seed: int,
     json_path: str | None,
     plot_path: str | None,
 ) -> None:
-    """Simulate studies: power of each planned test and expected CI widths by participants."""
+    """Simulate studies: power of each planned test and expected CI widths by participants
+    (or, with --adaptive, the votes the adaptive design needs against the full one)."""
+    if adaptive_text is not None:
+        if json_path is not None and not Path(json_path).resolve().parent.is_dir():
+            raise InputError("folder does not exist", path=Path(json_path).parent)
+        _plan_adaptive(adaptive_text, spread_jod, passes, simulations or 100, seed, json_path)
+        return
+    simulations = simulations or 1000
     from app.analysis.counts import count_votes
     from app.analysis.plan import StudyPlan, plan_from_pilot, plan_study
     from app.analysis.votes import read_votes

@@ -1,6 +1,6 @@
 """Pair designs: which conditions are compared with which, and on which side.
 
-Three designs, each taken from a seed study:
+Four designs, the first three taken from a seed study:
 
 ``all_ordered``
     Every ordered pair of conditions, same-condition pairs included: n^2 pairs for n conditions.
@@ -23,6 +23,13 @@ Three designs, each taken from a seed study:
     participants (the counterbalancing the 2012 paper, sec. 8.1, asks for: "To counter balance
     the order of the visual stimuli ...").
 
+``adaptive``
+    The pairs of ``unordered_counterbalanced``, rendered in both orders, of which each
+    participant judges half per clip, each vote's next pair chosen by expected information gain
+    under the posterior of the study's votes so far (ASAP, Mikhailiuk et al. 2021; see
+    :mod:`app.trials.adaptive`), for studies of :data:`app.trials.adaptive.MIN_CONDITIONS` or
+    more conditions.
+
 Conditions are named by their study names (e.g. ``"speech_driven"``); a ``ConditionPair`` is what
 one side-by-side clip shows: ``left`` on the left panel, ``right`` on the right.
 """
@@ -33,8 +40,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Final
 
-PAIR_DESIGNS: Final = ("all_ordered", "reference", "unordered_counterbalanced")
+PAIR_DESIGNS: Final = ("all_ordered", "reference", "unordered_counterbalanced", "adaptive")
 """The pair designs understood by :func:`build_pairs` and the schedule."""
+UNORDERED_DESIGNS: Final = ("unordered_counterbalanced", "adaptive")
+"""Designs of unordered pairs whose side the schedule chooses (both orders rendered)."""
 
 
 @dataclass(frozen=True, order=True, slots=True)
@@ -90,8 +99,8 @@ def build_pairs(
     (thesis sec. 5.2, TABLE 3). ``reference``: 2(n-1) pairs, for each other condition ``c`` in
     order ``ConditionPair(c, reference)`` then ``ConditionPair(reference, c)`` (Le et al. 2012,
     sec. 8.1.1).
-    ``unordered_counterbalanced``: C(n, 2) pairs ``ConditionPair(a, b)`` with ``a`` before ``b`` in
-    ``conditions``; the schedule chooses the displayed side.
+    ``unordered_counterbalanced`` and ``adaptive``: C(n, 2) pairs ``ConditionPair(a, b)`` with ``a``
+    before ``b`` in ``conditions``; the schedule chooses the displayed side.
 
     Raises
     ------
@@ -149,7 +158,7 @@ def stimulus_pairs(pairs: Sequence[ConditionPair], design: str) -> list[Conditio
     [ConditionPair(left='a', right='b'), ConditionPair(left='b', right='a')]
     """
     check_design(design)
-    if design != "unordered_counterbalanced":
+    if design not in UNORDERED_DESIGNS:
         return list(dict.fromkeys(pairs))
     out: dict[ConditionPair, None] = {}
     for pair in pairs:

@@ -324,11 +324,15 @@ def make_schedule(
         flip = flip_list != (sides == 2 and clip_number % 2 == 1)
         shown = [p.flipped() if flip else p for p in comparisons]
         blocks.append([(clip, p) for p in shown])
+    # adaptive: half the comparisons per clip, whose pairs the votes then choose
+    keep = adaptive_trials_per_clip(len(comparisons)) if design == "adaptive" else None
     if block_by_clip:
-        main = [block[i] for block in blocks for i in rng.permutation(len(block))]
+        main = [block[i] for block in blocks for i in rng.permutation(len(block))[:keep]]
     else:
         flat = [item for block in blocks for item in block]
         main = [flat[i] for i in rng.permutation(len(flat))]
+        if keep is not None:
+            main = main[: keep * len(blocks)]
 
     slots = _catch_slots(len(main), catch_trials, rng)
     onscreen = stimulus_pairs(pairs, design)[0] if catch_kind == "onscreen" else None
@@ -361,6 +365,15 @@ def make_schedule(
             sequence, clips, pairs, rng, first=int(practice_pair is not None)
         )
     return [replace(trial, position=position) for position, trial in enumerate(sequence)]
+
+
+def adaptive_trials_per_clip(n_pairs: int) -> int:
+    """Trials per clip of an ``adaptive`` schedule: half the unordered pairs, rounded up.
+
+    >>> adaptive_trials_per_clip(28), adaptive_trials_per_clip(3)
+    (14, 2)
+    """
+    return (n_pairs + 1) // 2
 
 
 def foreign_clip(clips: Sequence[str], clip: str) -> str:

@@ -11,8 +11,8 @@ redirect URL, a target number of participants and the seed every schedule derive
 Every key is documented in ``docs/reference/studyfile.md``; ``app/data/examples/study.toml`` is a
 complete example.
 Every mistake is one :class:`~app.errors.InputError` line naming the file and the field, e.g.
-``study.toml: design: expected one of all_ordered, reference, unordered_counterbalanced, got
-'foo'``. Relative paths are resolved against the directory of the study file.
+``study.toml: design: expected one of all_ordered, reference, unordered_counterbalanced,
+adaptive, got 'foo'``. Relative paths are resolved against the directory of the study file.
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ from typing import Any, Final
 from app.errors import InputError
 from app.stimuli.eyes import DEFAULT_EYES, EYE_MODES
 from app.stimuli.posture import DEFAULT_POSTURE, POSTURES
+from app.trials.adaptive import MIN_CONDITIONS
 from app.trials.design import PAIR_DESIGNS, ConditionPair
 from app.trials.fields import MISSING, describe
 from app.trials.participation import PARTICIPATION_KEYS, read_participation
@@ -230,6 +231,12 @@ class _StudyReader(ExperimenterSideReader):
                 )
         elif reference is not None:
             raise self.error("reference", f"only applies to design = 'reference', not {design!r}")
+        if design == "adaptive" and len(names) < MIN_CONDITIONS:
+            raise self.error(
+                "design",
+                f"'adaptive' needs at least {MIN_CONDITIONS} conditions, the study has "
+                f"{len(names)}",
+            )
         practice, practice_clip = self.practice(top, names, [c.name for c in clips])
         rejoin = self.choice(top, "rejoin", "rejoin", REJOIN_POLICIES, "resume")
         participation = read_participation(self, top, n_clips=len(clips))

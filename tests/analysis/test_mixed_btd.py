@@ -3,7 +3,7 @@ import pytest
 
 from app.analysis.btd import fit_btd
 from app.analysis.mixed_btd import _Model, fit_mixed_btd, mixed_btd_summary
-from app.analysis.mixed_coverage import Truth, coverage, simulate_counts
+from app.analysis.mixed_coverage import Truth, coverage, fixed_wald, simulate_counts
 
 
 def _study(truth, participants, clips, seed):
@@ -110,3 +110,22 @@ def test_the_analysis_reports_it_beside_the_fixed_model(tmp_path):
     mixed = next(t for t in tables if t.caption.startswith("Table 9b"))
     assert [row[0] for row in mixed.rows] == ["a", "b", "c"]
     assert analyze(votes, bootstrap=0, mixed_model=False)["pooled"]["mixed_btd"] is None
+
+
+def test_the_comparator_is_the_fixed_models_maximum_likelihood():
+    t = _study(Truth(), 20, 3, 8)
+    est, se, ok = fixed_wald(t)
+    fixed = fit_btd(t.sum(axis=(0, 1)))
+    assert ok
+    np.testing.assert_allclose(est[:4], fixed.theta, atol=1e-5)
+    np.testing.assert_allclose(np.exp(est[4:]), [fixed.gamma, fixed.nu], rtol=1e-5)
+    assert np.all(se > 0)
+
+
+def test_with_large_random_effects_only_the_mixed_intervals_hold_the_truth():
+    result = coverage(
+        Truth(sd_participant=1.0, sd_clip=0.6), studies=8, participants=30, clips=8, seed=2
+    )
+    assert result["coverage_theta"] >= 0.8
+    assert result["fixed_coverage_theta"] < 0.6
+    assert len(result["coverage_se"]) == len(result["parameters"])

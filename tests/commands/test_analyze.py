@@ -1,6 +1,9 @@
 import json
+import re
 
 from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from app.cli import main
 
@@ -170,6 +173,9 @@ def test_plan_bad_input_exits_2_with_one_line():
         ["--effects", "a=0,b"],
         ["--effects", "a=0,b=1", "--participants", "x"],
         ["--effects", "a=0,b=1", "--pilot", "app/data/examples/votes.csv"],
+        ["--adaptive", "8,x"],
+        ["--adaptive", "2"],
+        ["--adaptive", "8", "--spread-jod", "-1"],
     ):
         out = CliRunner().invoke(main, ["plan", *args])
         lines = [ln for ln in out.output.splitlines() if ln.strip()]
@@ -190,3 +196,78 @@ def test_the_summary_names_the_mixed_model_unless_left_out(tmp_path):
         main, ["analyze", str(tmp_path / "v.csv"), "--bootstrap", "0", "--no-mixed-model"]
     )
     assert out.exit_code == 0 and "mixed model" not in out.output
+
+
+def test_plan_compares_the_adaptive_design_with_the_full_one(tmp_path):
+    out = CliRunner().invoke(
+        main,
+        ["plan", "--adaptive", "8", "--simulations", "10", "--json", str(tmp_path / "a.json")],
+    )
+    assert out.exit_code == 0, out.output
+    assert "Kendall tau" in out.output and "95% CI width (JOD)" in out.output
+    result = json.loads((tmp_path / "a.json").read_text())[0]
+    assert result["conditions"] == 8 and result["full_votes"] == 2 * 8 * 7
+    assert result["reached"]["kendall"]["adaptive"] is not None
+
+
+def test_objective_measures_are_regressed_on_the_scores(tmp_path):
+    from app.analysis import write_votes_csv
+    from app.analysis.simulate import simulate_votes
+
+    truth = {"a": -0.8, "b": 0.0, "c": 0.4, "d": 0.9}
+    votes = simulate_votes(truth, participants=20, clips=["s1", "s2", "s3"], seed=4)
+    write_votes_csv(votes, tmp_path / "v.csv")
+    args = []
+    for k, clip in enumerate(["s1", "s2", "s3"]):
+        summary = {
+            "conditions": {
+                c: {"measures": {"head": {"speed": 3.0 * v + 0.1 * k}, "noise": [(k * 7 + i) % 5]}}
+                for i, (c, v) in enumerate(truth.items())
+            }
+        }
+        (tmp_path / f"{clip}.json").write_text(json.dumps(summary))
+        args += ["--measures", f"{clip}={tmp_path / f'{clip}.json'}"]
+    out = CliRunner().invoke(
+        main,
+        [
+            "analyze",
+            str(tmp_path / "v.csv"),
+            "--bootstrap",
+            "0",
+            "--no-mixed-model",
+            "--json",
+            str(tmp_path / "r.json"),
+            "--report",
+            str(tmp_path / "r.html"),
+            *args,
+        ],
+    )
+    assert out.exit_code == 0, out.output
+    rows = json.loads((tmp_path / "r.json").read_text())["objective"]["measures"]
+    assert rows[0]["measure"] == "head.speed" and rows[0]["ci"][0] > 0
+    assert rows[0]["p_holm"] < 0.01
+    assert "Table 9c" in (tmp_path / "r.html").read_text()
+
+
+def test_bad_measures_are_one_line(tmp_path):
+    (tmp_path / "bad.json").write_text("{")
+    (tmp_path / "list.json").write_text("[]")
+    for item in (
+        "s1",
+        f"s1={tmp_path / 'missing.json'}",
+        f"s1={tmp_path / 'bad.json'}",
+        f"s1={tmp_path / 'list.json'}",
+    ):
+        out = CliRunner().invoke(
+            main, ["analyze", "app/data/examples/votes.csv", "--bootstrap", "0", "--measures", item]
+        )
+        lines = [ln for ln in out.output.splitlines() if ln.strip()]
+        assert out.exit_code == 2 and len(lines) == 1 and "Traceback" not in out.output
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.text(max_size=12).filter(lambda t: not re.fullmatch(r"\s*\d+(\s*,\s*\d+)*\s*", t)))
+def test_any_other_adaptive_text_is_one_line(text):
+    out = CliRunner().invoke(main, ["plan", "--adaptive", text, "--simulations", "10"])
+    lines = [ln for ln in out.output.splitlines() if ln.strip()]
+    assert out.exit_code == 2 and len(lines) == 1 and "Traceback" not in out.output

@@ -99,7 +99,9 @@ def test_every_ordered_pair_comes_first_for_some_seed() -> None:
     assert max(firsts.values()) < 3 * 800 / 16  # uniform would be 50 each
 
 
-designs = st.sampled_from(PAIR_DESIGNS)
+# the adaptive schedule's pairs are places the votes fill (tested below and in
+# tests/test_adaptive_votes.py)
+designs = st.sampled_from([d for d in PAIR_DESIGNS if d != "adaptive"])
 n_conditions = st.integers(2, 6)
 n_clips = st.integers(1, 4)
 
@@ -427,3 +429,20 @@ def test_a_stored_seed_keeps_giving_the_same_schedule() -> None:
         ("s2", r, n, "trial"),
     ]
     assert trials[8].expected == "undecided"
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(3, 9), n_clips, st.booleans(), st.integers(0, 2**32))
+def test_an_adaptive_schedule_holds_half_the_pairs_of_each_clip(n, m, block, seed):
+    conditions = [f"c{i}" for i in range(n)]
+    clips = [f"s{j}" for j in range(m)]
+    pairs = build_pairs(conditions, "adaptive")
+    per_clip = (len(pairs) + 1) // 2
+    shown = set(stimulus_pairs(pairs, "adaptive"))
+    for trials in schedules(conditions, clips, "adaptive", seed=seed, block=block):
+        assert len(trials) == per_clip * m
+        assert all(t.pair in shown and not t.pair.is_same for t in trials)
+        if block:
+            for clip in clips:
+                keys = [t.pair.conditions for t in trials if t.clip == clip]
+                assert len(keys) == len(set(keys)) == per_clip

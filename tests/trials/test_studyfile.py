@@ -18,7 +18,7 @@ from app.trials.rules import ReplayPolicy
 from app.trials.studyfile import load_study_file, loads_study, parse_study
 
 StudyData = Callable[[], dict[str, Any]]
-DESIGNS = "all_ordered, reference, unordered_counterbalanced"
+DESIGNS = "all_ordered, reference, unordered_counterbalanced, adaptive"
 
 
 def error_of(data: dict[str, Any], base_dir: Path) -> str:
@@ -463,3 +463,13 @@ def test_the_render_choices_repeat_the_renderers() -> None:
 
     assert studyfile.ANTIALIAS_MODES == ANTIALIAS_MODES
     assert studyfile.LOOKS == LOOKS
+
+
+def test_an_adaptive_design_needs_eight_conditions(
+    make_study_data: StudyData, study_dir: Path
+) -> None:
+    data = make_study_data() | {"design": "adaptive"}
+    assert error_of(data, study_dir) == (
+        "study.toml: design: 'adaptive' needs at least 8 conditions, the study has "
+        f"{len(data['conditions'])}"
+    )

@@ -34,6 +34,7 @@ from app.web.infra.limits import fits
 from app.web.infra.media import media_response
 from app.web.models import Participant, Study, Trial, utcnow
 from app.web.participant import bp
+from app.web.study.adaptive import ADAPTIVE
 from app.web.study.enrolment import (
     SESSION_ENDED,
     dropped_after,
@@ -306,6 +307,8 @@ def trial(token: str):  # type: ignore[no-untyped-def]
     # The unanswered trial after this one comes along: its clip is preloaded while this
     # one is judged.
     upcoming, following = (next_trials(participant, 2) + [None, None])[:2]
+    if study.design == ADAPTIVE:  # its pair is chosen at the vote before it: not yet known
+        following = None
     if upcoming is None:
         return redirect(url_for(".done", token=token))
     counts = touch_with_progress(participant)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import datetime as dt
 from dataclasses import dataclass
 from functools import cache
+from types import SimpleNamespace
 from typing import Any, NamedTuple
 
 import sqlalchemy as sa
@@ -23,6 +24,7 @@ from app.trials import rules
 from app.web.extensions import db
 from app.web.infra import limits
 from app.web.models import Participant, Study, Trial, Vote, utcnow
+from app.web.study.adaptive import ADAPTIVE, choose_next_pair
 from app.web.study.enrolment import SESSION_ENDED, progress, touch, upcoming
 from app.web.study.medialog import MediaLogError, media_fields
 from app.web.study.participants import release_if_left_out
@@ -309,7 +311,12 @@ def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcom
         release_if_left_out(participant)
     following = None
     if answered < total and participant.screened_out_at is None:
+        if created:
+            choose_next_pair(participant)  # the adaptive design's next pair; others: no-op
         following = db.session.execute(upcoming(), {"participant_id": participant_id}).first()
+        if following is not None and participant.study.design == ADAPTIVE:
+            # the trial after it gets its pair at the next vote: nothing to preload yet
+            following = SimpleNamespace(**{**following._asdict(), "following": None})
     return VoteOutcome(
         vote=StoredVote(trial_id, *(getattr(vote, f) for f in _ANSWERED)),
         created=created,
