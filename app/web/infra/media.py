@@ -20,6 +20,7 @@ them (the check is the view's and the same for every backend):
 
 from __future__ import annotations
 
+import mimetypes
 import posixpath
 import re
 from collections.abc import Iterator
@@ -249,7 +250,6 @@ def _inline(name: str) -> str:
 
 
 def _guess_type(path: Path) -> str:
-    import mimetypes
 
     return mimetypes.guess_type(path.name)[0] or "application/octet-stream"
 

@@ -18,14 +18,29 @@ the clips not yet in place.
 from __future__ import annotations
 
 import logging
+import socket
 import time
 from collections.abc import Callable
 from typing import Any
 
 import sqlalchemy as sa
+from flask import current_app
+from rq import Callback, Queue, get_current_job
+from rq.job import Dependency
 from sqlalchemy.exc import SQLAlchemyError
 
 from app.web.extensions import db, transaction
+from app.web.jobs import JOB_TIMEOUT, QUEUE, rq_job_id
+from app.web.jobs.tasks import (
+    beat_interval,
+    failure_message,
+    mark_failed,
+    render_inputs,
+    render_stimulus,
+    rendered,
+    rendering_finished,
+    standalone_context,
+)
 from app.web.models import Job, Stimulus, Study, utcnow
 
 log = logging.getLogger(__name__)
@@ -33,14 +48,12 @@ log = logging.getLogger(__name__)
 
 def clip_job_id(job_id: int, stimulus_id: int) -> str:
     """The RQ id of the job rendering stimulus ``stimulus_id`` for render row ``job_id``."""
-    from app.web.jobs import rq_job_id
 
     return f"{rq_job_id(job_id)}-clip-{stimulus_id}"
 
 
 def finish_job_id(job_id: int) -> str:
     """The RQ id of the job that ends render row ``job_id`` once its clip jobs have ended."""
-    from app.web.jobs import rq_job_id
 
     return f"{rq_job_id(job_id)}-finish"
 
@@ -48,11 +61,6 @@ def finish_job_id(job_id: int) -> str:
 def split_render(study: Study, job_id: int, progress: Callable[[int, int], None]) -> bool:
     """Queue one RQ job per clip of ``study`` still to render and the closing job, on the
     queue of the RQ job running now; False (nothing queued) when every clip is in place."""
-    from rq import Callback, Queue, get_current_job
-    from rq.job import Dependency
-
-    from app.web.jobs import JOB_TIMEOUT, QUEUE
-    from app.web.jobs.tasks import render_inputs, rendered
 
     _, stimuli = render_inputs(study)
     todo = [s.id for s in stimuli if not rendered(study, s)]
@@ -100,9 +108,6 @@ def split_render(study: Study, job_id: int, progress: Callable[[int, int], None]
 
 
 def _worker_name() -> str:
-    import socket
-
-    from rq import get_current_job
 
     current = get_current_job()
     return (current.worker_name if current is not None else None) or socket.gethostname()
@@ -132,16 +137,6 @@ def _beat(job_id: int, every: float) -> Callable[[int, int], None]:
 def render_clip(job_id: int, stimulus_id: int) -> dict[str, Any]:
     """Render one clip of render row ``job_id`` and count it on the row; a failure fails the
     row with the clip's name. Returns the stimulus, the worker and what happened."""
-    from flask import current_app
-
-    from app.web.jobs.tasks import (
-        beat_interval,
-        failure_message,
-        mark_failed,
-        render_inputs,
-        render_stimulus,
-        rendered,
-    )
 
     worker = _worker_name()
     outcome = {"stimulus": stimulus_id, "worker": worker, "rendered": False}
@@ -186,9 +181,6 @@ def render_clip(job_id: int, stimulus_id: int) -> dict[str, Any]:
 def finish_render(job_id: int, kept: int) -> str:
     """End render row ``job_id`` once its clip jobs have ended: ``done`` when every clip of
     the study is in place, else ``failed`` naming how many are. Returns the row's status."""
-    from rq import get_current_job
-
-    from app.web.jobs.tasks import mark_failed, render_inputs, rendered, rendering_finished
 
     job = db.session.get(Job, job_id)
     if job is None or job.status not in ("queued", "running"):
@@ -227,7 +219,6 @@ def finish_render(job_id: int, kept: int) -> str:
 
 def render_clip_standalone(job_id: int, stimulus_id: int) -> dict[str, Any]:
     """Entry point of a clip job in the RQ worker."""
-    from app.web.jobs.tasks import standalone_context
 
     with standalone_context():
         return render_clip(job_id, stimulus_id)
@@ -235,7 +226,6 @@ def render_clip_standalone(job_id: int, stimulus_id: int) -> dict[str, Any]:
 
 def finish_render_standalone(job_id: int, kept: int) -> str:
     """Entry point of the closing job in the RQ worker."""
-    from app.web.jobs.tasks import standalone_context
 
     with standalone_context():
         return finish_render(job_id, kept)

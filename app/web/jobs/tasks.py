@@ -7,10 +7,12 @@ the application.
 
 from __future__ import annotations
 
+import datetime as dt
 import hashlib
 import hmac
 import logging
 import math
+import os
 import re
 import time
 from collections.abc import Callable, Iterator
@@ -20,11 +22,17 @@ from typing import Any
 
 import sqlalchemy as sa
 from flask import current_app
+from redis import Redis
+from redis.exceptions import RedisError
+from rq import get_current_job
+from rq.exceptions import NoSuchJobError
+from rq.job import Job as RQJob
 from sqlalchemy.exc import SQLAlchemyError
 
 from app.web.extensions import db, transaction
 from app.web.infra import media
 from app.web.infra.storage import disk_full, disk_full_message, media_dir
+from app.web.jobs import rq_job_id
 from app.web.models import Clip, Job, Stimulus, Study, Track, utcnow
 
 log = logging.getLogger(__name__)
@@ -331,7 +339,6 @@ def run_job(job_id: int, *, echo: Callable[[int, int], None] | None = None) -> s
 
 
 def _in_rq_worker() -> bool:
-    from rq import get_current_job
 
     return get_current_job() is not None
 
@@ -377,7 +384,6 @@ def rq_failed(job, connection, exc_type, exc_value, traceback) -> None:  # type:
 def rq_horse_killed(job, retpid, ret_val, rusage) -> None:  # type: ignore[no-untyped-def]
     """The RQ worker's handler for a work horse that died (SIGKILL, out of memory): RQ calls
     no failure callback then, so the row is marked here, at once, with the signal."""
-    import os
 
     how = (
         f"killed by signal {os.WTERMSIG(ret_val)}"
@@ -394,11 +400,7 @@ def rq_horse_killed(job, retpid, ret_val, rusage) -> None:  # type: ignore[no-un
 def _rq_states(app_redis_url: str, ids: list[int]) -> dict[int, tuple[str, str] | None]:
     """RQ's status of each job and, for a failed one, the last line of its error (None: RQ no
     longer knows it)."""
-    from redis import Redis
-    from rq.exceptions import NoSuchJobError
-    from rq.job import Job as RQJob
 
-    from app.web.jobs import rq_job_id
     from app.web.jobs.clips import finish_job_id
 
     connection = Redis.from_url(app_redis_url, socket_connect_timeout=2, socket_timeout=5)
@@ -434,9 +436,6 @@ def sweep_stale(study_id: int, *, stale_after: float, redis_url: str | None = No
     seconds; (local runner) queued while the web process holding it has not renewed its
     heartbeat for that long (it was restarted: its queue is gone). Returns how many rows
     were swept. A Redis outage sweeps nothing through RQ."""
-    import datetime as dt
-
-    from redis.exceptions import RedisError
 
     rows = db.session.execute(
         sa.select(Job.id, Job.status, sa.func.coalesce(Job.heartbeat_at, Job.created_at)).where(

@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import datetime as dt
 import io
+import shlex
 from pathlib import Path
 from typing import Any
 
@@ -146,7 +147,6 @@ def write_report_files(study: Study) -> Path:
 
 def report_head(study: Study, results: dict[str, Any], *, exclude: str | None) -> dict[str, Any]:
     """What the report says of the study itself (``app.analysis.document``'s study head)."""
-    import shlex
 
     from app.analysis.document import counted
 
