@@ -346,3 +346,68 @@ def test_a_left_out_participant_s_resent_last_vote_takes_no_slot_back(app, parti
         assert resent.status_code == 200 and resent.json["status"] == "duplicate", rejoin
         assert _row(app, token).dropped_at is not None
         assert _slots(app) == slots_before, rejoin
+
+
+def _idle_for(app, token: str, minutes: float) -> None:
+    with app.app_context():
+        person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        person.last_seen_at = person.last_seen_at - dt.timedelta(minutes=minutes)
+        db.session.commit()
+
+
+def test_a_consent_that_never_starts_gives_its_slot_back_early(app, participant, web, client):
+    """20 minutes after consent without a first trial: released (UNSTARTED_AFTER_MINUTES, 15),
+    while a participant who started and paused as long keeps the slot (DROPPED_AFTER, 30)."""
+    slug = _slug(app, web.study(design="all_ordered"))
+    idle = participant.join(slug)  # consented, never opened a trial
+    from tests.conftest import ParticipantActions
+
+    started = ParticipantActions(app.test_client(), app)
+    started_token = started.join(slug)
+    assert started.current_trial() is not None  # the first trial page: started
+    _idle_for(app, idle, 20)
+    _idle_for(app, started_token, 20)
+    assert _slots(app) == 2
+    newcomer = ParticipantActions(app.test_client(), app)
+    newcomer.join(slug)  # each consent releases the idle first
+    assert _row(app, idle).dropped_at is not None
+    assert _row(app, started_token).dropped_at is None
+    assert _slots(app) == 2  # the newcomer took the slot the idle one gave back
+
+
+def test_the_release_reads_the_active_participants_index(app, web):
+    """The query behind every consent's release uses the partial index, so its cost follows
+    those taking part now, not the study's size (EXPLAIN on both databases)."""
+    from app.web.study import enrolment
+
+    study_id = web.study()
+    captured = []
+
+    def explain(statement):
+        compiled = statement.compile(
+            dialect=db.engine.dialect, compile_kwargs={"literal_binds": True}
+        )
+        captured.append(str(compiled))
+        return original(statement)
+
+    with app.app_context():
+        original = db.session.execute
+        db.session.execute = explain  # type: ignore[method-assign]
+        try:
+            enrolment.release_dropped(
+                db.session.get(Study, study_id),
+                after=dt.timedelta(minutes=30),
+                unstarted_after=dt.timedelta(minutes=15),
+            )
+        finally:
+            del db.session.execute
+        select = next(sql for sql in captured if sql.lstrip().upper().startswith("SELECT"))
+        if db.engine.dialect.name == "postgresql":
+            db.session.execute(sa.text("SET LOCAL enable_seqscan = off"))
+            plan = "\n".join(db.session.execute(sa.text("EXPLAIN " + select)).scalars())
+        else:
+            plan = "\n".join(
+                str(row[-1]) for row in db.session.execute(sa.text("EXPLAIN QUERY PLAN " + select))
+            )
+        db.session.rollback()
+    assert "ix_participant_active" in plan, plan

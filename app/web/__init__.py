@@ -79,6 +79,9 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
         JOB_STALE_AFTER_SECONDS=900,
         # Minutes without activity after which an unfinished participant counts as dropped.
         DROPPED_AFTER_MINUTES=30,
+        # Minutes after consent without a first trial after which a participant's slot is
+        # given back (a burst of consents that never start must not hold the lists).
+        UNSTARTED_AFTER_MINUTES=15,
         MAX_CONTENT_LENGTH=200 * 1024 * 1024,
         # Seconds a client is asked to wait (Retry-After) while the database is unreachable.
         RETRY_AFTER_SECONDS=5,

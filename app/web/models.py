@@ -259,6 +259,15 @@ class Participant(db.Model):
     __table_args__ = (
         sa.UniqueConstraint("study_id", "number"),
         sa.UniqueConstraint("study_id", "prolific_pid"),
+        # Those taking part now, by their last request: what every consent's release of
+        # idle participants reads (app.web.study.enrolment.release_dropped).
+        sa.Index(
+            "ix_participant_active",
+            "study_id",
+            "last_seen_at",
+            postgresql_where=sa.text("finished_at IS NULL AND dropped_at IS NULL"),
+            sqlite_where=sa.text("finished_at IS NULL AND dropped_at IS NULL"),
+        ),
     )
     id: so.Mapped[int] = so.mapped_column(primary_key=True)
     study_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("study.id"), index=True)

@@ -51,7 +51,7 @@ from app.web.infra.storage import media_file, report_path
 from app.web.jobs import EnqueueError, enqueue
 from app.web.jobs.tasks import JOB_KINDS, sweep_study_jobs
 from app.web.models import Job, Stimulus, Study, StudyShare
-from app.web.study.enrolment import dropped_after, release_dropped
+from app.web.study.enrolment import dropped_after, release_dropped, unstarted_after
 from app.web.study.exports import votes_csv
 from app.web.study.monitor import study_monitor
 from app.web.study.participants import release_pilots
@@ -346,7 +346,7 @@ def change_status(study_id: int, action: str):  # type: ignore[no-untyped-def]
 def monitor(study_id: int):  # type: ignore[no-untyped-def]
 
     study = own_study(study_id)
-    release_dropped(study, after=dropped_after())
+    release_dropped(study, after=dropped_after(), unstarted_after=unstarted_after())
     db.session.commit()
     stats = study_monitor(study, dropped_after=dropped_after())
 

@@ -42,6 +42,7 @@ from app.web.study.enrolment import (
     next_trials,
     practice_stimulus,
     touch_with_progress,
+    unstarted_after,
 )
 from app.web.study.studies import participation
 from app.web.study.votes import SCREENED_OUT, replay_policy
@@ -194,7 +195,13 @@ def start(slug: str):  # type: ignore[no-untyped-def]
         }
         agent = limits.printable(request.user_agent.string)[:300]
         try:
-            participant = enrol(study, user_agent=agent, dropped_after=dropped_after(), **ids)
+            participant = enrol(
+                study,
+                user_agent=agent,
+                dropped_after=dropped_after(),
+                unstarted=unstarted_after(),
+                **ids,
+            )
             # Read before the commit expires them: afterwards each was a query of its own.
             token, cookie = participant.token, _cookie_name(study)
             db.session.commit()

@@ -195,14 +195,16 @@ def enrol(
     prolific_study_id: str | None = None,
     prolific_session_id: str | None = None,
     dropped_after: dt.timedelta | None = None,
+    unstarted: dt.timedelta | None = None,
 ) -> Participant:
     """Create a participant with a list, a seed and a schedule (not committed).
 
-    With ``dropped_after``, participants idle longer than that give their slots back first
+    With ``dropped_after``, participants idle longer than that (and, with ``unstarted``,
+    those who never started for that long) give their slots back first
     (:func:`release_dropped`), so the new arrival is balanced over those still taking part.
     """
     if dropped_after is not None:
-        release_dropped(study, after=dropped_after)
+        release_dropped(study, after=dropped_after, unstarted_after=unstarted)
     fixed = study_design(study)
     list_id, list_index, before = _take_list(study)
     # (list, arrivals before) is unique per study, so this arrival number is too.
@@ -366,21 +368,35 @@ def practice_stimulus(participant: Participant) -> Stimulus | None:
     )
 
 
-def release_dropped(study: Study, *, after: dt.timedelta) -> int:
+def release_dropped(
+    study: Study, *, after: dt.timedelta, unstarted_after: dt.timedelta | None = None
+) -> int:
     """Mark unfinished participants idle for longer than ``after`` as dropped and give their
-    list slots back (thesis-style balance over those who actually take part).
+    list slots back (thesis-style balance over those who actually take part); those who
+    consented but never started a trial go after ``unstarted_after`` already (a burst of
+    consents that never start must not hold the lists for long).
 
-    Each release is a conditional UPDATE that re-checks idleness on the row as it stands, so a
-    participant whose vote lands at the same moment is never both active and released, and
-    two releases never give one slot back twice.
+    The candidates are read through the partial index ``ix_participant_active`` (study, last
+    request) over unfinished, undropped participants only, so the cost follows the number of
+    participants taking part now, not the study's size. Each release is a conditional UPDATE
+    that re-checks idleness on the row as it stands, so a participant whose vote lands at the
+    same moment is never both active and released, and two releases never give one slot back
+    twice.
     """
-    cutoff = utcnow() - after
+    now = utcnow()
+    cutoff = now - after
+    early = now - min(unstarted_after, after) if unstarted_after is not None else cutoff
+    idle = sa.or_(
+        Participant.last_seen_at < cutoff,
+        sa.and_(Participant.started_at.is_(None), Participant.last_seen_at < early),
+    )
     stale = db.session.execute(
         sa.select(Participant.id, Participant.list_id).where(
             Participant.study_id == study.id,
             Participant.finished_at.is_(None),
             Participant.dropped_at.is_(None),
-            Participant.last_seen_at < cutoff,
+            Participant.last_seen_at < early,
+            idle,
         )
     ).all()
     released = 0
@@ -391,7 +407,7 @@ def release_dropped(study: Study, *, after: dt.timedelta) -> int:
                 Participant.id == participant_id,
                 Participant.finished_at.is_(None),
                 Participant.dropped_at.is_(None),
-                Participant.last_seen_at < cutoff,
+                idle,
             )
             .values(dropped_at=utcnow())
             .execution_options(synchronize_session=False)
@@ -418,6 +434,12 @@ def dropped_after() -> dt.timedelta:
     """The deployment's idle time after which an unfinished participant counts as dropped."""
 
     return dt.timedelta(minutes=current_app.config["DROPPED_AFTER_MINUTES"])
+
+
+def unstarted_after() -> dt.timedelta:
+    """The deployment's time after which a participant who consented but never started a
+    trial gives their list slot back."""
+    return dt.timedelta(minutes=current_app.config["UNSTARTED_AFTER_MINUTES"])
 
 
 def rejoin_policy(study: Study) -> str:
