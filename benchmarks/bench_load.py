@@ -529,6 +529,16 @@ def check_ready(parser: argparse.ArgumentParser, args: argparse.Namespace) -> No
         sys.exit("PostgreSQL is not reachable on 127.0.0.1:5432")
 
 
+def unlimited_instance(folder: Path) -> Path:
+    """An instance folder whose config lifts the consent limits: the load generator is one
+    address standing for every participant, which the per-address limit exists to stop."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "config.py").write_text(
+        'CONSENT_LIMIT_PER_ADDRESS = ""\nCONSENT_LIMIT_PER_STUDY = ""\n', encoding="utf-8"
+    )
+    return folder
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mode", choices=("open", "closed"), default="open")
@@ -595,6 +605,7 @@ def main() -> int:
             "DATABASE_URL": url,
             "MEDIA_ROOT": str(media),
             "SECRET_KEY": secrets.token_hex(16),
+            "FACEPAIR_INSTANCE": str(unlimited_instance(media / "instance")),
         }
         server = start_server(
             ["-m", "app", "serve", "--port", str(args.port), "--workers", str(args.workers)],

@@ -188,6 +188,8 @@ def environment(
     instance.mkdir(parents=True, exist_ok=True)
     (instance / "config.py").write_text(
         f"JOB_STALE_AFTER_SECONDS = {stale_after}\nRETRY_AFTER_SECONDS = 1\n"
+        # one client address stands for every participant: no per-address consent limit
+        'CONSENT_LIMIT_PER_ADDRESS = ""\nCONSENT_LIMIT_PER_STUDY = ""\n'
     )
     return {
         **os.environ,
