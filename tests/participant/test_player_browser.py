@@ -6,7 +6,9 @@ card. Debian's chromium driven by Playwright against a live server."""
 
 from __future__ import annotations
 
+import os
 from contextlib import contextmanager
+from pathlib import Path
 
 import pytest
 import sqlalchemy as sa
@@ -38,6 +40,12 @@ def long_clip(tmp_path_factory):
 def _slug(app, study_id: int) -> str:
     with app.app_context():
         return db.session.get(Study, study_id).slug
+
+
+def _shot(page, name: str) -> None:
+    """A screenshot to ``$FACEPAIR_SCREENSHOTS`` when that is set (to look at the page)."""
+    if os.environ.get("FACEPAIR_SCREENSHOTS"):
+        page.screenshot(path=Path(os.environ["FACEPAIR_SCREENSHOTS"]) / f"{name}.png")
 
 
 def _press(page, selector: str, touch: bool) -> None:
@@ -130,6 +138,7 @@ def test_choosing_an_answer_brings_the_reason_tags_into_view(
         _press(page, '.vote[data-choice="left"][data-strength="2"]', touch)
         page.wait_for_selector(".reasons:not([hidden])")
         page.wait_for_timeout(300)  # any scrolling done
+        _shot(page, f"participant-reasons-{name}")
         box = page.locator(".reasons .confirm").bounding_box()
         assert box["y"] >= 0 and box["y"] + box["height"] <= viewport["height"], box
         assert box["x"] >= 0 and box["x"] + box["width"] <= viewport["width"], box
@@ -177,6 +186,7 @@ def test_instructions_speak_of_keys_on_desktops_and_of_taps_on_phones(
     page = context.new_page()
     try:
         page.goto(f"{live_server.url}/s/{slug}")
+        _shot(page, f"participant-consent-{name}")
         consent = page.locator("form input[type=submit], form button[type=submit]").bounding_box()
         card = page.locator(".card").bounding_box()
         # The consent button stays inside its card, the card inside the window.
@@ -187,11 +197,14 @@ def test_instructions_speak_of_keys_on_desktops_and_of_taps_on_phones(
         assert page.evaluate("document.documentElement.scrollWidth") <= viewport["width"]
         _press(page, "text=I agree", touch)
         page.wait_for_url("**/instructions")
+        _shot(page, f"participant-instructions-{name}")
         text = page.inner_text("ul.keys")
         if touch:
             assert "Space" not in text and "Press" not in text, text
             assert page.locator("ul.keys kbd:visible").count() == 0
             assert "Tap Play" in text
+            # The practice player speaks of taps as well.
+            page.wait_for_selector(".overlay-text:text('Ready: tap Play')", timeout=20000)
         else:
             assert "Space" in text and "Tap Play" not in text, text
         assert page.evaluate("document.documentElement.scrollWidth") <= viewport["width"]

@@ -89,6 +89,8 @@
   }
 
   var coarse = window.matchMedia && window.matchMedia("(pointer: coarse)").matches;
+  // What the participant does to the Play button: a touch screen is tapped.
+  var pressPlay = coarse ? "tap Play" : "press Play";
 
   function Player(root) {
     var d = root.dataset;
@@ -160,7 +162,7 @@
       if (state.loaded) return;
       state.loaded = true;
       state.presentedAt = new Date().toISOString();
-      overlayText.textContent = mayPlay() ? "Ready: press Play" : "Please answer";
+      overlayText.textContent = mayPlay() ? "Ready: " + pressPlay : "Please answer";
       loading.hidden = true;
       update();
       if (!practice) playButton.focus();
@@ -208,7 +210,7 @@
       if (started && started.catch) started.catch(function () {
         state.playing = false;
         overlay.hidden = false;
-        overlayText.textContent = "Press Play to start";
+        overlayText.textContent = "Please " + pressPlay + " to start";
         update();
       });
     }
@@ -243,7 +245,7 @@
       state.playing = false;
       state.watched = true;
       overlay.hidden = false;
-      overlayText.textContent = mayPlay() ? "Press Play to watch again" : "Please answer";
+      overlayText.textContent = mayPlay() ? "To watch again, " + pressPlay : "Please answer";
       update();
       var first = root.querySelector(".vote:not([disabled])");
       if (first && document.activeElement === playButton) first.focus();
