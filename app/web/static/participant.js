@@ -89,6 +89,8 @@
   }
 
   var coarse = window.matchMedia && window.matchMedia("(pointer: coarse)").matches;
+  // What the participant does to the Play button: a touch screen is tapped.
+  var pressPlay = coarse ? "tap Play" : "press Play";
 
   function Player(root) {
     var d = root.dataset;
@@ -125,27 +127,34 @@
       return !(maxPlays !== null && state.plays >= maxPlays);
     }
 
+    // Plays granted before this page was loaded (the server's count, data-plays) count as seen:
+    // after a reload the participant may answer without a play, so that using up the plays of
+    // a max_plays pair is never a dead end. Only play_to_end waits for a play seen to its end
+    // here, and it never runs out of plays.
     function mayVote() {
-      if (state.voted || (state.plays === 0 && state.firstPlay === null)) return false;
-      if (state.firstPlay === null) return false;
+      if (state.voted || state.plays === 0) return false;
       if (needsEnd) return state.watched;
       return true;
     }
 
     function update() {
       playButton.disabled = !mayPlay();
-      playButton.firstChild.nodeValue = state.plays ? "Play again " : "Play ";
+      // "Play again" once a play is over (or while a later one runs), never during the first.
+      var again = state.plays > 1 || (state.plays === 1 && !state.playing);
+      playButton.firstChild.nodeValue = again ? "Play again " : "Play ";
       for (var i = 0; i < voteButtons.length; i++) voteButtons[i].disabled = !mayVote();
       if (maxPlays !== null && state.loaded) {
         var left = Math.max(0, maxPlays - state.plays);
         playsLeft.textContent = left + (left === 1 ? " play left" : " plays left");
       }
       if (state.voted || !state.loaded) return;
-      if (state.firstPlay === null) {
+      if (state.firstPlay === null && !mayVote()) {
         hint.textContent = coarse ? "Tap Play to watch both faces." :
           "Press Play (or Space) to watch both faces.";
       } else if (!mayVote()) hint.textContent = "Watch the video to the end, then answer.";
-      else hint.textContent = "Choose the left or the right face" +
+      else if (state.firstPlay === null && !mayPlay()) {
+        hint.textContent = "You have watched this pair as often as allowed: please answer.";
+      } else hint.textContent = "Choose the left or the right face" +
         (d.undecided === "yes" ? ", or that you cannot decide" : "") + ".";
     }
 
@@ -153,7 +162,7 @@
       if (state.loaded) return;
       state.loaded = true;
       state.presentedAt = new Date().toISOString();
-      overlayText.textContent = "Ready: press Play";
+      overlayText.textContent = mayPlay() ? "Ready: " + pressPlay : "Please answer";
       loading.hidden = true;
       update();
       if (!practice) playButton.focus();
@@ -201,7 +210,7 @@
       if (started && started.catch) started.catch(function () {
         state.playing = false;
         overlay.hidden = false;
-        overlayText.textContent = "Press Play to start";
+        overlayText.textContent = "Please " + pressPlay + " to start";
         update();
       });
     }
@@ -236,7 +245,7 @@
       state.playing = false;
       state.watched = true;
       overlay.hidden = false;
-      overlayText.textContent = mayPlay() ? "Press Play to watch again" : "Please answer";
+      overlayText.textContent = mayPlay() ? "To watch again, " + pressPlay : "Please answer";
       update();
       var first = root.querySelector(".vote:not([disabled])");
       if (first && document.activeElement === playButton) first.focus();
@@ -334,7 +343,9 @@
       var payload = {
         token: d.token, trial_id: parseInt(d.trialId, 10), choice: state.choice,
         plays: state.plays, watched_to_end: state.watched,
-        response_ms: Math.round(performance.now() - state.firstPlay),
+        // Unknown when every play was before a reload (the answer came without one here).
+        response_ms: state.firstPlay === null ? null :
+          Math.round(performance.now() - state.firstPlay),
         presented_at: state.presentedAt, idempotency_key: newKey(), media: media.report()
       };
       if (d.scale === "5") payload.strength = state.strength;
@@ -356,6 +367,9 @@
       // Reason tags first; the choice can still change until Next.
       reasons.hidden = false;
       hint.textContent = "Tick what made the difference (optional), then press Next.";
+      // The tags and their Next button may lie below the fold: brought into view, or the
+      // participant sees nothing happen.
+      if (reasons.scrollIntoView) reasons.scrollIntoView({ block: "nearest" });
     };
     self.key = function (key) {
       var button = root.querySelector('.vote[data-key="' + key + '"]');
