@@ -209,6 +209,11 @@ def test_participant_walks_through_a_whole_study(live_server, browser, shots):
                 choice = "right"
                 page.wait_for_selector(".status-offline", timeout=10000)
                 assert "kept on this page" in page.inner_text(".status")
+                # The banner, pinned to the top, covers neither the question nor the progress.
+                banner = page.locator(".status-offline").bounding_box()
+                for covered in (".question", ".study-bar progress", ".progress-text"):
+                    box = page.locator(covered).bounding_box()
+                    assert box["y"] >= banner["y"] + banner["height"] - 1, (covered, box, banner)
                 page.screenshot(path=shots / "participant-offline.png")
                 context.set_offline(False)
             elif step % 2:

@@ -257,6 +257,9 @@
     function say(text, kind) {
       status.textContent = text;
       status.className = "status" + (kind ? " status-" + kind : "");
+      // The offline banner is pinned to the top of the window: the page moves down by its
+      // height, so it never covers the question or the progress bar.
+      document.body.style.paddingTop = kind === "offline" ? status.offsetHeight + "px" : "";
     }
 
     function retryLater(payload, retryAfter) {
