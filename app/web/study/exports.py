@@ -27,6 +27,7 @@ from app.analysis.votes import VOTE_COLUMNS, VotesTable, read_votes, write_votes
 from app.web.extensions import db
 from app.web.infra.storage import report_path
 from app.web.models import Clip, Condition, Participant, Stimulus, Study, Trial, Vote
+from app.web.study.csvcells import safe_csv
 from app.web.study.enrolment import dropped_after
 from app.web.study.labels import iso_time, participant_label, pseudonym
 from app.web.study.participants import participant_table
@@ -119,10 +120,11 @@ def votes_table(study: Study, *, pilot: str = "without") -> VotesTable:
 
 
 def votes_csv(study: Study, *, pilot: str = "without") -> str:
-    """The study's votes as CSV text (``app.analysis.votes.write_votes_csv``)."""
+    """The study's votes as CSV text (``app.analysis.votes.write_votes_csv``), with text cells a
+    spreadsheet would run as formulas neutralised (:func:`app.web.study.csvcells.safe_cell`)."""
     buffer = io.StringIO()
     write_votes_csv(votes_table(study, pilot=pilot), buffer)
-    return buffer.getvalue()
+    return safe_csv(buffer.getvalue())
 
 
 def write_report_files(study: Study) -> Path:
