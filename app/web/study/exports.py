@@ -24,6 +24,7 @@ import sqlalchemy as sa
 
 from app.analysis.results import analyze
 from app.analysis.votes import VOTE_COLUMNS, VotesTable, read_votes, write_votes_csv
+from app.errors import InputError
 from app.web.extensions import db
 from app.web.infra.storage import report_path
 from app.web.models import Clip, Condition, Participant, Stimulus, Study, Trial, Vote
@@ -141,10 +142,45 @@ def write_report_files(study: Study) -> Path:
     write_votes_csv(votes, csv_path)
     # exclusion rules as `facepair analyze --exclude` reads them (app.analysis.quality)
     exclude = study.settings.get("exclude")
-    results = analyze(votes, conditions=[c.name for c in study.conditions], exclude=exclude)
+    pdf = path.with_suffix(".pdf")
+    try:
+        results = analyze(votes, conditions=[c.name for c in study.conditions], exclude=exclude)
+    except InputError as exc:
+        if exc.message != NO_VOTES:
+            raise
+        pdf.unlink(missing_ok=True)  # an earlier report's PDF would contradict the page
+        path.write_text(no_votes_page(study), encoding="utf-8")
+        return path
     results["study"] = report_head(study, results, exclude=exclude)
-    write_report(results, path, path.with_suffix(".pdf"))
+    write_report(results, path, pdf)
     return path
+
+
+#: The analysis's message when no vote is left to analyse (``app.analysis.results.analyze``).
+NO_VOTES = "no valid votes to analyse"
+
+
+def no_votes_page(study: Study) -> str:
+    """The report page of a study without a vote from an included participant: it says so and
+    who was left out (pilots, exclusions), in place of statistics and a PDF."""
+    from flask import render_template
+
+    from app.analysis.document import counted
+
+    rows = participant_table(study, dropped_after=dropped_after())
+    pilots = sum(row.pilot for row in rows)
+    left_out = [(row.label, row.excluded) for row in rows if row.excluded and not row.pilot]
+    counts = (
+        f"{counted(len(rows), 'participant')} joined: {len(left_out)} left out by exclusions "
+        f"and {counted(pilots, 'pilot')} (never analysed)."
+    )
+    return render_template(
+        "experimenter/report_no_votes.html",
+        study=study,
+        counts=counts,
+        left_out=left_out,
+        date=dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+    )
 
 
 def report_head(study: Study, results: dict[str, Any], *, exclude: str | None) -> dict[str, Any]:
