@@ -21,7 +21,10 @@ text = "Any comments?"
 page = "after"
 required = false
 """
-cell_text = st.text(st.characters(blacklist_categories=("Cs",)), max_size=40)
+# NUL is refused at input (app.web.infra.limits) and PostgreSQL cannot store it.
+cell_text = st.text(
+    st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00"), max_size=40
+)
 
 
 def _unsafe(cell: str) -> bool:
