@@ -92,3 +92,44 @@ def test_the_report_analyses_the_table_the_csv_holds(app, web, participant, tmp_
     assert {**direct["input"], "source": None} == {**reread["input"], "source": None}
     assert direct["pooled"]["ballots"] == reread["pooled"]["ballots"]
     assert io.StringIO(text).readline().strip().split(",") == list(VOTE_COLUMNS)
+
+
+def test_a_closed_study_without_votes_gets_a_no_votes_report(app, client, web, participant):
+    """Every participant a pilot or excluded: the report job ends done with a page that says
+    there is nothing to analyse (and who was left out), and no PDF is offered."""
+    study_id = web.study(design="all_ordered")
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    _run(app, participant, slug, catch_answer="left", finish=False)  # one vote, never finished
+    web.login(client)
+    token = web.csrf(client, f"/experimenter/studies/{study_id}")
+    client.post(f"/experimenter/studies/{study_id}/status/close", data={"csrf_token": token})
+    with app.app_context():
+        jobs = db.session.scalars(sa.select(Job).where(Job.kind == "report")).all()
+        assert [job.status for job in jobs] == ["done"], [job.message for job in jobs]
+        assert jobs[0].message.startswith("no votes to analyse")
+    response = client.get(f"/experimenter/studies/{study_id}/report/")
+    html = response.get_data(as_text=True)
+    response.close()
+    assert response.status_code == 200
+    assert "No votes to analyse yet" in html and "<main>" in html
+    assert "1 participant joined: 1 left out by exclusions and 0 pilots" in html
+    assert "P0000: did not finish" in html
+    assert "Error" not in html and "/report/" not in html
+    page = client.get(f"/experimenter/studies/{study_id}").get_data(as_text=True)
+    assert 'id="report-pdf"' not in page and "Retry" not in page
+    assert client.get(f"/experimenter/studies/{study_id}/report/report.pdf").status_code == 404
+
+
+def test_a_failed_job_names_the_file_not_the_server_path():
+    from app.errors import InputError
+    from app.web.jobs.tasks import failure_message
+
+    message = failure_message(
+        InputError("no valid votes to analyse", path="/srv/facepair/media/study-7/votes.csv")
+    )
+    assert message == "votes.csv: no valid votes to analyse"
+    located = failure_message(InputError("bad value", path="/tmp/x/clip.fap", line=3))
+    assert located == "clip.fap:3: bad value"
+    other = failure_message(OSError("cannot write /var/lib/facepair/media/study-7/report.pdf"))
+    assert other == "cannot write report.pdf" and "Error" not in other

@@ -9,7 +9,7 @@ from click.testing import CliRunner
 
 from app.cli import main
 from app.web.extensions import db
-from app.web.models import Study
+from app.web.models import Participant, Study
 from tests.conftest import ParticipantActions
 
 
@@ -77,3 +77,23 @@ def test_list_open_close_and_export(app, monkeypatch, web):
     assert missing.exit_code == 2 and "no study 999" in missing.output
     with app.app_context():
         assert db.session.scalar(sa.select(sa.func.count(Study.id))) == 1
+
+
+def test_the_shell_export_neutralises_formulas(app, monkeypatch, web):
+    _env(monkeypatch, app)
+    extra = '[[questions]]\nname = "comments"\ntext = "Any comments?"\npage = "after"\n'
+    study_id = web.study(design="all_ordered", extra=extra)
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    person = ParticipantActions(app.test_client(), app)
+    person.join(slug)
+    with app.app_context():
+        row = db.session.scalar(sa.select(Participant))
+        row.answers = {"after": {"comments": "@SUM(1+1)*cmd|' /C calc'!A0"}}
+        db.session.commit()
+    out = app.instance_path + "/export-formulas"
+    exported = CliRunner().invoke(main, ["study", "export", str(study_id), "--out", out])
+    assert exported.exit_code == 0, exported.output
+    with open(f"{out}/answers.csv", encoding="utf-8", newline="") as handle:
+        answers = list(csv.DictReader(handle))
+    assert answers[0]["comments"] == "'@SUM(1+1)*cmd|' /C calc'!A0"

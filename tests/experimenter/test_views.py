@@ -193,10 +193,10 @@ def test_recruitment_states(app, client, web):
     with app.app_context():
         study = db.session.get(Study, ready)
         assert study.status == "closed"
-        # Closing queues the report (it fails here: there are no votes yet) after the commit.
+        # Closing queues the report after the commit; without votes it says so, not failing.
         job = db.session.scalar(sa.select(Job).where(Job.study_id == ready))
-        assert (job.kind, job.status) == ("report", "failed")
-        assert "no valid votes" in job.message
+        assert (job.kind, job.status) == ("report", "done")
+        assert job.message.startswith("no votes to analyse")
 
 
 def _finish(app, participant, slug, choice):

@@ -92,5 +92,8 @@ def export_answers(study_id: int):  # type: ignore[no-untyped-def]
     return Response(
         answers_csv(study, pilot=pilot),
         mimetype="text/csv",
-        headers={"Content-Disposition": f'attachment; filename="{name}.csv"'},
+        headers={
+            "Content-Disposition": f'attachment; filename="{name}.csv"',
+            "Cache-Control": "no-store",
+        },
     )

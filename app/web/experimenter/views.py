@@ -369,7 +369,10 @@ def export_votes(study_id: int):  # type: ignore[no-untyped-def]
     return Response(
         votes_csv(study, pilot=pilot),
         mimetype="text/csv",
-        headers={"Content-Disposition": f'attachment; filename="{name}-votes.csv"'},
+        headers={
+            "Content-Disposition": f'attachment; filename="{name}-votes.csv"',
+            "Cache-Control": "no-store",
+        },
     )
 
 

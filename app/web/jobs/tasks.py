@@ -29,6 +29,7 @@ from rq.exceptions import NoSuchJobError
 from rq.job import Job as RQJob
 from sqlalchemy.exc import SQLAlchemyError
 
+from app.errors import InputError
 from app.web.extensions import db, transaction
 from app.web.infra import media
 from app.web.infra.storage import disk_full, disk_full_message, media_dir
@@ -276,15 +277,35 @@ def build_report(study: Study, progress: Callable[[int, int], None]) -> str:
     study.report_at = utcnow()
     db.session.commit()
     progress(1, 1)
+    if not path.with_suffix(".pdf").is_file():
+        return NO_VOTES_SUMMARY
     return f"report written: {path.name}"
+
+
+#: A report job's summary when the study has no vote to analyse (the page says so, no PDF).
+NO_VOTES_SUMMARY = "no votes to analyse yet: report page written (no PDF)"
 
 
 def failure_message(exc: BaseException) -> str:
     """What the experimenter reads on a failed job's row."""
     if disk_full(exc):
         return disk_full_message(exc)  # type: ignore[arg-type]
-    text = str(exc)
-    return text if text.startswith(type(exc).__name__) else f"{type(exc).__name__}: {text}"
+    if isinstance(exc, InputError):
+        # The file's name only: the experimenter uploaded it; its folder on the server is ours.
+        where = Path(exc.path).name if exc.path else ""
+        text = str(InputError(exc.message, path=where or None, line=exc.line, field=exc.field))
+    else:
+        text = str(exc)
+    # No server path or internal exception name on the page; the log keeps both.
+    text = _ABSOLUTE_PATH.sub(lambda match: Path(match.group(0)).name, text)
+    name = type(exc).__name__
+    if text.startswith(f"{name}: "):
+        text = text[len(name) + 2 :]
+    return text or "the job stopped with an internal error; the server log has the details"
+
+
+#: An absolute POSIX path in an error message (the file name is kept).
+_ABSOLUTE_PATH = re.compile(r"(?<![\w.:/])/(?:[^\s/:'\"]+/)+[^\s/:'\",;)]*")
 
 
 TASKS: dict[str, Callable[[Study, Callable[[int, int], None]], str]] = {

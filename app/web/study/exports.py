@@ -24,9 +24,11 @@ import sqlalchemy as sa
 
 from app.analysis.results import analyze
 from app.analysis.votes import VOTE_COLUMNS, VotesTable, read_votes, write_votes_csv
+from app.errors import InputError
 from app.web.extensions import db
 from app.web.infra.storage import report_path
 from app.web.models import Clip, Condition, Participant, Stimulus, Study, Trial, Vote
+from app.web.study.csvcells import safe_csv
 from app.web.study.enrolment import dropped_after
 from app.web.study.labels import iso_time, participant_label, pseudonym
 from app.web.study.participants import participant_table
@@ -119,10 +121,11 @@ def votes_table(study: Study, *, pilot: str = "without") -> VotesTable:
 
 
 def votes_csv(study: Study, *, pilot: str = "without") -> str:
-    """The study's votes as CSV text (``app.analysis.votes.write_votes_csv``)."""
+    """The study's votes as CSV text (``app.analysis.votes.write_votes_csv``), with text cells a
+    spreadsheet would run as formulas neutralised (:func:`app.web.study.csvcells.safe_cell`)."""
     buffer = io.StringIO()
     write_votes_csv(votes_table(study, pilot=pilot), buffer)
-    return buffer.getvalue()
+    return safe_csv(buffer.getvalue())
 
 
 def write_report_files(study: Study) -> Path:
@@ -139,10 +142,45 @@ def write_report_files(study: Study) -> Path:
     write_votes_csv(votes, csv_path)
     # exclusion rules as `facepair analyze --exclude` reads them (app.analysis.quality)
     exclude = study.settings.get("exclude")
-    results = analyze(votes, conditions=[c.name for c in study.conditions], exclude=exclude)
+    pdf = path.with_suffix(".pdf")
+    try:
+        results = analyze(votes, conditions=[c.name for c in study.conditions], exclude=exclude)
+    except InputError as exc:
+        if exc.message != NO_VOTES:
+            raise
+        pdf.unlink(missing_ok=True)  # an earlier report's PDF would contradict the page
+        path.write_text(no_votes_page(study), encoding="utf-8")
+        return path
     results["study"] = report_head(study, results, exclude=exclude)
-    write_report(results, path, path.with_suffix(".pdf"))
+    write_report(results, path, pdf)
     return path
+
+
+#: The analysis's message when no vote is left to analyse (``app.analysis.results.analyze``).
+NO_VOTES = "no valid votes to analyse"
+
+
+def no_votes_page(study: Study) -> str:
+    """The report page of a study without a vote from an included participant: it says so and
+    who was left out (pilots, exclusions), in place of statistics and a PDF."""
+    from flask import render_template
+
+    from app.analysis.document import counted
+
+    rows = participant_table(study, dropped_after=dropped_after())
+    pilots = sum(row.pilot for row in rows)
+    left_out = [(row.label, row.excluded) for row in rows if row.excluded and not row.pilot]
+    counts = (
+        f"{counted(len(rows), 'participant')} joined: {len(left_out)} left out by exclusions "
+        f"and {counted(pilots, 'pilot')} (never analysed)."
+    )
+    return render_template(
+        "experimenter/report_no_votes.html",
+        study=study,
+        counts=counts,
+        left_out=left_out,
+        date=dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+    )
 
 
 def report_head(study: Study, results: dict[str, Any], *, exclude: str | None) -> dict[str, Any]:

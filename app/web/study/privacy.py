@@ -11,8 +11,6 @@ cannot be linked. The raw IDs are exported only when asked for (to pay participa
 
 from __future__ import annotations
 
-import csv
-import io
 import re
 import shutil
 from dataclasses import dataclass
@@ -25,6 +23,7 @@ from app.web.extensions import db
 from app.web.infra import media
 from app.web.infra.storage import report_path
 from app.web.models import Participant, Stimulus, Study, Trial, Vote
+from app.web.study.csvcells import csv_text
 from app.web.study.enrolment import move_slot
 from app.web.study.labels import iso_time, participant_label, pseudonym
 
@@ -138,11 +137,10 @@ def _size(environment: dict[str, Any], name: str) -> str:
 
 def participants_csv(study: Study, *, raw_ids: bool = False) -> str:
     """:func:`participants_export_rows` as CSV text with a header row."""
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=PARTICIPANT_COLUMNS, lineterminator="\n")
-    writer.writeheader()
-    writer.writerows(participants_export_rows(study, raw_ids=raw_ids))
-    return buffer.getvalue()
+    rows = participants_export_rows(study, raw_ids=raw_ids)
+    return csv_text(
+        PARTICIPANT_COLUMNS, ([row.get(name, "") for name in PARTICIPANT_COLUMNS] for row in rows)
+    )
 
 
 @dataclass(frozen=True)

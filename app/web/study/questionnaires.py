@@ -8,8 +8,6 @@ study-file tables, so a study reads back exactly what its file said.
 
 from __future__ import annotations
 
-import csv
-import io
 import statistics
 from collections import Counter
 from pathlib import Path
@@ -20,6 +18,7 @@ import sqlalchemy as sa
 from app.trials.questions import PAGES, ExperimenterSideReader, QuestionSpec
 from app.web.extensions import db
 from app.web.models import Participant, Study
+from app.web.study.csvcells import csv_text
 from app.web.study.enrolment import dropped_after
 from app.web.study.labels import participant_label, pseudonym
 from app.web.study.participants import participant_table
@@ -61,11 +60,8 @@ def answers_csv(study: Study, *, pilot: bool = False) -> str:
     rows = {
         r.id: r for r in participant_table(study, dropped_after=dropped_after()) if r.pilot == pilot
     }
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(
-        ["participant", "status", "excluded", "prolific_id", *(q.name for q in questions)]
-    )
+    header = ["participant", "status", "excluded", "prolific_id", *(q.name for q in questions)]
+    lines: list[list[Any]] = []
     people = db.session.scalars(
         sa.select(Participant).where(Participant.study_id == study.id).order_by(Participant.number)
     )
@@ -74,7 +70,7 @@ def answers_csv(study: Study, *, pilot: bool = False) -> str:
             continue
         given = {k: v for page in person.answers.values() for k, v in page.items()}
         row = rows[person.id]
-        writer.writerow(
+        lines.append(
             [
                 row.label,
                 row.status,
@@ -83,7 +79,7 @@ def answers_csv(study: Study, *, pilot: bool = False) -> str:
                 *(_cell(given.get(q.name)) for q in questions),
             ]
         )
-    return buffer.getvalue()
+    return csv_text(header, lines)
 
 
 def _cell(value: Any) -> str:
