@@ -13,7 +13,7 @@ The built-in head is measured in each of its looks in the same run (``--look``, 
 ``plain``, the per-vertex colours, then ``textured``, the default), so the two compare on the
 same load; the runs of the looks alternate, and best and median are per look.
 
-    python benchmarks/bench_renderer.py [--seconds 60] [--size 368] [--repeat 2]
+    python benchmarks/bench_renderer.py [--seconds 60] [--size 368] [--repeat 2] [--warmup 1]
                                         [--antialias edges] [--samples 4] [--workers 0]
                                         [--face avatar.glb] [--look plain,textured]
 
@@ -58,6 +58,9 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--size", type=int, default=368)
     parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument(
+        "--warmup", type=int, default=1, help="rounds run first and not counted (caches, imports)"
+    )
     parser.add_argument("--antialias", choices=ANTIALIAS_MODES, default=RenderSettings.antialias)
     parser.add_argument("--samples", type=int, default=RenderSettings.samples)
     parser.add_argument("--workers", type=int, default=RenderSettings.workers)
@@ -92,17 +95,24 @@ def main() -> None:
         }
         runs: dict[str, tuple[list[float], list[list[float]]]] = {k: ([], []) for k in looks}
         bare: list[float] = []  # CPU seconds of the bare pipeline's clip, per round
-        for r in range(args.repeat):
+        bare_wall: list[float] = []
+        for r in range(-args.warmup, args.repeat):  # rounds below 0 are the warm-up
             for look, settings in every.items():
                 before = _cpu_seconds()
                 start = time.perf_counter()
-                render_pair(left, right, wav, Path(d) / f"pair{r}.mp4", settings=settings)
-                runs[look][0].append(time.perf_counter() - start)
-                runs[look][1].append([b - a for a, b in zip(before, _cpu_seconds(), strict=True)])
+                render_pair(left, right, wav, Path(d) / f"pair{max(r, 0)}.mp4", settings=settings)
+                if r >= 0:
+                    runs[look][0].append(time.perf_counter() - start)
+                    runs[look][1].append(
+                        [b - a for a, b in zip(before, _cpu_seconds(), strict=True)]
+                    )
             # the comparator, alternating with facepair so both meet the same load
             before = _cpu_seconds()
-            bare_pair_clip(every[looks[-1]], left.n_frames, left.fps, wav, Path(d) / f"bare{r}.mp4")
-            bare.append(sum(_cpu_seconds()) - sum(before))
+            start = time.perf_counter()
+            bare_pair_clip(every[looks[-1]], left.n_frames, left.fps, wav, Path(d) / "bare.mp4")
+            if r >= 0:
+                bare_wall.append(time.perf_counter() - start)
+                bare.append(sum(_cpu_seconds()) - sum(before))
         print(
             f"device: {device_name()} (EGL; GLCONTEXT_DEVICE_INDEX="
             f"{os.environ.get('GLCONTEXT_DEVICE_INDEX', 'unset')})"
@@ -111,7 +121,10 @@ def main() -> None:
         print(
             f"bare pipeline ({looks[-1]} head drawn twice, one read-back, same x264 settings, "
             f"benchmarks/bare_renderer.py): CPU per pair frame {bare_ms:.1f} ms "
-            f"(rounds: {', '.join(f'{1e3 * b / left.n_frames:.1f}' for b in bare)})"
+            f"(rounds: {', '.join(f'{1e3 * b / left.n_frames:.1f}' for b in bare)}), "
+            f"best {left.n_frames / left.fps / min(bare_wall):.1f}x real time; "
+            f"{args.repeat} rounds after {args.warmup} warm-up, load "
+            f"{' '.join(f'{x:.1f}' for x in os.getloadavg())} at the end"
         )
         for look, settings in every.items():
             _report(args, left, right, wav, Path(d), look, settings, *runs[look], bare_ms)

@@ -12,6 +12,7 @@ PosixPath('/tmp/facepair-doctest.png')
 
 from __future__ import annotations
 
+import logging
 import os
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -29,6 +30,8 @@ from renderer.gl import check_antialias
 from renderer.pipeline import align_tracks, render_frames
 
 RENDERER_VERSION = "1.5"
+
+log = logging.getLogger(__name__)
 
 Progress = Callable[[int, int], None]
 
@@ -185,8 +188,13 @@ def _render_clip(
     out.parent.mkdir(parents=True, exist_ok=True)
     n = tracks[0].n_frames
     partial = target.with_name(target.stem + ".part.mp4")
+    devices: list[str] = []
     frames = render_frames(
-        tracks, face, **settings.drawing(), workers=settings.workers or os.cpu_count() or 1
+        tracks,
+        face,
+        **settings.drawing(),
+        workers=settings.workers or os.cpu_count() or 1,
+        on_device=devices.append,
     )
     with ClipWriter(
         partial,
@@ -205,6 +213,14 @@ def _render_clip(
             if progress:
                 progress(frame.index + 1, n)
     partial.replace(target)
+    log.info(
+        "%s clip %s: %d frames of %d px drawn on %s",
+        kind,
+        out,
+        n,
+        settings.size,
+        devices[0] if devices else "no device",
+    )
     return deliver(target, out) if target != out else out
 
 

@@ -20,6 +20,7 @@ from app.errors import InputError
 from renderer import defaults
 from renderer.deform import FaceFrame, Rig
 from renderer.edges import EdgeTable, edge_table, overdraw_edges
+from renderer.egldevice import device_index
 
 _VERTEX = """
 #version 330
@@ -245,13 +246,18 @@ class GLUnavailable(InputError):
 
 
 def context():
-    """The calling thread's headless moderngl context (created on first use)."""
+    """The calling thread's headless moderngl context (created on first use), on the EGL
+    device :func:`renderer.egldevice.device_index` picks: a GPU where there is one."""
     key = threading.get_ident()
     if key not in _CONTEXTS:
         try:
             import moderngl
 
-            _CONTEXTS[key] = moderngl.create_standalone_context(backend="egl")
+            index = device_index()
+            kwargs = {} if index is None else {"device_index": index}
+            _CONTEXTS[key] = moderngl.create_standalone_context(backend="egl", **kwargs)
+        except InputError:
+            raise  # an override that names no device: its message says which there are
         except Exception as exc:  # the backends raise assorted types
             reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise GLUnavailable(
@@ -269,10 +275,10 @@ SOFTWARE_RENDERERS: tuple[str, ...] = ("llvmpipe", "softpipe", "swrast", "lavapi
 def device_name() -> str:
     """The GL_RENDERER string of this thread's context: the device frames are drawn on.
 
-    EGL picks the device; set ``GLCONTEXT_DEVICE_INDEX`` (read by moderngl's glcontext when it
-    makes the context, and inherited by the worker processes) to choose another one of the
-    machine's EGL devices (0 is the first; see docs/reference/renderer.md, "On a GPU").
-    """
+    The first non-software EGL device is taken (:mod:`renderer.egldevice`); set
+    ``FACEPAIR_GL_DEVICE`` (``auto``, ``gpu``, ``software`` or an index) or glcontext's
+    ``GLCONTEXT_DEVICE_INDEX`` to choose another (both inherited by the worker processes; see
+    docs/reference/renderer.md, "On a GPU")."""
     return str(context().info["GL_RENDERER"])
 
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -30,7 +30,7 @@ from renderer import defaults
 from renderer.avatar import AvatarFace, AvatarRig
 from renderer.deform import MOUTH_FAPS_INDEX, FaceFrame, Rig
 from renderer.face import MOUTH_FEATURE_POINTS, Face
-from renderer.gl import FaceCanvas, project
+from renderer.gl import FaceCanvas, device_name, project
 from renderer.mosaic import cells_meeting, mouth_box, pixelate_face
 from renderer.mouthregion import MotionEnvelope, motion_envelope
 
@@ -213,6 +213,7 @@ def render_frames(
     mosaic_margin: float = defaults.MOSAIC_MARGIN,
     frames: range | None = None,
     workers: int = 1,
+    on_device: Callable[[str], None] | None = None,
 ) -> Iterator[RenderedFrame]:
     """Yield the side-by-side frames of ``tracks`` (one face per track, left to right).
 
@@ -221,6 +222,8 @@ def render_frames(
     (default: all). The tracks must share frame rate and length (see :func:`align_tracks`).
     ``workers`` > 1 draws in that many processes when there are at least
     :data:`PARALLEL_MIN_FRAMES` frames; the frames are the same either way.
+    ``on_device(name)`` is called once, before the first frame, with the GL_RENDERER string
+    of the device that draws them (a worker's, when workers draw).
     """
     dense = [t.dense() for t in tracks]
     indices = list(frames if frames is not None else range(tracks[0].n_frames))
@@ -238,9 +241,13 @@ def render_frames(
         envelope,
     )
     if workers > 1 and len(indices) >= PARALLEL_MIN_FRAMES:
-        yield from _render_parallel(args, indices, workers, (size, size * len(tracks), 3))
+        yield from _render_parallel(
+            args, indices, workers, (size, size * len(tracks), 3), on_device
+        )
         return
     drawer = _Drawer(*args)
+    if on_device is not None:
+        on_device(device_name())
     try:
         for i in indices:
             yield drawer.draw(i)
@@ -253,8 +260,17 @@ def render_frames(
 RING_BYTES = 32 * 2**20
 
 
+def _worker_device() -> str:
+    """The GL_RENDERER string of a worker's context."""
+    return device_name()
+
+
 def _render_parallel(
-    args: tuple, indices: list[int], workers: int, shape: tuple[int, int, int]
+    args: tuple,
+    indices: list[int],
+    workers: int,
+    shape: tuple[int, int, int],
+    on_device: Callable[[str], None] | None = None,
 ) -> Iterator[RenderedFrame]:
     """Frames drawn by ``workers`` processes, yielded in order.
 
@@ -284,6 +300,8 @@ def _render_parallel(
                 workers, initializer=_worker_start, initargs=(args, shm.name, ring_shape)
             )
         with pool:
+            if on_device is not None:  # every worker makes the same choice of device
+                on_device(pool.apply(_worker_device))
             pending: deque = deque()
             todo = iter(chunks)
             for job in todo:
