@@ -91,7 +91,7 @@ def run(votes: int) -> dict[str, list[tuple[int, float]]]:
                 db.session.commit()
                 token = person.token
                 while cast < votes:
-                    participant = participant_for_vote(token)
+                    participant = participant_for_vote(token).participant  # type: ignore[union-attr]
                     trial = db.session.scalars(
                         sa.select(Trial)
                         .where(Trial.participant_id == participant.id, Trial.kind != "practice")

@@ -65,11 +65,11 @@ def post_vote():  # type: ignore[no-untyped-def]
     payload = _json_object()
     if isinstance(payload, str):
         return _error(payload, 400)
-    participant = participant_for_vote(payload.get("token"))
-    if participant is None:
+    voter = participant_for_vote(payload.get("token"), payload.get("trial_id"))
+    if voter is None:
         return _error("unknown participant", 403)
     try:
-        outcome = record_vote(participant, payload)
+        outcome = record_vote(voter.participant, payload, voter.trial)
     except VoteRejected as exc:
         db.session.rollback()
         if exc.closed:

@@ -16,6 +16,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import sqlalchemy as sa
 from flask import current_app
+from sqlalchemy import orm as so
 
 from app.trials import assignment, design
 from app.trials import schedule as schedules
@@ -317,12 +318,29 @@ def upcoming() -> sa.Select[Any]:
 
 
 @cache
+def progress_and_upcoming() -> sa.Select[Any]:
+    """:func:`progress_counts` and :func:`upcoming`'s columns in one row, for the bound
+    ``participant_id``: (answered, total, trial_id, plays, kind, expected, instruction,
+    following), the upcoming columns NULL when every trial is answered. What a vote's answer
+    needs, read in one round trip after the vote is stored."""
+    answered, total = progress_counts()
+    counts_row = sa.select(answered.label("answered"), total.label("total")).subquery("progress")
+    pending = upcoming().subquery("next_pair")
+    return sa.select(counts_row, *pending.c).select_from(counts_row.outerjoin(pending, sa.true()))
+
+
+#: The columns of a participant's state that a sign of life reads back, in the same round trip
+#: as its UPDATE (a concurrent request of theirs may have changed them since the row was read).
+_STATE = ("last_seen_at", "finished_at", "dropped_at", "screened_out_at", "excluded_at")
+
+
+@cache
 def _seen() -> sa.Update:
     return (
         sa.update(Participant)
         .where(Participant.id == sa.bindparam("participant_id"), Participant.dropped_at.is_(None))
         .values(last_seen_at=sa.bindparam("now"))
-        .returning(Participant)
+        .returning(*(getattr(Participant, name) for name in _STATE))
     )
 
 
@@ -457,13 +475,16 @@ def touch(participant: Participant) -> bool:
     exactly when ``dropped_at`` is empty. Not committed: the caller's unit of work decides.
     """
     now = utcnow()
-    # RETURNING the row refreshes ``participant`` in the same round trip as the UPDATE.
-    present = db.session.scalars(
+    # RETURNING the state refreshes ``participant`` in the same round trip as the UPDATE; set as
+    # committed values, so the rest of the object (its study, loaded with it) stays loaded.
+    present = db.session.execute(
         _seen(),
         {"participant_id": participant.id, "now": now},
-        execution_options={"synchronize_session": False, "populate_existing": True},
-    ).all()
-    if present:
+        execution_options={"synchronize_session": False},
+    ).first()
+    if present is not None:
+        for name, value in zip(_STATE, present, strict=True):
+            so.attributes.set_committed_value(participant, name, value)
         return True
     # The row as it is now: a concurrent request of theirs may have finished them since it
     # was read (SQLite reads without a lock).

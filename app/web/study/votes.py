@@ -13,7 +13,7 @@ from __future__ import annotations
 import datetime as dt
 from dataclasses import dataclass
 from functools import cache
-from types import SimpleNamespace
+from types import EllipsisType, SimpleNamespace
 from typing import Any, NamedTuple
 
 import sqlalchemy as sa
@@ -25,7 +25,7 @@ from app.web.extensions import db
 from app.web.infra import limits
 from app.web.models import Participant, Study, Trial, Vote, utcnow
 from app.web.study.adaptive import ADAPTIVE, choose_next_pair
-from app.web.study.enrolment import SESSION_ENDED, progress, touch, upcoming
+from app.web.study.enrolment import SESSION_ENDED, progress_and_upcoming, touch
 from app.web.study.medialog import MediaLogError, media_fields
 from app.web.study.participants import release_if_left_out
 from app.web.study.studies import participation
@@ -129,13 +129,18 @@ def trial_id_of(payload: dict[str, Any]) -> int:
     return _int_field(payload, "trial_id", Trial.id, required=True)  # type: ignore[return-value]
 
 
-def validate(participant: Participant, payload: dict[str, Any]) -> tuple[Trial, dict[str, Any]]:
-    """Check a vote request against the participant's schedule and the study's rules."""
+def validate(
+    participant: Participant, payload: dict[str, Any], trial: Trial | None | EllipsisType = ...
+) -> tuple[Trial, dict[str, Any]]:
+    """Check a vote request against the participant's schedule and the study's rules.
+    ``trial``: the request's trial with its vote as :func:`participant_for_vote` read it (None:
+    not one of theirs); left out, it is read here."""
     study = participant.study
     check_open(study, pilot=participant.pilot)
     trial_id = trial_id_of(payload)
-    # With its vote, if any: a resent or double-clicked vote is answered from it.
-    trial = db.session.get(Trial, trial_id, options=[so.joinedload(Trial.vote)])
+    if trial is ...:
+        # With its vote, if any: a resent or double-clicked vote is answered from it.
+        trial = db.session.get(Trial, trial_id, options=[so.joinedload(Trial.vote)])
     return trial, vote_fields(study, trial, participant.id, payload)  # type: ignore[return-value]
 
 
@@ -250,33 +255,65 @@ def _stored(participant_id: int, trial_id: int, key: str) -> Vote | None:
     )
 
 
-def participant_for_vote(token: Any) -> Participant | None:
+class Voter(NamedTuple):
+    """A vote's participant (locked) and its trial with its vote (None: not one of theirs)."""
+
+    participant: Participant
+    trial: Trial | None
+
+
+def participant_for_vote(token: Any, trial_id: Any = None) -> Voter | None:
     """The participant whose ``token`` a vote carries, their row locked until the request's
     transaction ends (PostgreSQL; SQLite's writes are serial anyway): one participant's votes
-    are stored one after the other, so each sees every earlier one."""
+    are stored one after the other, so each sees every earlier one.
+
+    Read in the same round trip: their study, and the trial ``trial_id`` with its vote where
+    that trial is theirs, for :func:`record_vote`. A ``trial_id`` that is no id is left for
+    :func:`validate` to refuse."""
     if not isinstance(token, str) or not limits.fits(Participant.token, token):
         return None
-    return db.session.scalar(
-        sa.select(Participant)
-        .where(Participant.token == token)
-        .options(so.joinedload(Participant.study))
+    try:
+        trial_id = trial_id_of({"trial_id": trial_id})
+    except VoteRejected:
+        trial_id = None
+    row = db.session.execute(_locked_with_trial(), {"token": token, "trial_id": trial_id}).first()
+    return None if row is None else Voter(*row)
+
+
+@cache
+def _locked_with_trial() -> sa.Select[tuple[Participant, Trial]]:
+    return (
+        sa.select(Participant, Trial)
+        .join(Participant.study)
+        .outerjoin(
+            Trial,
+            sa.and_(
+                Trial.id == sa.bindparam("trial_id", type_=sa.Integer),
+                Trial.participant_id == Participant.id,
+            ),
+        )
+        .outerjoin(Trial.vote)
+        .options(so.contains_eager(Participant.study), so.contains_eager(Trial.vote))
+        .where(Participant.token == sa.bindparam("token"))
         .with_for_update(of=Participant)
     )
 
 
-def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcome:
+def record_vote(
+    participant: Participant, payload: dict[str, Any], trial: Trial | None | EllipsisType = ...
+) -> VoteOutcome:
     """Store the vote in ``payload`` once; the caller commits (one unit of work per request).
     The one path every vote takes, on SQLite and PostgreSQL alike; each change of the
     participant's state is made by its one function (:func:`app.web.study.enrolment.touch`,
     :func:`screen_out`, :func:`app.web.study.participants.release_if_left_out`). ``participant``
-    comes from :func:`participant_for_vote` (locked).
+    comes from :func:`participant_for_vote` (locked), and ``trial`` with it where it read it.
 
     Raises :class:`VoteRejected` for a request that is not a valid vote of this participant
     (another participant's trial, a bad choice, a key reused on another trial).
     """
     if participant.screened_out_at is not None:
         raise VoteRejected(SCREENED_OUT, 409, closed=True)
-    trial, fields = validate(participant, payload)
+    trial, fields = validate(participant, payload, trial)
     if not touch(participant):
         raise VoteRejected(SESSION_ENDED, 409, closed=True)
     participant_id, trial_id, key = participant.id, trial.id, fields["idempotency_key"]
@@ -301,7 +338,11 @@ def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcom
         raise VoteRejected("idempotency_key: already used for another trial", 409)
     if created and trial.kind == "catch" and fields["choice"] != trial.expected:
         screen_out(participant)
-    answered, total = progress(participant)
+    if created and participant.screened_out_at is None:
+        choose_next_pair(participant)  # the adaptive design's next pair; others: no-op
+    # The progress and the next pair in one round trip, read after the vote is stored.
+    row = db.session.execute(progress_and_upcoming(), {"participant_id": participant_id}).one()
+    answered, total = int(row.answered or 0), int(row.total or 0)
     if (
         answered >= total
         and participant.finished_at is None
@@ -310,13 +351,16 @@ def record_vote(participant: Participant, payload: dict[str, Any]) -> VoteOutcom
         participant.finished_at = utcnow()
         release_if_left_out(participant)
     following = None
-    if answered < total and participant.screened_out_at is None:
-        if created:
-            choose_next_pair(participant)  # the adaptive design's next pair; others: no-op
-        following = db.session.execute(upcoming(), {"participant_id": participant_id}).first()
-        if following is not None and participant.study.design == ADAPTIVE:
-            # the trial after it gets its pair at the next vote: nothing to preload yet
-            following = SimpleNamespace(**{**following._asdict(), "following": None})
+    if answered < total and participant.screened_out_at is None and row.trial_id is not None:
+        following = SimpleNamespace(
+            trial_id=row.trial_id,
+            plays=row.plays,
+            kind=row.kind,
+            expected=row.expected,
+            instruction=row.instruction,
+            # adaptive: the trial after it gets its pair at the next vote, nothing to preload
+            following=None if participant.study.design == ADAPTIVE else row.following,
+        )
     return VoteOutcome(
         vote=StoredVote(trial_id, *(getattr(vote, f) for f in _ANSWERED)),
         created=created,
