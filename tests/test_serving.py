@@ -54,19 +54,19 @@ def test_the_access_line_holds_the_route_not_the_token_query_or_address():
 
 
 def test_the_app_records_each_requests_route(app, client, participant, web):
-    from flask import request
+    from flask import request, request_tearing_down
 
     from tests.participant.test_views import _slug
 
     seen = {}
 
-    @app.teardown_request
-    def read(_exc):
+    def read(_sender, **_extra):
         seen[request.path] = request.environ.get("facepair.route")
 
     token = participant.join(_slug(app, web.study()))
-    client.get(f"/p/{token}/trial")
-    client.get("/no/such/page")
+    with request_tearing_down.connected_to(read, app):
+        client.get(f"/p/{token}/trial")
+        client.get("/no/such/page")
     assert seen[f"/p/{token}/trial"] == "/p/<token>/trial"
     assert seen["/no/such/page"] == "<unmatched>"
 
