@@ -34,7 +34,15 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from benchmarks import load_clients  # noqa: E402
-from benchmarks.bench_load import PG, check_ready, cpu_seconds, prepare, trials_of  # noqa: E402
+from benchmarks.bench_load import (  # noqa: E402
+    PG,
+    CpuMeter,
+    check_ready,
+    cpu_used,
+    database_url,
+    prepare,
+    trials_of,
+)
 from tests.support.services import wait_for_port  # noqa: E402
 
 
@@ -50,7 +58,7 @@ class Build:
     """One checkout served on its own database, its participants enrolled."""
 
     def __init__(self, name: str, folder: Path, port: int, admin: Any) -> None:
-        self.name, self.folder, self.port = name, folder, port
+        self.name, self.folder, self.port, self.admin = name, folder, port, admin
         self.database = f"facepair_ab_{name.lower()}_{secrets.token_hex(3)}"
         admin.execute(f'CREATE DATABASE "{self.database}"')
         try:
@@ -62,7 +70,7 @@ class Build:
         self.cpu: list[dict[str, float]] = []
 
     def _start(self, port: int) -> None:
-        self.url = f"postgresql+psycopg://postgres@127.0.0.1:5432/{self.database}"
+        self.url = database_url(PG, self.database)
         self.media = Path(os.environ.get("TMPDIR", "/tmp")) / self.database
         self.media.mkdir(parents=True)
         self.slug = prepare(self.url, self.media)
@@ -112,15 +120,16 @@ class Build:
         """Round ``index``'s votes, saturated (a warm-up's not counted); False if any went
         unacknowledged."""
         bodies = self.rounds[index]
-        before = cpu_seconds(self.server.pid)
+        meter = CpuMeter(self.server.pid, self.admin, self.database)
+        before = meter.read()
         tally, elapsed = asyncio.run(
             load_clients.saturate(
                 f"http://127.0.0.1:{self.port}/api/v1/votes", bodies, concurrency=64, timeout=60
             )
         )
-        after = cpu_seconds(self.server.pid)
+        spent = cpu_used(before, meter.read())
         rate = len(tally.acknowledged) / elapsed
-        cpu = {k: (after[k] - before[k]) / len(bodies) * 1e3 for k in before}
+        cpu = {k: v / len(bodies) * 1e3 for k, v in spent.items()}
         if not warm_up:
             self.rates.append(rate)
             self.cpu.append(cpu)

@@ -46,7 +46,9 @@ import subprocess
 import sys
 import threading
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 from urllib.parse import urlencode
 
 import numpy as np
@@ -55,9 +57,18 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from benchmarks import load_clients  # noqa: E402
-from tests.support.services import ensure_services, processes, wait_for_port  # noqa: E402
+from tests.support.services import (  # noqa: E402
+    PG_HOST,
+    PG_PORT,
+    ensure_services,
+    processes,
+    wait_for_port,
+)
 
-PG = "host=127.0.0.1 port=5432 user=postgres"
+#: The PostgreSQL server on which the benchmarks create (and drop) their databases, as a libpq
+#: connection string: ``--pg`` or ``FACEPAIR_BENCH_PG``, by default the tests' server
+#: (``FACEPAIR_TEST_PG_HOST`` / ``FACEPAIR_TEST_PG_PORT``, 127.0.0.1:5432).
+PG = os.environ.get("FACEPAIR_BENCH_PG", f"host={PG_HOST} port={PG_PORT} user=postgres")
 #: The share of the peak number of participants present that counts as the steady state.
 STEADY = 0.95
 
@@ -317,39 +328,90 @@ def run_closed(args: argparse.Namespace, participants: int, slug: str, url: str)
     return ok and not errors
 
 
-def cpu_seconds(server_pid: int) -> dict[str, float]:
-    """CPU seconds used so far by the server (gunicorn's master and workers), PostgreSQL (every
-    ``postgres`` process: the backends of the server's pooled connections live as long as the
-    workers) and this process (the load generator)."""
-    seen = processes()
+def database_url(dsn: str, name: str) -> str:
+    """The SQLAlchemy URL of database ``name`` on the server of libpq string ``dsn``."""
+    from psycopg.conninfo import conninfo_to_dict
 
-    def under_server(pid: int) -> bool:
-        while pid > 1:
-            if pid == server_pid:
-                return True
-            pid = seen[pid][2] if pid in seen else 0
-        return False
+    parts = conninfo_to_dict(dsn)
+    user, host = parts.get("user", "postgres"), parts.get("host", "127.0.0.1")
+    return f"postgresql+psycopg://{user}@{host}:{parts.get('port', 5432)}/{name}"
 
-    used = {"server": 0.0, "postgres": 0.0, "generator": 0.0}
-    for pid, (name, _, _, cpu) in seen.items():
-        if pid == os.getpid():
-            used["generator"] += cpu
-        elif under_server(pid):
-            used["server"] += cpu
-        elif name.startswith("postgres"):
-            used["postgres"] += cpu
-    return used
+
+class CpuMeter:
+    """CPU seconds, process by process, of the server (gunicorn's master and workers), of the
+    PostgreSQL backends connected to its database ``database`` (their PIDs from
+    ``pg_stat_activity``: other databases' backends and the cluster's shared background
+    processes are not counted) and of this process (the load generator)."""
+
+    def __init__(self, server_pid: int, admin: Any, database: str) -> None:
+        self.server_pid, self.admin, self.database = server_pid, admin, database
+
+    def read(self) -> dict[str, dict[int, float]]:
+        seen = processes()
+        backends = {
+            row[0]
+            for row in self.admin.execute(
+                "SELECT pid FROM pg_stat_activity WHERE datname = %s", (self.database,)
+            )
+        }
+
+        def under_server(pid: int) -> bool:
+            while pid > 1:
+                if pid == self.server_pid:
+                    return True
+                pid = seen[pid][2] if pid in seen else 0
+            return False
+
+        used: dict[str, dict[int, float]] = {"server": {}, "postgres": {}, "generator": {}}
+        for pid, (_, _, _, cpu) in seen.items():
+            if pid == os.getpid():
+                used["generator"][pid] = cpu
+            elif pid in backends:
+                used["postgres"][pid] = cpu
+            elif under_server(pid):
+                used["server"][pid] = cpu
+        return used
+
+
+def cpu_used(
+    before: dict[str, dict[int, float]], after: dict[str, dict[int, float]]
+) -> dict[str, float]:
+    """CPU seconds of each group between two :meth:`CpuMeter.read`: a process started in
+    between counts from zero; one that ended in between loses only its last stretch."""
+    return {
+        group: sum(cpu - before[group].get(pid, 0.0) for pid, cpu in after[group].items())
+        for group in after
+    }
 
 
 def cpu_line(
-    before: dict[str, float], after: dict[str, float], count: int, unit: str, elapsed: float
+    before: dict[str, dict[int, float]],
+    after: dict[str, dict[int, float]],
+    count: int,
+    unit: str,
+    elapsed: float,
 ) -> str:
     """Where the CPU of a phase went, per ``unit`` (a trial: its play and vote, and the trial
     pages loaded; or a vote)."""
-    used = {k: after[k] - before[k] for k in before}
+    used = cpu_used(before, after)
     per = ", ".join(f"{k} {v / max(count, 1) * 1e3:.1f} ms" for k, v in used.items())
     busy = sum(used.values()) / max(elapsed, 1e-9) / (os.cpu_count() or 1)
     return f"  CPU per {unit}: {per}; the cores {busy:.0%} busy with these"
+
+
+#: A participant's vote latency the capacity figure holds to (p99, steady state).
+CAPACITY_P99_MS = 200.0
+
+
+@dataclass
+class OpenRun:
+    """What one open-loop run measured: its participants, the steady state's vote p99 (ms) and
+    the CPU per trial of the server and of its PostgreSQL backends (ms)."""
+
+    participants: int
+    vote_p99: float | None
+    server_ms: float
+    postgres_ms: float
 
 
 def run_open(
@@ -357,10 +419,10 @@ def run_open(
     participants: int,
     slug: str,
     acknowledged: dict[int, str],
-    server_pid: int,
-) -> None:
+    meter: CpuMeter,
+) -> OpenRun:
     rate = args.arrival_rate or participants / 10
-    before = cpu_seconds(server_pid)
+    before = meter.read()
     wall = time.perf_counter()
     tally, elapsed = asyncio.run(
         load_clients.open_loop(
@@ -374,6 +436,7 @@ def run_open(
             seed=participants,
         )
     )
+    after = meter.read()
     acknowledged.update(tally.acknowledged)
     votes = len(tally.ms.get("vote", []))
     print(
@@ -393,10 +456,42 @@ def run_open(
         f"  errors {len(tally.errors)}, statuses {dict(sorted(tally.statuses.items()))}, "
         f"answered with an earlier vote's other choice {tally.superseded}"
     )
-    trials = len(tally.ms.get("play", []))  # one play per trial
-    print(cpu_line(before, cpu_seconds(server_pid), trials, "trial", time.perf_counter() - wall))
+    trials = max(len(tally.ms.get("play", [])), 1)  # one play per trial
+    print(cpu_line(before, after, trials, "trial", time.perf_counter() - wall))
     for e in tally.errors[:5]:
         print("  error:", e)
+    used = cpu_used(before, after)
+    return OpenRun(
+        participants,
+        tally.p99("vote", STEADY),
+        used["server"] / trials * 1e3,
+        used["postgres"] / trials * 1e3,
+    )
+
+
+def capacity_lines(runs: list[OpenRun], think: float, cores: int) -> list[str]:
+    """The capacity figures of the open-loop runs: CPU per trial (server + its PostgreSQL
+    backends), the participants that CPU would let two cores serve at one vote per ``think``
+    seconds, and the largest count run whose steady-state vote p99 stayed under
+    :data:`CAPACITY_P99_MS`."""
+    lines = []
+    for run in runs:
+        total = run.server_ms + run.postgres_ms
+        bound = cores * think * 1e3 / total if total > 0 else float("inf")
+        p99 = "none" if run.vote_p99 is None else f"{run.vote_p99:.0f} ms"
+        lines.append(
+            f"capacity at {run.participants}: CPU per trial {total:.1f} ms (server "
+            f"{run.server_ms:.1f} + PostgreSQL {run.postgres_ms:.1f}), so {cores} cores "
+            f"would be saturated at about {bound:.0f} participants voting every {think:g} s; "
+            f"steady vote p99 {p99}"
+        )
+    kept = [r.participants for r in runs if r.vote_p99 is not None and r.vote_p99 < CAPACITY_P99_MS]
+    lines.append(
+        f"largest count run with steady vote p99 < {CAPACITY_P99_MS:.0f} ms: "
+        + (f"{max(kept)}" if kept else "none")
+        + f" (of {', '.join(str(r.participants) for r in runs)})"
+    )
+    return lines
 
 
 def trials_of(url: str, tokens: list[str]) -> list[tuple[str, int]]:
@@ -418,14 +513,15 @@ def saturated_votes(
     slug: str,
     url: str,
     acknowledged: dict[int, str],
-    server_pid: int,
+    meter: CpuMeter,
+    participants: int,
+    label: str,
 ) -> float:
-    """facepair's vote endpoint driven saturated; returns votes per second."""
+    """facepair's vote endpoint driven saturated by the votes of ``participants`` freshly
+    consented participants (18 each); returns votes per second."""
     base = f"http://127.0.0.1:{args.port}"
-    tokens = asyncio.run(load_clients.consent_many(base, slug, args.saturate, timeout=args.timeout))
+    tokens = asyncio.run(load_clients.consent_many(base, slug, participants, timeout=args.timeout))
     rows = trials_of(url, tokens)
-    # Round robin over the participants, as in a study: concurrent votes come from different
-    # people, never 64 at once on one participant's row.
     rng = np.random.default_rng(1)
     bodies = []
     for token, trial in rows:
@@ -437,7 +533,7 @@ def saturated_votes(
                 load_clients.vote_body(token, trial, choice, secrets.token_hex(8), 1500),
             )
         )
-    return _drive(f"{base}/api/v1/votes", bodies, "facepair", args, acknowledged, server_pid)
+    return _drive(f"{base}/api/v1/votes", bodies, label, args, acknowledged, meter)
 
 
 def _drive(
@@ -446,13 +542,14 @@ def _drive(
     name: str,
     args: argparse.Namespace,
     acknowledged: dict[int, str],
-    server_pid: int,
+    meter: CpuMeter,
 ) -> float:
-    before = cpu_seconds(server_pid)
+    before = meter.read()
     wall = time.perf_counter()
     tally, elapsed = asyncio.run(
         load_clients.saturate(url, bodies, concurrency=64, timeout=args.timeout)
     )
+    after = meter.read()
     acknowledged.update(tally.acknowledged)
     rate = len(tally.acknowledged) / elapsed
     print(
@@ -460,10 +557,15 @@ def _drive(
         f"{elapsed:.1f} s by 64 senders, {rate:.0f} votes/s; vote {tally.summary('vote')}; "
         f"errors {len(tally.errors)} (load {os.getloadavg()[0]:.1f})"
     )
-    print(
-        cpu_line(before, cpu_seconds(server_pid), len(bodies), "vote", time.perf_counter() - wall)
-    )
+    print(cpu_line(before, after, len(bodies), "vote", time.perf_counter() - wall))
     return rate
+
+
+def round_size(rate: float, seconds: float, least: int) -> int:
+    """How many votes keep a round saturated for ``seconds`` at ``rate`` votes/s (the fastest
+    seen so far; a warm-up runs slower than the rounds after it, so half as many again), and
+    at least ``least``."""
+    return max(least, int(np.ceil(1.5 * rate * seconds)))
 
 
 def start_bare_baseline(args: argparse.Namespace, url: str, media: Path) -> subprocess.Popen[bytes]:
@@ -486,7 +588,7 @@ def start_bare_baseline(args: argparse.Namespace, url: str, media: Path) -> subp
     )
 
 
-def bare_baseline(args: argparse.Namespace, votes: int, server_pid: int) -> float:
+def bare_baseline(args: argparse.Namespace, votes: int, meter: CpuMeter, label: str) -> float:
     """The bare baseline driven like facepair's vote endpoint; returns votes per second."""
     bodies = [
         (
@@ -504,7 +606,52 @@ def bare_baseline(args: argparse.Namespace, votes: int, server_pid: int) -> floa
         for i in range(votes)
     ]
     url = f"http://127.0.0.1:{args.port + 1}/votes"
-    return _drive(url, bodies, "bare baseline", args, {}, server_pid)
+    return _drive(url, bodies, label, args, {}, meter)
+
+
+def saturated_rounds(
+    args: argparse.Namespace,
+    slug: str,
+    url: str,
+    acknowledged: dict[int, str],
+    meter: CpuMeter,
+    database: str,
+    media: Path,
+) -> tuple[list[float], list[float]]:
+    """facepair's vote endpoint saturated, alternating with the bare baseline (``--baseline``),
+    each after an untimed warm-up round (its workers compile and prepare their statements),
+    in rounds sized from the warm-up to last at least ``--round-seconds``; returns the counted
+    rounds' votes per second, facepair's and the baseline's."""
+    least = args.saturate * 18
+    fastest = saturated_votes(
+        args, slug, url, acknowledged, meter, args.saturate, "facepair warm-up"
+    )
+    bare_server, bare_meter, bare_fastest = None, None, 0.0
+    if args.baseline:
+        bare_server = start_bare_baseline(args, url, media)
+        bare_meter = CpuMeter(bare_server.pid, meter.admin, database)
+        bare_fastest = bare_baseline(args, least, bare_meter, "bare baseline warm-up")
+    # The two alternate, so both meet the machine in the same state (the database's
+    # background writing after the open loop, other work on the host). Each round is sized
+    # from the fastest rate seen before it.
+    facepair: list[float] = []
+    bare: list[float] = []
+    try:
+        for index in range(args.rounds):
+            label = f"round {index + 1}"
+            people = int(np.ceil(round_size(fastest, args.round_seconds, least) / 18))
+            facepair.append(
+                saturated_votes(args, slug, url, acknowledged, meter, people, f"facepair {label}")
+            )
+            fastest = max(fastest, facepair[-1])
+            if bare_meter is not None:
+                votes = round_size(bare_fastest, args.round_seconds, least)
+                bare.append(bare_baseline(args, votes, bare_meter, f"bare baseline {label}"))
+                bare_fastest = max(bare_fastest, bare[-1])
+    finally:
+        if bare_server is not None:
+            stop_server(bare_server)
+    return facepair, bare
 
 
 def participant_counts(text: str) -> list[int]:
@@ -576,8 +723,25 @@ def main() -> int:
         default=3,
         help="saturated runs of each, facepair and the baseline alternating (open)",
     )
+    parser.add_argument(
+        "--round-seconds",
+        type=float,
+        default=10.0,
+        help="least length of a counted saturated round; an untimed warm-up round runs first",
+    )
     parser.add_argument("--workers", type=int, default=4, help="gunicorn worker processes")
     parser.add_argument("--port", type=int, default=5077)
+    parser.add_argument(
+        "--pg",
+        default=PG,
+        help="libpq connection string of the PostgreSQL server to create the database on "
+        "(default: FACEPAIR_BENCH_PG, else the tests' server)",
+    )
+    parser.add_argument(
+        "--redis-url",
+        default=os.environ.get("FACEPAIR_BENCH_REDIS_URL", ""),
+        help="REDIS_URL for the server (its rate limits' counters); default none, in memory",
+    )
     parser.add_argument(
         "--keep",
         action="store_true",
@@ -592,8 +756,8 @@ def main() -> int:
     import psycopg
 
     name = f"facepair_load_{secrets.token_hex(3)}"
-    url = f"postgresql+psycopg://postgres@127.0.0.1:5432/{name}"
-    admin = psycopg.connect(f"{PG} dbname=postgres", autocommit=True)
+    url = database_url(args.pg, name)
+    admin = psycopg.connect(f"{args.pg} dbname=postgres", autocommit=True)
     admin.execute(f'CREATE DATABASE "{name}"')
     media = Path(os.environ.get("TMPDIR", "/tmp")) / name
     server = None
@@ -607,6 +771,9 @@ def main() -> int:
             "SECRET_KEY": secrets.token_hex(16),
             "FACEPAIR_INSTANCE": str(unlimited_instance(media / "instance")),
         }
+        env.pop("REDIS_URL", None)
+        if args.redis_url:
+            env["REDIS_URL"] = args.redis_url
         server = start_server(
             ["-m", "app", "serve", "--port", str(args.port), "--workers", str(args.workers)],
             env,
@@ -615,22 +782,12 @@ def main() -> int:
         )
         if args.mode == "closed":
             return 0 if all(run_closed(args, n, slug, url) for n in counts) else 1
+        meter = CpuMeter(server.pid, admin, name)
         acknowledged: dict[int, str] = {}
-        for n in counts:
-            run_open(args, n, slug, acknowledged, server.pid)
-        if args.baseline:
-            bare_server = start_bare_baseline(args, url, media)
-        # The two alternate, so both meet the machine in the same state (the database's
-        # background writing after the open loop, other work on the host).
-        facepair, bare = [], []
-        try:
-            for _ in range(args.rounds):
-                facepair.append(saturated_votes(args, slug, url, acknowledged, server.pid))
-                if args.baseline:
-                    bare.append(bare_baseline(args, args.saturate * 18, bare_server.pid))
-        finally:
-            if args.baseline:
-                stop_server(bare_server)
+        runs = [run_open(args, n, slug, acknowledged, meter) for n in counts]
+        for line in capacity_lines(runs, args.think, os.cpu_count() or 1):
+            print(line)
+        facepair, bare = saturated_rounds(args, slug, url, acknowledged, meter, name, media)
         stop_server(server)
         server = None
         line, stored_ok = check(url, acknowledged)
@@ -639,8 +796,8 @@ def main() -> int:
             ours, theirs = float(np.median(facepair)), float(np.median(bare))
             print(
                 f"facepair's saturated vote throughput (median of {args.rounds} rounds "
-                f"alternating with the baseline): {ours:.0f}/s = {ours / theirs:.0%} of the "
-                f"bare baseline's {theirs:.0f}/s"
+                f"alternating with the baseline, warm-ups not counted): {ours:.0f}/s = "
+                f"{ours / theirs:.0%} of the bare baseline's {theirs:.0f}/s"
             )
         print(f"load average after: {open('/proc/loadavg').read().strip()}")
         # Client errors (timeouts of an overloaded server) are reported above; the exit

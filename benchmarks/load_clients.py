@@ -60,13 +60,24 @@ class Tally:
         self.ms.setdefault(kind, []).append(ms)
         self.sent.setdefault(kind, []).append((sent_at, present))
 
-    def summary(self, kind: str, share: float = 0.0) -> str:
-        """Count, p50, p99 and max; with ``share``, of the requests sent while at least that
-        share of the peak were present (the steady state, not the arrivals and departures)."""
+    def values(self, kind: str, share: float = 0.0) -> np.ndarray:
+        """The latencies (ms) of ``kind``; with ``share``, of the requests sent while at least
+        that share of the peak were present (the steady state, not the arrivals and
+        departures)."""
         values = np.asarray(self.ms.get(kind, []))
         if share:
             present = np.asarray([n for _, n in self.sent.get(kind, [])])
             values = values[present >= share * self.peak] if values.size else values
+        return values
+
+    def p99(self, kind: str, share: float = 0.0) -> float | None:
+        """The 99th percentile of :meth:`values` in ms, None when there are none."""
+        values = self.values(kind, share)
+        return float(np.percentile(values, 99)) if values.size else None
+
+    def summary(self, kind: str, share: float = 0.0) -> str:
+        """Count, p50, p99 and max of :meth:`values`."""
+        values = self.values(kind, share)
         if values.size == 0:
             return "none"
         return (

@@ -67,3 +67,60 @@ def test_the_ab_benchmark_takes_only_facepair_checkouts(tmp_path):
     assert checkout(str(root / "tests" / "..")) == root
     with pytest.raises(ValueError, match=r": not a facepair checkout \(no app/__main__\.py\)$"):
         checkout(str(tmp_path))
+
+
+def test_cpu_used_counts_each_process_from_its_own_start():
+    from benchmarks.bench_load import cpu_used
+
+    before = {"server": {10: 1.0, 11: 2.0}, "postgres": {20: 5.0}, "generator": {1: 0.5}}
+    # 11 ended, 12 started (a restarted worker), a new backend 21 appeared.
+    after = {"server": {10: 1.5, 12: 0.25}, "postgres": {20: 5.5, 21: 0.1}, "generator": {1: 0.75}}
+    used = cpu_used(before, after)
+    assert used == pytest.approx({"server": 0.75, "postgres": 0.6, "generator": 0.25})
+
+
+def test_only_the_benchmarks_own_database_backends_count_as_postgresql(postgres_url):
+    """A backend of another database (the admin connection's) is not the server's."""
+    import os
+
+    import psycopg
+
+    from benchmarks.bench_load import CpuMeter
+
+    dsn = postgres_url.replace("postgresql+psycopg://", "postgresql://")
+    name = dsn.rsplit("/", 1)[1]
+    admin_dsn = dsn.rsplit("/", 1)[0] + "/postgres"
+    with psycopg.connect(admin_dsn, autocommit=True) as admin, psycopg.connect(dsn) as ours:
+        ours_pid = ours.execute("SELECT pg_backend_pid()").fetchone()[0]
+        admin_pid = admin.execute("SELECT pg_backend_pid()").fetchone()[0]
+        seen = CpuMeter(os.getppid(), admin, name).read()
+    assert ours_pid in seen["postgres"] and admin_pid not in seen["postgres"]
+    assert os.getpid() in seen["generator"]
+
+
+def test_database_url_follows_the_connection_string():
+    from benchmarks.bench_load import database_url
+
+    assert (
+        database_url("host=db.local port=6543 user=bench", "x")
+        == "postgresql+psycopg://bench@db.local:6543/x"
+    )
+    assert database_url("host=127.0.0.1", "y") == "postgresql+psycopg://postgres@127.0.0.1:5432/y"
+
+
+def test_a_counted_round_lasts_at_least_the_seconds_asked_at_the_warm_up_rate():
+    from benchmarks.bench_load import round_size
+
+    assert round_size(100.0, 10.0, 18) == 1500  # half again over 100/s x 10 s
+    assert round_size(1.0, 10.0, 2160) == 2160
+
+
+def test_capacity_is_the_largest_count_under_the_p99_and_the_cpu_bound():
+    from benchmarks.bench_load import OpenRun, capacity_lines
+
+    runs = [OpenRun(200, 40.0, 4.0, 2.0), OpenRun(500, 150.0, 4.0, 2.0), OpenRun(1000, 900.0, 5, 1)]
+    lines = capacity_lines(runs, think=6.0, cores=2)
+    # 6 ms a trial every 6 s: two cores (12,000 ms a 6 s) serve 2,000 participants.
+    assert "CPU per trial 6.0 ms" in lines[0] and "about 2000 participants" in lines[0]
+    assert lines[-1].startswith("largest count run with steady vote p99 < 200 ms: 500 ")
+    assert capacity_lines([OpenRun(10, None, 0, 0)], 6.0, 2)[-1].split(": ")[1].startswith("none")
