@@ -194,3 +194,15 @@ class ExcludeForm(FlaskForm):
         default="excluded",
     )
     reason = StringField("Reason", validators=[Optional(), Length(max=300)])
+
+
+class PilotConsentForm(FlaskForm):
+    """The consent page of the pilot link (the participants' page, with its own action)."""
+
+    agree = SubmitField("I agree and want to take part")
+
+
+class RestoreForm(FlaskForm):
+    """Undo an exclusion: the participant's export label."""
+
+    participant = HiddenField(validators=[DataRequired(), Length(max=20)])
