@@ -17,6 +17,7 @@ from flask import flash, redirect, render_template, request, url_for
 from wtforms import SelectChoice
 
 from app.errors import InputError
+from app.trials.participation import PORTRAIT_MODES
 from app.trials.studyfile import MODELS, loads_study, parse_study
 from app.web.experimenter import bp, uploads
 from app.web.experimenter.forms import StudyFileForm, StudyWebForm
@@ -95,7 +96,10 @@ def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
             "max_failed": form.max_failed.data or 0,
             "screened_out_code": form.screened_out_code.data or "",
         },
-        "viewing": {"min_face_px": form.min_face_px.data or 0},
+        "viewing": {
+            "min_face_px": form.min_face_px.data or 0,
+            "portrait": form.portrait.data or PORTRAIT_MODES[0],
+        },
     }
     if form.replay.data == "max_plays":
         data["replay"]["max_plays"] = form.max_plays.data or 1
