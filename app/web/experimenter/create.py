@@ -178,7 +178,9 @@ def _create(file_form: StudyFileForm, web_form: StudyWebForm, folder: Path):  # 
             raise form_error(exc, data) from None
         check_study_inputs(spec)
         try:
-            return create_study(user, spec)  # type: ignore[arg-type]
+            # kept as the file it amounts to: the study package's study.toml
+            source = spec.to_portable_toml()
+            return create_study(user, spec, source_toml=source)  # type: ignore[arg-type]
         except InputError as exc:
             raise form_error(exc, data) from None
     return None

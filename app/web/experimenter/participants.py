@@ -1,4 +1,5 @@
-"""The monitor's participant table, excluding a participant by hand and undoing it."""
+"""The monitor's participant table, excluding a participant by hand and undoing it, and the
+downloads beyond the votes: questionnaire answers and the study package."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import sqlalchemy as sa
 from flask import Response, flash, redirect, request, url_for
 from werkzeug.utils import secure_filename
 
+from app.errors import InputError
 from app.trials.participation import PARTICIPANT_STATUSES, SCREENED_OUT_REASON
 from app.web.experimenter import bp
 from app.web.experimenter.access import own_study
@@ -17,6 +19,7 @@ from app.web.infra.accounts import current_user, login_required, study_access
 from app.web.models import Participant, Study, utcnow
 from app.web.study.enrolment import dropped_after
 from app.web.study.labels import pseudonym
+from app.web.study.package import build_package, package_name
 from app.web.study.participants import (
     AUTO_RULES,
     auto_rules,
@@ -127,6 +130,27 @@ def export_answers(study_id: int):  # type: ignore[no-untyped-def]
         mimetype="text/csv",
         headers={
             "Content-Disposition": f'attachment; filename="{name}.csv"',
+            "Cache-Control": "no-store",
+        },
+    )
+
+
+@bp.get("/studies/<int:study_id>/package.zip")
+@login_required
+def export_package(study_id: int):  # type: ignore[no-untyped-def]
+    """The study package (``app.web.study.package``): one zip for a paper's supplement."""
+
+    study = own_study(study_id)
+    try:
+        data = build_package(study)
+    except InputError as exc:
+        flash(f"No package: {exc.message}.", "error")
+        return redirect(url_for(".study", study_id=study.id))
+    return Response(
+        data,
+        mimetype="application/zip",
+        headers={
+            "Content-Disposition": f'attachment; filename="{package_name(study)}"',
             "Cache-Control": "no-store",
         },
     )
