@@ -323,6 +323,12 @@ def test_the_form_sets_the_stimulus_and_participant_page_options(app, client, we
         study = db.session.scalar(sa.select(Study))
         settings = study.settings
     assert settings["eyes"] == "generated" and settings["normalize"] is False
+    # kept as the study file it amounts to, files by name alone (the package's study.toml)
+    assert 'audio = "clip_a.wav"' in study.source_toml and str(tmp_path) not in study.source_toml
+    from app.trials.studyfile import loads_study
+
+    again = loads_study(study.source_toml, base_dir=tmp_path)
+    assert [c.name for c in again.clips] == ["clip_a", "clip_b"]
     assert study.catch_kind == "onscreen"
     from app.trials.participation import ParticipationSpec
 
