@@ -12,10 +12,10 @@ from tests.conftest import ParticipantActions
 from tests.questionnaire.test_views import BEFORE, QUESTIONS
 from tests.questionnaire.test_views import _answer as answer_page
 from tests.support.axe import axe_script, violations
-from tests.test_browser import DESKTOP, PHONE, browser, log_in
+from tests.test_browser import DESKTOP, PHONE, browser, log_in, shots
 
 pytestmark = pytest.mark.browser
-__all__ = ["browser"]
+__all__ = ["browser", "shots"]
 
 PARTICIPANT_SIDE = (
     QUESTIONS
@@ -49,7 +49,7 @@ def _finish(app, actions: ParticipantActions) -> None:
         )
 
 
-def test_every_page_type_passes_axe(live_server, browser):
+def test_every_page_type_passes_axe(live_server, browser, shots):
     script = axe_script()
     app, url = live_server.app, live_server.url
     live_server.user()
@@ -91,6 +91,8 @@ def test_every_page_type_passes_axe(live_server, browser):
             for path in participant_pages:
                 page.goto(url + path)
                 found += violations(page, script)
+                if viewport is PHONE and path.endswith("/questions/before"):
+                    page.screenshot(path=shots / "participant-questionnaire.png", full_page=True)
             log_in(page, url)
             page.wait_for_selector("text=New study")
             experimenter_pages = [
