@@ -1,7 +1,8 @@
 # facepair: the two commands a newcomer needs.
 #   make demo   set up .venv and run the demo (the embedded default: SQLite, local files);
 #               make demo PORT=8080 HOST=0.0.0.0 to serve elsewhere
-#   make test   set up .venv and the Debian packages the tests need, lint, then run every test
+#   make test   set up .venv, the Debian packages and axe-core the tests need, lint, then run
+#               every test
 #   make lint   ruff on the whole tree, mypy on the pure packages (also the first step of test)
 SHELL := /bin/bash
 PYTHON ?= python3
@@ -15,11 +16,11 @@ TEST_WORKERS ?= 2
 HOST ?= 127.0.0.1
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # Debian packages: EGL/Mesa for headless rendering, chromium + driver for browser tests,
-# nginx for the front-proxy test (X-Accel-Redirect).
-DEBS_TEST := chromium chromium-driver libegl1 libgl1-mesa-dri libegl-mesa0 nginx-light
+# nginx for the front-proxy test (X-Accel-Redirect), npm for axe-core (accessibility checks).
+DEBS_TEST := chromium chromium-driver libegl1 libgl1-mesa-dri libegl-mesa0 nginx-light npm
 DEBS_DEMO := libegl1 libgl1-mesa-dri libegl-mesa0
 
-.PHONY: demo test venv debs-test debs-demo lint bench clean
+.PHONY: demo test venv debs-test debs-demo axe lint bench clean
 
 venv: $(STAMP)
 
@@ -49,7 +50,12 @@ debs-demo:
 	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
 	fi
 
-test: $(STAMP) debs-test lint
+# axe-core from the npm registry into .cache/axe-core (its pinned version: tests/support/axe.py);
+# the browser tests inject it into every page type.
+axe: $(STAMP) debs-test
+	$(PY) -m tests.support.axe
+
+test: $(STAMP) debs-test axe lint
 	$(PY) -m pytest -n $(TEST_WORKERS)
 
 demo: $(STAMP_RUN) debs-demo
@@ -64,4 +70,4 @@ bench: $(STAMP)
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
 
 clean:
-	rm -rf $(VENV) .pytest_cache build dist *.egg-info
+	rm -rf $(VENV) .pytest_cache build dist *.egg-info .cache/axe-core

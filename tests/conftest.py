@@ -394,6 +394,16 @@ class ParticipantActions:
         self.token = response.headers["Location"].split("/p/")[1].split("/")[0]
         return self.token
 
+    def join_pilot(self, pilot_token: str) -> str:
+        """Through the pilot link's consent page, as a pilot participant."""
+        url = f"/experimenter/pilot/{pilot_token}"
+        page = self.client.get(url)
+        assert page.status_code == 200 and "I agree" in page.get_data(as_text=True)
+        response = self.client.post(url, data={"csrf_token": csrf_token(self.client, url)})
+        assert response.status_code == 302, response.get_data(as_text=True)
+        self.token = response.headers["Location"].split("/p/")[1].split("/")[0]
+        return self.token
+
     def current_trial(self) -> int | None:
         response = self.client.get(f"/p/{self.token}/trial")
         if response.status_code == 302:

@@ -22,7 +22,8 @@ def test_votes_are_tallied_per_choice_and_per_condition(app, participant, web):
     with app.app_context():
         study = db.session.scalar(sa.select(Study))
         seen = study_monitor(study, dropped_after=dt.timedelta(hours=1))
-    assert seen["started"] == 1 and seen["votes"] == len(answers)
+    assert seen["joined"] == 1 and sum(seen["statuses"].values()) == 1
+    assert seen["votes"] == len(answers)
     assert all(set(p.choices) == set(CHOICES) for p in seen["pairs"])
     totals = {c: sum(p.choices[c] for p in seen["pairs"]) for c in CHOICES}
     assert totals == {"left": 2, "right": 1, "undecided": 1}

@@ -55,18 +55,19 @@ def test_a_prolific_participant_is_sent_back_with_the_code(app, web, participant
     study_id = _code_only(app, web.study(design="all_ordered"))
     done = _finish(app, participant, study_id, "PROLIFIC_PID=5f01&STUDY_ID=s&SESSION_ID=x")
     assert (
-        '<meta http-equiv="refresh" content="5;url=https://app.prolific.com/submissions/'
-        'complete?cc=C0DE">'
+        'id="redirect" href="https://app.prolific.com/submissions/complete?cc=C0DE" '
+        'data-redirect-after="5"'
     ) in done
+    assert 'http-equiv="refresh"' not in done
     assert 'id="completion-code">C0DE<' in done
 
 
 def test_without_prolific_nor_redirect_only_the_code_is_shown(app, web, participant):
     study_id = _code_only(app, web.study(design="all_ordered"))
     done = _finish(app, participant, study_id)
-    assert 'http-equiv="refresh"' not in done and "C0DE" in done
+    assert 'id="redirect"' not in done and "C0DE" in done
 
 
 def test_the_study_redirect_url_goes_first(app, web, participant):
     done = _finish(app, participant, web.study(design="all_ordered"))
-    assert 'content="5;url=https://example.org/complete?cc=DONE-123"' in done
+    assert 'href="https://example.org/complete?cc=DONE-123" data-redirect-after="5"' in done

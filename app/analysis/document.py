@@ -540,6 +540,9 @@ def build_document(r: dict[str, Any]) -> list[Block]:
 
     doc += inference_blocks(r)
     doc += _appropriateness_blocks(r.get("appropriateness") or {})
+    from app.analysis.answer_document import answer_detail_blocks
+
+    doc += answer_detail_blocks(r)
     doc.append(Heading("Per clip"))
     for clip, section in r["clips"].items():
         doc.append(_sign_table(section, f"Sign tests, clip {clip}."))

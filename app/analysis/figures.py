@@ -26,6 +26,26 @@ def _figure(width: float, height: float) -> Figure:
     return fig
 
 
+def stacked_bars(ax: Any, values: np.ndarray, colours: list[str], labels: list[str]) -> np.ndarray:
+    """Horizontal bars, one per row of ``values`` (top first), stacked by its columns in
+    ``colours`` with the legend's ``labels`` ("undecided" hatched); returns the bars' y."""
+    y = np.arange(len(values))[::-1]
+    start = np.zeros(len(values))
+    for q, label in enumerate(labels):
+        ax.barh(
+            y,
+            values[:, q],
+            left=start,
+            color=colours[q],
+            edgecolor="white",
+            linewidth=0.5,
+            hatch="//" if label == "undecided" else None,
+            label=label,
+        )
+        start += values[:, q]
+    return y
+
+
 def ballots_figure(results: dict[str, Any]) -> Figure:
     """Pooled ballots per condition (with undecided) and each clip's share of ballots."""
     names = results["conditions"]
@@ -54,20 +74,7 @@ def ballots_figure(results: dict[str, Any]) -> Figure:
         [[s["ballots"][c] for c in names] + [s["undecided"]] for s in sections], dtype=float
     )
     shares /= np.maximum(shares.sum(axis=1, keepdims=True), 1.0)
-    y = np.arange(len(rows))[::-1]
-    start = np.zeros(len(rows))
-    for q, lab in enumerate(labels):
-        right.barh(
-            y,
-            shares[:, q],
-            left=start,
-            color=colours[q],
-            edgecolor="white",
-            linewidth=0.5,
-            hatch="//" if lab == "undecided" else None,
-            label=lab,
-        )
-        start += shares[:, q]
+    y = stacked_bars(right, shares, colours, labels)
     right.set_yticks(y, rows, fontsize=8)
     right.set_xlim(0, 1)
     right.set_xlabel("share of votes")

@@ -275,7 +275,7 @@ def _quality_blocks(r: dict[str, Any]) -> list[Block]:
             "catch",
             "median ms",
             "outlier",
-            "",
+            "Excluded",
         ],
         rows,
         note=(f"{more} more participants are in the JSON output. " if more > 0 else "")

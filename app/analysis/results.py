@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from app.analysis.agreement import coefficient_of_agreement
+from app.analysis.answer_details import reason_summary, strength_summary
 from app.analysis.appropriateness import appropriateness, without_appropriateness
 from app.analysis.btd import btd_summary
 from app.analysis.consistence import consistence_p, consistence_row, consistence_table
@@ -375,4 +376,6 @@ def analyze(
             "participants": quality,
         },
         "appropriateness": appropriate,
+        "strengths": strength_summary(table.frame, names),
+        "reasons": reason_summary(table.frame, names),
     }

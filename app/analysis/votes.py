@@ -28,6 +28,7 @@ import pandas as pd
 
 from app.analysis.csv_blocks import NotPlain, exact_rows, plain_blocks, read_header
 from app.errors import InputError
+from app.trials.participation import PARTICIPANT_STATUSES
 from app.trials.rules import CHOICES
 
 #: How a true/false column may be spelt (case-insensitive); written as true/false.
@@ -94,14 +95,15 @@ COLUMN_SPECS: tuple[VoteColumn, ...] = (
         "status",
         "text",
         False,
-        "the participant's status when exported: started, finished, dropped, excluded or returned",
+        "the participant's status when exported: " + ", ".join(PARTICIPANT_STATUSES),
     ),
     VoteColumn(
         "excluded",
         "text",
         False,
         "why the participant is left out of the analysis "
-        "(pilot, excluded, a failed catch trial, unfinished); empty: included",
+        "(pilot, excluded, returned, failed attention checks, a failed catch trial, "
+        "unfinished); empty: included",
     ),
     VoteColumn("prolific_id", "text", False, "the participant's Prolific ID, pseudonymised"),
 )

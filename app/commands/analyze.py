@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import tempfile
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -86,6 +89,25 @@ def read_summaries(items: tuple[str, ...]) -> dict[str, dict[str, Any]]:
     return out
 
 
+def package_votes(
+    path: str, names: list[str] | None, exclude: str | None
+) -> tuple[Any, list[str] | None, str | None]:
+    """A study package (``app.analysis.package``) in place of a votes CSV: its votes, with the
+    conditions and exclusion rules its report used unless the command line gives others."""
+    from app.analysis import read_votes
+    from app.analysis.package import VOTES, read_package
+
+    package = read_package(path)
+    names = names if names is not None else package.conditions
+    with tempfile.TemporaryDirectory() as folder:  # read as the file it is, by the one reader
+        copy = Path(folder) / VOTES
+        copy.write_text(package.votes_csv, encoding="utf-8", newline="")
+        votes = read_votes(copy, conditions=names)
+    # the report names the file it analysed by its name: the same one
+    votes = dataclasses.replace(votes, source=f"{Path(path).name}/{VOTES}")
+    return votes, names, exclude if exclude is not None else package.exclude
+
+
 @click.command("analyze")
 @click.argument("votes", type=click.Path(dir_okay=False))
 @click.option(
@@ -166,7 +188,11 @@ def analyze(
     mixed_model: bool,
     measures_paths: tuple[str, ...],
 ) -> None:
-    """Analyse the votes of a paired-comparison study (CSV) and report the results."""
+    """Analyse the votes of a paired-comparison study (CSV) and report the results.
+
+    VOTES may also be a study package (the zip a study's page or 'facepair study export
+    --package' writes): its votes are analysed with the conditions and exclusion rules of its
+    report, so the numbers are the report's."""
     from tqdm import tqdm
 
     from app.analysis import analyze as run_analysis
@@ -179,7 +205,10 @@ def analyze(
     summaries = read_summaries(measures_paths)
     steps = 2 + (html_path is not None) + (pdf_path is not None and html_path is not None)
     with tqdm(total=steps, desc="analyze", unit="step", disable=None) as bar:
-        table = read_votes(votes, skip_bad_rows=skip_bad_rows, conditions=names)
+        if zipfile.is_zipfile(votes):
+            table, names, exclude = package_votes(votes, names, exclude)
+        else:
+            table = read_votes(votes, skip_bad_rows=skip_bad_rows, conditions=names)
         bar.update()
         if table.skipped:
             click.echo(

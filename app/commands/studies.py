@@ -128,34 +128,61 @@ for _action in ("open", "pause", "close", "reopen"):
     "--out",
     required=True,
     type=click.Path(file_okay=False, path_type=Path),
-    help="Folder for votes.csv, participants.csv and answers.csv.",
+    help="Folder for votes.csv, participants.csv and answers.csv (or the package).",
 )
 @click.option(
     "--pilots",
     is_flag=True,
     help="Also the pilots' votes (marked in votes.csv) and answers (answers-pilot.csv).",
 )
-def export(study_id: int, out: Path, pilots: bool) -> None:
+@click.option(
+    "--package",
+    is_flag=True,
+    help="Write the study package instead: one zip with the study file, the data, the report "
+    "(written first if there is none) and a manifest of SHA-256 sums, seeds and versions.",
+)
+def export(study_id: int, out: Path, pilots: bool, package: bool) -> None:
     """Write the study's votes, participants (Prolific IDs pseudonymised) and questionnaire
-    answers as the experimenter's downloads are."""
+    answers as the experimenter's downloads are, or its package (--package)."""
     from app.web.study.exports import votes_csv
     from app.web.study.privacy import participants_csv
     from app.web.study.questionnaires import answers_csv
 
+    if package and pilots:
+        raise InputError("a package holds what the report analysed: no pilots", field="pilots")
     with _context(_offline_app()):
         migrated()
         found = _study(study_id)
-        files = {
-            "votes.csv": votes_csv(found, pilot="with" if pilots else "without"),
-            "participants.csv": participants_csv(found),
-            "answers.csv": answers_csv(found),
-        }
-        if pilots:
-            files["answers-pilot.csv"] = answers_csv(found, pilot=True)
+        files: dict[str, str | bytes]
+        if package:
+            name, data = _package(found)
+            files = {name: data}
+        else:
+            files = {
+                "votes.csv": votes_csv(found, pilot="with" if pilots else "without"),
+                "participants.csv": participants_csv(found),
+                "answers.csv": answers_csv(found),
+            }
+            if pilots:
+                files["answers-pilot.csv"] = answers_csv(found, pilot=True)
     out.mkdir(parents=True, exist_ok=True)
-    for name, text in files.items():
-        (out / name).write_text(text, encoding="utf-8")
+    for name, content in files.items():
+        if isinstance(content, bytes):
+            (out / name).write_bytes(content)
+        else:
+            (out / name).write_text(content, encoding="utf-8")
     click.echo(f"study {study_id}: {', '.join(files)} written to {out}")
+
+
+def _package(found) -> tuple[str, bytes]:  # type: ignore[no-untyped-def]
+    """The study's package (name, zip bytes), writing its report first when it has none."""
+    from app.web.study.package import build_package, package_name
+
+    try:
+        return package_name(found), build_package(found)
+    except InputError:
+        _run_jobs(found.id, ("report",))
+        return package_name(found), build_package(found)
 
 
 def register(main: click.Group) -> None:

@@ -33,6 +33,20 @@ one side-by-side file is what keeps them frame-synchronous."""
 STRENGTHS: Final = {"clearly": 2, "slightly": 1, "undecided": 0}
 """The ``strength`` stored with a 5-level vote; its direction is the vote's ``choice``."""
 
+PARTICIPANT_STATUSES: Final = {
+    "in_progress": "taking part (consented, not yet at the end)",
+    "finished": "answered every trial",
+    "screened_out": "failed attention checks: the stop rule (attention.max_failed) ended it",
+    "dropped": "left unfinished: idle past the deployment's limit",
+    "excluded": "excluded by the experimenter, with a reason",
+    "returned": "returned the submission on Prolific",
+}
+"""A participant's status, the one vocabulary of the monitor, every export and the report
+(``app.web.study.participants.status_of`` gives it); values are what each means."""
+
+SCREENED_OUT_REASON: Final = "failed attention checks"
+"""Why the report leaves a ``screened_out`` participant out."""
+
 MAX_REASONS: Final = 8
 PARTICIPATION_KEYS: Final = ("mismatched", "answer", "attention", "viewing")
 

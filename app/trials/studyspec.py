@@ -227,6 +227,20 @@ class StudySpec:
         """The study as TOML text that ``app.trials.studyfile.loads_study`` reads back."""
         return dump_toml(self.to_dict())
 
+    def to_portable_toml(self) -> str:
+        """:meth:`to_toml` with every file named by its file name alone: a study made on the
+        web form, kept as the file it amounts to (no server folder in it); uploaded with the
+        same files it is the same study, as uploads are matched by name."""
+        document = self.to_dict()
+        for clip in document["clips"]:
+            for key in ("audio", "ground_truth"):
+                if key in clip:
+                    clip[key] = Path(clip[key]).name
+        for condition in document["conditions"]:
+            if "tracks" in condition:
+                condition["tracks"] = {c: Path(p).name for c, p in condition["tracks"].items()}
+        return dump_toml(document)
+
 
 def _condition_dict(condition: ConditionSpec) -> dict[str, Any]:
     out: dict[str, Any] = {"name": condition.name}

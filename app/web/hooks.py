@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import sqlalchemy as sa
 from flask import abort, current_app, jsonify, redirect, render_template, request, url_for
+from werkzeug.exceptions import HTTPException
 
 from app.errors import InputError
 from app.web.api import bp as api_bp
@@ -113,6 +114,31 @@ def _database_unavailable(exc: Exception):  # type: ignore[no-untyped-def]
     return response
 
 
+#: What the error page's heading says of a client error (the page under it says why).
+CLIENT_ERRORS = {
+    400: "This request could not be used",
+    403: "You may not open this page",
+    404: "Nothing is here",
+    405: "This page cannot be used this way",
+}
+
+
+def _client_error(exc: HTTPException):  # type: ignore[no-untyped-def]
+    """A 4xx raised by routing or ``abort`` as the site's own page (a main landmark, the
+    site's styles, one plain sentence) instead of the framework's bare HTML; JSON clients get
+    the framework's answer as before."""
+    if _wants_json() or exc.code not in CLIENT_ERRORS:
+        return exc
+    page = render_template(
+        "error.html", status=exc.code, heading=CLIENT_ERRORS[exc.code], message=exc.description
+    )
+    response = current_app.make_response((page, exc.code))
+    for name, value in exc.get_headers():
+        if name.lower() != "content-type":
+            response.headers[name] = value
+    return response
+
+
 def init_web(app: Flask) -> None:
 
     app.register_blueprint(participant_bp)
@@ -139,6 +165,7 @@ def init_web(app: Flask) -> None:
         return response
 
     app.register_error_handler(InputError, _bad_input)
+    app.register_error_handler(HTTPException, _client_error)
     # Connection refused, a server restarting, a pool that cannot hand out a connection.
     for error in (sa.exc.OperationalError, sa.exc.InterfaceError, sa.exc.TimeoutError):
         app.register_error_handler(error, _database_unavailable)

@@ -306,6 +306,9 @@ class Participant(db.Model):
     exclusion_reason: so.Mapped[str] = so.mapped_column(
         sa.String(300), default="", server_default=""
     )
+    #: How the participant was taken out: "excluded" or "returned" (their Prolific
+    #: submission); "" while they are not (``app.web.study.participants.REMOVALS``).
+    exclusion_kind: so.Mapped[str] = so.mapped_column(sa.String(10), default="", server_default="")
     #: Questionnaire answers by page and question name (``app.web.study.questionnaires``); a page
     #: answered is a key, so an empty page of optional questions still counts as done.
     answers: so.Mapped[dict[str, Any] | None] = so.mapped_column(sa.JSON, default=dict)

@@ -314,6 +314,7 @@ def test_the_form_sets_the_stimulus_and_participant_page_options(app, client, we
                 "web-max_failed": "2",
                 "web-screened_out_code": "SCREENED",
                 "web-min_face_px": "150",
+                "web-portrait": "rotate",
             },
         ),
     )
@@ -322,13 +323,31 @@ def test_the_form_sets_the_stimulus_and_participant_page_options(app, client, we
         study = db.session.scalar(sa.select(Study))
         settings = study.settings
     assert settings["eyes"] == "generated" and settings["normalize"] is False
+    # kept as the study file it amounts to, files by name alone (the package's study.toml)
+    assert 'audio = "clip_a.wav"' in study.source_toml and str(tmp_path) not in study.source_toml
+    from app.trials.studyfile import loads_study
+
+    again = loads_study(study.source_toml, base_dir=tmp_path)
+    assert [c.name for c in again.clips] == ["clip_a", "clip_b"]
     assert study.catch_kind == "onscreen"
     from app.trials.participation import ParticipationSpec
 
     part = ParticipationSpec.from_settings(settings["participation"])
     assert part.scale == 5 and part.reasons == ("head motion", "eyebrows", "timing")
     assert (part.max_failed, part.screened_out_code) == (2, "SCREENED")
-    assert part.min_face_px == 150 and part.mismatched is True
+    assert part.min_face_px == 150 and part.mismatched is True and part.portrait == "rotate"
+    # the study page's design card says all of it
+    page = client.get(response.headers["Location"]).get_data(as_text=True)
+    card = {
+        key: re.search(rf'id="design-{key}">(.*?)</dd>', page, re.S).group(1)
+        for key in ("scale", "reasons", "mismatched", "attention", "viewing", "questions")
+    }
+    assert card["scale"].startswith("5 levels")
+    assert card["reasons"] == "head motion, eyebrows, timing"
+    assert card["mismatched"].startswith("yes")
+    assert card["attention"] == "stop after 2 failed checks, code <code>SCREENED</code>"
+    assert card["viewing"] == "each face at least 150 px wide; upright phone: asked to turn it"
+    assert card["questions"] == "before: none · after: none"
     # an option that does not fit is named, as a study file's would be
     bad = _post(
         client,
@@ -343,3 +362,27 @@ def test_the_form_sets_the_stimulus_and_participant_page_options(app, client, we
     )
     assert bad.status_code == 400
     assert "eyes: needs a ground_truth for every clip" in bad.get_data(as_text=True)
+
+
+def test_hostile_portrait_values_are_refused_by_name(app, client, web, tmp_path):
+    web.user()
+    web.login(client)
+    a = web.write_wav(tmp_path / "clip_a.wav")
+    names = st.text(st.characters(blacklist_categories=("Cs",)), max_size=30)
+
+    @settings(
+        max_examples=25,
+        deadline=None,
+        database=None,
+        suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+    )
+    @given(portrait=names)
+    def hostile(portrait):
+        fields = {"web-models": ["none", "random"], "web-audio": _files(a)}
+        response = _post(client, _form(_new_page(client), **fields, **{"web-portrait": portrait}))
+        assert response.status_code < 500
+        if portrait not in ("fit", "rotate"):
+            assert response.status_code == 400
+            assert "Not a valid choice" in response.get_data(as_text=True)
+
+    hostile()

@@ -35,9 +35,7 @@ def _pilot(app, participant, study_id, choice="left"):
     """One pilot participant through the pilot link, voting ``choice`` on every trial."""
     (token,) = _get(app, study_id, "pilot_token")
     participant.client = app.test_client()
-    response = participant.client.get(f"/experimenter/pilot/{token}")
-    assert response.status_code == 302, response.get_data(as_text=True)
-    participant.token = response.headers["Location"].split("/p/")[1].split("/")[0]
+    participant.join_pilot(token)
     while (trial := participant.current_trial()) is not None:
         assert participant.vote(trial, choice).status_code == 201
     return participant.token
@@ -75,7 +73,7 @@ def test_pilot_votes_freeze_the_stimuli_and_stay_out_of_the_export(app, client, 
     export = client.get(f"/experimenter/studies/{study_id}/votes.csv").get_data(as_text=True)
     assert export.count("\n") == 1  # the header only
     monitor = client.get(f"/experimenter/studies/{study_id}/monitor").get_data(as_text=True)
-    assert re.search(r'id="stat-started">0<', monitor) and "no: pilot" in monitor
+    assert re.search(r'id="stat-joined">0<', monitor) and "no: pilot" in monitor
     pilots = client.get(f"/experimenter/studies/{study_id}/votes.csv?pilot=only").get_data(
         as_text=True
     )
@@ -84,6 +82,24 @@ def test_pilot_votes_freeze_the_stimuli_and_stay_out_of_the_export(app, client, 
     _post(client, study_id, "/status/open")
     with app.app_context():
         assert db.session.scalar(sa.select(sa.func.sum(StudyList.n_assigned))) == 0
+
+
+def test_the_pilot_link_passes_through_the_consent_page(app, web, participant):
+    study_id = web.study(status="ready", design="all_ordered")
+    (token,) = _get(app, study_id, "pilot_token")
+    participant.client = app.test_client()
+    url = f"/experimenter/pilot/{token}"
+    page = participant.client.get(url).get_data(as_text=True)
+    assert "Before you start" in page and "You agree to take part." in page
+    assert f'action="{url}"' in page
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count(Participant.id))) == 0  # not yet
+    # Without the form's token nothing happens; agreeing enrols a pilot.
+    assert participant.client.post(url).status_code == 400
+    participant.join_pilot(token)
+    with app.app_context():
+        assert db.session.scalar(sa.select(Participant.pilot)) is True
+    assert participant.current_trial() is not None
 
 
 def test_the_pilot_link_needs_rendered_clips_and_its_secret(app, client, web):
@@ -224,10 +240,13 @@ def test_lifecycle_forms_never_answer_5xx(app, client, web):
             ("/delete", {"title": title}),
             ("/shares", {"email": email, "access": access}),
             ("/participants/exclude", {"participant": who, "how": how, "reason": title}),
+            ("/participants/restore", {"participant": who}),
         ):
             response = client.post(base + path, data={"csrf_token": token, **data})
             assert response.status_code == 302, response.get_data(as_text=True)[-300:]
         assert client.get(f"/experimenter/pilot/{quote(who, safe='')}").status_code < 500
+        pilot = client.post(f"/experimenter/pilot/{quote(who, safe='')}", data={"agree": how})
+        assert pilot.status_code < 500
 
     hostile()
     assert _get(app, study_id, "status") == ("closed",)
@@ -237,8 +256,7 @@ def test_a_pilot_still_voting_after_opening_takes_no_slot(app, client, web, part
     study_id = web.study(status="ready", design="all_ordered")
     (token,) = _get(app, study_id, "pilot_token")
     participant.client = app.test_client()
-    response = participant.client.get(f"/experimenter/pilot/{token}")
-    participant.token = response.headers["Location"].split("/p/")[1].split("/")[0]
+    participant.join_pilot(token)
     assert participant.vote(participant.current_trial()).status_code == 201
     web.login(client)
     _post(client, study_id, "/status/open")

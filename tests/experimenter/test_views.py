@@ -213,7 +213,7 @@ def test_monitor_export_and_report(app, client, participant, web):
     _finish(app, participant, slug, "right")
     web.login(client)
     monitor = client.get(f"/experimenter/studies/{study_id}/monitor").get_data(as_text=True)
-    assert re.search(r'id="stat-started">2<', monitor)
+    assert re.search(r'id="stat-joined">2<', monitor)
     assert re.search(r'id="stat-finished">2<', monitor)
     assert "none vs random" in monitor
     response = client.get(f"/experimenter/studies/{study_id}/votes.csv")

@@ -52,6 +52,9 @@ def test_the_path_passes_through_both_pages(app, client, web, participant):
     page = participant.client.get(f"/p/{token}/instructions")
     assert page.headers["Location"] == f"/p/{token}/questions/before"
     assert participant.client.get(f"/p/{token}/trial").headers["Location"].endswith("/before")
+    before = participant.client.get(f"/p/{token}/questions/before").get_data(as_text=True)
+    assert 'class="required-mark"' in before and "(required)" in before
+    assert "<fieldset" in before and 'class="option"' in before
     missing = _answer(participant.client, token, "before", **(BEFORE | {"gender": ""}))
     assert missing.status_code == 400
     text = missing.get_data(as_text=True)
@@ -63,6 +66,9 @@ def test_the_path_passes_through_both_pages(app, client, web, participant):
         participant.vote(trial, "left")
     done = participant.client.get(f"/p/{token}/done")
     assert done.headers["Location"] == f"/p/{token}/questions/after"
+    after = participant.client.get(f"/p/{token}/questions/after").get_data(as_text=True)
+    assert 'id="hint-hours">A number from 0 to 24.</small>' in after
+    assert 'aria-describedby="hint-hours"' in after and "(optional)" in after
     bad = _answer(participant.client, token, "after", hours="25")
     assert "must be at most 24, got 25" in bad.get_data(as_text=True)
     ok = _answer(participant.client, token, "after", hours="3.5", comments="Nice faces")

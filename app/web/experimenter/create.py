@@ -17,6 +17,7 @@ from flask import flash, redirect, render_template, request, url_for
 from wtforms import SelectChoice
 
 from app.errors import InputError
+from app.trials.participation import PORTRAIT_MODES
 from app.trials.studyfile import MODELS, loads_study, parse_study
 from app.web.experimenter import bp, uploads
 from app.web.experimenter.forms import StudyFileForm, StudyWebForm
@@ -95,7 +96,10 @@ def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
             "max_failed": form.max_failed.data or 0,
             "screened_out_code": form.screened_out_code.data or "",
         },
-        "viewing": {"min_face_px": form.min_face_px.data or 0},
+        "viewing": {
+            "min_face_px": form.min_face_px.data or 0,
+            "portrait": form.portrait.data or PORTRAIT_MODES[0],
+        },
     }
     if form.replay.data == "max_plays":
         data["replay"]["max_plays"] = form.max_plays.data or 1
@@ -174,7 +178,9 @@ def _create(file_form: StudyFileForm, web_form: StudyWebForm, folder: Path):  # 
             raise form_error(exc, data) from None
         check_study_inputs(spec)
         try:
-            return create_study(user, spec)  # type: ignore[arg-type]
+            # kept as the file it amounts to: the study package's study.toml
+            source = spec.to_portable_toml()
+            return create_study(user, spec, source_toml=source)  # type: ignore[arg-type]
         except InputError as exc:
             raise form_error(exc, data) from None
     return None

@@ -22,6 +22,7 @@ from wtforms.validators import URL, DataRequired, Length, NumberRange, Optional
 from wtforms.widgets import CheckboxInput, ListWidget
 
 from app.stimuli.eyes import DEFAULT_EYES
+from app.trials.participation import PORTRAIT_MODES
 
 DESIGN_CHOICES = [
     SelectChoice("all_ordered", "All ordered pairs, same-condition pairs included (thesis)"),
@@ -42,6 +43,10 @@ CATCH_CHOICES = [
 SCALE_CHOICES = [
     SelectChoice("3", "Left / undecided / right"),
     SelectChoice("5", "Five levels: clearly / slightly left, undecided, slightly / clearly right"),
+]
+PORTRAIT_CHOICES = [
+    SelectChoice("fit", "Show the pair across the width (both faces in view)"),
+    SelectChoice("rotate", "Ask to turn the phone sideways"),
 ]
 REPLAY_CHOICES = [
     SelectChoice("unlimited", "Unlimited replays"),
@@ -149,6 +154,9 @@ class StudyWebForm(FlaskForm):
         default=0,
         validators=[Optional(), NumberRange(min=0, max=4096)],
     )
+    portrait = SelectField(
+        "A phone held upright", choices=PORTRAIT_CHOICES, default=PORTRAIT_MODES[0]
+    )
     kept = HiddenField(validators=[Optional(), Length(max=64)])
     submit = SubmitField("Create study")
 
@@ -194,3 +202,15 @@ class ExcludeForm(FlaskForm):
         default="excluded",
     )
     reason = StringField("Reason", validators=[Optional(), Length(max=300)])
+
+
+class PilotConsentForm(FlaskForm):
+    """The consent page of the pilot link (the participants' page, with its own action)."""
+
+    agree = SubmitField("I agree and want to take part")
+
+
+class RestoreForm(FlaskForm):
+    """Undo an exclusion: the participant's export label."""
+
+    participant = HiddenField(validators=[DataRequired(), Length(max=20)])

@@ -13,6 +13,7 @@ from app.web.experimenter.forms import (
     ConfirmForm,
     DeleteStudyForm,
     DuplicateForm,
+    PilotConsentForm,
     ShareForm,
 )
 from app.web.extensions import db
@@ -23,9 +24,10 @@ from app.web.study.enrolment import enrol
 from app.web.study.studies import change_status, delete_study, duplicate_study
 
 
-@bp.get("/pilot/<token>")
+@bp.route("/pilot/<token>", methods=["GET", "POST"])
 def pilot(token: str):  # type: ignore[no-untyped-def]
-    """The pilot link: enrols a pilot participant before (or during) recruitment.
+    """The pilot link: the study's consent page, as participants will see it; agreeing enrols
+    a pilot participant before (or during) recruitment.
 
     Anyone with the link may pilot, so it can go to colleagues without an account; the
     participant is flagged, so their votes stay out of exports and the analysis unless asked
@@ -49,10 +51,15 @@ def pilot(token: str):  # type: ignore[no-untyped-def]
             study=study,
             reason=f"this pilot cannot run: the study is {why}",
         ), 503
+    form = PilotConsentForm()
+    if not form.validate_on_submit():
+        action = url_for(".pilot", token=token)
+        return render_template("participant/consent.html", study=study, form=form, action=action)
     participant = enrol(study, user_agent="pilot")
     participant.pilot = True
     db.session.commit()
-    return redirect(url_for("participant.instructions", token=participant.token))
+    # where a participant goes after consenting: a questionnaire page first, if any
+    return redirect(url_for("participant.resume", token=participant.token))
 
 
 @bp.post("/studies/<int:study_id>/reopen")

@@ -1,4 +1,5 @@
-"""The monitor's participant table and excluding a participant by hand."""
+"""The monitor's participant table, excluding a participant by hand and undoing it, and the
+downloads beyond the votes: questionnaire answers and the study package."""
 
 from __future__ import annotations
 
@@ -8,15 +9,24 @@ import sqlalchemy as sa
 from flask import Response, flash, redirect, request, url_for
 from werkzeug.utils import secure_filename
 
+from app.errors import InputError
+from app.trials.participation import PARTICIPANT_STATUSES, SCREENED_OUT_REASON
 from app.web.experimenter import bp
 from app.web.experimenter.access import own_study
-from app.web.experimenter.forms import ExcludeForm
+from app.web.experimenter.forms import ExcludeForm, RestoreForm
 from app.web.extensions import db
 from app.web.infra.accounts import current_user, login_required, study_access
-from app.web.models import Participant, Study
+from app.web.models import Participant, Study, utcnow
 from app.web.study.enrolment import dropped_after
 from app.web.study.labels import pseudonym
-from app.web.study.participants import AUTO_RULES, auto_rules, participant_table, remove
+from app.web.study.package import build_package, package_name
+from app.web.study.participants import (
+    AUTO_RULES,
+    auto_rules,
+    participant_table,
+    remove,
+    restore,
+)
 from app.web.study.questionnaires import answers_csv
 
 
@@ -39,7 +49,22 @@ def monitor_table(study: Study) -> dict[str, Any]:
         "may_reveal": may_reveal,
         "exclude_form": ExcludeForm(),
         "auto_rules": [AUTO_RULES[rule] for rule in auto_rules(study)],
+        "status_meanings": PARTICIPANT_STATUSES,
+        "screened_out_reason": SCREENED_OUT_REASON,
+        "now": utcnow(),
     }
+
+
+def _labelled(study: Study, label: str) -> Participant | None:
+    """The participant of ``study`` with the export label ``label`` (``P0007``, ``p7``)."""
+    number = label.strip().upper().removeprefix("P")
+    if not (number.isdigit() and len(number) <= 12):
+        return None
+    return db.session.scalar(
+        sa.select(Participant).where(
+            Participant.study_id == study.id, Participant.number == int(number)
+        )
+    )
 
 
 @bp.post("/studies/<int:study_id>/participants/exclude")
@@ -55,19 +80,12 @@ def exclude_participant(study_id: int):  # type: ignore[no-untyped-def]
         problems = "; ".join(f"{name}: {errors[0]}" for name, errors in form.errors.items())
         flash(f"Nobody excluded ({problems}).", "error")
         return back
-    number = (form.participant.data or "").strip().upper().removeprefix("P")
-    person = None
-    if number.isdigit() and len(number) <= 12:
-        person = db.session.scalar(
-            sa.select(Participant).where(
-                Participant.study_id == study.id, Participant.number == int(number)
-            )
-        )
+    person = _labelled(study, form.participant.data or "")
     if person is None:
         flash("Nobody excluded: no participant of this study has that label.", "error")
         return back
     if person.excluded_at is not None:
-        flash(f"{form.participant.data} is already {person.exclusion_reason!r}.", "error")
+        flash(f"{form.participant.data} is already {person.exclusion_kind}.", "error")
         return back
     try:
         remove(person, how=form.how.data or "", reason=form.reason.data or "")
@@ -76,6 +94,24 @@ def exclude_participant(study_id: int):  # type: ignore[no-untyped-def]
         return back
     db.session.commit()
     flash(f"P{person.number:04d} {form.how.data}; their list slot is free again.", "ok")
+    return back
+
+
+@bp.post("/studies/<int:study_id>/participants/restore")
+@login_required
+def restore_participant(study_id: int):  # type: ignore[no-untyped-def]
+    """Undo an exclusion or a recorded return (``app.web.study.participants.restore``)."""
+
+    study = own_study(study_id, "full")
+    form = RestoreForm()
+    back = redirect(url_for(".monitor", study_id=study.id))
+    person = _labelled(study, form.participant.data or "") if form.validate_on_submit() else None
+    if person is None or person.excluded_at is None:
+        flash("Nothing undone: no excluded participant of this study has that label.", "error")
+        return back
+    restore(person)
+    db.session.commit()
+    flash(f"P{person.number:04d} counts again.", "ok")
     return back
 
 
@@ -94,6 +130,27 @@ def export_answers(study_id: int):  # type: ignore[no-untyped-def]
         mimetype="text/csv",
         headers={
             "Content-Disposition": f'attachment; filename="{name}.csv"',
+            "Cache-Control": "no-store",
+        },
+    )
+
+
+@bp.get("/studies/<int:study_id>/package.zip")
+@login_required
+def export_package(study_id: int):  # type: ignore[no-untyped-def]
+    """The study package (``app.web.study.package``): one zip for a paper's supplement."""
+
+    study = own_study(study_id)
+    try:
+        data = build_package(study)
+    except InputError as exc:
+        flash(f"No package: {exc.message}.", "error")
+        return redirect(url_for(".study", study_id=study.id))
+    return Response(
+        data,
+        mimetype="application/zip",
+        headers={
+            "Content-Disposition": f'attachment; filename="{package_name(study)}"',
             "Cache-Control": "no-store",
         },
     )

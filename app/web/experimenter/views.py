@@ -20,6 +20,7 @@ from itsdangerous import BadSignature, URLSafeSerializer
 from werkzeug.utils import secure_filename
 
 from app.errors import InputError
+from app.trials.questions import PAGES
 from app.web.experimenter import bp
 from app.web.experimenter.access import own_study
 from app.web.experimenter.forms import (
@@ -56,9 +57,10 @@ from app.web.study.exports import votes_csv
 from app.web.study.monitor import study_monitor
 from app.web.study.participants import release_pilots
 from app.web.study.privacy import delete_participants, participants_csv
+from app.web.study.questionnaires import study_questions
 from app.web.study.recruitment import completion_url, prolific_study_url
 from app.web.study.studies import change_status as apply
-from app.web.study.studies import stimuli_locked
+from app.web.study.studies import participation, stimuli_locked
 
 
 @bp.before_request
@@ -273,6 +275,8 @@ def _study_extras(study: Study, link: str) -> dict[str, object]:
         "access": access,
         "locked": stimuli_locked(study),
         "pilot_link": url_for(".pilot", token=study.pilot_token, _external=True),
+        "part": participation(study),
+        "questions": {page: study_questions(study, page) for page in PAGES},
         "prolific_url": prolific_study_url(link),
         "completion_url": completion_url(study),
         "confirm": ConfirmForm(),

@@ -23,6 +23,13 @@ from app.web.models import Participant
 from app.web.questionnaire import bp
 from app.web.study.questionnaires import pending_page, save_answers, study_questions
 
+
+@bp.app_template_filter("bound")
+def bound(value: float) -> str:
+    """A number question's bound as the page shows it: 24, not 24.0."""
+    return f"{value:g}"
+
+
 #: Participant pages that wait for an owed questionnaire page, and which page each waits for.
 _GUARDED = {
     "participant.instructions": "before",

@@ -531,6 +531,15 @@
   var done = document.querySelector(".done[data-token]");
   var code = document.getElementById("completion-code");
   var pending = done ? load_("fp-pending-" + done.dataset.token) : null;
+  // Back to the study platform after a few seconds (a script, not a meta refresh: the page
+  // says so first, and a kept answer is sent before leaving); the button is there meanwhile.
+  var back = document.getElementById("redirect");
+  function sendBack() {
+    if (back && back.dataset.redirectAfter) {
+      setTimeout(function () { window.location.assign(back.href); },
+                 1000 * Number(back.dataset.redirectAfter));
+    }
+  }
   if (pending && code) {
     code.hidden = true;
     fetch("/api/v1/votes", {
@@ -539,6 +548,7 @@
       body: JSON.stringify(pending)
     }).then(function (r) {
       if (r.status < 500) { store("fp-pending-" + done.dataset.token, null); code.hidden = false; }
+      sendBack();
     });
-  }
+  } else sendBack();
 })();

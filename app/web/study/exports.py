@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import datetime as dt
 import io
+import json
 import shlex
 from pathlib import Path
 from typing import Any
@@ -22,6 +23,7 @@ from typing import Any
 import pandas as pd
 import sqlalchemy as sa
 
+from app.analysis.package import RESULTS
 from app.analysis.results import analyze
 from app.analysis.votes import VOTE_COLUMNS, VotesTable, read_votes, write_votes_csv
 from app.errors import InputError
@@ -129,8 +131,9 @@ def votes_csv(study: Study, *, pilot: str = "without") -> str:
 
 
 def write_report_files(study: Study) -> Path:
-    """Analyse the votes so far and write the report into the study's media folder: HTML and
-    PDF, headed by the study's title, design and participants. The votes analysed are those
+    """Analyse the votes so far and write the report into the study's media folder: HTML,
+    PDF and every number as JSON (``results.json``), headed by the study's title, design and
+    participants. The votes analysed are those
     written beside them as CSV (which ``facepair analyze`` reads back to the same report)."""
     from app.analysis.report import write_report  # matplotlib: only when a report is written
 
@@ -149,10 +152,15 @@ def write_report_files(study: Study) -> Path:
         if exc.message != NO_VOTES:
             raise
         pdf.unlink(missing_ok=True)  # an earlier report's PDF would contradict the page
+        (path.parent / RESULTS).unlink(missing_ok=True)  # and so would its numbers
         path.write_text(no_votes_page(study), encoding="utf-8")
         return path
     results["study"] = report_head(study, results, exclude=exclude)
     write_report(results, path, pdf)
+    # every number of the report, for the study's package (app.web.study.package)
+    (path.parent / RESULTS).write_text(
+        json.dumps(results, indent=1, allow_nan=False) + "\n", encoding="utf-8"
+    )
     return path
 
 

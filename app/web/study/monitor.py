@@ -1,4 +1,5 @@
-"""The live monitor of a study: who started, finished or dropped, votes per pair, timings."""
+"""The live monitor of a study: how many participants have each status, votes per pair,
+timings."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import sqlalchemy as sa
 from app.trials.rules import CHOICES, VoteChoice
 from app.web.extensions import db
 from app.web.models import Pair, Participant, Stimulus, Study, StudyList, Trial, Vote, utcnow
+from app.web.study.participants import STATUSES, status_of
 
 
 @dataclass
@@ -26,19 +28,17 @@ class PairStats:
 
 
 def study_monitor(study: Study, *, dropped_after: dt.timedelta) -> dict[str, Any]:
-    """Counts and per-pair tallies; ``dropped`` = unfinished and idle longer than
-    ``dropped_after`` (or already released). Pilot participants are not counted (the
-    participant table lists them)."""
+    """Counts and per-pair tallies: ``joined`` and the participants of each status
+    (``statuses``, by :func:`app.web.study.participants.status_of`; ``dropped`` = unfinished
+    and idle longer than ``dropped_after``, or already released). Pilot participants are not
+    counted (the participant table lists them)."""
     now = utcnow()
     participants = db.session.scalars(
         sa.select(Participant).where(Participant.study_id == study.id, Participant.pilot.is_(False))
     ).all()
-    finished = sum(p.finished_at is not None for p in participants)
-    dropped = sum(
-        p.finished_at is None and (p.dropped_at is not None or now - p.last_seen_at > dropped_after)
-        for p in participants
-    )
-    started = len(participants)
+    statuses = dict.fromkeys(STATUSES, 0)
+    for person in participants:
+        statuses[status_of(person, now=now, dropped_after=dropped_after)] += 1
     pairs = {p.id: PairStats(p.label) for p in study.pairs}
     first_of = {p.id: p.first_id for p in study.pairs}
     times: dict[int, list[int]] = {pid: [] for pid in pairs}
@@ -92,10 +92,8 @@ def study_monitor(study: Study, *, dropped_after: dt.timedelta) -> dict[str, Any
         .order_by(StudyList.index)
     ).all()
     return {
-        "started": started,
-        "finished": finished,
-        "dropped": dropped,
-        "in_progress": started - finished - dropped,
+        "joined": len(participants),
+        "statuses": statuses,
         "target": study.target_participants,
         "votes": sum(s.votes for s in pairs.values()),
         "median_ms": statistics.median(all_times) if all_times else None,

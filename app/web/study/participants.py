@@ -1,18 +1,23 @@
 """The participants of a study as the experimenter manages them: status, quality at a glance,
-exclusion (by hand or by the study's automatic rules) and pilot participants.
+exclusion (by hand or by the study's automatic rules), undoing an exclusion, and pilot
+participants.
 
-A participant's status is one of :data:`STATUSES`: ``started`` (taking part), ``finished``,
-``dropped`` (unfinished and idle past the deployment's limit, or released), ``excluded`` (by
-the experimenter, with a reason) or ``returned`` (gave the Prolific submission back). Whether a
-participant's votes enter the analysis is a separate question, answered by
-:func:`exclusion_reason`: pilot participants, excluded and returned ones, and those caught by
-the study's automatic rules (:data:`AUTO_RULES`, set by the study file's ``auto_exclude``) are
-left out, each with the reason the report prints.
+A participant's status is one of :data:`STATUSES` (``app.trials.participation``'s one
+vocabulary, given by :func:`status_of` to the monitor, every export and the report):
+``in_progress``, ``finished``, ``screened_out`` (the attention stop rule ended the session),
+``dropped`` (unfinished and idle past the deployment's limit, or released), ``excluded`` (by the
+experimenter, with a reason) or ``returned`` (gave the Prolific submission back, with an
+optional note). Whether a participant's votes enter the analysis is a separate question,
+answered by :func:`exclusion_reason`: pilot participants, excluded, returned and screened-out
+ones, and those caught by the study's automatic rules (:data:`AUTO_RULES`, set by the study
+file's ``auto_exclude``) are left out, each with the reason the report prints.
 
 An excluded or returned participant gives their list slot back
 (``app.web.study.enrolment.move_slot``), so the next arrival fills the gap in the
 counterbalancing, and so does a participant who finishes having failed a catch trial (under
-the ``catch_failed`` rule); pilot participants give theirs back when recruitment opens.
+the ``catch_failed`` rule); pilot participants give theirs back when recruitment opens. Undoing
+an exclusion (:func:`restore`) takes a finished participant's slot again; an unfinished one
+takes it at their next request, as any participant back from a pause does.
 """
 
 from __future__ import annotations
@@ -25,13 +30,14 @@ from typing import Any
 
 import sqlalchemy as sa
 
+from app.trials.participation import PARTICIPANT_STATUSES, SCREENED_OUT_REASON
 from app.trials.questions import AUTO_EXCLUDE_RULES
 from app.web.extensions import db
 from app.web.models import Participant, Study, StudyList, Trial, Vote, utcnow
 from app.web.study.enrolment import move_slot
 from app.web.study.labels import participant_label
 
-STATUSES = ("started", "finished", "dropped", "excluded", "returned")
+STATUSES = tuple(PARTICIPANT_STATUSES)
 #: How a participant is taken out by hand: the status it gives.
 REMOVALS = ("excluded", "returned")
 #: Rules the report applies by itself (the study file's ``auto_exclude`` chooses among them),
@@ -62,18 +68,21 @@ class ParticipantRow:
 
 
 def status_of(participant: Participant, *, now: dt.datetime, dropped_after: dt.timedelta) -> str:
-    """The participant's status (one of :data:`STATUSES`)."""
+    """The participant's status (one of :data:`STATUSES`): the one answer every page and
+    export gives. ``participant`` is a row or an object with the participant's columns."""
     if participant.excluded_at is not None:
-        return "returned" if participant.exclusion_reason == RETURNED else "excluded"
+        return participant.exclusion_kind if participant.exclusion_kind in REMOVALS else "excluded"
     if participant.finished_at is not None:
         return "finished"
+    if participant.screened_out_at is not None:
+        return "screened_out"
     if participant.dropped_at is not None or now - participant.last_seen_at > dropped_after:
         return "dropped"
-    return "started"
+    return "in_progress"
 
 
-#: The reason stored for a participant who returned their Prolific submission.
-RETURNED = "returned the submission on Prolific"
+#: What the report says of a participant who returned their Prolific submission.
+RETURNED = PARTICIPANT_STATUSES["returned"]
 
 
 def auto_rules(study: Study) -> tuple[str, ...]:
@@ -92,8 +101,12 @@ def exclusion_reason(row: ParticipantRow, rules: tuple[str, ...]) -> str:
     """
     if row.pilot:
         return "pilot"
-    if row.status in REMOVALS:
-        return row.reason if row.status == "returned" else f"excluded: {row.reason}"
+    if row.status == "returned":
+        return f"{RETURNED}: {row.reason}" if row.reason else RETURNED
+    if row.status == "excluded":
+        return f"excluded: {row.reason}"
+    if row.status == "screened_out":
+        return SCREENED_OUT_REASON
     if "unfinished" in rules and row.status != "finished":
         return AUTO_RULES["unfinished"]
     if "catch_failed" in rules and row.catch_passed < row.catch_total:
@@ -149,16 +162,43 @@ def participant_table(study: Study, *, dropped_after: dt.timedelta) -> list[Part
 
 def remove(participant: Participant, *, how: str, reason: str) -> None:
     """Exclude ``participant`` (``how`` = "excluded", with ``reason``) or record that they
-    returned their submission (``how`` = "returned"); their list slot goes back. Not
-    committed."""
+    returned their submission (``how`` = "returned", ``reason`` an optional note, kept); their
+    list slot goes back. Not committed."""
     if how not in REMOVALS:
         raise ValueError(f"expected one of {', '.join(REMOVALS)}, got {how!r}")
-    reason = RETURNED if how == "returned" else reason.strip()
-    if not reason:
+    reason = " ".join(reason.split())
+    if how == "excluded" and not reason:
         raise ValueError("give a reason for the exclusion")
     participant.excluded_at = utcnow()
+    participant.exclusion_kind = how
     participant.exclusion_reason = reason[:300]
     _give_back_slot(participant)
+
+
+def restore(participant: Participant) -> None:
+    """Undo :func:`remove`: the participant counts again as their other columns say. A
+    finished participant takes their list slot back at once (unless the report leaves them
+    out for a failed catch trial, or they are a pilot); an unfinished one takes it back at
+    their next request (``app.web.study.enrolment.touch``). Not committed."""
+    if participant.excluded_at is None:
+        raise ValueError("is not excluded")
+    participant.excluded_at = None
+    participant.exclusion_kind = ""
+    participant.exclusion_reason = ""
+    db.session.flush()
+    if participant.finished_at is None or participant.pilot:
+        return
+    if left_out(participant.study, participant.id, pilot=participant.pilot):
+        return
+    retaken = db.session.execute(
+        sa.update(Participant)
+        .where(Participant.id == participant.id, Participant.dropped_at.is_not(None))
+        .values(dropped_at=None)
+        .execution_options(synchronize_session=False)
+    )
+    if retaken.rowcount == 1:
+        move_slot(participant.list_id, +1)
+    db.session.refresh(participant)
 
 
 def _give_back_slot(participant: Participant) -> None:

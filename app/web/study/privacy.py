@@ -24,8 +24,9 @@ from app.web.infra import media
 from app.web.infra.storage import report_path
 from app.web.models import Participant, Stimulus, Study, Trial, Vote
 from app.web.study.csvcells import csv_text
-from app.web.study.enrolment import move_slot
+from app.web.study.enrolment import dropped_after, move_slot
 from app.web.study.labels import iso_time, participant_label, pseudonym
+from app.web.study.participants import participant_table
 
 #: Columns of the participants export, in order.
 PARTICIPANT_COLUMNS = (
@@ -34,6 +35,8 @@ PARTICIPANT_COLUMNS = (
     "prolific_study_id",
     "prolific_session_id",
     "status",
+    "pilot",
+    "excluded",
     "answered",
     "catch_passed",
     "catch_total",
@@ -88,27 +91,22 @@ def participants_export_rows(study: Study, *, raw_ids: bool = False) -> list[dic
             .group_by(Vote.participant_id)
         )
     }
+    # status and the analysis's reason as the monitor and the votes export give them
+    table = {row.id: row for row in participant_table(study, dropped_after=dropped_after())}
     rows = []
     for person in db.session.scalars(
         sa.select(Participant).where(Participant.study_id == study.id).order_by(Participant.number)
     ):
         tally = counts.get(person.id)
-        status = (
-            "screened_out"
-            if person.screened_out_at
-            else "finished"
-            if person.finished_at
-            else "dropped"
-            if person.dropped_at
-            else "in_progress"
-        )
         env = person.environment or {}
         row = {
             "participant": participant_label(person.number),
             "prolific_pid": person.prolific_pid or "",
             "prolific_study_id": person.prolific_study_id or "",
             "prolific_session_id": person.prolific_session_id or "",
-            "status": status,
+            "status": table[person.id].status,
+            "pilot": "true" if person.pilot else "false",
+            "excluded": table[person.id].excluded,
             "answered": tally.answered if tally else 0,
             "catch_passed": tally.catch_passed if tally else 0,
             "catch_total": tally.catch_total if tally else 0,
