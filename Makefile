@@ -16,8 +16,9 @@ TEST_WORKERS ?= 2
 HOST ?= 127.0.0.1
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # Debian packages: EGL/Mesa for headless rendering, chromium + driver for browser tests,
-# nginx for the front-proxy test (X-Accel-Redirect), npm for axe-core (accessibility checks).
-DEBS_TEST := chromium chromium-driver libegl1 libgl1-mesa-dri libegl-mesa0 nginx-light npm
+# nginx for the front-proxy test (X-Accel-Redirect); npm for axe-core (accessibility checks),
+# from Debian only where no npm command is there (a Node.js install may bring its own).
+DEBS_TEST := chromium chromium-driver libegl1 libgl1-mesa-dri libegl-mesa0 nginx-light
 DEBS_DEMO := libegl1 libgl1-mesa-dri libegl-mesa0
 
 .PHONY: demo test venv debs-test debs-demo axe lint bench clean
@@ -37,7 +38,8 @@ $(STAMP): $(STAMP_RUN) pyproject.toml
 
 # apt-get update runs once, and only when a package is missing.
 debs-test:
-	@missing=$$(for p in $(DEBS_TEST); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+	@missing=$$(for p in $(DEBS_TEST); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done; \
+	  command -v npm >/dev/null 2>&1 || echo npm); \
 	if [ -n "$$missing" ]; then \
 	  echo "installing Debian packages: $$missing"; \
 	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
