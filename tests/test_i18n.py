@@ -19,6 +19,7 @@ from app.trials.participation import LANGUAGES
 from app.web.extensions import db
 from app.web.infra.i18n import TRANSLATIONS, use_language
 from app.web.models import Participant, Study, Trial
+from app.web.study import audiocheck
 from app.web.study.enrolment import SESSION_ENDED
 from app.web.study.wording import ended_reason
 from tests.conftest import ParticipantActions, csrf_token
@@ -228,9 +229,18 @@ max = 24
 )
 
 
+AUDIO_CHECK = """[audio_check]
+kind = "antiphase"
+trials = 1
+pass_mark = 1
+attempts = 2
+"""
+
+
 def test_no_fixed_string_escapes_translation_on_any_participant_page(pseudo_app, web):
     """Consent, questionnaire (with an error), instructions, trial, done, already started,
-    busy, paused, closed and session-ended pages under the pseudo-locale."""
+    busy, paused, closed and session-ended pages, and the audio check's question, retry and
+    result pages, under the pseudo-locale."""
     app = pseudo_app
     client = app.test_client()
     slug = _slug(app, web.study(**PSEUDO_STUDY))
@@ -249,6 +259,27 @@ def test_no_fixed_string_escapes_translation_on_any_participant_page(pseudo_app,
             expected = db.session.get(Trial, trial).expected
         person.vote(trial, expected or "left")
     pages["done"] = client.get(f"/p/{token}/done")
+    # The audio check: a question, the retry after a failed attempt, the end.
+    checked = _slug(app, web.study(extra=AUDIO_CHECK))
+    listener = ParticipantActions(app.test_client(), app)
+    heard = listener.join(checked)
+    url = f"/p/{heard}/audio-check"
+    pages["audio check"] = listener.client.get(url)
+    for attempt in (1, 2):
+        with app.app_context():
+            person = db.session.scalar(sa.select(Participant).where(Participant.token == heard))
+            wrong = (audiocheck._targets(person.audio_check, attempt, 1)[0] + 1) % 3
+        form = {"attempt": attempt, "question": 1, "choice": wrong}
+        token_field = {"csrf_token": csrf_token(listener.client, url)}
+        answered = listener.client.post(url, data=form | token_field)
+        if answered.status_code != 302:  # the end (a redirect has no page of ours)
+            pages["audio check end"] = answered
+        if attempt == 1:
+            pages["audio check retry"] = listener.client.get(url)
+            listener.client.post(
+                url, data={"csrf_token": csrf_token(listener.client, url), "retry": "1"}
+            )
+    assert "audio check end" in pages and "audio check retry" in pages
     stranger = app.test_client()
     pages["already started"] = stranger.get(f"/s/{slug}?PROLIFIC_PID=p1&SESSION_ID=other")
     paused = _slug(app, web.study(status="paused"))
@@ -261,6 +292,15 @@ def test_no_fixed_string_escapes_translation_on_any_participant_page(pseudo_app,
             busy = render_template("participant/busy.html")
             closed = render_template("participant/unavailable.html", study=study)
             viewing = render_template("participant/unavailable.html", study=study, viewing=200)
+            passed = render_template(
+                "participant/audio_check.html",
+                participant=participant,
+                study=study,
+                spec=audiocheck.audio_spec(participant),
+                phase="done",
+                passed=True,
+                form=None,
+            )
             ended = render_template(
                 "participant/unavailable.html", study=study, reason=ended_reason(SESSION_ENDED)
             )
@@ -269,7 +309,8 @@ def test_no_fixed_string_escapes_translation_on_any_participant_page(pseudo_app,
     for name, response in pages.items():
         assert response.status_code < 500 or name == "paused", name
         problems[name] = _escaped(response.get_data(as_text=True))
-    for name, html in (("busy", busy), ("closed", closed), ("viewing", viewing), ("ended", ended)):
+    rendered = {"busy": busy, "closed": closed, "viewing": viewing, "ended": ended}
+    for name, html in (rendered | {"audio check passed": passed}).items():
         problems[name] = _escaped(html)
     assert {name: found for name, found in problems.items() if found} == {}
     # The pages did render their fixed text (in full-width letters), not nothing.

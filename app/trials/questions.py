@@ -25,7 +25,7 @@ from app.trials.fields import FieldReader, describe
 
 #: Automatic exclusion rules the report applies (``app.web.study.participants.AUTO_RULES``),
 #: repeated so that reading a study file needs no database.
-AUTO_EXCLUDE_RULES: Final = ("catch_failed", "unfinished")
+AUTO_EXCLUDE_RULES: Final = ("catch_failed", "unfinished", "audio_check_failed")
 PAGES: Final = ("before", "after")
 QUESTION_TYPES: Final = ("choice", "number", "text")
 DEFAULT_MAX_LENGTH: Final = 500

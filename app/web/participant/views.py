@@ -36,6 +36,7 @@ from app.web.infra.limits import fits
 from app.web.infra.media import media_response
 from app.web.models import Participant, Study, Trial, utcnow
 from app.web.participant import bp
+from app.web.study import audiocheck
 from app.web.study.adaptive import ADAPTIVE
 from app.web.study.enrolment import (
     SESSION_ENDED,
@@ -331,6 +332,8 @@ def trial(token: str):  # type: ignore[no-untyped-def]
     study = participant.study
     if participant.screened_out_at is not None:
         return redirect(url_for(".done", token=token))
+    if participant.started_at is None and audiocheck.pending(participant):
+        return redirect(url_for(".audio_check", token=token))
     if study.status == "closed":
         return render_template("participant/unavailable.html", study=study), 410
     spec = participation(study)

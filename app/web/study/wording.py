@@ -113,4 +113,6 @@ def script_strings(max_plays: int | None = None) -> dict[str, Any]:
             "then press Start again."
         ),
         "choices": {choice: str(name) for choice, name in SIDE_NAMES.items()},
+        "audio_playing": _("Playing…"),
+        "audio_choose": _("Now choose one of the three sounds."),
     }
