@@ -1,7 +1,8 @@
 """The participant's pages in the study's language, in chromium at desktop (1366x768), phone
 (390x844, touch) and small-phone (300x640, touch) size: a right-to-left (Arabic) page mirrors
 its flow, but its "left" answer is still the button nearer the left face, and casts "left";
-a German page speaks German from consent to the vote. Debian's chromium through Playwright."""
+a German page speaks German from consent to the vote; the audio check plays its sounds
+before the first trial. Debian's chromium through Playwright."""
 
 from __future__ import annotations
 
@@ -12,8 +13,10 @@ import pytest
 import sqlalchemy as sa
 
 from app.web.extensions import db
-from app.web.models import Study, Vote
+from app.web.models import Participant, Study, Vote
+from app.web.study import audiocheck
 from tests.conftest import create_test_study
+from tests.participant.test_player_browser import _context, _shot, _slug
 from tests.test_browser import browser  # noqa: F401  (the chromium fixture)
 
 pytestmark = pytest.mark.browser
@@ -23,17 +26,6 @@ SIZES = [
     ("phone", {"width": 390, "height": 844}, True),
     ("small", {"width": 300, "height": 640}, True),
 ]
-
-
-def _slug(app, study_id: int) -> str:
-    with app.app_context():
-        return db.session.get(Study, study_id).slug
-
-
-def _shot(page, name: str) -> None:
-    """A screenshot to ``$FACEPAIR_SCREENSHOTS`` when that is set (to look at the page)."""
-    if os.environ.get("FACEPAIR_SCREENSHOTS"):
-        page.screenshot(path=Path(os.environ["FACEPAIR_SCREENSHOTS"]) / f"{name}.png")
 
 
 #: The study's own words in its language (the study file's title, question and undecided
@@ -54,7 +46,7 @@ def _first_trial(live_server, chromium, tmp_path, clip, viewport, touch, agree: 
         study = db.session.get(Study, study_id)
         study.title, study.question, study.undecided_label = WORDS[language]
         db.session.commit()
-    context = chromium.new_context(viewport=viewport, is_mobile=touch, has_touch=touch)
+    context = _context(chromium, viewport, touch)
     page = context.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
@@ -152,3 +144,56 @@ def test_a_german_study_speaks_german_to_the_vote(
     finally:
         context.close()
     assert errors == []
+
+
+@pytest.mark.parametrize("name, viewport, touch", SIZES)
+def test_the_audio_check_plays_its_sounds_and_opens_the_trials(
+    live_server,
+    browser,  # noqa: F811
+    tiny_video,
+    tmp_path,
+    name,
+    viewport,
+    touch,
+):
+    """The check before the first trial, in chromium: the answers open once the three sounds
+    have played, each answer goes to the server, and a pass leads to the first pair."""
+    study_id = create_test_study(
+        live_server.app,
+        tmp_path,
+        tiny_video,
+        extra='[audio_check]\nkind = "huggins"\ntrials = 2\npass_mark = 2\n',
+    )
+    context = _context(browser, viewport, touch)
+    page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    press = page.tap if touch else page.click
+    try:
+        page.goto(f"{live_server.url}/s/{_slug(live_server.app, study_id)}")
+        press("text=I agree")
+        page.wait_for_url("**/instructions")
+        press("#start")
+        page.wait_for_url("**/audio-check")
+        token = page.url.split("/p/")[1].split("/")[0]
+        for question in (1, 2):
+            assert f"Question {question} of 2" in page.inner_text(".audio-progress")
+            assert page.locator(".sound-choice").first.is_disabled()
+            press(".play-sounds")
+            page.wait_for_selector(".sound-choice:not([disabled])", timeout=20000)
+            if question == 1:
+                _shot(page, f"participant-audio-check-{name}")
+            with live_server.app.app_context():
+                person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+                target = audiocheck._targets(person.audio_check, 1, 2)[question - 1]
+            with page.expect_navigation():
+                press(f'.sound-choice[value="{target}"]')
+        page.wait_for_selector("text=Your sound works well")
+        press("#audio-continue")
+        page.wait_for_selector(".player[data-trial-id]")
+    finally:
+        context.close()
+    assert errors == []
+    with live_server.app.app_context():
+        person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        assert person.audio_check["passed"] is True and person.audio_check["scores"] == [2]

@@ -45,36 +45,33 @@ def audio_check(token: str):  # type: ignore[no-untyped-def]
             except audiocheck.AudioCheckRefused:
                 db.session.rollback()
                 return redirect(url_for(".audio_check", token=token))
-        db.session.commit()
         if not audiocheck.pending(participant):
-            return _no_store(
-                render_template(
-                    "participant/audio_check.html",
-                    participant=participant,
-                    study=participant.study,
-                    spec=spec,
-                    phase="done",
-                    passed=bool((participant.audio_check or {}).get("passed")),
-                    form=AudioCheckForm(),
-                )
-            )
+            # The verdict, once: afterwards the check page leads on to the trials.
+            passed = bool((participant.audio_check or {}).get("passed"))
+            return _page(participant, spec, "done", passed=passed)
+        db.session.commit()
         return redirect(url_for(".audio_check", token=token))
     current = audiocheck.begin(participant)
-    db.session.commit()
     attempt, question = audiocheck.position(participant)
-    return _no_store(
-        render_template(
-            "participant/audio_check.html",
-            participant=participant,
-            study=participant.study,
-            spec=spec,
-            phase=audiocheck.phase(spec, current),
-            attempt=attempt,
-            question=question,
-            onsets=interval_onsets(),
-            form=AudioCheckForm(),
-        )
+    phase = audiocheck.phase(spec, current)
+    return _page(participant, spec, phase, attempt=attempt, question=question)
+
+
+def _page(participant, spec, phase: str, **context):  # type: ignore[no-untyped-def]
+    """The check's page in ``phase`` (question, retry or done), rendered before the request's
+    commit (which would expire the rows it reads)."""
+    page = render_template(
+        "participant/audio_check.html",
+        participant=participant,
+        study=participant.study,
+        spec=spec,
+        phase=phase,
+        onsets=interval_onsets(),
+        form=AudioCheckForm(),
+        **context,
     )
+    db.session.commit()
+    return _no_store(page)
 
 
 @bp.get("/p/<token>/audio-check/<int:attempt>-<int:question>.wav")

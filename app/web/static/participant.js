@@ -565,6 +565,8 @@
       playSounds.disabled = false;
       audioHint.textContent = T.audio_choose;
       for (var c = 0; c < choices.length; c++) choices[c].disabled = false;
+      // On a small screen the answers may lie below the fold.
+      if (choices[0].scrollIntoView) choices[0].scrollIntoView({ block: "nearest" });
     });
   }
 
