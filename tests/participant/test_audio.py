@@ -128,6 +128,18 @@ def test_a_failed_check_may_be_repeated_then_excludes_the_participant(
         assert {r["excluded"] for r in vote_rows(study)} == {"failed the audio check"}
 
 
+def test_no_vote_before_the_check(app, client, participant, web):
+    """A vote sent without the trial page (its trial's id guessed) waits for the check too."""
+    study_id = web.study(extra=HUGGINS)
+    token = participant.join(_slug(app, study_id))
+    with app.app_context():
+        person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        trial = min(t.id for t in person.trials if t.kind != "practice")
+    refused = participant.vote(trial)
+    assert refused.status_code == 409
+    assert refused.json["error"].startswith("audio_check: ")
+
+
 def test_a_study_without_a_check_goes_straight_to_the_trials(app, client, participant, web):
     study_id = web.study()
     token = participant.join(_slug(app, study_id))
