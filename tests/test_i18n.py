@@ -104,6 +104,27 @@ def test_html_lang_and_dir_follow_the_study_language(app, client, web):
     assert '<html lang="en" dir="ltr">' in client.get("/experimenter/login").get_data(as_text=True)
 
 
+def test_the_please_wait_page_speaks_the_study_language(app, web):
+    """The consent limit answers before the view reads the study: its page still finds the
+    study's language."""
+    app.config["CONSENT_LIMIT_PER_ADDRESS"] = "1 per minute"
+    slug = _slug(app, web.study(extra='language = "es"'))
+    browser = app.test_client()
+    codes = []
+    for _ in range(2):
+        browser.delete_cookie(f"fp-{_study_id(app, slug)}")
+        form = {"csrf_token": csrf_token(browser, f"/s/{slug}")}
+        codes.append((answer := browser.post(f"/s/{slug}", data=form)).status_code)
+    assert codes == [302, 429]
+    page = answer.get_data(as_text=True)
+    assert '<html lang="es" dir="ltr">' in page and "Espere un momento, por favor" in page
+
+
+def _study_id(app, slug: str) -> int:
+    with app.app_context():
+        return db.session.scalar(sa.select(Study.id).where(Study.slug == slug))
+
+
 def test_a_closed_vote_says_why_in_the_study_language(app, client, participant, web):
     study_id = web.study(extra='language = "fr"')
     token = participant.join(_slug(app, study_id))

@@ -98,6 +98,7 @@
     });
   }
   function sideName(choice) { return (T.choices && T.choices[choice]) || choice; }
+  window.facepairText = { format: fmt };
 
   var coarse = window.matchMedia && window.matchMedia("(pointer: coarse)").matches;
   // What the participant does to the Play button: a touch screen is tapped.
