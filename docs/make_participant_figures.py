@@ -6,7 +6,10 @@ Renders one demo pair (app/data/demo/speech.wav: speech-driven prosody on the le
 prosody on the right) with ``renderer.render_pair``, then runs the browser test that puts that
 clip on the trial page at desktop (1366x768) and phone (390x844) size and checks its layout
 (tests/test_browser_participant.py::test_trial_page_layout_and_screenshots), saving
-participant-trial-desktop.png and participant-trial-phone.png here.
+participant-trial-desktop.png and participant-trial-phone.png here; then the same clip in a
+German and an Arabic (right-to-left) study, and the audio check before the first trial, at
+desktop size (tests/participant/test_language_browser.py): participant-trial-german-desktop.png,
+participant-trial-arabic-desktop.png and participant-audio-check-desktop.png.
 """
 
 from __future__ import annotations
@@ -41,6 +44,9 @@ def main() -> None:
                 "-p",
                 "no:cacheprovider",
                 "tests/test_browser_participant.py::test_trial_page_layout_and_screenshots",
+                "tests/participant/test_language_browser.py",
+                "-k",
+                "desktop or layout_and_screenshots",
             ],
             cwd=ROOT,
             env=env,
@@ -48,6 +54,8 @@ def main() -> None:
         )
     print(OUT / "participant-trial-desktop.png")
     print(OUT / "participant-trial-phone.png")
+    for name in ("trial-german", "trial-arabic", "audio-check"):
+        print(OUT / f"participant-{name}-desktop.png")
 
 
 if __name__ == "__main__":

@@ -21,12 +21,16 @@ from pathlib import Path
 
 import pytest
 
+from app.trials.participation import LANGUAGES
+
 REPO = Path(__file__).resolve().parent.parent
 #: Files the installed package reads at run time; each must be in the wheel.
 PACKAGE_DATA = (
     "app/web/static/participant.js",
     "app/web/static/style.css",
     "app/web/templates/base.html",
+    # The participant pages' catalogues, compiled by the app when first needed.
+    *(f"app/web/translations/{lang}/LC_MESSAGES/messages.po" for lang in LANGUAGES),
     "app/web/migrations/env.py",
     "app/web/migrations/alembic.ini",
     "app/web/migrations/script.py.mako",

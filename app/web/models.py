@@ -312,6 +312,9 @@ class Participant(db.Model):
     #: Questionnaire answers by page and question name (``app.web.study.questionnaires``); a page
     #: answered is a key, so an empty page of optional questions still counts as done.
     answers: so.Mapped[dict[str, Any] | None] = so.mapped_column(sa.JSON, default=dict)
+    #: The audio check before the first trial (``app.web.study.audiocheck``): the answers of
+    #: each attempt, the score of each, and ``passed`` once decided; None without a check.
+    audio_check: so.Mapped[dict[str, Any] | None] = so.mapped_column(sa.JSON)
 
     study: so.Mapped[Study] = so.relationship()
     study_list: so.Mapped[StudyList] = so.relationship()

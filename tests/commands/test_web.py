@@ -202,4 +202,8 @@ def test_the_shipped_example_creates_a_study(app, monkeypatch, web, repo_root):
     with app.app_context():
         study = db.session.scalar(sa.select(Study))
         assert study.title == "Head and eyebrow motion of a talking face"
-        assert study.settings["auto_exclude"] == ["catch_failed", "unfinished"]
+        assert study.settings["auto_exclude"] == [
+            "catch_failed",
+            "unfinished",
+            "audio_check_failed",
+        ]

@@ -11,27 +11,32 @@ import pytest
 
 SCRIPT = Path(__file__).resolve().parents[2] / "app" / "web" / "static" / "participant.js"
 # Just enough of a browser for the script to load on a page without a player.
-HARNESS = """
+PRELUDE = """
 global.window = { localStorage: null, addEventListener: function () {} };
 global.document = { querySelectorAll: function () { return []; },
                     querySelector: function () { return null; },
                     getElementById: function () { return null; },
                     addEventListener: function () {} };
 require(process.argv[1]);
+"""
+HARNESS = (
+    PRELUDE
+    + """
 var votes = window.facepairVotes;
 var cases = JSON.parse(process.argv[2]);
 console.log(JSON.stringify(cases.map(function (c) {
   return c[0] >= 100 ? votes.action(c[0], c[1]) : votes.wait(c[0], c[1]);
 })));
 """
+)
 
 
-def _run(cases: list) -> list:
+def _run(cases: list, harness: str = HARNESS) -> list:
     node = shutil.which("node") or shutil.which("nodejs")
     if node is None:
         pytest.skip("node is not installed")
     result = subprocess.run(
-        [node, "-e", HARNESS, str(SCRIPT), json.dumps(cases)],
+        [node, "-e", harness, str(SCRIPT), json.dumps(cases)],
         capture_output=True,
         text=True,
         check=True,
@@ -74,3 +79,25 @@ def test_only_server_errors_are_sent_again():
 def test_retry_waits_for_retry_after_else_backs_off():
     cases = [[1, "5"], [3, "5"], [1, "0"], [1, "600"], [1, None], [2, None], [5, None], [9, "soon"]]
     assert _run(cases) == [5000, 5000, 1000, 30000, 1000, 2000, 16000, 30000]
+
+
+FORMAT = (
+    PRELUDE
+    + """
+var format = window.facepairText.format;
+var cases = JSON.parse(process.argv[2]);
+console.log(JSON.stringify(cases.map(function (c) { return format(c[0], c[1]); })));
+"""
+)
+
+
+def test_translated_strings_are_filled_in_as_python_would():
+    """The script fills a catalogue's ``%(name)s`` placeholders (in the language's order) and
+    reads ``%%`` as one percent sign, as Python's ``%`` formatting does on the server."""
+    cases = [
+        ["Pair %(number)s of %(total)s", {"number": 2, "total": 9}],
+        ["ペア %(number)s / %(total)s", {"total": 9, "number": 2}],
+        ["Loading… %(percent)s%%", {"percent": 40}],
+        ["%(num)d plays left", {"num": 3}],
+    ]
+    assert _run(cases, FORMAT) == [text % values for text, values in cases]

@@ -1,7 +1,9 @@
-"""Participant blueprint: consent, instructions with a practice pair, trials, completion."""
+"""Participant blueprint: consent, instructions with a practice pair, the audio check, trials,
+completion."""
 
 from flask import Blueprint
 
 bp = Blueprint("participant", __name__)
 
-from app.web.participant import views  # noqa: E402, F401  (its routes register on bp)
+# Their routes register on bp.
+from app.web.participant import audio, views  # noqa: E402, F401

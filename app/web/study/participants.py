@@ -34,6 +34,7 @@ from app.trials.participation import PARTICIPANT_STATUSES, SCREENED_OUT_REASON
 from app.trials.questions import AUTO_EXCLUDE_RULES
 from app.web.extensions import db
 from app.web.models import Participant, Study, StudyList, Trial, Vote, utcnow
+from app.web.study.audiocheck import result as audio_result
 from app.web.study.enrolment import move_slot
 from app.web.study.labels import participant_label
 
@@ -42,7 +43,13 @@ STATUSES = tuple(PARTICIPANT_STATUSES)
 REMOVALS = ("excluded", "returned")
 #: Rules the report applies by itself (the study file's ``auto_exclude`` chooses among them),
 #: with the reason the report prints.
-AUTO_RULES = dict(zip(AUTO_EXCLUDE_RULES, ("failed a catch trial", "did not finish"), strict=True))
+AUTO_RULES = dict(
+    zip(
+        AUTO_EXCLUDE_RULES,
+        ("failed a catch trial", "did not finish", "failed the audio check"),
+        strict=True,
+    )
+)
 
 
 @dataclass
@@ -65,6 +72,8 @@ class ParticipantRow:
     reason: str
     #: Why the analysis leaves this participant out ("" when included).
     excluded: str = ""
+    #: The audio check's verdict: "passed", "failed", or "" (none taken or none decided).
+    audio_check: str = ""
 
 
 def status_of(participant: Participant, *, now: dt.datetime, dropped_after: dt.timedelta) -> str:
@@ -111,6 +120,8 @@ def exclusion_reason(row: ParticipantRow, rules: tuple[str, ...]) -> str:
         return AUTO_RULES["unfinished"]
     if "catch_failed" in rules and row.catch_passed < row.catch_total:
         return f"{AUTO_RULES['catch_failed']} ({row.catch_passed} of {row.catch_total} passed)"
+    if "audio_check_failed" in rules and row.audio_check == "failed":
+        return AUTO_RULES["audio_check_failed"]
     return ""
 
 
@@ -154,6 +165,7 @@ def participant_table(study: Study, *, dropped_after: dt.timedelta) -> list[Part
             started_at=person.started_at,
             finished_at=person.finished_at,
             reason=person.exclusion_reason,
+            audio_check=str(audio_result(person)["audio_check"]),
         )
         row.excluded = exclusion_reason(row, rules)
         out.append(row)

@@ -23,6 +23,7 @@ from app.web.extensions import db
 from app.web.infra import media
 from app.web.infra.storage import report_path
 from app.web.models import Participant, Stimulus, Study, Trial, Vote
+from app.web.study.audiocheck import result as audio_result
 from app.web.study.csvcells import csv_text
 from app.web.study.enrolment import dropped_after, move_slot
 from app.web.study.labels import iso_time, participant_label, pseudonym
@@ -52,6 +53,10 @@ PARTICIPANT_COLUMNS = (
     "dpr",
     "touch",
     "face_px",
+    # The audio check (app.web.study.audiocheck): verdict, attempts, last attempt's score.
+    "audio_check",
+    "audio_check_attempts",
+    "audio_check_score",
 )
 #: Columns holding personal identifiers: pseudonymised unless the raw IDs are asked for.
 PERSONAL_COLUMNS = ("prolific_pid", "prolific_session_id")
@@ -120,6 +125,7 @@ def participants_export_rows(study: Study, *, raw_ids: bool = False) -> list[dic
             "dpr": env.get("dpr", ""),
             "touch": env.get("touch", ""),
             "face_px": env.get("face_px", ""),
+            **audio_result(person),
         }
         if not raw_ids:
             for column in PERSONAL_COLUMNS:

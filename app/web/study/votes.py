@@ -25,6 +25,7 @@ from app.web.extensions import db
 from app.web.infra import limits
 from app.web.models import Participant, Study, Trial, Vote, utcnow
 from app.web.study.adaptive import ADAPTIVE, choose_next_pair
+from app.web.study.audiocheck import pending as audio_check_pending
 from app.web.study.enrolment import SESSION_ENDED, progress_and_upcoming, touch
 from app.web.study.medialog import MediaLogError, media_fields
 from app.web.study.participants import release_if_left_out
@@ -313,6 +314,10 @@ def record_vote(
     """
     if participant.screened_out_at is not None:
         raise VoteRejected(SCREENED_OUT, 409, closed=True)
+    # The trial page sets started_at only after the audio check: a vote before it (sent
+    # without the page) is refused while the check is owed.
+    if participant.started_at is None and audio_check_pending(participant):
+        raise VoteRejected("audio_check: the audio check comes before the first vote", 409)
     trial, fields = validate(participant, payload, trial)
     if not touch(participant):
         raise VoteRejected(SESSION_ENDED, 409, closed=True)

@@ -7,7 +7,7 @@ Reviewed by hand: existing rows get the kind their stored reason implied (the fi
 meant excluded); batch mode keeps SQLite happy.
 
 Revision ID: 0011_experimenter_records
-Revises: 0009_participant_active_index
+Revises: 0010_participant_language_audio
 Create Date: 2026-12-05 23:00:00
 
 """
@@ -16,7 +16,7 @@ import sqlalchemy as sa
 from alembic import op
 
 revision = "0011_experimenter_records"
-down_revision = "0009_participant_active_index"
+down_revision = "0010_participant_language_audio"
 branch_labels = None
 depends_on = None
 
