@@ -88,8 +88,9 @@ def arrow_blocks(path: Path, header: list[str], unique: Collection[str] = ()) ->
     try:
         reader = pacsv.open_csv(
             path,
+            # threads: Arrow parses the next blocks on another core while this one is typed
             read_options=pacsv.ReadOptions(
-                skip_rows=1, column_names=keys, block_size=BLOCK_BYTES, use_threads=False
+                skip_rows=1, column_names=keys, block_size=BLOCK_BYTES, use_threads=True
             ),
             parse_options=pacsv.ParseOptions(quote_char=False, ignore_empty_lines=False),
             convert_options=pacsv.ConvertOptions(

@@ -17,10 +17,7 @@ Line numbers in messages count the header as line 1.
 from __future__ import annotations
 
 import csv
-import ctypes
-import ctypes.util
 import io
-import sys
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,6 +29,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 
 from app.analysis.csv_blocks import NotPlain, arrow_blocks, exact_rows, quoted_or_nul, read_header
+from app.analysis.vote_frame import give_back_freed_memory, join_columns
 from app.errors import InputError
 from app.trials.rules import CHOICES
 
@@ -383,74 +381,8 @@ def _absent(spec: VoteColumn, n: int) -> Any:
 
 
 def _frame(blocks: list[_Block]) -> pd.DataFrame:
-    """Join the kept rows of every block into the typed frame of :class:`VotesTable`,
-    one column at a time, each written once into its full-length array (the blocks' pieces
-    of a column are freed as it is built)."""
-    out: dict[str, Any] = {}
-    for spec in COLUMN_SPECS:
-        pieces = [b.values.pop(spec.name) for b in blocks]
-        sizes = [len(p) if spec.kind == "time" else len(p[0]) for p in pieces]
-        starts = np.cumsum([0] + sizes)
-        column: Any
-        if spec.kind == "time":
-            joined = np.empty(starts[-1], dtype="datetime64[us]")
-            for piece, start in zip(pieces, starts[:-1], strict=False):
-                joined[start : start + len(piece)] = piece
-            column = pd.DatetimeIndex(joined).tz_localize("UTC")
-        elif spec.kind == "text":
-            column = _categories(pieces, starts)
-        else:
-            dtype = np.int8 if spec.kind == "choice" else np.float64
-            joined = np.empty(starts[-1], dtype=dtype)
-            for (codes, value), start in zip(pieces, starts[:-1], strict=False):
-                np.take(
-                    value.astype(dtype, copy=False), codes, out=joined[start : start + len(codes)]
-                )
-            column = (
-                pd.Categorical.from_codes(joined, categories=CHOICES)
-                if spec.kind == "choice"
-                else _masked(joined, spec.kind)
-            )
-        out[spec.name] = pd.Series(column, copy=False)
-        del pieces
-    return pd.DataFrame(out, copy=False)
-
-
-def _categories(pieces: list[tuple[np.ndarray, np.ndarray]], starts: np.ndarray) -> Any:
-    """A text column's pieces (codes into each block's distinct values) as one categorical of
-    the values its rows use, categories sorted."""
-    cats, inverse = np.unique(
-        np.concatenate([d for _, d in pieces] or [np.zeros(0, object)]), return_inverse=True
-    )
-    small = np.int8 if cats.size < 127 else np.int16 if cats.size < 32767 else np.int32
-    inverse = inverse.astype(small)
-    codes = np.empty(starts[-1], dtype=small)
-    offset = 0
-    for (piece, distinct), start in zip(pieces, starts[:-1], strict=False):
-        block_codes = inverse[offset : offset + len(distinct)]
-        np.take(block_codes, piece, out=codes[start : start + len(piece)])
-        offset += len(distinct)
-    used = np.bincount(codes, minlength=cats.size) > 0  # those only dropped rows had go
-    if not used.all():
-        codes = (np.cumsum(used) - 1).astype(small)[codes]
-    return pd.Categorical.from_codes(codes, categories=cats[used].astype(object))
-
-
-def _masked(joined: np.ndarray, kind: str) -> Any:
-    """A flag, count or number column (NaN: missing) as pandas' masked array. A column with no
-    value at all (an optional one the export leaves empty) gets ``np.zeros``, whose pages the
-    system maps only when written: it costs no memory until something writes it."""
-    missing = np.isnan(joined)
-    if kind == "flag":
-        return pd.arrays.BooleanArray(joined == 1.0, missing)
-    dtype = np.int64 if kind == "count" else np.float64
-    if missing.all():
-        values = np.zeros(joined.size, dtype=dtype)
-    else:
-        joined[missing] = 0.0  # the pieces were copied by the concatenation: ours to write
-        values = joined.astype(dtype, copy=False)
-    make = pd.arrays.IntegerArray if kind == "count" else pd.arrays.FloatingArray
-    return make(values, missing)
+    """The kept rows of every block as the typed frame of :class:`VotesTable`."""
+    return join_columns([b.values for b in blocks], [(c.name, c.kind) for c in COLUMN_SPECS])
 
 
 def _keep(block: _Block) -> _Block:
@@ -561,33 +493,11 @@ def read_votes(
             f" (and {skipped - 1} more bad rows; --skip-bad-rows drops them)" if skipped > 1 else ""
         )
         raise InputError(first.message + more, path=first.path, line=first.line, field=first.field)
-    _give_back_freed_memory()
+    give_back_freed_memory()
     frame = _frame(kept)
     del kept
-    _give_back_freed_memory()
+    give_back_freed_memory()
     return VotesTable(frame, skipped=skipped, problems=problems, source=path)
-
-
-def _give_back_freed_memory() -> None:
-    """Return the C heap's free pages to the system (glibc only; elsewhere nothing).
-
-    The blocks' many small arrays are freed in between ones still held, and glibc keeps such
-    holes for reuse rather than giving them back: without this a 187 MB file held about
-    150 MB more than its table needs after reading. ``malloc_trim`` changes no value.
-    """
-    if _LIBC is not None:
-        _LIBC.malloc_trim(0)
-
-
-def _glibc() -> Any:
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        return libc if hasattr(libc, "malloc_trim") else None
-    except OSError:
-        return None
-
-
-_LIBC = _glibc() if sys.platform.startswith("linux") else None
 
 
 def _column_text(values: pd.Series, kind: str) -> list[str]:
