@@ -8,8 +8,8 @@ fresh child process:
 - facepair: ``read_votes(path)`` and ``analyze(table, bootstrap=0, mixed_model=False)``, every
   statistic but the mixed model (``--mixed`` adds one run with it, timed on its own line).
 
-Each child reports its wall time (imports excluded) and its peak resident memory
-(``resource.getrusage(RUSAGE_SELF).ru_maxrss``, imports included, and the imports alone).
+Each child reports its wall time (imports excluded) and its peak resident memory (the
+kernel's high-water mark ``VmHWM`` of the process, imports included, and the imports alone).
 Printed: per side the median over rounds, the ratio facepair / comparator and peak memory
 over the CSV's size. Targets: within 4x the bare read, peak memory <= 3x the CSV.
 
@@ -36,30 +36,48 @@ from pathlib import Path
 TRUTH = {"none": -0.8, "random": 0.1, "speech_driven": 0.35, "ground_truth": 0.6}
 REPO = Path(__file__).resolve().parent.parent
 
-_CHILD_PANDAS = """
-import json, resource, sys, time
-import pandas as pd
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-start = time.perf_counter()
-frame = pd.read_csv(sys.argv[1])
-wall = time.perf_counter() - start
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-print(json.dumps({"wall": wall, "rows": len(frame), "peak_kb": peak, "base_kb": base}))
+# Peak resident memory in kB: the kernel's high-water mark of this process image (VmHWM);
+# ru_maxrss would carry the benchmark's own peak over the exec when it wrote the file.
+_PEAK = """
+def peak_kb():
+    try:
+        with open("/proc/self/status") as status:
+            return next(int(l.split()[1]) for l in status if l.startswith("VmHWM"))
+    except OSError:
+        import resource
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 """
 
-_CHILD_FACEPAIR = """
-import json, resource, sys, time
+_CHILD_PANDAS = (
+    _PEAK
+    + """
+import json, sys, time
+import pandas as pd
+base = peak_kb()
+start, cpu = time.perf_counter(), time.process_time()
+frame = pd.read_csv(sys.argv[1])
+wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+peak = peak_kb()
+print(json.dumps({"wall": wall, "cpu": cpu, "rows": len(frame), "peak_kb": peak, "base_kb": base}))
+"""
+)
+
+_CHILD_FACEPAIR = (
+    _PEAK
+    + """
+import json, sys, time
 from app.analysis import analyze, read_votes
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-start = time.perf_counter()
+base = peak_kb()
+start, cpu = time.perf_counter(), time.process_time()
 table = read_votes(sys.argv[1])
 read = time.perf_counter() - start
 results = analyze(table, bootstrap=0, mixed_model=sys.argv[2] == "mixed")
-wall = time.perf_counter() - start
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-print(json.dumps({"wall": wall, "read": read, "rows": results["input"]["votes"],
+wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+peak = peak_kb()
+print(json.dumps({"wall": wall, "cpu": cpu, "read": read, "rows": results["input"]["votes"],
                   "peak_kb": peak, "base_kb": base}))
 """
+)
 
 
 def _child(code: str, path: Path, *args: str) -> dict[str, float]:
@@ -100,13 +118,14 @@ def compare(path: Path, rounds: int, mixed: bool) -> None:
             into.append(r)
             extra = f", read {r['read']:.2f} s" if "read" in r else ""
             print(
-                f"  round {k + 1} {name:<8} {r['wall']:6.2f} s{extra}, "
+                f"  round {k + 1} {name:<8} {r['wall']:6.2f} s (CPU {r['cpu']:.2f} s){extra}, "
                 f"peak {r['peak_kb'] / 1024:6.0f} MB"
             )
     t_bare = statistics.median(r["wall"] for r in bare)
     t_ours = statistics.median(r["wall"] for r in ours)
     t_read = statistics.median(r["read"] for r in ours)
     ratios = [o["wall"] / b["wall"] for b, o in zip(bare, ours, strict=True)]
+    cpu_ratios = [o["cpu"] / b["cpu"] for b, o in zip(bare, ours, strict=True)]
     peak_bare = max(r["peak_kb"] for r in bare) * 1024
     peak_ours = max(r["peak_kb"] for r in ours) * 1024
     base_ours = min(r["base_kb"] for r in ours) * 1024
@@ -124,6 +143,12 @@ def compare(path: Path, rounds: int, mixed: bool) -> None:
         + ", ".join(f"{x:.2f}" for x in ratios)
         + "  (target <= 4)"
     )
+    print(
+        "ratio of CPU time (less moved by other work on a shared host): "
+        f"{statistics.median(cpu_ratios):.2f} (median of rounds); per round "
+        + ", ".join(f"{x:.2f}" for x in cpu_ratios)
+    )
+    print(f"load average at the end: {', '.join(f'{x:.1f}' for x in os.getloadavg())}")
     print(
         f"peak RSS facepair {peak_ours / 1e6:.0f} MB = {peak_ours / size:.2f}x the CSV "
         f"(imports alone {base_ours / 1e6:.0f} MB; target <= 3x); "

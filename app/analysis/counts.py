@@ -95,13 +95,17 @@ def count_votes(votes: VotesTable, conditions: Sequence[str] | None = None) -> V
                 path=votes.source,
                 field="conditions",
             )
-    left = left_cat.set_categories(names).codes.astype(np.int64)
-    right = right_cat.set_categories(names).codes.astype(np.int64)
-    choice = pd.Categorical(frame["choice"], categories=CHOICES).codes.astype(np.int64)
     n_p, n_k, n_c = len(people.categories), len(clip_cat.categories), len(names)
-    flat = (
-        ((people.codes.astype(np.int64) * n_k + clip_cat.codes) * n_c + left) * n_c + right
-    ) * 3 + choice
+    # the flat index ((((p * K + k) * n + l) * n + r) * 3 + c), built in place
+    flat = people.codes.astype(np.int64)
+    for size, codes in (
+        (n_k, clip_cat.codes),
+        (n_c, left_cat.set_categories(names).codes),
+        (n_c, right_cat.set_categories(names).codes),
+        (3, pd.Categorical(frame["choice"], categories=CHOICES).codes),
+    ):
+        flat *= size
+        flat += codes
     tensor = np.bincount(flat, minlength=n_p * n_k * n_c * n_c * 3).reshape(n_p, n_k, n_c, n_c, 3)
     return VoteCounts(
         tuple(map(str, people.categories)), tuple(map(str, clip_cat.categories)), names, tensor

@@ -1,40 +1,47 @@
-"""Reading a votes CSV in blocks: the C parser for plain files, the csv module for the rest.
+"""Reading a votes CSV in blocks: Arrow's CSV reader for plain files, the csv module for the rest.
 
-A *plain* file has no quote character, no NUL byte, no lone carriage return and, on every
-non-empty line, exactly as many commas as the header. In such a file every physical line is one
-row, so a row's line number is its position plus the header's line; pandas' C tokenizer reads it
-a block of lines at a time (:func:`plain_blocks`) and nothing but the current block's text is ever
-held as Python strings. Whether a block is plain is checked on its bytes with numpy (one pass,
-vectorised) before it is parsed; the first block that is not raises :class:`NotPlain`, and the
-caller reads the whole file again with :func:`exact_rows` (the csv module, which counts lines
-itself and reports a row with the wrong number of fields).
+A *plain* file has no quote character, no NUL byte and, on every line, exactly as many fields
+as the header (an empty line aside, which carries no vote). In such a file every physical line
+is one row, so a row's line number is its position plus the header's line. Arrow's streaming
+CSV reader (:func:`arrow_blocks`) reads it a block of bytes at a time with quoting switched off,
+each text column dictionary-encoded as it is parsed (codes and the block's distinct values: no
+Python string per row), and refuses a row with the wrong number of fields itself. A quote or a
+NUL is looked for in the distinct values only. The first block that is not plain raises
+:class:`NotPlain`, and the caller reads the whole file again with :func:`exact_rows` (the csv
+module, which counts lines itself and reports a row with the wrong number of fields).
 
-Both return the same thing: per block, every header column as an object array of ``str`` and
-the line number of each row (negative for a row already known to have the wrong field count).
+Both return blocks of the same shape: per header column its values, the line number of each row
+(negative for a row already known to have the wrong field count) and whether values may need
+stripping. The csv module gives object arrays of ``str``; Arrow gives a column as its codes
+and distinct values (a :class:`pyarrow.StringArray`), and a column named in ``unique`` (one
+value per row, such as a time) as a :class:`pyarrow.StringArray` of every row.
 """
 
 from __future__ import annotations
 
 import csv
-import io
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
-import pandas as pd
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.csv as pacsv
 
 from app.errors import InputError
 
-#: Bytes read per block: about 35,000 votes of the full export, some 25 MB of Python strings.
-BLOCK_BYTES = 4 << 20
-_QUOTE, _NUL, _CR, _LF, _COMMA = ord('"'), 0, ord("\r"), ord("\n"), ord(",")
+#: Bytes Arrow reads per block: about 9,000 votes of the full export (it reads a few blocks
+#: ahead, so larger blocks hold more of the file at once).
+BLOCK_BYTES = 1 << 20
+_TEXT = pa.dictionary(pa.int32(), pa.string())
 
 
 class NotPlain(Exception):
     """The file needs the exact reader (quotes, a wrong field count, a stray byte)."""
 
 
-Block = tuple[dict[str, np.ndarray], np.ndarray, bool]
+Block = tuple[dict[str, Any], np.ndarray, bool]
 
 
 def read_header(path: Path) -> tuple[list[str], int] | None:
@@ -52,78 +59,65 @@ def read_header(path: Path) -> tuple[list[str], int] | None:
     return [h.strip() for h in next(csv.reader([text]), [])], len(first)
 
 
-def _check_block(data: bytes, width: int) -> tuple[int, bool]:
-    """Rows in a block of whole lines (``data`` ends with a line break unless it is the file's
-    end) and whether any field might need stripping; :class:`NotPlain` if the block is not plain.
-    """
-    a = np.frombuffer(data, dtype=np.uint8)
-    if np.count_nonzero(a == _QUOTE) or np.count_nonzero(a == _NUL):
-        raise NotPlain
-    n_cr = np.count_nonzero(a == _CR)
-    ends = np.flatnonzero(a == _LF)
-    if ends.size == 0 or ends[-1] != a.size - 1:
-        ends = np.append(ends, a.size)  # the last line has no line break
-    cr = np.flatnonzero(a == _CR) if n_cr else np.zeros(0, dtype=np.int64)
-    if cr.size and not np.isin(cr + 1, ends).all():
-        raise NotPlain  # a carriage return that is not part of CRLF
-    commas = np.diff(np.searchsorted(np.flatnonzero(a == _COMMA), ends), prepend=0)
-    starts = np.concatenate(([0], ends[:-1] + 1))
-    length = ends - starts - (np.isin(ends - 1, cr) if cr.size else 0)  # without CRLF's CR
-    if np.any((commas != width - 1) & (length > 0)):
-        raise NotPlain  # a row with too few or too many fields (an empty line is no vote)
-    # As int8, bytes >= 128 are negative: one comparison finds every byte below "!" or beyond
-    # ASCII; line breaks aside, such a byte may be whitespace str.strip removes.
-    low = np.count_nonzero(a.view(np.int8) < 33) - np.count_nonzero(a == _LF) - n_cr
-    return int(ends.size), bool(low > 0)
+def _has(values: pa.Array, pattern: str) -> bool:
+    return bool(pc.any(pc.match_substring_regex(values, pattern)).as_py())
 
 
-def _parse(data: bytes, header: list[str], rows: int) -> dict[str, np.ndarray]:
-    try:
-        frame = pd.read_csv(
-            io.BytesIO(data),
-            header=None,
-            names=list(range(len(header))),
-            dtype=object,
-            keep_default_na=False,
-            skip_blank_lines=False,
-            index_col=False,
-            encoding="utf-8",
-        )
-    except (ValueError, pd.errors.ParserError, UnicodeDecodeError):
-        raise NotPlain from None
-    if len(frame) != rows:
-        raise NotPlain
-    return {name: frame[k].to_numpy(dtype=object) for k, name in enumerate(header)}
+def quoted_or_nul(values: pa.Array) -> bool:
+    """Whether any value holds a quote (read with quoting off, a quoted field keeps its
+    quotes) or a NUL: the file is not plain."""
+    return _has(values, '["\\x00]')
 
 
-def plain_blocks(path: Path, header: list[str], skip: int) -> Iterator[Block]:
-    """Blocks of a plain file after its header (``skip`` bytes): columns, line numbers, and
-    whether any field might need stripping. Raises :class:`NotPlain` at the first block that is
-    not plain (the caller starts again with :func:`exact_rows`)."""
+#: A character that is not printable ASCII at either end: the value may need ``str.strip``.
+_MAY_STRIP = "^[^!-~]|[^!-~]$"
+
+
+def arrow_blocks(path: Path, header: list[str], unique: Collection[str] = ()) -> Iterator[Block]:
+    """Blocks of a plain file after its header line: columns, line numbers, and whether any
+    value may need stripping. Raises :class:`NotPlain` at the first block that is not plain
+    (the caller starts again with :func:`exact_rows`). A column in ``unique`` is not checked
+    for quotes here: its reader must refuse them (an ISO 8601 time has none)."""
     if len(set(header)) != len(header):
-        raise NotPlain  # the C parser would rename repeated names; the exact path reports them
-    width, line = len(header), 2
+        raise NotPlain  # Arrow would need unique names; the exact path reports repeated ones
+    keys = [f"c{k}" for k in range(len(header))]  # header names may be any text
+    types = {
+        key: pa.string() if name in unique else _TEXT
+        for key, name in zip(keys, header, strict=True)
+    }
     try:
-        handle = path.open("rb")
-    except OSError:
-        raise NotPlain from None
-    with handle:
-        handle.seek(skip)
-        rest = b""
-        while True:
-            chunk = handle.read(BLOCK_BYTES)
-            data = rest + chunk
-            if not data:
-                return
-            cut = data.rfind(b"\n") + 1 if chunk else len(data)
-            if cut == 0:
-                rest = data
-                continue
-            data, rest = data[:cut], data[cut:]
-            rows, may_strip = _check_block(data, width)
-            columns = _parse(data, header, rows)
+        reader = pacsv.open_csv(
+            path,
+            # threads: Arrow parses the next blocks on another core while this one is typed
+            read_options=pacsv.ReadOptions(
+                skip_rows=1, column_names=keys, block_size=BLOCK_BYTES, use_threads=True
+            ),
+            parse_options=pacsv.ParseOptions(quote_char=False, ignore_empty_lines=False),
+            convert_options=pacsv.ConvertOptions(
+                column_types=types, strings_can_be_null=False, quoted_strings_can_be_null=False
+            ),
+            memory_pool=pa.system_memory_pool(),
+        )
+        line = 2
+        for batch in reader:
+            columns: dict[str, Any] = {}
+            for key, name in zip(keys, header, strict=True):
+                column = batch.column(key)
+                columns[name] = (
+                    column
+                    if name in unique
+                    else (column.indices.to_numpy().astype(np.int32, copy=False), column.dictionary)
+                )
+            # every distinct value of the block at once: two scans, whatever the width
+            distinct = pa.concat_arrays([c[1] for c in columns.values() if isinstance(c, tuple)])
+            if quoted_or_nul(distinct):
+                raise NotPlain
+            may_strip = _has(distinct, _MAY_STRIP)
+            rows = batch.num_rows
             yield columns, np.arange(line, line + rows, dtype=np.int64), may_strip
             line += rows
+    except (pa.ArrowException, OSError, UnicodeDecodeError):
+        raise NotPlain from None
 
 
 def exact_rows(path: Path) -> tuple[list[str], Block, list[InputError]]:

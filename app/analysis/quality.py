@@ -188,15 +188,18 @@ def _aligned(per_participant: pd.Series, people: list[str]) -> np.ndarray:
 def _media_measures(frame: pd.DataFrame) -> dict[str, pd.Series]:
     """Per participant, from the media log columns (NaN where a file has none)."""
     by = frame["participant"]
-    ended = frame["played_to_end"].astype("Float64") if "played_to_end" in frame else None
+
+    def given(name: str) -> pd.Series | None:
+        """The column as floats, or None where no row has a value (nothing to group)."""
+        if name not in frame or frame[name].isna().all():
+            return None
+        return pd.to_numeric(frame[name], errors="coerce").astype(float)
+
+    ended = given("played_to_end")
     out = {"unfinished": (1 - ended).groupby(by).mean() if ended is not None else pd.Series()}
     for name in ("stall_ms", "focus_lost"):
-        values = (
-            pd.to_numeric(frame[name], errors="coerce").astype(float)
-            if name in frame
-            else pd.Series(np.nan, index=frame.index)
-        )
-        out[name] = values.groupby(by).sum(min_count=1)
+        values = given(name)
+        out[name] = values.groupby(by).sum(min_count=1) if values is not None else pd.Series()
     return {k: v.astype(float) for k, v in out.items()}
 
 

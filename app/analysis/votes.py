@@ -25,8 +25,11 @@ from typing import IO, Any
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
+import pyarrow.compute as pc
 
-from app.analysis.csv_blocks import NotPlain, exact_rows, plain_blocks, read_header
+from app.analysis.csv_blocks import NotPlain, arrow_blocks, exact_rows, quoted_or_nul, read_header
+from app.analysis.vote_frame import give_back_freed_memory, join_columns
 from app.errors import InputError
 from app.trials.participation import PARTICIPANT_STATUSES
 from app.trials.rules import CHOICES
@@ -114,6 +117,8 @@ VOTE_COLUMNS: tuple[str, ...] = tuple(c.name for c in COLUMN_SPECS)
 REQUIRED_COLUMNS: tuple[str, ...] = tuple(c.name for c in COLUMN_SPECS if c.required)
 OPTIONAL_COLUMNS: tuple[str, ...] = tuple(c.name for c in COLUMN_SPECS if not c.required)
 _SPEC = {c.name: c for c in COLUMN_SPECS}
+#: One value per row: read as text, never hashed into distinct values.
+_TIMES = frozenset(c.name for c in COLUMN_SPECS if c.kind == "time")
 _MAX_PROBLEMS_KEPT = 20
 
 
@@ -174,33 +179,94 @@ class _Block:
 
 
 def _distinct(
-    values: np.ndarray, strip: bool, *, unique: bool = False
-) -> tuple[np.ndarray, np.ndarray]:
-    """Codes and distinct (stripped) values of an object column of ``str``: every rule below
-    runs once per distinct value, not once per row. A column expected to be ``unique`` (times)
-    is not hashed: each row is its own value."""
-    n = len(values)
-    if n and (values == "").all():  # an optional column the export leaves empty
-        return np.zeros(n, dtype=np.int32), np.array([""], dtype=object)
-    if unique:
-        codes, uniques = np.arange(n, dtype=np.int32), values
+    values: np.ndarray | tuple[np.ndarray, pa.Array] | pa.Array, strip: bool, kind: str
+) -> tuple[np.ndarray, Any]:
+    """Codes and distinct (stripped) values of one column of a ``kind`` (``""`` for a column
+    the format does not know): every rule below runs once per distinct value, not once per row.
+
+    ``values`` is an object array of ``str``, or Arrow's codes and distinct values, or an Arrow
+    string array of every row. Times are not hashed (each row is its own value); those that
+    Arrow gives stay Arrow arrays, as do Arrow's distinct numbers: their rules try Arrow's
+    parsers first and strip only what those cannot read. Every other column becomes an object
+    array of ``str``.
+    """
+    if isinstance(values, pa.Array):
+        return np.arange(len(values), dtype=np.int32), values
+    if isinstance(values, tuple):
+        codes, uniques = values
+        if not strip and kind in ("count", "number"):
+            return codes, uniques
+        uniques = uniques.to_numpy(zero_copy_only=False).astype(object, copy=False)
     else:
-        found, uniques = pd.factorize(values)
-        codes, uniques = found.astype(np.int32), np.asarray(uniques, dtype=object)
+        n = len(values)
+        if n and (values == "").all():  # an optional column the export leaves empty
+            return np.zeros(n, dtype=np.int32), np.array([""], dtype=object)
+        if kind == "time":
+            codes, uniques = np.arange(n, dtype=np.int32), values
+        else:
+            found, uniques = pd.factorize(values)
+            codes, uniques = found.astype(np.int32), np.asarray(uniques, dtype=object)
     if strip and uniques.size:
         stripped = np.empty(uniques.size, dtype=object)
         stripped[:] = [u.strip() for u in uniques]
-        if unique:
+        if kind == "time":
             return codes, stripped
         merged, uniques = pd.factorize(stripped)
         codes, uniques = merged[codes].astype(np.int32), np.asarray(uniques, dtype=object)
     return codes, uniques
 
 
-def _typed(spec: VoteColumn, distinct: np.ndarray) -> tuple[Any, dict[int, str]]:
+def _empty(distinct: np.ndarray | pa.Array) -> np.ndarray:
+    """Which distinct values are empty."""
+    if isinstance(distinct, pa.Array):
+        return pc.equal(distinct, "").to_numpy(zero_copy_only=False)
+    return distinct == ""
+
+
+def _without_empty(text: pa.Array) -> pa.Array:
+    return pc.if_else(pc.equal(text, ""), pa.scalar(None, pa.string()), text)
+
+
+def _arrow_times(text: pa.Array) -> np.ndarray | None:
+    """ISO 8601 times read by Arrow's parser as UTC ``datetime64[us]`` (empty: NaT), or None
+    when any value needs the full rule (space around it, no offset, a bad value)."""
+    try:
+        when = pc.cast(_without_empty(text), pa.timestamp("us", tz="UTC"))
+    except pa.ArrowException:
+        return None
+    return when.cast(pa.int64()).to_numpy(zero_copy_only=False).astype("datetime64[us]")
+
+
+def _arrow_numbers(text: pa.Array, kind: str) -> np.ndarray | None:
+    """Distinct numbers read by Arrow's parser (empty: NaN), or None when any value needs the
+    full rule, which names it (not a number, negative, not whole for a count, space around)."""
+    try:
+        value = pc.cast(_without_empty(text), pa.float64()).to_numpy(zero_copy_only=False)
+    except pa.ArrowException:
+        return None
+    given = value[~_empty(text)]
+    good = np.isfinite(given) & (given >= 0)
+    if kind == "count":
+        good &= (given == np.floor(given)) & (given < 2.0**53)
+    return value if good.all() else None
+
+
+def _typed(spec: VoteColumn, distinct: np.ndarray | pa.Array) -> tuple[Any, dict[int, str]]:
     """Typed value of each distinct value of one column, and the problem of the bad ones."""
+    if not spec.required and _empty(distinct).all():  # a column no row fills: no rule to run
+        if spec.kind == "text":
+            return distinct, {}
+        return np.full(len(distinct), np.nan if spec.kind != "time" else np.datetime64("NaT")), {}
+    if isinstance(distinct, pa.Array):  # times or distinct numbers as Arrow read them
+        fast = (
+            _arrow_times(distinct) if spec.kind == "time" else _arrow_numbers(distinct, spec.kind)
+        )
+        if fast is not None:
+            return fast, {}
+        if spec.kind == "time" and quoted_or_nul(distinct):
+            raise NotPlain  # Arrow read it with quoting off; the exact reader unquotes it
+        distinct = np.array([v.strip() for v in distinct.to_pylist()], dtype=object)
     empty = distinct == ""
-    text = pd.Series(distinct, dtype=object)
     bad: np.ndarray = np.zeros(distinct.size, dtype=bool)
     if spec.kind == "choice":
         low = [d.lower() for d in distinct]
@@ -210,10 +276,13 @@ def _typed(spec: VoteColumn, distinct: np.ndarray) -> tuple[Any, dict[int, str]]
     elif spec.kind == "text":
         value, what = distinct, ""
     elif spec.kind == "flag":
-        value = np.array([float(FLAGS[x]) if x in FLAGS else np.nan for x in text.str.lower()])
+        low = [d.lower() for d in distinct]
+        value = np.array([float(FLAGS[x]) if x in FLAGS else np.nan for x in low])
         bad, what = np.isnan(value) & ~empty, "expected true or false, got {!r}"
     elif spec.kind in ("count", "number"):
-        value = pd.to_numeric(text.where(~empty), errors="coerce").to_numpy(dtype=float, copy=True)
+        value = pd.to_numeric(
+            pd.Series(distinct, dtype=object).where(~empty), errors="coerce"
+        ).to_numpy(dtype=float, copy=True)
         with np.errstate(invalid="ignore"):
             wrong = ~np.isfinite(value) | (value < 0)
             if spec.kind == "count":  # and exact in the Int64 it becomes
@@ -223,7 +292,8 @@ def _typed(spec: VoteColumn, distinct: np.ndarray) -> tuple[Any, dict[int, str]]
         what = "expected " + ("a whole number >= 0" if spec.kind == "count" else "a number >= 0")
         what += ", got {!r}"
     else:  # time
-        when = pd.to_datetime(text.where(~empty), errors="coerce", utc=True, format="ISO8601")
+        text = pd.Series(distinct, dtype=object).where(~empty)
+        when = pd.to_datetime(text, errors="coerce", utc=True, format="ISO8601")
         value = when.dt.tz_localize(None).to_numpy().astype("datetime64[us]")
         bad, what = np.isnat(value) & ~empty, "expected an ISO 8601 time, got {!r}"
     flagged = np.flatnonzero(bad | (empty & spec.required))
@@ -253,12 +323,12 @@ def _type_block(
     """
     n, lines = len(lines), np.abs(lines)
     distinct = {
-        name: _distinct(raw, strip, unique=name in _SPEC and _SPEC[name].kind == "time")
+        name: _distinct(raw, strip, _SPEC[name].kind if name in _SPEC else "")
         for name, raw in columns.items()
     }
     blank = np.ones(n, dtype=bool)
     for codes, values_of in distinct.values():
-        blank &= (values_of == "")[codes]
+        blank &= _empty(values_of)[codes]
     problems: dict[int, InputError] = {}
     outside: dict[int, InputError] = {}
     values: dict[str, Any] = {}
@@ -268,7 +338,7 @@ def _type_block(
             continue
         codes, values_of = distinct[spec.name]
         value, messages = _typed(spec, values_of)
-        bad = np.zeros(values_of.size, dtype=bool)
+        bad = np.zeros(len(values_of), dtype=bool)
         bad[list(messages)] = True
         for pos in np.flatnonzero(bad[codes]).tolist() if messages else []:
             if pos not in problems:
@@ -277,7 +347,7 @@ def _type_block(
                     message, path=path, line=int(lines[pos]), field=spec.name
                 )
         # kept as codes and one value per code (times: one per row) until the frame is built
-        small = codes.astype(np.min_scalar_type(max(values_of.size - 1, 0)))
+        small = codes.astype(np.min_scalar_type(max(len(values_of) - 1, 0)))
         values[spec.name] = value[codes] if spec.kind == "time" else (small, value)
         if spec.kind != "text":
             continue
@@ -313,60 +383,20 @@ def _absent(spec: VoteColumn, n: int) -> Any:
 
 
 def _frame(blocks: list[_Block]) -> pd.DataFrame:
-    """Join the kept rows of every block into the typed frame of :class:`VotesTable`,
-    one column at a time (the blocks' pieces of a column are freed as it is built)."""
-    out: dict[str, Any] = {}
-    for spec in COLUMN_SPECS:
-        pieces = [b.values.pop(spec.name) for b in blocks]
-        if spec.kind == "text":
-            cats, inverse = np.unique(
-                np.concatenate([d for _, d in pieces] or [np.zeros(0, object)]),
-                return_inverse=True,
-            )
-            offsets = np.cumsum([0] + [len(d) for _, d in pieces])
-            codes = np.concatenate(
-                [inverse[o + c] for (c, _), o in zip(pieces, offsets, strict=False)]
-                or [np.zeros(0, np.int64)]
-            )
-            used = np.bincount(codes, minlength=cats.size) > 0  # those of dropped rows go
-            codes = (np.cumsum(used) - 1)[codes]
-            column: Any = pd.Categorical.from_codes(codes, categories=cats[used].astype(object))
-        else:
-            joined = (
-                np.concatenate(pieces or [_absent(spec, 0)])
-                if spec.kind == "time"
-                else np.concatenate([v[c] for c, v in pieces] or [np.zeros(0)])
-            )
-            if spec.kind == "choice":
-                column = pd.Categorical.from_codes(joined.astype(np.int8), categories=CHOICES)
-            elif spec.kind == "time":
-                column = pd.DatetimeIndex(joined).tz_localize("UTC")
-            else:
-                missing = np.isnan(joined)
-                column = (
-                    pd.arrays.BooleanArray(joined == 1.0, missing)
-                    if spec.kind == "flag"
-                    else pd.arrays.IntegerArray(
-                        np.where(missing, 0, joined).astype(np.int64), missing
-                    )
-                    if spec.kind == "count"
-                    else pd.arrays.FloatingArray(np.where(missing, 0.0, joined), missing)
-                )
-        out[spec.name] = pd.Series(column, copy=False)
-        del pieces
-    return pd.DataFrame(out, copy=False)
+    """The kept rows of every block as the typed frame of :class:`VotesTable`."""
+    return join_columns([b.values for b in blocks], [(c.name, c.kind) for c in COLUMN_SPECS])
 
 
 def _keep(block: _Block) -> _Block:
-    """The block without its bad and blank rows."""
+    """The block's values without its bad and blank rows (all the frame needs of it)."""
     keep = ~block.blank
     keep[list(block.problems)] = False
-    if keep.all():
-        return block
-    values = {
-        k: (v[0][keep], v[1]) if isinstance(v, tuple) else v[keep] for k, v in block.values.items()
-    }
-    return _Block(values, block.lines[keep], {}, block.blank[keep])
+    values = block.values
+    if not keep.all():
+        values = {
+            k: (v[0][keep], v[1]) if isinstance(v, tuple) else v[keep] for k, v in values.items()
+        }
+    return _Block(values, _NONE.lines, {}, _NONE.blank)
 
 
 def _frame_columns(source: pd.DataFrame) -> dict[str, np.ndarray]:
@@ -402,7 +432,7 @@ def _blocks(
     if head is not None:
         _check_header(head[0], path)
         try:
-            for columns, lines, strip in plain_blocks(file, head[0], head[1]):
+            for columns, lines, strip in arrow_blocks(file, head[0], _TIMES):
                 yield _type_block(columns, lines, strip=strip, **kw)
             return
         except NotPlain:
@@ -416,6 +446,7 @@ def _blocks(
 
 
 _RESTART = _Block({}, np.zeros(0, np.int64), {}, np.zeros(0, bool))
+_NONE = _Block({}, np.zeros(0, np.int64), {}, np.zeros(0, bool))
 
 
 def read_votes(
@@ -433,10 +464,11 @@ def read_votes(
     not match the format always raises.
 
     A plain file (no quotes, every line with the header's number of fields) is read a block at
-    a time by pandas' C parser (:mod:`app.analysis.csv_blocks`) and each block typed at once:
-    every rule runs on the distinct values of a column, text columns become categoricals, so
-    only one block's text is ever held as Python strings. Any other file is read whole by the
-    csv module with the same rules and messages.
+    a time by Arrow's CSV reader (:mod:`app.analysis.csv_blocks`), text columns dictionary-encoded
+    as they are parsed, and each block typed at once: every rule runs on the distinct values of
+    a column, times go through Arrow's ISO 8601 parser (the values it cannot read through the
+    full rule), text columns become categoricals, so no Python string per row is ever made.
+    Any other file is read whole by the csv module with the same rules and messages.
 
     >>> t = read_votes(pd.DataFrame({"participant": ["p1"], "clip": ["s2"], "left": ["a"],
     ...                              "right": ["b"], "choice": ["Left"]}))
@@ -463,7 +495,11 @@ def read_votes(
             f" (and {skipped - 1} more bad rows; --skip-bad-rows drops them)" if skipped > 1 else ""
         )
         raise InputError(first.message + more, path=first.path, line=first.line, field=first.field)
-    return VotesTable(_frame(kept), skipped=skipped, problems=problems, source=path)
+    give_back_freed_memory()
+    frame = _frame(kept)
+    del kept
+    give_back_freed_memory()
+    return VotesTable(frame, skipped=skipped, problems=problems, source=path)
 
 
 def _column_text(values: pd.Series, kind: str) -> list[str]:

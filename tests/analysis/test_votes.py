@@ -387,3 +387,22 @@ def test_any_bytes_read_or_fail_with_one_line(tmp_path, monkeypatch, body, raw, 
                 read_votes(path, skip_bad_rows=skip)
             except InputError as err:
                 assert "\n" not in str(err)
+
+
+def test_a_quoted_time_is_read_unquoted(tmp_path, monkeypatch):
+    """Arrow reads with quoting off; a quoted time must not reach the time rule with its
+    quotes on but go to the exact reader, which unquotes it."""
+    monkeypatch.setattr(csv_blocks, "BLOCK_BYTES", 64)
+    rows = ["p,s,a,b,left,2026-03-02T09:00:00Z"] * 12 + ['p,s,a,b,right,"2026-03-02T10:00:00Z"']
+    header = "participant,clip,left,right,choice,voted_at\n"
+    t = read_votes(_write(tmp_path, header + "\n".join(rows) + "\n"))
+    assert len(t) == 13 and str(t.frame["voted_at"].iloc[-1]) == "2026-03-02 10:00:00+00:00"
+
+
+@pytest.mark.parametrize(
+    "value", ["2026-03-02 09:00:00", " 2026-03-02T09:00:00Z", "2026-03-02T09:00:00.1234567Z"]
+)
+def test_times_arrows_parser_refuses_take_the_full_rule(tmp_path, value):
+    path = _write(tmp_path, f"participant,clip,left,right,choice,voted_at\np,s,a,b,left,{value}\n")
+    when = read_votes(path).frame["voted_at"].iloc[0]
+    assert when == pd.Timestamp(value.strip(), tz="UTC").floor("us")  # the frame holds us
