@@ -76,7 +76,7 @@ def post_vote():  # type: ignore[no-untyped-def]
         db.session.rollback()
         if exc.closed:
             # ``error`` for scripts (English); ``message`` for the participant's page.
-            use_language(participation(participant.study).language)
+            use_language(participation(voter.participant.study).language)
             return jsonify(
                 {"error": exc.message, "message": ended_reason(exc.message), "closed": True}
             ), exc.status
