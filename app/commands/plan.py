@@ -30,7 +30,7 @@ def parse_participants(text: str) -> list[int]:
         counts = list(range(low, high + 1, step))
         return counts if counts[-1] == high else [*counts, high]
     parts = [p.strip() for p in text.split(",")]
-    if not all(p.isdigit() for p in parts):
+    if not all(p.isascii() and p.isdigit() for p in parts):
         raise InputError(
             f"expected LOW-HIGH[:STEP] or a list such as 10,20,40, got {text!r}",
             field="participants",

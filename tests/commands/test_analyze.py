@@ -172,6 +172,7 @@ def test_plan_bad_input_exits_2_with_one_line():
     for args in (
         ["--effects", "a=0,b"],
         ["--effects", "a=0,b=1", "--participants", "x"],
+        ["--effects", "a=0,b=1", "--participants", "10,²"],
         ["--effects", "a=0,b=1", "--pilot", "app/data/examples/votes.csv"],
         ["--adaptive", "8,x"],
         ["--adaptive", "2"],

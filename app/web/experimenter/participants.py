@@ -58,7 +58,7 @@ def monitor_table(study: Study) -> dict[str, Any]:
 def _labelled(study: Study, label: str) -> Participant | None:
     """The participant of ``study`` with the export label ``label`` (``P0007``, ``p7``)."""
     number = label.strip().upper().removeprefix("P")
-    if not (number.isdigit() and len(number) <= 12):
+    if not (number.isascii() and number.isdigit() and len(number) <= 12):
         return None
     return db.session.scalar(
         sa.select(Participant).where(

@@ -21,7 +21,7 @@ class AudioCheckForm(FlaskForm):
 
 def _number(name: str) -> int | None:
     value = request.form.get(name, "")
-    return int(value) if value.isdigit() and len(value) < 4 else None
+    return int(value) if value.isascii() and value.isdigit() and len(value) < 4 else None
 
 
 @bp.route("/p/<token>/audio-check", methods=["GET", "POST"])
