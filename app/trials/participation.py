@@ -1,5 +1,5 @@
 """The participant's side of a study file: answer scale, reason tags, attention screening,
-viewing conditions and appropriateness pairs.
+viewing conditions, appropriateness pairs, the participants' language and the audio check.
 
 These keys sit in one block of the study file (``docs/reference/studyfile.md``, "The participant's
 side") and follow today's evaluation interfaces for generated motion: the GENEA challenge's
@@ -16,6 +16,7 @@ rule, a viewing check before the first trial).
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Final
@@ -34,7 +35,49 @@ STRENGTHS: Final = {"clearly": 2, "slightly": 1, "undecided": 0}
 """The ``strength`` stored with a 5-level vote; its direction is the vote's ``choice``."""
 
 MAX_REASONS: Final = 8
-PARTICIPATION_KEYS: Final = ("mismatched", "answer", "attention", "viewing")
+PARTICIPATION_KEYS: Final = (
+    "mismatched",
+    "answer",
+    "attention",
+    "viewing",
+    "language",
+    "audio_check",
+)
+
+LANGUAGES: Final = ("ar", "de", "en", "es", "fr", "ja")
+"""Languages with a catalogue of the participant pages (``app/web/translations``): a study's
+``language`` must start with one of them (``fr-CA`` uses ``fr``)."""
+
+#: A BCP 47 tag as people write one: a language subtag, then optional script, region or
+#: variant subtags (RFC 5646, sec. 2.1), e.g. ``de``, ``pt-BR``, ``zh-Hant-TW``.
+_BCP47 = re.compile(r"[A-Za-z]{2,3}(-[A-Za-z0-9]{1,8})*")
+
+AUDIO_CHECK_KINDS: Final = ("none", "huggins", "antiphase")
+"""Headphone screens before the first trial (:mod:`app.stimuli.headphones`): none, Huggins pitch
+(Milne et al. 2021) or the antiphase loudness test (Woods et al. 2017)."""
+
+
+@dataclass(frozen=True, slots=True)
+class AudioCheckSpec:
+    """The audio check: ``kind`` (:data:`AUDIO_CHECK_KINDS`), ``trials`` three-interval trials
+    per attempt, passed with at least ``pass_mark`` correct, in at most ``attempts`` attempts.
+
+    The defaults are both papers' protocol: 6 trials, passed with 5 or more correct, one
+    attempt (Milne et al. 2021, "An online headphone screening test based on dichotic pitch";
+    Woods et al. 2017, "Headphone screening to facilitate web-based auditory experiments").
+    Guessing passes one attempt with probability 0.018 (3 alternatives:
+    ``6 * (1/3)**5 * (2/3) + (1/3)**6``).
+    """
+
+    kind: str = "none"
+    trials: int = 6
+    pass_mark: int = 5
+    attempts: int = 1
+
+    @property
+    def enabled(self) -> bool:
+        """Whether participants take the check before the first trial."""
+        return self.kind != "none"
 
 
 @dataclass(frozen=True, slots=True)
@@ -52,6 +95,9 @@ class ParticipationSpec:
         to turn the phone (:data:`PORTRAIT_MODES`).
     mismatched : add appropriateness pairs: per condition and clip, that condition's motion
         for this clip beside its motion for another clip, under this clip's speech.
+    language : the participants' language, a BCP 47 tag whose language has a catalogue
+        (:data:`LANGUAGES`).
+    audio_check : the headphone screen before the first trial (:class:`AudioCheckSpec`).
     """
 
     scale: int = 3
@@ -61,6 +107,8 @@ class ParticipationSpec:
     min_face_px: int = 0
     portrait: str = "fit"
     mismatched: bool = False
+    language: str = "en"
+    audio_check: AudioCheckSpec = AudioCheckSpec()
 
     def to_dict(self) -> dict[str, Any]:
         """The block as study-file keys (what :func:`read_participation` reads back)."""
@@ -72,6 +120,13 @@ class ParticipationSpec:
                 "screened_out_code": self.screened_out_code,
             },
             "viewing": {"min_face_px": self.min_face_px, "portrait": self.portrait},
+            "language": self.language,
+            "audio_check": {
+                "kind": self.audio_check.kind,
+                "trials": self.audio_check.trials,
+                "pass_mark": self.audio_check.pass_mark,
+                "attempts": self.audio_check.attempts,
+            },
         }
 
     @classmethod
@@ -82,6 +137,7 @@ class ParticipationSpec:
         answer = stored.get("answer", {})
         attention = stored.get("attention", {})
         viewing = stored.get("viewing", {})
+        check = stored.get("audio_check", {})
         return cls(
             scale=int(answer.get("scale", 3)),
             reasons=tuple(answer.get("reasons", ())),
@@ -90,6 +146,13 @@ class ParticipationSpec:
             min_face_px=int(viewing.get("min_face_px", 0)),
             portrait=str(viewing.get("portrait", "fit")),
             mismatched=bool(stored.get("mismatched", False)),
+            language=str(stored.get("language", "en")),
+            audio_check=AudioCheckSpec(
+                kind=str(check.get("kind", "none")),
+                trials=int(check.get("trials", 6)),
+                pass_mark=int(check.get("pass_mark", 5)),
+                attempts=int(check.get("attempts", 1)),
+            ),
         )
 
 
@@ -138,4 +201,44 @@ def read_participation(
         min_face_px=min_face,
         portrait=portrait,
         mismatched=mismatched,
+        language=read_language(reader, top),
+        audio_check=read_audio_check(reader, top),
     )
+
+
+def read_language(reader: FieldReader, top: Mapping[str, Any]) -> str:
+    """The study's ``language``: a BCP 47 tag (RFC 5646) whose language subtag has a
+    catalogue (:data:`LANGUAGES`), kept as written; ``"en"`` when absent.
+
+    >>> from pathlib import Path
+    >>> read_language(FieldReader("study.toml", Path(".")), {"language": "fr-CA"})
+    'fr-CA'
+    """
+    tag = reader.text(top, "language", "language", "en")
+    if not _BCP47.fullmatch(tag):
+        raise reader.error(
+            "language", f"expected a BCP 47 tag such as 'de' or 'fr-CA', got {tag!r}"
+        )
+    primary = tag.split("-")[0].lower()
+    if primary not in LANGUAGES:
+        raise reader.error(
+            "language", f"no catalogue for {primary!r}; expected one of {', '.join(LANGUAGES)}"
+        )
+    return tag
+
+
+def read_audio_check(reader: FieldReader, top: Mapping[str, Any]) -> AudioCheckSpec:
+    """The ``[audio_check]`` table (:class:`AudioCheckSpec`); every problem one line naming
+    the key."""
+    table = reader.table(
+        top.get("audio_check", {}), "audio_check", ("kind", "trials", "pass_mark", "attempts")
+    )
+    kind = reader.choice(table, "kind", "audio_check.kind", AUDIO_CHECK_KINDS, "none")
+    trials = reader.integer(table, "trials", "audio_check.trials", 6, 1, 20)
+    pass_mark = reader.integer(table, "pass_mark", "audio_check.pass_mark", min(5, trials), 1)
+    if pass_mark > trials:
+        raise reader.error(
+            "audio_check.pass_mark", f"at most audio_check.trials ({trials}), got {pass_mark}"
+        )
+    attempts = reader.integer(table, "attempts", "audio_check.attempts", 1, 1, 3)
+    return AudioCheckSpec(kind=kind, trials=trials, pass_mark=pass_mark, attempts=attempts)

@@ -101,6 +101,26 @@ DEMOGRAPHICS: Final[tuple[QuestionSpec, ...]] = (
 )
 
 
+class AnswerError(InputError):
+    """A questionnaire answer refused: ``problem`` says which rule (``required``, ``choice``,
+    ``number``, ``minimum``, ``maximum``, ``length``), ``limit`` its bound and ``got`` what
+    was given, so a page can say it in the participant's language."""
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        field: str,
+        problem: str,
+        limit: float | None = None,
+        got: str = "",
+    ) -> None:
+        super().__init__(message, field=field)
+        self.problem = problem
+        self.limit = limit
+        self.got = got
+
+
 def check_answer(question: QuestionSpec, raw: str | None) -> str | float | None:
     """The answer to ``question`` from the submitted text ``raw``: the chosen option, a number,
     the text, or None when left empty (allowed only if not required).
@@ -110,38 +130,59 @@ def check_answer(question: QuestionSpec, raw: str | None) -> str | float | None:
     42.0
     >>> check_answer(q, "17")
     Traceback (most recent call last):
-    app.errors.InputError: age: must be at least 18, got 17
+    app.trials.questions.AnswerError: age: must be at least 18, got 17
     """
     value = (raw or "").strip()
+    name = question.name
     if not value:
         if question.required:
-            raise InputError("an answer is required", field=question.name)
+            raise AnswerError("an answer is required", field=name, problem="required")
         return None
     if question.kind == "choice":
         if value not in question.choices:
-            raise InputError(f"choose one of the options, got {value[:40]!r}", field=question.name)
+            raise AnswerError(
+                f"choose one of the options, got {value[:40]!r}",
+                field=name,
+                problem="choice",
+                got=repr(value[:40]),
+            )
         return value
     if question.kind == "number":
         try:
             number = float(value)
         except ValueError:
-            raise InputError(
-                f"expected a number, got {value[:40]!r}", field=question.name
-            ) from None
+            number = math.nan
         if not math.isfinite(number):
-            raise InputError(f"expected a number, got {value[:40]!r}", field=question.name)
+            raise AnswerError(
+                f"expected a number, got {value[:40]!r}",
+                field=name,
+                problem="number",
+                got=repr(value[:40]),
+            )
         if question.minimum is not None and number < question.minimum:
-            raise InputError(
-                f"must be at least {question.minimum:g}, got {number:g}", field=question.name
+            raise AnswerError(
+                f"must be at least {question.minimum:g}, got {number:g}",
+                field=name,
+                problem="minimum",
+                limit=question.minimum,
+                got=f"{number:g}",
             )
         if question.maximum is not None and number > question.maximum:
-            raise InputError(
-                f"must be at most {question.maximum:g}, got {number:g}", field=question.name
+            raise AnswerError(
+                f"must be at most {question.maximum:g}, got {number:g}",
+                field=name,
+                problem="maximum",
+                limit=question.maximum,
+                got=f"{number:g}",
             )
         return number
     if len(value) > question.max_length:
-        raise InputError(
-            f"at most {question.max_length} characters, got {len(value)}", field=question.name
+        raise AnswerError(
+            f"at most {question.max_length} characters, got {len(value)}",
+            field=name,
+            problem="length",
+            limit=question.max_length,
+            got=str(len(value)),
         )
     return value
 

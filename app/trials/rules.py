@@ -67,8 +67,12 @@ class Answer(NamedTuple):
     key: str
 
 
+DEFAULT_UNDECIDED_LABEL: Final = "Undecided"
+"""The undecided button's label when the study file names none (``undecided.label``)."""
+
+
 def answers(
-    *, scale: int, undecided_allowed: bool, undecided_label: str = "Undecided"
+    *, scale: int, undecided_allowed: bool, undecided_label: str = DEFAULT_UNDECIDED_LABEL
 ) -> tuple[Answer, ...]:
     """The answer buttons of a study, left to right (HEMVIP2's 5-level scale when ``scale`` is 5).
 

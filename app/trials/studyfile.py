@@ -33,7 +33,7 @@ from app.trials.design import PAIR_DESIGNS, ConditionPair
 from app.trials.fields import MISSING, describe
 from app.trials.participation import PARTICIPATION_KEYS, read_participation
 from app.trials.questions import ExperimenterSideReader
-from app.trials.rules import REPLAY_KINDS, ReplayPolicy
+from app.trials.rules import DEFAULT_UNDECIDED_LABEL, REPLAY_KINDS, ReplayPolicy
 from app.trials.schedule import CATCH_KINDS
 from app.trials.studyspec import MODELS, ClipSpec, ConditionSpec, StudySpec
 
@@ -204,7 +204,9 @@ class _StudyReader(ExperimenterSideReader):
         allowed = self.get(
             undecided, "allowed", "undecided.allowed", (bool,), "true or false", True
         )
-        label = self.text(undecided, "label", "undecided.label", "Undecided", nonempty=True)
+        label = self.text(
+            undecided, "label", "undecided.label", DEFAULT_UNDECIDED_LABEL, nonempty=True
+        )
         replay = self.replay(top)
         catch = self.table(top.get("catch", {}), "catch", ("trials", "kind"))
         catch_trials = self.integer(catch, "trials", "catch.trials", 0, 0)

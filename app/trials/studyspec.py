@@ -23,7 +23,7 @@ from app.trials.design import ConditionPair, build_pairs
 from app.trials.fields import key_text
 from app.trials.participation import ParticipationSpec
 from app.trials.questions import QuestionSpec
-from app.trials.rules import ReplayPolicy
+from app.trials.rules import DEFAULT_UNDECIDED_LABEL, ReplayPolicy
 from app.trials.schedule import (
     ScheduledTrial,
     make_schedule,
@@ -88,7 +88,7 @@ class StudySpec:
     design: str = "all_ordered"
     reference: str | None = None
     undecided_allowed: bool = True
-    undecided_label: str = "Undecided"
+    undecided_label: str = DEFAULT_UNDECIDED_LABEL
     replay: ReplayPolicy = field(default_factory=ReplayPolicy)
     catch_trials: int = 0
     catch_kind: str = "identical"

@@ -21,6 +21,7 @@ from flask import Flask
 
 from app.web.extensions import init_extensions
 from app.web.hooks import init_web
+from app.web.infra.i18n import init_i18n
 from app.web.infra.media import DEFAULTS as MEDIA_DEFAULTS
 from app.web.infra.media import init_media
 from app.web.infra.security import init_security
@@ -100,5 +101,6 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
     init_security(app)
     init_media(app)
     init_extensions(app)
+    init_i18n(app)
     init_web(app)
     return app

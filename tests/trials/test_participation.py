@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from app.errors import InputError
 from app.trials.design import build_pairs
-from app.trials.participation import ParticipationSpec
+from app.trials.participation import AudioCheckSpec, ParticipationSpec
 from app.trials.schedule import foreign_clip, make_schedule, variant_stimuli
 from app.trials.studyfile import loads_study, parse_study
 
@@ -32,6 +32,8 @@ def test_block_is_read_and_written_back(make_study_data, study_dir) -> None:
         "answer": {"scale": 5, "reasons": ["lips", "eyes"]},
         "attention": {"max_failed": 2, "screened_out_code": "RETURN-7"},
         "viewing": {"min_face_px": 160, "portrait": "rotate"},
+        "language": "fr-CA",
+        "audio_check": {"kind": "huggins", "trials": 8, "pass_mark": 7, "attempts": 2},
     }
     spec = _parse(data, study_dir)
     assert spec.participation == ParticipationSpec(
@@ -42,6 +44,8 @@ def test_block_is_read_and_written_back(make_study_data, study_dir) -> None:
         min_face_px=160,
         portrait="rotate",
         mismatched=True,
+        language="fr-CA",
+        audio_check=AudioCheckSpec("huggins", trials=8, pass_mark=7, attempts=2),
     )
     again = loads_study(spec.to_toml(), base_dir=study_dir)
     assert again.participation == spec.participation
@@ -62,6 +66,14 @@ def test_block_is_read_and_written_back(make_study_data, study_dir) -> None:
         ({"viewing": {"portrait": "tilt"}}, "viewing.portrait: expected one of fit, rotate"),
         ({"viewing": {"min_face_px": 1.5}}, "viewing.min_face_px: expected an integer"),
         ({"mismatched": "yes"}, "mismatched: expected true or false"),
+        ({"language": "german"}, "language: expected a BCP 47 tag such as 'de' or 'fr-CA'"),
+        ({"language": "xx"}, "language: no catalogue for 'xx'; expected one of ar, de, en"),
+        ({"language": 7}, "language: expected a string"),
+        ({"audio_check": {"kind": "beep"}}, "audio_check.kind: expected one of none, huggins"),
+        ({"audio_check": {"trials": 0}}, "audio_check.trials: must be >= 1"),
+        ({"audio_check": {"trials": 4, "pass_mark": 5}}, "audio_check.pass_mark: at most"),
+        ({"audio_check": {"attempts": 4}}, "audio_check.attempts: must be <= 3"),
+        ({"audio_check": {"level": 1}}, "audio_check.level: unknown key"),
     ],
 )
 def test_each_bad_key_names_its_field(make_study_data, study_dir, changes, expected) -> None:
@@ -83,7 +95,9 @@ def test_mismatched_needs_two_clips(make_study_data, study_dir) -> None:
 )
 @given(
     block=st.dictionaries(
-        st.sampled_from(["answer", "attention", "viewing", "mismatched"]),
+        st.sampled_from(
+            ["answer", "attention", "viewing", "mismatched", "language", "audio_check"]
+        ),
         st.one_of(
             st.none(),
             st.integers(),
@@ -102,6 +116,20 @@ def test_any_block_is_read_or_refused_in_one_line(make_study_data, study_dir, bl
         _parse(make_study_data() | block, study_dir)
     except InputError as exc:
         assert "\n" not in str(exc) and str(exc).startswith("study.toml: ")
+
+
+@given(tag=st.text(max_size=30))
+@settings(
+    max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+def test_any_language_is_kept_or_refused_in_one_line(make_study_data, study_dir, tag) -> None:
+    try:
+        spec = _parse(make_study_data() | {"language": tag}, study_dir)
+    except InputError as exc:
+        assert "\n" not in str(exc) and str(exc).startswith("study.toml: language: ")
+    else:
+        assert spec.participation.language == tag
+        assert tag.split("-")[0].lower() in ("ar", "de", "en", "es", "fr", "ja")
 
 
 PAIRS = build_pairs(["a", "b", "c"], "all_ordered")

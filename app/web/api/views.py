@@ -21,6 +21,7 @@ from app.web.api import bp
 from app.web.extensions import db
 from app.web.infra import limits
 from app.web.infra.accounts import current_user, study_access
+from app.web.infra.i18n import use_language
 from app.web.infra.limits import fits
 from app.web.jobs.tasks import sweep_study_jobs
 from app.web.models import Job, Participant, Study, Trial
@@ -28,6 +29,7 @@ from app.web.study.enrolment import progress as enrolment_progress
 from app.web.study.medialog import MediaLogError, environment_fields
 from app.web.study.studies import participation
 from app.web.study.votes import VoteRejected, participant_for_vote, record_vote, replay_policy
+from app.web.study.wording import ended_reason
 
 #: A vote is a few hundred bytes; anything much larger is not one.
 MAX_BODY = 64 * 1024
@@ -73,7 +75,11 @@ def post_vote():  # type: ignore[no-untyped-def]
     except VoteRejected as exc:
         db.session.rollback()
         if exc.closed:
-            return jsonify({"error": exc.message, "closed": True}), exc.status
+            # ``error`` for scripts (English); ``message`` for the participant's page.
+            use_language(participation(participant.study).language)
+            return jsonify(
+                {"error": exc.message, "message": ended_reason(exc.message), "closed": True}
+            ), exc.status
         return _error(exc.message, exc.status)
     vote = outcome.vote
     resume, video = _participant_urls(payload["token"])

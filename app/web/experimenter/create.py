@@ -17,6 +17,7 @@ from flask import flash, redirect, render_template, request, url_for
 from wtforms import SelectChoice
 
 from app.errors import InputError
+from app.trials.rules import DEFAULT_UNDECIDED_LABEL
 from app.trials.studyfile import MODELS, loads_study, parse_study
 from app.web.experimenter import bp, uploads
 from app.web.experimenter.forms import StudyFileForm, StudyWebForm
@@ -78,7 +79,7 @@ def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
         "completion_code": form.completion_code.data or "",
         "undecided": {
             "allowed": bool(form.undecided_allowed.data),
-            "label": form.undecided_label.data or "Undecided",
+            "label": form.undecided_label.data or DEFAULT_UNDECIDED_LABEL,
         },
         "replay": {"policy": form.replay.data},
         "catch": {"trials": form.catch_trials.data or 0, "kind": form.catch_kind.data},

@@ -22,6 +22,7 @@ from wtforms.validators import URL, DataRequired, Length, NumberRange, Optional
 from wtforms.widgets import CheckboxInput, ListWidget
 
 from app.stimuli.eyes import DEFAULT_EYES
+from app.trials.rules import DEFAULT_UNDECIDED_LABEL
 
 DESIGN_CHOICES = [
     SelectChoice("all_ordered", "All ordered pairs, same-condition pairs included (thesis)"),
@@ -108,7 +109,7 @@ class StudyWebForm(FlaskForm):
     design = SelectField("Pair design", choices=DESIGN_CHOICES, default="all_ordered")
     reference = StringField("Reference condition (design 'reference')")
     undecided_allowed = BooleanField("Allow an undecided answer", default=True)
-    undecided_label = StringField("Label of the undecided answer", default="Undecided")
+    undecided_label = StringField("Label of the undecided answer", default=DEFAULT_UNDECIDED_LABEL)
     replay = SelectField("Replay policy", choices=REPLAY_CHOICES, default="unlimited")
     max_plays = IntegerField("Maximum plays", validators=[Optional(), NumberRange(min=1)])
     catch_trials = IntegerField("Catch trials", default=0, validators=[NumberRange(min=0)])

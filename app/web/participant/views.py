@@ -21,6 +21,7 @@ from flask import (
     request,
     url_for,
 )
+from flask_babel import lazy_gettext
 from flask_wtf import FlaskForm
 from markupsafe import Markup, escape
 from sqlalchemy.exc import IntegrityError
@@ -30,6 +31,7 @@ from app.trials import rules
 from app.trials.participation import ParticipationSpec
 from app.web.extensions import db, limiter
 from app.web.infra import limits
+from app.web.infra.i18n import use_language
 from app.web.infra.limits import fits
 from app.web.infra.media import media_response
 from app.web.models import Participant, Study, Trial, utcnow
@@ -46,6 +48,12 @@ from app.web.study.enrolment import (
 )
 from app.web.study.studies import participation
 from app.web.study.votes import SCREENED_OUT, replay_policy
+from app.web.study.wording import (
+    SIDE_NAMES,
+    ended_reason,
+    script_strings,
+    translated_answers,
+)
 
 COOKIE_DAYS = 30
 #: Clips never change under a URL (a re-render writes a new file and ETag), so the browser
@@ -62,7 +70,7 @@ class ConsentForm(FlaskForm):
     PROLIFIC_PID = HiddenField()
     STUDY_ID = HiddenField()
     SESSION_ID = HiddenField()
-    agree = SubmitField("I agree and want to take part")
+    agree = SubmitField(lazy_gettext("I agree and want to take part"))
 
 
 def _cookie_name(study: Study) -> str:
@@ -73,6 +81,7 @@ def _study(slug: str) -> Study:
     study = db.session.scalar(sa.select(Study).where(Study.slug == slug))
     if study is None or study.status in ("draft", "ready"):
         abort(404)
+    use_language(participation(study).language)
     return study
 
 
@@ -80,11 +89,19 @@ def _participant(token: str) -> Participant:
     # Already read by the questionnaire guard before this view (``questionnaire_first``).
     found = g.get("participant")
     if found is not None and found in db.session and found.token == token:
-        return found  # type: ignore[no-any-return]
-    participant = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        participant: Participant | None = found
+    else:
+        participant = db.session.scalar(sa.select(Participant).where(Participant.token == token))
     if participant is None:
         abort(404)
+    use_language(participation(participant.study).language)
     return participant
+
+
+@bp.app_template_global("script_strings")
+def _script_strings(study: Study) -> dict[str, Any]:
+    """The strings of ``participant.js`` for a page of ``study`` (``participant/layout.html``)."""
+    return script_strings(study.max_plays if study.replay == "max_plays" else None)
 
 
 @bp.app_template_filter("paragraphs")
@@ -221,7 +238,13 @@ def start(slug: str):  # type: ignore[no-untyped-def]
 
 @bp.errorhandler(429)
 def too_many_consents(error: Any):  # type: ignore[no-untyped-def]
-    """The consent limits above: a page that says to wait (Flask-Limiter adds Retry-After)."""
+    """The consent limits above: a page that says to wait (Flask-Limiter adds Retry-After),
+    in the study's language (the limit is checked before the view reads the study)."""
+    slug = (request.view_args or {}).get("slug")
+    if isinstance(slug, str) and fits(Study.slug, slug):
+        study = db.session.scalar(sa.select(Study).where(Study.slug == slug))
+        if study is not None:
+            use_language(participation(study).language)
     response = make_response(render_template("participant/busy.html"), 429)
     response.headers["Cache-Control"] = "no-store"
     return response
@@ -278,14 +301,19 @@ def instructions(token: str):  # type: ignore[no-untyped-def]
 def player_settings(study: Study, spec: ParticipationSpec) -> dict[str, Any]:
     """What the player template and script take from :mod:`app.trials.rules`: the answer
     buttons, the keys that cast a choice, the replay policy."""
+    answers = rules.answers(
+        scale=spec.scale,
+        undecided_allowed=study.allow_undecided,
+        undecided_label=study.undecided_label,
+    )
+    default_label = study.undecided_label == rules.DEFAULT_UNDECIDED_LABEL
     return {
-        "answers": rules.answers(
-            scale=spec.scale,
-            undecided_allowed=study.allow_undecided,
-            undecided_label=study.undecided_label,
-        ),
+        "answers": translated_answers(answers),
+        # A label the study file wrote (its own undecided label) is the study's text.
+        "study_labels": () if default_label else (study.undecided_label,),
         "answer_keys": rules.key_map(spec.scale),
         "replay": replay_policy(study),
+        "side_names": SIDE_NAMES,
     }
 
 
@@ -322,7 +350,7 @@ def trial(token: str):  # type: ignore[no-untyped-def]
     if counts is None:
         db.session.commit()
         return render_template(
-            "participant/unavailable.html", study=study, reason=SESSION_ENDED
+            "participant/unavailable.html", study=study, reason=ended_reason(SESSION_ENDED)
         ), 410
     if participant.started_at is None:
         participant.started_at = utcnow()
@@ -391,6 +419,6 @@ def done(token: str):  # type: ignore[no-untyped-def]
             study=study,
             screened=screened,
             code=code,
-            reason=SCREENED_OUT if screened else None,
+            reason=ended_reason(SCREENED_OUT) if screened else None,
         )
     )

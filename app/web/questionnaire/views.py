@@ -12,16 +12,18 @@ from functools import cache
 
 import sqlalchemy as sa
 from flask import abort, g, redirect, render_template, request, url_for
+from flask_babel import gettext as _
 from flask_wtf import FlaskForm
 from sqlalchemy import orm as so
 
-from app.errors import InputError
-from app.trials.questions import PAGES, check_answer
+from app.trials.questions import PAGES, AnswerError, check_answer
 from app.web.extensions import db
+from app.web.infra.i18n import use_language
 from app.web.infra.limits import fits
 from app.web.models import Participant
 from app.web.questionnaire import bp
 from app.web.study.questionnaires import pending_page, save_answers, study_questions
+from app.web.study.studies import participation
 
 #: Participant pages that wait for an owed questionnaire page, and which page each waits for.
 _GUARDED = {
@@ -58,6 +60,24 @@ def _with_study() -> sa.Select[tuple[Participant]]:
     )
 
 
+def answer_problem(error: AnswerError) -> str:
+    """What the participant reads under a refused answer, in the page's language."""
+    limit, got = (f"{error.limit:g}" if error.limit is not None else ""), error.got
+    if error.problem == "required":
+        return _("an answer is required")
+    if error.problem == "choice":
+        return _("choose one of the options, got %(got)s", got=got)
+    if error.problem == "number":
+        return _("expected a number, got %(got)s", got=got)
+    if error.problem == "minimum":
+        return _("must be at least %(limit)s, got %(got)s", limit=limit, got=got)
+    if error.problem == "maximum":
+        return _("must be at most %(limit)s, got %(got)s", limit=limit, got=got)
+    if error.problem == "length":
+        return _("at most %(limit)s characters, got %(got)s", limit=limit, got=got)
+    return error.message
+
+
 class _PageForm(FlaskForm):
     """Only the CSRF token: the questions are the study's, read from ``request.form``."""
 
@@ -67,6 +87,7 @@ def page(token: str, page: str):  # type: ignore[no-untyped-def]
     participant = db.session.scalar(sa.select(Participant).where(Participant.token == token))
     if participant is None or page not in PAGES:
         abort(404)
+    use_language(participation(participant.study).language)
     questions = study_questions(participant.study, page)
     if pending_page(participant) != page:
         return redirect(url_for("participant.resume", token=token))
@@ -80,8 +101,8 @@ def page(token: str, page: str):  # type: ignore[no-untyped-def]
         for question in questions:
             try:
                 answers[question.name] = check_answer(question, values[question.name])
-            except InputError as exc:
-                errors[question.name] = exc.message
+            except AnswerError as exc:
+                errors[question.name] = answer_problem(exc)
         if not errors:
             save_answers(participant, page, answers)
             db.session.commit()

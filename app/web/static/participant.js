@@ -88,9 +88,20 @@
     };
   }
 
+  // The page's words, in the study's language (app.web.study.wording.script_strings).
+  var blob = document.getElementById("i18n");
+  var T = blob ? JSON.parse(blob.textContent) : {};
+  // A translated string with its %(name)s placeholders filled in (%% is one percent sign).
+  function fmt(text, values) {
+    return String(text || "").replace(/%\((\w+)\)[sd]|%%/g, function (all, name) {
+      return name ? String(values[name]) : "%";
+    });
+  }
+  function sideName(choice) { return (T.choices && T.choices[choice]) || choice; }
+
   var coarse = window.matchMedia && window.matchMedia("(pointer: coarse)").matches;
   // What the participant does to the Play button: a touch screen is tapped.
-  var pressPlay = coarse ? "tap Play" : "press Play";
+  function byPointer(tap, press) { return coarse ? T[tap] : T[press]; }
 
   function Player(root) {
     var d = root.dataset;
@@ -141,28 +152,26 @@
       playButton.disabled = !mayPlay();
       // "Play again" once a play is over (or while a later one runs), never during the first.
       var again = state.plays > 1 || (state.plays === 1 && !state.playing);
-      playButton.firstChild.nodeValue = again ? "Play again " : "Play ";
+      playButton.firstChild.nodeValue = (again ? T.play_again : T.play) + " ";
       for (var i = 0; i < voteButtons.length; i++) voteButtons[i].disabled = !mayVote();
       if (maxPlays !== null && state.loaded) {
         var left = Math.max(0, maxPlays - state.plays);
-        playsLeft.textContent = left + (left === 1 ? " play left" : " plays left");
+        playsLeft.textContent = (T.plays_left || [])[left] || String(left);
       }
       if (state.voted || !state.loaded) return;
       if (state.firstPlay === null && !mayVote()) {
-        hint.textContent = coarse ? "Tap Play to watch both faces." :
-          "Press Play (or Space) to watch both faces.";
-      } else if (!mayVote()) hint.textContent = "Watch the video to the end, then answer.";
+        hint.textContent = byPointer("hint_tap", "hint_press");
+      } else if (!mayVote()) hint.textContent = T.hint_to_end;
       else if (state.firstPlay === null && !mayPlay()) {
-        hint.textContent = "You have watched this pair as often as allowed: please answer.";
-      } else hint.textContent = "Choose the left or the right face" +
-        (d.undecided === "yes" ? ", or that you cannot decide" : "") + ".";
+        hint.textContent = T.hint_used;
+      } else hint.textContent = d.undecided === "yes" ? T.hint_choose_undecided : T.hint_choose;
     }
 
     function ready() {
       if (state.loaded) return;
       state.loaded = true;
       state.presentedAt = new Date().toISOString();
-      overlayText.textContent = mayPlay() ? "Ready: " + pressPlay : "Please answer";
+      overlayText.textContent = mayPlay() ? byPointer("ready_tap", "ready_press") : T.please_answer;
       loading.hidden = true;
       update();
       if (!practice) playButton.focus();
@@ -180,7 +189,7 @@
       if (state.loaded || !video.duration || !video.buffered.length) return;
       var part = video.buffered.end(video.buffered.length - 1) / video.duration;
       loading.value = Math.round(100 * part);
-      overlayText.textContent = "Loading… " + Math.round(100 * part) + "%";
+      overlayText.textContent = fmt(T.loading_percent, { percent: Math.round(100 * part) });
     }
 
     var loadAttempts = 0;
@@ -194,7 +203,7 @@
     video.addEventListener("error", function () {
       if (state.loaded) return;
       loadAttempts += 1;
-      overlayText.textContent = "Could not load the video, retrying…";
+      overlayText.textContent = T.load_retry;
       window.setTimeout(load, Math.min(15000, 1000 * Math.pow(2, loadAttempts)));
     });
 
@@ -210,7 +219,7 @@
       if (started && started.catch) started.catch(function () {
         state.playing = false;
         overlay.hidden = false;
-        overlayText.textContent = "Please " + pressPlay + " to start";
+        overlayText.textContent = byPointer("start_tap", "start_press");
         update();
       });
     }
@@ -231,7 +240,7 @@
           if (typeof body.plays === "number") state.plays = body.plays;
           if (response.status === 200) start();
           else if (response.status >= 500) { state.plays += 1; start(); }
-          else { say(body.error || "No more plays of this pair.", "error"); update(); }
+          else { say(T.no_more_plays, "error"); update(); }
         });
       }, function () {
         // Offline: the clip is here, so it plays; the vote carries the page's count.
@@ -245,7 +254,7 @@
       state.playing = false;
       state.watched = true;
       overlay.hidden = false;
-      overlayText.textContent = mayPlay() ? "To watch again, " + pressPlay : "Please answer";
+      overlayText.textContent = mayPlay() ? byPointer("again_tap", "again_press") : T.please_answer;
       update();
       var first = root.querySelector(".vote:not([disabled])");
       if (first && document.activeElement === playButton) first.focus();
@@ -265,9 +274,8 @@
     function retryLater(payload, retryAfter) {
       state.attempt += 1;
       var wait = retryWait(state.attempt, retryAfter);
-      say("No connection to the server. Your answer (" + payload.choice + ") is kept on " +
-          "this page and will be sent automatically; please keep this page open. " +
-          "Retrying in " + Math.round(wait / 1000) + " s…", "offline");
+      say(fmt(T.offline, { choice: sideName(payload.choice), seconds: Math.round(wait / 1000) }),
+          "offline");
       // One resend, by the timer or by the connection coming back, whichever is first: the
       // other is called off, so no resend is left behind for a later pair.
       var timer = null;
@@ -299,7 +307,7 @@
           if (action === "retry") return retryLater(payload, response.headers.get("Retry-After"));
           store(pendingName, null);
           if (action === "saved") {
-            say("Saved.", "ok");
+            say(T.saved, "ok");
             // The answer carries the next pair (as its trial page would show it): the player
             // goes on in place. Without it (the last pair, or a case the server decides on the
             // page), the trial page is loaded; replace: the back button never returns to an
@@ -309,13 +317,12 @@
             }
           } else if (action === "closed") {
             // Final: the study (or this participant's session) stopped taking answers.
-            // Nothing is resent; the server's reason is shown.
-            say("This answer could not be recorded: " + (body.error || "this study is closed") +
-                ". Thank you for taking part.", "error");
+            // Nothing is resent; the server's reason is shown (its words for people).
+            say(fmt(T.closed, { reason: body.message || T.study_closed }), "error");
           } else {
             // Refused for a reason the participant can act on (e.g. the replay policy).
             state.voted = false;
-            say("Your answer was not accepted: " + (body.error || response.status), "error");
+            say(T.refused, "error");
             update();
           }
         });
@@ -336,13 +343,13 @@
       playButton.disabled = true;
       if (reasons) reasons.hidden = true;
       if (practice) {
-        say("Practice answer: " + state.choice + ". That is all there is to it; start when ready.", "ok");
+        say(fmt(T.practice_answer, { choice: sideName(state.choice) }), "ok");
         var startLink = document.getElementById("start");
         if (startLink) startLink.focus();
         return;
       }
       hint.textContent = "";
-      say("Saving your answer…");
+      say(T.saving);
       var payload = {
         token: d.token, trial_id: parseInt(d.trialId, 10), choice: state.choice,
         plays: state.plays, watched_to_end: state.watched,
@@ -369,7 +376,7 @@
       if (!reasons) return submit();
       // Reason tags first; the choice can still change until Next.
       reasons.hidden = false;
-      hint.textContent = "Tick what made the difference (optional), then press Next.";
+      hint.textContent = T.hint_reasons;
       // The tags and their Next button may lie below the fold: brought into view, or the
       // participant sees nothing happen.
       if (reasons.scrollIntoView) reasons.scrollIntoView({ block: "nearest" });
@@ -398,7 +405,7 @@
     if (kept && String(kept.trial_id) === d.trialId) {
       state.voted = true;
       update();
-      say("Sending the answer you gave before…");
+      say(T.sending_kept);
       send(kept);
       return;
     }
@@ -424,7 +431,7 @@
     if (next.preload_url) d.preloadUrl = next.preload_url;
     else delete d.preloadUrl;
     var text = document.querySelector(".progress-text");
-    if (text) text.textContent = "Pair " + (body.answered + 1) + " of " + body.total;
+    if (text) text.textContent = fmt(T.pair_of, { number: body.answered + 1, total: body.total });
     var bar = document.querySelector("progress[aria-label=Progress]");
     if (bar) { bar.max = body.total; bar.value = body.answered; }
     var instructed = document.querySelector(".trial .instructed");
@@ -434,11 +441,13 @@
         instructed.className = "instructed";
         root.parentNode.insertBefore(instructed, root);
       }
-      instructed.textContent = "For this pair, please choose ";
+      // The side word in bold, where the language puts it in the sentence.
+      var parts = String(T.instructed).split("%(side)s");
+      instructed.textContent = fmt(parts[0], {});
       var strong = document.createElement("strong");
-      strong.textContent = next.instructed;
+      strong.textContent = sideName(next.instructed);
       instructed.appendChild(strong);
-      instructed.appendChild(document.createTextNode("."));
+      instructed.appendChild(document.createTextNode(fmt(parts.slice(1).join(""), {})));
     } else if (instructed) {
       instructed.parentNode.removeChild(instructed);
     }
@@ -517,9 +526,7 @@
       sent.then(function (r) { return r.json(); }).then(function (body) {
         if (body.viewing_ok === false) {
           var message = document.querySelector(".viewing-check");
-          message.textContent = "The faces are shown " + facePx + " pixels wide, but this " +
-            "study needs at least " + minFace + ". Please use a larger window or screen (or " +
-            "turn your phone sideways), then press Start again.";
+          message.textContent = fmt(T.viewing_small, { shown: facePx, needed: minFace });
           message.hidden = false;
           message.scrollIntoView();
         } else go();

@@ -1,0 +1,116 @@
+"""What the participant reads that does not sit in a template: the answer buttons' labels,
+the side names, the reasons a session or study ends, and what the page's script says.
+
+The script (``static/participant.js``) takes its strings from a JSON blob in the page
+(``<script type="application/json" id="i18n">``, :func:`script_strings`), in the study's
+language; it formats ``%(name)s`` placeholders itself, so every language orders them freely.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from flask_babel import gettext as _
+from flask_babel import lazy_gettext, ngettext
+
+from app.trials import rules
+from app.web.study.enrolment import SESSION_ENDED
+from app.web.study.votes import SCREENED_OUT
+
+#: The labels of :func:`app.trials.rules.answers`, by their English text (the undecided
+#: label only when the study keeps the default).
+ANSWER_LABELS = {
+    "Left": lazy_gettext("Left"),
+    "Right": lazy_gettext("Right"),
+    "Undecided": lazy_gettext("Undecided"),
+    "Clearly left": lazy_gettext("Clearly left"),
+    "Slightly left": lazy_gettext("Slightly left"),
+    "Slightly right": lazy_gettext("Slightly right"),
+    "Clearly right": lazy_gettext("Clearly right"),
+}
+
+#: A choice as a word in a sentence ("For this pair, please choose left.").
+SIDE_NAMES = {
+    "left": lazy_gettext("left"),
+    "right": lazy_gettext("right"),
+    "undecided": lazy_gettext("undecided"),
+}
+
+#: Why a session or study takes no more answers, as the services say it (English, in the API's
+#: ``error``), and as the participant reads it (one or two whole sentences).
+ENDED = {
+    SCREENED_OUT: lazy_gettext(
+        "Your session has ended because several attention checks were missed. "
+        "Thank you for your time."
+    ),
+    SESSION_ENDED: lazy_gettext(
+        "Your session ended after a long pause, and your place was given to another "
+        "participant. Thank you for your time."
+    ),
+    "this study is closed": lazy_gettext("This study is closed. Thank you for taking part."),
+}
+
+
+def translated_answers(answers: tuple[rules.Answer, ...]) -> tuple[rules.Answer, ...]:
+    """The answer buttons with their labels in the page's language (a study's own undecided
+    label stays as written)."""
+    return tuple(a._replace(label=str(ANSWER_LABELS.get(a.label, a.label))) for a in answers)
+
+
+def ended_reason(message: str) -> str:
+    """The participant's words for a service's reason (:data:`ENDED`), else the message."""
+    found = ENDED.get(message)
+    return str(found) if found is not None else message
+
+
+def script_strings(max_plays: int | None = None) -> dict[str, Any]:
+    """What ``participant.js`` says, in the page's language. ``plays_left[n]`` is the text for
+    ``n`` plays left (``n`` up to ``max_plays``: each language has its own plural forms)."""
+    return {
+        "play": _("Play"),
+        "play_again": _("Play again"),
+        "plays_left": [
+            ngettext("%(num)d play left", "%(num)d plays left", n)
+            for n in range((max_plays or 0) + 1)
+        ],
+        "hint_tap": _("Tap Play to watch both faces."),
+        "hint_press": _("Press Play (or Space) to watch both faces."),
+        "hint_to_end": _("Watch the video to the end, then answer."),
+        "hint_used": _("You have watched this pair as often as allowed: please answer."),
+        "hint_choose": _("Choose the left or the right face."),
+        "hint_choose_undecided": _("Choose the left or the right face, or that you cannot decide."),
+        "hint_reasons": _("Tick what made the difference (optional), then press Next."),
+        "ready_tap": _("Ready: tap Play"),
+        "ready_press": _("Ready: press Play"),
+        "start_tap": _("Please tap Play to start"),
+        "start_press": _("Please press Play to start"),
+        "again_tap": _("To watch again, tap Play"),
+        "again_press": _("To watch again, press Play"),
+        "please_answer": _("Please answer"),
+        # Python's format: %% is one percent sign.
+        "loading_percent": _("Loading… %(percent)s%%"),
+        "load_retry": _("Could not load the video, retrying…"),
+        "no_more_plays": _("No more plays of this pair."),
+        "offline": _(
+            "No connection to the server. Your answer (%(choice)s) is kept on this page and "
+            "will be sent automatically; please keep this page open. Retrying in "
+            "%(seconds)s s…"
+        ),
+        "saving": _("Saving your answer…"),
+        "saved": _("Saved."),
+        "sending_kept": _("Sending the answer you gave before…"),
+        "closed": _("This answer could not be recorded. %(reason)s"),
+        "study_closed": str(ENDED["this study is closed"]),
+        "refused": _("Your answer was not accepted. Please play the pair, then answer again."),
+        "practice_answer": _(
+            "Practice answer: %(choice)s. That is all there is to it; start when ready."
+        ),
+        "pair_of": _("Pair %(number)s of %(total)s"),
+        "instructed": _("For this pair, please choose %(side)s."),
+        "viewing_small": _(
+            "The faces are shown %(shown)s pixels wide, but this study needs at least "
+            "%(needed)s. Please use a larger window or screen (or turn your phone sideways), "
+            "then press Start again."
+        ),
+        "choices": {choice: str(name) for choice, name in SIDE_NAMES.items()},
+    }

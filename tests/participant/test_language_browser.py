@@ -1,0 +1,154 @@
+"""The participant's pages in the study's language, in chromium at desktop (1366x768), phone
+(390x844, touch) and small-phone (300x640, touch) size: a right-to-left (Arabic) page mirrors
+its flow, but its "left" answer is still the button nearer the left face, and casts "left";
+a German page speaks German from consent to the vote. Debian's chromium through Playwright."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+import sqlalchemy as sa
+
+from app.web.extensions import db
+from app.web.models import Study, Vote
+from tests.conftest import create_test_study
+from tests.test_browser import browser  # noqa: F401  (the chromium fixture)
+
+pytestmark = pytest.mark.browser
+
+SIZES = [
+    ("desktop", {"width": 1366, "height": 768}, False),
+    ("phone", {"width": 390, "height": 844}, True),
+    ("small", {"width": 300, "height": 640}, True),
+]
+
+
+def _slug(app, study_id: int) -> str:
+    with app.app_context():
+        return db.session.get(Study, study_id).slug
+
+
+def _shot(page, name: str) -> None:
+    """A screenshot to ``$FACEPAIR_SCREENSHOTS`` when that is set (to look at the page)."""
+    if os.environ.get("FACEPAIR_SCREENSHOTS"):
+        page.screenshot(path=Path(os.environ["FACEPAIR_SCREENSHOTS"]) / f"{name}.png")
+
+
+#: The study's own words in its language (the study file's title, question and undecided
+#: label; the test study's are English).
+WORDS = {
+    "ar": ("دراسة الوجوه المتحركة", "أي الوجهين يتحرك بشكل أكثر طبيعية؟", "لا أستطيع أن أقرر"),
+    "de": ("Sprechende Gesichter", "Welches Gesicht bewegt sich natürlicher?", "Weiß nicht"),
+}
+
+
+def _first_trial(live_server, chromium, tmp_path, clip, viewport, touch, agree: str, **toml):
+    """The first trial's page of a new study in its ``language`` (``extra``), clip ready.
+    With ``$FACEPAIR_DEMO_CLIP`` (docs/make_participant_figures.py) it shows that clip."""
+    clip = Path(os.environ.get("FACEPAIR_DEMO_CLIP", clip))
+    study_id = create_test_study(live_server.app, tmp_path, clip, **toml)
+    language = toml["extra"].split('"')[1]
+    with live_server.app.app_context():
+        study = db.session.get(Study, study_id)
+        study.title, study.question, study.undecided_label = WORDS[language]
+        db.session.commit()
+    context = chromium.new_context(viewport=viewport, is_mobile=touch, has_touch=touch)
+    page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.goto(f"{live_server.url}/s/{_slug(live_server.app, study_id)}")
+    press = page.tap if touch else page.click
+    press(f"text={agree}")
+    page.wait_for_url("**/instructions")
+    press("#start")
+    page.wait_for_selector(".player[data-trial-id]")
+    page.wait_for_selector(".play:not([disabled])", timeout=20000)
+    return context, page, press, errors
+
+
+def _centre_x(page, selector: str) -> float:
+    box = page.locator(selector).bounding_box()
+    assert box is not None, selector
+    return box["x"] + box["width"] / 2
+
+
+@pytest.mark.parametrize("name, viewport, touch", SIZES)
+def test_the_left_answer_is_under_the_left_face_in_a_right_to_left_study(
+    live_server,
+    browser,  # noqa: F811
+    tiny_video,
+    tmp_path,
+    name,
+    viewport,
+    touch,
+):
+    setup = (live_server, browser, tmp_path, tiny_video, viewport, touch)
+    context, page, press, errors = _first_trial(*setup, "أوافق", extra='language = "ar"')
+    try:
+        assert page.get_attribute("html", "dir") == "rtl"
+        assert page.get_attribute("html", "lang") == "ar"
+        stage = page.locator(".stage").bounding_box()
+        assert stage is not None
+        left_face = stage["x"] + stage["width"] / 4
+        right_face = stage["x"] + 3 * stage["width"] / 4
+        left = _centre_x(page, '.vote[data-choice="left"]')
+        right = _centre_x(page, '.vote[data-choice="right"]')
+        assert abs(left - left_face) < abs(left - right_face), (left, left_face, right_face)
+        assert abs(right - right_face) < abs(right - left_face)
+        assert page.inner_text('.vote[data-choice="left"] .label') == "الأيسر"
+        assert page.inner_text('.vote[data-choice="undecided"] .label') == WORDS["ar"][2]
+        # The side labels on the clip keep their places too.
+        labels = page.locator(".side-labels span")
+        assert labels.nth(0).inner_text() == "الأيسر"
+        assert labels.nth(0).bounding_box()["x"] < labels.nth(1).bounding_box()["x"]
+        # The page itself is mirrored: the study's title starts the bar, on the right.
+        title = page.locator(".study-bar [data-study-text]").bounding_box()
+        assert title["x"] + title["width"] > viewport["width"] * 0.9
+        trial = int(page.get_attribute(".player", "data-trial-id"))
+        press(".play")
+        page.wait_for_selector(".vote:not([disabled])", timeout=20000)
+        _shot(page, f"participant-trial-arabic-{name}")
+        press('.vote[data-choice="left"]')
+        page.wait_for_selector(f'.player[data-trial-id="{trial}"]', state="detached")
+    finally:
+        context.close()
+    assert errors == []
+    with live_server.app.app_context():
+        vote = db.session.scalar(sa.select(Vote).where(Vote.trial_id == trial))
+        assert vote.choice == "left"
+
+
+@pytest.mark.parametrize("name, viewport, touch", SIZES)
+def test_a_german_study_speaks_german_to_the_vote(
+    live_server,
+    browser,  # noqa: F811
+    tiny_video,
+    tmp_path,
+    name,
+    viewport,
+    touch,
+):
+    setup = (live_server, browser, tmp_path, tiny_video, viewport, touch)
+    context, page, press, errors = _first_trial(
+        *setup, "Ich stimme zu", replay="max_plays", max_plays=2, extra='language = "de"'
+    )
+    try:
+        assert page.get_attribute("html", "lang") == "de"
+        assert page.inner_text(".progress-text").startswith("Paar 1 von ")
+        assert page.inner_text(".plays-left") == "Noch 2 Wiedergaben"
+        press(".play")
+        page.wait_for_selector(".vote:not([disabled])", timeout=20000)
+        page.wait_for_selector(".play:has-text('Erneut abspielen')", timeout=20000)
+        assert page.inner_text(".plays-left") == "Noch 1 Wiedergabe"
+        _shot(page, f"participant-trial-german-{name}")
+        trial = int(page.get_attribute(".player", "data-trial-id"))
+        press('.vote[data-choice="right"]')
+        page.wait_for_selector(f'.player[data-trial-id="{trial}"]', state="detached")
+        # The only pair answered: the completion page, in German too.
+        page.wait_for_selector("h1:text('Vielen Dank!')", timeout=20000)
+        assert "Ihr Abschlusscode:" in page.inner_text(".done")
+    finally:
+        context.close()
+    assert errors == []

@@ -1,0 +1,287 @@
+"""The participant pages in the study's language (``app.web.infra.i18n``): complete catalogues,
+``<html lang dir>``, and a pseudo-locale that shows any fixed string which escaped gettext."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from html.parser import HTMLParser
+from pathlib import Path
+
+import pytest
+import sqlalchemy as sa
+from babel.messages.pofile import read_po, write_po
+from flask import render_template
+
+from app.trials.participation import LANGUAGES
+from app.web.extensions import db
+from app.web.infra.i18n import TRANSLATIONS, use_language
+from app.web.models import Participant, Study, Trial
+from app.web.study.enrolment import SESSION_ENDED
+from app.web.study.wording import ended_reason
+from tests.conftest import ParticipantActions, csrf_token
+
+REPO = Path(__file__).resolve().parent.parent
+PLACEHOLDER = re.compile(r"%\(\w+\)[sd]|%%")
+SHIPPED = sorted(p.name for p in TRANSLATIONS.iterdir() if (p / "LC_MESSAGES").is_dir())
+
+
+def _catalogue(lang: str):
+    with open(TRANSLATIONS / lang / "LC_MESSAGES" / "messages.po", "rb") as source:
+        return read_po(source)
+
+
+def _template():
+    with open(TRANSLATIONS / "messages.pot", "rb") as source:
+        return read_po(source)
+
+
+def test_the_study_file_languages_are_the_shipped_catalogues():
+    assert tuple(SHIPPED) == LANGUAGES
+    assert {"ar", "de", "en", "es", "fr", "ja"} <= set(SHIPPED)
+
+
+def test_the_template_holds_every_string_of_the_source(tmp_path):
+    """``messages.pot`` is what ``pybabel extract`` finds today: no string marked for
+    translation is missing from the catalogues' template (docs/reference/studyfile.md)."""
+    fresh = tmp_path / "messages.pot"
+    subprocess.run(
+        [sys.executable, "-m", "babel.messages.frontend", "extract"]
+        + ["-F", str(TRANSLATIONS / "babel.cfg"), "-k", "lazy_gettext", "-o", str(fresh), "."],
+        cwd=REPO,
+        check=True,
+        capture_output=True,
+    )
+    with open(fresh, "rb") as source:
+        found = {m.id for m in read_po(source) if m.id}
+    assert found == {m.id for m in _template() if m.id}
+
+
+@pytest.mark.parametrize("lang", SHIPPED)
+def test_every_catalogue_is_complete_with_matching_placeholders(lang):
+    template = {m.id for m in _template() if m.id}
+    catalogue = _catalogue(lang)
+    assert not catalogue.fuzzy
+    seen = set()
+    for message in catalogue:
+        if not message.id:
+            continue
+        seen.add(message.id)
+        assert not message.fuzzy, (lang, message.id)
+        ids = [message.id] if isinstance(message.id, str) else list(message.id)
+        strings = [message.string] if isinstance(message.string, str) else list(message.string)
+        assert len(strings) == catalogue.num_plurals or isinstance(message.id, str)
+        wanted = set(PLACEHOLDER.findall(" ".join(ids))) - {"%%"}
+        for text in strings:
+            assert text.strip(), (lang, message.id)
+            got = set(PLACEHOLDER.findall(text)) - {"%%"}
+            if isinstance(message.id, str):
+                assert got == wanted, (lang, message.id, text)
+            else:  # a plural form may spell its number out ("one", "two")
+                assert got <= wanted, (lang, message.id, text)
+    assert seen == template, (lang, template - seen)
+
+
+# --- pages -------------------------------------------------------------------------------
+
+
+def _slug(app, study_id):
+    with app.app_context():
+        return db.session.get(Study, study_id).slug
+
+
+def test_html_lang_and_dir_follow_the_study_language(app, client, web):
+    german = _slug(app, web.study(extra='language = "de-AT"'))
+    page = client.get(f"/s/{german}").get_data(as_text=True)
+    assert '<html lang="de-AT" dir="ltr">' in page and "Ich stimme zu" in page
+    arabic = _slug(app, web.study(extra='language = "ar"'))
+    page = client.get(f"/s/{arabic}").get_data(as_text=True)
+    assert '<html lang="ar" dir="rtl">' in page and "أوافق" in page
+    # The experimenter's side stays English.
+    assert '<html lang="en" dir="ltr">' in client.get("/experimenter/login").get_data(as_text=True)
+
+
+def test_a_closed_vote_says_why_in_the_study_language(app, client, participant, web):
+    study_id = web.study(extra='language = "fr"')
+    token = participant.join(_slug(app, study_id))
+    trial = participant.current_trial()
+    with app.app_context():
+        db.session.get(Study, study_id).status = "closed"
+        db.session.commit()
+    answer = participant.vote(trial)
+    assert answer.status_code == 409
+    assert answer.json["error"] == "this study is closed"  # for scripts
+    assert answer.json["message"] == "Cette étude est terminée. Merci de votre participation."
+    assert token
+
+
+def _pseudo(text: str) -> str:
+    """Every letter outside a placeholder as its full-width twin: an ASCII letter left on a
+    page is a string that did not go through the catalogue."""
+    parts = re.split(r"(%\(\w+\)[sd]|%%)", text)
+    return "".join(
+        p if PLACEHOLDER.fullmatch(p) else re.sub(r"[A-Za-z]", lambda m: chr(ord(m[0]) + 0xFEE0), p)
+        for p in parts
+    )
+
+
+@pytest.fixture
+def pseudo_app(app, tmp_path):
+    """``app`` whose English catalogue is the pseudo-locale (a later folder overrides)."""
+    catalogue = _template()
+    catalogue.locale = "en"
+    for message in catalogue:
+        if not message.id:
+            continue
+        if isinstance(message.id, str):
+            message.string = _pseudo(message.id)
+        else:
+            message.string = (_pseudo(message.id[0]), _pseudo(message.id[1]))
+    folder = tmp_path / "pseudo" / "en" / "LC_MESSAGES"
+    folder.mkdir(parents=True)
+    with open(folder / "messages.po", "wb") as out:
+        write_po(out, catalogue)
+    app.extensions["babel"].translation_directories.append(str(tmp_path / "pseudo"))
+    return app
+
+
+class _Visible(HTMLParser):
+    """Visible text and the attributes people read (aria-label, title, alt, placeholder, a
+    button's value), less the study's own text (``data-study-text``), scripts and ``<head>``."""
+
+    VOID = {"input", "br", "img", "meta", "link", "hr", "source"}
+    READ = ("aria-label", "title", "alt", "placeholder")
+
+    def __init__(self) -> None:
+        super().__init__(convert_charrefs=True)
+        self.stack: list[tuple[str, bool]] = []
+        self.texts: list[str] = []
+        self.blob = ""
+
+    def _skipped(self) -> bool:
+        return any(skip for _, skip in self.stack)
+
+    def handle_starttag(self, tag, attrs):
+        attributes = dict(attrs)
+        skip = tag in ("script", "style", "head") or "data-study-text" in attributes
+        if not self._skipped() and not skip:
+            self.texts += [attributes[a] or "" for a in self.READ if a in attributes]
+            if tag == "input" and attributes.get("type") == "submit":
+                self.texts.append(attributes.get("value") or "")
+        if tag == "script" and attributes.get("id") == "i18n":
+            self.blob = "pending"
+        if tag not in self.VOID:
+            self.stack.append((tag, skip))
+
+    def handle_endtag(self, tag):
+        while self.stack:
+            if self.stack.pop()[0] == tag:
+                break
+
+    def handle_data(self, data):
+        if self.blob == "pending":
+            self.blob = data
+        elif not self._skipped():
+            self.texts.append(data)
+
+
+def _escaped(html: str) -> list[str]:
+    """What a page shows in ASCII letters outside study text: strings that escaped gettext;
+    the script's strings (the JSON blob) are read too."""
+    parser = _Visible()
+    parser.feed(html)
+    texts = list(parser.texts)
+    if parser.blob and parser.blob != "pending":
+
+        def walk(value):
+            if isinstance(value, dict):
+                for item in value.values():
+                    yield from walk(item)
+            elif isinstance(value, list):
+                for item in value:
+                    yield from walk(item)
+            else:
+                yield PLACEHOLDER.sub("", str(value))
+
+        texts += list(walk(json.loads(parser.blob)))
+    return [t.strip() for t in texts if re.search(r"[A-Za-z]", t)]
+
+
+PSEUDO_STUDY = dict(
+    replay="max_plays",
+    max_plays=2,
+    catch=1,
+    catch_kind="instructed",
+    extra="""[answer]
+reasons = ["lips", "eyes"]
+[attention]
+max_failed = 2
+[[questions]]
+name = "hours"
+text = "Hours of screen time a day"
+type = "number"
+min = 0
+max = 24
+""",
+)
+
+
+def test_no_fixed_string_escapes_translation_on_any_participant_page(pseudo_app, web):
+    """Consent, questionnaire (with an error), instructions, trial, done, already started,
+    busy, paused, closed and session-ended pages under the pseudo-locale."""
+    app = pseudo_app
+    client = app.test_client()
+    slug = _slug(app, web.study(**PSEUDO_STUDY))
+    pages = {"consent": client.get(f"/s/{slug}?PROLIFIC_PID=p1&SESSION_ID=s1")}
+    person = ParticipantActions(client, app)
+    token = person.join(slug, "PROLIFIC_PID=p1&SESSION_ID=s1")
+    url = f"/p/{token}/questions/before"
+    pages["questionnaire"] = client.post(
+        url, data={"csrf_token": csrf_token(client, url), "hours": "99"}
+    )
+    client.post(url, data={"csrf_token": csrf_token(client, url), "hours": "3"})
+    pages["instructions"] = client.get(f"/p/{token}/instructions")
+    pages["trial"] = client.get(f"/p/{token}/trial")
+    while (trial := person.current_trial()) is not None:
+        with app.app_context():
+            expected = db.session.get(Trial, trial).expected
+        person.vote(trial, expected or "left")
+    pages["done"] = client.get(f"/p/{token}/done")
+    stranger = app.test_client()
+    pages["already started"] = stranger.get(f"/s/{slug}?PROLIFIC_PID=p1&SESSION_ID=other")
+    paused = _slug(app, web.study(status="paused"))
+    pages["paused"] = client.get(f"/s/{paused}")
+    with app.app_context():
+        study = db.session.scalar(sa.select(Study).where(Study.slug == slug))
+        participant = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        with app.test_request_context(f"/s/{slug}"):
+            use_language("en")
+            busy = render_template("participant/busy.html")
+            closed = render_template("participant/unavailable.html", study=study)
+            viewing = render_template("participant/unavailable.html", study=study, viewing=200)
+            ended = render_template(
+                "participant/unavailable.html", study=study, reason=ended_reason(SESSION_ENDED)
+            )
+        assert participant is not None
+    problems = {}
+    for name, response in pages.items():
+        assert response.status_code < 500 or name == "paused", name
+        problems[name] = _escaped(response.get_data(as_text=True))
+    for name, html in (("busy", busy), ("closed", closed), ("viewing", viewing), ("ended", ended)):
+        problems[name] = _escaped(html)
+    assert {name: found for name, found in problems.items() if found} == {}
+    # The pages did render their fixed text (in full-width letters), not nothing.
+    assert "Ｐａｉｒ" in pages["trial"].get_data(as_text=True)
+
+
+def test_the_script_shows_no_string_of_its_own():
+    """Every sentence ``participant.js`` shows comes from the page's JSON blob: the script's
+    string literals hold no words with spaces besides these (selectors, media queries)."""
+    script = (REPO / "app/web/static/participant.js").read_text(encoding="utf-8")
+    code = re.sub(r"/\*.*?\*/|//[^\n]*", "", script, flags=re.S)
+    literals = re.findall(r'"((?:[^"\\\n]|\\.)*)"', code)
+    allowed = {"use strict", "(pointer: coarse)", ".vote:not([disabled])"}
+    worded = {s for s in literals if re.search(r"[A-Za-z]{2,} [A-Za-z]", s)} - allowed
+    assert worded == set()
