@@ -18,7 +18,7 @@ from app.trials.rules import ReplayPolicy
 from app.trials.studyfile import load_study_file, loads_study, parse_study
 
 StudyData = Callable[[], dict[str, Any]]
-DESIGNS = "all_ordered, reference, unordered_counterbalanced, adaptive"
+DESIGNS = "all_ordered, reference, unordered_counterbalanced, adaptive, rating"
 
 
 def error_of(data: dict[str, Any], base_dir: Path) -> str:
