@@ -79,14 +79,22 @@ def check_score(scale: str, score: object) -> int:
     return score
 
 
+def catch_ceiling(scale: str) -> int:
+    """The highest score that obeys an instructed check (rate it at the bottom of the scale).
+
+    >>> catch_ceiling("acr5"), catch_ceiling("slider")
+    (1, 10)
+    """
+    return SCALE_RANGE[scale][0] + (SLIDER_CATCH_TOLERANCE if scale == "slider" else 0)
+
+
 def catch_passed(scale: str, score: int) -> bool:
-    """Whether ``score`` obeys an instructed check (rate it at the bottom of the scale).
+    """Whether ``score`` obeys an instructed check (:func:`catch_ceiling`).
 
     >>> catch_passed("acr5", 1), catch_passed("acr5", 2), catch_passed("slider", 8)
     (True, False, True)
     """
-    low = SCALE_RANGE[scale][0]
-    return score <= low + (SLIDER_CATCH_TOLERANCE if scale == "slider" else 0)
+    return score <= catch_ceiling(scale)
 
 
 def rating_schedule(

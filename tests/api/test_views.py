@@ -152,7 +152,11 @@ def test_a_vote_on_a_closed_study_says_so_for_good(app, participant, web):
         db.session.commit()
     response = participant.vote(trial)
     assert response.status_code == 409
-    assert response.json == {"error": "this study is closed", "closed": True}
+    assert response.json == {
+        "error": "this study is closed",
+        "message": "This study is closed. Thank you for taking part.",
+        "closed": True,
+    }
     assert _votes(app) == []
 
 

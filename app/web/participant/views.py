@@ -28,6 +28,7 @@ from sqlalchemy.exc import IntegrityError
 from wtforms import HiddenField, SubmitField
 
 from app.trials import rules
+from app.trials.design import RATING_DESIGNS
 from app.trials.participation import ParticipationSpec
 from app.web.extensions import db, limiter
 from app.web.infra import limits
@@ -46,11 +47,13 @@ from app.web.study.enrolment import (
     touch_with_progress,
     unstarted_after,
 )
+from app.web.study.participants import rating_scale
 from app.web.study.studies import participation
 from app.web.study.votes import SCREENED_OUT, replay_policy
 from app.web.study.wording import (
     SIDE_NAMES,
     ended_reason,
+    rating_levels,
     script_strings,
     translated_answers,
 )
@@ -293,6 +296,7 @@ def instructions(token: str):  # type: ignore[no-untyped-def]
             study=study,
             practice=practice,
             spec=spec,
+            scale=rating_scale(study) if study.design in RATING_DESIGNS else None,
             **player_settings(study, spec),
         )
     )
@@ -357,19 +361,31 @@ def trial(token: str):  # type: ignore[no-untyped-def]
     answered, total = counts
     # Rendered before the commit, which expires every loaded row: rendering after it would
     # read the participant, study and trials again.
+    if study.design in RATING_DESIGNS:
+        template = "participant/rating.html"
+        shown: dict[str, Any] = {
+            "scale": rating_scale(study),
+            "levels": rating_levels(),
+            "replay": replay_policy(study),
+        }
+    else:
+        template = "participant/trial.html"
+        shown = {
+            "following": following,
+            "instructed": rules.instructed_side(
+                upcoming.kind, upcoming.expected, lambda: upcoming.stimulus.instruction
+            ),
+            **player_settings(study, spec),
+        }
     page = render_template(
-        "participant/trial.html",
+        template,
         participant=participant,
         study=study,
         trial=upcoming,
         answered=answered,
         total=total,
         spec=spec,
-        following=following,
-        instructed=rules.instructed_side(
-            upcoming.kind, upcoming.expected, lambda: upcoming.stimulus.instruction
-        ),
-        **player_settings(study, spec),
+        **shown,
     )
     db.session.commit()
     return _no_store(page)

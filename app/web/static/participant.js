@@ -43,7 +43,6 @@
     return Math.min(30000, 1000 * Math.pow(2, attempt - 1));
   }
 
-  window.facepairVotes = { action: voteAction, wait: retryWait };
 
   // The media log of one trial: what was seen, not only what was answered.
   function MediaLog(video) {
@@ -87,6 +86,10 @@
       return log;
     };
   }
+
+  // Shared with the rating page's script (static/rating.js).
+  window.facepairVotes = { action: voteAction, wait: retryWait, MediaLog: MediaLog, store: store,
+                           load: load_, newKey: newKey };
 
   // The page's words, in the study's language (app.web.study.wording.script_strings).
   var blob = document.getElementById("i18n");

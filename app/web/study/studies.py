@@ -25,6 +25,7 @@ from app.web.models import (
     Job,
     Pair,
     Participant,
+    Rating,
     Stimulus,
     Study,
     StudyList,
@@ -170,6 +171,7 @@ def create_study(
             "participation": spec.participation.to_dict(),
             "auto_exclude": list(spec.auto_exclude),
             "questions": [q.to_dict() for q in spec.questions],
+            "rating_scale": spec.rating_scale,
         },
     )
     db.session.add(study)
@@ -256,15 +258,16 @@ def change_status(study: Study, action: str) -> str:
 
 
 def has_votes(study: Study) -> bool:
-    """Whether any participant (pilot included) has voted in ``study``."""
-    return (
+    """Whether any participant (pilot included) has voted, or rated, in ``study``."""
+    return any(
         db.session.scalar(
-            sa.select(Vote.id)
-            .join(Participant, Vote.participant_id == Participant.id)
+            sa.select(answer.id)
+            .join(Participant, answer.participant_id == Participant.id)
             .where(Participant.study_id == study.id)
             .limit(1)
         )
         is not None
+        for answer in (Vote, Rating)
     )
 
 
@@ -392,6 +395,7 @@ def delete_study(study: Study) -> None:
     conditions = sa.select(Condition.id).where(Condition.study_id == study.id)
     for statement in (
         sa.delete(Vote).where(Vote.participant_id.in_(participants)),
+        sa.delete(Rating).where(Rating.participant_id.in_(participants)),
         sa.delete(Trial).where(Trial.participant_id.in_(participants)),
         sa.delete(Participant).where(Participant.study_id == study.id),
         sa.delete(Track).where(Track.condition_id.in_(conditions)),

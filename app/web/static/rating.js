@@ -1,0 +1,256 @@
+/* facepair rating page (the rating design): play one face, rate it on the five ACR levels
+ * (keys 5 to 1) or on the 0-100 slider, send the rating once.
+ *
+ * As a vote (static/participant.js, whose helpers it takes from window.facepairVotes): the
+ * rating is kept in localStorage until the server has it, every resend carries the same
+ * idempotency key, and only a 5xx or a lost connection is sent again. */
+(function () {
+  "use strict";
+
+  var root = document.querySelector(".rater");
+  var shared = window.facepairVotes;
+  if (!root || !shared) return;
+  var blob = document.getElementById("i18n");
+  var T = blob ? JSON.parse(blob.textContent) : {};
+  function fmt(text, values) {
+    return String(text || "").replace(/%\((\w+)\)[sd]|%%/g, function (all, name) {
+      return name ? String(values[name]) : "%";
+    });
+  }
+  var coarse = window.matchMedia && window.matchMedia("(pointer: coarse)").matches;
+
+  var d = root.dataset;
+  var video = root.querySelector("video");
+  var playButton = root.querySelector(".play");
+  var overlay = root.querySelector(".overlay");
+  var overlayText = root.querySelector(".overlay-text");
+  var loading = root.querySelector(".loading");
+  var hint = root.querySelector(".hint");
+  var status = root.querySelector(".status");
+  var playsLeft = root.querySelector(".plays-left");
+  var levels = root.querySelectorAll(".level");
+  var slider = root.querySelector("input[type=range]");
+  var next = root.querySelector(".next");
+  var maxPlays = d.maxPlays ? parseInt(d.maxPlays, 10) : null;
+  var needsEnd = d.needsEnd === "yes";
+  var pendingName = "fp-pending-rating-" + d.token;
+  var media = new shared.MediaLog(video);
+  var state = { loaded: false, playing: false, plays: parseInt(d.plays || "0", 10),
+                watched: false, firstPlay: null, presentedAt: null, sent: false, moved: false,
+                requesting: false, attempt: 0 };
+
+  function mayPlay() {
+    if (!state.loaded || state.playing || state.sent || state.requesting) return false;
+    return !(maxPlays !== null && state.plays >= maxPlays);
+  }
+  // As for votes: plays granted before a reload count as seen.
+  function mayRate() {
+    if (state.sent || state.plays === 0) return false;
+    return needsEnd ? state.watched : true;
+  }
+
+  function update() {
+    playButton.disabled = !mayPlay();
+    var again = state.plays > 1 || (state.plays === 1 && !state.playing);
+    playButton.firstChild.nodeValue = (again ? T.play_again : T.play) + " ";
+    for (var i = 0; i < levels.length; i++) levels[i].disabled = !mayRate();
+    if (slider) slider.disabled = !mayRate();
+    if (next) next.disabled = !(mayRate() && state.moved);
+    if (maxPlays !== null && state.loaded) {
+      var left = Math.max(0, maxPlays - state.plays);
+      playsLeft.textContent = (T.plays_left || [])[left] || String(left);
+    }
+    if (state.sent || !state.loaded) return;
+    if (!mayRate()) {
+      hint.textContent = state.firstPlay === null ?
+        (coarse ? T.hint_watch_tap : T.hint_watch_press) : T.hint_to_end;
+    } else hint.textContent = slider ? T.hint_slider : T.hint_rate;
+  }
+
+  function say(text, kind) {
+    status.textContent = text;
+    status.className = "status" + (kind ? " status-" + kind : "");
+    document.body.style.paddingTop = kind === "offline" ? status.offsetHeight + "px" : "";
+  }
+
+  function load() {
+    video.preload = "auto";
+    video.src = d.videoUrl;
+    video.load();
+  }
+  var loadAttempts = 0;
+  video.addEventListener("loadeddata", function () {
+    if (state.loaded) return;
+    state.loaded = true;
+    state.presentedAt = new Date().toISOString();
+    overlayText.textContent = mayPlay() ? (coarse ? T.ready_tap : T.ready_press) : T.please_answer;
+    loading.hidden = true;
+    update();
+    playButton.focus();
+  });
+  video.addEventListener("progress", function () {
+    if (state.loaded || !video.duration || !video.buffered.length) return;
+    var part = video.buffered.end(video.buffered.length - 1) / video.duration;
+    loading.value = Math.round(100 * part);
+    overlayText.textContent = fmt(T.loading_percent, { percent: Math.round(100 * part) });
+  });
+  video.addEventListener("error", function () {
+    if (state.loaded) return;
+    loadAttempts += 1;
+    overlayText.textContent = T.load_retry;
+    window.setTimeout(load, Math.min(15000, 1000 * Math.pow(2, loadAttempts)));
+  });
+
+  function start() {
+    state.playing = true;
+    if (state.firstPlay === null) state.firstPlay = performance.now();
+    if (video.currentTime > 0) media.seeked();
+    media.restarted();
+    video.currentTime = 0;
+    overlay.hidden = true;
+    update();
+    var started = video.play();
+    if (started && started.catch) started.catch(function () {
+      state.playing = false;
+      overlay.hidden = false;
+      overlayText.textContent = coarse ? T.start_tap : T.start_press;
+      update();
+    });
+  }
+
+  // Each play is asked of the server first (the replay policy holds across reloads).
+  function play() {
+    if (!mayPlay()) return;
+    state.requesting = true;
+    update();
+    fetch(d.playUrl, {
+      method: "POST", credentials: "same-origin", cache: "no-store",
+      headers: { "Content-Type": "application/json", Accept: "application/json" },
+      body: JSON.stringify({ token: d.token, trial_id: parseInt(d.trialId, 10) })
+    }).then(function (response) {
+      return response.json().catch(function () { return {}; }).then(function (body) {
+        state.requesting = false;
+        if (typeof body.plays === "number") state.plays = body.plays;
+        if (response.status === 200) start();
+        else if (response.status >= 500) { state.plays += 1; start(); }
+        else { say(T.no_more_plays, "error"); update(); }
+      });
+    }, function () { state.requesting = false; state.plays += 1; start(); });
+  }
+
+  video.addEventListener("ended", function () {
+    state.playing = false;
+    state.watched = true;
+    overlay.hidden = false;
+    overlayText.textContent = mayPlay() ? (coarse ? T.again_tap : T.again_press) : T.please_answer;
+    update();
+    var first = slider || root.querySelector(".level:not([disabled])");
+    if (first && document.activeElement === playButton) first.focus();
+  });
+  video.addEventListener("pause", function () {
+    if (!video.ended) { state.playing = false; update(); }
+  });
+
+  function retryLater(payload, retryAfter) {
+    state.attempt += 1;
+    var wait = shared.wait(state.attempt, retryAfter);
+    say(fmt(T.offline_rating, { seconds: Math.round(wait / 1000) }), "offline");
+    var timer = null;
+    function again() {
+      window.clearTimeout(timer);
+      window.removeEventListener("online", again);
+      send(payload);
+    }
+    timer = window.setTimeout(again, wait);
+    window.addEventListener("online", again);
+  }
+
+  function send(payload) {
+    fetch(d.ratingUrl, {
+      method: "POST", credentials: "same-origin", cache: "no-store",
+      headers: { "Content-Type": "application/json", Accept: "application/json" },
+      body: JSON.stringify(payload)
+    }).then(function (response) {
+      return response.json().catch(function () { return {}; }).then(function (body) {
+        var action = shared.action(response.status, body);
+        if (action === "retry") return retryLater(payload, response.headers.get("Retry-After"));
+        shared.store(pendingName, null);
+        if (action === "saved") {
+          say(T.saved, "ok");
+          // replace: the back button never returns to a rated clip
+          window.location.replace(d.nextUrl);
+        } else if (action === "closed") {
+          say(fmt(T.closed, { reason: body.message || T.study_closed }), "error");
+        } else {
+          state.sent = false;
+          say(T.refused_rating, "error");
+          update();
+        }
+      });
+    }, function () { retryLater(payload, null); });
+  }
+
+  function submit(score) {
+    if (!mayRate()) return;
+    state.sent = true;
+    video.pause();
+    update();
+    hint.textContent = "";
+    say(T.saving);
+    var payload = {
+      token: d.token, trial_id: parseInt(d.trialId, 10), score: score, plays: state.plays,
+      watched_to_end: state.watched,
+      response_ms: state.firstPlay === null ? null :
+        Math.round(performance.now() - state.firstPlay),
+      presented_at: state.presentedAt, idempotency_key: shared.newKey(), media: media.report()
+    };
+    shared.store(pendingName, payload);
+    send(payload);
+  }
+
+  function choose(button) {
+    if (!button || !mayRate()) return;
+    for (var i = 0; i < levels.length; i++) {
+      levels[i].classList.toggle("chosen", levels[i] === button);
+      levels[i].setAttribute("aria-pressed", levels[i] === button ? "true" : "false");
+    }
+    submit(parseInt(button.dataset.score, 10));
+  }
+
+  playButton.addEventListener("click", play);
+  for (var i = 0; i < levels.length; i++) {
+    levels[i].addEventListener("click", function (e) { choose(e.currentTarget); });
+  }
+  if (slider) {
+    slider.addEventListener("input", function () { state.moved = true; update(); });
+    next.addEventListener("click", function () {
+      if (state.moved) submit(parseInt(slider.value, 10));
+    });
+  }
+  document.addEventListener("keydown", function (e) {
+    if (e.altKey || e.ctrlKey || e.metaKey) return;
+    var tag = (e.target && e.target.tagName) || "";
+    if (e.key === " " || e.key === "p" || e.key === "P") {
+      if (e.key === " " && (tag === "BUTTON" || tag === "INPUT")) return;
+      e.preventDefault();
+      play();
+    } else if (levels.length && /^[1-5]$/.test(e.key)) {
+      e.preventDefault();
+      choose(root.querySelector('.level[data-score="' + e.key + '"]'));
+    }
+  });
+  window.addEventListener("blur", function () { if (!state.sent) media.focusLost(); });
+  window.addEventListener("pageshow", function (e) { if (e.persisted) window.location.reload(); });
+
+  // A rating kept from before a reload (e.g. sent while offline) goes out first, unchanged.
+  var kept = shared.load(pendingName);
+  if (kept && String(kept.trial_id) === d.trialId) {
+    state.sent = true;
+    say(T.sending_kept);
+    send(kept);
+    return;
+  }
+  if (kept) shared.store(pendingName, null);
+  update();
+  load();
+})();

@@ -1,0 +1,164 @@
+"""Recording a rating (``app.web.study.ratings``) through ``POST /api/v1/ratings``: stored
+exactly once, every field checked in one line naming it, the attention stop rule and the
+participant's progress as for votes; on SQLite and PostgreSQL."""
+
+from __future__ import annotations
+
+import secrets
+from typing import Any
+
+import sqlalchemy as sa
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from app.web.extensions import db
+from app.web.models import Participant, Rating, Study
+
+SLIDER = '[rating]\nscale = "slider"\n'
+
+
+def _join(app, participant, web, **toml: Any) -> tuple[str, int]:
+    study_id = web.study(design="rating", catch_kind="instructed", **toml)
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    token = participant.join(slug)
+    trial = participant.current_trial()
+    assert trial is not None
+    return token, trial
+
+
+def _rate(client, token: str, trial_id: int, score: Any = 4, **extra: Any):
+    payload = {
+        "token": token,
+        "trial_id": trial_id,
+        "score": score,
+        "plays": 1,
+        "watched_to_end": True,
+        "response_ms": 900,
+        "presented_at": "2026-01-01T10:00:00Z",
+        "idempotency_key": extra.pop("key", None) or secrets.token_hex(8),
+        "media": {"watched_ms": 500, "played_to_end": True},
+        **extra,
+    }
+    return client.post("/api/v1/ratings", json=payload)
+
+
+def _ratings(app) -> list[Rating]:
+    with app.app_context():
+        return list(db.session.scalars(sa.select(Rating).order_by(Rating.id)))
+
+
+def test_a_participant_rates_every_trial_once_and_finishes(app, client, participant, web):
+    token, trial = _join(app, participant, web)
+    page = client.get(f"/p/{token}/trial").get_data(as_text=True)
+    assert "Excellent" in page and "Bad" in page
+    first = _rate(client, token, trial, 5, key="rating-key-1")
+    assert first.status_code == 201, first.get_json()
+    body = first.get_json()
+    assert body["status"] == "recorded" and body["rating"]["score"] == 5
+    assert (body["answered"], body["total"]) == (1, 2)
+    again = _rate(client, token, trial, 2, key="rating-key-1")
+    assert again.status_code == 200 and again.get_json()["rating"]["score"] == 5
+    other_key = _rate(client, token, trial, 3)
+    assert other_key.status_code == 200 and other_key.get_json()["status"] == "duplicate"
+    second = participant.current_trial()
+    assert second is not None and second != trial
+    reused = _rate(client, token, second, 3, key="rating-key-1")
+    assert reused.status_code == 409 and "idempotency_key" in reused.get_json()["error"]
+    assert _rate(client, token, second, 1).status_code == 201
+    assert participant.current_trial() is None
+    rows = _ratings(app)
+    assert [r.score for r in rows] == [5, 1]
+    assert rows[0].watched_ms == 500 and rows[0].played_to_end is True
+    with app.app_context():
+        person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        assert person.finished_at is not None
+        assert {r.condition_id for r in rows} == {
+            c.id for c in db.session.get(Study, person.study_id).conditions
+        }
+
+
+def test_the_slider_takes_0_to_100_and_votes_are_refused(app, client, participant, web):
+    token, trial = _join(app, participant, web, extra=SLIDER)
+    page = client.get(f"/p/{token}/trial").get_data(as_text=True)
+    assert 'type="range"' in page
+    refused = _rate(client, token, trial, 101)
+    assert refused.status_code == 400
+    assert refused.get_json()["error"] == "score: expected a whole number from 0 to 100"
+    vote = participant.vote(trial)
+    assert vote.status_code >= 400
+    assert _rate(client, token, trial, 63).status_code == 201
+
+
+def test_a_missed_check_ends_the_session_under_the_stop_rule(app, client, participant, web):
+    token, trial = _join(app, participant, web, catch=2, extra="[attention]\nmax_failed = 1\n")
+    closed = None
+    for _ in range(6):
+        trial = participant.current_trial()
+        if trial is None:
+            break
+        page = client.get(f"/p/{token}/trial").get_data(as_text=True)
+        response = _rate(client, token, trial, 4)  # never "Bad": fails the first check
+        if 'class="instructed"' in page:
+            assert response.status_code == 201
+            closed = _rate(client, token, participant.current_trial() or trial, 4)
+            break
+    assert closed is not None and closed.status_code == 409 and closed.get_json()["closed"]
+    with app.app_context():
+        person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        assert person.screened_out_at is not None
+
+
+@settings(
+    max_examples=40,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+@given(
+    field=st.sampled_from(
+        ["score", "plays", "response_ms", "presented_at", "idempotency_key", "media", "trial_id"]
+    ),
+    value=st.one_of(
+        st.none(),
+        st.booleans(),
+        st.integers(-(2**70), 2**70),
+        st.floats(allow_nan=True),
+        st.text(max_size=80),
+        st.lists(st.integers(), max_size=3),
+        st.dictionaries(st.text(max_size=8), st.integers(), max_size=3),
+    ),
+)
+def test_any_field_value_is_stored_or_refused_in_one_line(
+    app, client, participant, web, field: str, value: Any
+):
+    if participant.token is None:
+        _join(app, participant, web)
+    trial = participant.current_trial() or 1
+    payload = {
+        "token": participant.token,
+        "trial_id": trial,
+        "score": 3,
+        "plays": 1,
+        "idempotency_key": secrets.token_hex(8),
+        field: value,
+    }
+    response = client.post("/api/v1/ratings", json=payload)
+    assert response.status_code < 500
+    if response.status_code >= 400:
+        error = response.get_json()["error"]
+        assert "\n" not in error
+        named = field.split("_")[0] if field != "idempotency_key" else field
+        assert (
+            named in error
+            or "trial" in error
+            or field == "media"
+            or error.startswith("the study")
+            or "watch" in error
+        ), error
+
+
+def test_a_body_that_is_no_rating_is_refused(app, client, participant, web):
+    token, trial = _join(app, participant, web)
+    assert client.post("/api/v1/ratings", data="x").status_code == 400
+    assert _rate(client, "no-such-token", trial).status_code == 403
+    assert _rate(client, token, trial, "4").get_json()["error"].startswith("score:")
