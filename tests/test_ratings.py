@@ -162,3 +162,66 @@ def test_a_body_that_is_no_rating_is_refused(app, client, participant, web):
     assert client.post("/api/v1/ratings", data="x").status_code == 400
     assert _rate(client, "no-such-token", trial).status_code == 403
     assert _rate(client, token, trial, "4").get_json()["error"].startswith("score:")
+
+
+def _rate_all(app, client, participant, slug: str, score: int, *, check: int = 1) -> str:
+    """A participant from consent to done, rating every clip ``score`` (checks ``check``)."""
+    from app.web.models import Trial
+
+    token = participant.join(slug)
+    while (trial := participant.current_trial()) is not None:
+        with app.app_context():
+            kind = db.session.get(Trial, trial).kind
+        response = _rate(client, token, trial, check if kind == "catch" else score)
+        assert response.status_code == 201, response.get_json()
+    return token
+
+
+def test_ratings_csv_and_the_closing_report(app, client, participant, web, tmp_path):
+    import json
+
+    from click.testing import CliRunner
+
+    from app.analysis.rating_results import RATING_COLUMNS
+    from app.cli import main
+    from app.web.models import Job
+
+    study_id = web.study(design="rating", catch_kind="instructed", catch=1)
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    for score in (4, 5, 3):
+        _rate_all(app, client, participant, slug, score)
+        client.delete_cookie(f"fp-{study_id}")
+    _rate_all(app, client, participant, slug, 5, check=3)  # misses the check
+    client.delete_cookie(f"fp-{study_id}")
+    web.login(client)
+    text = client.get(f"/experimenter/studies/{study_id}/ratings.csv").get_data(as_text=True)
+    lines = text.splitlines()
+    assert lines[0] == ",".join(c for c, _ in RATING_COLUMNS)
+    assert len(lines) == 1 + 4 * 3  # two trials and a check each
+    excluded = {line.split(",")[0] for line in lines if "failed a catch trial" in line}
+    assert len(excluded) == 1
+    (missed,) = excluded
+    page = client.get(f"/experimenter/studies/{study_id}").get_data(as_text=True)
+    assert 'id="export-ratings"' in page and 'id="export-votes"' not in page
+    token = web.csrf(client, f"/experimenter/studies/{study_id}")
+    client.post(f"/experimenter/studies/{study_id}/status/close", data={"csrf_token": token})
+    with app.app_context():
+        job = db.session.scalar(sa.select(Job).where(Job.kind == "report"))
+        assert job.status == "done", job.message
+    response = client.get(f"/experimenter/studies/{study_id}/report/")
+    html = response.get_data(as_text=True)
+    response.close()
+    assert "Mean opinion scores" in html and missed in html
+    assert "3 participants included, 1 left out." in html
+    assert "facepair analyze ratings.csv" in html
+    (tmp_path / "ratings.csv").write_text(text)
+    result = CliRunner().invoke(
+        main, ["analyze", str(tmp_path / "ratings.csv"), "--json", str(tmp_path / "r.json")]
+    )
+    assert result.exit_code == 0, result.output
+    again = json.loads((tmp_path / "r.json").read_text())
+    assert again["input"]["participants"] == 3 and again["input"]["left_out"] == {
+        missed: "failed a catch trial (0 of 1 passed)"
+    }
+    assert again["mos"]["raw_mos"] == {"none": 4.0, "random": 4.0}

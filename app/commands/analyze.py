@@ -166,7 +166,8 @@ def analyze(
     mixed_model: bool,
     measures_paths: tuple[str, ...],
 ) -> None:
-    """Analyse the votes of a paired-comparison study (CSV) and report the results."""
+    """Analyse the votes of a paired-comparison study (CSV) and report the results; a
+    ratings table (the rating design's ratings.csv) gets its MOS analysis instead."""
     from tqdm import tqdm
 
     from app.analysis import analyze as run_analysis
@@ -176,6 +177,11 @@ def analyze(
     if pdf_path is not None and html_path is None:
         raise click.UsageError("--pdf needs --report (both come from the same content)")
     names = None if conditions is None else [c.strip() for c in conditions.split(",") if c.strip()]
+    from app.analysis.rating_results import is_ratings_file
+
+    if is_ratings_file(votes):
+        _analyze_ratings(votes, names, json_path, html_path, pdf_path)
+        return
     summaries = read_summaries(measures_paths)
     steps = 2 + (html_path is not None) + (pdf_path is not None and html_path is not None)
     with tqdm(total=steps, desc="analyze", unit="step", disable=None) as bar:
@@ -216,3 +222,25 @@ def analyze(
             write_report(results, html_path, pdf_path)
             bar.update(steps - bar.n)
     click.echo(_summary(results))
+
+
+def _analyze_ratings(
+    path: str,
+    names: list[str] | None,
+    json_path: str | None,
+    html_path: str | None,
+    pdf_path: str | None,
+) -> None:
+    """``facepair analyze ratings.csv``: MOS with intervals and Holm-adjusted contrasts
+    (:func:`app.analysis.rating_results.analyze_ratings`), written as the votes' are."""
+    from app.analysis.rating_results import analyze_ratings, read_ratings, summary_text
+    from app.analysis.report import write_report
+
+    results = analyze_ratings(read_ratings(path), conditions=names, source=path)
+    if json_path is not None:
+        Path(json_path).write_text(
+            json.dumps(results, indent=1, allow_nan=False) + "\n", encoding="utf-8"
+        )
+    if html_path is not None:
+        write_report(results, html_path, pdf_path)
+    click.echo(summary_text(results))

@@ -1,0 +1,354 @@
+"""The ratings table (the ``rating`` design's answers) and its analysis and report.
+
+One row per rating: a participant's score of one condition's single-face clip (ITU-T P.910
+ACR: 5 Excellent ... 1 Bad; or a 0-100 slider). The web app writes it as ``ratings.csv``
+(:func:`write_ratings_csv`); ``facepair analyze ratings.csv`` reads it back
+(:func:`read_ratings`) and analyses it (:func:`analyze_ratings`): the attention checks (rows
+of ``kind = catch``) and the participants the export marks ``excluded`` are left out, with
+the reason printed, and the rest go to the linear mixed model of
+:func:`app.analysis.ratings.mixed_mos` (MOS with confidence intervals, pairwise contrasts with
+Holm). :func:`rating_blocks` is the report's content (:mod:`app.analysis.report` writes it as
+HTML and PDF).
+
+>>> [c for c, _ in RATING_COLUMNS if c in REQUIRED]
+['participant', 'clip', 'condition', 'score']
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Sequence
+from pathlib import Path
+from typing import IO, TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from app.analysis.ratings import mixed_mos
+from app.errors import InputError
+from app.trials.rating import SCALE_RANGE, catch_ceiling
+
+if TYPE_CHECKING:  # matplotlib comes with the report's blocks, never with reading a table
+    from app.analysis.document import Block
+
+#: The columns of ``ratings.csv`` and their meaning, in the order they are written.
+RATING_COLUMNS: tuple[tuple[str, str], ...] = (
+    ("participant", "participant identifier (a pseudonym from the web app)"),
+    ("clip", "clip (audio segment) the face was rendered for"),
+    ("condition", "the condition rated"),
+    ("score", "the rating: 1 (Bad) to 5 (Excellent) on ACR, 0-100 on the slider"),
+    ("scale", "acr5 or slider"),
+    ("trial", "0-based place of the trial in the participant's schedule"),
+    ("kind", "trial, or catch (an attention check: rate it Bad)"),
+    ("response_ms", "milliseconds from the first play to the rating"),
+    ("plays", "plays of the clip before rating"),
+    ("presented_at", "browser time the clip was shown (ISO 8601, UTC)"),
+    ("rated_at", "server time the rating was stored (ISO 8601, UTC)"),
+    ("watched_ms", "milliseconds of the clip seen playing"),
+    ("played_to_end", "whether a play reached the end"),
+    ("stalls", "times playback ran dry"),
+    ("stall_ms", "milliseconds spent stalled"),
+    ("focus_lost", "times the window lost focus during the trial"),
+    ("status", "the participant's status (started, finished, dropped, ...)"),
+    ("excluded", "why the analysis leaves the participant out; empty to include"),
+    ("prolific_id", "pseudonymised Prolific ID"),
+    ("study", "study title"),
+)
+REQUIRED = ("participant", "clip", "condition", "score")
+KINDS = ("trial", "catch")
+
+
+def is_ratings_file(path: str | Path) -> bool:
+    """Whether the CSV at ``path`` is a ratings table (a ``score`` column, no ``choice``)."""
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as source:
+            header = next(csv.reader(source), [])
+    except (OSError, UnicodeDecodeError):
+        return False
+    names = {h.strip() for h in header}
+    return "score" in names and "choice" not in names
+
+
+def read_ratings(source: str | Path | pd.DataFrame) -> pd.DataFrame:
+    """Read and check a ratings table; every problem is one :class:`~app.errors.InputError`
+    naming the file, line (the header is line 1) and column.
+
+    >>> read_ratings(pd.DataFrame({"participant": ["p1"], "clip": ["s2"],
+    ...     "condition": ["a"], "score": ["4"]})).loc[0, "score"]
+    4
+    """
+    path = None if isinstance(source, pd.DataFrame) else Path(source)
+    if path is None:
+        frame = source.copy()  # type: ignore[union-attr]
+    else:
+        try:
+            frame = pd.read_csv(path, dtype=str, keep_default_na=False, encoding="utf-8-sig")
+        except FileNotFoundError:
+            raise InputError("no such file", path=path) from None
+        except (OSError, UnicodeDecodeError, pd.errors.ParserError) as exc:
+            raise InputError(f"cannot read the ratings: {exc}".splitlines()[0], path=path) from None
+    frame.columns = [str(c).strip() for c in frame.columns]
+    missing = [c for c in REQUIRED if c not in frame.columns]
+    if missing:
+        raise InputError(f"missing column(s): {', '.join(missing)}", path=path, field="header")
+    frame = frame.astype({c: str for c in REQUIRED}).reset_index(drop=True)
+    for column in ("participant", "clip", "condition"):
+        blank = frame[column].str.strip() == ""
+        if blank.any():
+            raise InputError("empty", path=path, line=int(blank.idxmax()) + 2, field=column)
+    scores = pd.to_numeric(frame["score"].str.strip(), errors="coerce")
+    bad = ~(scores.notna() & (scores % 1 == 0) & scores.between(0, 100))
+    if bad.any():
+        row = int(bad.idxmax())
+        raise InputError(
+            f"expected a whole number from 0 to 100, got {frame.loc[row, 'score']!r}",
+            path=path,
+            line=row + 2,
+            field="score",
+        )
+    frame["score"] = scores.astype(int)
+    if "kind" not in frame.columns:
+        frame["kind"] = "trial"
+    frame["kind"] = frame["kind"].astype(str).str.strip().replace("", "trial")
+    odd = ~frame["kind"].isin(KINDS)
+    if odd.any():
+        row = int(odd.idxmax())
+        raise InputError(
+            f"expected trial or catch, got {frame.loc[row, 'kind']!r}",
+            path=path,
+            line=row + 2,
+            field="kind",
+        )
+    if "excluded" not in frame.columns:
+        frame["excluded"] = ""
+    frame["excluded"] = frame["excluded"].astype(str).str.strip()
+    return frame
+
+
+def write_ratings_csv(rows: Sequence[dict[str, Any]], out: IO[str] | str | Path) -> None:
+    """Write ratings (dicts keyed by :data:`RATING_COLUMNS`) as CSV; a key outside the
+    format is refused, so what is written is what :func:`read_ratings` reads."""
+    names = [c for c, _ in RATING_COLUMNS]
+    for row in rows:
+        unknown = set(row) - set(names)
+        if unknown:
+            raise ValueError(f"not columns of the ratings table: {', '.join(sorted(unknown))}")
+    target = open(out, "w", encoding="utf-8", newline="") if isinstance(out, str | Path) else out
+    try:
+        writer = csv.DictWriter(target, fieldnames=names, lineterminator="\n")
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: "" if v is None else v for k, v in row.items()})
+    finally:
+        if isinstance(out, str | Path):
+            target.close()
+
+
+def analyze_ratings(
+    frame: pd.DataFrame,
+    *,
+    conditions: Sequence[str] | None = None,
+    confidence: float = 0.95,
+    source: str = "",
+) -> dict[str, Any]:
+    """MOS per condition from a :func:`read_ratings` table: the mixed model of
+    :func:`app.analysis.ratings.mixed_mos` on the real trials of the included participants.
+
+    Returns ``{"kind": "rating", "conditions", "mos" (mixed_mos's result), "input":
+    {"source", "ratings", "participants", "clips", "left_out": {participant: why},
+    "catch": {"trials", "failed"}}, "scale"}``.
+    """
+    left_out = {
+        str(p): str(why)
+        for p, why in frame.loc[frame["excluded"] != "", ["participant", "excluded"]]
+        .drop_duplicates("participant")
+        .itertuples(index=False)
+    }
+    included = frame[frame["excluded"] == ""]
+    checks = included[included["kind"] == "catch"]
+    scale = _scale(frame)
+    kept = included[included["kind"] == "trial"].rename(columns={"score": "rating"})
+    if kept.empty:
+        raise InputError("no ratings to analyse", field="ratings")
+    mos = mixed_mos(kept, conditions, confidence)
+    return {
+        "kind": "rating",
+        "conditions": mos["conditions"],
+        "scale": scale,
+        "mos": mos,
+        "input": {
+            "source": source,
+            "ratings": int(len(kept)),
+            "participants": int(kept["participant"].nunique()),
+            "clips": sorted(kept["clip"].unique().tolist()),
+            "left_out": left_out,
+            "catch": {
+                "trials": int(len(checks)),
+                "failed": int((checks["score"] > catch_ceiling(scale)).sum()),
+            },
+        },
+    }
+
+
+def _scale(frame: pd.DataFrame) -> str:
+    """The table's scale: its ``scale`` column, else ACR when every score is 1 to 5."""
+    if "scale" in frame.columns:
+        named = {s for s in frame["scale"].astype(str).str.strip() if s}
+        if len(named) == 1 and named <= set(SCALE_RANGE):
+            return named.pop()
+    return "acr5" if frame["score"].between(1, 5).all() else "slider"
+
+
+def mos_figure(results: dict[str, Any]) -> Any:
+    """MOS per condition with its confidence interval (mixed model, black) beside the raw mean
+    with the t interval over participants (grey), best on top."""
+    from matplotlib.figure import Figure
+
+    mos = results["mos"]
+    order = sorted(mos["conditions"], key=lambda c: mos["mos"][c] or -np.inf)
+    fig = Figure(figsize=(7.2, 1.2 + 0.5 * len(order)), dpi=100, layout="constrained")
+    ax = fig.subplots()
+    y = np.arange(len(order), dtype=float)
+    for key, ci, colour, shift, label in (
+        ("mos", "ci", "#222222", 0.12, "mixed model"),
+        ("raw_mos", "raw_ci", "#9a9a9a", -0.12, "raw mean"),
+    ):
+        centre = np.array([mos[key][c] if mos[key][c] is not None else np.nan for c in order])
+        bounds = np.array([[v if v is not None else np.nan for v in mos[ci][c]] for c in order])
+        ax.errorbar(
+            centre,
+            y + shift,
+            xerr=np.abs(bounds.T - centre),
+            fmt="o",
+            color=colour,
+            capsize=3,
+            label=label,
+        )
+    ax.set_yticks(y, order, fontsize=8)
+    low, high = SCALE_RANGE[results["scale"]]
+    ax.set_xlim(low - 0.05 * (high - low), high + 0.05 * (high - low))
+    ax.set_xlabel(
+        "MOS (ACR: 1 Bad ... 5 Excellent)" if results["scale"] == "acr5" else "MOS (0-100)"
+    )
+    ax.spines[["top", "right"]].set_visible(False)
+    ax.legend(fontsize=7, loc="lower right", frameon=False)
+    return fig
+
+
+METHOD = (
+    "Model: y_pki = mu_i + u_p + v_k + e_pki, the rating y of condition i by participant p on "
+    "clip k, with participant and clip random intercepts u_p ~ N(0, s_p^2) and v_k ~ N(0, "
+    "s_k^2), crossed (Baayen, Davidson & Bates 2008), fitted by REML (statsmodels MixedLM). "
+    "The MOS of a condition is mu_i with its Wald interval; contrasts mu_a - mu_b with Wald z "
+    "tests, Holm (1979) over the pairs. The raw MOS is the mean rating, its interval the t "
+    "interval over the participants' means (ITU-T P.910, sec. 12). Ratings: ITU-T P.910 "
+    "absolute category rating, 5 Excellent to 1 Bad, or a 0-100 slider."
+)
+
+
+def rating_blocks(r: dict[str, Any]) -> list[Block]:
+    """The report of an :func:`analyze_ratings` result, in reading order."""
+    from app.analysis.document import Heading, Paragraph, Plot, Table, counted, fmt, fmt_p
+
+    mos, info = r["mos"], r["input"]
+    source = Path(info["source"]).name if info["source"] else "in-memory ratings"
+    doc: list[Block] = [Heading("Results", 1)]
+    counts = (
+        counted(info["ratings"], "rating"),
+        counted(info["participants"], "participant"),
+        counted(len(info["clips"]), "clip"),
+    )
+    checks = f"{info['catch']['failed']} of {info['catch']['trials']} missed"
+    doc.append(
+        Paragraph(
+            f"Source: {source}. Scale: {r['scale']}. {counts[0]} of {counts[1]} on "
+            f"{counts[2]}; attention checks: {checks}."
+        )
+    )
+    if mos.get("note"):
+        doc.append(Paragraph(f"Note: {mos['note']}."))
+    if info["left_out"]:
+        doc.append(
+            Table(
+                "Participants left out of the analysis.",
+                ["Participant", "Why"],
+                [[p, why] for p, why in sorted(info["left_out"].items())],
+            )
+        )
+    doc.append(Heading("Mean opinion scores"))
+    doc.append(
+        Plot(
+            "Figure 1. MOS per condition: the mixed model's estimate with its 95 % interval "
+            "(black) and the raw mean with the t interval over participants (grey).",
+            mos_figure(r),
+        )
+    )
+    doc.append(
+        Table(
+            "Table 1. MOS per condition.",
+            ["Condition", "MOS", "95 % CI", "Raw mean", "95 % CI (t)"],
+            [
+                [
+                    c,
+                    fmt(mos["mos"][c]),
+                    f"[{fmt(mos['ci'][c][0])}, {fmt(mos['ci'][c][1])}]",
+                    fmt(mos["raw_mos"][c]),
+                    f"[{fmt(mos['raw_ci'][c][0])}, {fmt(mos['raw_ci'][c][1])}]",
+                ]
+                for c in mos["conditions"]
+            ],
+            note=f"sd participant {fmt(mos['sd_participant'])}, sd clip "
+            f"{fmt(mos['sd_clip'])}, sd residual {fmt(mos['sd_residual'])}; "
+            f"{'converged' if mos['converged'] else 'not converged'}.",
+            numeric=[False, True, False, True, False],
+        )
+    )
+    doc.append(
+        Table(
+            "Table 2. Pairwise contrasts of the MOS (Holm-adjusted).",
+            ["Contrast", "Difference", "95 % CI", "z", "p", "p (Holm)"],
+            [
+                [
+                    f"{c['a']} - {c['b']}",
+                    fmt(c["difference"]),
+                    f"[{fmt(c['ci'][0])}, {fmt(c['ci'][1])}]",
+                    fmt(c["z"]),
+                    fmt_p(c["p"]),
+                    fmt_p(c["p_holm"]),
+                ]
+                for c in mos["contrasts"]
+            ],
+            numeric=[False, True, False, True, True, True],
+        )
+    )
+    doc.append(Heading("Method"))
+    doc.append(Paragraph(METHOD))
+    return doc
+
+
+def summary_text(r: dict[str, Any]) -> str:
+    """A short terminal table of an :func:`analyze_ratings` result."""
+    from app.analysis.document import fmt
+
+    mos, info = r["mos"], r["input"]
+    width = max(len(c) for c in [*r["conditions"], "condition"])
+    lines = [
+        f"{info['ratings']} ratings, {info['participants']} participants, "
+        f"{len(info['clips'])} clips; scale {r['scale']}; left out: "
+        + (", ".join(sorted(info["left_out"])) or "nobody"),
+        f"{'condition':<{width}}  MOS    95% CI",
+    ]
+    for c in r["conditions"]:
+        low, high = mos["ci"][c]
+        lines.append(f"{c:<{width}}  {fmt(mos['mos'][c]):>5}  [{fmt(low)}, {fmt(high)}]")
+    differ = [c for c in mos["contrasts"] if c["p_holm"] is not None and c["p_holm"] < 0.05]
+    lines.append(f"contrasts: {len(differ)} of {len(mos['contrasts'])} pairs differ (Holm p < .05)")
+    return "\n".join(lines)
+
+
+def ratings_text(rows: Sequence[dict[str, Any]]) -> str:
+    """``rows`` as ratings CSV text (:func:`write_ratings_csv`)."""
+    buffer = io.StringIO()
+    write_ratings_csv(rows, buffer)
+    return buffer.getvalue()
