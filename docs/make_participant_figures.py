@@ -1,4 +1,4 @@
-"""Make the participant's trial-page screenshots in docs/figures from the real demo clip.
+"""Make the participant's trial-page screenshots in docs/figures from the real demo clips.
 
     PYTHONPATH=. python docs/make_participant_figures.py
 
@@ -6,7 +6,11 @@ Renders one demo pair (app/data/demo/speech.wav: speech-driven prosody on the le
 prosody on the right) with ``renderer.render_pair``, then runs the browser test that puts that
 clip on the trial page at desktop (1366x768) and phone (390x844) size and checks its layout
 (tests/test_browser_participant.py::test_trial_page_layout_and_screenshots), saving
-participant-trial-desktop.png and participant-trial-phone.png here.
+participant-trial-desktop.png and participant-trial-phone.png here. Then renders one face
+(speech-driven prosody, ``renderer.render_single``) and runs the rating design's layout test
+(tests/test_browser_rating.py::test_rating_page_layout_and_screenshots) for
+participant-rating-desktop.png (the five ACR levels) and participant-rating-phone.png (the
+slider).
 """
 
 from __future__ import annotations
@@ -18,7 +22,7 @@ import tempfile
 from pathlib import Path
 
 from app.stimuli.generate import generate_conditions
-from renderer import render_pair
+from renderer import render_pair, render_single
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "figures"
@@ -31,7 +35,13 @@ def main() -> None:
         clip = render_pair(
             result.tracks["speech_driven"], result.tracks["random"], speech, Path(tmp) / "pair.mp4"
         )
-        env = {**os.environ, "FACEPAIR_DEMO_CLIP": str(clip), "FACEPAIR_SCREENSHOTS": str(OUT)}
+        single = render_single(result.tracks["speech_driven"], speech, Path(tmp) / "single.mp4")
+        env = {
+            **os.environ,
+            "FACEPAIR_DEMO_CLIP": str(clip),
+            "FACEPAIR_DEMO_CLIP_SINGLE": str(single),
+            "FACEPAIR_SCREENSHOTS": str(OUT),
+        }
         subprocess.run(
             [
                 sys.executable,
@@ -41,6 +51,7 @@ def main() -> None:
                 "-p",
                 "no:cacheprovider",
                 "tests/test_browser_participant.py::test_trial_page_layout_and_screenshots",
+                "tests/test_browser_rating.py::test_rating_page_layout_and_screenshots",
             ],
             cwd=ROOT,
             env=env,
@@ -48,6 +59,8 @@ def main() -> None:
         )
     print(OUT / "participant-trial-desktop.png")
     print(OUT / "participant-trial-phone.png")
+    print(OUT / "participant-rating-desktop.png")
+    print(OUT / "participant-rating-phone.png")
 
 
 if __name__ == "__main__":

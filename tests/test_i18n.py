@@ -276,12 +276,45 @@ def test_no_fixed_string_escapes_translation_on_any_participant_page(pseudo_app,
     assert "Ｐａｉｒ" in pages["trial"].get_data(as_text=True)
 
 
-def test_the_script_shows_no_string_of_its_own():
-    """Every sentence ``participant.js`` shows comes from the page's JSON blob: the script's
-    string literals hold no words with spaces besides these (selectors, media queries)."""
-    script = (REPO / "app/web/static/participant.js").read_text(encoding="utf-8")
+@pytest.mark.parametrize("name", ["participant.js", "rating.js"])
+def test_the_script_shows_no_string_of_its_own(name):
+    """Every sentence ``participant.js`` (and ``rating.js``) shows comes from the page's JSON
+    blob: the script's string literals hold no words with spaces besides these (selectors,
+    media queries)."""
+    script = (REPO / "app/web/static" / name).read_text(encoding="utf-8")
     code = re.sub(r"/\*.*?\*/|//[^\n]*", "", script, flags=re.S)
     literals = re.findall(r'"((?:[^"\\\n]|\\.)*)"', code)
-    allowed = {"use strict", "(pointer: coarse)", ".vote:not([disabled])"}
+    allowed = {
+        "use strict",
+        "(pointer: coarse)",
+        ".vote:not([disabled])",
+        ".level:not([disabled])",
+    }
     worded = {s for s in literals if re.search(r"[A-Za-z]{2,} [A-Za-z]", s)} - allowed
     assert worded == set()
+
+
+@pytest.mark.parametrize("scale", ["acr5", "slider"])
+def test_no_fixed_string_escapes_translation_on_the_rating_pages(pseudo_app, web, scale):
+    """The rating design's instructions and trial pages (its check among them) and its done
+    page under the pseudo-locale."""
+    app = pseudo_app
+    client = app.test_client()
+    extra = f'[rating]\nscale = "{scale}"\n[attention]\nmax_failed = 2\n'
+    slug = _slug(app, web.study(design="rating", catch=1, catch_kind="instructed", extra=extra))
+    person = ParticipantActions(client, app)
+    token = person.join(slug)
+    pages = {"instructions": client.get(f"/p/{token}/instructions")}
+    low = 1 if scale == "acr5" else 0
+    while (trial := person.current_trial()) is not None:
+        with app.app_context():
+            kind = db.session.get(Trial, trial).kind
+        pages[f"trial-{kind}"] = client.get(f"/p/{token}/trial")
+        answer = {"token": token, "trial_id": trial, "score": low, "plays": 1}
+        answer["idempotency_key"] = f"pseudo-{trial:08d}"
+        assert client.post("/api/v1/ratings", json=answer).status_code == 201
+    pages["done"] = client.get(f"/p/{token}/done")
+    problems = {name: _escaped(r.get_data(as_text=True)) for name, r in pages.items()}
+    assert {name: found for name, found in problems.items() if found} == {}
+    assert set(pages) == {"instructions", "trial-trial", "trial-catch", "done"}
+    assert "Ｃｌｉｐ" in pages["trial-trial"].get_data(as_text=True)

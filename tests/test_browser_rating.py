@@ -1,0 +1,197 @@
+"""Browser test of the rating design end to end: Debian's chromium driven by Playwright against
+a live server. One participant rates every clip on the five ACR levels with the keyboard at
+desktop size (1366x768), another on the 0-100 slider by touch at phone size (390x844), each
+from consent to the completion code, an attention check ("rate it Bad") among the trials. The
+ratings stored, the ratings.csv the experimenter downloads and its analysis must then hold
+what was clicked. With ``$FACEPAIR_DEMO_CLIP`` (docs/make_participant_figures.py) the pages
+show that clip and the screenshots go to ``$FACEPAIR_SCREENSHOTS``."""
+
+from __future__ import annotations
+
+import io
+import os
+from pathlib import Path
+
+import pandas as pd
+import pytest
+import sqlalchemy as sa
+
+from app.analysis.rating_results import analyze_ratings, read_ratings
+from app.web.extensions import db
+from app.web.models import Participant, Rating, Study, Trial
+from tests.conftest import create_test_study, login
+from tests.test_browser import (
+    browser,  # noqa: F401  (the chromium fixture)
+    trial_page_loads,
+)
+
+pytestmark = pytest.mark.browser
+
+DESKTOP = {"width": 1366, "height": 768}
+PHONE = {"width": 390, "height": 844}
+CLIPS = """
+[[clips]]
+name = "s2"
+audio = "s1.wav"
+"""
+SLIDER = '[rating]\nscale = "slider"\n'
+#: The ACR levels the keyboard participant gives, trial after trial (the check: 1, Bad).
+KEYS = ("5", "2", "4", "3")
+#: The slider participant's ratings: Home (0) then this many steps of ArrowRight.
+STEPS = (80, 35, 60, 15)
+
+
+def _kind(app, trial_id: int) -> str:
+    with app.app_context():
+        return db.session.get(Trial, trial_id).kind
+
+
+def _take_part(live_server, chromium, slug, pid, *, slider: bool):
+    """A participant from consent to the completion code; returns trial id -> score given."""
+    touch = slider
+    viewport = PHONE if slider else DESKTOP
+    context = chromium.new_context(viewport=viewport, is_mobile=touch, has_touch=touch)
+    page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    loads = trial_page_loads(page)
+    press = page.tap if touch else page.click
+    given: dict[int, int] = {}
+    try:
+        page.goto(f"{live_server.url}/s/{slug}?PROLIFIC_PID={pid}&STUDY_ID=st&SESSION_ID=se")
+        press("text=I agree")
+        page.wait_for_url("**/instructions")
+        assert page.locator("text=Practice pair").count() == 0
+        press("#start")
+        step = 0
+        while True:
+            page.wait_for_selector(".rater[data-trial-id], .done", timeout=30000)
+            if "/trial" not in page.url:
+                break
+            trial = int(page.get_attribute(".rater", "data-trial-id"))
+            kind = _kind(live_server.app, trial)
+            assert page.inner_text(".progress-text").startswith("Clip ")
+            assert (page.locator(".instructed").count() == 1) == (kind == "catch")
+            page.wait_for_selector(".play:not([disabled])", timeout=20000)
+            if slider:
+                press(".play")
+                page.wait_for_selector("input[type=range]:not([disabled])", timeout=20000)
+                assert page.is_disabled(".next")  # not before the slider was moved
+                page.focus("input[type=range]")
+                page.keyboard.press("Home")
+                score = 0 if kind == "catch" else STEPS[step % len(STEPS)]
+                for _ in range(score):
+                    page.keyboard.press("ArrowRight")
+                assert int(page.input_value("input[type=range]")) == score
+                press(".next")
+            else:
+                page.keyboard.press("Space")
+                page.wait_for_selector(".level:not([disabled])", timeout=20000)
+                score = 1 if kind == "catch" else int(KEYS[step % len(KEYS)])
+                page.keyboard.press(str(score))
+            given[trial] = score
+            page.wait_for_selector(
+                f'.rater[data-trial-id="{trial}"]', state="detached", timeout=30000
+            )
+            step += 1
+        assert page.inner_text("#completion-code") == "DONE-123"
+    finally:
+        context.close()
+    assert errors == []
+    assert len(loads) == len(given) + 1  # one trial page per clip, then done
+    return given
+
+
+def _layout(page, viewport: dict) -> None:
+    """The face and every answer control in view without scrolling, 44 px touch targets."""
+    face = page.locator("video").bounding_box()
+    assert face["y"] >= 0 and face["y"] + face["height"] <= viewport["height"]
+    controls = page.locator(".level, input[type=range], .next")
+    for i in range(controls.count()):
+        box = controls.nth(i).bounding_box()
+        assert box["y"] + box["height"] <= viewport["height"], (i, box, viewport)
+        assert box["height"] >= 44 and box["width"] >= 44, (i, box)
+
+
+def test_two_participants_rate_every_clip_on_acr_and_on_the_slider(
+    live_server,
+    browser,  # noqa: F811
+    tmp_path,
+):
+    acr = live_server.study(design="rating", catch=1, catch_kind="instructed", extra=CLIPS)
+    slider = live_server.study(
+        design="rating", catch=1, catch_kind="instructed", extra=SLIDER + CLIPS
+    )
+    with live_server.app.app_context():
+        slugs = {i: db.session.get(Study, i).slug for i in (acr, slider)}
+    given = {
+        acr: _take_part(live_server, browser, slugs[acr], "desk-1", slider=False),
+        slider: _take_part(live_server, browser, slugs[slider], "phone-1", slider=True),
+    }
+    with live_server.app.app_context():
+        stored = {r.trial_id: r.score for r in db.session.scalars(sa.select(Rating))}
+        assert all(p.finished_at for p in db.session.scalars(sa.select(Participant)))
+    assert stored == {**given[acr], **given[slider]}
+    with live_server.app.test_client() as client:
+        login(client)
+        for study_id, scale in ((acr, "acr5"), (slider, "slider")):
+            text = client.get(f"/experimenter/studies/{study_id}/ratings.csv").get_data(
+                as_text=True
+            )
+            table = read_ratings(pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False))
+            assert (table["scale"] == scale).all() and len(table) == len(given[study_id])
+            # 2 conditions x 2 clips and one check: every clip of every condition once
+            real = table[table["kind"] == "trial"]
+            assert sorted(zip(real["clip"], real["condition"], strict=True)) == sorted(
+                (c, k) for c in ("s1", "s2") for k in ("none", "random")
+            )
+            results = analyze_ratings(table)
+            assert results["input"]["catch"] == {"trials": 1, "failed": 0}
+            assert results["input"]["ratings"] == 4 and results["input"]["left_out"] == {}
+            kinds = {t: _kind(live_server.app, t) for t in given[study_id]}
+            scores = sorted(s for t, s in given[study_id].items() if kinds[t] == "trial")
+            assert sorted(real["score"].tolist()) == scores
+
+
+@pytest.mark.parametrize("name, viewport", [("desktop", DESKTOP), ("phone", PHONE)])
+def test_rating_page_layout_and_screenshots(
+    live_server,
+    browser,  # noqa: F811
+    tiny_video,
+    tmp_path,
+    name,
+    viewport,
+):
+    """The rating page at desktop and phone size: the face and the five levels (desktop) or
+    the slider and Next (phone) in view, 44 px targets, no layout shift when the clip loads."""
+    clip = Path(os.environ.get("FACEPAIR_DEMO_CLIP_SINGLE", tiny_video))
+    shots = Path(os.environ.get("FACEPAIR_SCREENSHOTS", tmp_path))
+    extra = CLIPS if name == "desktop" else SLIDER + CLIPS
+    study_id = create_test_study(
+        live_server.app, tmp_path, clip, design="rating", catch_kind="instructed", extra=extra
+    )
+    with live_server.app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    touch = name == "phone"
+    context = browser.new_context(viewport=viewport, is_mobile=touch, has_touch=touch)
+    page = context.new_page()
+    press = page.tap if touch else page.click
+    try:
+        page.goto(f"{live_server.url}/s/{slug}")
+        press("text=I agree")
+        press("#start")
+        page.wait_for_selector(".rater[data-trial-id]")
+        before = page.locator(".stage").bounding_box()
+        page.wait_for_selector(".play:not([disabled])", timeout=20000)
+        assert page.locator(".stage").bounding_box() == before  # no layout shift
+        press(".play")
+        page.wait_for_timeout(1000)
+        if touch:
+            page.focus("input[type=range]")
+            page.keyboard.press("End")
+            for _ in range(28):
+                page.keyboard.press("ArrowLeft")
+        _layout(page, viewport)
+        page.screenshot(path=shots / f"participant-rating-{name}.png")
+    finally:
+        context.close()
