@@ -128,7 +128,7 @@ for _action in ("open", "pause", "close", "reopen"):
     "--out",
     required=True,
     type=click.Path(file_okay=False, path_type=Path),
-    help="Folder for votes.csv, participants.csv and answers.csv.",
+    help="Folder for votes.csv (ratings.csv for a rating study), participants.csv and answers.csv.",
 )
 @click.option(
     "--pilots",
@@ -138,15 +138,20 @@ for _action in ("open", "pause", "close", "reopen"):
 def export(study_id: int, out: Path, pilots: bool) -> None:
     """Write the study's votes, participants (Prolific IDs pseudonymised) and questionnaire
     answers as the experimenter's downloads are."""
-    from app.web.study.exports import votes_csv
+    from app.trials.design import RATING_DESIGNS
+    from app.web.study.exports import ratings_csv, votes_csv
     from app.web.study.privacy import participants_csv
     from app.web.study.questionnaires import answers_csv
 
     with _context(_offline_app()):
         migrated()
         found = _study(study_id)
+        pilot = "with" if pilots else "without"
+        rated = found.design in RATING_DESIGNS
         files = {
-            "votes.csv": votes_csv(found, pilot="with" if pilots else "without"),
+            "ratings.csv" if rated else "votes.csv": (ratings_csv if rated else votes_csv)(
+                found, pilot=pilot
+            ),
             "participants.csv": participants_csv(found),
             "answers.csv": answers_csv(found),
         }
