@@ -1,11 +1,14 @@
 """The ratings table (the ``rating`` design's answers) and its analysis and report.
 
 One row per rating: a participant's score of one condition's single-face clip (ITU-T P.910
-ACR: 5 Excellent ... 1 Bad; or a 0-100 slider). The web app writes it as ``ratings.csv``
-(:func:`write_ratings_csv`); ``facepair analyze ratings.csv`` reads it back
+ACR: 5 Excellent ... 1 Bad; or a 0-100 slider; in the ``parallel`` design every condition of
+a clip on its own slider, the hidden reference marked ``reference = true``). The web app
+writes it as ``ratings.csv`` (:func:`write_ratings_csv`); ``facepair analyze ratings.csv``
+reads it back
 (:func:`read_ratings`) and analyses it (:func:`analyze_ratings`): the attention checks (rows
 of ``kind = catch``) and the participants the export marks ``excluded`` are left out, with
-the reason printed, and the rest go to the linear mixed model of
+the reason printed, in the ``parallel`` design also those the post-screening of ITU-R
+BS.1534-3 catches (:func:`reference_screening`), and the rest go to the linear mixed model of
 :func:`app.analysis.ratings.mixed_mos` (MOS with confidence intervals, pairwise contrasts with
 Holm). :func:`rating_blocks` is the report's content (:mod:`app.analysis.report` writes it as
 HTML and PDF).
@@ -37,6 +40,8 @@ RATING_COLUMNS: tuple[tuple[str, str], ...] = (
     ("participant", "participant identifier (a pseudonym from the web app)"),
     ("clip", "clip (audio segment) the face was rendered for"),
     ("condition", "the condition rated"),
+    ("item", "parallel design: the item's place on the page (1, 2, ...); empty otherwise"),
+    ("reference", "parallel design: true where the row rates the hidden reference"),
     ("score", "the rating: 1 (Bad) to 5 (Excellent) on ACR, 0-100 on the slider"),
     ("scale", "acr5 or slider"),
     ("trial", "0-based place of the trial in the participant's schedule"),
@@ -75,7 +80,7 @@ def read_ratings(source: str | Path | pd.DataFrame) -> pd.DataFrame:
     naming the file, line (the header is line 1) and column.
 
     >>> read_ratings(pd.DataFrame({"participant": ["p1"], "clip": ["s2"],
-    ...     "condition": ["a"], "score": ["4"]})).loc[0, "score"]
+    ...     "condition": ["a"], "score": ["4"]})).loc[0, "score"].item()
     4
     """
     path = None if isinstance(source, pd.DataFrame) else Path(source)
@@ -123,7 +128,59 @@ def read_ratings(source: str | Path | pd.DataFrame) -> pd.DataFrame:
     if "excluded" not in frame.columns:
         frame["excluded"] = ""
     frame["excluded"] = frame["excluded"].astype(str).str.strip()
+    flags = {
+        "true": True,
+        "1": True,
+        "yes": True,
+        "false": False,
+        "0": False,
+        "no": False,
+        "": False,
+    }
+    if "reference" not in frame.columns:
+        frame["reference"] = ""
+    spelt = frame["reference"].astype(str).str.strip().str.lower()
+    odd = ~spelt.isin(list(flags))
+    if odd.any():
+        row = int(odd.idxmax())
+        raise InputError(
+            f"expected true or false, got {frame.loc[row, 'reference']!r}",
+            path=path,
+            line=row + 2,
+            field="reference",
+        )
+    frame["reference"] = spelt.map(flags).astype(bool)
     return frame
+
+
+#: BS.1534-3 sec. 4.1.2: an assessor is left out who rates the hidden reference below this...
+REFERENCE_BELOW = 90
+#: ... on more than this share of the test items.
+REFERENCE_SHARE = 0.15
+
+
+def reference_screening(
+    frame: pd.DataFrame, *, below: float = REFERENCE_BELOW, share: float = REFERENCE_SHARE
+) -> dict[str, str]:
+    """Post-screening of a ``parallel`` test (ITU-R BS.1534-3, sec. 4.1.2, adapted to video):
+    the participants who rate the hidden reference below ``below`` on more than ``share`` of
+    their trials, each with the reason; the thresholds are the Recommendation's (90, 15 %).
+
+    >>> rows = pd.DataFrame({"participant": ["a", "a", "b", "b"], "score": [95, 70, 100, 92],
+    ...                      "reference": True, "kind": "trial"})
+    >>> list(reference_screening(rows)), reference_screening(rows)["a"][:45]
+    (['a'], 'rated the hidden reference below 90 on 1 of 2')
+    """
+    hidden = frame[frame["reference"] & (frame["kind"] == "trial")]
+    out: dict[str, str] = {}
+    for person, rows in hidden.groupby("participant", sort=True):
+        low = int((rows["score"] < below).sum())
+        if low > share * len(rows):
+            out[str(person)] = (
+                f"rated the hidden reference below {below:g} on {low} of {len(rows)} clips "
+                f"(more than {100 * share:g} %; ITU-R BS.1534-3 sec. 4.1.2)"
+            )
+    return out
 
 
 def write_ratings_csv(rows: Sequence[dict[str, Any]], out: IO[str] | str | Path) -> None:
@@ -151,9 +208,13 @@ def analyze_ratings(
     conditions: Sequence[str] | None = None,
     confidence: float = 0.95,
     source: str = "",
+    reference_below: float = REFERENCE_BELOW,
+    reference_share: float = REFERENCE_SHARE,
 ) -> dict[str, Any]:
     """MOS per condition from a :func:`read_ratings` table: the mixed model of
-    :func:`app.analysis.ratings.mixed_mos` on the real trials of the included participants.
+    :func:`app.analysis.ratings.mixed_mos` on the real trials of the included participants
+    (a table with hidden-reference rows is post-screened first: :func:`reference_screening`
+    with ``reference_below`` and ``reference_share``).
 
     Returns ``{"kind": "rating", "conditions", "mos" (mixed_mos's result), "input":
     {"source", "ratings", "participants", "clips", "left_out": {participant: why},
@@ -165,7 +226,13 @@ def analyze_ratings(
         .drop_duplicates("participant")
         .itertuples(index=False)
     }
-    included = frame[frame["excluded"] == ""]
+    screened: dict[str, str] = {}
+    if frame["reference"].any():
+        screened = reference_screening(
+            frame[frame["excluded"] == ""], below=reference_below, share=reference_share
+        )
+        left_out |= screened
+    included = frame[(frame["excluded"] == "") & ~frame["participant"].isin(list(screened))]
     checks = included[included["kind"] == "catch"]
     scale = _scale(frame)
     kept = included[included["kind"] == "trial"].rename(columns={"score": "rating"})
@@ -177,6 +244,9 @@ def analyze_ratings(
         "conditions": mos["conditions"],
         "scale": scale,
         "mos": mos,
+        "screening": None
+        if not frame["reference"].any()
+        else {"below": reference_below, "share": reference_share, "excluded": screened},
         "input": {
             "source": source,
             "ratings": int(len(kept)),
@@ -268,6 +338,16 @@ def rating_blocks(r: dict[str, Any]) -> list[Block]:
     )
     if mos.get("note"):
         doc.append(Paragraph(f"Note: {mos['note']}."))
+    if r.get("screening"):
+        rule = r["screening"]
+        caught = ", ".join(sorted(rule["excluded"])) or "nobody"
+        doc.append(
+            Paragraph(
+                "Post-screening (ITU-R BS.1534-3, sec. 4.1.2, adapted to video): a participant "
+                f"who rates the hidden reference below {rule['below']:g} on more than "
+                f"{100 * rule['share']:g} % of the clips is left out; left out by it: {caught}."
+            )
+        )
     if info["left_out"]:
         doc.append(
             Table(

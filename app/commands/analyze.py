@@ -151,6 +151,22 @@ def read_summaries(items: tuple[str, ...]) -> dict[str, dict[str, Any]]:
     help="The objective measures of a clip's conditions (summary.json of facepair stimuli "
     "generate), e.g. 's1=out/s1/summary.json'; repeat per clip. Regressed on the scores.",
 )
+@click.option(
+    "--reference-below",
+    type=click.FloatRange(0, 100),
+    default=90,
+    show_default=True,
+    help="Ratings (parallel design): post-screening score the hidden reference must reach "
+    "(ITU-R BS.1534-3 sec. 4.1.2).",
+)
+@click.option(
+    "--reference-share",
+    type=click.FloatRange(0, 1),
+    default=0.15,
+    show_default=True,
+    help="Ratings (parallel design): leave out a participant below --reference-below on "
+    "more than this share of clips.",
+)
 def analyze(
     votes: str,
     json_path: str | None,
@@ -165,6 +181,8 @@ def analyze(
     exclude: str | None,
     mixed_model: bool,
     measures_paths: tuple[str, ...],
+    reference_below: float,
+    reference_share: float,
 ) -> None:
     """Analyse the votes of a paired-comparison study (CSV) and report the results; a
     ratings table (the rating design's ratings.csv) gets its MOS analysis instead."""
@@ -180,7 +198,9 @@ def analyze(
     from app.analysis.rating_results import is_ratings_file
 
     if is_ratings_file(votes):
-        _analyze_ratings(votes, names, json_path, html_path, pdf_path)
+        _analyze_ratings(
+            votes, names, json_path, html_path, pdf_path, (reference_below, reference_share)
+        )
         return
     summaries = read_summaries(measures_paths)
     steps = 2 + (html_path is not None) + (pdf_path is not None and html_path is not None)
@@ -230,13 +250,21 @@ def _analyze_ratings(
     json_path: str | None,
     html_path: str | None,
     pdf_path: str | None,
+    screening: tuple[float, float],
 ) -> None:
     """``facepair analyze ratings.csv``: MOS with intervals and Holm-adjusted contrasts
     (:func:`app.analysis.rating_results.analyze_ratings`), written as the votes' are."""
     from app.analysis.rating_results import analyze_ratings, read_ratings, summary_text
     from app.analysis.report import write_report
 
-    results = analyze_ratings(read_ratings(path), conditions=names, source=path)
+    below, share = screening
+    results = analyze_ratings(
+        read_ratings(path),
+        conditions=names,
+        source=path,
+        reference_below=below,
+        reference_share=share,
+    )
     if json_path is not None:
         Path(json_path).write_text(
             json.dumps(results, indent=1, allow_nan=False) + "\n", encoding="utf-8"

@@ -1,6 +1,6 @@
 """Pair designs: which conditions are compared with which, and on which side.
 
-Four pair designs, the first three taken from a seed study, and one rating design:
+Four pair designs, the first three taken from a seed study, and two rating designs:
 
 ``all_ordered``
     Every ordered pair of conditions, same-condition pairs included: n^2 pairs for n conditions.
@@ -36,6 +36,11 @@ Four pair designs, the first three taken from a seed study, and one rating desig
     single-face clip shows (``left == right``), so the rows and stimuli of the pair designs
     carry it unchanged.
 
+``parallel``
+    Every condition of one clip rated side by side on 0-100 sliders, the ``reference``
+    condition among them hidden and also shown labelled (MUSHRA-like, ITU-R BS.1534-3); the
+    "pairs" are those of ``rating``.
+
 Conditions are named by their study names (e.g. ``"speech_driven"``); a ``ConditionPair`` is what
 one side-by-side clip shows: ``left`` on the left panel, ``right`` on the right.
 """
@@ -48,10 +53,12 @@ from typing import Final
 
 PAIR_DESIGNS: Final = ("all_ordered", "reference", "unordered_counterbalanced", "adaptive")
 """The pair designs understood by :func:`build_pairs` and the schedule."""
-RATING_DESIGNS: Final = ("rating",)
+RATING_DESIGNS: Final = ("rating", "parallel")
 """Designs that rate one condition at a time (:mod:`app.trials.rating`)."""
 DESIGNS: Final = PAIR_DESIGNS + RATING_DESIGNS
 """Every design a study file may name."""
+REFERENCE_DESIGNS: Final = ("reference", "parallel")
+"""Designs that name a ``reference`` condition."""
 UNORDERED_DESIGNS: Final = ("unordered_counterbalanced", "adaptive")
 """Designs of unordered pairs whose side the schedule chooses (both orders rendered)."""
 
@@ -101,7 +108,8 @@ def build_pairs(
     design:
         One of :data:`DESIGNS` (see the module docstring for the seed each follows).
     reference:
-        The reference condition; required for ``"reference"`` and refused otherwise.
+        The reference condition; required for ``"reference"`` and ``"parallel"`` and refused
+        otherwise.
 
     Returns
     -------
@@ -135,16 +143,17 @@ def build_pairs(
     duplicates = sorted({n for n in names if names.count(n) > 1})
     if duplicates:
         raise ValueError(f"condition names must be distinct, repeated: {', '.join(duplicates)}")
-    if design == "reference":
+    if design in REFERENCE_DESIGNS:
         if reference is None:
-            raise ValueError("design 'reference' needs a reference condition")
+            raise ValueError(f"design {design!r} needs a reference condition")
         if reference not in names:
             raise ValueError(
                 f"reference {reference!r} is not one of the conditions {', '.join(names)}"
             )
     elif reference is not None:
         raise ValueError(
-            f"a reference condition only applies to design 'reference', not {design!r}"
+            f"a reference condition only applies to designs 'reference' and 'parallel', "
+            f"not {design!r}"
         )
 
     if design == "all_ordered":

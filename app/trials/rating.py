@@ -18,6 +18,13 @@ participant from the stored seed and spread over the blocks so that the conditio
 Attention checks (``catch.kind = "instructed"``): a repeat of the trial before with the
 instruction to rate it at the bottom of the scale ("Bad"); :func:`catch_passed` says whether
 a score obeys it.
+
+``parallel`` is the MUSHRA-like test of ITU-R BS.1534-3 adapted to video: one trial per clip,
+every condition of the clip on its own 0-100 slider side by side, the ``reference`` condition
+once among them unlabelled (the hidden reference, sec. 5.1) and once labelled, playable apart
+(:func:`parallel_schedule`, :func:`parallel_order`). Its attention check is the hidden
+reference itself: the analysis's post-screening (sec. 4.1.2) leaves out a participant who
+rates it too low too often (:func:`app.analysis.rating_results.reference_screening`).
 """
 
 from __future__ import annotations
@@ -153,3 +160,50 @@ def rating_schedule(
             sequence.append(ScheduledTrial(0, clip, condition, condition, "catch", CATCH_EXPECTED))
             pending += 1
     return [replace(t, position=position) for position, t in enumerate(sequence)]
+
+
+def parallel_lists(n_clips: int) -> int:
+    """Lists of the ``parallel`` design: the rows of the Williams square of the clips.
+
+    >>> parallel_lists(2), parallel_lists(3)
+    (2, 6)
+    """
+    return len(williams_square(n_clips))
+
+
+def parallel_schedule(
+    *, clips: Sequence[str], reference: str, list_index: int, n_lists: int
+) -> list[ScheduledTrial]:
+    """One participant's ``parallel`` trials: one per clip, in the order of the list's row of
+    the Williams square of the clips; each trial's condition is the labelled ``reference``
+    (its items come from :func:`parallel_order`).
+
+    >>> [t.clip for t in parallel_schedule(clips=["s2", "s7", "s9"], reference="gt",
+    ...                                    list_index=1, n_lists=6)]
+    ['s7', 's9', 's2']
+    """
+    clips = list(clips)
+    if not clips or len(set(clips)) != len(clips):
+        raise ValueError("clips must be a non-empty list of distinct names")
+    cycle = parallel_lists(len(clips))
+    if n_lists < 1 or n_lists % cycle:
+        raise ValueError(f"n_lists must be a positive multiple of {cycle}, got {n_lists}")
+    if not 0 <= list_index < n_lists:
+        raise ValueError(f"list_index must be in 0..{n_lists - 1}, got {list_index}")
+    row = williams_square(len(clips))[list_index % cycle]
+    return [
+        ScheduledTrial(position, clips[c], reference, reference) for position, c in enumerate(row)
+    ]
+
+
+def parallel_order(conditions: Sequence[str], *, seed: int, position: int) -> list[str]:
+    """The conditions of a ``parallel`` trial in the order its items are shown, the hidden
+    reference among them: shuffled per trial from the participant's seed and the trial's
+    position, so a reload shows the same order.
+
+    >>> parallel_order(["a", "b", "gt"], seed=7, position=0) == parallel_order(
+    ...     ["a", "b", "gt"], seed=7, position=0)
+    True
+    """
+    rng = np.random.default_rng([seed, position])
+    return [conditions[i] for i in rng.permutation(len(conditions))]

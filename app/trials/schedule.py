@@ -165,7 +165,7 @@ def n_lists_for(
     """The number of lists that completes one full counterbalancing cycle.
 
     ``rating``: one list per row of the Williams square of the ``n_conditions`` conditions
-    (:func:`app.trials.rating.rating_lists`); the pair designs:
+    (:func:`app.trials.rating.rating_lists`); ``parallel``: of the clips; the pair designs:
     ``sides x block orders``: sides need 1 list for ``all_ordered`` (both orders are in every
     schedule) and 2 otherwise (one list per side order); block orders need one row of the
     Williams square per list (``n_clips`` rows, ``2 n_clips`` for odd ``n_clips > 1``) when
@@ -177,9 +177,9 @@ def n_lists_for(
     """
     check_design(design)
     if design in RATING_DESIGNS:
-        from app.trials.rating import rating_lists
+        from app.trials.rating import parallel_lists, rating_lists
 
-        return rating_lists(n_conditions)
+        return parallel_lists(n_clips) if design == "parallel" else rating_lists(n_conditions)
     if n_clips < 1:
         raise ValueError(f"need at least one clip, got {n_clips}")
     rows = len(williams_square(n_clips)) if block_by_clip else 1
@@ -259,6 +259,7 @@ def make_schedule(
     practice_clip: str | None = None,
     block_by_clip: bool = True,
     mismatched: bool = False,
+    reference: str | None = None,
 ) -> list[ScheduledTrial]:
     """Build one participant's schedule; pure and deterministic in all its arguments.
 
@@ -270,7 +271,8 @@ def make_schedule(
         The design's pairs from :func:`app.trials.design.build_pairs`.
     design:
         The design that produced ``pairs``; ``rating`` is scheduled by
-        :func:`app.trials.rating.rating_schedule` (the conditions are the pairs' ``left``).
+        :func:`app.trials.rating.rating_schedule` (the conditions are the pairs' ``left``),
+        ``parallel`` by :func:`app.trials.rating.parallel_schedule` with ``reference``.
     seed:
         The participant's stored seed (:func:`participant_seed`); drives trial order and catch
         trial placement through ``numpy.random.default_rng(seed)``.
@@ -303,6 +305,14 @@ def make_schedule(
     True
     """
     check_design(design)
+    if design == "parallel":
+        from app.trials.rating import parallel_schedule
+
+        if reference is None:
+            raise ValueError("design 'parallel' needs its reference condition")
+        return parallel_schedule(
+            clips=clips, reference=reference, list_index=list_index, n_lists=n_lists
+        )
     if design in RATING_DESIGNS:
         from app.trials.rating import rating_schedule
 

@@ -12,7 +12,8 @@ Every key is documented in ``docs/reference/studyfile.md``; ``app/data/examples/
 complete example.
 Every mistake is one :class:`~app.errors.InputError` line naming the file and the field, e.g.
 ``study.toml: design: expected one of all_ordered, reference, unordered_counterbalanced,
-adaptive, rating, got 'foo'``. Relative paths are resolved against the directory of the study file.
+adaptive, rating, parallel, got 'foo'``. Relative paths are resolved against the directory of
+the study file.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from app.errors import InputError
 from app.stimuli.eyes import DEFAULT_EYES, EYE_MODES
 from app.stimuli.posture import DEFAULT_POSTURE, POSTURES
 from app.trials.adaptive import MIN_CONDITIONS
-from app.trials.design import DESIGNS, RATING_DESIGNS, ConditionPair
+from app.trials.design import DESIGNS, RATING_DESIGNS, REFERENCE_DESIGNS, ConditionPair
 from app.trials.fields import MISSING, describe
 from app.trials.participation import PARTICIPATION_KEYS, read_participation
 from app.trials.questions import ExperimenterSideReader
@@ -220,6 +221,18 @@ class _StudyReader(ExperimenterSideReader):
         catch_kind = self.choice(
             catch, "kind", "catch.kind", CATCH_KINDS, "instructed" if rating else "identical"
         )
+        if design == "parallel" and catch_trials:
+            raise self.error(
+                "catch.trials",
+                "design = 'parallel' takes no catch trials: its hidden reference is the check "
+                "(post-screening, ITU-R BS.1534-3 sec. 4.1.2)",
+            )
+        if design == "parallel" and replay.kind != "unlimited":
+            raise self.error(
+                "replay.policy",
+                "design = 'parallel' plays its items as often as wanted (ITU-R BS.1534-3): "
+                f"expected 'unlimited', got {replay.kind!r}",
+            )
         if rating and catch_kind != "instructed":
             raise self.error(
                 "catch.kind",
@@ -239,16 +252,18 @@ class _StudyReader(ExperimenterSideReader):
         posture = self.choice(top, "posture", "posture", POSTURES, DEFAULT_POSTURE)
         exclude = self.text(top, "exclude", "exclude", "")
         names = [c.name for c in conditions]
-        if design == "reference":
+        if design in REFERENCE_DESIGNS:
             if reference is None:
-                raise self.error("reference", "missing (required by design = 'reference')")
+                raise self.error("reference", f"missing (required by design = {design!r})")
             if reference not in names:
                 raise self.error(
                     "reference",
                     f"expected one of the conditions {', '.join(names)}, got {reference!r}",
                 )
         elif reference is not None:
-            raise self.error("reference", f"only applies to design = 'reference', not {design!r}")
+            raise self.error(
+                "reference", f"only applies to designs 'reference' and 'parallel', not {design!r}"
+            )
         if design == "adaptive" and len(names) < MIN_CONDITIONS:
             raise self.error(
                 "design",
@@ -326,11 +341,21 @@ class _StudyReader(ExperimenterSideReader):
         return eyes, normalize, render
 
     def rating_scale(self, top: Mapping[str, Any], design: str) -> str:
-        """The ``[rating]`` table's ``scale``, for the rating design only."""
+        """The ``[rating]`` table's ``scale``, for the rating designs only (``parallel``: the
+        slider, always)."""
         table = self.table(top.get("rating", {}), "rating", ("scale",))
         if table and design not in RATING_DESIGNS:
-            raise self.error("rating", f"only applies to design = 'rating', not {design!r}")
-        return str(self.choice(table, "scale", "rating.scale", RATING_SCALES, DEFAULT_RATING_SCALE))
+            raise self.error(
+                "rating", f"only applies to designs 'rating' and 'parallel', not {design!r}"
+            )
+        default = "slider" if design == "parallel" else DEFAULT_RATING_SCALE
+        scale = str(self.choice(table, "scale", "rating.scale", RATING_SCALES, default))
+        if design == "parallel" and scale != "slider":
+            raise self.error(
+                "rating.scale",
+                f"design = 'parallel' rates on sliders: expected 'slider', got {scale!r}",
+            )
+        return scale
 
     def replay(self, top: Mapping[str, Any]) -> ReplayPolicy:
         replay = self.table(top.get("replay", {}), "replay", ("policy", "max_plays"))

@@ -180,6 +180,7 @@ class StudySpec:
             practice_clip=self.practice_clip,
             block_by_clip=self.block_by_clip,
             mismatched=self.participation.mismatched,
+            reference=self.reference,
         )
 
     def to_dict(self) -> dict[str, Any]:

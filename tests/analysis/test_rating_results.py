@@ -155,3 +155,46 @@ def test_any_table_is_read_or_refused_in_one_line(cells):
         assert "\n" not in str(exc) and exc.field in {"participant", "clip", "condition", "score"}
     else:
         assert table["score"].between(0, 100).all()
+
+
+def _parallel_rows() -> list[dict]:
+    """Four participants x four clips of a parallel test; P03 rates the hidden reference 60
+    on one clip in four (25 % > 15 %), P02 on none."""
+    rows = []
+    for p in range(4):
+        for k in range(4):
+            for item, (c, score) in enumerate((("gt", 95), ("a", 40 + 10 * p), ("b", 70))):
+                if c == "gt" and p == 3 and k == 0:
+                    score = 60
+                rows.append(
+                    {
+                        "participant": f"P{p:02d}",
+                        "clip": f"s{k}",
+                        "condition": c,
+                        "item": item + 1,
+                        "reference": c == "gt",
+                        "score": score,
+                        "scale": "slider",
+                        "kind": "trial",
+                    }
+                )
+    return rows
+
+
+def test_parallel_post_screening_leaves_out_who_misses_the_hidden_reference(tmp_path):
+    path = tmp_path / "ratings.csv"
+    path.write_text(ratings_text(_parallel_rows()))
+    results = analyze_ratings(read_ratings(path))
+    assert list(results["input"]["left_out"]) == ["P03"]
+    assert "below 90 on 1 of 4 clips" in results["input"]["left_out"]["P03"]
+    assert results["input"]["participants"] == 3
+    # the thresholds are parameters: one clip in four is allowed at 25 %
+    lenient = analyze_ratings(read_ratings(path), reference_share=0.25)
+    assert lenient["input"]["left_out"] == {} and lenient["screening"]["share"] == 0.25
+    out = CliRunner().invoke(
+        main,
+        ["analyze", str(path), "--reference-below", "50", "--report", str(tmp_path / "r.html")],
+    )
+    assert out.exit_code == 0, out.output
+    assert "left out: nobody" in out.output
+    assert "Post-screening (ITU-R BS.1534-3" in (tmp_path / "r.html").read_text()

@@ -59,7 +59,7 @@ def test_study_create_errors_are_one_line(app, monkeypatch, tmp_path, web):
     assert result.exit_code == 2
     assert result.output.strip().endswith(
         "expected one of all_ordered, reference, unordered_counterbalanced, adaptive, rating, "
-        "got 'zigzag'"
+        "parallel, got 'zigzag'"
     )
     assert "Traceback" not in result.output
 

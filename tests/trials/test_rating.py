@@ -120,7 +120,6 @@ def test_the_rating_design_in_a_study_file(make_study_data: StudyData, study_dir
         ({"catch": {"trials": 1, "kind": "identical"}}, "catch.kind"),
         ({"practice": ["none", "random"]}, "practice: design = 'rating' has no practice"),
         ({"mismatched": True}, "mismatched: only applies to the pair designs"),
-        ({"design": "parallel"}, "design: 'parallel'"),
     ],
 )
 def test_rating_mistakes_are_one_line_naming_the_key(
@@ -136,7 +135,7 @@ def test_the_rating_table_belongs_to_the_rating_design(
     make_study_data: StudyData, study_dir: Path
 ) -> None:
     data = make_study_data() | {"rating": {"scale": "slider"}}
-    with pytest.raises(InputError, match="rating: only applies to design = 'rating'"):
+    with pytest.raises(InputError, match="rating: only applies to designs 'rating' and"):
         parse_study(data, base_dir=study_dir)
 
 
@@ -167,3 +166,30 @@ def test_any_rating_scale_value_is_read_or_refused_in_one_line(value: Any) -> No
         assert "\n" not in str(exc) and "rating" in str(exc)
     else:
         assert spec.rating_scale == value
+
+
+def test_the_parallel_design_shows_every_clip_once_in_a_balanced_order() -> None:
+    from app.trials.rating import parallel_lists, parallel_order
+
+    clips = ["s1", "s2", "s3"]
+    cycle = parallel_lists(len(clips))
+    places: Counter[tuple[str, int]] = Counter()
+    for list_index in range(cycle):
+        trials = make_schedule(
+            clips=clips,
+            pairs=build_pairs(["a", "b", "gt"], "parallel", reference="gt"),
+            design="parallel",
+            seed=5,
+            list_index=list_index,
+            n_lists=n_lists_for("parallel", n_clips=3),
+            reference="gt",
+        )
+        assert sorted(t.clip for t in trials) == clips
+        assert all(t.left == t.right == "gt" and t.kind == "trial" for t in trials)
+        places.update((t.clip, t.position) for t in trials)
+    assert set(places.values()) == {cycle // len(clips)}
+    shown = parallel_order(["a", "b", "gt"], seed=5, position=1)
+    assert sorted(shown) == ["a", "b", "gt"]
+    assert shown == parallel_order(["a", "b", "gt"], seed=5, position=1)
+    orders = {tuple(parallel_order(["a", "b", "gt"], seed=5, position=p)) for p in range(12)}
+    assert len(orders) > 1  # shuffled per trial

@@ -148,6 +148,7 @@ def schedule(study: Study, *, seed: int, list_index: int) -> list[schedules.Sche
         practice_clip=settings.get("practice_clip"),
         block_by_clip=settings.get("block_by_clip", True),
         mismatched=participation(study).mismatched,
+        reference=study.reference,
     )
 
 
