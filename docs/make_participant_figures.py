@@ -10,7 +10,7 @@ participant-trial-desktop.png and participant-trial-phone.png here. Then renders
 (speech-driven prosody, ``renderer.render_single``) and runs the rating design's layout test
 (tests/test_browser_rating.py::test_rating_page_layout_and_screenshots) for
 participant-rating-desktop.png (the five ACR levels) and participant-rating-phone.png (the
-slider).
+slider), and the parallel design's test for participant-parallel-desktop.png and -phone.png.
 """
 
 from __future__ import annotations
@@ -52,6 +52,7 @@ def main() -> None:
                 "no:cacheprovider",
                 "tests/test_browser_participant.py::test_trial_page_layout_and_screenshots",
                 "tests/test_browser_rating.py::test_rating_page_layout_and_screenshots",
+                "tests/test_browser_rating.py::test_a_participant_rates_every_version_in_parallel",
             ],
             cwd=ROOT,
             env=env,
@@ -61,6 +62,8 @@ def main() -> None:
     print(OUT / "participant-trial-phone.png")
     print(OUT / "participant-rating-desktop.png")
     print(OUT / "participant-rating-phone.png")
+    print(OUT / "participant-parallel-desktop.png")
+    print(OUT / "participant-parallel-phone.png")
 
 
 if __name__ == "__main__":

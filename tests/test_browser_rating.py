@@ -1,10 +1,12 @@
-"""Browser test of the rating design end to end: Debian's chromium driven by Playwright against
+"""Browser test of the rating designs end to end: Debian's chromium driven by Playwright against
 a live server. One participant rates every clip on the five ACR levels with the keyboard at
 desktop size (1366x768), another on the 0-100 slider by touch at phone size (390x844), each
-from consent to the completion code, an attention check ("rate it Bad") among the trials. The
-ratings stored, the ratings.csv the experimenter downloads and its analysis must then hold
-what was clicked. With ``$FACEPAIR_DEMO_CLIP`` (docs/make_participant_figures.py) the pages
-show that clip and the screenshots go to ``$FACEPAIR_SCREENSHOTS``."""
+from consent to the completion code, an attention check ("rate it Bad") among the trials; in
+the parallel design a participant plays the reference and every version of each clip and
+rates each on its slider, at both sizes. The ratings stored, the ratings.csv the
+experimenter downloads and its analysis must then hold what was clicked. With
+``$FACEPAIR_DEMO_CLIP_SINGLE`` (docs/make_participant_figures.py) the pages show that clip and
+the screenshots go to ``$FACEPAIR_SCREENSHOTS``."""
 
 from __future__ import annotations
 
@@ -195,3 +197,96 @@ def test_rating_page_layout_and_screenshots(
         page.screenshot(path=shots / f"participant-rating-{name}.png")
     finally:
         context.close()
+
+
+PARALLEL = 'reference = "none"\n' + CLIPS
+
+
+def _shown(app, trial_id: int) -> list[str]:
+    """The conditions of a parallel trial in the order its page shows them."""
+    from app.web.study.ratings import shown_items
+
+    with app.app_context():
+        trial = db.session.get(Trial, trial_id)
+        return [c.name for c in shown_items(trial.participant, trial)]
+
+
+def _set_slider(page, selector: str, score: int) -> None:
+    page.focus(selector)
+    page.keyboard.press("Home")
+    for _ in range(score):
+        page.keyboard.press("ArrowRight")
+
+
+@pytest.mark.parametrize("name, viewport", [("desktop", DESKTOP), ("phone", PHONE)])
+def test_a_participant_rates_every_version_in_parallel(
+    live_server,
+    browser,  # noqa: F811
+    tiny_video,
+    tmp_path,
+    name,
+    viewport,
+):
+    """Every version played and rated before Next, the hidden reference rated high; the
+    ratings stored and exported (with the item and the hidden reference marked) and the
+    post-screening leaving nobody out. With ``$FACEPAIR_DEMO_CLIP_SINGLE`` the first page is
+    the screenshot ``participant-parallel-<size>.png``."""
+    clip = Path(os.environ.get("FACEPAIR_DEMO_CLIP_SINGLE", tiny_video))
+    shots = Path(os.environ.get("FACEPAIR_SCREENSHOTS", tmp_path))
+    study_id = create_test_study(live_server.app, tmp_path, clip, design="parallel", extra=PARALLEL)
+    with live_server.app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    touch = name == "phone"
+    context = browser.new_context(viewport=viewport, is_mobile=touch, has_touch=touch)
+    page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    press = page.tap if touch else page.click
+    given: dict[int, dict[str, int]] = {}
+    try:
+        page.goto(f"{live_server.url}/s/{slug}")
+        press("text=I agree")
+        press("#start")
+        while True:
+            page.wait_for_selector(".rater[data-trial-id], .done", timeout=30000)
+            if "/trial" not in page.url:
+                break
+            trial = int(page.get_attribute(".rater", "data-trial-id"))
+            shown = _shown(live_server.app, trial)
+            assert page.locator("input[type=range]").count() == len(shown) == 2
+            press(".item-play.reference")
+            page.wait_for_timeout(300)
+            scores = {}
+            for item, condition in enumerate(shown):
+                assert page.is_disabled(".next")  # not before every version was played and rated
+                press(f'.item-play[data-item="{item}"]')
+                page.wait_for_selector(f'.item-play[data-item="{item}"].played', timeout=20000)
+                scores[condition] = 95 if condition == "none" else 30 + 10 * item
+                _set_slider(page, f'input[data-item="{item}"]', scores[condition])
+            if not given:
+                _layout(page, viewport)
+                page.screenshot(path=shots / f"participant-parallel-{name}.png")
+            given[trial] = scores
+            press(".next")
+            page.wait_for_selector(
+                f'.rater[data-trial-id="{trial}"]', state="detached", timeout=30000
+            )
+        assert page.inner_text("#completion-code") == "DONE-123"
+    finally:
+        context.close()
+    assert errors == []
+    with live_server.app.app_context():
+        stored = {
+            (r.trial_id, r.condition.name): r.score for r in db.session.scalars(sa.select(Rating))
+        }
+    assert stored == {(t, c): s for t, scores in given.items() for c, s in scores.items()}
+    with live_server.app.test_client() as client:
+        login(client)
+        text = client.get(f"/experimenter/studies/{study_id}/ratings.csv").get_data(as_text=True)
+    table = read_ratings(pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False))
+    assert len(table) == 4 and (table["scale"] == "slider").all()
+    assert table["reference"].tolist() == (table["condition"] == "none").tolist()
+    assert sorted(table["item"].astype(int).tolist()) == [1, 1, 2, 2]
+    results = analyze_ratings(table)
+    assert results["screening"]["excluded"] == {} and results["input"]["participants"] == 1
+    assert results["mos"]["raw_mos"]["none"] == 95

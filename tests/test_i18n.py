@@ -294,27 +294,33 @@ def test_the_script_shows_no_string_of_its_own(name):
     assert worded == set()
 
 
-@pytest.mark.parametrize("scale", ["acr5", "slider"])
-def test_no_fixed_string_escapes_translation_on_the_rating_pages(pseudo_app, web, scale):
-    """The rating design's instructions and trial pages (its check among them) and its done
-    page under the pseudo-locale."""
+@pytest.mark.parametrize("design", ["acr5", "slider", "parallel"])
+def test_no_fixed_string_escapes_translation_on_the_rating_pages(pseudo_app, web, design):
+    """The rating designs' instructions and trial pages (the rating design's check among
+    them) and their done page under the pseudo-locale."""
     app = pseudo_app
     client = app.test_client()
-    extra = f'[rating]\nscale = "{scale}"\n[attention]\nmax_failed = 2\n'
-    slug = _slug(app, web.study(design="rating", catch=1, catch_kind="instructed", extra=extra))
+    if design == "parallel":
+        toml = dict(design="parallel", extra='reference = "none"\n')
+    else:
+        extra = f'[rating]\nscale = "{design}"\n[attention]\nmax_failed = 2\n'
+        toml = dict(design="rating", catch=1, catch_kind="instructed", extra=extra)
+    slug = _slug(app, web.study(**toml))
     person = ParticipantActions(client, app)
     token = person.join(slug)
     pages = {"instructions": client.get(f"/p/{token}/instructions")}
-    low = 1 if scale == "acr5" else 0
+    low = 1 if design == "acr5" else 0  # the bottom of the scale passes the check
     while (trial := person.current_trial()) is not None:
         with app.app_context():
             kind = db.session.get(Trial, trial).kind
         pages[f"trial-{kind}"] = client.get(f"/p/{token}/trial")
-        answer = {"token": token, "trial_id": trial, "score": low, "plays": 1}
+        answer = {"token": token, "trial_id": trial, "plays": 2}
+        answer |= {"scores": [90, 90]} if design == "parallel" else {"score": low}
         answer["idempotency_key"] = f"pseudo-{trial:08d}"
         assert client.post("/api/v1/ratings", json=answer).status_code == 201
     pages["done"] = client.get(f"/p/{token}/done")
     problems = {name: _escaped(r.get_data(as_text=True)) for name, r in pages.items()}
     assert {name: found for name, found in problems.items() if found} == {}
-    assert set(pages) == {"instructions", "trial-trial", "trial-catch", "done"}
+    kinds = {"trial-trial"} | ({"trial-catch"} if design != "parallel" else set())
+    assert set(pages) == {"instructions", "done"} | kinds
     assert "Ｃｌｉｐ" in pages["trial-trial"].get_data(as_text=True)

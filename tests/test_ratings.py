@@ -225,3 +225,102 @@ def test_ratings_csv_and_the_closing_report(app, client, participant, web, tmp_p
         missed: "failed a catch trial (0 of 1 passed)"
     }
     assert again["mos"]["raw_mos"] == {"none": 4.0, "random": 4.0}
+
+
+PARALLEL = 'reference = "none"\n'
+
+
+def _join_parallel(app, participant, web) -> tuple[str, int]:
+    study_id = web.study(design="parallel", extra=PARALLEL)
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    token = participant.join(slug)
+    return token, participant.current_trial()
+
+
+def test_a_parallel_trial_stores_every_item_once(app, client, participant, web):
+    from app.web.study.ratings import shown_items
+
+    token, trial = _join_parallel(app, participant, web)
+    page = client.get(f"/p/{token}/trial").get_data(as_text=True)
+    assert page.count('type="range"') == 2 and "random" not in page  # blinding
+    for item in (0, 1):
+        video = client.get(f"/p/{token}/video/{trial}/item/{item}")
+        assert (
+            video.status_code == 200
+            and f"clip-01-{item + 1}.mp4" in video.headers["Content-Disposition"]
+        )
+        video.close()
+    assert client.get(f"/p/{token}/video/{trial}/item/2").status_code == 404
+
+    def rate(scores: Any, plays: int = 3, key: str = "parallel-key-1"):
+        payload = {
+            "token": token,
+            "trial_id": trial,
+            "scores": scores,
+            "plays": plays,
+            "idempotency_key": key,
+        }
+        return client.post("/api/v1/ratings", json=payload)
+
+    assert rate([80]).get_json()["error"] == "scores: expected a list of 2 scores, one per item"
+    assert rate([80, 101]).get_json()["error"].startswith("scores[1]: expected a whole number")
+    early = rate([80, 20], plays=1)
+    assert early.status_code == 422 and early.get_json()["error"].startswith("plays:")
+    first = rate([80, 20])
+    assert first.status_code == 201, first.get_json()
+    body = first.get_json()
+    assert body["rating"]["scores"] == [80, 20] and (body["answered"], body["total"]) == (1, 1)
+    again = rate([1, 2])
+    assert again.status_code == 200 and again.get_json()["rating"]["scores"] == [80, 20]
+    with app.app_context():
+        from app.web.models import Trial
+
+        row = db.session.get(Trial, trial)
+        shown = [c.name for c in shown_items(row.participant, row)]
+    stored = {r.condition.name: r.score for r in _ratings_with_conditions(app)}
+    assert stored == dict(zip(shown, [80, 20], strict=True))
+
+
+def _ratings_with_conditions(app) -> list[Any]:
+    with app.app_context():
+        rows = list(db.session.scalars(sa.select(Rating).order_by(Rating.id)))
+        for row in rows:
+            _ = row.condition.name
+        return rows
+
+
+@settings(
+    max_examples=30,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+@given(
+    value=st.one_of(
+        st.none(),
+        st.integers(),
+        st.text(max_size=5),
+        st.lists(
+            st.one_of(st.integers(-5, 200), st.floats(), st.text(max_size=3), st.none()),
+            max_size=4,
+        ),
+    )
+)
+def test_any_scores_value_is_stored_or_refused_in_one_line(app, client, participant, web, value):
+    if participant.token is None:
+        _join_parallel(app, participant, web)
+    trial = participant.current_trial()
+    if trial is None:
+        return
+    payload = {
+        "token": participant.token,
+        "trial_id": trial,
+        "scores": value,
+        "plays": 2,
+        "idempotency_key": secrets.token_hex(8),
+    }
+    response = client.post("/api/v1/ratings", json=payload)
+    assert response.status_code < 500
+    if response.status_code >= 400:
+        error = response.get_json()["error"]
+        assert "\n" not in error and error.startswith("scores"), error

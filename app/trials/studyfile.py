@@ -190,10 +190,6 @@ class _StudyReader(ExperimenterSideReader):
         question = self.text(top, "question", "question", nonempty=True)
         instructions = self.text(top, "instructions", "instructions", "")
         consent = self.text(top, "consent", "consent", "")
-        if top.get("design") == "parallel":
-            raise self.error(
-                "design", "'parallel' (side-by-side sliders) is not available yet; use 'rating'"
-            )
         design = self.choice(top, "design", "design", DESIGNS, "all_ordered")
         reference = self.text(top, "reference", "reference", None)
         seed = self.integer(top, "seed", "seed", 0, 0)
@@ -233,7 +229,7 @@ class _StudyReader(ExperimenterSideReader):
                 "design = 'parallel' plays its items as often as wanted (ITU-R BS.1534-3): "
                 f"expected 'unlimited', got {replay.kind!r}",
             )
-        if rating and catch_kind != "instructed":
+        if design == "rating" and catch_kind != "instructed":
             raise self.error(
                 "catch.kind",
                 f"design = {design!r} takes only 'instructed' checks (rate the clip Bad), "

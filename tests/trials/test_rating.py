@@ -193,3 +193,35 @@ def test_the_parallel_design_shows_every_clip_once_in_a_balanced_order() -> None
     assert shown == parallel_order(["a", "b", "gt"], seed=5, position=1)
     orders = {tuple(parallel_order(["a", "b", "gt"], seed=5, position=p)) for p in range(12)}
     assert len(orders) > 1  # shuffled per trial
+
+
+def test_the_parallel_design_in_a_study_file(make_study_data: StudyData, study_dir: Path) -> None:
+    data = make_study_data() | {"design": "parallel", "reference": "ground_truth"}
+    spec = parse_study(data, base_dir=study_dir)
+    assert (spec.rating_scale, spec.catch_trials, spec.practice) == ("slider", 0, None)
+    assert spec.n_lists() == 2 and len(spec.stimuli()) == 6
+    assert [t.left for t in spec.schedule(seed=1, list_index=0)] == ["ground_truth"] * 2
+    assert parse_study(spec.to_dict(), base_dir=study_dir) == spec
+
+
+@pytest.mark.parametrize(
+    ("keys", "field"),
+    [
+        ({}, "reference: missing (required by design = 'parallel')"),
+        ({"reference": "x"}, "reference: expected one of the conditions"),
+        ({"reference": "none", "catch": {"trials": 1}}, "catch.trials: design = 'parallel'"),
+        ({"reference": "none", "rating": {"scale": "acr5"}}, "rating.scale: design = 'parallel'"),
+        (
+            {"reference": "none", "replay": {"policy": "play_to_end"}},
+            "replay.policy: design = 'parallel'",
+        ),
+        ({"reference": "none", "practice": ["none", "random"]}, "practice: design = 'parallel'"),
+    ],
+)
+def test_parallel_mistakes_are_one_line_naming_the_key(
+    make_study_data: StudyData, study_dir: Path, keys: dict[str, Any], field: str
+) -> None:
+    with pytest.raises(InputError) as caught:
+        parse_study(make_study_data() | {"design": "parallel", **keys}, base_dir=study_dir)
+    text = str(caught.value)
+    assert "\n" not in text and f"study.toml: {field}" in text

@@ -28,7 +28,7 @@ from app.web.jobs.tasks import sweep_study_jobs
 from app.web.models import Job, Participant, Study, Trial
 from app.web.study.enrolment import progress as enrolment_progress
 from app.web.study.medialog import MediaLogError, environment_fields
-from app.web.study.ratings import record_rating
+from app.web.study.ratings import record_rating, shown_items
 from app.web.study.studies import participation
 from app.web.study.votes import VoteRejected, participant_for_vote, record_vote, replay_policy
 from app.web.study.wording import ended_reason
@@ -131,9 +131,21 @@ def post_rating():  # type: ignore[no-untyped-def]
         outcome = record_rating(rater.participant, payload, rater.trial)
     except VoteRejected as exc:
         return _refused(exc, rater.participant)
+    stored = outcome.rating
+    if rater.participant.study.design == "parallel":
+        # in the order the page shows the items (condition ids never leave the server)
+        items = shown_items(rater.participant, rater.trial)  # type: ignore[arg-type]
+        given: dict[str, Any] = {"scores": [stored.scores.get(c.id) for c in items]}
+    else:
+        given = {"score": next(iter(stored.scores.values()))}
     body = {
         "status": "recorded" if outcome.created else "duplicate",
-        "rating": outcome.rating._asdict(),
+        "rating": {
+            "trial_id": stored.trial_id,
+            **given,
+            "plays": stored.plays,
+            "response_ms": stored.response_ms,
+        },
         "answered": outcome.answered,
         "total": outcome.total,
         "next": _participant_urls(payload["token"])[0],

@@ -1,8 +1,9 @@
-/* facepair rating page (the rating design): play one face, rate it on the five ACR levels
- * (keys 5 to 1) or on the 0-100 slider, send the rating once.
+/* facepair rating pages: the rating design (play one face, rate it on the five ACR levels,
+ * keys 5 to 1, or on the 0-100 slider) and the parallel design (play the reference and every
+ * numbered version of a clip, rate each on its slider, Next once each was played and rated).
  *
  * As a vote (static/participant.js, whose helpers it takes from window.facepairVotes): the
- * rating is kept in localStorage until the server has it, every resend carries the same
+ * answer is kept in localStorage until the server has it, every resend carries the same
  * idempotency key, and only a 5xx or a lost connection is sent again. */
 (function () {
   "use strict";
@@ -10,6 +11,7 @@
   var root = document.querySelector(".rater");
   var shared = window.facepairVotes;
   if (!root || !shared) return;
+  var parallel = root.classList.contains("parallel");
   var blob = document.getElementById("i18n");
   var T = blob ? JSON.parse(blob.textContent) : {};
   function fmt(text, values) {
@@ -21,51 +23,16 @@
 
   var d = root.dataset;
   var video = root.querySelector("video");
-  var playButton = root.querySelector(".play");
   var overlay = root.querySelector(".overlay");
   var overlayText = root.querySelector(".overlay-text");
   var loading = root.querySelector(".loading");
   var hint = root.querySelector(".hint");
   var status = root.querySelector(".status");
-  var playsLeft = root.querySelector(".plays-left");
-  var levels = root.querySelectorAll(".level");
-  var slider = root.querySelector("input[type=range]");
   var next = root.querySelector(".next");
-  var maxPlays = d.maxPlays ? parseInt(d.maxPlays, 10) : null;
-  var needsEnd = d.needsEnd === "yes";
   var pendingName = "fp-pending-rating-" + d.token;
   var media = new shared.MediaLog(video);
-  var state = { loaded: false, playing: false, plays: parseInt(d.plays || "0", 10),
-                watched: false, firstPlay: null, presentedAt: null, sent: false, moved: false,
-                requesting: false, attempt: 0 };
-
-  function mayPlay() {
-    if (!state.loaded || state.playing || state.sent || state.requesting) return false;
-    return !(maxPlays !== null && state.plays >= maxPlays);
-  }
-  // As for votes: plays granted before a reload count as seen.
-  function mayRate() {
-    if (state.sent || state.plays === 0) return false;
-    return needsEnd ? state.watched : true;
-  }
-
-  function update() {
-    playButton.disabled = !mayPlay();
-    var again = state.plays > 1 || (state.plays === 1 && !state.playing);
-    playButton.firstChild.nodeValue = (again ? T.play_again : T.play) + " ";
-    for (var i = 0; i < levels.length; i++) levels[i].disabled = !mayRate();
-    if (slider) slider.disabled = !mayRate();
-    if (next) next.disabled = !(mayRate() && state.moved);
-    if (maxPlays !== null && state.loaded) {
-      var left = Math.max(0, maxPlays - state.plays);
-      playsLeft.textContent = (T.plays_left || [])[left] || String(left);
-    }
-    if (state.sent || !state.loaded) return;
-    if (!mayRate()) {
-      hint.textContent = state.firstPlay === null ?
-        (coarse ? T.hint_watch_tap : T.hint_watch_press) : T.hint_to_end;
-    } else hint.textContent = slider ? T.hint_slider : T.hint_rate;
-  }
+  var state = { playing: false, plays: parseInt(d.plays || "0", 10), watched: false,
+                firstPlay: null, presentedAt: null, sent: false, requesting: false, attempt: 0 };
 
   function say(text, kind) {
     status.textContent = text;
@@ -73,84 +40,8 @@
     document.body.style.paddingTop = kind === "offline" ? status.offsetHeight + "px" : "";
   }
 
-  function load() {
-    video.preload = "auto";
-    video.src = d.videoUrl;
-    video.load();
-  }
-  var loadAttempts = 0;
-  video.addEventListener("loadeddata", function () {
-    if (state.loaded) return;
-    state.loaded = true;
-    state.presentedAt = new Date().toISOString();
-    overlayText.textContent = mayPlay() ? (coarse ? T.ready_tap : T.ready_press) : T.please_answer;
-    loading.hidden = true;
-    update();
-    playButton.focus();
-  });
-  video.addEventListener("progress", function () {
-    if (state.loaded || !video.duration || !video.buffered.length) return;
-    var part = video.buffered.end(video.buffered.length - 1) / video.duration;
-    loading.value = Math.round(100 * part);
-    overlayText.textContent = fmt(T.loading_percent, { percent: Math.round(100 * part) });
-  });
-  video.addEventListener("error", function () {
-    if (state.loaded) return;
-    loadAttempts += 1;
-    overlayText.textContent = T.load_retry;
-    window.setTimeout(load, Math.min(15000, 1000 * Math.pow(2, loadAttempts)));
-  });
-
-  function start() {
-    state.playing = true;
-    if (state.firstPlay === null) state.firstPlay = performance.now();
-    if (video.currentTime > 0) media.seeked();
-    media.restarted();
-    video.currentTime = 0;
-    overlay.hidden = true;
-    update();
-    var started = video.play();
-    if (started && started.catch) started.catch(function () {
-      state.playing = false;
-      overlay.hidden = false;
-      overlayText.textContent = coarse ? T.start_tap : T.start_press;
-      update();
-    });
-  }
-
-  // Each play is asked of the server first (the replay policy holds across reloads).
-  function play() {
-    if (!mayPlay()) return;
-    state.requesting = true;
-    update();
-    fetch(d.playUrl, {
-      method: "POST", credentials: "same-origin", cache: "no-store",
-      headers: { "Content-Type": "application/json", Accept: "application/json" },
-      body: JSON.stringify({ token: d.token, trial_id: parseInt(d.trialId, 10) })
-    }).then(function (response) {
-      return response.json().catch(function () { return {}; }).then(function (body) {
-        state.requesting = false;
-        if (typeof body.plays === "number") state.plays = body.plays;
-        if (response.status === 200) start();
-        else if (response.status >= 500) { state.plays += 1; start(); }
-        else { say(T.no_more_plays, "error"); update(); }
-      });
-    }, function () { state.requesting = false; state.plays += 1; start(); });
-  }
-
-  video.addEventListener("ended", function () {
-    state.playing = false;
-    state.watched = true;
-    overlay.hidden = false;
-    overlayText.textContent = mayPlay() ? (coarse ? T.again_tap : T.again_press) : T.please_answer;
-    update();
-    var first = slider || root.querySelector(".level:not([disabled])");
-    if (first && document.activeElement === playButton) first.focus();
-  });
-  video.addEventListener("pause", function () {
-    if (!video.ended) { state.playing = false; update(); }
-  });
-
+  // --- sending, as a vote is sent ---------------------------------------------------------
+  var page = null;
   function retryLater(payload, retryAfter) {
     state.attempt += 1;
     var wait = shared.wait(state.attempt, retryAfter);
@@ -184,59 +75,269 @@
         } else {
           state.sent = false;
           say(T.refused_rating, "error");
-          update();
+          if (page) page.update();
         }
       });
     }, function () { retryLater(payload, null); });
   }
 
-  function submit(score) {
-    if (!mayRate()) return;
+  // The rating with the trial's facts; `answer` holds `score` or `scores`.
+  function submit(answer) {
     state.sent = true;
     video.pause();
-    update();
+    if (page) page.update();
     hint.textContent = "";
     say(T.saving);
     var payload = {
-      token: d.token, trial_id: parseInt(d.trialId, 10), score: score, plays: state.plays,
+      token: d.token, trial_id: parseInt(d.trialId, 10), plays: state.plays,
       watched_to_end: state.watched,
       response_ms: state.firstPlay === null ? null :
         Math.round(performance.now() - state.firstPlay),
       presented_at: state.presentedAt, idempotency_key: shared.newKey(), media: media.report()
     };
+    for (var key in answer) payload[key] = answer[key];
     shared.store(pendingName, payload);
     send(payload);
   }
 
-  function choose(button) {
-    if (!button || !mayRate()) return;
-    for (var i = 0; i < levels.length; i++) {
-      levels[i].classList.toggle("chosen", levels[i] === button);
-      levels[i].setAttribute("aria-pressed", levels[i] === button ? "true" : "false");
-    }
-    submit(parseInt(button.dataset.score, 10));
+  // --- playing -----------------------------------------------------------------------------
+  // Each play is asked of the server first (the replay policy holds across reloads); `go`
+  // starts it, `refused` runs when no play is left.
+  function askPlay(go, refused) {
+    state.requesting = true;
+    fetch(d.playUrl, {
+      method: "POST", credentials: "same-origin", cache: "no-store",
+      headers: { "Content-Type": "application/json", Accept: "application/json" },
+      body: JSON.stringify({ token: d.token, trial_id: parseInt(d.trialId, 10) })
+    }).then(function (response) {
+      return response.json().catch(function () { return {}; }).then(function (body) {
+        state.requesting = false;
+        if (typeof body.plays === "number") state.plays = body.plays;
+        if (response.status === 200) go();
+        else if (response.status >= 500) { state.plays += 1; go(); }
+        else refused();
+      });
+    }, function () { state.requesting = false; state.plays += 1; go(); });
   }
 
-  playButton.addEventListener("click", play);
-  for (var i = 0; i < levels.length; i++) {
-    levels[i].addEventListener("click", function (e) { choose(e.currentTarget); });
-  }
-  if (slider) {
-    slider.addEventListener("input", function () { state.moved = true; update(); });
-    next.addEventListener("click", function () {
-      if (state.moved) submit(parseInt(slider.value, 10));
+  function start() {
+    state.playing = true;
+    if (state.firstPlay === null) state.firstPlay = performance.now();
+    if (video.currentTime > 0) media.seeked();
+    media.restarted();
+    video.currentTime = 0;
+    overlay.hidden = true;
+    if (page) page.update();
+    var started = video.play();
+    if (started && started.catch) started.catch(function () {
+      state.playing = false;
+      overlay.hidden = false;
+      overlayText.textContent = coarse ? T.start_tap : T.start_press;
+      if (page) page.update();
     });
   }
+
+  video.addEventListener("pause", function () {
+    if (!video.ended) { state.playing = false; if (page) page.update(); }
+  });
+
+  // --- the rating design: one face ---------------------------------------------------------
+  function singlePage() {
+    var playButton = root.querySelector(".play");
+    var playsLeft = root.querySelector(".plays-left");
+    var levels = root.querySelectorAll(".level");
+    var slider = root.querySelector("input[type=range]");
+    var maxPlays = d.maxPlays ? parseInt(d.maxPlays, 10) : null;
+    var needsEnd = d.needsEnd === "yes";
+    var loaded = false, moved = false, loadAttempts = 0;
+
+    function mayPlay() {
+      if (!loaded || state.playing || state.sent || state.requesting) return false;
+      return !(maxPlays !== null && state.plays >= maxPlays);
+    }
+    // As for votes: plays granted before a reload count as seen.
+    function mayRate() {
+      if (state.sent || state.plays === 0) return false;
+      return needsEnd ? state.watched : true;
+    }
+    function update() {
+      playButton.disabled = !mayPlay();
+      var again = state.plays > 1 || (state.plays === 1 && !state.playing);
+      playButton.firstChild.nodeValue = (again ? T.play_again : T.play) + " ";
+      for (var i = 0; i < levels.length; i++) levels[i].disabled = !mayRate();
+      if (slider) slider.disabled = !mayRate();
+      if (next) next.disabled = !(mayRate() && moved);
+      if (maxPlays !== null && loaded) {
+        var left = Math.max(0, maxPlays - state.plays);
+        playsLeft.textContent = (T.plays_left || [])[left] || String(left);
+      }
+      if (state.sent || !loaded) return;
+      if (!mayRate()) {
+        hint.textContent = state.firstPlay === null ?
+          (coarse ? T.hint_watch_tap : T.hint_watch_press) : T.hint_to_end;
+      } else hint.textContent = slider ? T.hint_slider : T.hint_rate;
+    }
+    function load() {
+      video.preload = "auto";
+      video.src = d.videoUrl;
+      video.load();
+    }
+    video.addEventListener("loadeddata", function () {
+      if (loaded) return;
+      loaded = true;
+      state.presentedAt = new Date().toISOString();
+      overlayText.textContent = mayPlay() ? (coarse ? T.ready_tap : T.ready_press) :
+        T.please_answer;
+      loading.hidden = true;
+      update();
+      playButton.focus();
+    });
+    video.addEventListener("progress", function () {
+      if (loaded || !video.duration || !video.buffered.length) return;
+      var part = video.buffered.end(video.buffered.length - 1) / video.duration;
+      loading.value = Math.round(100 * part);
+      overlayText.textContent = fmt(T.loading_percent, { percent: Math.round(100 * part) });
+    });
+    video.addEventListener("error", function () {
+      if (loaded) return;
+      loadAttempts += 1;
+      overlayText.textContent = T.load_retry;
+      window.setTimeout(load, Math.min(15000, 1000 * Math.pow(2, loadAttempts)));
+    });
+    video.addEventListener("ended", function () {
+      state.playing = false;
+      state.watched = true;
+      overlay.hidden = false;
+      overlayText.textContent = mayPlay() ? (coarse ? T.again_tap : T.again_press) :
+        T.please_answer;
+      update();
+      var first = slider || root.querySelector(".level:not([disabled])");
+      if (first && document.activeElement === playButton) first.focus();
+    });
+    function play() {
+      if (!mayPlay()) return;
+      update();
+      askPlay(start, function () { say(T.no_more_plays, "error"); update(); });
+      update();
+    }
+    function choose(button) {
+      if (!button || !mayRate()) return;
+      for (var i = 0; i < levels.length; i++) {
+        levels[i].classList.toggle("chosen", levels[i] === button);
+        levels[i].setAttribute("aria-pressed", levels[i] === button ? "true" : "false");
+      }
+      submit({ score: parseInt(button.dataset.score, 10) });
+    }
+    playButton.addEventListener("click", play);
+    for (var i = 0; i < levels.length; i++) {
+      levels[i].addEventListener("click", function (e) { choose(e.currentTarget); });
+    }
+    if (slider) {
+      slider.addEventListener("input", function () { moved = true; update(); });
+      next.addEventListener("click", function () {
+        if (moved && mayRate()) submit({ score: parseInt(slider.value, 10) });
+      });
+    }
+    return {
+      update: update,
+      begin: function () { update(); load(); },
+      play: play,
+      key: function (key) {
+        if (!levels.length || !/^[1-5]$/.test(key)) return false;
+        choose(root.querySelector('.level[data-score="' + key + '"]'));
+        return true;
+      }
+    };
+  }
+
+  // --- the parallel design: every version of one clip, and the reference -------------------
+  function parallelPage() {
+    var buttons = root.querySelectorAll(".item-play");
+    var sliders = root.querySelectorAll("input[type=range]");
+    var played = {}, moved = {}, current = null;
+
+    function complete() {
+      for (var i = 0; i < sliders.length; i++) {
+        if (!played[i] || !moved[i]) return false;
+      }
+      return true;
+    }
+    function update() {
+      for (var i = 0; i < buttons.length; i++) {
+        var item = buttons[i].dataset.item;
+        buttons[i].disabled = state.sent || state.requesting;
+        buttons[i].classList.toggle("played", Boolean(played[item]));
+        buttons[i].classList.toggle("playing", state.playing && current === item);
+      }
+      for (var j = 0; j < sliders.length; j++) sliders[j].disabled = state.sent;
+      next.disabled = state.sent || !complete();
+      if (!state.sent) hint.textContent = complete() ? T.hint_rate : T.hint_parallel;
+    }
+    function playItem(item) {
+      if (state.sent || state.requesting) return;
+      update();
+      askPlay(function () {
+        current = item;
+        var url = item === "reference" ? d.referenceUrl : d.itemUrl + item;
+        if (video.getAttribute("src") !== url) {
+          video.src = url;
+          video.load();
+        }
+        start();
+      }, function () { say(T.no_more_plays, "error"); update(); });
+      update();
+    }
+    video.addEventListener("playing", function () {
+      if (current !== null && current !== "reference") played[current] = true;
+      if (state.presentedAt === null) state.presentedAt = new Date().toISOString();
+      update();
+    });
+    video.addEventListener("ended", function () {
+      state.playing = false;
+      state.watched = true;
+      update();
+    });
+    for (var i = 0; i < buttons.length; i++) {
+      buttons[i].addEventListener("click", function (e) {
+        playItem(e.currentTarget.dataset.item);
+      });
+    }
+    for (var j = 0; j < sliders.length; j++) {
+      sliders[j].addEventListener("input", function (e) {
+        moved[e.currentTarget.dataset.item] = true;
+        update();
+      });
+    }
+    next.addEventListener("click", function () {
+      if (state.sent || !complete()) return;
+      var scores = Array.prototype.map.call(sliders, function (s) {
+        return parseInt(s.value, 10);
+      });
+      submit({ scores: scores });
+    });
+    return {
+      update: update,
+      begin: function () {
+        overlayText.textContent = coarse ? T.hint_watch_tap : T.hint_watch_press;
+        loading.hidden = true;
+        update();
+      },
+      play: function () { playItem(current === null ? "reference" : current); },
+      key: function () { return false; }
+    };
+  }
+
+  page = parallel ? parallelPage() : singlePage();
+
   document.addEventListener("keydown", function (e) {
     if (e.altKey || e.ctrlKey || e.metaKey) return;
     var tag = (e.target && e.target.tagName) || "";
     if (e.key === " " || e.key === "p" || e.key === "P") {
       if (e.key === " " && (tag === "BUTTON" || tag === "INPUT")) return;
       e.preventDefault();
-      play();
-    } else if (levels.length && /^[1-5]$/.test(e.key)) {
+      page.play();
+    } else if (page.key(e.key)) {
       e.preventDefault();
-      choose(root.querySelector('.level[data-score="' + e.key + '"]'));
     }
   });
   window.addEventListener("blur", function () { if (!state.sent) media.focusLost(); });
@@ -248,9 +349,9 @@
     state.sent = true;
     say(T.sending_kept);
     send(kept);
+    page.update();
     return;
   }
   if (kept) shared.store(pendingName, null);
-  update();
-  load();
+  page.begin();
 })();

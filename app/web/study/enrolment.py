@@ -368,10 +368,10 @@ def progress_counts(
     who = sa.bindparam("participant_id")
 
     def count(answer: type[Vote] | type[Rating]) -> sa.ScalarSelect[int]:
+        # a parallel trial holds one rating per item: its trials are counted
+        counted = sa.distinct(Rating.trial_id) if answer is Rating else Vote.id
         return (
-            sa.select(sa.func.count(answer.id))
-            .where(answer.participant_id == who)
-            .scalar_subquery()
+            sa.select(sa.func.count(counted)).where(answer.participant_id == who).scalar_subquery()
         )
 
     answered = count(Vote) + count(Rating) if rated is None else count(Rating if rated else Vote)

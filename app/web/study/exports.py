@@ -27,6 +27,7 @@ from app.analysis.results import analyze
 from app.analysis.votes import VOTE_COLUMNS, VotesTable, read_votes, write_votes_csv
 from app.errors import InputError
 from app.trials.design import RATING_DESIGNS
+from app.trials.rating import parallel_order
 from app.web.extensions import db
 from app.web.infra.storage import report_path
 from app.web.models import Clip, Condition, Participant, Rating, Stimulus, Study, Trial, Vote
@@ -133,6 +134,7 @@ def rating_rows(study: Study, *, pilot: str = "without") -> list[dict[str, Any]]
             Participant.id,
             Participant.number,
             Participant.prolific_pid,
+            Participant.seed,
             Clip.name,
             Condition.name,
         )
@@ -144,15 +146,23 @@ def rating_rows(study: Study, *, pilot: str = "without") -> list[dict[str, Any]]
         .where(Participant.study_id == study.id)
         .order_by(Participant.number, Trial.position, Condition.position)
     )
+    names = [c.name for c in study.conditions]
     rows = []
-    for rating, position, kind, person, number, pid, clip, condition in db.session.execute(query):
+    for rating, position, kind, person, number, pid, seed, clip, condition in db.session.execute(
+        query
+    ):
         if person not in people:
             continue
+        item = None
+        if study.design == "parallel":  # the item's place on its page, and the hidden reference
+            item = parallel_order(names, seed=seed, position=position).index(condition) + 1
         rows.append(
             {
                 "participant": participant_label(number),
                 "clip": clip,
                 "condition": condition,
+                "item": item,
+                "reference": None if item is None else condition == study.reference,
                 "score": rating.score,
                 "scale": scale,
                 "trial": position,

@@ -1,4 +1,5 @@
-"""Recording a rating exactly once: the one path of the ``rating`` design's answers.
+"""Recording a rating exactly once: the one path of the rating designs' answers (one score
+in ``rating``, one per item in ``parallel``, all of a trial stored together).
 
 As a vote (:mod:`app.web.study.votes`): the participant's row locked for the request
 (:func:`app.web.study.votes.participant_for_vote`), a retried or double-clicked request
@@ -19,9 +20,9 @@ import sqlalchemy as sa
 from sqlalchemy.dialects import postgresql, sqlite
 
 from app.trials.design import RATING_DESIGNS
-from app.trials.rating import check_score
+from app.trials.rating import check_score, parallel_order
 from app.web.extensions import db
-from app.web.models import Participant, Rating, Trial, utcnow
+from app.web.models import Condition, Participant, Rating, Trial, utcnow
 from app.web.study.enrolment import SESSION_ENDED, progress_and_upcoming, touch
 from app.web.study.medialog import MediaLogError, media_fields
 from app.web.study.participants import rating_scale
@@ -40,10 +41,12 @@ from app.web.study.votes import (
 
 
 class StoredRating(NamedTuple):
-    """What the answer to a rating repeats of the rating stored for its trial."""
+    """What the answer to a rating repeats of the ratings stored for its trial."""
 
     trial_id: int
-    score: int
+    #: Condition id -> score: the trial's one condition (``rating``), or every item
+    #: (``parallel``).
+    scores: dict[int, int]
     plays: int
     response_ms: int | None
 
@@ -67,14 +70,14 @@ def rating_fields(participant: Participant, trial: Trial | None, payload: dict[s
     # Another participant's trial is reported exactly like a missing one: nothing leaks.
     if trial is None or trial.participant_id != participant.id:
         raise VoteRejected("no such trial", 404)
-    try:
-        score = check_score(rating_scale(study), payload.get("score"))
-    except ValueError as exc:
-        raise VoteRejected(f"score: {exc}") from None
+    scores = _scores(participant, trial, payload)
     key = idempotency_key(payload, Rating.idempotency_key)
     claimed = int_field(payload, "plays", Rating.plays, required=True) or 0
     # The server's count wins (a reload gives no plays back), as for votes.
     plays = trial.plays or claimed
+    if study.design == "parallel" and plays < len(scores):
+        # BS.1534 asks for every item to be heard: at least one play each
+        raise VoteRejected(f"plays: every item is played first ({plays} of {len(scores)})", 422)
     reason = may_vote(study, plays=plays, watched_to_end=bool(payload.get("watched_to_end")))
     if reason:
         raise VoteRejected(reason, 422)
@@ -83,7 +86,7 @@ def rating_fields(participant: Participant, trial: Trial | None, payload: dict[s
     except MediaLogError as exc:
         raise VoteRejected(str(exc)) from None
     return {
-        "score": score,
+        "scores": scores,
         "idempotency_key": key,
         "plays": plays,
         "response_ms": int_field(payload, "response_ms", Rating.response_ms),
@@ -91,6 +94,39 @@ def rating_fields(participant: Participant, trial: Trial | None, payload: dict[s
         "media": log or None,
         **columns,
     }
+
+
+def shown_items(participant: Participant, trial: Trial) -> list[Condition]:
+    """A ``parallel`` trial's items in the order its page shows them
+    (:func:`app.trials.rating.parallel_order` of the study's conditions)."""
+    conditions = participant.study.conditions
+    order = parallel_order(
+        [c.name for c in conditions], seed=participant.seed, position=trial.position
+    )
+    by_name = {c.name: c for c in conditions}
+    return [by_name[name] for name in order]
+
+
+def _scores(participant: Participant, trial: Trial, payload: dict[str, Any]) -> dict[int, int]:
+    """Condition id -> score from ``payload``: its ``score`` of the trial's one face
+    (``rating``), or its ``scores``, one per item in the order shown (``parallel``)."""
+    scale = rating_scale(participant.study)
+    if participant.study.design != "parallel":
+        try:
+            return {trial.stimulus.left_id: check_score(scale, payload.get("score"))}
+        except ValueError as exc:
+            raise VoteRejected(f"score: {exc}") from None
+    items = shown_items(participant, trial)
+    given = payload.get("scores")
+    if not isinstance(given, list) or len(given) != len(items):
+        raise VoteRejected(f"scores: expected a list of {len(items)} scores, one per item")
+    out = {}
+    for index, (item, value) in enumerate(zip(items, given, strict=True)):
+        try:
+            out[item.id] = check_score(scale, value)
+        except ValueError as exc:
+            raise VoteRejected(f"scores[{index}]: {exc}") from None
+    return out
 
 
 @cache
@@ -114,18 +150,19 @@ _RATING_COLUMNS = tuple(
 )
 
 
-def _stored(participant_id: int, trial_id: int, key: str) -> Rating | None:
-    """The rating that holds the trial or the key, as committed (a concurrent request's)."""
-    return db.session.scalar(
-        sa.select(Rating)
-        .where(
-            sa.or_(
-                Rating.idempotency_key == key,
-                sa.and_(Rating.participant_id == participant_id, Rating.trial_id == trial_id),
+def _stored(participant_id: int, trial_id: int, key: str) -> list[Rating]:
+    """The ratings that hold the trial or the key, as committed (a concurrent request's)."""
+    return list(
+        db.session.scalars(
+            sa.select(Rating)
+            .where(
+                sa.or_(
+                    Rating.idempotency_key == key,
+                    sa.and_(Rating.participant_id == participant_id, Rating.trial_id == trial_id),
+                )
             )
+            .order_by(Rating.id)
         )
-        .order_by(Rating.id)
-        .limit(1)
     )
 
 
@@ -152,35 +189,35 @@ def record_rating(
     key = fields["idempotency_key"]
     stored = _stored(participant.id, trial.id, key)
     created = False
-    if stored is None:
-        values = {c: None for c in _RATING_COLUMNS}
-        values.update(
-            fields,
-            participant_id=participant.id,
-            trial_id=trial.id,
-            # the rated condition: the single face the trial's clip shows
-            condition_id=trial.stimulus.left_id,
-            rated_at=utcnow(),
-        )
+    if not stored:
         dialect = db.session.get_bind().dialect.name
-        created = db.session.scalar(_insert_rating(dialect), values) is not None
-        if created:
-            stored_values = StoredRating(
-                trial.id, fields["score"], fields["plays"], fields["response_ms"]
+        for condition_id, score in fields["scores"].items():
+            values = {c: None for c in _RATING_COLUMNS}
+            values.update(
+                {k: v for k, v in fields.items() if k != "scores"},
+                participant_id=participant.id,
+                trial_id=trial.id,
+                condition_id=condition_id,
+                score=score,
+                rated_at=utcnow(),
             )
-        else:  # a concurrent request stored it first
+            created = db.session.scalar(_insert_rating(dialect), values) is not None or created
+        if not created:  # a concurrent request stored them first
             stored = _stored(participant.id, trial.id, key)
-            if stored is None:  # pragma: no cover - the constraint held, so the row exists
+            if not stored:  # pragma: no cover - the constraint held, so the rows exist
                 raise VoteRejected("the rating could not be stored; send it again", 503)
-    if stored is not None:
-        if stored.trial_id != trial.id or stored.participant_id != participant.id:
+    if stored:
+        if any(r.trial_id != trial.id or r.participant_id != participant.id for r in stored):
             raise VoteRejected("idempotency_key: already used for another trial", 409)
-        stored_values = StoredRating(
-            stored.trial_id, stored.score, stored.plays, stored.response_ms
+        first = stored[0]
+        kept = StoredRating(
+            trial.id, {r.condition_id: r.score for r in stored}, first.plays, first.response_ms
         )
+    else:
+        kept = StoredRating(trial.id, fields["scores"], fields["plays"], fields["response_ms"])
     if created and trial.kind == "catch":
         screen_out(participant)
     row = db.session.execute(progress_and_upcoming(True), {"participant_id": participant.id}).one()
     answered, total = int(row.answered or 0), int(row.total or 0)
     finish_if_done(participant, answered, total)
-    return RatingOutcome(stored_values, created, answered, total)
+    return RatingOutcome(kept, created, answered, total)

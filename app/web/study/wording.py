@@ -133,6 +133,10 @@ def script_strings(max_plays: int | None = None) -> dict[str, Any]:
         "hint_watch_press": _("Press Play (or Space) to watch the face."),
         "hint_rate": _("Rate the face you saw."),
         "hint_slider": _("Move the slider to your rating, then press Next."),
+        "hint_parallel": _(
+            "Play every version and move its slider; Next is enabled once each version was "
+            "played and rated."
+        ),
         "offline_rating": _(
             "No connection to the server. Your rating is kept on this page and will be sent "
             "automatically; please keep this page open. Retrying in %(seconds)s s…"
