@@ -324,3 +324,27 @@ def test_any_scores_value_is_stored_or_refused_in_one_line(app, client, particip
     if response.status_code >= 400:
         error = response.get_json()["error"]
         assert "\n" not in error and error.startswith("scores"), error
+
+
+def test_the_experimenter_pages_of_rating_studies(app, client, participant, web):
+    """The study page, the monitor and the downloads of a rating and a parallel study, with
+    an answer stored, answer without an error."""
+    studies = [
+        web.study(design="rating", catch_kind="instructed"),
+        web.study(design="parallel", extra=PARALLEL),
+    ]
+    for study_id in studies:
+        with app.app_context():
+            slug = db.session.get(Study, study_id).slug
+        token = participant.join(slug)
+        trial = participant.current_trial()
+        answer = {"scores": [70, 90]} if study_id == studies[1] else {"score": 3}
+        payload = {"token": token, "trial_id": trial, "plays": 2, **answer}
+        payload["idempotency_key"] = f"pages-{study_id:04d}-key"
+        assert client.post("/api/v1/ratings", json=payload).status_code == 201
+        client.delete_cookie(f"fp-{study_id}")
+    web.login(client)
+    for study_id in studies:
+        for path in ("", "/monitor", "/ratings.csv", "/participants.csv", "/votes.csv"):
+            response = client.get(f"/experimenter/studies/{study_id}{path}")
+            assert response.status_code == 200, (study_id, path, response.status_code)

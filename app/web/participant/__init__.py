@@ -4,4 +4,4 @@ from flask import Blueprint
 
 bp = Blueprint("participant", __name__)
 
-from app.web.participant import views  # noqa: E402, F401  (its routes register on bp)
+from app.web.participant import items, views  # noqa: E402, F401  (their routes register on bp)

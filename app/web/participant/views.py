@@ -35,7 +35,7 @@ from app.web.infra import limits
 from app.web.infra.i18n import use_language
 from app.web.infra.limits import fits
 from app.web.infra.media import media_response
-from app.web.models import Participant, Stimulus, Study, Trial, utcnow
+from app.web.models import Participant, Study, Trial, utcnow
 from app.web.participant import bp
 from app.web.study.adaptive import ADAPTIVE
 from app.web.study.enrolment import (
@@ -402,34 +402,6 @@ def video(token: str, trial_id: int):  # type: ignore[no-untyped-def]
         abort(404)
     name = "practice.mp4" if trial.kind == "practice" else f"pair-{trial.position + 1:02d}.mp4"
     return _send_video(participant.study, trial.stimulus.video_path, name)
-
-
-@bp.get("/p/<token>/video/<int:trial_id>/item/<int:item>")
-def item_video(token: str, trial_id: int, item: int):  # type: ignore[no-untyped-def]
-    """Item ``item`` (0, 1, ... in the order shown) of a ``parallel`` trial: named by its place
-    only, so neither the URL nor the file name tells the hidden reference."""
-    participant = _participant(token)
-    trial = db.session.get(Trial, trial_id)
-    if (
-        trial is None
-        or trial.participant_id != participant.id
-        or participant.study.design != "parallel"
-    ):
-        abort(404)
-    items = shown_items(participant, trial)
-    if item >= len(items):
-        abort(404)
-    stimulus = db.session.scalar(
-        sa.select(Stimulus).where(
-            Stimulus.clip_id == trial.stimulus.clip_id,
-            Stimulus.left_id == items[item].id,
-            Stimulus.right_id == items[item].id,
-        )
-    )
-    if stimulus is None:
-        abort(404)
-    name = f"clip-{trial.position + 1:02d}-{item + 1}.mp4"
-    return _send_video(participant.study, stimulus.video_path, name)
 
 
 @bp.get("/p/<token>/practice.mp4")

@@ -42,43 +42,28 @@
 
   // --- sending, as a vote is sent ---------------------------------------------------------
   var page = null;
-  function retryLater(payload, retryAfter) {
-    state.attempt += 1;
-    var wait = shared.wait(state.attempt, retryAfter);
-    say(fmt(T.offline_rating, { seconds: Math.round(wait / 1000) }), "offline");
-    var timer = null;
-    function again() {
-      window.clearTimeout(timer);
-      window.removeEventListener("online", again);
-      send(payload);
-    }
-    timer = window.setTimeout(again, wait);
-    window.addEventListener("online", again);
-  }
-
   function send(payload) {
-    fetch(d.ratingUrl, {
-      method: "POST", credentials: "same-origin", cache: "no-store",
-      headers: { "Content-Type": "application/json", Accept: "application/json" },
-      body: JSON.stringify(payload)
-    }).then(function (response) {
-      return response.json().catch(function () { return {}; }).then(function (body) {
-        var action = shared.action(response.status, body);
-        if (action === "retry") return retryLater(payload, response.headers.get("Retry-After"));
-        shared.store(pendingName, null);
-        if (action === "saved") {
-          say(T.saved, "ok");
-          // replace: the back button never returns to a rated clip
-          window.location.replace(d.nextUrl);
-        } else if (action === "closed") {
-          say(fmt(T.closed, { reason: body.message || T.study_closed }), "error");
-        } else {
-          state.sent = false;
-          say(T.refused_rating, "error");
-          if (page) page.update();
-        }
-      });
-    }, function () { retryLater(payload, null); });
+    shared.post(d.ratingUrl, payload, function (action, body, retryAfter) {
+      if (action === "retry") {
+        state.attempt += 1;
+        var wait = shared.wait(state.attempt, retryAfter);
+        say(fmt(T.offline_rating, { seconds: Math.round(wait / 1000) }), "offline");
+        shared.later(wait, function () { send(payload); });
+        return;
+      }
+      shared.store(pendingName, null);
+      if (action === "saved") {
+        say(T.saved, "ok");
+        // replace: the back button never returns to a rated clip
+        window.location.replace(d.nextUrl);
+      } else if (action === "closed") {
+        say(fmt(T.closed, { reason: body.message || T.study_closed }), "error");
+      } else {
+        state.sent = false;
+        say(T.refused_rating, "error");
+        if (page) page.update();
+      }
+    });
   }
 
   // The rating with the trial's facts; `answer` holds `score` or `scores`.
@@ -105,19 +90,15 @@
   // starts it, `refused` runs when no play is left.
   function askPlay(go, refused) {
     state.requesting = true;
-    fetch(d.playUrl, {
-      method: "POST", credentials: "same-origin", cache: "no-store",
-      headers: { "Content-Type": "application/json", Accept: "application/json" },
-      body: JSON.stringify({ token: d.token, trial_id: parseInt(d.trialId, 10) })
-    }).then(function (response) {
-      return response.json().catch(function () { return {}; }).then(function (body) {
-        state.requesting = false;
-        if (typeof body.plays === "number") state.plays = body.plays;
-        if (response.status === 200) go();
-        else if (response.status >= 500) { state.plays += 1; go(); }
-        else refused();
-      });
-    }, function () { state.requesting = false; state.plays += 1; go(); });
+    shared.requestPlay(d.playUrl, d.token, parseInt(d.trialId, 10), function (plays) {
+      state.requesting = false;
+      state.plays = plays === null ? state.plays + 1 : plays;
+      go();
+    }, function (plays) {
+      state.requesting = false;
+      if (plays !== null) state.plays = plays;
+      refused();
+    });
   }
 
   function start() {
@@ -193,10 +174,10 @@
       playButton.focus();
     });
     video.addEventListener("progress", function () {
-      if (loaded || !video.duration || !video.buffered.length) return;
-      var part = video.buffered.end(video.buffered.length - 1) / video.duration;
-      loading.value = Math.round(100 * part);
-      overlayText.textContent = fmt(T.loading_percent, { percent: Math.round(100 * part) });
+      var percent = shared.buffered(video);
+      if (loaded || percent === null) return;
+      loading.value = percent;
+      overlayText.textContent = fmt(T.loading_percent, { percent: percent });
     });
     video.addEventListener("error", function () {
       if (loaded) return;
