@@ -135,6 +135,38 @@
     }, function () { granted(null); });
   }
 
+  // A play from the start: the state's first play and the media log's restart noted, the
+  // overlay hidden; `blocked` runs when the browser refuses to start (no gesture yet), and
+  // `changed` after each change of state.
+  function playFromStart(video, media, state, overlay, changed, blocked) {
+    state.playing = true;
+    if (state.firstPlay === null) state.firstPlay = performance.now();
+    if (video.currentTime > 0) media.seeked();
+    media.restarted();
+    video.currentTime = 0;
+    overlay.hidden = true;
+    changed();
+    var started = video.play();
+    if (started && started.catch) started.catch(function () {
+      state.playing = false;
+      overlay.hidden = false;
+      blocked();
+      changed();
+    });
+  }
+
+  // A clip that fails to load before it was `loaded()` is asked for again by `load`, after
+  // 2, 4, 8 ... seconds (at most 15); `shown` says so on the page.
+  function reloadOnError(video, loaded, load, shown) {
+    var attempts = 0;
+    video.addEventListener("error", function () {
+      if (loaded()) return;
+      attempts += 1;
+      shown();
+      window.setTimeout(load, Math.min(15000, 1000 * Math.pow(2, attempts)));
+    });
+  }
+
   // How much of the clip has arrived, in percent, or null before the browser knows.
   function bufferedPercent(video) {
     if (!video.duration || !video.buffered.length) return null;
@@ -144,7 +176,8 @@
   // Shared with the rating pages' script (static/rating.js).
   window.facepairVotes = { action: voteAction, wait: retryWait, MediaLog: MediaLog, store: store,
                            load: load_, newKey: newKey, post: postAnswer, later: resendLater,
-                           requestPlay: requestPlay, buffered: bufferedPercent };
+                           requestPlay: requestPlay, buffered: bufferedPercent,
+                           playFromStart: playFromStart, reloadOnError: reloadOnError };
 
   // The page's words, in the study's language (app.web.study.wording.script_strings).
   var blob = document.getElementById("i18n");
@@ -250,7 +283,6 @@
       overlayText.textContent = fmt(T.loading_percent, { percent: percent });
     }
 
-    var loadAttempts = 0;
     function load() {
       video.preload = "auto";
       video.src = d.videoUrl;
@@ -258,27 +290,13 @@
     }
     video.addEventListener("progress", showProgress);
     video.addEventListener("loadeddata", ready);
-    video.addEventListener("error", function () {
-      if (state.loaded) return;
-      loadAttempts += 1;
+    reloadOnError(video, function () { return state.loaded; }, load, function () {
       overlayText.textContent = T.load_retry;
-      window.setTimeout(load, Math.min(15000, 1000 * Math.pow(2, loadAttempts)));
     });
 
     function start() {
-      state.playing = true;
-      if (state.firstPlay === null) state.firstPlay = performance.now();
-      if (video.currentTime > 0) media.seeked();
-      media.restarted();
-      video.currentTime = 0;
-      overlay.hidden = true;
-      update();
-      var started = video.play();
-      if (started && started.catch) started.catch(function () {
-        state.playing = false;
-        overlay.hidden = false;
+      playFromStart(video, media, state, overlay, update, function () {
         overlayText.textContent = byPointer("start_tap", "start_press");
-        update();
       });
     }
 

@@ -102,19 +102,10 @@
   }
 
   function start() {
-    state.playing = true;
-    if (state.firstPlay === null) state.firstPlay = performance.now();
-    if (video.currentTime > 0) media.seeked();
-    media.restarted();
-    video.currentTime = 0;
-    overlay.hidden = true;
-    if (page) page.update();
-    var started = video.play();
-    if (started && started.catch) started.catch(function () {
-      state.playing = false;
-      overlay.hidden = false;
-      overlayText.textContent = coarse ? T.start_tap : T.start_press;
+    shared.playFromStart(video, media, state, overlay, function () {
       if (page) page.update();
+    }, function () {
+      overlayText.textContent = coarse ? T.start_tap : T.start_press;
     });
   }
 
@@ -130,7 +121,7 @@
     var slider = root.querySelector("input[type=range]");
     var maxPlays = d.maxPlays ? parseInt(d.maxPlays, 10) : null;
     var needsEnd = d.needsEnd === "yes";
-    var loaded = false, moved = false, loadAttempts = 0;
+    var loaded = false, moved = false;
 
     function mayPlay() {
       if (!loaded || state.playing || state.sent || state.requesting) return false;
@@ -179,11 +170,8 @@
       loading.value = percent;
       overlayText.textContent = fmt(T.loading_percent, { percent: percent });
     });
-    video.addEventListener("error", function () {
-      if (loaded) return;
-      loadAttempts += 1;
+    shared.reloadOnError(video, function () { return loaded; }, load, function () {
       overlayText.textContent = T.load_retry;
-      window.setTimeout(load, Math.min(15000, 1000 * Math.pow(2, loadAttempts)));
     });
     video.addEventListener("ended", function () {
       state.playing = false;
