@@ -386,8 +386,9 @@ class Vote(MediaSummary, db.Model):
 
 class Rating(MediaSummary, db.Model):
     """A participant's score of one condition in one trial of a rating design: stored exactly
-    once, like a :class:`Vote` (one row per rated condition; the trial's one condition in the
-    ``rating`` design)."""
+    once, like a :class:`Vote` (one row per rated condition: the trial's one condition in the
+    ``rating`` design, every version of the clip in ``parallel``, all with the request's
+    idempotency key)."""
 
     __table_args__ = (
         # Leads with the participant: a participant's progress counts their ratings by it.

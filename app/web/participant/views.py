@@ -47,9 +47,8 @@ from app.web.study.enrolment import (
     touch_with_progress,
     unstarted_after,
 )
-from app.web.study.participants import rating_scale
 from app.web.study.ratings import shown_items
-from app.web.study.studies import participation
+from app.web.study.studies import participation, rating_scale
 from app.web.study.votes import SCREENED_OUT, replay_policy
 from app.web.study.wording import (
     SIDE_NAMES,

@@ -34,8 +34,9 @@ from app.web.models import Clip, Condition, Participant, Rating, Stimulus, Study
 from app.web.study.csvcells import safe_csv
 from app.web.study.enrolment import dropped_after
 from app.web.study.labels import iso_time, participant_label, pseudonym
-from app.web.study.participants import participant_table, rating_scale
+from app.web.study.participants import participant_table
 from app.web.study.questionnaires import answers_summary
+from app.web.study.studies import rating_scale
 
 
 def _people(study: Study, pilot: str) -> dict[int, Any]:

@@ -27,11 +27,12 @@ import sqlalchemy as sa
 
 from app.trials.design import RATING_DESIGNS
 from app.trials.questions import AUTO_EXCLUDE_RULES
-from app.trials.rating import DEFAULT_RATING_SCALE, catch_ceiling
+from app.trials.rating import catch_ceiling
 from app.web.extensions import db
 from app.web.models import Participant, Rating, Study, StudyList, Trial, Vote, utcnow
 from app.web.study.enrolment import move_slot
 from app.web.study.labels import participant_label
+from app.web.study.studies import rating_scale
 
 STATUSES = ("started", "finished", "dropped", "excluded", "returned")
 #: How a participant is taken out by hand: the status it gives.
@@ -111,11 +112,6 @@ class _Answer(NamedTuple):
     response_ms: int | None
     kind: str
     expected: str
-
-
-def rating_scale(study: Any) -> str:
-    """The ``rating`` design's scale (``app.trials.rating.RATING_SCALES``) of ``study``."""
-    return str((study.settings or {}).get("rating_scale", DEFAULT_RATING_SCALE))
 
 
 def participant_table(study: Study, *, dropped_after: dt.timedelta) -> list[ParticipantRow]:

@@ -25,7 +25,7 @@ from app.web.extensions import db
 from app.web.models import Condition, Participant, Rating, Trial, utcnow
 from app.web.study.enrolment import SESSION_ENDED, progress_and_upcoming, touch
 from app.web.study.medialog import MediaLogError, media_fields
-from app.web.study.participants import rating_scale
+from app.web.study.studies import rating_scale
 from app.web.study.votes import (
     SCREENED_OUT,
     VoteRejected,

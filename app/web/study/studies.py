@@ -15,6 +15,7 @@ from app.analysis.quality import parse_rules
 from app.errors import InputError
 from app.trials import design
 from app.trials.participation import ParticipationSpec
+from app.trials.rating import DEFAULT_RATING_SCALE
 from app.trials.schedule import foreign_clip, shown_stimuli, variant_stimuli
 from app.web.extensions import db
 from app.web.infra import media
@@ -65,6 +66,12 @@ def participation(study: Study) -> ParticipationSpec:
     """The study's participant-side settings
     (:class:`app.trials.participation.ParticipationSpec`)."""
     return ParticipationSpec.from_settings((study.settings or {}).get("participation"))
+
+
+def rating_scale(study: Any) -> str:
+    """The rating designs' scale (``app.trials.rating.RATING_SCALES``) of ``study``, a row or
+    an ORM object with ``settings``."""
+    return str((study.settings or {}).get("rating_scale", DEFAULT_RATING_SCALE))
 
 
 def stimulus_combinations(study: Study) -> list[tuple[str, str, str, str, str]]:

@@ -29,8 +29,8 @@ from app.web.models import Participant, Rating, Study, Trial, Vote, utcnow
 from app.web.study.adaptive import ADAPTIVE, choose_next_pair
 from app.web.study.enrolment import SESSION_ENDED, progress_and_upcoming, rated, touch
 from app.web.study.medialog import MediaLogError, media_fields
-from app.web.study.participants import rating_scale, release_if_left_out
-from app.web.study.studies import participation
+from app.web.study.participants import release_if_left_out
+from app.web.study.studies import participation, rating_scale
 
 #: What a participant reads when the attention stop rule has ended their session.
 SCREENED_OUT = (
