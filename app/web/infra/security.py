@@ -152,9 +152,10 @@ class ForwardedSecureSessionInterface(SecureCookieSessionInterface):
     HTTPS ended at a trusted reverse proxy (``TRUST_PROXY``), not only when configured.
 
     A request to a token-authenticated endpoint (:func:`token_authenticated`: a vote, a
-    rating, a play, the environment, the progress) gets a new, empty session without its cookie being checked
-    and decoded: those requests are a participant's most frequent and never need it. Left
-    unmodified, it sends no cookie back, so the browser keeps the one it has."""
+    rating, a play, the environment, the progress) gets a new, empty session without its
+    cookie being checked and decoded: those requests are a participant's most frequent and
+    never need it. Left unmodified, it sends no cookie back, so the browser keeps the one it
+    has."""
 
     def get_cookie_secure(self, app: Flask) -> bool:
         return bool(app.config["SESSION_COOKIE_SECURE"]) or request.is_secure
