@@ -348,3 +348,37 @@ def test_the_experimenter_pages_of_rating_studies(app, client, participant, web)
         for path in ("", "/monitor", "/ratings.csv", "/participants.csv", "/votes.csv"):
             response = client.get(f"/experimenter/studies/{study_id}{path}")
             assert response.status_code == 200, (study_id, path, response.status_code)
+        page = client.get(f"/experimenter/studies/{study_id}").get_data(as_text=True)
+        assert 'id="export-ratings"' in page and 'id="export-votes"' not in page
+
+
+def test_the_closing_report_of_a_parallel_study_post_screens(app, client, participant, web):
+    from app.web.models import Job, Trial
+    from app.web.study.ratings import shown_items
+
+    study_id = web.study(design="parallel", extra=PARALLEL)
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    for reference_score in (95, 50):  # the second misses the hidden reference
+        token = participant.join(slug)
+        trial = participant.current_trial()
+        with app.app_context():
+            row = db.session.get(Trial, trial)
+            shown = [c.name for c in shown_items(row.participant, row)]
+        scores = [reference_score if c == "none" else 60 for c in shown]
+        payload = {"token": token, "trial_id": trial, "scores": scores, "plays": 2}
+        payload["idempotency_key"] = f"report-{trial:08d}"
+        assert client.post("/api/v1/ratings", json=payload).status_code == 201
+        client.delete_cookie(f"fp-{study_id}")
+    web.login(client)
+    token = web.csrf(client, f"/experimenter/studies/{study_id}")
+    client.post(f"/experimenter/studies/{study_id}/status/close", data={"csrf_token": token})
+    with app.app_context():
+        job = db.session.scalar(sa.select(Job).where(Job.kind == "report"))
+        assert job.status == "done", job.message
+    response = client.get(f"/experimenter/studies/{study_id}/report/")
+    html = response.get_data(as_text=True).replace("&#x27;", "'")
+    response.close()
+    assert "Design: parallel against the hidden reference none" in html
+    assert "rated the hidden reference below 90 on 1 of 1 clips" in html
+    assert "1 participants included, 1 left out." in html

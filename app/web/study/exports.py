@@ -261,7 +261,9 @@ def _write_rating_report(study: Study, path: Path) -> Path:
     left_out = results["input"]["left_out"]
     results["study"] = {
         "title": study.title,
-        "design": f"Design: rating ({rating_scale(study)}); conditions "
+        "design": f"Design: {study.design}"
+        + (f" against the hidden reference {study.reference}" if study.reference else "")
+        + f" ({rating_scale(study)}); conditions "
         f"{', '.join(c.name for c in study.conditions)}; clips "
         f"{', '.join(c.name for c in study.clips)}; question: {study.question!r}; "
         f"{study.catch_trials} attention checks per participant.",
