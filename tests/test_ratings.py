@@ -52,6 +52,9 @@ def test_a_participant_rates_every_trial_once_and_finishes(app, client, particip
     token, trial = _join(app, participant, web)
     page = client.get(f"/p/{token}/trial").get_data(as_text=True)
     assert "Excellent" in page and "Bad" in page
+    video = client.get(f"/p/{token}/video/{trial}")
+    assert "filename=clip-01.mp4" in video.headers["Content-Disposition"]
+    video.close()
     first = _rate(client, token, trial, 5, key="rating-key-1")
     assert first.status_code == 201, first.get_json()
     body = first.get_json()

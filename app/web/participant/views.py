@@ -399,7 +399,8 @@ def video(token: str, trial_id: int):  # type: ignore[no-untyped-def]
     trial = db.session.get(Trial, trial_id)
     if trial is None or trial.participant_id != participant.id:
         abort(404)
-    name = "practice.mp4" if trial.kind == "practice" else f"pair-{trial.position + 1:02d}.mp4"
+    shows = "clip" if participant.study.design in RATING_DESIGNS else "pair"
+    name = "practice.mp4" if trial.kind == "practice" else f"{shows}-{trial.position + 1:02d}.mp4"
     return _send_video(participant.study, trial.stimulus.video_path, name)
 
 
