@@ -129,7 +129,8 @@ def _pseudo(text: str) -> str:
 
 @pytest.fixture
 def pseudo_app(app, tmp_path):
-    """``app`` whose English catalogue is the pseudo-locale (a later folder overrides)."""
+    """``app`` whose English catalogue is the pseudo-locale (a later folder overrides) for
+    this test only."""
     catalogue = _template()
     catalogue.locale = "en"
     for message in catalogue:
@@ -143,8 +144,13 @@ def pseudo_app(app, tmp_path):
     folder.mkdir(parents=True)
     with open(folder / "messages.po", "wb") as out:
         write_po(out, catalogue)
-    app.extensions["babel"].translation_directories.append(str(tmp_path / "pseudo"))
-    return app
+    directories = app.extensions["babel"].translation_directories
+    directories.append(str(tmp_path / "pseudo"))
+    try:
+        yield app
+    finally:
+        # the app may serve later tests (one per database): they read the real catalogues
+        directories.remove(str(tmp_path / "pseudo"))
 
 
 class _Visible(HTMLParser):
