@@ -3,7 +3,8 @@ a live server. One participant rates every clip on the five ACR levels with the 
 desktop size (1366x768), another on the 0-100 slider by touch at phone size (390x844), each
 from consent to the completion code, an attention check ("rate it Bad") among the trials; in
 the parallel design a participant plays the reference and every version of each clip and
-rates each on its slider, at both sizes. The ratings stored, the ratings.csv the
+rates each on its slider, at both sizes; a rating given offline, or left pending across a
+reload, is sent once. The ratings stored, the ratings.csv the
 experimenter downloads and its analysis must then hold what was clicked. With
 ``$FACEPAIR_DEMO_CLIP_SINGLE`` (docs/make_participant_figures.py) the pages show that clip and
 the screenshots go to ``$FACEPAIR_SCREENSHOTS``."""
@@ -364,3 +365,51 @@ def test_an_experimenter_runs_a_rating_study_through_the_pipeline(
         stored = sorted(r.score for r in db.session.scalars(sa.select(Rating)))
     assert sorted(table["score"].tolist()) == stored
     assert stored == ([95, 95] if design == "parallel" else [1, 1])
+
+
+def test_a_rating_given_offline_is_kept_and_sent_once(
+    live_server,
+    browser,  # noqa: F811
+):
+    """The connection drops as a clip is rated: the page says the rating is kept and sends it
+    when the connection is back; a rating left pending across a reload goes out first, with
+    its key, and is stored once."""
+    study_id = live_server.study(design="rating", catch_kind="instructed", extra=CLIPS)
+    with live_server.app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    context = browser.new_context(viewport=DESKTOP)
+    page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    try:
+        page.goto(f"{live_server.url}/s/{slug}")
+        page.click("text=I agree")
+        page.click("#start")
+        page.wait_for_selector(".play:not([disabled])", timeout=20000)
+        first = int(page.get_attribute(".rater", "data-trial-id"))
+        page.keyboard.press("Space")
+        page.wait_for_selector(".level:not([disabled])", timeout=20000)
+        context.set_offline(True)
+        page.keyboard.press("4")
+        page.wait_for_selector(".status-offline", timeout=10000)
+        assert "kept on this page" in page.inner_text(".status")
+        context.set_offline(False)
+        page.wait_for_selector(f'.rater[data-trial-id="{first}"]', state="detached", timeout=60000)
+        # The next rating cannot reach the server, then the page is reloaded: the kept rating
+        # goes out first, before the page plays anything.
+        page.wait_for_selector(".play:not([disabled])", timeout=20000)
+        second = int(page.get_attribute(".rater", "data-trial-id"))
+        page.keyboard.press("Space")
+        page.wait_for_selector(".level:not([disabled])", timeout=20000)
+        page.route("**/api/v1/ratings", lambda route: route.abort())
+        page.keyboard.press("2")
+        page.wait_for_selector(".status-offline", timeout=10000)
+        page.unroute("**/api/v1/ratings")
+        page.reload()
+        page.wait_for_selector(f'.rater[data-trial-id="{second}"]', state="detached", timeout=60000)
+    finally:
+        context.close()
+    assert errors == []
+    with live_server.app.app_context():
+        stored = {r.trial_id: r.score for r in db.session.scalars(sa.select(Rating))}
+    assert stored == {first: 4, second: 2}
