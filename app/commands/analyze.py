@@ -254,7 +254,8 @@ def _analyze_ratings(
 ) -> None:
     """``facepair analyze ratings.csv``: MOS with intervals and Holm-adjusted contrasts
     (:func:`app.analysis.rating_results.analyze_ratings`), written as the votes' are."""
-    from app.analysis.rating_results import analyze_ratings, read_ratings, summary_text
+    from app.analysis.rating_document import summary_text
+    from app.analysis.rating_results import analyze_ratings, read_ratings
     from app.analysis.report import write_report
 
     below, share = screening
