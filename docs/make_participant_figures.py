@@ -1,4 +1,4 @@
-"""Make the participant's trial-page screenshots in docs/figures from the real demo clip.
+"""Make the participant's trial-page screenshots in docs/figures from the real demo clips.
 
     PYTHONPATH=. python docs/make_participant_figures.py
 
@@ -9,7 +9,11 @@ clip on the trial page at desktop (1366x768) and phone (390x844) size and checks
 participant-trial-desktop.png and participant-trial-phone.png here; then the same clip in a
 German and an Arabic (right-to-left) study, and the audio check before the first trial, at
 desktop size (tests/participant/test_language_browser.py): participant-trial-german-desktop.png,
-participant-trial-arabic-desktop.png and participant-audio-check-desktop.png.
+participant-trial-arabic-desktop.png and participant-audio-check-desktop.png. Then renders one face
+(speech-driven prosody, ``renderer.render_single``) and runs the rating design's layout test
+(tests/test_browser_rating.py::test_rating_page_layout_and_screenshots) for
+participant-rating-desktop.png (the five ACR levels) and participant-rating-phone.png (the
+slider), and the parallel design's test for participant-parallel-desktop.png and -phone.png.
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ import tempfile
 from pathlib import Path
 
 from app.stimuli.generate import generate_conditions
-from renderer import render_pair
+from renderer import render_pair, render_single
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "figures"
@@ -34,7 +38,13 @@ def main() -> None:
         clip = render_pair(
             result.tracks["speech_driven"], result.tracks["random"], speech, Path(tmp) / "pair.mp4"
         )
-        env = {**os.environ, "FACEPAIR_DEMO_CLIP": str(clip), "FACEPAIR_SCREENSHOTS": str(OUT)}
+        single = render_single(result.tracks["speech_driven"], speech, Path(tmp) / "single.mp4")
+        env = {
+            **os.environ,
+            "FACEPAIR_DEMO_CLIP": str(clip),
+            "FACEPAIR_DEMO_CLIP_SINGLE": str(single),
+            "FACEPAIR_SCREENSHOTS": str(OUT),
+        }
         subprocess.run(
             [
                 sys.executable,
@@ -52,10 +62,29 @@ def main() -> None:
             env=env,
             check=True,
         )
+        subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "pytest",
+                "-q",
+                "-p",
+                "no:cacheprovider",
+                "tests/test_browser_rating.py::test_rating_page_layout_and_screenshots",
+                "tests/test_browser_rating.py::test_a_participant_rates_every_version_in_parallel",
+            ],
+            cwd=ROOT,
+            env=env,
+            check=True,
+        )
     print(OUT / "participant-trial-desktop.png")
     print(OUT / "participant-trial-phone.png")
     for name in ("trial-german", "trial-arabic", "audio-check"):
         print(OUT / f"participant-{name}-desktop.png")
+    print(OUT / "participant-rating-desktop.png")
+    print(OUT / "participant-rating-phone.png")
+    print(OUT / "participant-parallel-desktop.png")
+    print(OUT / "participant-parallel-phone.png")
 
 
 if __name__ == "__main__":

@@ -151,7 +151,8 @@ def _pseudo(text: str) -> str:
 
 @pytest.fixture
 def pseudo_app(app, tmp_path):
-    """``app`` whose English catalogue is the pseudo-locale (a later folder overrides)."""
+    """``app`` whose English catalogue is the pseudo-locale (a later folder overrides) for
+    this test only."""
     catalogue = _template()
     catalogue.locale = "en"
     for message in catalogue:
@@ -165,8 +166,13 @@ def pseudo_app(app, tmp_path):
     folder.mkdir(parents=True)
     with open(folder / "messages.po", "wb") as out:
         write_po(out, catalogue)
-    app.extensions["babel"].translation_directories.append(str(tmp_path / "pseudo"))
-    return app
+    directories = app.extensions["babel"].translation_directories
+    directories.append(str(tmp_path / "pseudo"))
+    try:
+        yield app
+    finally:
+        # the app may serve later tests (one per database): they read the real catalogues
+        directories.remove(str(tmp_path / "pseudo"))
 
 
 class _Visible(HTMLParser):
@@ -338,12 +344,51 @@ def test_no_fixed_string_escapes_translation_on_any_participant_page(pseudo_app,
     assert "Ｐａｉｒ" in pages["trial"].get_data(as_text=True)
 
 
-def test_the_script_shows_no_string_of_its_own():
-    """Every sentence ``participant.js`` shows comes from the page's JSON blob: the script's
-    string literals hold no words with spaces besides these (selectors, media queries)."""
-    script = (REPO / "app/web/static/participant.js").read_text(encoding="utf-8")
+@pytest.mark.parametrize("name", ["participant.js", "rating.js"])
+def test_the_script_shows_no_string_of_its_own(name):
+    """Every sentence ``participant.js`` (and ``rating.js``) shows comes from the page's JSON
+    blob: the script's string literals hold no words with spaces besides these (selectors,
+    media queries)."""
+    script = (REPO / "app/web/static" / name).read_text(encoding="utf-8")
     code = re.sub(r"/\*.*?\*/|//[^\n]*", "", script, flags=re.S)
     literals = re.findall(r'"((?:[^"\\\n]|\\.)*)"', code)
-    allowed = {"use strict", "(pointer: coarse)", ".vote:not([disabled])"}
+    allowed = {
+        "use strict",
+        "(pointer: coarse)",
+        ".vote:not([disabled])",
+        ".level:not([disabled])",
+    }
     worded = {s for s in literals if re.search(r"[A-Za-z]{2,} [A-Za-z]", s)} - allowed
     assert worded == set()
+
+
+@pytest.mark.parametrize("design", ["acr5", "slider", "parallel"])
+def test_no_fixed_string_escapes_translation_on_the_rating_pages(pseudo_app, web, design):
+    """The rating designs' instructions and trial pages (the rating design's check among
+    them) and their done page under the pseudo-locale."""
+    app = pseudo_app
+    client = app.test_client()
+    if design == "parallel":
+        toml = dict(design="parallel", extra='reference = "none"\n')
+    else:
+        extra = f'[rating]\nscale = "{design}"\n[attention]\nmax_failed = 2\n'
+        toml = dict(design="rating", catch=1, catch_kind="instructed", extra=extra)
+    slug = _slug(app, web.study(**toml))
+    person = ParticipantActions(client, app)
+    token = person.join(slug)
+    pages = {"instructions": client.get(f"/p/{token}/instructions")}
+    low = 1 if design == "acr5" else 0  # the bottom of the scale passes the check
+    while (trial := person.current_trial()) is not None:
+        with app.app_context():
+            kind = db.session.get(Trial, trial).kind
+        pages[f"trial-{kind}"] = client.get(f"/p/{token}/trial")
+        answer = {"token": token, "trial_id": trial, "plays": 2}
+        answer |= {"scores": [90, 90]} if design == "parallel" else {"score": low}
+        answer["idempotency_key"] = f"pseudo-{trial:08d}"
+        assert client.post("/api/v1/ratings", json=answer).status_code == 201
+    pages["done"] = client.get(f"/p/{token}/done")
+    problems = {name: _escaped(r.get_data(as_text=True)) for name, r in pages.items()}
+    assert {name: found for name, found in problems.items() if found} == {}
+    kinds = {"trial-trial"} | ({"trial-catch"} if design != "parallel" else set())
+    assert set(pages) == {"instructions", "done"} | kinds
+    assert "Ｃｌｉｐ" in pages["trial-trial"].get_data(as_text=True)

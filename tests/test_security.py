@@ -197,6 +197,7 @@ def test_token_authenticated_endpoints_are_exactly_the_participant_json_ones(app
             sides[rule.endpoint] = token_authenticated(path)
     assert sides == {
         "api.post_vote": True,
+        "api.post_rating": True,
         "api.post_play": True,
         "api.post_environment": True,
         "api.progress": True,

@@ -456,7 +456,12 @@ def _appropriateness_blocks(appropriate: dict[str, dict[str, Any]]) -> list[Bloc
 
 
 def build_document(r: dict[str, Any]) -> list[Block]:
-    """Every block of the report, in reading order."""
+    """Every block of the report, in reading order (a rating study's:
+    :func:`app.analysis.rating_document.rating_blocks`)."""
+    if r.get("kind") == "rating":
+        from app.analysis.rating_document import rating_blocks
+
+        return (_study_blocks(r["study"]) if r.get("study") else []) + rating_blocks(r)
     pooled = r["pooled"]
     doc: list[Block] = _study_blocks(r["study"]) if r.get("study") else []
     doc.append(Heading("Results", 1))

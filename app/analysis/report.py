@@ -299,7 +299,10 @@ def write_report(
     title = (
         results["study"]["title"]
         if results.get("study")
-        else "Paired-comparison results: " + ", ".join(results["conditions"])
+        else (
+            "Rating results: " if results.get("kind") == "rating" else "Paired-comparison results: "
+        )
+        + ", ".join(results["conditions"])
     )
     Path(html_path).write_text(render_html(blocks, images, title), encoding="utf-8")
     if pdf_path is not None:

@@ -173,6 +173,22 @@ def package_votes(
     help="The objective measures of a clip's conditions (summary.json of facepair stimuli "
     "generate), e.g. 's1=out/s1/summary.json'; repeat per clip. Regressed on the scores.",
 )
+@click.option(
+    "--reference-below",
+    type=click.FloatRange(0, 100),
+    default=90,
+    show_default=True,
+    help="Ratings (parallel design): post-screening score the hidden reference must reach "
+    "(ITU-R BS.1534-3 sec. 4.1.2).",
+)
+@click.option(
+    "--reference-share",
+    type=click.FloatRange(0, 1),
+    default=0.15,
+    show_default=True,
+    help="Ratings (parallel design): leave out a participant below --reference-below on "
+    "more than this share of clips.",
+)
 def analyze(
     votes: str,
     json_path: str | None,
@@ -187,8 +203,11 @@ def analyze(
     exclude: str | None,
     mixed_model: bool,
     measures_paths: tuple[str, ...],
+    reference_below: float,
+    reference_share: float,
 ) -> None:
-    """Analyse the votes of a paired-comparison study (CSV) and report the results.
+    """Analyse the votes of a paired-comparison study (CSV) and report the results; a
+    ratings table (the rating design's ratings.csv) gets its MOS analysis instead.
 
     VOTES may also be a study package (the zip a study's page or 'facepair study export
     --package' writes): its votes are analysed with the conditions and exclusion rules of its
@@ -202,6 +221,13 @@ def analyze(
     if pdf_path is not None and html_path is None:
         raise click.UsageError("--pdf needs --report (both come from the same content)")
     names = None if conditions is None else [c.strip() for c in conditions.split(",") if c.strip()]
+    from app.analysis.rating_results import is_ratings_file
+
+    if is_ratings_file(votes):
+        _analyze_ratings(
+            votes, names, json_path, html_path, pdf_path, (reference_below, reference_share)
+        )
+        return
     summaries = read_summaries(measures_paths)
     steps = 2 + (html_path is not None) + (pdf_path is not None and html_path is not None)
     with tqdm(total=steps, desc="analyze", unit="step", disable=None) as bar:
@@ -245,3 +271,34 @@ def analyze(
             write_report(results, html_path, pdf_path)
             bar.update(steps - bar.n)
     click.echo(_summary(results))
+
+
+def _analyze_ratings(
+    path: str,
+    names: list[str] | None,
+    json_path: str | None,
+    html_path: str | None,
+    pdf_path: str | None,
+    screening: tuple[float, float],
+) -> None:
+    """``facepair analyze ratings.csv``: MOS with intervals and Holm-adjusted contrasts
+    (:func:`app.analysis.rating_results.analyze_ratings`), written as the votes' are."""
+    from app.analysis.rating_document import summary_text
+    from app.analysis.rating_results import analyze_ratings, read_ratings
+    from app.analysis.report import write_report
+
+    below, share = screening
+    results = analyze_ratings(
+        read_ratings(path),
+        conditions=names,
+        source=path,
+        reference_below=below,
+        reference_share=share,
+    )
+    if json_path is not None:
+        Path(json_path).write_text(
+            json.dumps(results, indent=1, allow_nan=False) + "\n", encoding="utf-8"
+        )
+    if html_path is not None:
+        write_report(results, html_path, pdf_path)
+    click.echo(summary_text(results))

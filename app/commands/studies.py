@@ -128,7 +128,8 @@ for _action in ("open", "pause", "close", "reopen"):
     "--out",
     required=True,
     type=click.Path(file_okay=False, path_type=Path),
-    help="Folder for votes.csv, participants.csv and answers.csv (or the package).",
+    help="Folder for votes.csv (ratings.csv for a rating study), participants.csv and "
+    "answers.csv, or the package.",
 )
 @click.option(
     "--pilots",
@@ -144,7 +145,8 @@ for _action in ("open", "pause", "close", "reopen"):
 def export(study_id: int, out: Path, pilots: bool, package: bool) -> None:
     """Write the study's votes, participants (Prolific IDs pseudonymised) and questionnaire
     answers as the experimenter's downloads are, or its package (--package)."""
-    from app.web.study.exports import votes_csv
+    from app.trials.design import RATING_DESIGNS
+    from app.web.study.exports import ratings_csv, votes_csv
     from app.web.study.privacy import participants_csv
     from app.web.study.questionnaires import answers_csv
 
@@ -158,8 +160,12 @@ def export(study_id: int, out: Path, pilots: bool, package: bool) -> None:
             name, data = _package(found)
             files = {name: data}
         else:
+            pilot = "with" if pilots else "without"
+            rated = found.design in RATING_DESIGNS
             files = {
-                "votes.csv": votes_csv(found, pilot="with" if pilots else "without"),
+                "ratings.csv" if rated else "votes.csv": (ratings_csv if rated else votes_csv)(
+                    found, pilot=pilot
+                ),
                 "participants.csv": participants_csv(found),
                 "answers.csv": answers_csv(found),
             }

@@ -1,6 +1,6 @@
 """Pair designs: which conditions are compared with which, and on which side.
 
-Four designs, the first three taken from a seed study:
+Four pair designs, the first three taken from a seed study, and two rating designs:
 
 ``all_ordered``
     Every ordered pair of conditions, same-condition pairs included: n^2 pairs for n conditions.
@@ -30,6 +30,17 @@ Four designs, the first three taken from a seed study:
     :mod:`app.trials.adaptive`), for studies of :data:`app.trials.adaptive.MIN_CONDITIONS` or
     more conditions.
 
+``rating``
+    No comparison: every condition's clip rated on its own (ITU-T P.910 ACR; see
+    :mod:`app.trials.rating`). Its "pairs" are the conditions each against itself, what a
+    single-face clip shows (``left == right``), so the rows and stimuli of the pair designs
+    carry it unchanged.
+
+``parallel``
+    Every condition of one clip rated side by side on 0-100 sliders, the ``reference``
+    condition among them hidden and also shown labelled (MUSHRA-like, ITU-R BS.1534-3); the
+    "pairs" are those of ``rating``.
+
 Conditions are named by their study names (e.g. ``"speech_driven"``); a ``ConditionPair`` is what
 one side-by-side clip shows: ``left`` on the left panel, ``right`` on the right.
 """
@@ -42,6 +53,12 @@ from typing import Final
 
 PAIR_DESIGNS: Final = ("all_ordered", "reference", "unordered_counterbalanced", "adaptive")
 """The pair designs understood by :func:`build_pairs` and the schedule."""
+RATING_DESIGNS: Final = ("rating", "parallel")
+"""Designs that rate one condition at a time (:mod:`app.trials.rating`)."""
+DESIGNS: Final = PAIR_DESIGNS + RATING_DESIGNS
+"""Every design a study file may name."""
+REFERENCE_DESIGNS: Final = ("reference", "parallel")
+"""Designs that name a ``reference`` condition."""
 UNORDERED_DESIGNS: Final = ("unordered_counterbalanced", "adaptive")
 """Designs of unordered pairs whose side the schedule chooses (both orders rendered)."""
 
@@ -73,9 +90,9 @@ class ConditionPair:
 
 
 def check_design(design: str) -> str:
-    """Return ``design`` if it is one of :data:`PAIR_DESIGNS`, else raise ``ValueError``."""
-    if design not in PAIR_DESIGNS:
-        raise ValueError(f"expected one of {', '.join(PAIR_DESIGNS)}, got {design!r}")
+    """Return ``design`` if it is one of :data:`DESIGNS`, else raise ``ValueError``."""
+    if design not in DESIGNS:
+        raise ValueError(f"expected one of {', '.join(DESIGNS)}, got {design!r}")
     return design
 
 
@@ -89,9 +106,10 @@ def build_pairs(
     conditions:
         Distinct condition names, at least two (one is enough for nothing to compare).
     design:
-        One of :data:`PAIR_DESIGNS` (see the module docstring for the seed each follows).
+        One of :data:`DESIGNS` (see the module docstring for the seed each follows).
     reference:
-        The reference condition; required for ``"reference"`` and refused otherwise.
+        The reference condition; required for ``"reference"`` and ``"parallel"`` and refused
+        otherwise.
 
     Returns
     -------
@@ -99,6 +117,7 @@ def build_pairs(
     (thesis sec. 5.2, TABLE 3). ``reference``: 2(n-1) pairs, for each other condition ``c`` in
     order ``ConditionPair(c, reference)`` then ``ConditionPair(reference, c)`` (Le et al. 2012,
     sec. 8.1.1).
+    ``rating``: n pairs ``ConditionPair(c, c)``, one single-face clip per condition.
     ``unordered_counterbalanced`` and ``adaptive``: C(n, 2) pairs ``ConditionPair(a, b)`` with ``a``
     before ``b`` in ``conditions``; the schedule chooses the displayed side.
 
@@ -124,20 +143,23 @@ def build_pairs(
     duplicates = sorted({n for n in names if names.count(n) > 1})
     if duplicates:
         raise ValueError(f"condition names must be distinct, repeated: {', '.join(duplicates)}")
-    if design == "reference":
+    if design in REFERENCE_DESIGNS:
         if reference is None:
-            raise ValueError("design 'reference' needs a reference condition")
+            raise ValueError(f"design {design!r} needs a reference condition")
         if reference not in names:
             raise ValueError(
                 f"reference {reference!r} is not one of the conditions {', '.join(names)}"
             )
     elif reference is not None:
         raise ValueError(
-            f"a reference condition only applies to design 'reference', not {design!r}"
+            f"a reference condition only applies to designs 'reference' and 'parallel', "
+            f"not {design!r}"
         )
 
     if design == "all_ordered":
         return [ConditionPair(a, b) for a in names for b in names]
+    if design in RATING_DESIGNS:
+        return [ConditionPair(c, c) for c in names]
     if design == "reference":
         pairs: list[ConditionPair] = []
         for other in names:

@@ -40,7 +40,7 @@ from typing import Final
 
 import numpy as np
 
-from app.trials.design import ConditionPair, check_design, stimulus_pairs
+from app.trials.design import RATING_DESIGNS, ConditionPair, check_design, stimulus_pairs
 
 TRIAL_KINDS: Final = ("practice", "trial", "catch", "mismatch")
 """Kinds of trial: the practice pair after the instructions, a real trial, a catch trial, an
@@ -159,9 +159,13 @@ def _side_lists(design: str) -> int:
     return 1 if design == "all_ordered" else 2
 
 
-def n_lists_for(design: str, *, n_clips: int = 1, block_by_clip: bool = True) -> int:
+def n_lists_for(
+    design: str, *, n_clips: int = 1, block_by_clip: bool = True, n_conditions: int = 2
+) -> int:
     """The number of lists that completes one full counterbalancing cycle.
 
+    ``rating``: one list per row of the Williams square of the ``n_conditions`` conditions
+    (:func:`app.trials.rating.rating_lists`); ``parallel``: of the clips; the pair designs:
     ``sides x block orders``: sides need 1 list for ``all_ordered`` (both orders are in every
     schedule) and 2 otherwise (one list per side order); block orders need one row of the
     Williams square per list (``n_clips`` rows, ``2 n_clips`` for odd ``n_clips > 1``) when
@@ -172,6 +176,10 @@ def n_lists_for(design: str, *, n_clips: int = 1, block_by_clip: bool = True) ->
     (2, 12)
     """
     check_design(design)
+    if design in RATING_DESIGNS:
+        from app.trials.rating import parallel_lists, rating_lists
+
+        return parallel_lists(n_clips) if design == "parallel" else rating_lists(n_conditions)
     if n_clips < 1:
         raise ValueError(f"need at least one clip, got {n_clips}")
     rows = len(williams_square(n_clips)) if block_by_clip else 1
@@ -251,6 +259,7 @@ def make_schedule(
     practice_clip: str | None = None,
     block_by_clip: bool = True,
     mismatched: bool = False,
+    reference: str | None = None,
 ) -> list[ScheduledTrial]:
     """Build one participant's schedule; pure and deterministic in all its arguments.
 
@@ -261,7 +270,9 @@ def make_schedule(
     pairs:
         The design's pairs from :func:`app.trials.design.build_pairs`.
     design:
-        The design that produced ``pairs``.
+        The design that produced ``pairs``; ``rating`` is scheduled by
+        :func:`app.trials.rating.rating_schedule` (the conditions are the pairs' ``left``),
+        ``parallel`` by :func:`app.trials.rating.parallel_schedule` with ``reference``.
     seed:
         The participant's stored seed (:func:`participant_seed`); drives trial order and catch
         trial placement through ``numpy.random.default_rng(seed)``.
@@ -294,6 +305,25 @@ def make_schedule(
     True
     """
     check_design(design)
+    if design == "parallel":
+        from app.trials.rating import parallel_schedule
+
+        if reference is None:
+            raise ValueError("design 'parallel' needs its reference condition")
+        return parallel_schedule(
+            clips=clips, reference=reference, list_index=list_index, n_lists=n_lists
+        )
+    if design in RATING_DESIGNS:
+        from app.trials.rating import rating_schedule
+
+        return rating_schedule(
+            clips=clips,
+            conditions=[p.left for p in pairs],
+            seed=seed,
+            list_index=list_index,
+            n_lists=n_lists,
+            catch_trials=catch_trials,
+        )
     clips = list(clips)
     if not clips or len(set(clips)) != len(clips):
         raise ValueError("clips must be a non-empty list of distinct names")
@@ -334,7 +364,7 @@ def make_schedule(
         if keep is not None:
             main = main[: keep * len(blocks)]
 
-    slots = _catch_slots(len(main), catch_trials, rng)
+    slots = catch_slots(len(main), catch_trials, rng)
     onscreen = stimulus_pairs(pairs, design)[0] if catch_kind == "onscreen" else None
     catches = _catch_trials(main, slots, catch_kind, rng, onscreen)
     sequence: list[ScheduledTrial] = []
@@ -477,7 +507,7 @@ def variant_stimuli(
     return out
 
 
-def _catch_slots(n_main: int, n_catch: int, rng: np.random.Generator) -> list[int]:
+def catch_slots(n_main: int, n_catch: int, rng: np.random.Generator) -> list[int]:
     """After how many main trials each catch trial comes: one per equal segment, never first."""
     if n_catch == 0:
         return []

@@ -12,7 +12,8 @@ Every key is documented in ``docs/reference/studyfile.md``; ``app/data/examples/
 complete example.
 Every mistake is one :class:`~app.errors.InputError` line naming the file and the field, e.g.
 ``study.toml: design: expected one of all_ordered, reference, unordered_counterbalanced,
-adaptive, got 'foo'``. Relative paths are resolved against the directory of the study file.
+adaptive, rating, parallel, got 'foo'``. Relative paths are resolved against the directory of
+the study file.
 """
 
 from __future__ import annotations
@@ -29,10 +30,11 @@ from app.errors import InputError
 from app.stimuli.eyes import DEFAULT_EYES, EYE_MODES
 from app.stimuli.posture import DEFAULT_POSTURE, POSTURES
 from app.trials.adaptive import MIN_CONDITIONS
-from app.trials.design import PAIR_DESIGNS, ConditionPair
+from app.trials.design import DESIGNS, RATING_DESIGNS, REFERENCE_DESIGNS, ConditionPair
 from app.trials.fields import MISSING, describe
 from app.trials.participation import PARTICIPATION_KEYS, read_participation
 from app.trials.questions import ExperimenterSideReader
+from app.trials.rating import DEFAULT_RATING_SCALE, RATING_SCALES
 from app.trials.rules import DEFAULT_UNDECIDED_LABEL, REPLAY_KINDS, ReplayPolicy
 from app.trials.schedule import CATCH_KINDS
 from app.trials.studyspec import MODELS, ClipSpec, ConditionSpec, StudySpec
@@ -166,6 +168,7 @@ _TOP_KEYS: Final = (
     "undecided",
     "replay",
     "catch",
+    "rating",
     "conditions",
     "clips",
     *PARTICIPATION_KEYS,
@@ -187,7 +190,7 @@ class _StudyReader(ExperimenterSideReader):
         question = self.text(top, "question", "question", nonempty=True)
         instructions = self.text(top, "instructions", "instructions", "")
         consent = self.text(top, "consent", "consent", "")
-        design = self.choice(top, "design", "design", PAIR_DESIGNS, "all_ordered")
+        design = self.choice(top, "design", "design", DESIGNS, "all_ordered")
         reference = self.text(top, "reference", "reference", None)
         seed = self.integer(top, "seed", "seed", 0, 0)
         target = self.integer(top, "target_participants", "target_participants", 20, 1)
@@ -210,7 +213,29 @@ class _StudyReader(ExperimenterSideReader):
         replay = self.replay(top)
         catch = self.table(top.get("catch", {}), "catch", ("trials", "kind"))
         catch_trials = self.integer(catch, "trials", "catch.trials", 0, 0)
-        catch_kind = self.choice(catch, "kind", "catch.kind", CATCH_KINDS, "identical")
+        rating = design in RATING_DESIGNS
+        catch_kind = self.choice(
+            catch, "kind", "catch.kind", CATCH_KINDS, "instructed" if rating else "identical"
+        )
+        if design == "parallel" and catch_trials:
+            raise self.error(
+                "catch.trials",
+                "design = 'parallel' takes no catch trials: its hidden reference is the check "
+                "(post-screening, ITU-R BS.1534-3 sec. 4.1.2)",
+            )
+        if design == "parallel" and replay.kind != "unlimited":
+            raise self.error(
+                "replay.policy",
+                "design = 'parallel' plays its items as often as wanted (ITU-R BS.1534-3): "
+                f"expected 'unlimited', got {replay.kind!r}",
+            )
+        if design == "rating" and catch_kind != "instructed":
+            raise self.error(
+                "catch.kind",
+                f"design = {design!r} takes only 'instructed' checks (rate the clip Bad), "
+                f"not {catch_kind!r}",
+            )
+        rating_scale = self.rating_scale(top, design)
         if catch_trials and catch_kind == "identical" and not allowed:
             raise self.error(
                 "catch.kind",
@@ -223,25 +248,29 @@ class _StudyReader(ExperimenterSideReader):
         posture = self.choice(top, "posture", "posture", POSTURES, DEFAULT_POSTURE)
         exclude = self.text(top, "exclude", "exclude", "")
         names = [c.name for c in conditions]
-        if design == "reference":
+        if design in REFERENCE_DESIGNS:
             if reference is None:
-                raise self.error("reference", "missing (required by design = 'reference')")
+                raise self.error("reference", f"missing (required by design = {design!r})")
             if reference not in names:
                 raise self.error(
                     "reference",
                     f"expected one of the conditions {', '.join(names)}, got {reference!r}",
                 )
         elif reference is not None:
-            raise self.error("reference", f"only applies to design = 'reference', not {design!r}")
+            raise self.error(
+                "reference", f"only applies to designs 'reference' and 'parallel', not {design!r}"
+            )
         if design == "adaptive" and len(names) < MIN_CONDITIONS:
             raise self.error(
                 "design",
                 f"'adaptive' needs at least {MIN_CONDITIONS} conditions, the study has "
                 f"{len(names)}",
             )
-        practice, practice_clip = self.practice(top, names, [c.name for c in clips])
+        practice, practice_clip = self.practice(top, names, [c.name for c in clips], design)
         rejoin = self.choice(top, "rejoin", "rejoin", REJOIN_POLICIES, "resume")
         participation = read_participation(self, top, n_clips=len(clips))
+        if rating and participation.mismatched:
+            raise self.error("mismatched", f"only applies to the pair designs, not {design!r}")
         auto_exclude, questions = self.experimenter_side(top)
         spec = StudySpec(
             title=title,
@@ -271,6 +300,7 @@ class _StudyReader(ExperimenterSideReader):
             exclude=exclude,
             rejoin=rejoin,
             participation=participation,
+            rating_scale=rating_scale,
             auto_exclude=auto_exclude,
             questions=questions,
         )
@@ -305,6 +335,23 @@ class _StudyReader(ExperimenterSideReader):
         if "look" in render:
             self.choice(render, "look", "render.look", LOOKS)
         return eyes, normalize, render
+
+    def rating_scale(self, top: Mapping[str, Any], design: str) -> str:
+        """The ``[rating]`` table's ``scale``, for the rating designs only (``parallel``: the
+        slider, always)."""
+        table = self.table(top.get("rating", {}), "rating", ("scale",))
+        if table and design not in RATING_DESIGNS:
+            raise self.error(
+                "rating", f"only applies to designs 'rating' and 'parallel', not {design!r}"
+            )
+        default = "slider" if design == "parallel" else DEFAULT_RATING_SCALE
+        scale = str(self.choice(table, "scale", "rating.scale", RATING_SCALES, default))
+        if design == "parallel" and scale != "slider":
+            raise self.error(
+                "rating.scale",
+                f"design = 'parallel' rates on sliders: expected 'slider', got {scale!r}",
+            )
+        return scale
 
     def replay(self, top: Mapping[str, Any]) -> ReplayPolicy:
         replay = self.table(top.get("replay", {}), "replay", ("policy", "max_plays"))
@@ -391,8 +438,12 @@ class _StudyReader(ExperimenterSideReader):
         return tuple(out)
 
     def practice(
-        self, top: Mapping[str, Any], conditions: list[str], clips: list[str]
+        self, top: Mapping[str, Any], conditions: list[str], clips: list[str], design: str
     ) -> tuple[ConditionPair | None, str | None]:
+        if design in RATING_DESIGNS:
+            if top.get("practice", False) is not False or "practice_clip" in top:
+                raise self.error("practice", f"design = {design!r} has no practice pair")
+            return None, None
         value = top.get("practice", [conditions[0], conditions[-1]])
         if value is False:
             pair = None

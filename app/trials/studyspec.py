@@ -19,10 +19,11 @@ from typing import Any, Final
 
 from app.stimuli.eyes import DEFAULT_EYES
 from app.stimuli.posture import DEFAULT_POSTURE
-from app.trials.design import ConditionPair, build_pairs
+from app.trials.design import RATING_DESIGNS, ConditionPair, build_pairs
 from app.trials.fields import key_text
 from app.trials.participation import ParticipationSpec
 from app.trials.questions import QuestionSpec
+from app.trials.rating import DEFAULT_RATING_SCALE
 from app.trials.rules import DEFAULT_UNDECIDED_LABEL, ReplayPolicy
 from app.trials.schedule import (
     ScheduledTrial,
@@ -108,6 +109,8 @@ class StudySpec:
     exclude: str = ""
     rejoin: str = "resume"
     participation: ParticipationSpec = field(default_factory=ParticipationSpec)
+    #: The ``rating`` design's scale (:data:`app.trials.rating.RATING_SCALES`).
+    rating_scale: str = DEFAULT_RATING_SCALE
     # -- the experimenter's side --
     #: Automatic exclusion rules the report applies (``app.web.study.participants.AUTO_RULES``).
     auto_exclude: tuple[str, ...] = ("catch_failed", "unfinished")
@@ -130,7 +133,12 @@ class StudySpec:
 
     def n_lists(self) -> int:
         """Lists in one counterbalancing cycle (:func:`app.trials.schedule.n_lists_for`)."""
-        return n_lists_for(self.design, n_clips=len(self.clips), block_by_clip=self.block_by_clip)
+        return n_lists_for(
+            self.design,
+            n_clips=len(self.clips),
+            block_by_clip=self.block_by_clip,
+            n_conditions=len(self.conditions),
+        )
 
     def stimuli(self) -> list[tuple[str, ConditionPair]]:
         """Every (clip name, displayed pair) some schedule shows: the side-by-side clips to render
@@ -172,6 +180,7 @@ class StudySpec:
             practice_clip=self.practice_clip,
             block_by_clip=self.block_by_clip,
             mismatched=self.participation.mismatched,
+            reference=self.reference,
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -217,6 +226,8 @@ class StudySpec:
             out["replay"]["max_plays"] = self.replay.max_plays
         out["catch"] = {"trials": self.catch_trials, "kind": self.catch_kind}
         out |= self.participation.to_dict()
+        if self.design in RATING_DESIGNS:
+            out["rating"] = {"scale": self.rating_scale}
         out["conditions"] = [_condition_dict(c) for c in self.conditions]
         out["clips"] = [_clip_dict(c) for c in self.clips]
         if self.questions:

@@ -13,6 +13,7 @@ from flask import abort, current_app, jsonify, redirect, render_template, reques
 from werkzeug.exceptions import HTTPException
 
 from app.errors import InputError
+from app.trials.design import RATING_DESIGNS
 from app.web.api import bp as api_bp
 from app.web.experimenter import bp as experimenter_bp
 from app.web.extensions import csrf, db
@@ -155,6 +156,8 @@ def init_web(app: Flask) -> None:
     app.jinja_env.globals.update(
         participant_completion_url=participant_completion_url, redirect_seconds=REDIRECT_SECONDS
     )
+    # Which designs answer by ratings (their exports and pages differ from the pair designs').
+    app.jinja_env.globals["rating_designs"] = RATING_DESIGNS
 
     limits.install(db.session)
 

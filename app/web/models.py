@@ -2,7 +2,8 @@
 
 A study owns its conditions, clips, pairs, the rendered stimuli (one video per clip and
 left/right order), the balancing lists and the participants; a participant owns a schedule of
-trials and at most one vote per trial. Contended writes are guarded by unique constraints:
+trials and at most one vote (pair designs) or one rating per condition (rating design) per
+trial. Contended writes are guarded by unique constraints:
 ``(participant, trial)`` and the client's idempotency key on :class:`Vote`, the public token on
 :class:`Participant` and the study link on :class:`Study`.
 """
@@ -346,7 +347,20 @@ class Trial(db.Model):
     vote: so.Mapped[Vote | None] = so.relationship(back_populates="trial", uselist=False)
 
 
-class Vote(db.Model):
+class MediaSummary:
+    """The media log's summary (``app.web.study.medialog``) of an answer, exported as columns,
+    with the rest of the log as JSON: the same on a :class:`Vote` and a :class:`Rating`."""
+
+    watched_ms: so.Mapped[int | None]
+    played_to_end: so.Mapped[bool | None]
+    stalls: so.Mapped[int | None]
+    stall_ms: so.Mapped[int | None]
+    focus_lost: so.Mapped[int | None]
+    #: The rest of the media log: pauses, seeks, displayed video size, stall durations.
+    media: so.Mapped[dict[str, Any] | None] = so.mapped_column(sa.JSON)
+
+
+class Vote(MediaSummary, db.Model):
     """A participant's answer to one trial: stored exactly once."""
 
     __table_args__ = (
@@ -371,17 +385,40 @@ class Vote(db.Model):
     strength: so.Mapped[int | None]
     #: Reason tags ticked after the choice (the study file's ``reasons``).
     reasons: so.Mapped[list[str] | None] = so.mapped_column(sa.JSON)
-    # The media log's summary (``app.web.study.medialog``), exported as columns:
-    watched_ms: so.Mapped[int | None]
-    played_to_end: so.Mapped[bool | None]
-    stalls: so.Mapped[int | None]
-    stall_ms: so.Mapped[int | None]
-    focus_lost: so.Mapped[int | None]
-    #: The rest of the media log: pauses, seeks, displayed video size, stall durations.
-    media: so.Mapped[dict[str, Any] | None] = so.mapped_column(sa.JSON)
 
     trial: so.Mapped[Trial] = so.relationship(back_populates="vote")
     participant: so.Mapped[Participant] = so.relationship()
+
+
+class Rating(MediaSummary, db.Model):
+    """A participant's score of one condition in one trial of a rating design: stored exactly
+    once, like a :class:`Vote` (one row per rated condition: the trial's one condition in the
+    ``rating`` design, every version of the clip in ``parallel``, all with the request's
+    idempotency key)."""
+
+    __table_args__ = (
+        # Leads with the participant: a participant's progress counts their ratings by it.
+        sa.UniqueConstraint("participant_id", "trial_id", "condition_id"),
+        sa.UniqueConstraint("idempotency_key", "condition_id"),
+        sa.CheckConstraint(sa.column("score").between(0, 100), name="score"),
+    )
+    id: so.Mapped[int] = so.mapped_column(primary_key=True)
+    participant_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("participant.id"))
+    trial_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("trial.id"), index=True)
+    condition_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("condition.id"))
+    #: Chosen by the browser per trial; a retried request carries the same key.
+    idempotency_key: so.Mapped[str] = so.mapped_column(sa.String(64))
+    #: ACR 1 (Bad) to 5 (Excellent), or 0-100 on the slider (``app.trials.rating``).
+    score: so.Mapped[int]
+    #: Milliseconds from the start of the first playback to the rating.
+    response_ms: so.Mapped[int | None]
+    plays: so.Mapped[int] = so.mapped_column(default=0)
+    #: Browser clock (ISO 8601) when the clip was shown; the server clock when stored.
+    presented_at: so.Mapped[dt.datetime | None]
+    rated_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
+
+    trial: so.Mapped[Trial] = so.relationship()
+    condition: so.Mapped[Condition] = so.relationship()
 
 
 class Job(db.Model):

@@ -97,3 +97,31 @@ def test_the_shell_export_neutralises_formulas(app, monkeypatch, web):
     with open(f"{out}/answers.csv", encoding="utf-8", newline="") as handle:
         answers = list(csv.DictReader(handle))
     assert answers[0]["comments"] == "'@SUM(1+1)*cmd|' /C calc'!A0"
+
+
+def test_a_rating_study_exports_its_ratings(app, monkeypatch, web, tmp_path):
+    _env(monkeypatch, app)
+    study_id = web.study(design="rating", catch_kind="instructed")
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    client = app.test_client()
+    person = ParticipantActions(client, app)
+    token = person.join(slug)
+    rated = client.post(
+        "/api/v1/ratings",
+        json={
+            "token": token,
+            "trial_id": person.current_trial(),
+            "score": 4,
+            "plays": 1,
+            "idempotency_key": "export-rating-1",
+        },
+    )
+    assert rated.status_code == 201, rated.get_json()
+    out = tmp_path / "export"
+    exported = CliRunner().invoke(main, ["study", "export", str(study_id), "--out", str(out)])
+    assert exported.exit_code == 0, exported.output
+    assert "ratings.csv" in exported.output and not (out / "votes.csv").exists()
+    with open(out / "ratings.csv", encoding="utf-8") as handle:
+        ratings = list(csv.DictReader(handle))
+    assert [(r["score"], r["scale"], r["kind"]) for r in ratings] == [("4", "acr5", "trial")]

@@ -58,7 +58,8 @@ def test_study_create_errors_are_one_line(app, monkeypatch, tmp_path, web):
     result = CliRunner().invoke(main, ["study", "create", str(bad), "--owner", "exp@example.org"])
     assert result.exit_code == 2
     assert result.output.strip().endswith(
-        "expected one of all_ordered, reference, unordered_counterbalanced, adaptive, got 'zigzag'"
+        "expected one of all_ordered, reference, unordered_counterbalanced, adaptive, rating, "
+        "parallel, got 'zigzag'"
     )
     assert "Traceback" not in result.output
 

@@ -374,3 +374,47 @@ def test_a_teams_own_system_output_is_a_condition_with_its_import_said(app, tmp_
     assert "48, 49, 50 absent from the file" in message, message
     assert "their columns are 0 in every frame" in message
     assert track[31].max() == 40 and track[31][:10].max() == 0  # the inner brow raise, in FAP units
+
+
+def test_render_job_renders_one_face_per_condition_and_clip_in_the_rating_design(
+    app, tmp_path, monkeypatch
+):
+    """A rating study's stimuli are single faces (``renderer.render_single``), one per
+    condition and clip, each the condition's own track; no side-by-side clip is rendered."""
+    import renderer
+    from app.web.jobs.tasks import generate_tracks, render_clips
+    from app.web.models import Stimulus
+
+    write_tone_wav(tmp_path / "long.wav", seconds=0.6)
+    write_tone_wav(tmp_path / "short.wav", seconds=0.4)
+    singles: dict[str, object] = {}
+
+    def single(track, audio, out, *, settings, cache_dir, progress=None):
+        singles[out.name] = track
+        out.write_bytes(b"video")
+        return out
+
+    def pair(*args, **kwargs):
+        raise AssertionError("a rating study renders no pair")
+
+    monkeypatch.setattr(renderer, "render_single", single)
+    monkeypatch.setattr(renderer, "render_pair", pair)
+    text = (
+        MISMATCHED_TOML.replace("mismatched = true\n", "")
+        .replace("practice = false\n", "")
+        .replace('design = "all_ordered"', 'design = "rating"')
+        .replace('kind = "onscreen"', 'kind = "instructed"')
+    )
+    with app.app_context():
+        study = create_study(create_test_user(), loads_study(text, base_dir=tmp_path))
+        db.session.commit()
+        generate_tracks(study, lambda done, total: None)
+        render_clips(study, lambda done, total: None)
+        own = {
+            (t.condition.name, t.clip.name): load_track(media_dir(study) / t.path)
+            for t in db.session.scalars(sa.select(Track))
+        }
+        stimuli = db.session.scalars(sa.select(Stimulus)).all()
+        assert len(stimuli) == 4 and all(s.left_id == s.right_id for s in stimuli)
+        for s in stimuli:
+            assert singles[Path(s.video_path).name].equals(own[(s.left.name, s.clip.name)])

@@ -86,7 +86,7 @@ def test_pair_is_frozen_and_flips() -> None:
         (["a", "b"], "foo", None, "expected one of all_ordered, reference"),
         (["a", "b"], "reference", None, "needs a reference"),
         (["a", "b"], "reference", "c", "'c' is not one of the conditions"),
-        (["a", "b"], "all_ordered", "a", "only applies to design 'reference'"),
+        (["a", "b"], "all_ordered", "a", "only applies to designs 'reference'"),
     ],
 )
 def test_bad_designs_are_refused(

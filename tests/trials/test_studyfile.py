@@ -18,7 +18,7 @@ from app.trials.rules import ReplayPolicy
 from app.trials.studyfile import load_study_file, loads_study, parse_study
 
 StudyData = Callable[[], dict[str, Any]]
-DESIGNS = "all_ordered, reference, unordered_counterbalanced, adaptive"
+DESIGNS = "all_ordered, reference, unordered_counterbalanced, adaptive, rating, parallel"
 
 
 def error_of(data: dict[str, Any], base_dir: Path) -> str:
@@ -133,7 +133,10 @@ BAD_FIELDS: list[tuple[dict[str, Any], str]] = [
         {"design": "reference", "reference": "best"},
         "reference: expected one of the conditions none, random, ground_truth, got 'best'",
     ),
-    ({"reference": "none"}, "reference: only applies to design = 'reference', not 'all_ordered'"),
+    (
+        {"reference": "none"},
+        "reference: only applies to designs 'reference' and 'parallel', not 'all_ordered'",
+    ),
     ({"seed": -1}, "seed: must be >= 0, got -1"),
     ({"seed": True}, "seed: expected an integer, got true"),
     ({"seed": 2**63}, "seed: must be <= 9223372036854775807, got 9223372036854775808"),

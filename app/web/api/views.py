@@ -1,6 +1,7 @@
 """JSON endpoints under ``/api/v1``.
 
-``POST /api/v1/votes`` is idempotent: the same ``idempotency_key`` (or a second vote on an
+``POST /api/v1/votes`` (and ``POST /api/v1/ratings``, the rating design's answer) is
+idempotent: the same ``idempotency_key`` (or a second vote on an
 answered trial) returns the stored vote with status 200 instead of 201. Participants
 authenticate with their token in the body (votes) or the URL (progress); job status needs the
 owning experimenter's login.
@@ -27,6 +28,7 @@ from app.web.jobs.tasks import sweep_study_jobs
 from app.web.models import Job, Participant, Study, Trial
 from app.web.study.enrolment import progress as enrolment_progress
 from app.web.study.medialog import MediaLogError, environment_fields
+from app.web.study.ratings import record_rating, shown_items
 from app.web.study.studies import participation
 from app.web.study.votes import VoteRejected, participant_for_vote, record_vote, replay_policy
 from app.web.study.wording import ended_reason
@@ -62,6 +64,18 @@ def _json_object() -> dict[str, Any] | str:
     return payload if isinstance(payload, dict) else "body: expected a JSON object"
 
 
+def _refused(exc: VoteRejected, participant: Participant):  # type: ignore[no-untyped-def]
+    """The answer to a refused vote or rating, its transaction rolled back."""
+    db.session.rollback()
+    if exc.closed:
+        # ``error`` for scripts (English); ``message`` for the participant's page.
+        use_language(participation(participant.study).language)
+        return jsonify(
+            {"error": exc.message, "message": ended_reason(exc.message), "closed": True}
+        ), exc.status
+    return _error(exc.message, exc.status)
+
+
 @bp.post("/votes")
 def post_vote():  # type: ignore[no-untyped-def]
     payload = _json_object()
@@ -73,14 +87,7 @@ def post_vote():  # type: ignore[no-untyped-def]
     try:
         outcome = record_vote(voter.participant, payload, voter.trial)
     except VoteRejected as exc:
-        db.session.rollback()
-        if exc.closed:
-            # ``error`` for scripts (English); ``message`` for the participant's page.
-            use_language(participation(voter.participant.study).language)
-            return jsonify(
-                {"error": exc.message, "message": ended_reason(exc.message), "closed": True}
-            ), exc.status
-        return _error(exc.message, exc.status)
+        return _refused(exc, voter.participant)
     vote = outcome.vote
     resume, video = _participant_urls(payload["token"])
     body = {
@@ -108,6 +115,43 @@ def post_vote():  # type: ignore[no-untyped-def]
         status=201 if outcome.created else 200,
         mimetype="application/json",
     )
+
+
+@bp.post("/ratings")
+def post_rating():  # type: ignore[no-untyped-def]
+    """One trial's rating in the ``rating`` design (:func:`app.web.study.ratings.record_rating`):
+    201 when stored, 200 with the stored rating for a retry."""
+    payload = _json_object()
+    if isinstance(payload, str):
+        return _error(payload, 400)
+    rater = participant_for_vote(payload.get("token"), payload.get("trial_id"))
+    if rater is None:
+        return _error("unknown participant", 403)
+    try:
+        outcome = record_rating(rater.participant, payload, rater.trial)
+    except VoteRejected as exc:
+        return _refused(exc, rater.participant)
+    stored = outcome.rating
+    if rater.participant.study.design == "parallel":
+        # in the order the page shows the items (condition ids never leave the server)
+        items = shown_items(rater.participant, rater.trial)  # type: ignore[arg-type]
+        given: dict[str, Any] = {"scores": [stored.scores.get(c.id) for c in items]}
+    else:
+        given = {"score": next(iter(stored.scores.values()))}
+    body = {
+        "status": "recorded" if outcome.created else "duplicate",
+        "rating": {
+            "trial_id": stored.trial_id,
+            **given,
+            "plays": stored.plays,
+            "response_ms": stored.response_ms,
+        },
+        "answered": outcome.answered,
+        "total": outcome.total,
+        "next": _participant_urls(payload["token"])[0],
+    }
+    db.session.commit()
+    return jsonify(body), 201 if outcome.created else 200
 
 
 #: A token of only these characters (every token facepair issues) is one ``url_for`` writes

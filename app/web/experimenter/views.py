@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import secrets
+from collections.abc import Callable
 
 import sqlalchemy as sa
 from flask import (
@@ -53,7 +54,7 @@ from app.web.jobs import EnqueueError, enqueue
 from app.web.jobs.tasks import JOB_KINDS, sweep_study_jobs
 from app.web.models import Job, Stimulus, Study, StudyShare
 from app.web.study.enrolment import dropped_after, release_dropped, unstarted_after
-from app.web.study.exports import votes_csv
+from app.web.study.exports import ratings_csv, votes_csv
 from app.web.study.monitor import study_monitor
 from app.web.study.participants import release_pilots
 from app.web.study.privacy import delete_participants, participants_csv
@@ -362,7 +363,18 @@ def monitor(study_id: int):  # type: ignore[no-untyped-def]
 @bp.get("/studies/<int:study_id>/votes.csv")
 @login_required
 def export_votes(study_id: int):  # type: ignore[no-untyped-def]
+    return _answers_csv(study_id, votes_csv, "votes")
 
+
+@bp.get("/studies/<int:study_id>/ratings.csv")
+@login_required
+def export_ratings(study_id: int):  # type: ignore[no-untyped-def]
+    """The rating design's ratings (``app.analysis.rating_results.RATING_COLUMNS``)."""
+    return _answers_csv(study_id, ratings_csv, "ratings")
+
+
+def _answers_csv(study_id: int, export: Callable[..., str], kind: str):  # type: ignore[no-untyped-def]
+    """A study's votes or ratings as a CSV download; ``?pilot=with|only`` for the pilots'."""
     study = own_study(study_id)
     pilot = request.args.get("pilot", "without")
     if pilot not in ("without", "with", "only"):
@@ -371,10 +383,10 @@ def export_votes(study_id: int):  # type: ignore[no-untyped-def]
         "" if pilot == "without" else f"-{pilot}-pilot"
     )
     return Response(
-        votes_csv(study, pilot=pilot),
+        export(study, pilot=pilot),
         mimetype="text/csv",
         headers={
-            "Content-Disposition": f'attachment; filename="{name}-votes.csv"',
+            "Content-Disposition": f'attachment; filename="{name}-{kind}.csv"',
             "Cache-Control": "no-store",
         },
     )

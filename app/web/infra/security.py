@@ -137,7 +137,7 @@ def safe_next(target: str | None, default: str) -> str:
 #: JSON endpoints that authenticate by the participant's token (in the body or the URL), never
 #: by the cookie session; the job status endpoint, which needs the experimenter's login, is not
 #: among them.
-TOKEN_AUTHENTICATED_PATHS = ("/api/v1/votes", "/api/v1/plays")
+TOKEN_AUTHENTICATED_PATHS = ("/api/v1/votes", "/api/v1/ratings", "/api/v1/plays")
 TOKEN_AUTHENTICATED_PREFIX = "/api/v1/participants/"
 
 
@@ -151,10 +151,11 @@ class ForwardedSecureSessionInterface(SecureCookieSessionInterface):
     """The session cookie is ``Secure`` whenever the request came over HTTPS, which includes
     HTTPS ended at a trusted reverse proxy (``TRUST_PROXY``), not only when configured.
 
-    A request to a token-authenticated endpoint (:func:`token_authenticated`: a vote, a play,
-    the environment, the progress) gets a new, empty session without its cookie being checked
-    and decoded: those requests are a participant's most frequent and never need it. Left
-    unmodified, it sends no cookie back, so the browser keeps the one it has."""
+    A request to a token-authenticated endpoint (:func:`token_authenticated`: a vote, a
+    rating, a play, the environment, the progress) gets a new, empty session without its
+    cookie being checked and decoded: those requests are a participant's most frequent and
+    never need it. Left unmodified, it sends no cookie back, so the browser keeps the one it
+    has."""
 
     def get_cookie_secure(self, app: Flask) -> bool:
         return bool(app.config["SESSION_COOKIE_SECURE"]) or request.is_secure

@@ -30,6 +30,7 @@ from rq.job import Job as RQJob
 from sqlalchemy.exc import SQLAlchemyError
 
 from app.errors import InputError
+from app.trials.design import RATING_DESIGNS
 from app.web.extensions import db, transaction
 from app.web.infra import media
 from app.web.infra.storage import disk_full, disk_full_message, media_dir
@@ -177,7 +178,8 @@ def render_stimulus(
     tracks: dict[tuple[int, int], str],
     progress: Callable[[int, int], None],
 ) -> str:
-    """Render one stimulus video (``renderer.render_pair``), record and publish it; returns
+    """Render one stimulus video (``renderer.render_pair``; ``renderer.render_single`` for
+    the rating design's single faces), record and publish it; returns
     its path in the study's folder. ``progress(frame, frames)`` is called every frame."""
     import renderer
     from app.stimuli.io import load_track
@@ -200,16 +202,12 @@ def render_stimulus(
         )
         left, right = (lent, right) if stim.foreign_side == "left" else (left, lent)
     caption = {"caption": f"press {stim.instruction}"} if stim.instruction else {}
-    renderer.render_pair(
-        left,
-        right,
-        media.fetch(study, stim.clip.audio_path),
-        root / rel,
-        settings=settings,
-        cache_dir=root / "cache",
-        progress=progress,
-        **caption,
-    )
+    audio = media.fetch(study, stim.clip.audio_path)
+    out = {"settings": settings, "cache_dir": root / "cache", "progress": progress}
+    if study.design in RATING_DESIGNS:  # one face, rated on its own
+        renderer.render_single(left, audio, root / rel, **out)
+    else:
+        renderer.render_pair(left, right, audio, root / rel, **out, **caption)
     media.publish(study, rel)
     stim.video_path = rel
     db.session.commit()

@@ -28,6 +28,7 @@ from sqlalchemy.exc import IntegrityError
 from wtforms import HiddenField, SubmitField
 
 from app.trials import rules
+from app.trials.design import RATING_DESIGNS
 from app.trials.participation import ParticipationSpec
 from app.web.extensions import db, limiter
 from app.web.infra import limits
@@ -47,11 +48,13 @@ from app.web.study.enrolment import (
     touch_with_progress,
     unstarted_after,
 )
-from app.web.study.studies import participation
+from app.web.study.ratings import shown_items
+from app.web.study.studies import participation, rating_scale
 from app.web.study.votes import SCREENED_OUT, replay_policy
 from app.web.study.wording import (
     SIDE_NAMES,
     ended_reason,
+    rating_levels,
     script_strings,
     translated_answers,
 )
@@ -294,6 +297,7 @@ def instructions(token: str):  # type: ignore[no-untyped-def]
             study=study,
             practice=practice,
             spec=spec,
+            scale=rating_scale(study) if study.design in RATING_DESIGNS else None,
             **player_settings(study, spec),
         )
     )
@@ -360,19 +364,33 @@ def trial(token: str):  # type: ignore[no-untyped-def]
     answered, total = counts
     # Rendered before the commit, which expires every loaded row: rendering after it would
     # read the participant, study and trials again.
+    if study.design in RATING_DESIGNS:
+        template = f"participant/{'parallel' if study.design == 'parallel' else 'rating'}.html"
+        shown: dict[str, Any] = {
+            "scale": rating_scale(study),
+            "levels": rating_levels(),
+            "replay": replay_policy(study),
+        }
+        if study.design == "parallel":
+            shown["items"] = len(shown_items(participant, upcoming))
+    else:
+        template = "participant/trial.html"
+        shown = {
+            "following": following,
+            "instructed": rules.instructed_side(
+                upcoming.kind, upcoming.expected, lambda: upcoming.stimulus.instruction
+            ),
+            **player_settings(study, spec),
+        }
     page = render_template(
-        "participant/trial.html",
+        template,
         participant=participant,
         study=study,
         trial=upcoming,
         answered=answered,
         total=total,
         spec=spec,
-        following=following,
-        instructed=rules.instructed_side(
-            upcoming.kind, upcoming.expected, lambda: upcoming.stimulus.instruction
-        ),
-        **player_settings(study, spec),
+        **shown,
     )
     db.session.commit()
     return _no_store(page)
@@ -384,7 +402,8 @@ def video(token: str, trial_id: int):  # type: ignore[no-untyped-def]
     trial = db.session.get(Trial, trial_id)
     if trial is None or trial.participant_id != participant.id:
         abort(404)
-    name = "practice.mp4" if trial.kind == "practice" else f"pair-{trial.position + 1:02d}.mp4"
+    shows = "clip" if participant.study.design in RATING_DESIGNS else "pair"
+    name = "practice.mp4" if trial.kind == "practice" else f"{shows}-{trial.position + 1:02d}.mp4"
     return _send_video(participant.study, trial.stimulus.video_path, name)
 
 

@@ -43,7 +43,6 @@
     return Math.min(30000, 1000 * Math.pow(2, attempt - 1));
   }
 
-  window.facepairVotes = { action: voteAction, wait: retryWait };
 
   // The media log of one trial: what was seen, not only what was answered.
   function MediaLog(video) {
@@ -87,6 +86,98 @@
       return log;
     };
   }
+
+  // POST `payload` as JSON to `url`; `outcome(action, body, retryAfter)` with the action of
+  // voteAction (a lost connection reads as "retry").
+  function postAnswer(url, payload, outcome) {
+    fetch(url, {
+      method: "POST",
+      headers: { "Content-Type": "application/json", Accept: "application/json" },
+      body: JSON.stringify(payload),
+      credentials: "same-origin",
+      cache: "no-store"
+    }).then(function (response) {
+      return response.json().catch(function () { return {}; }).then(function (body) {
+        outcome(voteAction(response.status, body), body, response.headers.get("Retry-After"));
+      });
+    }, function () { outcome("retry", {}, null); });
+  }
+
+  // `again` once, after `wait` ms or when the connection comes back, whichever is first: the
+  // other is called off, so no resend is left behind for a later trial.
+  function resendLater(wait, again) {
+    var timer = null;
+    function once() {
+      window.clearTimeout(timer);
+      window.removeEventListener("online", once);
+      again();
+    }
+    timer = window.setTimeout(once, wait);
+    window.addEventListener("online", once);
+  }
+
+  // One play of a trial, asked of the server first (POST /api/v1/plays), so the count survives
+  // a reload: `granted(plays)` when it may start, with the server's count, or null where the
+  // server counted nothing (offline, or a 5xx: the clip is here, the page counts it);
+  // `refused(plays)` when no play is left.
+  function requestPlay(url, token, trialId, granted, refused) {
+    fetch(url, {
+      method: "POST", credentials: "same-origin", cache: "no-store",
+      headers: { "Content-Type": "application/json", Accept: "application/json" },
+      body: JSON.stringify({ token: token, trial_id: trialId })
+    }).then(function (response) {
+      return response.json().catch(function () { return {}; }).then(function (body) {
+        var plays = typeof body.plays === "number" ? body.plays : null;
+        if (response.status === 200) granted(plays);
+        else if (response.status >= 500) granted(null);
+        else refused(plays);
+      });
+    }, function () { granted(null); });
+  }
+
+  // A play from the start: the state's first play and the media log's restart noted, the
+  // overlay hidden; `blocked` runs when the browser refuses to start (no gesture yet), and
+  // `changed` after each change of state.
+  function playFromStart(video, media, state, overlay, changed, blocked) {
+    state.playing = true;
+    if (state.firstPlay === null) state.firstPlay = performance.now();
+    if (video.currentTime > 0) media.seeked();
+    media.restarted();
+    video.currentTime = 0;
+    overlay.hidden = true;
+    changed();
+    var started = video.play();
+    if (started && started.catch) started.catch(function () {
+      state.playing = false;
+      overlay.hidden = false;
+      blocked();
+      changed();
+    });
+  }
+
+  // A clip that fails to load before it was `loaded()` is asked for again by `load`, after
+  // 2, 4, 8 ... seconds (at most 15); `shown` says so on the page.
+  function reloadOnError(video, loaded, load, shown) {
+    var attempts = 0;
+    video.addEventListener("error", function () {
+      if (loaded()) return;
+      attempts += 1;
+      shown();
+      window.setTimeout(load, Math.min(15000, 1000 * Math.pow(2, attempts)));
+    });
+  }
+
+  // How much of the clip has arrived, in percent, or null before the browser knows.
+  function bufferedPercent(video) {
+    if (!video.duration || !video.buffered.length) return null;
+    return Math.round(100 * video.buffered.end(video.buffered.length - 1) / video.duration);
+  }
+
+  // Shared with the rating pages' script (static/rating.js).
+  window.facepairVotes = { action: voteAction, wait: retryWait, MediaLog: MediaLog, store: store,
+                           load: load_, newKey: newKey, post: postAnswer, later: resendLater,
+                           requestPlay: requestPlay, buffered: bufferedPercent,
+                           playFromStart: playFromStart, reloadOnError: reloadOnError };
 
   // The page's words, in the study's language (app.web.study.wording.script_strings).
   var blob = document.getElementById("i18n");
@@ -187,13 +278,12 @@
     // The clip streams (HTTP ranges): play may start before it is all here, and a slow
     // connection shows how much has arrived rather than a black box.
     function showProgress() {
-      if (state.loaded || !video.duration || !video.buffered.length) return;
-      var part = video.buffered.end(video.buffered.length - 1) / video.duration;
-      loading.value = Math.round(100 * part);
-      overlayText.textContent = fmt(T.loading_percent, { percent: Math.round(100 * part) });
+      var percent = bufferedPercent(video);
+      if (state.loaded || percent === null) return;
+      loading.value = percent;
+      overlayText.textContent = fmt(T.loading_percent, { percent: percent });
     }
 
-    var loadAttempts = 0;
     function load() {
       video.preload = "auto";
       video.src = d.videoUrl;
@@ -201,53 +291,32 @@
     }
     video.addEventListener("progress", showProgress);
     video.addEventListener("loadeddata", ready);
-    video.addEventListener("error", function () {
-      if (state.loaded) return;
-      loadAttempts += 1;
+    reloadOnError(video, function () { return state.loaded; }, load, function () {
       overlayText.textContent = T.load_retry;
-      window.setTimeout(load, Math.min(15000, 1000 * Math.pow(2, loadAttempts)));
     });
 
     function start() {
-      state.playing = true;
-      if (state.firstPlay === null) state.firstPlay = performance.now();
-      if (video.currentTime > 0) media.seeked();
-      media.restarted();
-      video.currentTime = 0;
-      overlay.hidden = true;
-      update();
-      var started = video.play();
-      if (started && started.catch) started.catch(function () {
-        state.playing = false;
-        overlay.hidden = false;
+      playFromStart(video, media, state, overlay, update, function () {
         overlayText.textContent = byPointer("start_tap", "start_press");
-        update();
       });
     }
 
     self.play = function () {
       if (!mayPlay()) return;
       if (practice || !d.playUrl) { state.plays += 1; start(); return; }
-      // Each play is asked of the server first, so the count survives a reload.
+      // Each play is asked of the server first, so the count survives a reload; offline the
+      // clip is here, so it plays, and the vote carries the page's count.
       state.requesting = true;
       update();
-      fetch(d.playUrl, {
-        method: "POST", credentials: "same-origin", cache: "no-store",
-        headers: { "Content-Type": "application/json", Accept: "application/json" },
-        body: JSON.stringify({ token: d.token, trial_id: parseInt(d.trialId, 10) })
-      }).then(function (response) {
-        return response.json().catch(function () { return {}; }).then(function (body) {
-          state.requesting = false;
-          if (typeof body.plays === "number") state.plays = body.plays;
-          if (response.status === 200) start();
-          else if (response.status >= 500) { state.plays += 1; start(); }
-          else { say(T.no_more_plays, "error"); update(); }
-        });
-      }, function () {
-        // Offline: the clip is here, so it plays; the vote carries the page's count.
+      requestPlay(d.playUrl, d.token, parseInt(d.trialId, 10), function (plays) {
         state.requesting = false;
-        state.plays += 1;
+        state.plays = plays === null ? state.plays + 1 : plays;
         start();
+      }, function (plays) {
+        state.requesting = false;
+        if (plays !== null) state.plays = plays;
+        say(T.no_more_plays, "error");
+        update();
       });
     };
 
@@ -277,16 +346,7 @@
       var wait = retryWait(state.attempt, retryAfter);
       say(fmt(T.offline, { choice: sideName(payload.choice), seconds: Math.round(wait / 1000) }),
           "offline");
-      // One resend, by the timer or by the connection coming back, whichever is first: the
-      // other is called off, so no resend is left behind for a later pair.
-      var timer = null;
-      function again() {
-        window.clearTimeout(timer);
-        window.removeEventListener("online", again);
-        send(payload);
-      }
-      timer = window.setTimeout(again, wait);
-      window.addEventListener("online", again);
+      resendLater(wait, function () { send(payload); });
     }
 
     // Replaced by the next pair's player: nothing more is sent from this one.
@@ -295,39 +355,29 @@
 
     function send(payload) {
       if (retired) return;
-      var request = fetch(d.voteUrl, {
-        method: "POST",
-        headers: { "Content-Type": "application/json", Accept: "application/json" },
-        body: JSON.stringify(payload),
-        credentials: "same-origin",
-        cache: "no-store"
-      });
-      request.then(function (response) {
-        return response.json().catch(function () { return {}; }).then(function (body) {
-          var action = voteAction(response.status, body);
-          if (action === "retry") return retryLater(payload, response.headers.get("Retry-After"));
-          store(pendingName, null);
-          if (action === "saved") {
-            say(T.saved, "ok");
-            // The answer carries the next pair (as its trial page would show it): the player
-            // goes on in place. Without it (the last pair, or a case the server decides on the
-            // page), the trial page is loaded; replace: the back button never returns to an
-            // answered pair.
-            if (!(body.next_trial && self.onNext && self.onNext(self, body))) {
-              window.location.replace(d.nextUrl);
-            }
-          } else if (action === "closed") {
-            // Final: the study (or this participant's session) stopped taking answers.
-            // Nothing is resent; the server's reason is shown (its words for people).
-            say(fmt(T.closed, { reason: body.message || T.study_closed }), "error");
-          } else {
-            // Refused for a reason the participant can act on (e.g. the replay policy).
-            state.voted = false;
-            say(T.refused, "error");
-            update();
+      postAnswer(d.voteUrl, payload, function (action, body, retryAfter) {
+        if (action === "retry") return retryLater(payload, retryAfter);
+        store(pendingName, null);
+        if (action === "saved") {
+          say(T.saved, "ok");
+          // The answer carries the next pair (as its trial page would show it): the player
+          // goes on in place. Without it (the last pair, or a case the server decides on the
+          // page), the trial page is loaded; replace: the back button never returns to an
+          // answered pair.
+          if (!(body.next_trial && self.onNext && self.onNext(self, body))) {
+            window.location.replace(d.nextUrl);
           }
-        });
-      }, function () { retryLater(payload, null); });
+        } else if (action === "closed") {
+          // Final: the study (or this participant's session) stopped taking answers.
+          // Nothing is resent; the server's reason is shown (its words for people).
+          say(fmt(T.closed, { reason: body.message || T.study_closed }), "error");
+        } else {
+          // Refused for a reason the participant can act on (e.g. the replay policy).
+          state.voted = false;
+          say(T.refused, "error");
+          update();
+        }
+      });
     }
 
     function mark(button) {

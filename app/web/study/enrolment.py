@@ -20,12 +20,14 @@ from sqlalchemy import orm as so
 
 from app.trials import assignment, design
 from app.trials import schedule as schedules
+from app.trials.design import RATING_DESIGNS
 from app.web.extensions import db
 from app.web.models import (
     Clip,
     Condition,
     Pair,
     Participant,
+    Rating,
     Stimulus,
     Study,
     StudyList,
@@ -146,6 +148,7 @@ def schedule(study: Study, *, seed: int, list_index: int) -> list[schedules.Sche
         practice_clip=settings.get("practice_clip"),
         block_by_clip=settings.get("block_by_clip", True),
         mismatched=participation(study).mismatched,
+        reference=study.reference,
     )
 
 
@@ -250,36 +253,46 @@ def next_trial(participant: Participant) -> Trial | None:
 
 
 def next_trials(participant: Participant, count: int) -> list[Trial]:
-    """The participant's first ``count`` trials without a vote, in schedule order."""
+    """The participant's first ``count`` trials without an answer, in schedule order."""
     return list(
-        db.session.scalars(_unanswered(), {"participant_id": participant.id, "count": count})
+        db.session.scalars(
+            _unanswered(rated(participant)), {"participant_id": participant.id, "count": count}
+        )
     )
+
+
+def rated(participant: Participant) -> bool:
+    """Whether ``participant``'s answers are ratings (:class:`Rating`), not votes: a study
+    holds one kind only, so each design's statements read only its own answers' table."""
+    return participant.study.design in RATING_DESIGNS
 
 
 # The statements every trial page and vote runs are built once, with bound parameters.
 
 
-def _without_vote(select: Any) -> Any:
-    """``select`` narrowed to the bound ``participant_id``'s trials without a vote, in order.
+def _without_vote(select: Any, rated: bool = False) -> Any:
+    """``select`` narrowed to the bound ``participant_id``'s trials without a vote (``rated``:
+    without a rating; one per trial in the ``rating`` design), in order.
 
     The votes joined are the participant's own (a trial's vote is always its participant's):
     PostgreSQL then reads them by index, where joining on the trial alone scans every vote of
     every participant."""
     who = sa.bindparam("participant_id")
+    answer = Rating if rated else Vote
     return (
-        select.outerjoin(Vote, sa.and_(Vote.participant_id == who, Vote.trial_id == Trial.id))
-        .where(Trial.participant_id == who, Trial.kind != "practice", Vote.id.is_(None))
+        select.outerjoin(answer, sa.and_(answer.participant_id == who, answer.trial_id == Trial.id))
+        .where(Trial.participant_id == who, Trial.kind != "practice", answer.id.is_(None))
         .order_by(Trial.position)
     )
 
 
 @cache
-def _unanswered() -> sa.Select[tuple[Trial]]:
-    return _without_vote(sa.select(Trial)).limit(sa.bindparam("count", type_=sa.Integer))
+def _unanswered(rated: bool = False) -> sa.Select[tuple[Trial]]:
+    return _without_vote(sa.select(Trial), rated).limit(sa.bindparam("count", type_=sa.Integer))
 
 
 @cache
-def upcoming() -> sa.Select[Any]:
+def upcoming(rated: bool = False) -> sa.Select[Any]:
     """The bound participant's next trial without a vote, as the trial page shows it: one
     row (none when every trial is answered) with what the page needs of it (its plays, kind,
     expected answer, its stimulus's on-screen instruction) and the id of the trial after it,
@@ -296,7 +309,8 @@ def upcoming() -> sa.Select[Any]:
                 Trial.expected,
                 Trial.stimulus_id,
                 sa.func.lead(Trial.id).over(order_by=Trial.position).label("following"),
-            )
+            ),
+            rated,
         )
         .limit(1)
         .subquery("pending")
@@ -318,14 +332,14 @@ def upcoming() -> sa.Select[Any]:
 
 
 @cache
-def progress_and_upcoming() -> sa.Select[Any]:
+def progress_and_upcoming(rated: bool = False) -> sa.Select[Any]:
     """:func:`progress_counts` and :func:`upcoming`'s columns in one row, for the bound
     ``participant_id``: (answered, total, trial_id, plays, kind, expected, instruction,
     following), the upcoming columns NULL when every trial is answered. What a vote's answer
     needs, read in one round trip after the vote is stored."""
-    answered, total = progress_counts()
+    answered, total = progress_counts(rated)
     counts_row = sa.select(answered.label("answered"), total.label("total")).subquery("progress")
-    pending = upcoming().subquery("next_pair")
+    pending = upcoming(rated).subquery("next_pair")
     return sa.select(counts_row, *pending.c).select_from(counts_row.outerjoin(pending, sa.true()))
 
 
@@ -344,12 +358,23 @@ def _seen() -> sa.Update:
     )
 
 
-def progress_counts() -> tuple[sa.ScalarSelect[int], sa.ScalarSelect[int]]:
-    """(answered, total) as scalar subqueries on the bound ``participant_id``: the votes, and
-    the real and catch trials (not the practice). The one definition of a participant's
-    progress (:func:`progress`)."""
+def progress_counts(
+    rated: bool | None = False,
+) -> tuple[sa.ScalarSelect[int], sa.ScalarSelect[int]]:
+    """(answered, total) as scalar subqueries on the bound ``participant_id``: the votes (the
+    ratings where ``rated``; both where it is None, for a caller that does not know the
+    design), and the real and catch trials (not the practice). The one definition of a
+    participant's progress (:func:`progress`)."""
     who = sa.bindparam("participant_id")
-    answered = sa.select(sa.func.count(Vote.id)).where(Vote.participant_id == who).scalar_subquery()
+
+    def count(answer: type[Vote] | type[Rating]) -> sa.ScalarSelect[int]:
+        # a parallel trial holds one rating per item: its trials are counted
+        counted = sa.distinct(Rating.trial_id) if answer is Rating else Vote.id
+        return (
+            sa.select(sa.func.count(counted)).where(answer.participant_id == who).scalar_subquery()
+        )
+
+    answered = count(Vote) + count(Rating) if rated is None else count(Rating if rated else Vote)
     total = (
         sa.select(sa.func.count(Trial.id))
         .where(Trial.participant_id == who, Trial.kind != "practice")
@@ -360,7 +385,7 @@ def progress_counts() -> tuple[sa.ScalarSelect[int], sa.ScalarSelect[int]]:
 
 @cache
 def _progress() -> sa.Select[tuple[int, int]]:
-    return sa.select(*progress_counts())
+    return sa.select(*progress_counts(None))
 
 
 def practice_stimulus(participant: Participant) -> Stimulus | None:
@@ -525,5 +550,6 @@ def touch_with_progress(participant: Participant) -> tuple[int, int] | None:
 def progress(participant: Participant) -> tuple[int, int]:
     """(answered, total) over the participant's real and catch trials (not the practice)."""
     # One round trip for both counts: every vote and every trial page asks for them.
+    # Votes and ratings both (a study holds one kind): the study need not be read for it.
     row = db.session.execute(_progress(), {"participant_id": participant.id}).one()
     return int(row[0] or 0), int(row[1] or 0)

@@ -24,28 +24,37 @@ import pandas as pd
 import sqlalchemy as sa
 
 from app.analysis.package import RESULTS
+from app.analysis.rating_results import analyze_ratings, ratings_text, read_ratings
 from app.analysis.results import analyze
 from app.analysis.votes import VOTE_COLUMNS, VotesTable, read_votes, write_votes_csv
 from app.errors import InputError
+from app.trials.design import RATING_DESIGNS
+from app.trials.rating import parallel_order
 from app.web.extensions import db
 from app.web.infra.storage import report_path
-from app.web.models import Clip, Condition, Participant, Stimulus, Study, Trial, Vote
+from app.web.models import Clip, Condition, Participant, Rating, Stimulus, Study, Trial, Vote
 from app.web.study.csvcells import safe_csv
 from app.web.study.enrolment import dropped_after
 from app.web.study.labels import iso_time, participant_label, pseudonym
 from app.web.study.participants import participant_table
 from app.web.study.questionnaires import answers_summary
+from app.web.study.studies import rating_scale
+
+
+def _people(study: Study, pilot: str) -> dict[int, Any]:
+    """The participants whose answers an export holds, by id (:func:`vote_rows`' ``pilot``)."""
+    return {
+        row.id: row
+        for row in participant_table(study, dropped_after=dropped_after())
+        if (pilot == "with") or (row.pilot == (pilot == "only"))
+    }
 
 
 def vote_rows(study: Study, *, pilot: str = "without") -> list[dict[str, Any]]:
     """One dict per stored vote of a real or catch trial, ordered by participant and trial
     position; ``pilot`` is "without" (default), "with" or "only" the pilot participants."""
 
-    people = {
-        row.id: row
-        for row in participant_table(study, dropped_after=dropped_after())
-        if (pilot == "with") or (row.pilot == (pilot == "only"))
-    }
+    people = _people(study, pilot)
     left = sa.orm.aliased(Condition)
     right = sa.orm.aliased(Condition)
     query = (
@@ -115,6 +124,76 @@ def vote_rows(study: Study, *, pilot: str = "without") -> list[dict[str, Any]]:
     return rows
 
 
+def rating_rows(study: Study, *, pilot: str = "without") -> list[dict[str, Any]]:
+    """One dict per stored rating (``app.analysis.rating_results.RATING_COLUMNS``), ordered
+    by participant and trial position; ``pilot`` as for :func:`vote_rows`."""
+    people = _people(study, pilot)
+    scale = rating_scale(study)
+    query = (
+        sa.select(
+            Rating,
+            Trial.position,
+            Trial.kind,
+            Participant.id,
+            Participant.number,
+            Participant.prolific_pid,
+            Participant.seed,
+            Clip.name,
+            Condition.name,
+        )
+        .join(Trial, Rating.trial_id == Trial.id)
+        .join(Participant, Rating.participant_id == Participant.id)
+        .join(Stimulus, Trial.stimulus_id == Stimulus.id)
+        .join(Clip, Stimulus.clip_id == Clip.id)
+        .join(Condition, Rating.condition_id == Condition.id)
+        .where(Participant.study_id == study.id)
+        .order_by(Participant.number, Trial.position, Condition.position)
+    )
+    names = [c.name for c in study.conditions]
+    rows = []
+    for rating, position, kind, person, number, pid, seed, clip, condition in db.session.execute(
+        query
+    ):
+        if person not in people:
+            continue
+        item = None
+        if study.design == "parallel":  # the item's place on its page, and the hidden reference
+            item = parallel_order(names, seed=seed, position=position).index(condition) + 1
+        rows.append(
+            {
+                "participant": participant_label(number),
+                "clip": clip,
+                "condition": condition,
+                "item": item,
+                "reference": None if item is None else condition == study.reference,
+                "score": rating.score,
+                "scale": scale,
+                "trial": position,
+                "kind": kind,
+                "response_ms": rating.response_ms,
+                "plays": rating.plays,
+                "presented_at": iso_time(rating.presented_at),
+                "rated_at": iso_time(rating.rated_at),
+                "watched_ms": rating.watched_ms,
+                "played_to_end": rating.played_to_end,
+                "stalls": rating.stalls,
+                "stall_ms": rating.stall_ms,
+                "focus_lost": rating.focus_lost,
+                "status": people[person].status,
+                "excluded": people[person].excluded,
+                "prolific_id": pseudonym(study.pseudonym_key, pid),
+                "study": study.title,
+            }
+        )
+    return rows
+
+
+def ratings_csv(study: Study, *, pilot: str = "without") -> str:
+    """The study's ratings as CSV text (``app.analysis.rating_results.write_ratings_csv``),
+    formula-like text cells neutralised as in :func:`votes_csv`."""
+    return safe_csv(ratings_text(rating_rows(study, pilot=pilot)))
+
+
 def votes_table(study: Study, *, pilot: str = "without") -> VotesTable:
     """The study's votes, validated once by the analysis reader's rules
     (``app.analysis.votes.read_votes``): what the CSV export writes and the report analyses."""
@@ -139,6 +218,8 @@ def write_report_files(study: Study) -> Path:
 
     path = report_path(study)
     path.parent.mkdir(parents=True, exist_ok=True)
+    if study.design in RATING_DESIGNS:
+        return _write_rating_report(study, path)
     csv_path = path.parent / "votes.csv"
     # The report names the file it analysed: the one written here.
     votes = dataclasses.replace(votes_table(study), source=str(csv_path))
@@ -164,6 +245,49 @@ def write_report_files(study: Study) -> Path:
     return path
 
 
+def _write_rating_report(study: Study, path: Path) -> Path:
+    """The rating design's report: ``ratings.csv`` written beside it and analysed as
+    ``facepair analyze ratings.csv`` does (:func:`app.analysis.rating_results.analyze_ratings`)."""
+    from app.analysis.report import write_report
+
+    csv_path = path.parent / "ratings.csv"
+    csv_path.write_text(ratings_csv(study), encoding="utf-8")
+    pdf = path.with_suffix(".pdf")
+    try:
+        results = analyze_ratings(
+            read_ratings(csv_path),
+            conditions=[c.name for c in study.conditions],
+            source=str(csv_path),
+        )
+    except InputError as exc:
+        if exc.message != NO_RATINGS:
+            raise
+        pdf.unlink(missing_ok=True)
+        path.write_text(no_votes_page(study), encoding="utf-8")
+        return path
+    included = results["input"]["participants"]
+    left_out = results["input"]["left_out"]
+    results["study"] = {
+        "title": study.title,
+        "design": f"Design: {study.design}"
+        + (f" against the hidden reference {study.reference}" if study.reference else "")
+        + f" ({rating_scale(study)}); conditions "
+        f"{', '.join(c.name for c in study.conditions)}; clips "
+        f"{', '.join(c.name for c in study.clips)}; question: {study.question!r}; "
+        f"{study.catch_trials} attention checks per participant.",
+        "participants": f"{included} participants included, {len(left_out)} left out.",
+        "date": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+        "command": shlex.join(
+            ["facepair", "analyze", "ratings.csv", "--report", "report.html", "--pdf", "report.pdf"]
+        ),
+        "votes_file": "ratings.csv",
+    }
+    write_report(results, path, pdf)
+    return path
+
+
+#: The rating analysis's message when no rating is left (``analyze_ratings``).
+NO_RATINGS = "no ratings to analyse"
 #: The analysis's message when no vote is left to analyse (``app.analysis.results.analyze``).
 NO_VOTES = "no valid votes to analyse"
 

@@ -26,17 +26,20 @@ import datetime as dt
 import statistics
 from dataclasses import dataclass
 from functools import cache
-from typing import Any
+from typing import Any, NamedTuple
 
 import sqlalchemy as sa
 
+from app.trials.design import RATING_DESIGNS
 from app.trials.participation import PARTICIPANT_STATUSES, SCREENED_OUT_REASON
 from app.trials.questions import AUTO_EXCLUDE_RULES
+from app.trials.rating import catch_ceiling
 from app.web.extensions import db
-from app.web.models import Participant, Study, StudyList, Trial, Vote, utcnow
+from app.web.models import Participant, Rating, Study, StudyList, Trial, Vote, utcnow
 from app.web.study.audiocheck import result as audio_result
 from app.web.study.enrolment import move_slot
 from app.web.study.labels import participant_label
+from app.web.study.studies import rating_scale
 
 STATUSES = tuple(PARTICIPANT_STATUSES)
 #: How a participant is taken out by hand: the status it gives.
@@ -125,6 +128,16 @@ def exclusion_reason(row: ParticipantRow, rules: tuple[str, ...]) -> str:
     return ""
 
 
+class _Answer(NamedTuple):
+    """A rating read as the vote columns :func:`participant_table` looks at."""
+
+    participant_id: int
+    choice: str
+    response_ms: int | None
+    kind: str
+    expected: str
+
+
 def participant_table(study: Study, *, dropped_after: dt.timedelta) -> list[ParticipantRow]:
     """Every participant of ``study`` (pilots included) in arrival order, with their catch
     score, side bias and median response time from their votes."""
@@ -145,6 +158,21 @@ def participant_table(study: Study, *, dropped_after: dt.timedelta) -> list[Part
         .where(Participant.study_id == study.id)
     ):
         votes.setdefault(row.participant_id, []).append(row)
+    if study.design in RATING_DESIGNS:
+        # a rating check is passed by a score at the bottom of the scale: read as a vote that
+        # chose the expected answer or not
+        ceiling = catch_ceiling(rating_scale(study))
+        for row in db.session.execute(
+            sa.select(Rating.participant_id, Rating.score, Rating.response_ms, Trial.kind)
+            .join(Trial, Rating.trial_id == Trial.id)
+            .join(Participant, Rating.participant_id == Participant.id)
+            .where(Participant.study_id == study.id)
+        ):
+            # no side to prefer ("undecided"); a check passed chooses the expected answer
+            choice = "pass" if row.kind == "catch" and row.score <= ceiling else "undecided"
+            votes.setdefault(row.participant_id, []).append(
+                _Answer(row.participant_id, choice, row.response_ms, row.kind, "pass")
+            )
     out = []
     for person, list_index in people:
         mine = votes.get(person.id, [])
@@ -239,8 +267,30 @@ def left_out(study: Any, participant_id: int, *, pilot: bool) -> bool:
     study's ``catch_failed`` rule); ``study`` is a row or an ORM object with ``settings``."""
     if not may_be_left_out(study, pilot=pilot):
         return False
-    failed = db.session.scalar(failed_catch(), {"participant_id": participant_id})
+    if study.design in RATING_DESIGNS:
+        ceiling = catch_ceiling(rating_scale(study))
+        failed = db.session.scalar(
+            failed_rating_check(), {"participant_id": participant_id, "ceiling": ceiling}
+        )
+    else:
+        failed = db.session.scalar(failed_catch(), {"participant_id": participant_id})
     return failed is not None
+
+
+@cache
+def failed_rating_check() -> sa.Select[tuple[int]]:
+    """A rating of the bound ``participant_id`` that failed an instructed check: above the
+    bound ``ceiling`` (:func:`app.trials.rating.catch_ceiling`); at most one row."""
+    return (
+        sa.select(Rating.id)
+        .join(Trial, Rating.trial_id == Trial.id)
+        .where(
+            Rating.participant_id == sa.bindparam("participant_id"),
+            Trial.kind == "catch",
+            Rating.score > sa.bindparam("ceiling", type_=sa.Integer),
+        )
+        .limit(1)
+    )
 
 
 @cache

@@ -15,6 +15,7 @@ from app.analysis.quality import parse_rules
 from app.errors import InputError
 from app.trials import design
 from app.trials.participation import ParticipationSpec
+from app.trials.rating import DEFAULT_RATING_SCALE
 from app.trials.schedule import foreign_clip, shown_stimuli, variant_stimuli
 from app.web.extensions import db
 from app.web.infra import media
@@ -25,6 +26,7 @@ from app.web.models import (
     Job,
     Pair,
     Participant,
+    Rating,
     Stimulus,
     Study,
     StudyList,
@@ -64,6 +66,12 @@ def participation(study: Study) -> ParticipationSpec:
     """The study's participant-side settings
     (:class:`app.trials.participation.ParticipationSpec`)."""
     return ParticipationSpec.from_settings((study.settings or {}).get("participation"))
+
+
+def rating_scale(study: Any) -> str:
+    """The rating designs' scale (``app.trials.rating.RATING_SCALES``) of ``study``, a row or
+    an ORM object with ``settings``."""
+    return str((study.settings or {}).get("rating_scale", DEFAULT_RATING_SCALE))
 
 
 def stimulus_combinations(study: Study) -> list[tuple[str, str, str, str, str]]:
@@ -170,6 +178,7 @@ def create_study(
             "participation": spec.participation.to_dict(),
             "auto_exclude": list(spec.auto_exclude),
             "questions": [q.to_dict() for q in spec.questions],
+            "rating_scale": spec.rating_scale,
         },
     )
     db.session.add(study)
@@ -256,15 +265,16 @@ def change_status(study: Study, action: str) -> str:
 
 
 def has_votes(study: Study) -> bool:
-    """Whether any participant (pilot included) has voted in ``study``."""
-    return (
+    """Whether any participant (pilot included) has voted, or rated, in ``study``."""
+    return any(
         db.session.scalar(
-            sa.select(Vote.id)
-            .join(Participant, Vote.participant_id == Participant.id)
+            sa.select(answer.id)
+            .join(Participant, answer.participant_id == Participant.id)
             .where(Participant.study_id == study.id)
             .limit(1)
         )
         is not None
+        for answer in (Vote, Rating)
     )
 
 
@@ -392,6 +402,7 @@ def delete_study(study: Study) -> None:
     conditions = sa.select(Condition.id).where(Condition.study_id == study.id)
     for statement in (
         sa.delete(Vote).where(Vote.participant_id.in_(participants)),
+        sa.delete(Rating).where(Rating.participant_id.in_(participants)),
         sa.delete(Trial).where(Trial.participant_id.in_(participants)),
         sa.delete(Participant).where(Participant.study_id == study.id),
         sa.delete(Track).where(Track.condition_id.in_(conditions)),

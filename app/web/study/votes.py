@@ -21,15 +21,17 @@ from sqlalchemy import orm as so
 from sqlalchemy.dialects import postgresql, sqlite
 
 from app.trials import rules
+from app.trials.design import RATING_DESIGNS
+from app.trials.rating import catch_ceiling
 from app.web.extensions import db
 from app.web.infra import limits
-from app.web.models import Participant, Study, Trial, Vote, utcnow
+from app.web.models import Participant, Rating, Study, Trial, Vote, utcnow
 from app.web.study.adaptive import ADAPTIVE, choose_next_pair
 from app.web.study.audiocheck import pending as audio_check_pending
-from app.web.study.enrolment import SESSION_ENDED, progress_and_upcoming, touch
+from app.web.study.enrolment import SESSION_ENDED, progress_and_upcoming, rated, touch
 from app.web.study.medialog import MediaLogError, media_fields
 from app.web.study.participants import release_if_left_out
-from app.web.study.studies import participation
+from app.web.study.studies import participation, rating_scale
 
 #: What a participant reads when the attention stop rule has ended their session.
 SCREENED_OUT = (
@@ -84,7 +86,7 @@ def may_vote(study: Study, *, plays: int, watched_to_end: bool) -> str | None:
     return rules.vote_refusal(replay_policy(study), plays, watched_to_end)
 
 
-def _parse_time(value: Any) -> dt.datetime | None:
+def parse_time(value: Any) -> dt.datetime | None:
     if value is None or value == "":
         return None
     try:
@@ -98,7 +100,7 @@ def _parse_time(value: Any) -> dt.datetime | None:
     return stamp
 
 
-def _int_field(
+def int_field(
     payload: dict[str, Any], name: str, column: Any, *, required: bool = False
 ) -> int | None:
     """A non-negative whole number that fits ``column`` (JSON may spell it 3.0)."""
@@ -127,7 +129,7 @@ def check_open(study: Any, *, pilot: bool) -> None:
 
 def trial_id_of(payload: dict[str, Any]) -> int:
     """The request's ``trial_id``: a whole number an id column can hold."""
-    return _int_field(payload, "trial_id", Trial.id, required=True)  # type: ignore[return-value]
+    return int_field(payload, "trial_id", Trial.id, required=True)  # type: ignore[return-value]
 
 
 def validate(
@@ -156,21 +158,16 @@ def vote_fields(
         raise VoteRejected("no such trial", 404)
     if trial.kind == "practice":
         raise VoteRejected("the practice pair is not recorded", 422)
+    if study.design in RATING_DESIGNS:
+        raise VoteRejected(f"this study answers by ratings (design {study.design!r})", 422)
     try:
         choice = str(
             rules.check_choice(payload.get("choice"), undecided_allowed=study.allow_undecided)
         )
     except ValueError as exc:
         raise VoteRejected(f"choice: {exc}") from None
-    key = payload.get("idempotency_key")
-    longest = limits.column_of(Vote.idempotency_key).type.length
-    if (
-        not isinstance(key, str)
-        or not 8 <= len(key) <= longest
-        or not limits.fits(Vote.idempotency_key, key)
-    ):
-        raise VoteRejected(f"idempotency_key: expected text of 8 to {longest} characters")
-    claimed = _int_field(payload, "plays", Vote.plays, required=True) or 0
+    key = idempotency_key(payload, Vote.idempotency_key)
+    claimed = int_field(payload, "plays", Vote.plays, required=True) or 0
     # The server's count wins: a reload cannot give plays back. The page's own count is the
     # fallback only when no play request reached the server (played from its cache offline).
     plays = trial.plays or claimed
@@ -187,13 +184,22 @@ def vote_fields(
         "choice": choice,
         "idempotency_key": key,
         "plays": plays,
-        "response_ms": _int_field(payload, "response_ms", Vote.response_ms),
-        "presented_at": _parse_time(payload.get("presented_at")),
+        "response_ms": int_field(payload, "response_ms", Vote.response_ms),
+        "presented_at": parse_time(payload.get("presented_at")),
         "strength": _strength(payload.get("strength"), choice, spec.scale),
         "reasons": _reasons(payload.get("reasons"), spec.reasons),
         "media": log or None,
         **columns,
     }
+
+
+def idempotency_key(payload: dict[str, Any], column: Any) -> str:
+    """The request's ``idempotency_key``: text of 8 characters up to what ``column`` holds."""
+    key = payload.get("idempotency_key")
+    longest = limits.column_of(column).type.length
+    if not isinstance(key, str) or not 8 <= len(key) <= longest or not limits.fits(column, key):
+        raise VoteRejected(f"idempotency_key: expected text of 8 to {longest} characters")
+    return key
 
 
 def _strength(value: Any, choice: str, scale: int) -> int | None:
@@ -300,6 +306,16 @@ def _locked_with_trial() -> sa.Select[tuple[Participant, Trial]]:
     )
 
 
+def check_answering(participant: Participant) -> None:
+    """Refuse any answer (vote or rating) of a participant the attention stop rule ended, or of
+    one who still owes the audio check: the trial page sets ``started_at`` only after it, so an
+    answer sent without the page is refused while the check is owed."""
+    if participant.screened_out_at is not None:
+        raise VoteRejected(SCREENED_OUT, 409, closed=True)
+    if participant.started_at is None and audio_check_pending(participant):
+        raise VoteRejected("audio_check: the audio check comes before the first answer", 409)
+
+
 def record_vote(
     participant: Participant, payload: dict[str, Any], trial: Trial | None | EllipsisType = ...
 ) -> VoteOutcome:
@@ -312,12 +328,7 @@ def record_vote(
     Raises :class:`VoteRejected` for a request that is not a valid vote of this participant
     (another participant's trial, a bad choice, a key reused on another trial).
     """
-    if participant.screened_out_at is not None:
-        raise VoteRejected(SCREENED_OUT, 409, closed=True)
-    # The trial page sets started_at only after the audio check: a vote before it (sent
-    # without the page) is refused while the check is owed.
-    if participant.started_at is None and audio_check_pending(participant):
-        raise VoteRejected("audio_check: the audio check comes before the first vote", 409)
+    check_answering(participant)
     trial, fields = validate(participant, payload, trial)
     if not touch(participant):
         raise VoteRejected(SESSION_ENDED, 409, closed=True)
@@ -348,13 +359,7 @@ def record_vote(
     # The progress and the next pair in one round trip, read after the vote is stored.
     row = db.session.execute(progress_and_upcoming(), {"participant_id": participant_id}).one()
     answered, total = int(row.answered or 0), int(row.total or 0)
-    if (
-        answered >= total
-        and participant.finished_at is None
-        and participant.screened_out_at is None
-    ):
-        participant.finished_at = utcnow()
-        release_if_left_out(participant)
+    finish_if_done(participant, answered, total)
     following = None
     if answered < total and participant.screened_out_at is None and row.trial_id is not None:
         following = SimpleNamespace(
@@ -385,8 +390,35 @@ _VOTE_COLUMNS = tuple(
 )
 
 
+def finish_if_done(participant: Participant, answered: int, total: int) -> None:
+    """Mark ``participant`` finished once every trial is answered (and give their slot back
+    if the report leaves them out); not committed."""
+    if (
+        answered >= total
+        and participant.finished_at is None
+        and participant.screened_out_at is None
+    ):
+        participant.finished_at = utcnow()
+        release_if_left_out(participant)
+
+
 def failed_checks(participant: Participant) -> int:
-    """Attention checks (catch trials) ``participant`` answered otherwise than expected."""
+    """Attention checks (catch trials) ``participant`` answered otherwise than expected (in the
+    rating design: rated above the bottom of the scale, :func:`app.trials.rating.catch_ceiling`)."""
+    if rated(participant):
+        ceiling = catch_ceiling(rating_scale(participant.study))
+        return int(
+            db.session.scalar(
+                sa.select(sa.func.count(Rating.id))
+                .join(Trial, Rating.trial_id == Trial.id)
+                .where(
+                    Rating.participant_id == participant.id,
+                    Trial.kind == "catch",
+                    Rating.score > ceiling,
+                )
+            )
+            or 0
+        )
     return int(
         db.session.scalar(
             sa.select(sa.func.count(Vote.id))

@@ -14,6 +14,7 @@ from flask_babel import gettext as _
 from flask_babel import lazy_gettext, ngettext
 
 from app.trials import rules
+from app.trials.rating import ACR_LEVELS
 from app.web.study.enrolment import SESSION_ENDED
 from app.web.study.votes import SCREENED_OUT
 
@@ -27,6 +28,15 @@ ANSWER_LABELS = {
     "Slightly left": lazy_gettext("Slightly left"),
     "Slightly right": lazy_gettext("Slightly right"),
     "Clearly right": lazy_gettext("Clearly right"),
+}
+
+#: The ACR levels of :data:`app.trials.rating.ACR_LEVELS`, by their English text.
+LEVEL_LABELS = {
+    "Excellent": lazy_gettext("Excellent"),
+    "Good": lazy_gettext("Good"),
+    "Fair": lazy_gettext("Fair"),
+    "Poor": lazy_gettext("Poor"),
+    "Bad": lazy_gettext("Bad"),
 }
 
 #: A choice as a word in a sentence ("For this pair, please choose left.").
@@ -55,6 +65,11 @@ def translated_answers(answers: tuple[rules.Answer, ...]) -> tuple[rules.Answer,
     """The answer buttons with their labels in the page's language (a study's own undecided
     label stays as written)."""
     return tuple(a._replace(label=str(ANSWER_LABELS.get(a.label, a.label))) for a in answers)
+
+
+def rating_levels() -> list[dict[str, Any]]:
+    """The ACR levels, best first, with their labels in the page's language."""
+    return [{"score": score, "label": str(LEVEL_LABELS[label])} for score, label in ACR_LEVELS]
 
 
 def ended_reason(message: str) -> str:
@@ -115,4 +130,20 @@ def script_strings(max_plays: int | None = None) -> dict[str, Any]:
         "choices": {choice: str(name) for choice, name in SIDE_NAMES.items()},
         "audio_playing": _("Playing…"),
         "audio_choose": _("Now choose one of the three sounds."),
+        # the rating design (static/rating.js)
+        "hint_watch_tap": _("Tap Play to watch the face."),
+        "hint_watch_press": _("Press Play (or Space) to watch the face."),
+        "hint_rate": _("Rate the face you saw."),
+        "hint_slider": _("Move the slider to your rating, then press Next."),
+        "hint_parallel": _(
+            "Play every version and move its slider; Next is enabled once each version was "
+            "played and rated."
+        ),
+        "offline_rating": _(
+            "No connection to the server. Your rating is kept on this page and will be sent "
+            "automatically; please keep this page open. Retrying in %(seconds)s s…"
+        ),
+        "refused_rating": _(
+            "Your rating was not accepted. Please play the clip, then rate it again."
+        ),
     }
