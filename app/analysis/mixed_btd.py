@@ -240,7 +240,10 @@ class _Model:
             z, b, t, f = z_new, b_new, t_new, f_new
             moved = max(np.abs(scale * step.dz).max(), np.abs(scale * step.db).max(initial=0.0))
             if moved < tol:
-                return z, b, self.solve(z, b, var, t), True, t
+                try:
+                    return z, b, self.solve(z, b, var, t), True, t
+                except np.linalg.LinAlgError:  # a flat direction at the mode: no curvature
+                    break
         failed = _Solve(np.zeros_like(z), np.zeros_like(b), np.eye(self.m), None, None)
         return z, b, failed, False, t
 
@@ -369,6 +372,8 @@ def fit_mixed_btd(t: np.ndarray, *, max_iter: int = 200, tol: float = 1e-5) -> M
     if not (ok and settled and np.all(np.isfinite(z)) and np.abs(z[: model.nf]).max() < BOUND):
         return failed("the fit did not converge")
     cov = at.s_inv[: model.nf, : model.nf]
+    if not np.all(np.diag(cov) >= 0):  # rounding on a nearly flat likelihood: no maximum
+        return failed("the fit did not converge")
     centre = np.eye(n) - 1.0 / n
     cov_theta = centre @ cov[:n, :n] @ centre
     notes = {
@@ -459,7 +464,11 @@ def mixed_btd_summary(
     def interval(value: float, log_se: float) -> list[Any]:
         if not (fit.converged and value > 0):
             return [None, None]
-        return [json_number(value * np.exp(-zq * log_se)), json_number(value * np.exp(zq * log_se))]
+        with np.errstate(over="ignore"):  # an unbounded side is reported as None
+            return [
+                json_number(value * np.exp(-zq * log_se)),
+                json_number(value * np.exp(zq * log_se)),
+            ]
 
     return {
         "model": MODEL,

@@ -4,7 +4,7 @@ from itertools import permutations
 import numpy as np
 import pandas as pd
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from app.analysis import analyze, read_votes
@@ -191,8 +191,44 @@ def _run(rows, **kw):
     return analyze(_frame(rows), conditions=list("ABCD"), bootstrap=30, **kw)
 
 
+#: One participant, one clip, a condition never judged: a flat mixed-model likelihood (a
+#: singular curvature, an unbounded interval, a negative variance by rounding).
+FLAT = [
+    [
+        ("ann", "s2", "A", "A", "left"),
+        ("ann", "s2", "A", "A", "left"),
+        ("ann", "s2", "A", "A", "left"),
+        ("ann", "s2", "A", "C", "left"),
+        ("ann", "s2", "A", "C", "left"),
+        ("ann", "s2", "A", "C", "right"),
+        ("ann", "s2", "A", "D", "undecided"),
+    ],
+    [
+        ("ann", "s2", "A", "A", "left"),
+        ("ann", "s2", "A", "A", "left"),
+        ("ann", "s2", "A", "A", "left"),
+        ("ann", "s2", "A", "A", "left"),
+        ("ann", "s2", "A", "C", "left"),
+        ("ann", "s2", "A", "C", "right"),
+        ("ann", "s2", "C", "B", "undecided"),
+    ],
+    [
+        ("ann", "s2", "A", "A", "left"),
+        ("ann", "s2", "A", "A", "left"),
+        ("ann", "s2", "A", "A", "left"),
+        ("ann", "s2", "A", "A", "left"),
+        ("ann", "s2", "A", "C", "left"),
+        ("ann", "s2", "A", "C", "right"),
+        ("ann", "s2", "A", "D", "undecided"),
+    ],
+]
+
+
 @slow
 @given(votes_strategy)
+@example(FLAT[0])
+@example(FLAT[1])
+@example(FLAT[2])
 def test_ballots_plus_undecided_is_votes(rows):
     r = _run(rows)
     for section in [*r["clips"].values(), r["pooled"]]:
