@@ -116,6 +116,15 @@ def test_a_study_without_a_report_has_no_package_yet(app, client, web):
     assert "No package: no report yet: close the study (or press Write report) first." in page
 
 
+def test_a_rating_study_is_told_its_package_is_not_made_yet(app, client, web):
+    study_id = web.study(design="rating", catch_kind="instructed", status="closed")
+    web.login(client)
+    response = client.get(f"/experimenter/studies/{study_id}/package.zip")
+    assert response.status_code == 302
+    page = client.get(response.headers["Location"]).get_data(as_text=True)
+    assert "No package: not made for the rating designs yet: download ratings.csv" in page
+
+
 def test_the_cli_writes_the_package_and_its_report(app, web, participant, monkeypatch):
     monkeypatch.setenv("DATABASE_URL", app.config["SQLALCHEMY_DATABASE_URI"])
     monkeypatch.setenv("MEDIA_ROOT", app.config["MEDIA_ROOT"])

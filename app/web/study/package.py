@@ -28,6 +28,7 @@ from app.analysis.package import (
     sha256_file,
 )
 from app.errors import InputError
+from app.trials.design import RATING_DESIGNS
 from app.web.extensions import db
 from app.web.infra import media
 from app.web.infra.storage import report_path
@@ -98,6 +99,12 @@ def media_manifest(study: Study) -> list[dict[str, Any]]:
 def build_package(study: Study) -> bytes:
     """The study's package as zip bytes. Needs a written report (the package holds the votes
     it analysed, so its numbers are the report's); raises InputError naming what is missing."""
+    if study.design in RATING_DESIGNS:
+        # the package format holds votes.csv and the votes' analysis options only
+        raise InputError(
+            "not made for the rating designs yet: download ratings.csv and the report",
+            field="package",
+        )
     folder = report_path(study).parent.name
     report: dict[str, bytes] = {}
     for name in REPORT_FILES:
