@@ -24,17 +24,16 @@ from app.trials.rating import check_score, parallel_order
 from app.web.extensions import db
 from app.web.models import Condition, Participant, Rating, Trial, utcnow
 from app.web.study.enrolment import SESSION_ENDED, progress_and_upcoming, touch
-from app.web.study.medialog import MediaLogError, media_fields
 from app.web.study.studies import rating_scale
 from app.web.study.votes import (
     VoteRejected,
+    answer_fields,
     check_answering,
     check_open,
     finish_if_done,
     idempotency_key,
     int_field,
     may_vote,
-    parse_time,
     screen_out,
     trial_id_of,
 )
@@ -81,18 +80,11 @@ def rating_fields(participant: Participant, trial: Trial | None, payload: dict[s
     reason = may_vote(study, plays=plays, watched_to_end=bool(payload.get("watched_to_end")))
     if reason:
         raise VoteRejected(reason, 422)
-    try:
-        columns, log = media_fields(payload.get("media"))
-    except MediaLogError as exc:
-        raise VoteRejected(str(exc)) from None
     return {
         "scores": scores,
         "idempotency_key": key,
         "plays": plays,
-        "response_ms": int_field(payload, "response_ms", Rating.response_ms),
-        "presented_at": parse_time(payload.get("presented_at")),
-        "media": log or None,
-        **columns,
+        **answer_fields(payload, Rating),
     }
 
 

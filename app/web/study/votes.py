@@ -176,18 +176,26 @@ def vote_fields(
     if reason:
         raise VoteRejected(reason, 422)
     spec = participation(study)
+    return {
+        "choice": choice,
+        "idempotency_key": key,
+        "plays": plays,
+        "strength": _strength(payload.get("strength"), choice, spec.scale),
+        "reasons": _reasons(payload.get("reasons"), spec.reasons),
+        **answer_fields(payload, Vote),
+    }
+
+
+def answer_fields(payload: dict[str, Any], model: Any) -> dict[str, Any]:
+    """What every answer (a vote or a rating, ``model`` the stored row's class) carries beside
+    its choice: the response time, when the pair was shown and the media log's columns."""
     try:
         columns, log = media_fields(payload.get("media"))
     except MediaLogError as exc:
         raise VoteRejected(str(exc)) from None
     return {
-        "choice": choice,
-        "idempotency_key": key,
-        "plays": plays,
-        "response_ms": int_field(payload, "response_ms", Vote.response_ms),
+        "response_ms": int_field(payload, "response_ms", model.response_ms),
         "presented_at": parse_time(payload.get("presented_at")),
-        "strength": _strength(payload.get("strength"), choice, spec.scale),
-        "reasons": _reasons(payload.get("reasons"), spec.reasons),
         "media": log or None,
         **columns,
     }
