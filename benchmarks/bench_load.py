@@ -729,7 +729,12 @@ def main() -> int:
         default=10.0,
         help="least length of a counted saturated round; an untimed warm-up round runs first",
     )
-    parser.add_argument("--workers", type=int, default=4, help="gunicorn worker processes")
+    parser.add_argument(
+        "--workers",
+        type=int,
+        default=2,
+        help="gunicorn worker processes (2, facepair serve's default; 4 threads each)",
+    )
     parser.add_argument("--port", type=int, default=5077)
     parser.add_argument(
         "--pg",
