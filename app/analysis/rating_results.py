@@ -70,6 +70,17 @@ def is_ratings_file(path: str | Path) -> bool:
     return "score" in names and "choice" not in names
 
 
+def _refuse_first(
+    frame: pd.DataFrame, bad: pd.Series, column: str, expected: str, path: Any
+) -> None:
+    """Raise the one-line error for the first row ``bad`` marks (line 1 is the header)."""
+    if bad.any():
+        row = int(bad.idxmax())
+        raise InputError(
+            f"{expected}, got {frame.loc[row, column]!r}", path=path, line=row + 2, field=column
+        )
+
+
 def read_ratings(source: str | Path | pd.DataFrame) -> pd.DataFrame:
     """Read and check a ratings table; every problem is one :class:`~app.errors.InputError`
     naming the file, line (the header is line 1) and column.
@@ -99,27 +110,13 @@ def read_ratings(source: str | Path | pd.DataFrame) -> pd.DataFrame:
             raise InputError("empty", path=path, line=int(blank.idxmax()) + 2, field=column)
     scores = pd.to_numeric(frame["score"].str.strip(), errors="coerce")
     bad = ~(scores.notna() & (scores % 1 == 0) & scores.between(0, 100))
-    if bad.any():
-        row = int(bad.idxmax())
-        raise InputError(
-            f"expected a whole number from 0 to 100, got {frame.loc[row, 'score']!r}",
-            path=path,
-            line=row + 2,
-            field="score",
-        )
+    _refuse_first(frame, bad, "score", "expected a whole number from 0 to 100", path)
     frame["score"] = scores.astype(int)
     if "kind" not in frame.columns:
         frame["kind"] = "trial"
     frame["kind"] = frame["kind"].astype(str).str.strip().replace("", "trial")
     odd = ~frame["kind"].isin(KINDS)
-    if odd.any():
-        row = int(odd.idxmax())
-        raise InputError(
-            f"expected trial or catch, got {frame.loc[row, 'kind']!r}",
-            path=path,
-            line=row + 2,
-            field="kind",
-        )
+    _refuse_first(frame, odd, "kind", "expected trial or catch", path)
     if "excluded" not in frame.columns:
         frame["excluded"] = ""
     frame["excluded"] = frame["excluded"].astype(str).str.strip()
@@ -136,14 +133,7 @@ def read_ratings(source: str | Path | pd.DataFrame) -> pd.DataFrame:
         frame["reference"] = ""
     spelt = frame["reference"].astype(str).str.strip().str.lower()
     odd = ~spelt.isin(list(flags))
-    if odd.any():
-        row = int(odd.idxmax())
-        raise InputError(
-            f"expected true or false, got {frame.loc[row, 'reference']!r}",
-            path=path,
-            line=row + 2,
-            field="reference",
-        )
+    _refuse_first(frame, odd, "reference", "expected true or false", path)
     frame["reference"] = spelt.map(flags).astype(bool)
     return frame
 

@@ -15,7 +15,7 @@ from functools import cache
 from typing import Any
 
 import sqlalchemy as sa
-from flask import abort, current_app, jsonify, request, url_for
+from flask import Response, abort, current_app, jsonify, make_response, request, url_for
 
 from app.trials.rules import instructed_side, play_refusal
 from app.web.api import bp
@@ -30,7 +30,13 @@ from app.web.study.enrolment import progress as enrolment_progress
 from app.web.study.medialog import MediaLogError, environment_fields
 from app.web.study.ratings import record_rating, shown_items
 from app.web.study.studies import participation
-from app.web.study.votes import VoteRejected, participant_for_vote, record_vote, replay_policy
+from app.web.study.votes import (
+    Voter,
+    VoteRejected,
+    participant_for_vote,
+    record_vote,
+    replay_policy,
+)
 from app.web.study.wording import ended_reason
 
 #: A vote is a few hundred bytes; anything much larger is not one.
@@ -76,14 +82,24 @@ def _refused(exc: VoteRejected, participant: Participant):  # type: ignore[no-un
     return _error(exc.message, exc.status)
 
 
-@bp.post("/votes")
-def post_vote():  # type: ignore[no-untyped-def]
+def _answer_request() -> tuple[dict[str, Any], Voter] | Response:
+    """The answer request's JSON object and its participant (locked) with the trial, or the
+    error response (400 for a body that is no JSON object, 403 for an unknown token)."""
     payload = _json_object()
     if isinstance(payload, str):
-        return _error(payload, 400)
+        return make_response(_error(payload, 400))
     voter = participant_for_vote(payload.get("token"), payload.get("trial_id"))
     if voter is None:
-        return _error("unknown participant", 403)
+        return make_response(_error("unknown participant", 403))
+    return payload, voter
+
+
+@bp.post("/votes")
+def post_vote():  # type: ignore[no-untyped-def]
+    request_ = _answer_request()
+    if not isinstance(request_, tuple):
+        return request_
+    payload, voter = request_
     try:
         outcome = record_vote(voter.participant, payload, voter.trial)
     except VoteRejected as exc:
@@ -121,12 +137,10 @@ def post_vote():  # type: ignore[no-untyped-def]
 def post_rating():  # type: ignore[no-untyped-def]
     """One trial's rating in the ``rating`` design (:func:`app.web.study.ratings.record_rating`):
     201 when stored, 200 with the stored rating for a retry."""
-    payload = _json_object()
-    if isinstance(payload, str):
-        return _error(payload, 400)
-    rater = participant_for_vote(payload.get("token"), payload.get("trial_id"))
-    if rater is None:
-        return _error("unknown participant", 403)
+    request_ = _answer_request()
+    if not isinstance(request_, tuple):
+        return request_
+    payload, rater = request_
     try:
         outcome = record_rating(rater.participant, payload, rater.trial)
     except VoteRejected as exc:
