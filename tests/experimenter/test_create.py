@@ -3,6 +3,7 @@ a failed attempt keeps its files, the models are ticked, hostile file names neve
 
 import io
 import re
+from pathlib import Path
 
 import sqlalchemy as sa
 from hypothesis import HealthCheck, given, settings
@@ -386,3 +387,18 @@ def test_hostile_portrait_values_are_refused_by_name(app, client, web, tmp_path)
             assert "Not a valid choice" in response.get_data(as_text=True)
 
     hostile()
+
+
+def test_only_the_newest_failed_attempts_are_kept(app, tmp_path):
+    from app.web.experimenter import uploads
+
+    attempt = tmp_path / "attempt" / "media"
+    attempt.mkdir(parents=True)
+    (attempt / "s1.wav").write_bytes(b"RIFF")
+    with app.test_request_context():
+        tokens = [uploads.keep(attempt.parent, user_id=7) for _ in range(uploads.KEEP_ATTEMPTS + 3)]
+        root = Path(app.config["MEDIA_ROOT"]) / "staged" / "7"
+        assert sorted(p.name for p in root.iterdir()) == sorted(tokens[-uploads.KEEP_ATTEMPTS :])
+        back = tmp_path / "back"
+        assert uploads.restore(tokens[-1], 7, back) and (back / "media" / "s1.wav").is_file()
+        assert not uploads.restore(tokens[0], 7, tmp_path / "lost")

@@ -5,7 +5,9 @@ the experimenter choose every file again. Instead the files of a failed submissi
 the server under an unguessable token, in a folder of the experimenter's own
 (``MEDIA_ROOT/staged/<user id>/<token>/<field>/<file name>``), and the page carries the token;
 the next submission starts from the kept files, and a field given new files replaces its kept
-ones. Kept files older than :data:`KEEP_HOURS` are removed whenever files are kept again.
+ones. Whenever files are kept again, kept files older than :data:`KEEP_HOURS` are removed, and
+so are all but the newest :data:`KEEP_ATTEMPTS` of the experimenter's attempts: what a session
+of failed submissions can leave on the disk is bounded, and so is the sweep's own work.
 """
 
 from __future__ import annotations
@@ -23,6 +25,9 @@ from app.trials.fields import upload_name
 from app.web.models import new_token
 
 KEEP_HOURS = 24
+#: Failed attempts kept per experimenter; an older one's token then finds nothing, and its
+#: page asks for the files again.
+KEEP_ATTEMPTS = 8
 _TOKEN = re.compile(r"^[A-Za-z0-9_-]{20,64}$")
 
 
@@ -66,10 +71,11 @@ def keep(folder: Path, user_id: int) -> str:
     root = _root(user_id)
     root.mkdir(parents=True, exist_ok=True)
     cutoff = time.time() - KEEP_HOURS * 3600
-    for old in root.iterdir():
-        if old.stat().st_mtime < cutoff:
+    # newest first: a token starts with the time it was made, in fixed-width hex
+    for rank, old in enumerate(sorted(root.iterdir(), reverse=True)):
+        if rank >= KEEP_ATTEMPTS - 1 or old.stat().st_mtime < cutoff:
             shutil.rmtree(old, ignore_errors=True)
-    token = new_token(24)
+    token = f"{time.time_ns():016x}{new_token(24)}"
     shutil.copytree(folder, root / token)
     return token
 
