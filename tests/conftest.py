@@ -115,6 +115,9 @@ def make_app(url: str, media: Path, **config):
             "MEDIA_ROOT": str(media),
             "JOB_RUNNER": "inline",
             "REDIS_URL": None,
+            # one PBKDF2 round: production's scrypt costs 0.1 s a hash, paid for every
+            # experimenter a test makes and at every login (tests/test_security.py keeps it)
+            "PASSWORD_HASH_METHOD": "pbkdf2:sha256:1",
             **config,
         }
     )

@@ -1,6 +1,7 @@
 """Secrets, session cookies, proxies, security headers, safe redirects and login limits."""
 
 import re
+import secrets
 
 import pytest
 
@@ -25,13 +26,40 @@ def test_no_real_secret_key_is_refused_outside_tests(tmp_path, monkeypatch, key)
 
 
 def test_a_real_secret_key_is_accepted(tmp_path, monkeypatch):
-    import secrets
-
     key = secrets.token_hex(32)
     monkeypatch.setenv("SECRET_KEY", key)
     assert _bare(tmp_path).secret_key == key
     for other in (secrets.token_urlsafe(32), secrets.token_hex(16)):
         assert _bare(tmp_path, SECRET_KEY=other).secret_key == other
+
+
+@pytest.mark.parametrize(
+    "method",
+    ["pbkdf2:sha256:1", "pbkdf2:sha256:599999", "scrypt:16384:8:1", "plain", "md5", "", "scrypt:x"],
+)
+def test_a_cheap_or_unknown_password_hash_is_refused_outside_tests(tmp_path, method):
+    with pytest.raises(InputError) as caught:
+        _bare(tmp_path, SECRET_KEY=secrets.token_hex(32), PASSWORD_HASH_METHOD=method)
+    assert str(caught.value).startswith("PASSWORD_HASH_METHOD: ") and "\n" not in str(caught.value)
+
+
+def test_passwords_are_hashed_with_scrypt_by_default_and_old_hashes_still_check(tmp_path):
+    from werkzeug.security import generate_password_hash
+
+    from app.web.models import User
+
+    for method in ("scrypt", "scrypt:65536:8:1", "pbkdf2", "pbkdf2:sha512:700000"):
+        _bare(tmp_path, SECRET_KEY=secrets.token_hex(32), PASSWORD_HASH_METHOD=method)
+    app = _bare(tmp_path, SECRET_KEY=secrets.token_hex(32))
+    assert app.config["PASSWORD_HASH_METHOD"] == "scrypt:32768:8:1"
+    with app.app_context():
+        user = User(email="a@example.org")
+        user.set_password("correct horse")
+        assert user.password_hash.startswith("scrypt:32768:8:1$")
+        assert user.check_password("correct horse") and not user.check_password("wrong")
+        # a hash made under another setting (tests' one round, an older deployment) checks
+        user.password_hash = generate_password_hash("correct horse", "pbkdf2:sha256:1")
+        assert user.check_password("correct horse")
 
 
 @pytest.mark.parametrize(

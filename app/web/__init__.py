@@ -63,6 +63,9 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
         # it began whatever happens (app.web.infra.accounts).
         SESSION_IDLE_MINUTES=60,
         SESSION_ABSOLUTE_HOURS=12,
+        # How experimenters' passwords are hashed (werkzeug's method syntax); a weaker one than
+        # app.web.infra.security.MIN_PASSWORD_HASH is refused outside tests.
+        PASSWORD_HASH_METHOD="scrypt:32768:8:1",
         # Consents (new participants) allowed per client address in one study, and per study
         # from all addresses (Flask-Limiter syntax; "" for no limit). A lab whose participants
         # share one address raises the first (docs/reference/configuration.md).

@@ -15,6 +15,7 @@ import secrets
 from typing import Any
 
 import sqlalchemy as sa
+from flask import current_app, has_app_context
 from sqlalchemy import orm as so
 from werkzeug.security import check_password_hash, generate_password_hash
 
@@ -24,6 +25,11 @@ from app.web.extensions import db
 
 def utcnow() -> dt.datetime:
     return dt.datetime.now(dt.UTC).replace(tzinfo=None)
+
+
+def password_hash_method() -> str:
+    """The application's ``PASSWORD_HASH_METHOD`` (werkzeug's default outside one)."""
+    return str(current_app.config["PASSWORD_HASH_METHOD"]) if has_app_context() else "scrypt"
 
 
 def new_token(nbytes: int = 24) -> str:
@@ -45,7 +51,7 @@ class User(db.Model):
     created_at: so.Mapped[dt.datetime] = so.mapped_column(default=utcnow)
 
     def set_password(self, password: str) -> None:
-        self.password_hash = generate_password_hash(password)
+        self.password_hash = generate_password_hash(password, password_hash_method())
 
     def check_password(self, password: str) -> bool:
         return check_password_hash(self.password_hash, password)

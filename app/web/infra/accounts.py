@@ -27,7 +27,14 @@ from app.errors import InputError
 from app.web.extensions import db
 from app.web.infra.limits import fits
 from app.web.infra.passwords import is_common
-from app.web.models import LoginSession, Study, StudyShare, User, utcnow
+from app.web.models import (
+    LoginSession,
+    Study,
+    StudyShare,
+    User,
+    password_hash_method,
+    utcnow,
+)
 
 #: A login's last request is written at most this often (the idle timeout's resolution).
 SEEN_EVERY = dt.timedelta(minutes=1)
@@ -121,13 +128,14 @@ def login_required(view: Callable[..., Any]) -> Callable[..., Any]:
 
 #: A hash checked when no account has the e-mail, so an unknown address takes as long as a
 #: wrong password (no account enumeration by timing, ASVS 2.2.1 / 3.x guidance).
-_DUMMY_HASH: list[str] = []
+_DUMMY_HASH: dict[str, str] = {}
 
 
 def _dummy_hash() -> str:
-    if not _DUMMY_HASH:
-        _DUMMY_HASH.append(generate_password_hash(secrets.token_urlsafe(16)))
-    return _DUMMY_HASH[0]
+    method = password_hash_method()
+    if method not in _DUMMY_HASH:
+        _DUMMY_HASH[method] = generate_password_hash(secrets.token_urlsafe(16), method)
+    return _DUMMY_HASH[method]
 
 
 def authenticate(email: str, password: str) -> User | None:

@@ -19,6 +19,7 @@ from urllib.parse import urlsplit
 from flask import request
 from flask.sessions import SecureCookieSessionInterface
 from werkzeug.middleware.proxy_fix import ProxyFix
+from werkzeug.security import generate_password_hash
 
 from app.errors import InputError
 from app.web.extensions import limiter
@@ -178,9 +179,42 @@ def _security_headers(response: Response) -> Response:
     return response
 
 
+#: The weakest password hashing a deployment may choose: scrypt's cost N, or PBKDF2's
+#: iterations (OWASP's Password Storage Cheat Sheet: scrypt N=2^17 with r=8 for new systems,
+#: at least 2^15 here as werkzeug's default; PBKDF2-HMAC-SHA256 600,000 iterations).
+MIN_PASSWORD_HASH = {"scrypt": 2**15, "pbkdf2": 600_000}
+
+
+def check_password_hash_method(app: Flask) -> None:
+    """Refuse a ``PASSWORD_HASH_METHOD`` werkzeug cannot use, or, outside tests, one cheaper
+    than :data:`MIN_PASSWORD_HASH` (tests hash with one PBKDF2 round: a password is hashed for
+    every experimenter a test makes and checked at every login)."""
+    method = str(app.config.get("PASSWORD_HASH_METHOD") or "")
+    name, _, args = method.partition(":")
+    parts = args.split(":") if args else []
+    field = "PASSWORD_HASH_METHOD"
+    try:
+        generate_password_hash("x", method)
+    except (ValueError, TypeError):
+        raise InputError(
+            f"{method!r} is no werkzeug hash method (e.g. 'scrypt:32768:8:1')", field=field
+        ) from None
+    if app.testing:
+        return
+    # werkzeug's own defaults where the method leaves the cost out
+    cost = int(parts[0]) if name == "scrypt" and parts else 2**15
+    if name == "pbkdf2":
+        cost = int(parts[1]) if len(parts) > 1 else 600_000
+    if name not in MIN_PASSWORD_HASH or cost < MIN_PASSWORD_HASH[name]:
+        raise InputError(
+            f"{method!r} is weaker than scrypt:{2**15}:8:1 or pbkdf2:sha256:600000", field=field
+        )
+
+
 def init_security(app: Flask) -> None:
     """Wire everything above into ``app`` (called by the factory before the blueprints)."""
     check_secret_key(app)
+    check_password_hash_method(app)
     app.config["SESSION_COOKIE_HTTPONLY"] = True
     if not app.config.get("SESSION_COOKIE_SAMESITE"):
         app.config["SESSION_COOKIE_SAMESITE"] = "Lax"
