@@ -179,6 +179,12 @@ def test_the_audio_check_plays_its_sounds_and_opens_the_trials(
         for question in (1, 2):
             assert f"Question {question} of 2" in page.inner_text(".audio-progress")
             assert page.locator(".sound-choice").first.is_disabled()
+            # at four times the speed: what is checked is that the answers open once the
+            # sounds have ended, not how long the sounds are (4 s a question)
+            page.evaluate(
+                "for (const a of document.querySelectorAll('audio'))"
+                " { a.defaultPlaybackRate = 4; a.playbackRate = 4; }"
+            )
             press(".play-sounds")
             page.wait_for_selector(".sound-choice:not([disabled])", timeout=20000)
             if question == 1:
