@@ -240,7 +240,9 @@ def test_ballots_plus_undecided_is_votes(rows):
 @given(votes_strategy, st.sampled_from(["exclude", "split"]))
 def test_swapping_sides_changes_nothing_that_matters(rows, undecided):
     swapped = [(p, c, right, left, SWAP[ch]) for p, c, left, right, ch in rows]
-    a, b = _run(rows, undecided=undecided), _run(swapped, undecided=undecided)
+    # the mixed model is not compared (it has a side term of its own), so it is not fitted
+    a = _run(rows, undecided=undecided, mixed_model=False)
+    b = _run(swapped, undecided=undecided, mixed_model=False)
     for sa, sb in [
         *zip(a["clips"].values(), b["clips"].values(), strict=True),
         (a["pooled"], b["pooled"]),
