@@ -126,14 +126,30 @@ def test_demo_migrates_generates_renders_and_exits(
     installed: dict[str, str], tmp_path: Path
 ) -> None:
     env = {**installed, "FACEPAIR_INSTANCE": str(tmp_path / "instance")}
-    out = _run(["facepair", "demo", "--no-serve"], env, tmp_path).stdout
+    # The shipped example study as the demo reads it, its clips rendered at 192 px and 10
+    # frames a second: what is checked is that the installed package renders them all, and
+    # the full size costs a minute here (the renderer's tests and benchmark cover it).
+    example = _run(
+        ["python", "-c", "from app.data import data_path; print(data_path('examples'))"],
+        installed,
+        tmp_path,
+    ).stdout.strip()
+    study = (Path(example) / "study.toml").read_text(encoding="utf-8")
+    study = study.replace('"../demo/', f'"{Path(example).parent / "demo"}/')
+    (tmp_path / "demo.toml").write_text(
+        study.replace("\n[undecided]", "\n[render]\nsize = 192\nfps = 10\n\n[undecided]", 1),
+        encoding="utf-8",
+    )
+    assert "[render]" in (tmp_path / "demo.toml").read_text(encoding="utf-8")
+    demo = ["facepair", "demo", "--no-serve", "--study-file", str(tmp_path / "demo.toml")]
+    out = _run(demo, env, tmp_path).stdout
     assert "/s/" in out and "login:" in out
     assert (tmp_path / "instance" / "facepair.sqlite").stat().st_size > 0
     clips = list((tmp_path / "instance" / "media").rglob("*.mp4"))
     assert len(clips) >= 12, clips  # 4 conditions in all ordered pairs, at least
     assert all(clip.stat().st_size > 1000 for clip in clips)
     # A second run finds the open study and renders nothing again.
-    again = _run(["facepair", "demo", "--no-serve"], env, tmp_path)
+    again = _run(demo, env, tmp_path)
     assert "creating the demo study" not in again.stderr
 
 
