@@ -12,7 +12,9 @@ STAMP_RUN := $(VENV)/.installed-runtime
 STAMP := $(VENV)/.installed-test
 PORT ?= 5000
 # pytest-xdist workers for make test (each takes its own test databases: tests/support/services.py).
-TEST_WORKERS ?= 2
+# One process more than the two cores: a third of a run is spent waiting (browsers, servers,
+# sounds, workers starting), and a third process fills it (docs/developer/testing.md).
+TEST_WORKERS ?= 3
 HOST ?= 127.0.0.1
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # Debian packages: EGL/Mesa for headless rendering, chromium + driver for browser tests,
