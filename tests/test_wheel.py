@@ -5,8 +5,8 @@ speech and study, default models), installs it into a fresh virtual environment 
 folder outside the checkout, runs ``facepair demo --no-serve`` (migrate, demo login, generate,
 render), ``facepair stimuli generate`` on the default models and ``facepair analyze``.
 
-The dependencies come from uv's cache once downloaded; the module takes about a minute and a half
-on two cores, most of it the demo rendering its clips.
+The dependencies come from uv's cache once downloaded; the module takes under a minute on two
+cores, most of it the demo rendering its clips (at a reduced size and rate).
 """
 
 from __future__ import annotations
