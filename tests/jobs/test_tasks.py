@@ -159,6 +159,9 @@ def test_a_job_rq_reports_failed_is_swept_with_its_error(app, client, web, redis
     study_id = web.study(video=False)
     job_id = _job(app, study_id, status="running", heartbeat_at=utcnow())
     connection = Redis.from_url(redis_url)
+    # this process's own database: jobs other tests queued and left would run in the burst
+    # below (renders of studies long gone: a minute)
+    connection.flushdb()
     queue = Queue(QUEUE, connection=connection)
     queue.enqueue("builtins.int", "not a number", job_id=rq_job_id(job_id))
     SimpleWorker([queue], connection=connection).work(burst=True)
