@@ -28,6 +28,7 @@ def empty_database(postgres_url):
         admin.dispose()
 
 
+@pytest.mark.slow
 @pytest.mark.postgres
 def test_votes_and_jobs_survive_a_worker_kill_and_job_kills(empty_database, redis_url, tmp_path):
     options = Options(

@@ -186,6 +186,7 @@ def _server_errors(responses: list) -> list:
     return [r for r in responses if r >= 500]
 
 
+@pytest.mark.slow
 def test_votes_never_answer_5xx(app, participant, web):
     token, trial_ids = _joined(app, participant, web)
     client = app.test_client()
@@ -249,6 +250,7 @@ def test_deeply_nested_json_is_a_400(client):
 URL_TEXT = st.one_of(HOSTILE_TEXT, st.text(alphabet=string.printable, max_size=300))
 
 
+@pytest.mark.slow
 def test_progress_and_jobs_never_answer_5xx(app, participant, web):
     from urllib.parse import quote
 
@@ -341,6 +343,7 @@ def study_files(draw, web):
     return text
 
 
+@pytest.mark.slow
 def test_study_uploads_never_answer_5xx(app, web, tmp_path):
     web.user()
     client = app.test_client()

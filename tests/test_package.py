@@ -7,6 +7,7 @@ import io
 import json
 import zipfile
 
+import pytest
 from click.testing import CliRunner
 
 from app import __version__
@@ -50,6 +51,7 @@ def _comparable(results):
     return out
 
 
+@pytest.mark.slow
 def test_the_package_holds_everything_and_reproduces_the_report(
     app, client, web, participant, tmp_path, monkeypatch
 ):

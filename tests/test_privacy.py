@@ -7,6 +7,7 @@ import hmac
 import io
 import re
 
+import pytest
 import sqlalchemy as sa
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -182,6 +183,7 @@ def test_a_deletion_removes_the_report_computed_with_their_votes(app, client, we
     assert not path.parent.exists()
 
 
+@pytest.mark.slow
 def test_the_personal_data_routes_never_answer_5xx(app, web):
     from hypothesis import HealthCheck
 

@@ -10,6 +10,7 @@ import datetime as dt
 import secrets
 import threading
 
+import pytest
 import sqlalchemy as sa
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
@@ -293,6 +294,7 @@ def vote_machine(app, web, rejoin: str):
     return Votes
 
 
+@pytest.mark.slow
 def test_random_vote_sequences_store_what_the_rules_say(app, web):
     CASES.update(dict.fromkeys(CASES, 0))
     for rejoin in ("resume", "refuse"):

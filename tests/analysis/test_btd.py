@@ -152,6 +152,7 @@ def test_estimates_recover_a_known_model():
     assert f.gamma == pytest.approx(g, rel=0.05) and f.nu == pytest.approx(nu, rel=0.05)
 
 
+@pytest.mark.slow
 def test_summary_layout_identical_pairs_and_intervals():
     rows = []
     rng = np.random.default_rng(2)

@@ -95,6 +95,7 @@ def test_a_few_simulated_studies_land_near_the_truth():
     assert abs(result["mean_sd"][0] - 0.5) < 0.15
 
 
+@pytest.mark.slow
 def test_the_analysis_reports_it_beside_the_fixed_model(tmp_path):
     from app.analysis import analyze
     from app.analysis.document import Table, build_document

@@ -201,6 +201,7 @@ def test_sections_carry_the_new_statistics():
         max_size=30,
     )
 )
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_any_votes_give_bounded_participant_statistics(rows):
     r = analyze(pd.DataFrame(rows, columns=COLS), bootstrap=20)

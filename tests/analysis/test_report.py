@@ -83,6 +83,7 @@ def test_degenerate_studies_still_report(tmp_path, rows, note):
     assert "<h2>Scale</h2>" in text and (tmp_path / "r.pdf").stat().st_size > 1000
 
 
+@pytest.mark.slow
 def test_reviewer_sections_say_which_to_cite(tmp_path):
     votes = simulate_votes(TRUE_SCALE, **EXAMPLE)
     r = analyze(votes, conditions=list(TRUE_SCALE), bootstrap=100, exclude="outlier>1.0")

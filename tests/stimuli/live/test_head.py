@@ -58,6 +58,7 @@ def test_objective_is_the_weighted_sum_of_mixture_log_densities(head):
     assert f == pytest.approx(want, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_langevin_steps_sample_the_objective_s_distribution():
     # One Gaussian component per angle, dynamic terms off: exp(J) is a known normal per axis,
     # so the frame's pose must be distributed as that normal whatever the start.
