@@ -34,21 +34,6 @@ def repo_root() -> Path:
     return REPO
 
 
-def pytest_collection_modifyitems(config, items):
-    """Run the modules that hold slow tests (marked ``slow``, or driving a browser through
-    ``live_server``) first, each module's tests kept together and in their order: with several
-    processes the long tests then start early and the short ones fill in at the end, instead
-    of one process finishing a minute-long test while the others wait."""
-
-    def slow(item) -> bool:
-        return bool(
-            item.get_closest_marker("slow") or "live_server" in getattr(item, "fixturenames", ())
-        )
-
-    first = {item.nodeid.split("::")[0] for item in items if slow(item)}
-    items.sort(key=lambda item: item.nodeid.split("::")[0] not in first)
-
-
 def pytest_runtest_setup(item):
     """Skip ``gpu`` tests where frames would be drawn on a CPU rasteriser (or not at all)."""
     if item.get_closest_marker("gpu") is None:
