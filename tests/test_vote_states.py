@@ -201,6 +201,21 @@ def vote_machine(app, web, rejoin: str):
                 status = self.expected(person, trial, given, key)
                 assert answer.status_code == status, (answer.status_code, status, answer.json)
 
+        @rule(who=st.integers(0, 2))
+        def miss_the_checks(self, who: int) -> None:
+            """An inattentive participant: every check left answered with anything but its
+            expected answer (so the screening comes up in every run, not only by chance)."""
+            person = self.people[who]
+            for trial in sorted(person.real):
+                kind, wanted = person.trials[trial]
+                if kind != "catch" or trial in person.votes or person.screened:
+                    continue
+                wrong = next(c for c in CHOICES if c != wanted)
+                key = secrets.token_hex(8)
+                answer = person.actions.vote(trial, wrong, key=key)
+                status = self.expected(person, trial, wrong, key)
+                assert answer.status_code == status, (answer.status_code, status, answer.json)
+
         @rule(who=st.integers(0, 2), pick=st.integers(0, 50), choice=st.sampled_from(CHOICES))
         def race(self, who: int, pick: int, choice: str) -> None:
             """The same vote sent twice at once (a double click on two connections)."""
