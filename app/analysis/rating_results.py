@@ -60,14 +60,16 @@ KINDS = ("trial", "catch")
 
 
 def is_ratings_file(path: str | Path) -> bool:
-    """Whether the CSV at ``path`` is a ratings table (a ``score`` column, no ``choice``)."""
+    """Whether the CSV at ``path`` is a ratings table: no ``choice`` column (a vote's), and a
+    ``score`` or a ``condition`` column (a ratings table missing its scores is still one, and
+    its error names the ratings' columns, not the votes')."""
     try:
         with open(path, encoding="utf-8-sig", newline="") as source:
             header = next(csv.reader(source), [])
     except (OSError, UnicodeDecodeError):
         return False
     names = {h.strip() for h in header}
-    return "score" in names and "choice" not in names
+    return "choice" not in names and bool(names & {"score", "condition"})
 
 
 def _refuse_first(

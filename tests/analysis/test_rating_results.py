@@ -198,3 +198,15 @@ def test_parallel_post_screening_leaves_out_who_misses_the_hidden_reference(tmp_
     assert out.exit_code == 0, out.output
     assert "left out: nobody" in out.output
     assert "Post-screening (ITU-R BS.1534-3" in (tmp_path / "r.html").read_text()
+
+
+def test_a_ratings_file_without_its_scores_is_named_as_ratings(tmp_path):
+    """A ratings export whose score column was renamed is still read as ratings, so its
+    one line names the ratings' missing column, not the votes format's."""
+    (tmp_path / "r.csv").write_text("participant,clip,condition,rating\np,s,a,3\n")
+    assert is_ratings_file(tmp_path / "r.csv")
+    out = CliRunner().invoke(main, ["analyze", str(tmp_path / "r.csv")])
+    assert out.exit_code != 0
+    assert "header: missing column(s): score" in out.output and "choice" not in out.output
+    (tmp_path / "v.csv").write_text("participant,clip,left,right,choice\np,s,a,b,left\n")
+    assert not is_ratings_file(tmp_path / "v.csv")
