@@ -1,4 +1,5 @@
-"""Blinding, tested as an attacker would: a participant walks a whole study and keeps every byte
+"""Blinding, tested as an attacker would: a participant walks a whole study (the pair designs,
+and the rating designs: one face a trial, or versions beside a reference) and keeps every byte
 their browser receives (headers, pages, scripts, JSON answers, redirects, the first and last
 256 KB of every clip); none of it may name a condition, a model, a side assignment, an attention
 check's expected answer or a mismatched side. Run for every media backend, with the clips made
@@ -240,4 +241,150 @@ def test_the_walk_would_see_a_name_if_one_were_sent(app, client, tmp_path, monke
     use_backend(app, "accel", request)
     browser = Browser(client)
     browser.walk(slug)
+    assert any("zebraface" in leak for leak in _leaks(browser.received))
+
+
+# --- the rating designs: one face a trial (ACR), or versions side by side with a reference ---
+
+RATING_TOML = """
+title = "How natural?"
+question = "How natural is the motion of this face?"
+instructions = "Watch the face."
+consent = "You agree to take part."
+design = "{design}"
+seed = 5
+{reference}
+[catch]
+trials = {catch}
+
+[render]
+size = 64
+mosaic_block = 8
+{conditions}
+[[clips]]
+name = "c1"
+audio = "c1.wav"
+
+[[clips]]
+name = "c2"
+audio = "c2.wav"
+"""
+
+
+def _fake_single(track, audio, out, **kwargs):
+    _fake_draw(track, track, audio, out, **kwargs)
+
+
+def _rated_study(app, tmp_path, monkeypatch, design: str) -> str:
+    """A rating or parallel study of the three conditions, tracks generated and clips rendered
+    by the jobs (the drawing left out, the encoder kept); returns its slug."""
+    import renderer
+    from app.web.jobs.tasks import generate_tracks, render_clips
+
+    monkeypatch.setattr(renderer, "render_single", _fake_single)
+    monkeypatch.setattr(renderer, "render_pair", _fake_draw)
+    for clip in ("c1", "c2"):
+        write_tone_wav(tmp_path / f"{clip}.wav", seconds=1.2)
+    conditions = "".join(
+        f'\n[[conditions]]\nname = "{name}"\nmodel = "{model}"\n'
+        for name, model in CONDITIONS.items()
+    )
+    text = RATING_TOML.format(
+        design=design,
+        reference='reference = "zebraface"' if design == "parallel" else "",
+        catch=1 if design == "rating" else 0,
+        conditions=conditions,
+    )
+    with app.app_context():
+        study = create_study(
+            create_test_user(), loads_study(text, base_dir=tmp_path), source_toml=text
+        )
+        db.session.commit()
+        generate_tracks(study, lambda done, total: None)
+        render_clips(db.session.get(Study, study.id), lambda done, total: None)
+        study = db.session.get(Study, study.id)
+        study.status = "open"
+        db.session.commit()
+        return study.slug
+
+
+def _walk_ratings(browser: Browser, slug: str) -> int:
+    """Consent, instructions, every trial (its clips, a play per clip, a rating), the end;
+    returns how many trials were rated."""
+    client = browser.client
+    token = csrf_token(client, f"/s/{slug}")
+    browser.get(f"/s/{slug}")
+    joined = browser.post(f"/s/{slug}", data={"csrf_token": token, "agree": "1"})
+    assert joined.status_code == 302
+    who = joined.headers["Location"].split("/p/")[1].split("/")[0]
+    text = browser.get(f"/p/{who}/instructions").get_data(as_text=True)
+    for asset in set(re.findall(r'(?:src|href)="(/static/[^"?]+)', text)):
+        browser.get(asset)
+    rated = 0
+    while True:
+        trial = browser.get(f"/p/{who}/trial")
+        if trial.status_code == 302:
+            break
+        text = trial.get_data(as_text=True)
+        trial_id = int(re.search(r'data-trial-id="(\d+)"', text).group(1))
+        items = re.search(r'data-items="(\d+)"', text)
+        urls = re.findall(r'data-(?:video|reference)-url="([^"]+)"', text)
+        if items:
+            base = re.search(r'data-item-url="([^"]+)"', text).group(1)
+            urls += [f"{base}{k}" for k in range(int(items.group(1)))]
+        for url in urls:
+            browser.clip(url)
+            played = browser.post("/api/v1/plays", json={"token": who, "trial_id": trial_id})
+            assert played.status_code == 200, played.get_data(as_text=True)
+        answer = {"scores": [50] * int(items.group(1))} if items else {"score": 3}
+        rating = browser.post(
+            "/api/v1/ratings",
+            json={
+                "token": who,
+                "trial_id": trial_id,
+                "plays": len(urls),
+                "watched_to_end": True,
+                "response_ms": 900,
+                "presented_at": "2026-01-01T10:00:00.000Z",
+                "idempotency_key": secrets.token_hex(8),
+                **answer,
+            },
+        )
+        assert rating.status_code == 201, rating.get_data(as_text=True)
+        rated += 1
+    assert browser.get(f"/p/{who}/done").status_code == 200
+    return rated
+
+
+@pytest.mark.parametrize("design", ["rating", "parallel"])
+@pytest.mark.parametrize("backend", ["local", "accel", "s3"])
+def test_nothing_a_rater_receives_names_what_a_clip_shows(
+    app, client, tmp_path, monkeypatch, request, design, backend
+):
+    slug = _rated_study(app, tmp_path, monkeypatch, design)
+    use_backend(app, backend, request)
+    browser = Browser(client)
+    rated = _walk_ratings(browser, slug)
+    assert rated >= (2 if design == "parallel" else 6)
+    names = [
+        re.search(rb'filename="?([^";\r\n]+)', chunk).group(1)
+        for chunk in browser.received
+        if b"content-type: video/mp4" in chunk[:2048].lower()
+    ]
+    # a clip by its place in the schedule; a parallel trial's versions by their place on the page
+    assert names and all(re.fullmatch(rb"clip-\d\d(-\d+)?\.mp4", n) for n in names), names
+    assert _leaks(browser.received) == []
+
+
+def test_the_rater_walk_would_see_a_name_if_one_were_sent(
+    app, client, tmp_path, monkeypatch, request
+):
+    """As for the pairs: clips stored under their condition's name are seen by the walk."""
+    from app.web.jobs import tasks
+
+    monkeypatch.setattr(tasks, "clip_file", lambda study, stim: f"videos/{stim.left.name}.mp4")
+    slug = _rated_study(app, tmp_path, monkeypatch, "parallel")
+    use_backend(app, "accel", request)
+    browser = Browser(client)
+    _walk_ratings(browser, slug)
     assert any("zebraface" in leak for leak in _leaks(browser.received))
