@@ -118,13 +118,49 @@ def test_a_study_without_a_report_has_no_package_yet(app, client, web):
     assert "No package: no report yet: close the study (or press Write report) first." in page
 
 
-def test_a_rating_study_is_told_its_package_is_not_made_yet(app, client, web):
-    study_id = web.study(design="rating", catch_kind="instructed", status="closed")
+@pytest.mark.slow
+def test_a_rating_studys_package_holds_its_ratings_and_reproduces_the_report(
+    app, client, web, participant, tmp_path, monkeypatch
+):
+    from tests.test_ratings import _rate_all
+
+    study_id = web.study(design="rating", catch_kind="instructed", catch=1)
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    for score, check in ((4, 1), (5, 1), (3, 1), (5, 3)):  # the last misses the check
+        _rate_all(app, client, participant, slug, score, check=check)
+        client.delete_cookie(f"fp-{study_id}")
     web.login(client)
+    token = web.csrf(client, f"/experimenter/studies/{study_id}")
+    client.post(f"/experimenter/studies/{study_id}/status/close", data={"csrf_token": token})
     response = client.get(f"/experimenter/studies/{study_id}/package.zip")
-    assert response.status_code == 302
-    page = client.get(response.headers["Location"]).get_data(as_text=True)
-    assert "No package: not made for the rating designs yet: download ratings.csv" in page
+    assert response.status_code == 200, response.headers.get("Location")
+    archive = zipfile.ZipFile(io.BytesIO(response.data))
+    names = set(archive.namelist())
+    assert "ratings.csv" in names and "votes.csv" not in names and "results.json" in names
+    manifest = json.loads(archive.read("manifest.json"))
+    assert manifest["study"]["design"] == "rating"
+    for name, digest in manifest["files"].items():
+        assert hashlib.sha256(archive.read(name)).hexdigest() == digest, name
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "Test_study-package.zip").write_bytes(response.data)
+    result = CliRunner().invoke(main, manifest["analysis"]["command"].split()[1:])
+    assert result.exit_code == 0, result.output
+    again = json.loads((tmp_path / "results.json").read_text())
+    reported = json.loads(archive.read("results.json"))
+    assert again["kind"] == "rating" and _comparable(again) == _comparable(reported)
+    assert again["input"]["source"] == "Test_study-package.zip/ratings.csv"
+    assert len(again["input"]["left_out"]) == 1
+    # a changed table is refused: its numbers would not be the report's
+    changed = tmp_path / "changed.zip"
+    with zipfile.ZipFile(changed, "w") as out:
+        for name in names:
+            data = archive.read(name)
+            out.writestr(name, data.replace(b",5,", b",1,") if name == "ratings.csv" else data)
+    refused = CliRunner().invoke(main, ["analyze", str(changed)])
+    assert refused.exit_code != 0 and "ratings.csv: its SHA-256 is not the manifest's" in (
+        refused.output
+    )
 
 
 def test_the_cli_writes_the_package_and_its_report(app, web, participant, monkeypatch):

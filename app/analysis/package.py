@@ -1,7 +1,8 @@
 """A study package: one zip a paper's supplementary material or an OSF deposit needs, and
 reading it back so ``facepair analyze package.zip`` reproduces the report's numbers.
 
-The zip holds the study file (``study.toml``), the votes the report analysed (``votes.csv``),
+The zip holds the study file (``study.toml``), the votes the report analysed (``votes.csv``;
+``ratings.csv`` for the rating designs),
 ``participants.csv`` (Prolific IDs pseudonymised), ``answers.csv``, the report (``report.html``,
 ``report.pdf``) and its every number (``results.json``), and ``manifest.json``: the SHA-256 of
 every file in the zip and of every clip, track and rendered video of the study, the seeds, the
@@ -26,6 +27,8 @@ from app.errors import InputError
 PACKAGE_FORMAT = "facepair-study-package/1"
 MANIFEST = "manifest.json"
 VOTES = "votes.csv"
+#: The rating designs' table, in place of the votes (app.analysis.rating_results).
+RATINGS = "ratings.csv"
 RESULTS = "results.json"
 #: Largest member read back (votes of a very large study are a few tens of MB).
 MAX_MEMBER_BYTES = 512 * 1024 * 1024
@@ -58,13 +61,15 @@ def analysis_command(package_name: str) -> str:
 
 @dataclass(frozen=True)
 class StudyPackage:
-    """What ``facepair analyze`` takes from a package: the votes file's text and the
+    """What ``facepair analyze`` takes from a package: the text of the table the report
+    analysed (``table``: :data:`VOTES`, or :data:`RATINGS` for a rating design) and the
     analysis options the report used (the manifest's ``analysis``)."""
 
     votes_csv: str
     conditions: list[str] | None
     exclude: str | None
     manifest: dict[str, Any]
+    table: str = VOTES
 
 
 def _member(archive: zipfile.ZipFile, name: str, path: Path) -> bytes:
@@ -85,7 +90,9 @@ def read_package(path: str | Path) -> StudyPackage:
     try:
         with zipfile.ZipFile(path) as archive:
             raw = _member(archive, MANIFEST, path)
-            votes = _member(archive, VOTES, path)
+            names = set(archive.namelist())
+            table = RATINGS if RATINGS in names and VOTES not in names else VOTES
+            votes = _member(archive, table, path)
     except (OSError, zipfile.BadZipFile) as exc:
         raise InputError(f"cannot read the package: {exc}", path=path) from None
     try:
@@ -95,9 +102,9 @@ def read_package(path: str | Path) -> StudyPackage:
     if not isinstance(manifest, dict) or manifest.get("format") != PACKAGE_FORMAT:
         raise InputError(f"{MANIFEST}: not a {PACKAGE_FORMAT} manifest", path=path)
     files = manifest.get("files")
-    expected = files.get(VOTES) if isinstance(files, dict) else None
+    expected = files.get(table) if isinstance(files, dict) else None
     if expected != sha256_bytes(votes):
-        raise InputError(f"{VOTES}: its SHA-256 is not the manifest's (changed?)", path=path)
+        raise InputError(f"{table}: its SHA-256 is not the manifest's (changed?)", path=path)
     analysis = manifest.get("analysis") or {}
     conditions = analysis.get("conditions")
     exclude = analysis.get("exclude")
@@ -110,5 +117,5 @@ def read_package(path: str | Path) -> StudyPackage:
     try:
         text = votes.decode("utf-8")
     except UnicodeDecodeError:
-        raise InputError(f"{VOTES}: not UTF-8 text", path=path) from None
-    return StudyPackage(text, conditions, exclude or None, manifest)
+        raise InputError(f"{table}: not UTF-8 text", path=path) from None
+    return StudyPackage(text, conditions, exclude or None, manifest, table)

@@ -223,11 +223,28 @@ def analyze(
     names = None if conditions is None else [c.strip() for c in conditions.split(",") if c.strip()]
     from app.analysis.rating_results import is_ratings_file
 
+    screening = (reference_below, reference_share)
     if is_ratings_file(votes):
-        _analyze_ratings(
-            votes, names, json_path, html_path, pdf_path, (reference_below, reference_share)
-        )
+        _analyze_ratings(votes, names, json_path, html_path, pdf_path, screening)
         return
+    if zipfile.is_zipfile(votes):
+        from app.analysis.package import RATINGS, read_package
+
+        package = read_package(votes)
+        if package.table == RATINGS:  # a rating study's package: its ratings, as the report
+            with tempfile.TemporaryDirectory() as folder:
+                copy = Path(folder) / RATINGS
+                copy.write_text(package.votes_csv, encoding="utf-8", newline="")
+                _analyze_ratings(
+                    str(copy),
+                    names if names is not None else package.conditions,
+                    json_path,
+                    html_path,
+                    pdf_path,
+                    screening,
+                    source=f"{Path(votes).name}/{RATINGS}",
+                )
+            return
     summaries = read_summaries(measures_paths)
     steps = 2 + (html_path is not None) + (pdf_path is not None and html_path is not None)
     with tqdm(total=steps, desc="analyze", unit="step", disable=None) as bar:
@@ -280,9 +297,11 @@ def _analyze_ratings(
     html_path: str | None,
     pdf_path: str | None,
     screening: tuple[float, float],
+    source: str | None = None,
 ) -> None:
     """``facepair analyze ratings.csv``: MOS with intervals and Holm-adjusted contrasts
-    (:func:`app.analysis.rating_results.analyze_ratings`), written as the votes' are."""
+    (:func:`app.analysis.rating_results.analyze_ratings`), written as the votes' are;
+    ``source`` names the file in the results (``path`` unless given)."""
     from app.analysis.rating_document import summary_text
     from app.analysis.rating_results import analyze_ratings, read_ratings
     from app.analysis.report import write_report
@@ -291,7 +310,7 @@ def _analyze_ratings(
     results = analyze_ratings(
         read_ratings(path),
         conditions=names,
-        source=path,
+        source=source or path,
         reference_below=below,
         reference_share=share,
     )

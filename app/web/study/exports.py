@@ -263,6 +263,7 @@ def _write_rating_report(study: Study, path: Path) -> Path:
         if exc.message != NO_RATINGS:
             raise
         pdf.unlink(missing_ok=True)
+        (path.parent / RESULTS).unlink(missing_ok=True)
         path.write_text(no_votes_page(study), encoding="utf-8")
         return path
     included = results["input"]["participants"]
@@ -283,6 +284,9 @@ def _write_rating_report(study: Study, path: Path) -> Path:
         "votes_file": "ratings.csv",
     }
     write_report(results, path, pdf)
+    (path.parent / RESULTS).write_text(
+        json.dumps(results, indent=1, allow_nan=False) + "\n", encoding="utf-8"
+    )
     return path
 
 

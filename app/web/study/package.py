@@ -21,6 +21,7 @@ from app import __version__
 from app.analysis.package import (
     MANIFEST,
     PACKAGE_FORMAT,
+    RATINGS,
     RESULTS,
     VOTES,
     analysis_command,
@@ -39,8 +40,9 @@ from app.web.study.questionnaires import answers_csv
 
 #: The libraries whose versions decide the numbers (with Python's and facepair's).
 LIBRARIES = ("numpy", "scipy", "pandas", "statsmodels", "matplotlib")
-#: The report's files copied into the package when present, in the zip's order.
-REPORT_FILES = (VOTES, "report.html", "report.pdf", RESULTS)
+#: The report's files copied into the package when present, in the zip's order (the table
+#: analysed first: ratings.csv in place of votes.csv for the rating designs).
+REPORT_FILES = ("report.html", "report.pdf", RESULTS)
 
 
 def package_name(study: Study) -> str:
@@ -99,19 +101,14 @@ def media_manifest(study: Study) -> list[dict[str, Any]]:
 def build_package(study: Study) -> bytes:
     """The study's package as zip bytes. Needs a written report (the package holds the votes
     it analysed, so its numbers are the report's); raises InputError naming what is missing."""
-    if study.design in RATING_DESIGNS:
-        # the package format holds votes.csv and the votes' analysis options only
-        raise InputError(
-            "not made for the rating designs yet: download ratings.csv and the report",
-            field="package",
-        )
+    table = RATINGS if study.design in RATING_DESIGNS else VOTES
     folder = report_path(study).parent.name
     report: dict[str, bytes] = {}
-    for name in REPORT_FILES:
+    for name in (table, *REPORT_FILES):
         path = media.fetch(study, f"{folder}/{name}")
         if path.is_file():
             report[name] = path.read_bytes()
-    if "report.html" not in report or VOTES not in report:
+    if "report.html" not in report or table not in report:
         raise InputError(
             "no report yet: close the study (or press Write report) first", field="package"
         )
