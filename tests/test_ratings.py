@@ -7,6 +7,7 @@ from __future__ import annotations
 import secrets
 from typing import Any
 
+import pytest
 import sqlalchemy as sa
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -385,3 +386,39 @@ def test_the_closing_report_of_a_parallel_study_post_screens(app, client, partic
     assert "Design: parallel against the hidden reference none" in html
     assert "rated the hidden reference below 90 on 1 of 1 clips" in html
     assert "1 participants included, 1 left out." in html
+
+
+def test_the_monitor_tallies_ratings_per_condition(app, client, participant, web):
+    """Three participants rate every clip 4, 5 and 3 and pass the check; a fourth rates 2 and
+    misses it: each condition shows its count and raw mean, and the checks 3 of 4."""
+    from app.web.models import Condition, Trial
+
+    study_id = web.study(design="rating", catch_kind="instructed", catch=1)
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    for score, check in ((4, 1), (5, 1), (3, 1), (2, 4)):
+        _rate_all(app, client, participant, slug, score, check=check)
+        client.delete_cookie(f"fp-{study_id}")
+    with app.app_context():
+        from app.web.study.monitor import rating_monitor
+
+        stats = rating_monitor(db.session.get(Study, study_id))
+        names = list(
+            db.session.scalars(
+                sa.select(Condition.name)
+                .where(Condition.study_id == study_id)
+                .order_by(Condition.position)
+            )
+        )
+        real = db.session.scalar(
+            sa.select(sa.func.count()).select_from(Trial).where(Trial.kind == "trial")
+        )
+    assert [c["name"] for c in stats["conditions"]] == names
+    per_condition = real // 4 // len(names)  # each participant rates each condition this often
+    for c in stats["conditions"]:
+        assert c["ratings"] == 4 * per_condition and c["mean"] == pytest.approx(3.5)
+    assert stats["ratings"] == real and stats["checks"] == {"total": 4, "passed": 3}
+    web.login(client)
+    page = client.get(f"/experimenter/studies/{study_id}/monitor").get_data(as_text=True)
+    assert "Ratings per condition" in page and "Votes per pair" not in page
+    assert 'id="stat-ratings">' + str(real) in page and "3.50" in page

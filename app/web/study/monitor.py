@@ -1,5 +1,5 @@
-"""The live monitor of a study: how many participants have each status, votes per pair,
-timings."""
+"""The live monitor of a study: how many participants have each status, votes per pair (or,
+in the rating designs, ratings per condition), timings."""
 
 from __future__ import annotations
 
@@ -10,10 +10,24 @@ from typing import Any
 
 import sqlalchemy as sa
 
+from app.trials.design import RATING_DESIGNS
+from app.trials.rating import catch_passed
 from app.trials.rules import CHOICES, VoteChoice
 from app.web.extensions import db
-from app.web.models import Pair, Participant, Stimulus, Study, StudyList, Trial, Vote, utcnow
+from app.web.models import (
+    Condition,
+    Pair,
+    Participant,
+    Rating,
+    Stimulus,
+    Study,
+    StudyList,
+    Trial,
+    Vote,
+    utcnow,
+)
 from app.web.study.participants import STATUSES, status_of
+from app.web.study.studies import rating_scale
 
 
 @dataclass
@@ -100,6 +114,48 @@ def study_monitor(study: Study, *, dropped_after: dt.timedelta) -> dict[str, Any
         "pairs": list(pairs.values()),
         "catch": {"total": catch_total, "passed": catch_passed},
         "lists": [{"index": i, "assigned": n} for i, n in lists],
+        "rating": rating_monitor(study) if study.design in RATING_DESIGNS else None,
+    }
+
+
+def rating_monitor(study: Study) -> dict[str, Any]:
+    """The rating designs' live tallies: for each condition, in the study's order, the ratings
+    of real trials so far, their raw mean score (the report's MOS comes from the mixed model)
+    and the median time to rate; and the checks rated and passed (a check asks for the
+    scale's lowest level: ``app.trials.rating.catch_passed``). Pilots are not counted."""
+    rows = db.session.execute(
+        sa.select(Rating.condition_id, Rating.score, Rating.response_ms, Trial.kind)
+        .join(Trial, Rating.trial_id == Trial.id)
+        .join(Participant, Rating.participant_id == Participant.id)
+        .where(Participant.study_id == study.id, Participant.pilot.is_(False))
+    ).all()
+    scale = rating_scale(study)
+    conditions = db.session.scalars(
+        sa.select(Condition).where(Condition.study_id == study.id).order_by(Condition.position)
+    ).all()
+    scores: dict[int, list[int]] = {c.id: [] for c in conditions}
+    times: dict[int, list[int]] = {c.id: [] for c in conditions}
+    checks = passed = 0
+    for condition_id, score, response_ms, kind in rows:
+        if kind == "catch":
+            checks += 1
+            passed += catch_passed(scale, score)
+        elif condition_id in scores:
+            scores[condition_id].append(score)
+            if response_ms is not None:
+                times[condition_id].append(response_ms)
+    return {
+        "ratings": sum(len(v) for v in scores.values()),
+        "conditions": [
+            {
+                "name": c.name,
+                "ratings": len(scores[c.id]),
+                "mean": statistics.fmean(scores[c.id]) if scores[c.id] else None,
+                "median_ms": statistics.median(times[c.id]) if times[c.id] else None,
+            }
+            for c in conditions
+        ],
+        "checks": {"total": checks, "passed": passed},
     }
 
 
