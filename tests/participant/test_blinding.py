@@ -53,7 +53,9 @@ allowed = true
 [catch]
 trials = 2
 kind = "onscreen"
-
+"""
+#: Every study of the walks: small clips, the three conditions, two clips.
+TAIL = """
 [render]
 size = 64
 mosaic_block = 8
@@ -79,30 +81,38 @@ def _fake_draw(left, right, audio, out, **kwargs):
             writer.write(np.full((32, 64, 3), 30 * k, np.uint8))
 
 
-def _rendered_study(app, tmp_path, monkeypatch) -> str:
-    """A study with every kind of stimulus, its tracks generated and clips rendered by the
-    jobs; returns its slug."""
+def _open_study(app, tmp_path, monkeypatch, head: str):
+    """The study of ``head`` (then :data:`TAIL`) with its tracks generated and its clips
+    rendered by the jobs (the drawing left out, the encoder kept), opened; the study, in an
+    application context the caller holds."""
     import renderer
     from app.web.jobs.tasks import generate_tracks, render_clips
 
     monkeypatch.setattr(renderer, "render_pair", _fake_draw)
+    monkeypatch.setattr(
+        renderer, "render_single", lambda track, *a, **k: _fake_draw(track, track, *a, **k)
+    )
     for clip in ("c1", "c2"):
         write_tone_wav(tmp_path / f"{clip}.wav", seconds=1.2)
     conditions = "".join(
         f'\n[[conditions]]\nname = "{name}"\nmodel = "{model}"\n'
         for name, model in CONDITIONS.items()
     )
-    text = TOML.format(conditions=conditions)
+    text = head + TAIL.format(conditions=conditions)
+    study = create_study(create_test_user(), loads_study(text, base_dir=tmp_path), source_toml=text)
+    db.session.commit()
+    generate_tracks(study, lambda done, total: None)
+    render_clips(db.session.get(Study, study.id), lambda done, total: None)
+    study = db.session.get(Study, study.id)
+    study.status = "open"
+    db.session.commit()
+    return study
+
+
+def _rendered_study(app, tmp_path, monkeypatch) -> str:
+    """A pair study with every kind of stimulus; returns its slug."""
     with app.app_context():
-        study = create_study(
-            create_test_user(), loads_study(text, base_dir=tmp_path), source_toml=text
-        )
-        db.session.commit()
-        generate_tracks(study, lambda done, total: None)
-        render_clips(db.session.get(Study, study.id), lambda done, total: None)
-        study = db.session.get(Study, study.id)
-        study.status = "open"
-        db.session.commit()
+        study = _open_study(app, tmp_path, monkeypatch, TOML)
         kinds = {
             (bool(s.instruction), bool(s.foreign_side))
             for s in db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id))
@@ -153,28 +163,45 @@ class Browser:
             if span.startswith("bytes=0-") and int(total) > CHUNK:
                 spans.append(f"bytes={int(total) - CHUNK}-")
 
-    def walk(self, slug: str) -> int:
-        """Consent, instructions, practice, every pair (a play, then a vote), the end;
-        returns how many pairs were voted on."""
+    def join(self, slug: str) -> str:
+        """Consent, then the instructions (their practice clips and the page's assets); the
+        participant's token."""
         page = self.get(f"/s/{slug}")
         assert page.status_code == 200
         token = csrf_token(self.client, f"/s/{slug}")
         joined = self.post(f"/s/{slug}", data={"csrf_token": token, "agree": "1"})
         assert joined.status_code == 302
         who = joined.headers["Location"].split("/p/")[1].split("/")[0]
-        instructions = self.get(f"/p/{who}/instructions")
-        text = instructions.get_data(as_text=True)
+        text = self.get(f"/p/{who}/instructions").get_data(as_text=True)
         for url in re.findall(r'data-video-url="([^"]+)"', text):
             self.clip(url)
         for asset in set(re.findall(r'(?:src|href)="(/static/[^"?]+)', text)):
             self.get(asset)
-        voted = 0
+        return who
+
+    def clip_names(self) -> list[bytes]:
+        """The file names the clips received were sent under (Content-Disposition)."""
+        return [
+            re.search(rb'filename="?([^";\r\n]+)', chunk).group(1)
+            for chunk in self.received
+            if b"content-type: video/mp4" in chunk[:2048].lower()
+        ]
+
+    def trials(self, who: str):
+        """Each trial page in turn, until the session ends: (trial id, page text)."""
         while True:
             trial = self.get(f"/p/{who}/trial")
             if trial.status_code == 302:
-                break
+                return
             text = trial.get_data(as_text=True)
-            trial_id = int(re.search(r'data-trial-id="(\d+)"', text).group(1))
+            yield int(re.search(r'data-trial-id="(\d+)"', text).group(1)), text
+
+    def walk(self, slug: str) -> int:
+        """Consent, instructions, practice, every pair (a play, then a vote), the end;
+        returns how many pairs were voted on."""
+        who = self.join(slug)
+        voted = 0
+        for trial_id, text in self.trials(who):
             for url in re.findall(r'data-(?:video|preload)-url="([^"]+)"', text):
                 self.clip(url)
             played = self.post("/api/v1/plays", json={"token": who, "trial_id": trial_id})
@@ -220,11 +247,7 @@ def test_nothing_a_participant_receives_names_what_a_clip_shows(
     browser = Browser(client)
     voted = browser.walk(slug)
     assert voted >= 6
-    names = [
-        re.search(rb'filename="?([^";\r\n]+)', chunk).group(1)
-        for chunk in browser.received
-        if b"content-type: video/mp4" in chunk[:2048].lower()
-    ]
+    names = browser.clip_names()
     assert names and all(re.fullmatch(rb"(pair-\d\d|practice)\.mp4", n) for n in names), names
     assert _leaks(browser.received) == []
 
@@ -256,77 +279,26 @@ seed = 5
 {reference}
 [catch]
 trials = {catch}
-
-[render]
-size = 64
-mosaic_block = 8
-{conditions}
-[[clips]]
-name = "c1"
-audio = "c1.wav"
-
-[[clips]]
-name = "c2"
-audio = "c2.wav"
 """
 
 
-def _fake_single(track, audio, out, **kwargs):
-    _fake_draw(track, track, audio, out, **kwargs)
-
-
 def _rated_study(app, tmp_path, monkeypatch, design: str) -> str:
-    """A rating or parallel study of the three conditions, tracks generated and clips rendered
-    by the jobs (the drawing left out, the encoder kept); returns its slug."""
-    import renderer
-    from app.web.jobs.tasks import generate_tracks, render_clips
-
-    monkeypatch.setattr(renderer, "render_single", _fake_single)
-    monkeypatch.setattr(renderer, "render_pair", _fake_draw)
-    for clip in ("c1", "c2"):
-        write_tone_wav(tmp_path / f"{clip}.wav", seconds=1.2)
-    conditions = "".join(
-        f'\n[[conditions]]\nname = "{name}"\nmodel = "{model}"\n'
-        for name, model in CONDITIONS.items()
-    )
-    text = RATING_TOML.format(
+    """A rating or parallel study of the three conditions; returns its slug."""
+    head = RATING_TOML.format(
         design=design,
         reference='reference = "zebraface"' if design == "parallel" else "",
         catch=1 if design == "rating" else 0,
-        conditions=conditions,
     )
     with app.app_context():
-        study = create_study(
-            create_test_user(), loads_study(text, base_dir=tmp_path), source_toml=text
-        )
-        db.session.commit()
-        generate_tracks(study, lambda done, total: None)
-        render_clips(db.session.get(Study, study.id), lambda done, total: None)
-        study = db.session.get(Study, study.id)
-        study.status = "open"
-        db.session.commit()
-        return study.slug
+        return _open_study(app, tmp_path, monkeypatch, head).slug
 
 
 def _walk_ratings(browser: Browser, slug: str) -> int:
     """Consent, instructions, every trial (its clips, a play per clip, a rating), the end;
     returns how many trials were rated."""
-    client = browser.client
-    token = csrf_token(client, f"/s/{slug}")
-    browser.get(f"/s/{slug}")
-    joined = browser.post(f"/s/{slug}", data={"csrf_token": token, "agree": "1"})
-    assert joined.status_code == 302
-    who = joined.headers["Location"].split("/p/")[1].split("/")[0]
-    text = browser.get(f"/p/{who}/instructions").get_data(as_text=True)
-    for asset in set(re.findall(r'(?:src|href)="(/static/[^"?]+)', text)):
-        browser.get(asset)
+    who = browser.join(slug)
     rated = 0
-    while True:
-        trial = browser.get(f"/p/{who}/trial")
-        if trial.status_code == 302:
-            break
-        text = trial.get_data(as_text=True)
-        trial_id = int(re.search(r'data-trial-id="(\d+)"', text).group(1))
+    for trial_id, text in browser.trials(who):
         items = re.search(r'data-items="(\d+)"', text)
         urls = re.findall(r'data-(?:video|reference)-url="([^"]+)"', text)
         if items:
@@ -366,11 +338,7 @@ def test_nothing_a_rater_receives_names_what_a_clip_shows(
     browser = Browser(client)
     rated = _walk_ratings(browser, slug)
     assert rated >= (2 if design == "parallel" else 6)
-    names = [
-        re.search(rb'filename="?([^";\r\n]+)', chunk).group(1)
-        for chunk in browser.received
-        if b"content-type: video/mp4" in chunk[:2048].lower()
-    ]
+    names = browser.clip_names()
     # a clip by its place in the schedule; a parallel trial's versions by their place on the page
     assert names and all(re.fullmatch(rb"clip-\d\d(-\d+)?\.mp4", n) for n in names), names
     assert _leaks(browser.received) == []
