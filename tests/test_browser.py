@@ -93,6 +93,23 @@ def log_in(page, url: str) -> None:
     page.click("input[type=submit]")
 
 
+def create_and_open(page, url: str, toml, wav) -> None:
+    """The test experimenter logs in, uploads the study file and its speech, generates the
+    tracks, renders the clips (two) and opens recruitment, on the pages as a person would."""
+    log_in(page, url)
+    page.click("text=New study")
+    page.set_input_files("input[name=file-study_file]", str(toml))
+    page.set_input_files("input[name=file-media]", str(wav))
+    page.click("input[name=file-submit]")
+    page.wait_for_selector("text=Study created")
+    page.click("text=1. Generate tracks")
+    page.wait_for_selector(".job-done")
+    page.click("text=2. Render clips")
+    page.wait_for_selector("text=2 of 2 clips rendered")
+    page.click("text=Open recruitment")
+    page.wait_for_selector(".badge-open")
+
+
 def test_pairs_go_on_in_place_with_their_instruction_progress_and_no_stale_resend(
     live_server, browser
 ):
@@ -281,18 +298,7 @@ def test_experimenter_creates_a_study_and_downloads_votes(
     context = browser.new_context(viewport=DESKTOP, accept_downloads=True)
     page = context.new_page()
     try:
-        log_in(page, live_server.url)
-        page.click("text=New study")
-        page.set_input_files("input[name=file-study_file]", str(toml))
-        page.set_input_files("input[name=file-media]", str(wav))
-        page.click("input[name=file-submit]")
-        page.wait_for_selector("text=Study created")
-        page.click("text=1. Generate tracks")
-        page.wait_for_selector(".job-done")
-        page.click("text=2. Render clips")
-        page.wait_for_selector("text=2 of 2 clips rendered")
-        page.click("text=Open recruitment")
-        page.wait_for_selector(".badge-open")
+        create_and_open(page, live_server.url, toml, wav)
         page.screenshot(path=shots / "experimenter-study.png", full_page=True)
         link = page.inner_text("#participant-link")
 

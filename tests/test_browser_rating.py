@@ -304,7 +304,7 @@ def test_an_experimenter_runs_a_rating_study_through_the_pipeline(
     """The study file uploaded, its single faces generated and rendered (the stub pipeline),
     recruitment opened, a participant from the study link to the code, and the ratings
     downloaded from the study page are the ones stored."""
-    from tests.test_browser import log_in
+    from tests.test_browser import create_and_open
 
     live_server.user()
     toml = tmp_path / "study.toml"
@@ -314,18 +314,7 @@ def test_an_experimenter_runs_a_rating_study_through_the_pipeline(
     context = browser.new_context(viewport=DESKTOP, accept_downloads=True)
     page = context.new_page()
     try:
-        log_in(page, live_server.url)
-        page.click("text=New study")
-        page.set_input_files("input[name=file-study_file]", str(toml))
-        page.set_input_files("input[name=file-media]", str(wav))
-        page.click("input[name=file-submit]")
-        page.wait_for_selector("text=Study created")
-        page.click("text=1. Generate tracks")
-        page.wait_for_selector(".job-done")
-        page.click("text=2. Render clips")
-        page.wait_for_selector("text=2 of 2 clips rendered")  # one face per condition
-        page.click("text=Open recruitment")
-        page.wait_for_selector(".badge-open")
+        create_and_open(page, live_server.url, toml, wav)  # one face per condition: 2 clips
         link = page.inner_text("#participant-link")
         person = browser.new_context(viewport=DESKTOP).new_page()
         try:
