@@ -45,38 +45,20 @@ def main() -> None:
             "FACEPAIR_DEMO_CLIP_SINGLE": str(single),
             "FACEPAIR_SCREENSHOTS": str(OUT),
         }
-        subprocess.run(
+        for tests in (
             [
-                sys.executable,
-                "-m",
-                "pytest",
-                "-q",
-                "-p",
-                "no:cacheprovider",
                 "tests/test_browser_participant.py::test_trial_page_layout_and_screenshots",
                 "tests/participant/test_language_browser.py",
                 "-k",
                 "desktop or layout_and_screenshots",
             ],
-            cwd=ROOT,
-            env=env,
-            check=True,
-        )
-        subprocess.run(
             [
-                sys.executable,
-                "-m",
-                "pytest",
-                "-q",
-                "-p",
-                "no:cacheprovider",
                 "tests/test_browser_rating.py::test_rating_page_layout_and_screenshots",
                 "tests/test_browser_rating.py::test_a_participant_rates_every_version_in_parallel",
             ],
-            cwd=ROOT,
-            env=env,
-            check=True,
-        )
+        ):
+            pytest = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider"]
+            subprocess.run([*pytest, *tests], cwd=ROOT, env=env, check=True)
     print(OUT / "participant-trial-desktop.png")
     print(OUT / "participant-trial-phone.png")
     for name in ("trial-german", "trial-arabic", "audio-check"):
