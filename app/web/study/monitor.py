@@ -105,16 +105,20 @@ def study_monitor(study: Study, *, dropped_after: dt.timedelta) -> dict[str, Any
         .where(StudyList.study_id == study.id)
         .order_by(StudyList.index)
     ).all()
+    rating = rating_monitor(study) if study.design in RATING_DESIGNS else None
     return {
         "joined": len(participants),
         "statuses": statuses,
         "target": study.target_participants,
         "votes": sum(s.votes for s in pairs.values()),
-        "median_ms": statistics.median(all_times) if all_times else None,
+        # a rating study's times and checks are its ratings'
+        "median_ms": rating["median_ms"]
+        if rating
+        else (statistics.median(all_times) if all_times else None),
         "pairs": list(pairs.values()),
-        "catch": {"total": catch_total, "passed": catch_passed},
+        "catch": rating["checks"] if rating else {"total": catch_total, "passed": catch_passed},
         "lists": [{"index": i, "assigned": n} for i, n in lists],
-        "rating": rating_monitor(study) if study.design in RATING_DESIGNS else None,
+        "rating": rating,
     }
 
 
@@ -136,6 +140,7 @@ def rating_monitor(study: Study) -> dict[str, Any]:
     scores: dict[int, list[int]] = {c.id: [] for c in conditions}
     times: dict[int, list[int]] = {c.id: [] for c in conditions}
     checks = passed = 0
+    every_time = [r.response_ms for r in rows if r.response_ms is not None]
     for condition_id, score, response_ms, kind in rows:
         if kind == "catch":
             checks += 1
@@ -156,6 +161,7 @@ def rating_monitor(study: Study) -> dict[str, Any]:
             for c in conditions
         ],
         "checks": {"total": checks, "passed": passed},
+        "median_ms": statistics.median(every_time) if every_time else None,
     }
 
 
