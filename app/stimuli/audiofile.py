@@ -332,11 +332,14 @@ def parse_wav(
             )
         f.seek(data_at)
         mono = np.empty(frames, dtype=np.float64)
-        for start in range(0, frames, _BLOCK_FRAMES):
-            n = min(_BLOCK_FRAMES, frames - start)
-            raw = f.read(n * align)
-            block = _pcm_to_float(raw, tag, container, endian).reshape(n, channels)
-            mono[start : start + n] = block.mean(axis=1) if channels > 1 else block[:, 0]
+        # A float file may hold signalling NaNs or opposite infinities: casting and averaging
+        # them raise floating-point flags, which the finite check below turns into one line.
+        with np.errstate(invalid="ignore", over="ignore"):
+            for start in range(0, frames, _BLOCK_FRAMES):
+                n = min(_BLOCK_FRAMES, frames - start)
+                raw = f.read(n * align)
+                block = _pcm_to_float(raw, tag, container, endian).reshape(n, channels)
+                mono[start : start + n] = block.mean(axis=1) if channels > 1 else block[:, 0]
     if not np.all(np.isfinite(mono)):
         raise InputError("the audio holds non-finite samples (NaN or infinity)", path=p)
     peak = float(np.max(np.abs(mono))) if frames else 0.0

@@ -10,7 +10,7 @@ from pathlib import Path
 import imageio_ffmpeg
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from app.errors import InputError
@@ -284,10 +284,28 @@ _PREFIXES = [
 ]
 
 
+@pytest.mark.parametrize(
+    "samples, channels",
+    [
+        # a signalling NaN (quiet NaNs cast without a flag; this one raised "invalid value")
+        (b"\x00\x00\x81\x7f" * 800, 1),
+        (struct.pack("<ff", np.inf, -np.inf) * 800, 2),  # averaged to NaN
+        (struct.pack("<f", np.inf) * 800, 1),
+    ],
+)
+def test_non_finite_float_samples_are_one_line(tmp_path, samples, channels):
+    path = tmp_path / "nan.wav"
+    path.write_bytes(_wav_bytes(samples, tag=3, width=4, channels=channels))
+    with pytest.raises(InputError, match="non-finite samples") as err:
+        load_audio(path)
+    _one_line_naming(err, path)
+
+
 @settings(
     max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
 @given(prefix=st.sampled_from(_PREFIXES), body=st.binary(max_size=3000))
+@example(prefix=_PREFIXES[4], body=b"\x00\x00\x81\x7f")
 def test_arbitrary_bytes_give_sound_or_one_line(tmp_path, prefix, body):
     path = tmp_path / "upload.wav"
     path.write_bytes(prefix + body)
