@@ -254,15 +254,40 @@ def test_swapping_sides_changes_nothing_that_matters(rows, undecided):
         assert np.array(sa["confusion"]["left"]).T.tolist() == sb["confusion"]["right"]
 
 
+# Relabelled, these votes converge to the same mixed fit in 203 and in 224 variance updates.
+SLOW_TO_CONVERGE = [
+    ("ann", "s2", "B", "A", "right"),
+    ("ann", "s2", "D", "D", "left"),
+    ("bob", "s7", "C", "A", "right"),
+    ("ann", "s2", "B", "B", "left"),
+    ("bob", "s2", "B", "C", "right"),
+    ("ann", "s7", "C", "D", "right"),
+    ("cy", "s7", "B", "D", "right"),
+    ("ann", "s2", "D", "D", "left"),
+    ("dee", "s7", "C", "A", "right"),
+    ("ann", "s7", "C", "D", "right"),
+    ("ann", "s2", "D", "D", "left"),
+    ("ann", "s2", "B", "D", "left"),
+    ("cy", "s2", "D", "B", "undecided"),
+    ("ann", "s2", "D", "D", "left"),
+    ("ann", "s2", "A", "A", "left"),
+    ("eve", "s2", "B", "C", "right"),
+    ("bob", "s7", "C", "A", "left"),
+]
+
+
 @slow
 @given(votes_strategy, st.permutations(["ann", "bob", "cy", "dee", "eve"]))
+@example(SLOW_TO_CONVERGE, ["ann", "bob", "cy", "eve", "dee"])
 def test_relabelling_participants_changes_nothing(rows, order):
     rename = dict(zip(["ann", "bob", "cy", "dee", "eve"], [f"x{o}" for o in order], strict=True))
     relabelled = [(rename[p], *rest) for p, *rest in rows]
     a, b = _run(rows), _run(relabelled)
     # The mixed model is fitted iteratively: another order of the participants converges to
-    # the same fit within the fit's own tolerance, not to the last bit.
+    # the same fit within the fit's own tolerance, not to the last bit, and may take another
+    # number of iterations to get there.
     mixed_a, mixed_b = a["pooled"].pop("mixed_btd"), b["pooled"].pop("mixed_btd")
+    mixed_a.pop("iterations", None), mixed_b.pop("iterations", None)
     assert _same(mixed_a, mixed_b, rel=1e-4, abs=1e-6)
     assert _same(a["pooled"], b["pooled"]) and _same(a["clips"], b["clips"])
     assert _same({rename[k]: v for k, v in a["participants"].items()}, b["participants"])
