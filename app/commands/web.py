@@ -193,9 +193,9 @@ def worker(name: str | None) -> None:
             field="REDIS_URL",
         )
     from redis import Redis
-    from rq import Worker
 
     from app.web.jobs.tasks import rq_horse_killed
+    from app.web.jobs.worker import Worker
 
     with app.app_context():
         Worker(

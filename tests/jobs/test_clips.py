@@ -79,16 +79,21 @@ def start_worker(app, name: str, log: Path) -> subprocess.Popen:
         )
 
 
-def stop(workers: list[subprocess.Popen]) -> None:
+def stop(workers: list[subprocess.Popen]) -> list[int]:
+    """SIGTERM (a warm shutdown) to each worker; the ones that had to be killed after 20 s
+    are returned by index."""
     for worker in workers:
         if worker.poll() is None:
             worker.send_signal(signal.SIGTERM)
-    for worker in workers:
+    killed = []
+    for i, worker in enumerate(workers):
         try:
             worker.wait(timeout=20)
         except subprocess.TimeoutExpired:
             worker.kill()
             worker.wait()
+            killed.append(i)
+    return killed
 
 
 def run_render(app, study_id: int, seconds: float = 240.0) -> tuple[Job, list[tuple[int, int]]]:
@@ -126,7 +131,9 @@ def test_two_workers_render_one_studys_clips_in_parallel(pg_app, tmp_path):
     try:
         row, seen = run_render(pg_app, study_id)
     finally:
-        stop(workers)
+        killed = stop(workers)
+    # idle after the render, both stop on SIGTERM: none hangs in its command thread
+    assert not killed, [(tmp_path / f"w{i + 1}.log").read_text()[-2000:] for i in killed]
     with pg_app.app_context():
         study = db.session.get(Study, study_id)
         stimuli = db.session.scalars(

@@ -154,6 +154,11 @@ def test_a_job_rq_reports_failed_is_swept_with_its_error(app, client, web, redis
     from rq import Queue, SimpleWorker
 
     from app.web.jobs import QUEUE, rq_job_id
+    from app.web.jobs.worker import PromptShutdown
+
+    class BurstWorker(PromptShutdown, SimpleWorker):
+        """The job in this process; its shutdown as prompt as ``facepair worker``'s (RQ's own
+        sometimes waited 60 s for its command thread)."""
 
     app.config["REDIS_URL"] = redis_url
     study_id = web.study(video=False)
@@ -164,7 +169,7 @@ def test_a_job_rq_reports_failed_is_swept_with_its_error(app, client, web, redis
     connection.flushdb()
     queue = Queue(QUEUE, connection=connection)
     queue.enqueue("builtins.int", "not a number", job_id=rq_job_id(job_id))
-    SimpleWorker([queue], connection=connection).work(burst=True)
+    BurstWorker([queue], connection=connection).work(burst=True)
     connection.close()
     web.login(client)
     client.get(f"/experimenter/studies/{study_id}")
