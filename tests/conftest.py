@@ -6,6 +6,7 @@ conftest.py (tests/analysis, tests/stimuli, tests/renderer, tests/trials). Warni
 from __future__ import annotations
 
 import copy
+import os
 import re
 import secrets
 import shutil
@@ -52,6 +53,48 @@ def pytest_runtest_setup(item):
 def tone_wav(tmp_path: Path):
     """Factory: ``tone_wav(seconds)`` -> path of a fresh test WAV."""
     return lambda seconds: write_tone_wav(tmp_path / f"tone_{seconds}.wav", seconds)
+
+
+# --- browsers ----------------------------------------------------------------------------------
+
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-dev-shm-usage",
+    "--disable-background-networking",
+    "--autoplay-policy=no-user-gesture-required",
+]
+
+
+@pytest.fixture(scope="session")
+def browser():
+    """Debian's chromium through Playwright, started once per test process (a start and stop
+    cost about a second of CPU). Each test opens its own context, with cookies, storage and
+    cache of its own, and closes it."""
+    if not CHROMIUM.exists():
+        pytest.skip("Debian's chromium is not installed (make test installs it)")
+    from playwright.sync_api import sync_playwright
+
+    manager = sync_playwright().start()
+    try:
+        browser = manager.chromium.launch(
+            executable_path=str(CHROMIUM), headless=True, args=CHROMIUM_ARGS
+        )
+        try:
+            yield browser
+        finally:
+            browser.close()
+    finally:
+        manager.stop()
+
+
+@pytest.fixture
+def shots(tmp_path) -> Path:
+    """Where a browser test saves its screenshots: ``$FACEPAIR_SCREENSHOTS`` or the test's
+    temporary folder."""
+    folder = Path(os.environ.get("FACEPAIR_SCREENSHOTS", tmp_path / "shots"))
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
 
 
 # --- web: databases, app, client, participants ---------------------------------------------
@@ -474,16 +517,25 @@ def web(app, tmp_path, tiny_video):
     )
 
 
+@pytest.fixture(scope="session")
+def migrated_sqlite(tmp_path_factory) -> Path:
+    """A SQLite file the migrations brought to the schema, once per test process: a live
+    server starts on a copy (a millisecond, where the migrations cost 0.2 s of CPU)."""
+    path = tmp_path_factory.mktemp("migrated") / "migrated.sqlite"
+    upgrade_database(f"sqlite:///{path}", path.parent / "media")
+    return path
+
+
 @pytest.fixture
-def live_server(tmp_path, tiny_video):
+def live_server(tmp_path, tiny_video, migrated_sqlite):
     """A threaded server on a migrated, file-backed SQLite database (never in-memory), for
     browser tests: ``live.url``, ``live.app``, ``live.study(**toml)``."""
     from types import SimpleNamespace
 
     from tests.support.liveserver import serve
 
+    shutil.copyfile(migrated_sqlite, tmp_path / "live.sqlite")
     url = f"sqlite:///{tmp_path / 'live.sqlite'}"
-    upgrade_database(url, tmp_path / "media")
     app = make_app(url, tmp_path / "media")
     try:
         with serve(app) as base:

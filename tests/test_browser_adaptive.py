@@ -16,8 +16,6 @@ from tests.test_browser import (
     _gone,
     _ready_to_vote,
     _trial_id,
-    browser,  # noqa: F401  (the chromium fixture)
-    shots,  # noqa: F401
     trial_page_loads,
 )
 

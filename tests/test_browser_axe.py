@@ -12,10 +12,9 @@ from tests.conftest import ParticipantActions
 from tests.questionnaire.test_views import BEFORE, QUESTIONS
 from tests.questionnaire.test_views import _answer as answer_page
 from tests.support.axe import axe_script, violations
-from tests.test_browser import DESKTOP, PHONE, browser, log_in, shots
+from tests.test_browser import DESKTOP, PHONE, log_in
 
 pytestmark = pytest.mark.browser
-__all__ = ["browser", "shots"]
 
 PARTICIPANT_SIDE = (
     QUESTIONS

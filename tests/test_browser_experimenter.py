@@ -19,13 +19,10 @@ from tests.test_browser import (
     _gone,
     _ready_to_vote,
     _trial_id,
-    browser,
     log_in,
-    shots,
 )
 
 pytestmark = pytest.mark.browser
-__all__ = ["browser", "shots"]  # the fixtures, shared with the participant's browser tests
 
 
 def _take_part(browser, app, url: str, *, catch_answer: str) -> None:

@@ -21,7 +21,6 @@ from app.web.extensions import db
 from app.web.models import Participant, Study, Trial
 from tests.conftest import create_test_study, login, make_clip
 from tests.test_browser import (
-    browser,  # noqa: F401  (the chromium fixture)
     trial_page_loads,
 )
 

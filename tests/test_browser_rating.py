@@ -24,7 +24,6 @@ from app.web.extensions import db
 from app.web.models import Participant, Rating, Study, Trial
 from tests.conftest import create_test_study, login
 from tests.test_browser import (
-    browser,  # noqa: F401  (the chromium fixture)
     trial_page_loads,
 )
 

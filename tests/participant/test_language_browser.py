@@ -17,7 +17,6 @@ from app.web.models import Participant, Study, Vote
 from app.web.study import audiocheck
 from tests.conftest import create_test_study
 from tests.participant.test_player_browser import _context, _shot, _slug
-from tests.test_browser import browser  # noqa: F401  (the chromium fixture)
 
 pytestmark = pytest.mark.browser
 

@@ -16,7 +16,6 @@ import sqlalchemy as sa
 from app.web.extensions import db
 from app.web.models import Study, Vote
 from tests.conftest import create_test_study, make_clip
-from tests.test_browser import browser  # noqa: F401  (the chromium fixture)
 
 pytestmark = pytest.mark.browser
 
