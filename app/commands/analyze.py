@@ -7,11 +7,14 @@ import json
 import tempfile
 import zipfile
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from app.errors import InputError
+
+if TYPE_CHECKING:
+    from app.analysis.package import StudyPackage
 
 
 def _summary(results: dict[str, Any]) -> str:
@@ -90,14 +93,14 @@ def read_summaries(items: tuple[str, ...]) -> dict[str, dict[str, Any]]:
 
 
 def package_votes(
-    path: str, names: list[str] | None, exclude: str | None
+    package: StudyPackage, path: str, names: list[str] | None, exclude: str | None
 ) -> tuple[Any, list[str] | None, str | None]:
-    """A study package (``app.analysis.package``) in place of a votes CSV: its votes, with the
-    conditions and exclusion rules its report used unless the command line gives others."""
+    """A study package (``app.analysis.package``, read from ``path``) in place of a votes CSV:
+    its votes, with the conditions and exclusion rules its report used unless the command line
+    gives others."""
     from app.analysis import read_votes
-    from app.analysis.package import VOTES, read_package
+    from app.analysis.package import VOTES
 
-    package = read_package(path)
     names = names if names is not None else package.conditions
     with tempfile.TemporaryDirectory() as folder:  # read as the file it is, by the one reader
         copy = Path(folder) / VOTES
@@ -227,6 +230,7 @@ def analyze(
     if is_ratings_file(votes):
         _analyze_ratings(votes, names, json_path, html_path, pdf_path, screening)
         return
+    package = None
     if zipfile.is_zipfile(votes):
         from app.analysis.package import RATINGS, read_package
 
@@ -248,8 +252,8 @@ def analyze(
     summaries = read_summaries(measures_paths)
     steps = 2 + (html_path is not None) + (pdf_path is not None and html_path is not None)
     with tqdm(total=steps, desc="analyze", unit="step", disable=None) as bar:
-        if zipfile.is_zipfile(votes):
-            table, names, exclude = package_votes(votes, names, exclude)
+        if package is not None:  # read once, above
+            table, names, exclude = package_votes(package, votes, names, exclude)
         else:
             table = read_votes(votes, skip_bad_rows=skip_bad_rows, conditions=names)
         bar.update()
