@@ -53,6 +53,33 @@ def study_monitor(study: Study, *, dropped_after: dt.timedelta) -> dict[str, Any
     statuses = dict.fromkeys(STATUSES, 0)
     for person in participants:
         statuses[status_of(person, now=now, dropped_after=dropped_after)] += 1
+    rating = rating_monitor(study) if study.design in RATING_DESIGNS else None
+    # a rating study has no votes: its times and checks are its ratings'
+    pairs, median_ms, catch = (
+        ([], rating["median_ms"], rating["checks"]) if rating else _pair_tallies(study)
+    )
+    lists = db.session.execute(
+        sa.select(StudyList.index, StudyList.n_assigned)
+        .where(StudyList.study_id == study.id)
+        .order_by(StudyList.index)
+    ).all()
+    return {
+        "joined": len(participants),
+        "statuses": statuses,
+        "target": study.target_participants,
+        "votes": sum(s.votes for s in pairs),
+        "median_ms": median_ms,
+        "pairs": pairs,
+        "catch": catch,
+        "lists": [{"index": i, "assigned": n} for i, n in lists],
+        "rating": rating,
+    }
+
+
+def _pair_tallies(study: Study) -> tuple[list[PairStats], float | None, dict[str, int]]:
+    """The pair designs' votes, pilots left out: each pair's tally (by choice, and for the
+    pair's first or second condition whichever side it was shown on) with its median response
+    time, the median time over all votes, and the catch trials answered as expected."""
     pairs = {p.id: PairStats(p.label) for p in study.pairs}
     first_of = {p.id: p.first_id for p in study.pairs}
     times: dict[int, list[int]] = {pid: [] for pid in pairs}
@@ -100,26 +127,8 @@ def study_monitor(study: Study, *, dropped_after: dt.timedelta) -> dict[str, Any
     for pair_id, values in times.items():
         if values:
             pairs[pair_id].median_ms = statistics.median(values)
-    lists = db.session.execute(
-        sa.select(StudyList.index, StudyList.n_assigned)
-        .where(StudyList.study_id == study.id)
-        .order_by(StudyList.index)
-    ).all()
-    rating = rating_monitor(study) if study.design in RATING_DESIGNS else None
-    return {
-        "joined": len(participants),
-        "statuses": statuses,
-        "target": study.target_participants,
-        "votes": sum(s.votes for s in pairs.values()),
-        # a rating study's times and checks are its ratings'
-        "median_ms": rating["median_ms"]
-        if rating
-        else (statistics.median(all_times) if all_times else None),
-        "pairs": list(pairs.values()),
-        "catch": rating["checks"] if rating else {"total": catch_total, "passed": catch_passed},
-        "lists": [{"index": i, "assigned": n} for i, n in lists],
-        "rating": rating,
-    }
+    median_ms = statistics.median(all_times) if all_times else None
+    return list(pairs.values()), median_ms, {"total": catch_total, "passed": catch_passed}
 
 
 def rating_monitor(study: Study) -> dict[str, Any]:
