@@ -33,7 +33,8 @@ class PromptShutdown:
         self.pubsub_thread = self.pubsub.run_in_thread(
             sleep_time=COMMAND_POLL_SECONDS,
             daemon=True,
-            exception_handler=self._pubsub_exception_handler,
+            # RQ's retry on a lost connection, where the installed RQ has one
+            exception_handler=getattr(self, "_pubsub_exception_handler", None),
         )
 
 
