@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import tempfile
@@ -14,6 +15,8 @@ import click
 from app.errors import InputError
 
 if TYPE_CHECKING:
+    from collections.abc import Iterator
+
     from app.analysis.package import StudyPackage
 
 
@@ -92,6 +95,16 @@ def read_summaries(items: tuple[str, ...]) -> dict[str, dict[str, Any]]:
     return out
 
 
+@contextlib.contextmanager
+def _table_file(package: StudyPackage) -> Iterator[Path]:
+    """The package's table (votes or ratings) as a file of its own name in a temporary folder:
+    read as the file it is, by the one reader of its format."""
+    with tempfile.TemporaryDirectory() as folder:
+        copy = Path(folder) / package.table
+        copy.write_text(package.votes_csv, encoding="utf-8", newline="")
+        yield copy
+
+
 def package_votes(
     package: StudyPackage, path: str, names: list[str] | None, exclude: str | None
 ) -> tuple[Any, list[str] | None, str | None]:
@@ -102,9 +115,7 @@ def package_votes(
     from app.analysis.package import VOTES
 
     names = names if names is not None else package.conditions
-    with tempfile.TemporaryDirectory() as folder:  # read as the file it is, by the one reader
-        copy = Path(folder) / VOTES
-        copy.write_text(package.votes_csv, encoding="utf-8", newline="")
+    with _table_file(package) as copy:
         votes = read_votes(copy, conditions=names)
     # the report names the file it analysed by its name: the same one
     votes = dataclasses.replace(votes, source=f"{Path(path).name}/{VOTES}")
@@ -236,9 +247,7 @@ def analyze(
 
         package = read_package(votes)
         if package.table == RATINGS:  # a rating study's package: its ratings, as the report
-            with tempfile.TemporaryDirectory() as folder:
-                copy = Path(folder) / RATINGS
-                copy.write_text(package.votes_csv, encoding="utf-8", newline="")
+            with _table_file(package) as copy:
                 _analyze_ratings(
                     str(copy),
                     names if names is not None else package.conditions,

@@ -214,8 +214,6 @@ def write_report_files(study: Study) -> Path:
     PDF and every number as JSON (``results.json``), headed by the study's title, design and
     participants. The votes analysed are those
     written beside them as CSV (which ``facepair analyze`` reads back to the same report)."""
-    from app.analysis.report import write_report  # matplotlib: only when a report is written
-
     path = report_path(study)
     path.parent.mkdir(parents=True, exist_ok=True)
     if study.design in RATING_DESIGNS:
@@ -226,33 +224,42 @@ def write_report_files(study: Study) -> Path:
     write_votes_csv(votes, csv_path)
     # exclusion rules as `facepair analyze --exclude` reads them (app.analysis.quality)
     exclude = study.settings.get("exclude")
-    pdf = path.with_suffix(".pdf")
     try:
         results = analyze(votes, conditions=[c.name for c in study.conditions], exclude=exclude)
     except InputError as exc:
         if exc.message != NO_VOTES:
             raise
-        pdf.unlink(missing_ok=True)  # an earlier report's PDF would contradict the page
-        (path.parent / RESULTS).unlink(missing_ok=True)  # and so would its numbers
-        path.write_text(no_votes_page(study), encoding="utf-8")
-        return path
+        return _write_no_answers_page(study, path)
     results["study"] = report_head(study, results, exclude=exclude)
-    write_report(results, path, pdf)
-    # every number of the report, for the study's package (app.web.study.package)
+    return _write_analysis(results, path)
+
+
+def _write_analysis(results: dict[str, Any], path: Path) -> Path:
+    """The report at ``path``, its PDF beside it, and every number of it as ``results.json``
+    (for the study's package, app.web.study.package)."""
+    from app.analysis.report import write_report  # matplotlib: only when a report is written
+
+    write_report(results, path, path.with_suffix(".pdf"))
     (path.parent / RESULTS).write_text(
         json.dumps(results, indent=1, allow_nan=False) + "\n", encoding="utf-8"
     )
     return path
 
 
+def _write_no_answers_page(study: Study, path: Path) -> Path:
+    """The page saying there is nothing to analyse yet, in place of the report; an earlier
+    report's PDF and numbers go, as they would contradict it."""
+    path.with_suffix(".pdf").unlink(missing_ok=True)
+    (path.parent / RESULTS).unlink(missing_ok=True)
+    path.write_text(no_votes_page(study), encoding="utf-8")
+    return path
+
+
 def _write_rating_report(study: Study, path: Path) -> Path:
     """The rating design's report: ``ratings.csv`` written beside it and analysed as
     ``facepair analyze ratings.csv`` does (:func:`app.analysis.rating_results.analyze_ratings`)."""
-    from app.analysis.report import write_report
-
     csv_path = path.parent / "ratings.csv"
     csv_path.write_text(ratings_csv(study), encoding="utf-8")
-    pdf = path.with_suffix(".pdf")
     try:
         results = analyze_ratings(
             read_ratings(csv_path),
@@ -262,10 +269,7 @@ def _write_rating_report(study: Study, path: Path) -> Path:
     except InputError as exc:
         if exc.message != NO_RATINGS:
             raise
-        pdf.unlink(missing_ok=True)
-        (path.parent / RESULTS).unlink(missing_ok=True)
-        path.write_text(no_votes_page(study), encoding="utf-8")
-        return path
+        return _write_no_answers_page(study, path)
     included = results["input"]["participants"]
     left_out = results["input"]["left_out"]
     results["study"] = {
@@ -283,11 +287,7 @@ def _write_rating_report(study: Study, path: Path) -> Path:
         ),
         "votes_file": "ratings.csv",
     }
-    write_report(results, path, pdf)
-    (path.parent / RESULTS).write_text(
-        json.dumps(results, indent=1, allow_nan=False) + "\n", encoding="utf-8"
-    )
-    return path
+    return _write_analysis(results, path)
 
 
 #: The rating analysis's message when no rating is left (``analyze_ratings``).
