@@ -61,6 +61,31 @@ def test_without_random_variation_it_is_the_fixed_model():
     assert abs(fit.gamma - fixed.gamma) < 0.02 and abs(fit.nu - fixed.nu) < 0.02
 
 
+#: Twelve votes (participant, clip, left, right, outcome 0 left / 1 right / 2 undecided) on
+#: which Schall's update for the clip variance crawls: its REML estimate is 0, reached only
+#: after the update has shrunk by about 1e-5 per step for a hundred steps near sd 0.11.
+CRAWL = [
+    (0, 0, 0, 0, 0), (0, 0, 1, 0, 0), (0, 1, 0, 1, 0), (0, 1, 0, 3, 1), (0, 1, 2, 3, 0),
+    (1, 1, 3, 0, 1), (2, 0, 1, 2, 0), (2, 0, 1, 3, 0), (2, 1, 0, 1, 0), (3, 0, 2, 0, 0),
+    (4, 0, 0, 3, 2), (4, 1, 1, 3, 0),
+]  # fmt: skip
+
+
+def test_a_crawling_variance_is_followed_to_its_estimate():
+    t = np.zeros((5, 2, 4, 4, 3))
+    for vote in CRAWL:
+        t[vote] += 1
+    tight = fit_mixed_btd(t, tol=1e-11, max_iter=2000)
+    assert tight.converged and tight.sd_clip == 0.0
+    # A stop on the step size alone reported sd 0.111 here, and 0.111 for another order of
+    # the same participants.
+    for order in ([0, 1, 2, 3, 4], [0, 2, 1, 3, 4], [4, 3, 2, 1, 0]):
+        fit = fit_mixed_btd(t[order])
+        assert fit.converged and fit.sd_clip == 0.0
+        assert fit.sd_participant == pytest.approx(tight.sd_participant, rel=1e-5)
+        np.testing.assert_allclose(fit.theta, tight.theta, atol=1e-5)
+
+
 def test_one_clip_has_no_clip_effect():
     fit = fit_mixed_btd(_study(Truth(), 40, 1, 4))
     assert fit.converged and np.isnan(fit.sd_clip) and fit.note == "one clip: no clip effect"
