@@ -71,19 +71,43 @@ CRAWL = [
 ]  # fmt: skip
 
 
-def test_a_crawling_variance_is_followed_to_its_estimate():
-    t = np.zeros((5, 2, 4, 4, 3))
-    for vote in CRAWL:
+def _tensor(votes, participants=5, clips=2, conditions=4):
+    t = np.zeros((participants, clips, conditions, conditions, 3))
+    for vote in votes:
         t[vote] += 1
+    return t
+
+
+def test_a_crawling_variance_is_followed_to_its_estimate():
+    t = _tensor(CRAWL)
     tight = fit_mixed_btd(t, tol=1e-11, max_iter=2000)
     assert tight.converged and tight.sd_clip == 0.0
-    # A stop on the step size alone reported sd 0.111 here, and 0.111 for another order of
-    # the same participants.
-    for order in ([0, 1, 2, 3, 4], [0, 2, 1, 3, 4], [4, 3, 2, 1, 0]):
-        fit = fit_mixed_btd(t[order])
-        assert fit.converged and fit.sd_clip == 0.0
-        assert fit.sd_participant == pytest.approx(tight.sd_participant, rel=1e-5)
-        np.testing.assert_allclose(fit.theta, tight.theta, atol=1e-5)
+    # A stop on the step size alone reported sd 0.111 here.
+    fit = fit_mixed_btd(t)
+    assert fit.converged and fit.sd_clip == 0.0
+    assert fit.sd_participant == pytest.approx(tight.sd_participant, rel=1e-5)
+    np.testing.assert_allclose(fit.theta, tight.theta, atol=1e-5)
+
+
+#: Twelve votes whose likelihood is nearly flat in the clip SD: the iteration stopped at sd
+#: 0.16730 for one order of the participants and 0.16735 for another.
+FLAT_IN_CLIP = [
+    (0, 0, 0, 0, 0), (0, 0, 1, 0, 0), (0, 1, 0, 1, 0), (0, 1, 0, 3, 1), (0, 1, 2, 3, 0),
+    (1, 1, 3, 0, 1), (2, 0, 1, 2, 0), (2, 1, 0, 1, 0), (2, 1, 1, 3, 0), (3, 0, 2, 0, 0),
+    (4, 0, 0, 3, 2), (4, 1, 1, 3, 0),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("votes", [CRAWL, FLAT_IN_CLIP], ids=["crawl", "flat"])
+def test_the_order_of_the_participants_changes_nothing(votes):
+    t = _tensor(votes)
+    first = fit_mixed_btd(t)
+    for order in ([0, 2, 1, 3, 4], [4, 3, 2, 1, 0], [1, 0, 4, 2, 3]):
+        other = fit_mixed_btd(t[order])
+        assert other.converged and other.sd_clip == first.sd_clip
+        assert other.sd_participant == first.sd_participant
+        np.testing.assert_array_equal(other.theta, first.theta)
+        np.testing.assert_array_equal(other.se, first.se)
 
 
 def test_one_clip_has_no_clip_effect():

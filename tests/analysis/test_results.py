@@ -283,12 +283,9 @@ def test_relabelling_participants_changes_nothing(rows, order):
     rename = dict(zip(["ann", "bob", "cy", "dee", "eve"], [f"x{o}" for o in order], strict=True))
     relabelled = [(rename[p], *rest) for p, *rest in rows]
     a, b = _run(rows), _run(relabelled)
-    # The mixed model is fitted iteratively: another order of the participants converges to
-    # the same fit within the fit's own tolerance, not to the last bit, and may take another
-    # number of iterations to get there.
-    mixed_a, mixed_b = a["pooled"].pop("mixed_btd"), b["pooled"].pop("mixed_btd")
-    mixed_a.pop("iterations", None), mixed_b.pop("iterations", None)
-    assert _same(mixed_a, mixed_b, rel=1e-4, abs=1e-6)
+    # The mixed model is fitted iteratively, with the participants in an order of their
+    # counts: the same iterations, whatever the names.
+    assert a["pooled"]["mixed_btd"].get("iterations") == b["pooled"]["mixed_btd"].get("iterations")
     assert _same(a["pooled"], b["pooled"]) and _same(a["clips"], b["clips"])
     assert _same({rename[k]: v for k, v in a["participants"].items()}, b["participants"])
 
