@@ -254,7 +254,8 @@ def test_swapping_sides_changes_nothing_that_matters(rows, undecided):
         assert np.array(sa["confusion"]["left"]).T.tolist() == sb["confusion"]["right"]
 
 
-# Relabelled, these votes converge to the same mixed fit in 203 and in 224 variance updates.
+# Relabelled, these votes took 203 and 224 variance updates to the same mixed fit, before
+# the fit put the participants in an order of their counts.
 SLOW_TO_CONVERGE = [
     ("ann", "s2", "B", "A", "right"),
     ("ann", "s2", "D", "D", "left"),
