@@ -13,8 +13,11 @@ STAMP := $(VENV)/.installed-test
 PORT ?= 5000
 # pytest-xdist workers for make test (each takes its own test databases: tests/support/services.py).
 # One process more than the two cores: a third of a run is spent waiting (browsers, servers,
-# sounds, workers starting), and a third process fills it (docs/developer/testing.md).
+# sounds, workers starting), and a third process fills it (docs/developer/testing.md). Each
+# module's tests go to one process, so a module's fixtures (a trained model, a texture, an
+# installed wheel) are built once, not once in every process that gets one of its tests.
 TEST_WORKERS ?= 3
+TEST_DIST ?= loadscope
 HOST ?= 127.0.0.1
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # Debian packages: EGL/Mesa for headless rendering, chromium + driver for browser tests,
@@ -60,7 +63,7 @@ axe: $(STAMP) debs-test
 	$(PY) -m tests.support.axe
 
 test: $(STAMP) debs-test axe lint
-	$(PY) -m pytest -n $(TEST_WORKERS)
+	$(PY) -m pytest -n $(TEST_WORKERS) --dist $(TEST_DIST)
 
 demo: $(STAMP_RUN) debs-demo
 	$(VENV)/bin/facepair demo --host $(HOST) --port $(PORT)
