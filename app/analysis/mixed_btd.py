@@ -50,6 +50,7 @@ from scipy import stats
 
 from app.analysis.btd import BOUND, JOD_PER_LOG_WORTH, fit_btd
 from app.analysis.json_values import json_number
+from app.analysis.scaling import canonical_participant_order
 
 _CHUNK = 2000  # participants per pass when the Hessian is accumulated (bounded memory)
 
@@ -304,7 +305,7 @@ def fit_mixed_btd(t: np.ndarray, *, max_iter: int = 200, tol: float = 1e-5) -> M
     # the same fit to the last digit whatever the participants are called. On a flat
     # likelihood (a dozen votes) where the iteration stops depends on the order of the sums,
     # and the clip SD of two orders differed in the fourth digit.
-    t = t[np.lexsort(t.reshape(P, -1).T[::-1])] if P > 1 else t
+    t = t[canonical_participant_order(t)]
     votes = int(t.sum())
     nan = np.full(n, np.nan)
 
