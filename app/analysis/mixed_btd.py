@@ -409,8 +409,8 @@ def _distance_left(first: np.ndarray, second: np.ndarray) -> float:
 
     A small step alone does not say the variances have settled: near a variance of 0, EM
     (Schall's update is one) crawls with a rate close to 1, and a stop on the step size
-    reported a clip SD of 0.11 where the REML estimate is 0 (Varadhan & Roland 2008, sec. 2:
-    EM's linear rate is the fraction of missing information).
+    reported a clip SD of 0.11 where the REML estimate is 0 (EM's linear rate is the largest
+    fraction of missing information: Dempster, Laird & Rubin 1977, JRSS B 39, 1-38).
 
     >>> _distance_left(np.array([1e-6, 1e-3]), np.array([5e-7, 1e-7]))  # rates 0.5 and 1e-4
     1e-06
