@@ -62,10 +62,10 @@ def analysis_command(package_name: str) -> str:
 @dataclass(frozen=True)
 class StudyPackage:
     """What ``facepair analyze`` takes from a package: the text of the table the report
-    analysed (``table``: :data:`VOTES`, or :data:`RATINGS` for a rating design) and the
-    analysis options the report used (the manifest's ``analysis``)."""
+    analysed (``table_text``, the file ``table``: :data:`VOTES`, or :data:`RATINGS` for a
+    rating design) and the analysis options the report used (the manifest's ``analysis``)."""
 
-    votes_csv: str
+    table_text: str
     conditions: list[str] | None
     exclude: str | None
     manifest: dict[str, Any]

@@ -101,7 +101,7 @@ def _table_file(package: StudyPackage) -> Iterator[Path]:
     read as the file it is, by the one reader of its format."""
     with tempfile.TemporaryDirectory() as folder:
         copy = Path(folder) / package.table
-        copy.write_text(package.votes_csv, encoding="utf-8", newline="")
+        copy.write_text(package.table_text, encoding="utf-8", newline="")
         yield copy
 
 

@@ -34,7 +34,7 @@ def _package(path, votes=VOTES, manifest=None, **analysis):
 
 def test_the_votes_and_the_report_options_come_back(tmp_path):
     package = read_package(_package(tmp_path / "p.zip"))
-    assert package.votes_csv == VOTES and package.conditions == ["b", "a"]
+    assert package.table_text == VOTES and package.conditions == ["b", "a"]
     assert package.exclude is None
 
 
