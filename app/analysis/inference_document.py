@@ -24,8 +24,9 @@ from app.analysis.mixed_document import MIXED_TEXT, mixed_blocks, objective_bloc
 METHOD_TEXT = (
     "Participant-level tests: for each pair (a, b), each participant's net preference "
     "d_p = (wins_a − wins_b) / n_p over their votes on the pair (undecided votes count in n_p); "
-    "Wilcoxon signed-rank test of the d_p (scipy.stats.wilcoxon, zero_method 'wilcox', "
-    "two-sided); effect size the matched-pairs rank-biserial r = (T+ − T−) / (T+ + T−) "
+    "Wilcoxon signed-rank test of the d_p (zero_method 'wilcox', two-sided; exact over the "
+    "sign flips up to 13 participants, ties included, as scipy.stats.wilcoxon); effect size "
+    "the matched-pairs rank-biserial r = (T+ − T−) / (T+ + T−) "
     "(Kerby 2014) with a percentile bootstrap interval over participants; Holm over the pairs "
     "of a clip. With one judgement per participant and pair (the majority of their votes, a "
     "tie 1/2 to each side) u and the sign tests are recomputed.",

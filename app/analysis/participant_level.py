@@ -8,9 +8,9 @@ Here each participant is one unit of observation for each unordered pair (a, b):
     d_p = (wins_a - wins_b) / n_p        n_p = all of p's votes on the pair, undecided included
 
 and the conditions are compared by a Wilcoxon signed-rank test of the d_p across participants
-(Wilcoxon 1945; ``scipy.stats.wilcoxon``, zero_method "wilcox": participants with d_p = 0 are
-dropped, two-sided). Effect size: the matched-pairs rank-biserial correlation
-(Kerby 2014, "The simple difference formula")
+(Wilcoxon 1945, :mod:`app.analysis.signed_rank`: the p of ``scipy.stats.wilcoxon`` with
+zero_method "wilcox", participants with d_p = 0 dropped, two-sided). Effect size: the
+matched-pairs rank-biserial correlation (Kerby 2014, "The simple difference formula")
 
     r = (T+ - T-) / (T+ + T-)      T+ / T- = sums of the ranks of |d_p| over positive / negative d_p
 
@@ -35,6 +35,7 @@ from app.analysis.agreement import coefficient_of_agreement
 from app.analysis.counts import undecided_pairs, wins
 from app.analysis.json_values import json_number as _num
 from app.analysis.scaling import bootstrap_weights, canonical_participant_order
+from app.analysis.signed_rank import signed_rank_test
 from app.analysis.signtest import sign_test_p
 from app.analysis.ttest import holm
 
@@ -156,8 +157,8 @@ def participant_level_tests(
             "p": None,
         }
         if np.any(judged != 0):
-            res = stats.wilcoxon(judged, zero_method="wilcox", alternative="two-sided")
-            row["W"], row["p"] = _num(res.statistic), _num(res.pvalue)
+            w, p = signed_rank_test(judged[None, :])
+            row["W"], row["p"] = _num(w[0]), _num(p[0])
         row["effect"] = rank_biserial(judged)
         row["effect_ci"] = (
             _percentile_ci(bootstrap_rank_biserial(col, weights), confidence)

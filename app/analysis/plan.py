@@ -25,10 +25,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from app.analysis.btd import JOD_PER_LOG_WORTH, fit_btd_many
 from app.analysis.participant_level import net_preference, pair_counts
+from app.analysis.signed_rank import signed_rank_p
 from app.analysis.signtest import sign_test_p
 from app.analysis.ttest import holm
 from app.errors import InputError
@@ -101,40 +101,6 @@ def simulate_counts(
     return np.bincount(flat.ravel(), minlength=simulations * participants * n * n * 3).reshape(
         simulations, participants, n, n, 3
     )
-
-
-def signed_rank_p(d: np.ndarray) -> np.ndarray:
-    """Two-sided Wilcoxon signed-rank p of each row of ``d`` (studies, participants), as
-    ``scipy.stats.wilcoxon(row, zero_method="wilcox")`` gives it, vectorised over rows.
-
-    Up to 13 participants scipy's default is exact: with ties or zeros, the full sign-flip
-    permutation distribution of T+ (mid-ranks of the non-zero |d|); here that distribution is
-    built for all rows at once by convolution over doubled ranks (whole numbers), instead of
-    enumerating 2^n flips per row. Larger samples go to scipy directly. NaN: no non-zero d.
-    """
-    if d.shape[1] > 13:
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return np.asarray(stats.wilcoxon(d, axis=1, zero_method="wilcox").pvalue)
-    nonzero = d != 0
-    absd = np.where(nonzero, np.abs(d), np.inf)
-    ranks = stats.rankdata(absd, axis=1)  # zeros (inf) rank last; they are masked out below
-    doubled = np.where(nonzero, np.rint(2 * ranks), 0).astype(np.int64)
-    top = int(doubled.sum(axis=1).max()) + 1
-    dist = np.zeros((d.shape[0], top))
-    dist[:, 0] = 1.0
-    index = np.arange(top)
-    for k in range(d.shape[1]):
-        shifted = np.where(
-            index >= doubled[:, k : k + 1],
-            np.take_along_axis(dist, np.maximum(index - doubled[:, k : k + 1], 0), axis=1),
-            0.0,
-        )
-        dist = 0.5 * (dist + shifted)  # a zero d shifts by 0: the distribution is unchanged
-    observed = np.where(d > 0, doubled, 0).sum(axis=1)
-    below = np.where(index <= observed[:, None], dist, 0.0).sum(axis=1)
-    above = np.where(index >= observed[:, None], dist, 0.0).sum(axis=1)
-    p = np.minimum(1.0, 2.0 * np.minimum(below, above))
-    return np.where(nonzero.any(axis=1), p, np.nan)
 
 
 def _holm_rows(p: np.ndarray) -> np.ndarray:

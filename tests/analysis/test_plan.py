@@ -1,49 +1,9 @@
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
-from scipy import stats
 
 from app.analysis.btd import JOD_PER_LOG_WORTH, fit_btd
-from app.analysis.plan import StudyPlan, plan_from_pilot, plan_study, signed_rank_p, simulate_counts
+from app.analysis.plan import StudyPlan, plan_from_pilot, plan_study, simulate_counts
 from app.errors import InputError
-
-
-def _enumerated_signed_rank_p(row: np.ndarray) -> float:
-    """The two-sided exact signed-rank p by brute force: T+ (mid-ranks of the non-zero |d|)
-    under every one of the 2^m sign flips, counted."""
-    d = row[row != 0]
-    ranks = stats.rankdata(np.abs(d))
-    flips = (np.arange(2**d.size)[:, None] >> np.arange(d.size)) & 1
-    totals = flips @ ranks
-    observed = ranks[d > 0].sum()
-    tail = min(np.mean(totals <= observed + 1e-9), np.mean(totals >= observed - 1e-9))
-    return min(1.0, 2.0 * tail)
-
-
-@given(st.integers(1, 16), st.integers(0, 2**31))
-@settings(max_examples=30, deadline=None)
-def test_signed_rank_p_is_the_exact_permutation_p(n, seed):
-    """Up to 13 participants against the enumerated sign flips (what scipy's exact method
-    computes, 2^n flips a row); beyond, scipy's own normal approximation."""
-    d = np.random.default_rng(seed).integers(-3, 4, size=(6, n)) / 4
-    got = signed_rank_p(d)
-    for row, p in zip(d, got, strict=True):
-        if not np.any(row != 0):
-            assert np.isnan(p)
-        elif n <= 13:
-            assert p == pytest.approx(_enumerated_signed_rank_p(row), abs=1e-12)
-        else:
-            assert p == pytest.approx(stats.wilcoxon(row, zero_method="wilcox").pvalue, abs=1e-12)
-
-
-@pytest.mark.parametrize("seed", [3, 8])
-def test_signed_rank_p_is_scipys_with_ties_and_zeros(seed):
-    d = np.random.default_rng(seed).integers(-3, 4, size=(3, 9)) / 4
-    assert np.any(d == 0)
-    for row, p in zip(d, signed_rank_p(d), strict=True):
-        assert p == pytest.approx(stats.wilcoxon(row, zero_method="wilcox").pvalue, abs=1e-12)
-        assert p == pytest.approx(_enumerated_signed_rank_p(row), abs=1e-12)
 
 
 def test_simulated_votes_follow_the_model():

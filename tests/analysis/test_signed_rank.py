@@ -1,0 +1,87 @@
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import stats
+
+from app.analysis.signed_rank import signed_rank_p, signed_rank_test
+
+
+def _enumerated(row: np.ndarray) -> tuple[float, float]:
+    """W and the two-sided exact p by brute force: T+ (mid-ranks of the non-zero |d|) under
+    every one of the 2^m sign flips, counted."""
+    d = row[row != 0]
+    ranks = stats.rankdata(np.abs(d))
+    flips = (np.arange(2**d.size)[:, None] >> np.arange(d.size)) & 1
+    totals = flips @ ranks
+    observed = ranks[d > 0].sum()
+    tail = min(np.mean(totals <= observed + 1e-9), np.mean(totals >= observed - 1e-9))
+    return min(observed, ranks.sum() - observed), min(1.0, 2.0 * tail)
+
+
+def test_a_hand_counted_case():
+    """d = (1, 2, -2, 3, 0): the zero is dropped, ranks 1, 2.5, 2.5, 4; T+ = 7.5, T- = 2.5. Of
+    the 16 sign flips, T+ <= 2.5 in 4 (0, 1, 2.5, 2.5): p = 2 * 4/16 = 0.5."""
+    w, p = signed_rank_test(np.array([[1.0, 2.0, -2.0, 3.0, 0.0]]))
+    assert w[0] == 2.5 and p[0] == pytest.approx(0.5, abs=1e-15)
+
+
+def test_all_one_sign_without_ties_is_two_over_two_to_the_n():
+    w, p = signed_rank_test(np.array([[0.1, 0.2, 0.3, 0.4, 0.5, 0.6], [-1, -2, -3, -4, -5, -6]]))
+    assert list(w) == [0, 0] and list(p) == pytest.approx([2 / 64, 2 / 64], abs=1e-15)
+
+
+def test_rows_of_zeros_have_nothing_to_test():
+    w, p = signed_rank_test(np.zeros((2, 4)))
+    assert list(w) == [0, 0] and np.isnan(p).all()
+    w, p = signed_rank_test(np.zeros((1, 20)))
+    assert w[0] == 0 and np.isnan(p[0])
+
+
+@given(st.integers(1, 16), st.integers(0, 2**31))
+@settings(max_examples=30, deadline=None)
+def test_every_row_is_the_exact_permutation_test(n, seed):
+    """Up to 13 differences against the sign flips counted (what scipy enumerates, 2^n flips a
+    row, with ties or zeros); beyond, scipy's own normal approximation."""
+    d = np.random.default_rng(seed).integers(-3, 4, size=(6, n)) / 4
+    w, p = signed_rank_test(d)
+    for row, wr, pr in zip(d, w, p, strict=True):
+        if not np.any(row != 0):
+            assert np.isnan(pr) and wr == 0
+        elif n <= 13:
+            assert (wr, pr) == pytest.approx(_enumerated(row), abs=1e-12)
+        else:
+            expected = stats.wilcoxon(row, zero_method="wilcox")
+            assert wr == expected.statistic
+            assert pr == pytest.approx(expected.pvalue, abs=1e-12)
+
+
+@pytest.mark.parametrize("seed", [3, 8])
+def test_it_is_scipys_test_with_ties_and_zeros(seed):
+    d = np.random.default_rng(seed).integers(-3, 4, size=(3, 9)) / 4
+    assert np.any(d == 0)
+    w, p = signed_rank_test(d)
+    for row, wr, pr in zip(d, w, p, strict=True):
+        expected = stats.wilcoxon(row, zero_method="wilcox")
+        assert wr == expected.statistic
+        assert pr == pytest.approx(expected.pvalue, abs=1e-12)
+
+
+@pytest.mark.parametrize("n", [5, 13, 20])
+def test_without_ties_it_is_the_exact_distribution(n):
+    d = np.random.default_rng(n).permutation(np.arange(1, n + 1)) * np.where(
+        np.random.default_rng(n + 1).random(n) < 0.3, -1, 1
+    )
+    w, p = signed_rank_test(d[None, :].astype(float))
+    expected = stats.wilcoxon(d, zero_method="wilcox", method="exact")
+    assert w[0] == expected.statistic and p[0] == pytest.approx(expected.pvalue, abs=1e-12)
+
+
+def test_p_alone_is_the_tests_p():
+    d = np.random.default_rng(4).integers(-3, 4, size=(5, 9)) / 4
+    np.testing.assert_array_equal(signed_rank_p(d), signed_rank_test(d)[1])
+
+
+def test_a_vector_is_refused_by_name():
+    with pytest.raises(ValueError, match=r"d must be \(rows, differences\)"):
+        signed_rank_test(np.ones(3))
