@@ -15,9 +15,10 @@ PORT ?= 5000
 # One process more than the two cores: a third of a run is spent waiting (browsers, servers,
 # sounds, workers starting), and a third process fills it (docs/developer/testing.md). Each
 # module's tests go to one process, so a module's fixtures (a trained model, a texture, an
-# installed wheel) are built once, not once in every process that gets one of its tests.
+# installed wheel) are built once, not once in every process that gets one of its tests; the
+# modules go out in the order tests/conftest.py gives them (the long ones first).
 TEST_WORKERS ?= 3
-TEST_DIST ?= loadscope
+TEST_DIST ?= loadscope --no-loadscope-reorder
 HOST ?= 127.0.0.1
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # Debian packages: EGL/Mesa for headless rendering, chromium + driver for browser tests,

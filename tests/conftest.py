@@ -35,6 +35,22 @@ def repo_root() -> Path:
     return REPO
 
 
+def pytest_collection_modifyitems(config, items):
+    """Modules with ``slow`` or ``browser`` tests first, each module's tests kept together and in
+    their order. ``make test`` hands whole modules to its processes in this order
+    (``--dist loadscope --no-loadscope-reorder``): the long modules start early and the short
+    ones fill the end, so no process is left alone with a minute of work while the others
+    idle. xdist's own order (most tests first) sent one-test modules such as the chaos check
+    last."""
+    heavy = {
+        item.path
+        for item in items
+        if item.get_closest_marker("slow") is not None
+        or item.get_closest_marker("browser") is not None
+    }
+    items.sort(key=lambda item: item.path not in heavy)  # stable: modules stay contiguous
+
+
 def pytest_runtest_setup(item):
     """Skip ``gpu`` tests where frames would be drawn on a CPU rasteriser (or not at all)."""
     if item.get_closest_marker("gpu") is None:
