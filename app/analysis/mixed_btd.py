@@ -287,6 +287,8 @@ ESTIMATOR = "penalised quasi-likelihood, REML variances (Schall's update); Wald 
 MIN_VARIANCE = 1e-8  # a random effect taken as absent
 CRAWL_VARIANCE = 0.01  # sd 0.1
 NEGLIGIBLE_VARIANCE = 4e-4  # sd 0.02 log-worth units (0.018 JOD): taken as absent
+LOG_MAX_VARIANCE = 3.0  # sd 4.48 log-worth units (4.1 JOD): beyond it the variance is not estimable
+MAX_VARIANCE = float(np.exp(LOG_MAX_VARIANCE))
 
 
 def fit_mixed_btd(t: np.ndarray, *, max_iter: int = 200, tol: float = 1e-5) -> MixedBTDFit:
@@ -309,9 +311,9 @@ def fit_mixed_btd(t: np.ndarray, *, max_iter: int = 200, tol: float = 1e-5) -> M
     votes = int(t.sum())
     nan = np.full(n, np.nan)
 
-    def failed(note: str) -> MixedBTDFit:
+    def failed(note: str, iterations: int = 0) -> MixedBTDFit:
         return MixedBTDFit(
-            nan, nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, votes, False, note
+            nan, nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, votes, False, note, iterations
         )
 
     if votes == 0 or n < 2:
@@ -350,7 +352,10 @@ def fit_mixed_btd(t: np.ndarray, *, max_iter: int = 200, tol: float = 1e-5) -> M
         jump = log_var - 2.0 * alpha * r + alpha**2 * v
         # at most a factor e**1.5 beyond the plain updates, and not below NEGLIGIBLE_VARIANCE:
         # the update there, not the jump, decides on 0
-        jump = np.clip(two + np.clip(jump - two, -1.5, 1.5), np.log(NEGLIGIBLE_VARIANCE), 3.0)
+        jump = np.clip(
+            two + np.clip(jump - two, -1.5, 1.5), np.log(NEGLIGIBLE_VARIANCE), LOG_MAX_VARIANCE
+        )
+        bounded = jump >= LOG_MAX_VARIANCE
         # a small variance still falling at nearly the same pace is EM's crawl towards 0:
         # try NEGLIGIBLE_VARIANCE at once (its update says whether 0 is the answer)
         crawl = (r < 0) & (two - one < 0.5 * r) & (two < np.log(CRAWL_VARIANCE)) & ~probed
@@ -367,6 +372,21 @@ def fit_mixed_btd(t: np.ndarray, *, max_iter: int = 200, tol: float = 1e-5) -> M
         if not state["ok"]:
             break
         probed |= crawl & (new > np.log(NEGLIGIBLE_VARIANCE))  # 0 is not the answer: no more
+        outward = bounded & (new > LOG_MAX_VARIANCE)
+        if outward.any():
+            # Schall's update is an EM step, and an EM step never lowers the likelihood: from
+            # the bound it still points outward, so the maximum within the bound lies on it.
+            # The votes cannot estimate this variance; more cycles would only circle the bound.
+            which = " and ".join(
+                name for name, out in zip(("participant", "clip"), outward, strict=True) if out
+            )
+            return failed(
+                f"the fit did not converge (the {which} SD"
+                + (" grows" if outward.sum() == 1 else "s grow")
+                + f" beyond {np.sqrt(MAX_VARIANCE):.1f} log-worth units, more than the votes "
+                "can estimate)",
+                int(state["updates"]),
+            )
         log_var = new
     var = np.exp(log_var)
     iterations = int(state["updates"])

@@ -115,6 +115,34 @@ def test_one_clip_has_no_clip_effect():
     assert fit.converged and np.isnan(fit.sd_clip) and fit.note == "one clip: no clip effect"
 
 
+def _separated(votes):
+    """Two participants always choose a, two always b, ``votes`` times on each side order."""
+    t = np.zeros((4, 1, 2, 2, 3))
+    t[:2, 0, 0, 1, 0] = t[:2, 0, 1, 0, 1] = votes
+    t[2:, 0, 0, 1, 1] = t[2:, 0, 1, 0, 0] = votes
+    return t
+
+
+def test_a_variance_the_votes_cannot_bound_ends_the_fit_at_once():
+    """With 20 votes a side order, each participant's choice is certain: the participant SD's
+    update from the bound still points outward, so the fit says so after a few updates
+    instead of circling the bound for 200 cycles."""
+    fit = fit_mixed_btd(_separated(20))
+    assert not fit.converged
+    assert fit.note == (
+        "the fit did not converge (the participant SD grows beyond 4.5 log-worth units, "
+        "more than the votes can estimate)"
+    )
+    assert 0 < fit.iterations < 20
+
+
+def test_a_large_variance_within_the_bound_is_still_estimated():
+    """With 5 votes the penalised fit has a finite participant SD (3.85), below the bound."""
+    fit = fit_mixed_btd(_separated(5))
+    assert fit.converged and 3.5 < fit.sd_participant < 4.2
+    assert fit.theta == pytest.approx([0.0, 0.0], abs=1e-9)
+
+
 def test_a_condition_that_wins_everything_is_not_fitted():
     t = np.zeros((3, 2, 2, 2, 3))
     t[:, :, 0, 1, 0] = 2  # condition 0 on the left always chosen
