@@ -4,6 +4,8 @@ participant's progress as for votes; on SQLite and PostgreSQL."""
 
 from __future__ import annotations
 
+import html
+import re
 import secrets
 from typing import Any
 
@@ -92,6 +94,72 @@ def test_the_slider_takes_0_to_100_and_votes_are_refused(app, client, participan
     vote = participant.vote(trial)
     assert vote.status_code >= 400
     assert _rate(client, token, trial, 63).status_code == 201
+
+
+def _shown(page: str, *names: str) -> dict[str, str]:
+    """The rater's data attributes ``names`` on a rating page."""
+    found = {}
+    for name in names:
+        match = re.search(rf'data-{name}="([^"]*)"', page)
+        assert match, name
+        found[name] = html.unescape(match.group(1))
+    return found
+
+
+def test_each_rating_answer_carries_the_next_clip_as_its_page_shows_it(
+    app, client, participant, web
+):
+    """What ``static/rating.js`` goes on to in place must be what loading the trial page
+    would show: the clip, its plays and whether it is a check."""
+    token, _ = _join(app, participant, web, catch=2)
+    carried = None
+    seen = 0
+    while (trial := participant.current_trial()) is not None:
+        page = client.get(f"/p/{token}/trial").get_data(as_text=True)
+        shown = _shown(page, "trial-id", "plays", "video-url")
+        if carried is not None:
+            assert carried == {
+                "trial_id": int(shown["trial-id"]),
+                "plays": int(shown["plays"]),
+                "video_url": shown["video-url"],
+                "catch": 'class="instructed"' in page,
+            }
+        answer = _rate(client, token, trial, 1)  # "Bad": every check passed
+        assert answer.status_code == 201, answer.get_json()
+        carried = answer.get_json()["next_trial"]
+        seen += 1
+        assert (carried is None) == (seen == 4)  # two clips and two checks; after the last: none
+    assert seen == 4
+
+
+def test_a_parallel_answer_carries_the_next_page(app, client, participant, web):
+    second_clip = '[[clips]]\nname = "s2"\naudio = "s1.wav"\n'
+    study_id = web.study(design="parallel", extra=PARALLEL + second_clip)
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    token = participant.join(slug)
+    carried = None
+    seen = 0
+    while (trial := participant.current_trial()) is not None:
+        page = client.get(f"/p/{token}/trial").get_data(as_text=True)
+        shown = _shown(page, "trial-id", "plays", "reference-url", "item-url", "items")
+        if carried is not None:
+            assert carried == {
+                "trial_id": int(shown["trial-id"]),
+                "plays": int(shown["plays"]),
+                "reference_url": shown["reference-url"],
+                "item_url": shown["item-url"],
+                "items": int(shown["items"]),
+            }
+        payload = {"token": token, "trial_id": trial, "scores": [70, 30], "plays": 3}
+        answer = client.post(
+            "/api/v1/ratings", json={**payload, "idempotency_key": f"parallel-{trial}"}
+        )
+        assert answer.status_code == 201, answer.get_json()
+        carried = answer.get_json()["next_trial"]
+        seen += 1
+        assert (carried is None) == (seen == 2)
+    assert seen == 2
 
 
 def test_a_missed_check_ends_the_session_under_the_stop_rule(app, client, participant, web):

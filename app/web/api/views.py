@@ -162,10 +162,34 @@ def post_rating():  # type: ignore[no-untyped-def]
         },
         "answered": outcome.answered,
         "total": outcome.total,
-        "next": _participant_urls(payload["token"])[0],
     }
+    body["next"], video = _participant_urls(payload["token"])
+    if outcome.answered >= outcome.total:
+        body["next_trial"] = None  # every clip rated
+    elif outcome.upcoming is not None:
+        body["next_trial"] = _next_rating(rater.participant, video, outcome.upcoming)
     db.session.commit()
     return jsonify(body), 201 if outcome.created else 200
+
+
+def _next_rating(participant: Participant, video: str, row: Any) -> dict[str, Any]:
+    """The next trial as ``participant/rating.html`` or ``parallel.html`` shows it, for
+    ``static/rating.js`` to go on to without loading the page (which stays the reference): the
+    clip's URL and whether it is a catch trial; for the parallel design the reference's URL, the
+    items' URL up to the item's number and how many items the page shows."""
+    shown: dict[str, Any] = {"trial_id": row.trial_id, "plays": row.plays}
+    if participant.study.design != "parallel":
+        return {**shown, "video_url": f"{video}{row.trial_id}", "catch": row.kind == "catch"}
+    trial = db.session.get(Trial, row.trial_id)
+    item_url = url_for(
+        "participant.item_video", token=participant.token, trial_id=row.trial_id, item=0
+    )
+    return {
+        **shown,
+        "reference_url": f"{video}{row.trial_id}",
+        "item_url": item_url[:-1],
+        "items": len(shown_items(participant, trial)),  # type: ignore[arg-type]
+    }
 
 
 #: A token of only these characters (every token facepair issues) is one ``url_for`` writes

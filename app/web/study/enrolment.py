@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import datetime as dt
 from functools import cache, lru_cache
+from types import SimpleNamespace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -341,6 +342,25 @@ def progress_and_upcoming(rated: bool = False) -> sa.Select[Any]:
     counts_row = sa.select(answered.label("answered"), total.label("total")).subquery("progress")
     pending = upcoming(rated).subquery("next_pair")
     return sa.select(counts_row, *pending.c).select_from(counts_row.outerjoin(pending, sa.true()))
+
+
+def next_trial_of(
+    row: Any, participant: Participant, answered: int, total: int, *, preload: bool = True
+) -> SimpleNamespace | None:
+    """The next trial in a :func:`progress_and_upcoming` row, as an answer carries it to the
+    page (its id, plays, kind, expected answer, instruction and the trial after it, None where
+    ``preload`` is false), or None: every trial answered, the participant screened out, or no
+    trial left unanswered."""
+    if answered >= total or participant.screened_out_at is not None or row.trial_id is None:
+        return None
+    return SimpleNamespace(
+        trial_id=row.trial_id,
+        plays=row.plays,
+        kind=row.kind,
+        expected=row.expected,
+        instruction=row.instruction,
+        following=row.following if preload else None,
+    )
 
 
 #: The columns of a participant's state that a sign of life reads back, in the same round trip

@@ -23,7 +23,7 @@ from app.trials.design import RATING_DESIGNS
 from app.trials.rating import check_score, parallel_order
 from app.web.extensions import db
 from app.web.models import Condition, Participant, Rating, Trial, utcnow
-from app.web.study.enrolment import SESSION_ENDED, progress_and_upcoming, touch
+from app.web.study.enrolment import SESSION_ENDED, next_trial_of, progress_and_upcoming, touch
 from app.web.study.studies import rating_scale
 from app.web.study.votes import (
     VoteRejected,
@@ -57,6 +57,9 @@ class RatingOutcome:
     created: bool
     answered: int
     total: int
+    #: The next trial as the rating page shows it (:func:`app.web.study.enrolment.upcoming`'s
+    #: row), None when there is none to show (every trial answered, screened out).
+    upcoming: Any = None
 
 
 def rating_fields(participant: Participant, trial: Trial | None, payload: dict[str, Any]) -> dict:
@@ -211,4 +214,5 @@ def record_rating(
     row = db.session.execute(progress_and_upcoming(True), {"participant_id": participant.id}).one()
     answered, total = int(row.answered or 0), int(row.total or 0)
     finish_if_done(participant, answered, total)
-    return RatingOutcome(kept, created, answered, total)
+    upcoming = next_trial_of(row, participant, answered, total, preload=False)
+    return RatingOutcome(kept, created, answered, total, upcoming)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import datetime as dt
 from dataclasses import dataclass
 from functools import cache
-from types import EllipsisType, SimpleNamespace
+from types import EllipsisType
 from typing import Any, NamedTuple
 
 import sqlalchemy as sa
@@ -28,7 +28,13 @@ from app.web.infra import limits
 from app.web.models import Participant, Rating, Study, Trial, Vote, utcnow
 from app.web.study.adaptive import ADAPTIVE, choose_next_pair
 from app.web.study.audiocheck import pending as audio_check_pending
-from app.web.study.enrolment import SESSION_ENDED, progress_and_upcoming, rated, touch
+from app.web.study.enrolment import (
+    SESSION_ENDED,
+    next_trial_of,
+    progress_and_upcoming,
+    rated,
+    touch,
+)
 from app.web.study.medialog import MediaLogError, media_fields
 from app.web.study.participants import release_if_left_out
 from app.web.study.studies import participation, rating_scale
@@ -368,17 +374,10 @@ def record_vote(
     row = db.session.execute(progress_and_upcoming(), {"participant_id": participant_id}).one()
     answered, total = int(row.answered or 0), int(row.total or 0)
     finish_if_done(participant, answered, total)
-    following = None
-    if answered < total and participant.screened_out_at is None and row.trial_id is not None:
-        following = SimpleNamespace(
-            trial_id=row.trial_id,
-            plays=row.plays,
-            kind=row.kind,
-            expected=row.expected,
-            instruction=row.instruction,
-            # adaptive: the trial after it gets its pair at the next vote, nothing to preload
-            following=None if participant.study.design == ADAPTIVE else row.following,
-        )
+    # adaptive: the trial after it gets its pair at the next vote, nothing to preload
+    following = next_trial_of(
+        row, participant, answered, total, preload=participant.study.design != ADAPTIVE
+    )
     return VoteOutcome(
         vote=StoredVote(trial_id, *(getattr(vote, f) for f in _ANSWERED)),
         created=created,
