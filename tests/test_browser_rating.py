@@ -72,8 +72,15 @@ def _take_part(live_server, chromium, slug, pid, *, slider: bool):
                 break
             trial = int(page.get_attribute(".rater", "data-trial-id"))
             kind = _kind(live_server.app, trial)
-            assert page.inner_text(".progress-text").startswith("Clip ")
-            assert (page.locator(".instructed").count() == 1) == (kind == "catch")
+            # the next clip comes in place with the bar and the check as its page shows them
+            assert page.inner_text(".progress-text") == f"Clip {step + 1} of 5"
+            bar = page.locator(".study-bar progress")
+            assert (bar.get_attribute("value"), bar.get_attribute("max")) == (str(step), "5")
+            instructed = page.locator(".instructed")
+            if kind == "catch":
+                assert instructed.inner_text() == "For this clip, please answer Bad."
+            else:
+                assert instructed.count() == 0
             page.wait_for_selector(".play:not([disabled])", timeout=20000)
             if slider:
                 press(".play")
@@ -100,7 +107,7 @@ def _take_part(live_server, chromium, slug, pid, *, slider: bool):
     finally:
         context.close()
     assert errors == []
-    assert len(loads) == len(given) + 1  # one trial page per clip, then done
+    assert len(loads) == 2, loads  # the first clip's page, and the one the last rating opens
     return given
 
 
@@ -242,6 +249,7 @@ def test_a_participant_rates_every_version_in_parallel(
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
     press = page.tap if touch else page.click
+    loads = trial_page_loads(page)
     given: dict[int, dict[str, int]] = {}
     try:
         page.goto(f"{live_server.url}/s/{slug}")
@@ -252,6 +260,7 @@ def test_a_participant_rates_every_version_in_parallel(
             if "/trial" not in page.url:
                 break
             trial = int(page.get_attribute(".rater", "data-trial-id"))
+            assert page.inner_text(".progress-text") == f"Clip {len(given) + 1} of 2"
             shown = _shown(live_server.app, trial)
             assert page.locator("input[type=range]").count() == len(shown) == 2
             press(".item-play.reference")
@@ -275,6 +284,7 @@ def test_a_participant_rates_every_version_in_parallel(
     finally:
         context.close()
     assert errors == []
+    assert len(loads) == 2, loads  # the second clip came in place
     with live_server.app.app_context():
         stored = {
             (r.trial_id, r.condition.name): r.score for r in db.session.scalars(sa.select(Rating))

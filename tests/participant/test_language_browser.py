@@ -123,11 +123,15 @@ def test_a_german_study_speaks_german_to_the_vote(
 ):
     setup = (live_server, browser, tmp_path, tiny_video, viewport, touch)
     context, page, press, errors = _first_trial(
-        *setup, "Ich stimme zu", replay="max_plays", max_plays=2, extra='language = "de"'
+        *setup,
+        "Ich stimme zu",
+        replay="max_plays",
+        max_plays=2,
+        extra='language = "de"\n[[clips]]\nname = "s2"\naudio = "s1.wav"\n',
     )
     try:
         assert page.get_attribute("html", "lang") == "de"
-        assert page.inner_text(".progress-text").startswith("Paar 1 von ")
+        assert page.inner_text(".progress-text") == "Paar 1 von 2"
         assert page.inner_text(".plays-left") == "Noch 2 Wiedergaben"
         press(".play")
         page.wait_for_selector(".vote:not([disabled])", timeout=20000)
@@ -137,7 +141,14 @@ def test_a_german_study_speaks_german_to_the_vote(
         trial = int(page.get_attribute(".player", "data-trial-id"))
         press('.vote[data-choice="right"]')
         page.wait_for_selector(f'.player[data-trial-id="{trial}"]', state="detached")
-        # The only pair answered: the completion page, in German too.
+        # The second pair comes in place, the bar (its label in German) moved on with it.
+        assert page.inner_text(".progress-text") == "Paar 2 von 2"
+        assert page.get_attribute(".study-bar progress", "value") == "1"
+        page.wait_for_selector(".play:not([disabled])", timeout=20000)
+        press(".play")
+        page.wait_for_selector(".vote:not([disabled])", timeout=20000)
+        press('.vote[data-choice="left"]')
+        # Every pair answered: the completion page, in German too.
         page.wait_for_selector("h1:text('Vielen Dank!')", timeout=20000)
         assert "Ihr Abschlusscode:" in page.inner_text(".done")
     finally:

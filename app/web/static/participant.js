@@ -173,11 +173,46 @@
     return Math.round(100 * video.buffered.end(video.buffered.length - 1) / video.duration);
   }
 
+  // The next trial on screen in place of the answered one (nextPlayer here, nextRater in
+  // rating.js): `fresh` replaces `root`, the bar shows `progress` and `answered` of `total`,
+  // and the check's `instruction` ({sentence, slot, word}: the word in bold where the language
+  // puts its slot in the sentence; null: none) stands above it. The old clip's connection is
+  // let go.
+  function showInPlace(root, fresh, progress, answered, total, instruction) {
+    var text = document.querySelector(".progress-text");
+    if (text) text.textContent = progress;
+    var bar = document.querySelector(".study-bar progress");
+    if (bar) { bar.max = total; bar.value = answered; }
+    var instructed = document.querySelector(".trial .instructed");
+    if (instruction) {
+      if (!instructed) {
+        instructed = document.createElement("p");
+        instructed.className = "instructed";
+        root.parentNode.insertBefore(instructed, root);
+      }
+      var parts = String(instruction.sentence).split(instruction.slot);
+      instructed.textContent = fmt(parts[0], {});
+      var strong = document.createElement("strong");
+      strong.textContent = instruction.word;
+      instructed.appendChild(strong);
+      instructed.appendChild(document.createTextNode(fmt(parts.slice(1).join(""), {})));
+    } else if (instructed) {
+      instructed.parentNode.removeChild(instructed);
+    }
+    var old = root.querySelector("video");
+    old.pause();
+    old.removeAttribute("src");
+    old.load();
+    root.parentNode.replaceChild(fresh, root);
+    window.scrollTo(0, 0);  // where a loaded page starts (the reasons may have scrolled it)
+  }
+
   // Shared with the rating pages' script (static/rating.js).
   window.facepairVotes = { action: voteAction, wait: retryWait, MediaLog: MediaLog, store: store,
                            load: load_, newKey: newKey, post: postAnswer, later: resendLater,
                            requestPlay: requestPlay, buffered: bufferedPercent,
-                           playFromStart: playFromStart, reloadOnError: reloadOnError };
+                           playFromStart: playFromStart, reloadOnError: reloadOnError,
+                           showInPlace: showInPlace };
 
   // The page's words, in the study's language (app.web.study.wording.script_strings).
   var blob = document.getElementById("i18n");
@@ -481,33 +516,12 @@
     d.videoUrl = next.video_url;
     if (next.preload_url) d.preloadUrl = next.preload_url;
     else delete d.preloadUrl;
-    var text = document.querySelector(".progress-text");
-    if (text) text.textContent = fmt(T.pair_of, { number: body.answered + 1, total: body.total });
-    var bar = document.querySelector("progress[aria-label=Progress]");
-    if (bar) { bar.max = body.total; bar.value = body.answered; }
-    var instructed = document.querySelector(".trial .instructed");
-    if (next.instructed) {
-      if (!instructed) {
-        instructed = document.createElement("p");
-        instructed.className = "instructed";
-        root.parentNode.insertBefore(instructed, root);
-      }
-      // The side word in bold, where the language puts it in the sentence.
-      var parts = String(T.instructed).split("%(side)s");
-      instructed.textContent = fmt(parts[0], {});
-      var strong = document.createElement("strong");
-      strong.textContent = sideName(next.instructed);
-      instructed.appendChild(strong);
-      instructed.appendChild(document.createTextNode(fmt(parts.slice(1).join(""), {})));
-    } else if (instructed) {
-      instructed.parentNode.removeChild(instructed);
-    }
-    var old = root.querySelector("video");
-    old.pause();
-    old.removeAttribute("src");
-    old.load();  // lets the old clip's connection go
-    root.parentNode.replaceChild(fresh, root);
-    window.scrollTo(0, 0);  // where a loaded page starts (the reasons may have scrolled it)
+    showInPlace(
+      root, fresh, fmt(T.pair_of, { number: body.answered + 1, total: body.total }),
+      body.answered, body.total,
+      next.instructed ?
+        { sentence: T.instructed, slot: "%(side)s", word: sideName(next.instructed) } : null
+    );
     players[index] = makePlayer(fresh, pristine, index);
     return true;
   }

@@ -146,4 +146,8 @@ def script_strings(max_plays: int | None = None) -> dict[str, Any]:
         "refused_rating": _(
             "Your rating was not accepted. Please play the clip, then rate it again."
         ),
+        # the next clip shown in place (static/rating.js), as its page would show it
+        "clip_of": _("Clip %(number)s of %(total)s"),
+        "catch_rating": _("For this clip, please answer %(level)s."),
+        "catch_level": rating_levels()[-1]["label"],
     }
