@@ -57,8 +57,11 @@ def _take_part(live_server, chromium, slug, pid, *, slider: bool):
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
     loads = trial_page_loads(page)
+    requested: list[str] = []
+    page.on("request", lambda r: requested.append(r.url))
     press = page.tap if touch else page.click
     given: dict[int, int] = {}
+    preloaded = 0
     try:
         page.goto(f"{live_server.url}/s/{slug}?PROLIFIC_PID={pid}&STUDY_ID=st&SESSION_ID=se")
         press("text=I agree")
@@ -82,6 +85,14 @@ def _take_part(live_server, chromium, slug, pid, *, slider: bool):
             else:
                 assert instructed.count() == 0
             page.wait_for_selector(".play:not([disabled])", timeout=20000)
+            # the next clip is fetched while this one is rated
+            following = page.get_attribute(".rater", "data-preload-url")
+            if following:
+                for _ in range(100):
+                    if any(url.endswith(following) for url in requested):
+                        preloaded += 1
+                        break
+                    page.wait_for_timeout(50)
             if slider:
                 press(".play")
                 page.wait_for_selector("input[type=range]:not([disabled])", timeout=20000)
@@ -108,6 +119,7 @@ def _take_part(live_server, chromium, slug, pid, *, slider: bool):
         context.close()
     assert errors == []
     assert len(loads) == 2, loads  # the first clip's page, and the one the last rating opens
+    assert preloaded == len(given) - 1  # every clip but the first was fetched ahead
     return given
 
 

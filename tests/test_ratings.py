@@ -114,22 +114,28 @@ def test_each_rating_answer_carries_the_next_clip_as_its_page_shows_it(
     token, _ = _join(app, participant, web, catch=2)
     carried = None
     seen = 0
+    preloaded: list[str | None] = []
     while (trial := participant.current_trial()) is not None:
         page = client.get(f"/p/{token}/trial").get_data(as_text=True)
         shown = _shown(page, "trial-id", "plays", "video-url")
         if carried is not None:
+            preload = re.search(r'data-preload-url="([^"]*)"', page)
             assert carried == {
                 "trial_id": int(shown["trial-id"]),
                 "plays": int(shown["plays"]),
                 "video_url": shown["video-url"],
+                "preload_url": None if preload is None else html.unescape(preload.group(1)),
                 "catch": 'class="instructed"' in page,
             }
+            preloaded.append(carried["preload_url"])
         answer = _rate(client, token, trial, 1)  # "Bad": every check passed
         assert answer.status_code == 201, answer.get_json()
         carried = answer.get_json()["next_trial"]
         seen += 1
         assert (carried is None) == (seen == 4)  # two clips and two checks; after the last: none
     assert seen == 4
+    # each page preloads the clip after it (by its place in the schedule), the last none
+    assert all(preloaded[:-1]) and preloaded[-1] is None
 
 
 def test_a_parallel_answer_carries_the_next_page(app, client, participant, web):

@@ -175,11 +175,18 @@ def post_rating():  # type: ignore[no-untyped-def]
 def _next_rating(participant: Participant, video: str, row: Any) -> dict[str, Any]:
     """The next trial as ``participant/rating.html`` or ``parallel.html`` shows it, for
     ``static/rating.js`` to go on to without loading the page (which stays the reference): the
-    clip's URL and whether it is a catch trial; for the parallel design the reference's URL, the
-    items' URL up to the item's number and how many items the page shows."""
+    clip's URL, the next one's to preload and whether it is a catch trial; for the parallel
+    design the reference's URL, the items' URL up to the item's number and how many items the
+    page shows."""
     shown: dict[str, Any] = {"trial_id": row.trial_id, "plays": row.plays}
     if participant.study.design != "parallel":
-        return {**shown, "video_url": f"{video}{row.trial_id}", "catch": row.kind == "catch"}
+        following = row.following
+        return {
+            **shown,
+            "video_url": f"{video}{row.trial_id}",
+            "preload_url": None if following is None else f"{video}{following}",
+            "catch": row.kind == "catch",
+        }
     trial = db.session.get(Trial, row.trial_id)
     item_url = url_for(
         "participant.item_video", token=participant.token, trial_id=row.trial_id, item=0

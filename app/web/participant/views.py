@@ -373,6 +373,8 @@ def trial(token: str):  # type: ignore[no-untyped-def]
         }
         if study.design == "parallel":
             shown["items"] = len(shown_items(participant, upcoming))
+        else:  # one face a trial: the next one's clip is preloaded, as the next pair's is
+            shown["following"] = following
     else:
         template = "participant/trial.html"
         shown = {

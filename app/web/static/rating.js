@@ -176,6 +176,12 @@
         loading.hidden = true;
         update();
         playButton.focus();
+        // While this clip is rated, the next one comes into the browser's cache.
+        if (d.preloadUrl && window.fetch) {
+          fetch(d.preloadUrl, { credentials: "same-origin" }).then(function (r) {
+            return r.blob();
+          }).catch(function () { /* fetched again when it is shown */ });
+        }
       });
       video.addEventListener("progress", function () {
         var percent = shared.buffered(video);
@@ -341,6 +347,8 @@
       d.itemUrl = next.item_url;
     } else {
       d.videoUrl = next.video_url;
+      if (next.preload_url) d.preloadUrl = next.preload_url;
+      else delete d.preloadUrl;
     }
     d.trialId = String(next.trial_id);
     d.plays = String(next.plays);

@@ -214,5 +214,7 @@ def record_rating(
     row = db.session.execute(progress_and_upcoming(True), {"participant_id": participant.id}).one()
     answered, total = int(row.answered or 0), int(row.total or 0)
     finish_if_done(participant, answered, total)
-    upcoming = next_trial_of(row, participant, answered, total, preload=False)
+    # the parallel design plays a trial's versions from their own URLs: nothing to preload
+    preload = participant.study.design != "parallel"
+    upcoming = next_trial_of(row, participant, answered, total, preload=preload)
     return RatingOutcome(kept, created, answered, total, upcoming)
