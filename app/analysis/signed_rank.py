@@ -15,10 +15,12 @@ difference adds its doubled rank with probability 1/2,
 
     f_k(s) = (f_{k-1}(s) + f_{k-1}(s - 2 r_k)) / 2        f_0 = [1, 0, 0, ...]
 
-which costs m (m + 1) steps rather than 2^m statistics, for every row of a matrix at once
-(the same recursion as the tie-free null distribution of Wilcoxon 1945 and Mann & Whitney
-1947, on half-ranks). Beyond 13 differences the test is scipy's own: exact without ties or
-zeros up to 50, else the normal approximation with the tie correction.
+which takes m steps over at most m (m + 1) + 1 sums (about m^3 operations) rather than 2^m
+statistics, for every row of a matrix at once (the same recursion as the tie-free null
+distribution of Wilcoxon 1945 and Mann & Whitney 1947, on half-ranks). Beyond 13 differences
+the test is scipy's own, its method chosen for each row as a call on that row alone would
+choose it: exact without ties or zeros up to 50 differences, else the normal approximation
+with the tie correction (scipy given a matrix decides over all its rows at once).
 """
 
 from __future__ import annotations
@@ -38,6 +40,8 @@ def signed_rank_test(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     d = np.asarray(d, dtype=float)
     if d.ndim != 2:
         raise ValueError(f"d must be (rows, differences), not of shape {d.shape}")
+    if np.isnan(d).any():
+        raise ValueError("d holds NaN: drop the missing differences first")
     nonzero = d != 0
     absd = np.where(nonzero, np.abs(d), np.inf)
     ranks = stats.rankdata(absd, axis=1)  # zeros (inf) rank last; they are masked out below
@@ -46,9 +50,7 @@ def signed_rank_test(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     t_minus = np.where(d < 0, doubled, 0).sum(axis=1)
     w = np.minimum(t_plus, t_minus) / 2.0
     if d.shape[1] > EXACT_WITH_TIES_UP_TO:
-        with np.errstate(invalid="ignore", divide="ignore"):
-            p = np.asarray(stats.wilcoxon(d, axis=1, zero_method="wilcox").pvalue, dtype=float)
-        return w, np.where(nonzero.any(axis=1), p, np.nan)
+        return w, _scipys_p(d, nonzero)
     top = int(doubled.sum(axis=1).max()) + 1
     dist = np.zeros((d.shape[0], top))
     dist[:, 0] = 1.0
@@ -65,6 +67,20 @@ def signed_rank_test(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     above = np.where(index >= t_plus[:, None], dist, 0.0).sum(axis=1)
     p = np.minimum(1.0, 2.0 * np.minimum(below, above))
     return w, np.where(nonzero.any(axis=1), p, np.nan)
+
+
+def _scipys_p(d: np.ndarray, nonzero: np.ndarray) -> np.ndarray:
+    """scipy's p of each row, its default method chosen per row as for that row alone."""
+    magnitudes = np.sort(np.where(nonzero, np.abs(d), np.nan), axis=1)  # zeros (NaN) last
+    ties = (np.diff(magnitudes, axis=1) == 0).any(axis=1)
+    exact = ~ties & nonzero.all(axis=1) & (d.shape[1] <= 50)
+    p = np.full(d.shape[0], np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for rows, method in ((exact, "exact"), (~exact, "asymptotic")):
+            if rows.any():
+                found = stats.wilcoxon(d[rows], axis=1, zero_method="wilcox", method=method)
+                p[rows] = found.pvalue
+    return np.where(nonzero.any(axis=1), p, np.nan)
 
 
 def signed_rank_p(d: np.ndarray) -> np.ndarray:

@@ -82,6 +82,21 @@ def test_p_alone_is_the_tests_p():
     np.testing.assert_array_equal(signed_rank_p(d), signed_rank_test(d)[1])
 
 
-def test_a_vector_is_refused_by_name():
+def test_beyond_13_each_row_gets_the_method_scipy_gives_it_alone():
+    """A tie-free row beside a tied one: scipy given both at once takes the normal
+    approximation for both (0.0076); alone, the first is exact (43 of 2^14 sign flips at least
+    as extreme on each side: 0.0052)."""
+    free = np.arange(1.0, 15.0) * np.where(np.arange(14) < 4, -1, 1)
+    tied = np.round(free / 3)
+    both = np.vstack([free, tied])
+    alone = [stats.wilcoxon(row, zero_method="wilcox").pvalue for row in both]
+    assert signed_rank_p(both) == pytest.approx(alone, abs=1e-12)
+    assert alone[0] == pytest.approx(2 * 43 / 2**14, abs=1e-12)
+    assert stats.wilcoxon(both, axis=1).pvalue[0] == pytest.approx(0.0076, abs=1e-4)
+
+
+def test_a_vector_and_a_missing_difference_are_refused_by_name():
     with pytest.raises(ValueError, match=r"d must be \(rows, differences\)"):
         signed_rank_test(np.ones(3))
+    with pytest.raises(ValueError, match="d holds NaN"):
+        signed_rank_test(np.array([[1.0, np.nan, -2.0]]))
