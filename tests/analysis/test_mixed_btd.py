@@ -123,15 +123,16 @@ def _separated(votes):
     return t
 
 
-def test_a_variance_the_votes_cannot_bound_ends_the_fit_at_once():
+def test_a_variance_beyond_the_bound_ends_the_fit_at_once():
     """With 20 votes a side order, each participant's choice is certain: the participant SD's
-    update from the bound still points outward, so the fit says so after a few updates
-    instead of circling the bound for 200 cycles."""
+    update from the bound still points beyond it (its estimate, with the bound raised, is
+    5.2), so the fit says so after a few updates instead of circling the bound for 200
+    cycles."""
     fit = fit_mixed_btd(_separated(20))
     assert not fit.converged
     assert fit.note == (
-        "the fit did not converge (the participant SD grows beyond 4.5 log-worth units, "
-        "more than the votes can estimate)"
+        "the fit did not converge (the participant SD grows beyond the fit's bound of 4.5 "
+        "log-worth units)"
     )
     assert 0 < fit.iterations < 20
 
