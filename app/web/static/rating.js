@@ -163,6 +163,7 @@
         } else hint.textContent = slider ? T.hint_slider : T.hint_rate;
       }
       function load() {
+        if (retired) return;  // a retry timer of a clip rated before it loaded
         video.preload = "auto";
         video.src = d.videoUrl;
         video.load();
@@ -242,7 +243,7 @@
     function parallelPage() {
       var buttons = root.querySelectorAll(".item-play");
       var sliders = root.querySelectorAll("input[type=range]");
-      var played = {}, moved = {}, current = null;
+      var played = {}, moved = {}, shownItem = null;
 
       function complete() {
         for (var i = 0; i < sliders.length; i++) {
@@ -255,7 +256,7 @@
           var item = buttons[i].dataset.item;
           buttons[i].disabled = state.sent || state.requesting;
           buttons[i].classList.toggle("played", Boolean(played[item]));
-          buttons[i].classList.toggle("playing", state.playing && current === item);
+          buttons[i].classList.toggle("playing", state.playing && shownItem === item);
         }
         for (var j = 0; j < sliders.length; j++) sliders[j].disabled = state.sent;
         next.disabled = state.sent || !complete();
@@ -265,7 +266,7 @@
         if (state.sent || state.requesting) return;
         update();
         askPlay(function () {
-          current = item;
+          shownItem = item;
           var url = item === "reference" ? d.referenceUrl : d.itemUrl + item;
           if (video.getAttribute("src") !== url) {
             video.src = url;
@@ -276,7 +277,7 @@
         update();
       }
       video.addEventListener("playing", function () {
-        if (current !== null && current !== "reference") played[current] = true;
+        if (shownItem !== null && shownItem !== "reference") played[shownItem] = true;
         if (state.presentedAt === null) state.presentedAt = new Date().toISOString();
         update();
       });
@@ -310,7 +311,7 @@
           loading.hidden = true;
           update();
         },
-        play: function () { playItem(current === null ? "reference" : current); },
+        play: function () { playItem(shownItem === null ? "reference" : shownItem); },
         key: function () { return false; }
       };
     }
@@ -376,8 +377,11 @@
       e.preventDefault();
     }
   });
-  window.addEventListener("blur", function () {
-    if (!current.state.sent) current.media.focusLost();
+  // Leaving the window or the tab while a clip is on screen is part of its media log.
+  function lostFocus() { if (!current.state.sent) current.media.focusLost(); }
+  window.addEventListener("blur", lostFocus);
+  document.addEventListener("visibilitychange", function () {
+    if (document.visibilityState === "hidden") lostFocus();
   });
   // A page restored from the back-forward cache would show a rated clip: fetch it anew.
   window.addEventListener("pageshow", function (e) { if (e.persisted) window.location.reload(); });

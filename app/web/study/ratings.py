@@ -57,8 +57,8 @@ class RatingOutcome:
     created: bool
     answered: int
     total: int
-    #: The next trial as the rating page shows it (:func:`app.web.study.enrolment.upcoming`'s
-    #: row), None when there is none to show (every trial answered, screened out).
+    #: The next trial as the rating page shows it (:func:`app.web.study.enrolment.next_trial_of`),
+    #: None when there is none to show (every trial answered, screened out).
     upcoming: Any = None
 
 
