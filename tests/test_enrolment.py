@@ -262,7 +262,8 @@ def test_a_design_is_read_once_and_the_designs_kept_are_bounded(app, web):
 
 
 def test_a_trial_page_marks_the_participant_seen_then_counts(app, participant, web):
-    from app.web.study.enrolment import progress, touch_with_progress
+    from app.web.study.enrolment import touch_with_progress
+    from app.web.study.progress import progress
 
     token = participant.join(_slug(app, web.study(design="all_ordered")))
     participant.vote(participant.current_trial())

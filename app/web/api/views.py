@@ -26,8 +26,8 @@ from app.web.infra.i18n import use_language
 from app.web.infra.limits import fits
 from app.web.jobs.tasks import sweep_study_jobs
 from app.web.models import Job, Participant, Study, Trial
-from app.web.study.enrolment import progress as enrolment_progress
 from app.web.study.medialog import MediaLogError, environment_fields
+from app.web.study.progress import progress as participant_progress
 from app.web.study.ratings import record_rating, shown_items
 from app.web.study.studies import participation
 from app.web.study.votes import (
@@ -345,7 +345,7 @@ def progress(token: str):  # type: ignore[no-untyped-def]
     participant = db.session.scalar(sa.select(Participant).where(Participant.token == token))
     if participant is None:
         return _error("unknown participant", 404)
-    answered, total = enrolment_progress(participant)
+    answered, total = participant_progress(participant)
     return jsonify(
         {"answered": answered, "total": total, "finished": participant.finished_at is not None}
     )

@@ -43,11 +43,11 @@ from app.web.study.enrolment import (
     SESSION_ENDED,
     dropped_after,
     enrol,
-    next_trials,
     practice_stimulus,
     touch_with_progress,
     unstarted_after,
 )
+from app.web.study.progress import next_trials
 from app.web.study.ratings import shown_items
 from app.web.study.studies import participation, rating_scale
 from app.web.study.votes import SCREENED_OUT, replay_policy

@@ -34,7 +34,7 @@ def choose_next_pair(participant: Participant) -> Trial | None:
         .outerjoin(Vote, Vote.trial_id == Trial.id)
         .where(
             Trial.participant_id == participant.id,
-            Trial.kind != "practice",  # as the next pair's query (enrolment.upcoming)
+            Trial.kind != "practice",  # as the next pair's query (progress.upcoming)
             Vote.id.is_(None),
         )
         .order_by(Trial.position)

@@ -23,7 +23,8 @@ from app.trials.design import RATING_DESIGNS
 from app.trials.rating import check_score, parallel_order
 from app.web.extensions import db
 from app.web.models import Condition, Participant, Rating, Trial, utcnow
-from app.web.study.enrolment import SESSION_ENDED, next_trial_of, progress_and_upcoming, touch
+from app.web.study.enrolment import SESSION_ENDED, touch
+from app.web.study.progress import next_trial_of, progress_and_upcoming
 from app.web.study.studies import rating_scale
 from app.web.study.votes import (
     VoteRejected,
@@ -57,7 +58,7 @@ class RatingOutcome:
     created: bool
     answered: int
     total: int
-    #: The next trial as the rating page shows it (:func:`app.web.study.enrolment.next_trial_of`),
+    #: The next trial as the rating page shows it (:func:`app.web.study.progress.next_trial_of`),
     #: None when there is none to show (every trial answered, screened out).
     upcoming: Any = None
 

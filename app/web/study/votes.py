@@ -28,15 +28,10 @@ from app.web.infra import limits
 from app.web.models import Participant, Rating, Study, Trial, Vote, utcnow
 from app.web.study.adaptive import ADAPTIVE, choose_next_pair
 from app.web.study.audiocheck import pending as audio_check_pending
-from app.web.study.enrolment import (
-    SESSION_ENDED,
-    next_trial_of,
-    progress_and_upcoming,
-    rated,
-    touch,
-)
+from app.web.study.enrolment import SESSION_ENDED, touch
 from app.web.study.medialog import MediaLogError, media_fields
 from app.web.study.participants import release_if_left_out
+from app.web.study.progress import next_trial_of, progress_and_upcoming, rated
 from app.web.study.studies import participation, rating_scale
 
 #: What a participant reads when the attention stop rule has ended their session.
@@ -73,7 +68,7 @@ class VoteOutcome:
     created: bool
     answered: int
     total: int
-    #: The next pair as the trial page shows it (:func:`app.web.study.enrolment.upcoming`'s row),
+    #: The next pair as the trial page shows it (:func:`app.web.study.progress.upcoming`'s row),
     #: read in the vote's transaction; None when the schedule is done or the session has ended
     #: (the browser then loads the trial page, which decides).
     upcoming: Any = None
