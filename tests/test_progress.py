@@ -19,14 +19,14 @@ def _person(app, participant, web, **toml) -> str:
     return participant.join(slug)
 
 
-def _row(app, token: str) -> Participant:
+def _row(token: str) -> Participant:
     return db.session.scalar(sa.select(Participant).where(Participant.token == token))
 
 
 def test_the_next_trials_are_the_unanswered_ones_in_schedule_order(app, participant, web):
     token = _person(app, participant, web, design="all_ordered", catch=1)
     with app.app_context():
-        person = _row(app, token)
+        person = _row(token)
         schedule = [
             t.id for t in sorted(person.trials, key=lambda t: t.position) if t.kind != "practice"
         ]
@@ -35,7 +35,7 @@ def test_the_next_trials_are_the_unanswered_ones_in_schedule_order(app, particip
     participant.vote(schedule[0])
     participant.vote(schedule[2])  # out of order: the second stays next
     with app.app_context():
-        person = _row(app, token)
+        person = _row(token)
         assert next_trial(person).id == schedule[1]
         assert [t.id for t in next_trials(person, 2)] == [schedule[1], schedule[3]]
         assert progress(person) == (2, len(schedule))
@@ -48,7 +48,7 @@ def test_a_parallel_trial_counts_once_for_all_its_versions(app, client, particip
     answer = client.post("/api/v1/ratings", json={**payload, "idempotency_key": "progress-1"})
     assert answer.status_code == 201, answer.get_json()
     with app.app_context():
-        person = _row(app, token)
+        person = _row(token)
         assert progress(person) == (1, 1) and next_trial(person) is None
 
 
@@ -58,7 +58,7 @@ def test_the_next_trial_an_answer_carries(app, participant, web):
     )
     token = _person(app, participant, web)
     with app.app_context():
-        person = _row(app, token)
+        person = _row(token)
         shown = next_trial_of(row, person, 1, 3)
         assert (shown.trial_id, shown.kind, shown.following) == (7, "catch", 8)
         assert next_trial_of(row, person, 1, 3, preload=False).following is None
