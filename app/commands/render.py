@@ -41,6 +41,30 @@ def _clip_settings(
     )
 
 
+def _fitted_to_audio(tracks: dict[str, Any], audio: str, fps: float | None, pad: bool) -> None:
+    """Refuse (or, with ``pad``, say in a line) a track longer or shorter than the audio
+    beyond :data:`app.stimuli.lengths.LENGTH_TOLERANCE_S`: the clip takes the audio's
+    words, and a face frozen for its last seconds must not pass unnoticed."""
+    from pathlib import Path
+
+    from app.errors import InputError
+    from app.stimuli import speech
+    from app.stimuli.audiofile import read_audio
+    from app.stimuli.lengths import length_note
+
+    if not Path(audio).is_file():
+        raise InputError("audio file not found", path=audio)
+    decoded = read_audio(audio, max_duration=speech.MAX_DURATION_S)
+    seconds = len(decoded.samples) / decoded.sample_rate
+    for path, track in tracks.items():
+        rate = fps or track.fps
+        note = length_note(
+            track, round(seconds * rate), rate, what="track", path=Path(path).name, pad=pad
+        )
+        if note:
+            click.echo(f"note: {Path(path).name}: {note}", err=True)
+
+
 @contextmanager
 def _progress_bar(label: str):
     from tqdm import tqdm
@@ -117,6 +141,12 @@ def _clip_options(fn: Callable) -> Callable:
         "--fps", type=float, default=None, help="Output frame rate (default: the track's)."
     )(fn)
     fn = click.option(
+        "--pad",
+        is_flag=True,
+        help="Pad (holding the last frame) or cut a track whose length differs from the "
+        "audio's by more than 0.2 s, instead of refusing it.",
+    )(fn)
+    fn = click.option(
         "--workers",
         type=int,
         default=0,
@@ -151,6 +181,7 @@ def pair(
     look: str,
     fps: float | None,
     cache_dir: str | None,
+    pad: bool,
     workers: int,
 ) -> None:
     """Side-by-side clip LEFT | RIGHT over AUDIO, mouths hidden by a mosaic."""
@@ -159,6 +190,7 @@ def pair(
 
     settings = _clip_settings(size, mosaic_block, face, antialias, samples, look, fps, workers)
     tracks = load_track(left), load_track(right)
+    _fitted_to_audio({left: tracks[0], right: tracks[1]}, audio, fps, pad)
     with _progress_bar("render pair") as progress:
         path = render_pair(
             *tracks, audio, out, settings=settings, cache_dir=cache_dir, progress=progress
@@ -184,6 +216,7 @@ def single(
     look: str,
     fps: float | None,
     cache_dir: str | None,
+    pad: bool,
     workers: int,
 ) -> None:
     """Single-face clip of TRACK over AUDIO."""
@@ -192,6 +225,7 @@ def single(
 
     settings = _clip_settings(size, mosaic_block, face, antialias, samples, look, fps, workers)
     track = load_track(track_path)
+    _fitted_to_audio({track_path: track}, audio, fps, pad)
     with _progress_bar("render single") as progress:
         path = render_single(
             track, audio, out, settings=settings, cache_dir=cache_dir, progress=progress

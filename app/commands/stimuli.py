@@ -67,6 +67,19 @@ def convert_notes(track: MotionTrack) -> list[str]:
     return notes
 
 
+def _name_value_pairs(items: tuple[str, ...], option: str, form: str) -> dict[str, str]:
+    """``NAME=VALUE`` options as a mapping, or one line naming the option."""
+    from app.errors import InputError
+
+    out: dict[str, str] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip() or not value.strip():
+            raise InputError(f"expected {form}, got {item!r}", field=option)
+        out[name.strip()] = value.strip()
+    return out
+
+
 def _speech_options(f):
     """Options shared by the commands that analyse speech."""
     f = click.option(
@@ -223,12 +236,36 @@ def fit_head_model(
 )
 @click.option(
     "--eyes",
-    type=click.Choice(["generated", "still", "ground_truth"]),
+    type=click.Choice(["generated", "still", "ground_truth", "own"]),
     default="generated",
     show_default=True,
     help="Gaze and eyelids, the same in every condition of a clip: generated (blinks and "
     "gaze from the live model, or a live_gmm condition's own), still (no blinks, looking "
-    "ahead: the thesis' faces), or the ground truth's.",
+    "ahead: the thesis' faces), or the ground truth's; own keeps each condition's (every "
+    "condition must then carry eye motion).",
+)
+@click.option(
+    "--track",
+    "imported",
+    multiple=True,
+    metavar="NAME=FILE",
+    help="A condition imported from a file (your own system's output, a capture, any track "
+    "facepair imports), sharing the eyes, posture and lower face of the others; repeat.",
+)
+@click.option(
+    "--lips",
+    type=click.Choice(["shared", "own"]),
+    default="shared",
+    show_default=True,
+    help="Jaw, lips and the rest of the lower face: shared (the ground truth's, else the first "
+    "condition's that moves them, in every condition: for clips under the mouth mosaic) or "
+    "own (each condition's, for clips without the mosaic that compare lip motion).",
+)
+@click.option(
+    "--pad",
+    is_flag=True,
+    help="Pad (holding the last frame) or cut a ground truth or imported track whose length "
+    "differs from the speech by more than 0.2 s, instead of refusing it.",
 )
 @click.option(
     "--posture",
@@ -271,6 +308,9 @@ def generate(
     out_dir: str,
     normalize: bool,
     eyes: str,
+    imported: tuple[str, ...],
+    lips: str,
+    pad: bool,
     posture: str,
     seed: int,
     f0_threshold: str,
@@ -296,12 +336,8 @@ def generate(
 
     if conditions is None:
         conditions = "none,random,speech_driven" + (",ground_truth" if ground_truth else "")
-    model_files: dict[str, str] = {}
-    for item in models:
-        name, sep, path = item.partition("=")
-        if not sep or not name.strip() or not path.strip():
-            raise InputError(f"expected CONDITION=PATH, got {item!r}", field="--model")
-        model_files[name.strip()] = path.strip()
+    model_files = _name_value_pairs(models, "--model", "CONDITION=PATH")
+    tracks = _name_value_pairs(imported, "--track", "NAME=FILE")
     bars: list[tqdm] = []  # made on the first report, so an early error prints alone
 
     def progress(done: int, total: int) -> None:
@@ -311,9 +347,14 @@ def generate(
             )
         bars[0].update(done - bars[0].n)
 
+    from app.stimuli.conditions import IMPORTED
     from app.stimuli.generate import parse_conditions
 
     requests = parse_conditions(conditions)
+    for name, path in tracks.items():
+        if name in requests:
+            raise InputError(f"{name!r} is already a condition", field="--track")
+        requests[name] = (IMPORTED, {"track": path})
     sd_params = {"f0_threshold": f0_threshold, "intensity_threshold": intensity_threshold}
     try:
         result = generate_conditions(
@@ -325,6 +366,8 @@ def generate(
             normalize=normalize,
             eyes=eyes,
             posture=posture,
+            lips=lips,
+            pad=pad,
             models=model_files,
             progress=progress,
             pitch_floor=pitch_floor,

@@ -466,12 +466,16 @@ def check_audio_file(path: str | Path, *, max_duration: float | None = None) -> 
     >>> check_audio_file("app/data/demo/speech.wav")  # doctest: +SKIP
     'speech.wav: WAV (16-bit PCM), 16000 Hz, mono, 4.00 s; read directly'
     """
+    return read_speech_audio(path, max_duration=max_duration).summary
+
+
+def read_speech_audio(path: str | Path, *, max_duration: float | None = None) -> DecodedAudio:
+    """:func:`read_audio` with the speech pipeline's limits (length, silence)."""
     from app.stimuli import speech  # speech imports this module: resolve at call time
 
-    decoded = read_audio(
+    return read_audio(
         path,
         max_duration=speech.MAX_DURATION_S if max_duration is None else max_duration,
         min_duration=speech.MIN_DURATION_S,
         silence_peak=speech.SILENCE_PEAK,
     )
-    return decoded.summary

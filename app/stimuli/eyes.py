@@ -17,6 +17,12 @@ faces of a pair blink and move their eyes together:
   did not move, and Le et al.'s head-only comparisons.
 - ``ground_truth``: the captured gaze and eyelids, aligned to the audio (the eye FAPs the
   capture has; those it lacks stay neutral).
+- ``own``: each condition keeps its own eyes, for a study that compares eye motion (imported
+  systems that each model gaze and blinks). Every condition must then carry eye motion: one
+  without (the built-in thesis conditions, a track whose eye columns are 0) is refused, named.
+
+Conditions a researcher imports are no exception: under every mode but ``own`` their eye
+channels are replaced like any other condition's (:mod:`app.stimuli.shared`).
 
 Example
 -------
@@ -40,7 +46,7 @@ from app.stimuli.track import MotionTrack
 
 #: The eye FAPs a study setting controls: eyelids 19-22 and gaze 23-26.
 EYE_CHANNELS: tuple[int, ...] = EYELIDS + GAZE
-EYE_MODES: tuple[str, ...] = ("still", "ground_truth", "generated")
+EYE_MODES: tuple[str, ...] = ("still", "ground_truth", "generated", "own")
 DEFAULT_EYES = "generated"
 
 
@@ -59,13 +65,15 @@ def eye_channels(
     seed: int = 0,
     live_model_path: str | Path | None = None,
 ) -> dict[int, np.ndarray]:
-    """FAPs 19-26 for every condition of one clip under the study's ``eyes`` setting.
+    """FAPs 19-26 for every condition of one clip under the study's ``eyes`` setting (not
+    ``own``, which keeps each condition's).
 
     ``ground_truth`` must already be aligned to ``features`` for ``"ground_truth"``, which
     returns only the eye channels it has; for
     ``"generated"`` the live model at ``live_model_path`` (default: the shipped one) is used.
     """
-    check_eyes(mode)
+    if check_eyes(mode) == "own":
+        raise ValueError("eyes = 'own' sets no shared eye channels")
     n = features.n_frames
     if mode == "still":
         return {c: np.zeros(n) for c in EYE_CHANNELS}

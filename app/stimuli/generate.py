@@ -25,13 +25,23 @@ from typing import Any
 import numpy as np
 
 from app.errors import InputError
-from app.stimuli.conditions import DISPLAY_NAMES, condition_class, make_condition
-from app.stimuli.eyes import DEFAULT_EYES, EYE_CHANNELS, check_eyes, eye_channels
+from app.stimuli.conditions import DISPLAY_NAMES, IMPORTED, condition_class, make_condition
+from app.stimuli.conditions.imported import ImportedCondition
+from app.stimuli.eyes import DEFAULT_EYES, check_eyes, eye_channels
 from app.stimuli.io import load_track, save_track
+from app.stimuli.lengths import length_note
 from app.stimuli.measures import measure_track
 from app.stimuli.normalize import normalize_tracks
 from app.stimuli.posture import DEFAULT_POSTURE, check_posture, rest_posture, share_posture
 from app.stimuli.progress import Progress, progress_steps
+from app.stimuli.shared import (
+    DEFAULT_LIPS,
+    EYE_GROUP,
+    check_lips,
+    face_channels,
+    moves,
+    share_channels,
+)
 from app.stimuli.speech import SpeechFeatures, extract_features
 from app.stimuli.track import MotionTrack, align_to_features
 
@@ -58,7 +68,9 @@ def parse_conditions(
 
     Accepts ``"none,random"``, a list of names (each name is its model), or a mapping from
     name to a model name, to its parameters, or to ``{"model": model, **params}`` (a study
-    file's ``[[conditions]]``, where a condition called ``calm`` may use the model ``random``).
+    file's ``[[conditions]]``, where a condition called ``calm`` may use the model ``random``);
+    ``{"track": path}`` is a condition imported from a file
+    (:mod:`app.stimuli.conditions.imported`).
     """
     if isinstance(conditions, Mapping):
         items = list(conditions.items())
@@ -73,7 +85,7 @@ def parse_conditions(
             model, params = spec, {}
         elif isinstance(spec, Mapping):
             params = dict(spec)
-            model = str(params.pop("model", None) or name)
+            model = str(params.pop("model", None) or (IMPORTED if "track" in params else name))
         elif spec is None:
             model, params = name, {}
         elif isinstance(spec, tuple) and len(spec) == 2 and isinstance(spec[1], Mapping):
@@ -103,6 +115,8 @@ def generate_conditions(
     pitch_ceiling: float | None = None,
     condition_params: Mapping[str, Mapping[str, Any]] | None = None,
     posture: str = DEFAULT_POSTURE,
+    lips: str = DEFAULT_LIPS,
+    pad: bool = False,
 ) -> GenerationResult:
     """Generate the tracks of ``conditions`` for one recording.
 
@@ -110,18 +124,24 @@ def generate_conditions(
     :func:`parse_conditions`); ``condition_params`` adds parameters by name. ``ground_truth``
     is a track or a .fap/.csv path (``None``: the conditions that need it refuse, the others
     do without). ``models`` gives a fitted model file per condition name, used instead of
-    fitting. ``eyes`` sets gaze and eyelids for every condition alike
-    (:mod:`app.stimuli.eyes`). ``posture``: ``"shared"`` gives every condition the ground
-    truth's rest head pose, ``"per_condition"`` keeps each condition's own, as in the thesis'
-    experiment 1 (:mod:`app.stimuli.posture`). ``normalize`` scales and offsets every
-    condition's head angles to the ground truth's mean and sd (thesis sec. 5.3).
-    ``pitch_floor``/``pitch_ceiling``:
-    the speaker's F0 range, estimated from the recording where ``None``.
-    ``progress(done, total)`` is called after each step.
+    fitting. What the study does not test is then made the same in every condition, imported
+    ones included (:mod:`app.stimuli.shared`): ``eyes`` sets gaze and eyelids
+    (:mod:`app.stimuli.eyes`; ``"own"`` keeps each condition's); ``posture``: ``"shared"``
+    gives every condition the ground truth's rest head pose, ``"per_condition"`` keeps each
+    condition's own, as in the thesis' experiment 1 (:mod:`app.stimuli.posture`); ``lips``:
+    ``"shared"`` gives every condition the same jaw, lips and rest of the lower face (under
+    the mouth mosaic), ``"own"`` keeps each condition's (a study that compares lip motion).
+    ``normalize`` scales and offsets every condition's head angles to the ground truth's mean
+    and sd (thesis sec. 5.3). A ground truth or imported track longer or shorter than the
+    speech by more than :data:`app.stimuli.lengths.LENGTH_TOLERANCE_S` is refused unless
+    ``pad`` (:mod:`app.stimuli.lengths`). ``pitch_floor``/``pitch_ceiling``: the speaker's F0
+    range, estimated from the recording where ``None``. ``progress(done, total)`` is called
+    after each step.
     """
     requests = parse_conditions(conditions)
     check_eyes(eyes)
     check_posture(posture)
+    check_lips(lips)
     if ground_truth is None and any(m == "ground_truth" for m, _ in requests.values()):
         raise InputError("the ground_truth condition needs --ground-truth FILE", field="conditions")
     if normalize and ground_truth is None:
@@ -140,8 +160,23 @@ def generate_conditions(
     features = extract_features(
         audio_path, fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling
     )
+    notes: list[str] = []
     gt_track = _load_ground_truth(ground_truth, fps)
-    gt_aligned = align_to_features(gt_track, features) if gt_track is not None else None
+    gt_aligned = None
+    if gt_track is not None:
+        offsets = [p.get("offset", 0.0) for m, p in requests.values() if m == "ground_truth"]
+        named = None if isinstance(ground_truth, MotionTrack) else Path(str(ground_truth)).name
+        note = length_note(
+            gt_track,
+            features.n_frames,
+            features.fps,
+            what="ground truth",
+            path=named,
+            offset=float(offsets[0]) if offsets else 0.0,
+            pad=pad,
+        )
+        notes += [f"{named}: {note}" if named else note] if note else []
+        gt_aligned = align_to_features(gt_track, features)
     step()
 
     tracks: dict[str, MotionTrack] = {}
@@ -153,7 +188,22 @@ def generate_conditions(
                 raise InputError(f"condition {name!r} ({model}) takes no model file", field="model")
             kw["model_path"] = str(models[name])
         cond = make_condition(model, **kw)
-        if gt_aligned is not None:
+        if isinstance(cond, ImportedCondition):
+            source = cond.source_track(features.fps)
+            note = length_note(
+                source,
+                features.n_frames,
+                features.fps,
+                what=f"condition {name}",
+                path=cond.label,
+                offset=cond.offset,
+                pad=pad,
+            )
+            notes += [f"{cond.label}: {note}"] if note else []
+            capture = source.metadata.get("capture")
+            if isinstance(capture, Mapping) and {"samples", "capture_fps"} <= capture.keys():
+                notes.append(capture_note(cond.label, capture, what=f"condition {name}"))
+        elif gt_aligned is not None:
             cond.fit(features, gt_aligned)
         track = cond.generate(features, seed=seed, ground_truth=gt_track)
         track.metadata.update(seed=seed, audio=str(audio_path), model=model)
@@ -165,31 +215,30 @@ def generate_conditions(
     if rest is not None:
         tracks = share_posture(tracks, rest)
 
-    live = [n for n, (m, _) in requests.items() if m == "live_gmm"]
-    if eyes == "generated" and live:  # the live model's own eyes, for every face alike
-        eye_cols = {c: tracks[live[0]][c].copy() for c in EYE_CHANNELS}
-        eyes_from = f"condition {live[0]} (live_gmm)"
-    else:
-        eye_cols = eye_channels(eyes, features, gt_aligned, seed=seed)
-        eyes_from = {"generated": "the shipped live model"}.get(eyes, eyes)
-    tracks = {
-        name: t.with_channels(eye_cols).replace(metadata={**t.metadata, "eyes": eyes})
-        for name, t in tracks.items()
-    }
+    tracks, eyes_from = _share_eyes(tracks, requests, eyes, features, gt_aligned, seed)
+    face_cols, lips_from = face_channels(lips, tracks, gt_aligned)
+    if face_cols is not None:
+        tracks = share_channels(tracks, face_cols)
+    elif len(tracks) > 1:
+        notes.append(
+            "lips = 'own': each condition keeps its own jaw and lip motion (for a study "
+            "without the mouth mosaic that compares it)"
+        )
     step()
 
     factors = None
     if normalize:
         assert gt_aligned is not None  # checked on entry
-        reference = gt_aligned.with_channels(eye_cols)
         gt_names = [n for n, (m, _) in requests.items() if m == "ground_truth"]
-        tracks, factors = normalize_tracks(tracks, gt_names[0] if gt_names else reference)
+        tracks, factors = normalize_tracks(tracks, gt_names[0] if gt_names else gt_aligned)
         step()
 
     summary = _summary(
         audio_path, features, gt_track, gt_aligned, tracks, described, factors, seed, eyes
     )
+    summary["notes"] = notes + summary["notes"]
     summary["eyes_from"] = eyes_from
+    summary["lips"] = {"mode": lips, "from": lips_from}
     summary["posture"] = {
         "mode": posture,
         "rest_head_au": rest,
@@ -199,6 +248,43 @@ def generate_conditions(
     }
     step()
     return GenerationResult(tracks, features, _jsonable(summary))
+
+
+def _share_eyes(
+    tracks: dict[str, MotionTrack],
+    requests: Mapping[str, ConditionRequest],
+    eyes: str,
+    features: SpeechFeatures,
+    gt_aligned: MotionTrack | None,
+    seed: int,
+) -> tuple[dict[str, MotionTrack], str]:
+    """Every track with the clip's eyes under ``eyes`` (:mod:`app.stimuli.eyes`), and where
+    they come from; ``own`` checks that each condition has eyes of its own."""
+    if eyes == "own":
+        lacking = [n for n, t in tracks.items() if not moves(t, EYE_GROUP)]
+        if lacking:
+            named = ", ".join(
+                f"{n} ({tracks[n].metadata['file']})" if "file" in tracks[n].metadata else n
+                for n in lacking
+            )
+            raise InputError(
+                f"eyes = 'own' keeps each condition's own eyes, but condition {named} "
+                "carries no eye motion (FAPs 19-26 absent or 0): give it eye motion, or "
+                "share generated eyes (eyes = 'generated')",
+                field="eyes",
+            )
+        return tracks, "each condition's own"
+    live = [n for n, (m, _) in requests.items() if m == "live_gmm"]
+    if eyes == "generated" and live:  # the live model's own eyes, for every face alike
+        cols = {c: tracks[live[0]].get(c) for c in EYE_GROUP if c in tracks[live[0]].channels}
+        eyes_from = f"condition {live[0]} (live_gmm)"
+    else:
+        cols = eye_channels(eyes, features, gt_aligned, seed=seed)
+        eyes_from = {"generated": "the shipped live model"}.get(eyes, eyes)
+    shared = share_channels(tracks, cols, EYE_GROUP)
+    return {
+        n: t.replace(metadata={**t.metadata, "eyes": eyes}) for n, t in shared.items()
+    }, eyes_from
 
 
 def _load_ground_truth(

@@ -29,6 +29,7 @@ from typing import Any, Final
 from app.errors import InputError
 from app.stimuli.eyes import DEFAULT_EYES, EYE_MODES
 from app.stimuli.posture import DEFAULT_POSTURE, POSTURES
+from app.stimuli.shared import LIP_MODES
 from app.trials.adaptive import MIN_CONDITIONS
 from app.trials.design import DESIGNS, RATING_DESIGNS, REFERENCE_DESIGNS, ConditionPair
 from app.trials.fields import MISSING, describe
@@ -159,6 +160,8 @@ _TOP_KEYS: Final = (
     "block_by_clip",
     "eyes",
     "posture",
+    "lips",
+    "pad",
     "normalize",
     "rejoin",
     "render",
@@ -246,6 +249,8 @@ class _StudyReader(ExperimenterSideReader):
         conditions = self.conditions(top, clips)
         eyes, normalize, render = self.stimulus_settings(top, clips)
         posture = self.choice(top, "posture", "posture", POSTURES, DEFAULT_POSTURE)
+        lips = self.choice(top, "lips", "lips", LIP_MODES, None) if "lips" in top else None
+        pad = bool(self.get(top, "pad", "pad", (bool,), "true or false", False))
         exclude = self.text(top, "exclude", "exclude", "")
         names = [c.name for c in conditions]
         if design in REFERENCE_DESIGNS:
@@ -295,6 +300,8 @@ class _StudyReader(ExperimenterSideReader):
             block_by_clip=bool(block_by_clip),
             eyes=eyes,
             posture=posture,
+            lips=lips,
+            pad=pad,
             normalize=normalize,
             render=render,
             exclude=exclude,

@@ -104,6 +104,12 @@ class StudySpec:
     #: Head rest posture of the conditions (:mod:`app.stimuli.posture`): ``shared`` or
     #: ``per_condition`` (the thesis' experiment 1).
     posture: str = DEFAULT_POSTURE
+    #: The jaw, lips and rest of the lower face (:mod:`app.stimuli.shared`): ``shared``,
+    #: ``own``, or None: shared under the mouth mosaic, each condition's own without it.
+    lips: str | None = None
+    #: Whether a ground truth or imported track longer or shorter than its speech beyond
+    #: :data:`app.stimuli.lengths.LENGTH_TOLERANCE_S` is padded or cut instead of refused.
+    pad: bool = False
     normalize: bool = False
     render: Mapping[str, Any] = field(default_factory=dict)
     exclude: str = ""
@@ -208,6 +214,10 @@ class StudySpec:
         out["eyes"] = self.eyes
         if self.posture != DEFAULT_POSTURE:
             out["posture"] = self.posture
+        if self.lips is not None:
+            out["lips"] = self.lips
+        if self.pad:
+            out["pad"] = True
         out["normalize"] = self.normalize
         out["rejoin"] = self.rejoin
         out["auto_exclude"] = list(self.auto_exclude)

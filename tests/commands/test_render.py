@@ -181,3 +181,16 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, fap_files):
         ["render", "still", "--track", str(a), "--size", "100", "--out", str(tmp_path / "s.png")],
     )
     assert res.exit_code == 2 and "size: must be a multiple of 16" in res.output
+
+
+def test_a_track_off_the_audio_is_refused_in_one_line_unless_padded(tmp_path, fap_files, tone_wav):
+    a, b = fap_files  # 12 frames: 0.4 s
+    args = ["render", "pair", "--left", str(a), "--right", str(b), "--audio", str(tone_wav(2.0))]
+    res = CliRunner().invoke(main, [*args, "--out", str(tmp_path / "x.mp4")])
+    assert res.exit_code == 2
+    assert res.output.strip().splitlines() == [
+        "facepair: error: a.fap: track: 0.40 s of motion for 2.00 s of speech: 1.60 s short, "
+        "beyond the 0.2 s tolerance; check the file, or allow padding and cutting (--pad, or "
+        "pad = true in the study file)"
+    ]
+    assert not (tmp_path / "x.mp4").exists()

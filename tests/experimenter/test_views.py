@@ -402,7 +402,7 @@ def test_disk_full_on_upload_is_507_and_leaves_nothing(app, client, web, tmp_pat
         },
     )
     assert response.status_code == 507
-    assert "disk is full writing s1.fap" in response.get_data(as_text=True)
+    assert "disk is full writing t.fap" in response.get_data(as_text=True)
     assert copied  # the first file was written, then the disk filled up
     with app.app_context():
         assert db.session.scalar(sa.select(sa.func.count()).select_from(Study)) == 0

@@ -5,10 +5,13 @@ import types
 from pathlib import Path
 
 import numpy as np
+import pytest
 import sqlalchemy as sa
 
+from app.errors import InputError
 from app.stimuli.generate import generate_conditions
 from app.stimuli.io import load_track
+from app.stimuli.shared import differing_channels
 from app.trials.studyfile import loads_study
 from app.web.extensions import db
 from app.web.infra.storage import media_dir
@@ -375,13 +378,76 @@ def test_a_teams_own_system_output_is_a_condition_with_its_import_said(app, tmp_
         study = create_study(create_test_user(), spec)
         db.session.commit()
         message = generate_tracks(db.session.get(Study, study.id), lambda done, total: None)
-        ours = next(t for t in db.session.scalars(sa.select(Track)) if t.condition.name == "ours")
-        track = load_track(media_dir(study) / ours.path)
-    assert message.startswith("2 tracks generated; clip s1: ours: track imported from s1.csv")
+        rows = {t.condition.name: t for t in db.session.scalars(sa.select(Track))}
+        track = load_track(media_dir(study) / rows["ours"].path)
+        other = load_track(media_dir(study) / rows["calm"].path)
+    # the file the team uploaded is the one named, not the copy's clip name
+    assert message.startswith(
+        "2 tracks generated; clip s1: condition ours imported from ours_s1.csv"
+    ), message
     # the export has no head rotation and all-zero columns: said, not imported as a still face
     assert "48, 49, 50 absent from the file" in message, message
     assert "their columns are 0 in every frame" in message
     assert track[31].max() == 40 and track[31][:10].max() == 0  # the inner brow raise, in FAP units
+    # its zero eye columns do not make a staring face: both faces have the same eyes
+    assert 19 in track.channels and 23 in track.channels
+    assert differing_channels({"ours": track, "calm": other}) == []
+
+
+def _upload_study(tmp_path, seconds: float, extra: str = "") -> str:
+    """The TOML study with a condition uploaded as a FAP track of ``seconds``, jaw moving."""
+    from app.stimuli.fapfile import write_fap
+    from app.stimuli.track import MotionTrack
+
+    write_tone_wav(tmp_path / "s1.wav", seconds=1.0)
+    n = round(seconds * 30)
+    jaw = 400 * np.sin(np.linspace(0, 6, n)) ** 2
+    write_fap(MotionTrack.from_channels(30.0, {3: jaw, 48: 100 * jaw}), tmp_path / "Our Take.fap")
+    return extra + TOML.format().replace(
+        'name = "lively"\nmodel = "random"', 'name = "ours"\ntracks = { s1 = "Our Take.fap" }'
+    )
+
+
+def test_an_upload_off_its_audio_is_refused_at_upload_unless_the_study_pads(app, tmp_path):
+    from app.web.jobs.tasks import generate_tracks
+    from app.web.study.inputs import check_study_inputs
+
+    spec = loads_study(_upload_study(tmp_path, 0.5), base_dir=tmp_path)
+    with pytest.raises(InputError) as err:
+        check_study_inputs(spec)
+    line = str(err.value)
+    assert line.startswith("Our Take.fap: condition ours, clip s1: track: 0.50 s of motion"), line
+    assert "0.50 s short, beyond the 0.2 s tolerance" in line and "pad = true" in line
+    spec = loads_study(_upload_study(tmp_path, 0.5, "pad = true\n"), base_dir=tmp_path)
+    check_study_inputs(spec)
+    with app.app_context():
+        study = create_study(create_test_user(), spec)
+        db.session.commit()
+        message = generate_tracks(db.session.get(Study, study.id), lambda done, total: None)
+    assert (
+        "clip s1: Our_Take.fap: condition ours: 0.50 s of motion for 1.00 s of speech: " in message
+    )
+    assert "the last 0.50 s hold its last frame" in message
+
+
+@pytest.mark.parametrize(("mosaic", "shared"), [(16, True), (0, False)])
+def test_the_lower_face_is_shared_under_the_mosaic_and_own_without(app, tmp_path, mosaic, shared):
+    from app.web.jobs.tasks import generate_tracks
+
+    text = _upload_study(tmp_path, 1.0).replace("mosaic_block = 16", f"mosaic_block = {mosaic}")
+    spec = loads_study(text, base_dir=tmp_path)
+    with app.app_context():
+        study = create_study(create_test_user(), spec)
+        db.session.commit()
+        message = generate_tracks(db.session.get(Study, study.id), lambda done, total: None)
+        rows = {t.condition.name: t for t in db.session.scalars(sa.select(Track))}
+        tracks = {n: load_track(media_dir(study) / r.path) for n, r in rows.items()}
+    # the uploaded jaw is the only one moving: under the mosaic both faces carry it
+    assert tracks["ours"][3].max() > 0
+    assert (differing_channels(tracks) == []) is shared
+    assert ("each condition keeps its own jaw and lip motion" in message) is not shared
+    if not shared:
+        assert differing_channels(tracks) == [3]
 
 
 def test_render_job_renders_one_face_per_condition_and_clip_in_the_rating_design(

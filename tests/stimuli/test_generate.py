@@ -325,3 +325,37 @@ def test_capture_note_carries_the_importers_warnings():
     assert note.startswith("ground truth imported from take.csv: 600 samples at 60 fps, 2 lost")
     assert "FAPs 23, 24 absent from the file" in note
     assert note.endswith("HeadPitch is constant (0): a take recorded without head rotation?")
+
+
+def test_cli_imports_a_track_as_a_condition_and_refuses_a_short_one(repo_root, tmp_path):
+    from app.stimuli.fapfile import write_fap
+    from app.stimuli.track import MotionTrack
+
+    demo = repo_root / "app" / "data" / "demo"
+    for seconds in (4.0, 2.0):
+        n = int(seconds * 30)
+        write_fap(
+            MotionTrack.from_channels(30, {48: np.linspace(0, 3000, n), 19: np.zeros(n)}),
+            tmp_path / f"mine{seconds:g}.fap",
+        )
+    args = ["stimuli", "generate", "--audio", str(demo / "speech.wav"), "--no-plot"]
+    args += ["--conditions", "none", "--out", str(tmp_path / "out")]
+    ok = CliRunner().invoke(main, [*args, "--track", f"mine={tmp_path / 'mine4.fap'}"])
+    assert ok.exit_code == 0, ok.output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["conditions"]["mine"]["parameters"] == {
+        "model": "imported",
+        "file": "mine4.fap",
+        "offset_s": 0.0,
+    }
+    mine, none = (load_track(tmp_path / "out" / f"{n}.fap") for n in ("mine", "none"))
+    assert np.array_equal(mine.get(19), none.get(19)) and np.array_equal(mine.get(23), none.get(23))
+    short = CliRunner().invoke(main, [*args, "--track", f"mine={tmp_path / 'mine2.fap'}"])
+    assert short.exit_code == 2
+    assert "mine2.fap: condition mine: 2.00 s of motion for 4.00 s of speech" in short.output
+    # one line (the progress bar, cleared by carriage returns, shares it on a terminal)
+    assert len(short.output.strip().split("\n")) == 1
+    padded = CliRunner().invoke(main, [*args, "--pad", "--track", f"m={tmp_path / 'mine2.fap'}"])
+    assert padded.exit_code == 0 and "the last 2.00 s hold its last frame" in padded.output
+    clash = CliRunner().invoke(main, [*args, "--track", f"none={tmp_path / 'mine4.fap'}"])
+    assert clash.exit_code == 2 and "'none' is already a condition" in clash.output

@@ -254,7 +254,7 @@ BAD_FIELDS: list[tuple[dict[str, Any], str]] = [
     ({"clips.0.audio": "media/x.txt"}, "clips[0].audio: expected a .wav or .flac or"),
     ({"clips.0.ground_truth": "media/s2.wav"}, "clips[0].ground_truth: expected a .fap or .csv"),
     ({"clips.0.ground_truth": ""}, "clips[0].ground_truth: must not be empty"),
-    ({"eyes": "closed"}, "eyes: expected one of still, ground_truth, generated, got 'closed'"),
+    ({"eyes": "closed"}, "eyes: expected one of still, ground_truth, generated, own, got 'closed'"),
     ({"posture": "front"}, "posture: expected one of shared, per_condition, got 'front'"),
     ({"normalize": "yes"}, "normalize: expected true or false, got 'yes'"),
     (

@@ -34,6 +34,11 @@ CONDITIONS: dict[str, str] = {
     "live_gmm": "app.stimuli.live.condition:LiveGmmCondition",
 }
 
+#: The condition made from a file rather than chosen by name: a track a researcher brings
+#: (:mod:`app.stimuli.conditions.imported`); not a model a study file names.
+IMPORTED = "imported"
+_IMPORTED_CLASS = "app.stimuli.conditions.imported:ImportedCondition"
+
 #: Condition name -> the name shown in studies and reports (thesis sec. 4.3).
 DISPLAY_NAMES: dict[str, str] = {
     "none": "NO_PROSODY",
@@ -43,17 +48,25 @@ DISPLAY_NAMES: dict[str, str] = {
     "live_gmm": "LIVE_GMM",
 }
 
-__all__ = ["CONDITIONS", "DISPLAY_NAMES", "ConditionModel", "condition_class", "make_condition"]
+__all__ = [
+    "CONDITIONS",
+    "DISPLAY_NAMES",
+    "IMPORTED",
+    "ConditionModel",
+    "condition_class",
+    "make_condition",
+]
 
 
 def condition_class(name: str) -> type[ConditionModel]:
     """Import and return the class registered under ``name`` (InputError if unknown/absent)."""
-    if name not in CONDITIONS:
+    where = _IMPORTED_CLASS if name == IMPORTED else CONDITIONS.get(name)
+    if where is None:
         raise InputError(
             f"unknown condition {name!r}: expected one of {', '.join(CONDITIONS)}",
             field="conditions",
         )
-    module_name, _, class_name = CONDITIONS[name].partition(":")
+    module_name, _, class_name = where.partition(":")
     try:
         module = importlib.import_module(module_name)
     except ModuleNotFoundError as exc:

@@ -43,6 +43,22 @@ class ConditionModel:
         return {}
 
     # -- helpers for subclasses ---------------------------------------------------------------
+    def aligned(
+        self, track: MotionTrack, features: SpeechFeatures, offset: float, **meta: Any
+    ) -> MotionTrack:
+        """A captured or imported ``track`` aligned to ``features`` (thesis sec. 4.3.2),
+        ``offset`` s late, its metadata telling where it came from, and ``meta`` besides."""
+        out = align_to_features(track, features, offset)
+        meta = dict(
+            track.metadata,
+            condition=self.name,
+            offset_s=offset,
+            source_fps=track.fps,
+            source_frames=track.n_frames,
+            **meta,
+        )
+        return out.replace(metadata=meta)
+
     def base_track(self, features: SpeechFeatures, ground_truth: MotionTrack | None) -> MotionTrack:
         """The jaw and lips from ``ground_truth`` (aligned) and neutral prosody channels."""
         from app.stimuli.conditions import DISPLAY_NAMES

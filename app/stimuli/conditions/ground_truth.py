@@ -12,7 +12,7 @@ from typing import Any
 from app.errors import InputError
 from app.stimuli.conditions.base import ConditionModel
 from app.stimuli.speech import SpeechFeatures
-from app.stimuli.track import MotionTrack, align_to_features
+from app.stimuli.track import MotionTrack
 
 
 class GroundTruthCondition(ConditionModel):
@@ -33,18 +33,8 @@ class GroundTruthCondition(ConditionModel):
             )
         from app.stimuli.conditions import DISPLAY_NAMES
 
-        gt = align_to_features(ground_truth, features, self.offset)
-        meta = dict(
-            gt.metadata,
-            condition=self.name,
-            offset_s=self.offset,
-            source_fps=ground_truth.fps,
-            source_frames=ground_truth.n_frames,
-        )
-        return gt.replace(
-            name=DISPLAY_NAMES[self.name],
-            source=ground_truth.source or "ground truth",
-            metadata=meta,
+        return self.aligned(ground_truth, features, self.offset).replace(
+            name=DISPLAY_NAMES[self.name], source=ground_truth.source or "ground truth"
         )
 
     def describe(self) -> dict[str, Any]:

@@ -90,61 +90,70 @@ def beat_interval(stale_after: float) -> float:
 
 
 def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
-    """Motion tracks of every condition on every clip (``app.stimuli.generate``)."""
+    """Motion tracks of every condition on every clip (``app.stimuli.generate``): the models'
+    and the uploaded ones alike, so that uploaded tracks share the eyes, posture and lower
+    face of the clip as every condition does (:mod:`app.stimuli.shared`)."""
     from app.stimuli.eyes import DEFAULT_EYES
-    from app.stimuli.generate import capture_note, generate_conditions
-    from app.stimuli.io import load_track, save_track
+    from app.stimuli.generate import generate_conditions
+    from app.stimuli.io import save_track
     from app.stimuli.posture import DEFAULT_POSTURE
+    from app.stimuli.shared import lips_for
 
     root = media_dir(study)
-    models = [c for c in study.conditions if c.model != "upload"]
     total = len(study.clips) * len(study.conditions)
     done = 0
     notes: list[str] = []
     progress(done, total)
+    settings = study.settings
+    lips = lips_for(settings.get("lips"), (settings.get("render") or {}).get("mosaic_block"))
     for clip in study.clips:
-        tracks = {}
-        if models:
-            result = generate_conditions(
-                media.fetch(study, clip.audio_path),
-                conditions={c.name: {"model": c.model, **c.params} for c in models},
-                ground_truth=(
-                    media.fetch(study, clip.ground_truth_path) if clip.ground_truth_path else None
-                ),
-                seed=study.seed,
-                eyes=study.settings.get("eyes", DEFAULT_EYES),
-                posture=study.settings.get("posture", DEFAULT_POSTURE),
-                normalize=bool(study.settings.get("normalize", False)),
-            )
-            tracks.update(result.tracks)
-            notes += [
-                f"clip {clip.name}: {n}"
-                for n in result.summary["notes"]
-                if n.startswith("ground truth imported")
-            ]
+        conditions: dict[str, dict[str, Any]] = {}
+        for condition in study.conditions:
+            if condition.model != "upload":
+                conditions[condition.name] = {"model": condition.model, **condition.params}
+                continue
+            source = condition.uploads.get(clip.name)
+            if source is None:
+                raise ValueError(
+                    f"condition {condition.name}: no uploaded track for clip {clip.name}"
+                )
+            conditions[condition.name] = {
+                "track": str(media.fetch(study, source)),
+                # stored as uploads/<condition>/<clip>/<the file's own name>
+                "label": Path(source).name,
+            }
+        result = generate_conditions(
+            media.fetch(study, clip.audio_path),
+            conditions=conditions,
+            ground_truth=(
+                media.fetch(study, clip.ground_truth_path) if clip.ground_truth_path else None
+            ),
+            seed=study.seed,
+            eyes=settings.get("eyes", DEFAULT_EYES),
+            posture=settings.get("posture", DEFAULT_POSTURE),
+            lips=lips,
+            pad=bool(settings.get("pad", False)),
+            normalize=bool(settings.get("normalize", False)),
+        )
+        notes += [f"clip {clip.name}: {n}" for n in result.summary["notes"] if _job_note(n)]
         for condition in study.conditions:
             rel = f"tracks/{clip.name}/{condition.name}.fap"
             (root / rel).parent.mkdir(parents=True, exist_ok=True)
-            if condition.model == "upload":
-                source = condition.uploads.get(clip.name)
-                if source is None:
-                    raise ValueError(
-                        f"condition {condition.name}: no uploaded track for clip {clip.name}"
-                    )
-                uploaded = load_track(media.fetch(study, source))
-                capture = uploaded.metadata.get("capture")
-                if capture:  # a tool's own output (Audio2Face, OpenFaceFX, BVH...): say what
-                    note = capture_note(Path(source).name, capture, what="track")
-                    notes.append(f"clip {clip.name}: {condition.name}: {note}")
-                save_track(uploaded, root / rel)
-            else:
-                save_track(tracks[condition.name], root / rel)
+            save_track(result.tracks[condition.name], root / rel)
             media.publish(study, rel)
             _upsert_track(condition.id, clip.id, rel)
             done += 1
             progress(done, total)
     db.session.commit()
-    return "; ".join([f"{done} tracks generated", *notes])
+    if lips == "own" and len(study.conditions) > 1:
+        notes.append("each condition keeps its own jaw and lip motion (no mouth mosaic)")
+    return "; ".join([f"{done} tracks generated", *dict.fromkeys(notes)])
+
+
+def _job_note(note: str) -> bool:
+    """Whether a generation note belongs in the job's message: what happened to a file the
+    experimenter gave (imported, padded or cut), not the models' own remarks."""
+    return " imported from " in note or " s of motion for " in note
 
 
 def _upsert_track(condition_id: int, clip_id: int, rel: str) -> None:

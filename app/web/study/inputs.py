@@ -1,6 +1,7 @@
 """Every file a new study brings, checked before the study is created: each clip's speech
 decodes (:func:`app.stimuli.audiofile.check_audio_file`: container, header, length, silence),
-each ground truth and uploaded track parses (:func:`app.stimuli.io.load_track`). A bad file is
+each ground truth and uploaded track parses (:func:`app.stimuli.io.load_track`) and is as
+long as its clip's speech (:func:`app.stimuli.lengths.length_note`). A bad file is
 refused at upload with the one line the pipeline would have given, naming the file as the
 experimenter uploaded it (never a server path), so it never becomes a failed job."""
 
@@ -9,8 +10,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from app.errors import InputError
-from app.stimuli.audiofile import check_audio_file
+from app.stimuli.audiofile import read_speech_audio
 from app.stimuli.io import load_track
+from app.stimuli.lengths import length_note
 from app.trials.studyspec import StudySpec
 
 
@@ -25,22 +27,38 @@ def check_study_inputs(spec: StudySpec) -> list[str]:
     """Decode or parse every clip's audio and ground truth and every uploaded track of
     ``spec``; the audio files' summary lines. Raises :class:`InputError` naming the file."""
     summaries = []
+    seconds: dict[str, float] = {}
+    offset = next(
+        (
+            float(c.settings.get("offset", 0.0))
+            for c in spec.conditions
+            if c.model == "ground_truth"
+        ),
+        0.0,
+    )
     for clip in spec.clips:
         try:
-            summaries.append(check_audio_file(clip.audio))
+            decoded = read_speech_audio(clip.audio)
         except InputError as exc:
             raise _named(exc, clip.audio, f"the speech of clip {clip.name}") from None
+        summaries.append(decoded.summary)
+        seconds[clip.name] = len(decoded.samples) / decoded.sample_rate
         if clip.ground_truth is not None:
+            what = f"the ground truth of clip {clip.name}"
             try:
-                load_track(clip.ground_truth)
+                _check_track(clip.ground_truth, seconds[clip.name], spec.pad, offset)
             except InputError as exc:
-                raise _named(
-                    exc, clip.ground_truth, f"the ground truth of clip {clip.name}"
-                ) from None
+                raise _named(exc, clip.ground_truth, what) from None
     for condition in spec.conditions:
         for clip_name, path in condition.tracks.items():
             try:
-                load_track(path)
+                _check_track(path, seconds[clip_name], spec.pad)
             except InputError as exc:
                 raise _named(exc, path, f"condition {condition.name}, clip {clip_name}") from None
     return summaries
+
+
+def _check_track(path: Path, seconds: float, pad: bool, offset: float = 0.0) -> None:
+    """A track file parses and, unless ``pad``, is as long as ``seconds`` of speech."""
+    track = load_track(path)
+    length_note(track, round(seconds * track.fps), track.fps, what="track", offset=offset, pad=pad)

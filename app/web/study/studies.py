@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import sqlalchemy as sa
 from flask import current_app
+from werkzeug.utils import secure_filename
 
 from app.analysis.quality import parse_rules
 from app.errors import InputError
@@ -101,6 +102,19 @@ def stimulus_combinations(study: Study) -> list[tuple[str, str, str, str, str]]:
     ]
 
 
+def _stored_name(path: str | Path) -> str:
+    """An uploaded file's name as stored: its own, made safe for any file system, with its
+    extension in lower case (the importers go by it).
+
+    >>> _stored_name("/tmp/x/Nod ARKit.CSV"), _stored_name("../..csv")
+    ('Nod_ARKit.csv', 'track.csv')
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    stem = secure_filename(path.stem)
+    return f"{stem or 'track'}{suffix}"
+
+
 def _copy(study: Study, source: Path, rel: str) -> str:
     target = media_dir(study) / rel
     target.parent.mkdir(parents=True, exist_ok=True)
@@ -171,6 +185,8 @@ def create_study(
             "block_by_clip": spec.block_by_clip,
             "eyes": spec.eyes,
             "posture": spec.posture,
+            "lips": spec.lips,
+            "pad": spec.pad,
             "normalize": spec.normalize,
             "rejoin": spec.rejoin,
             "render": {**spec.render, **(render or {})},
@@ -209,8 +225,9 @@ def _media_rows(study: Study, spec: StudySpec) -> None:
             Clip(name=clip.name, audio_path=audio, ground_truth_path=truth, position=position)
         )
     for position, cond in enumerate(spec.conditions):
+        # each under its own name, which the notes on it use (the researcher knows no other)
         uploads = {
-            clip: _copy(study, Path(path), f"uploads/{cond.name}/{clip}{Path(path).suffix.lower()}")
+            clip: _copy(study, Path(path), f"uploads/{cond.name}/{clip}/{_stored_name(path)}")
             for clip, path in cond.tracks.items()
         }
         study.conditions.append(

@@ -242,23 +242,15 @@ def test_cli_import_and_ground_truth_detection(tmp_path, repo_root):
     assert load_track(tmp_path / "gt.fap").n_frames == 150
     assert load_track(src).channels == read_openface(src, FPS).channels  # by header
     out = tmp_path / "out"
-    r = CliRunner().invoke(
-        main,
-        [
-            "stimuli",
-            "generate",
-            "--audio",
-            str(repo_root / "app" / "data" / "demo" / "speech.wav"),
-            "--ground-truth",
-            str(src),
-            "--out",
-            str(out),
-            "--no-plot",
-            "--conditions",
-            "ground_truth",
-        ],
-    )
+    demo = repo_root / "app" / "data" / "demo" / "speech.wav"
+    args = ["stimuli", "generate", "--audio", str(demo), "--ground-truth", str(src)]
+    args += ["--out", str(out), "--no-plot", "--conditions", "ground_truth"]
+    # a 5-s take for 4 s of speech: refused, unless the cut is asked for
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 2 and "take.csv: ground truth: 5.00 s of motion for 4.00 s" in r.output
+    r = CliRunner().invoke(main, [*args, "--pad"])
     assert r.exit_code == 0, r.output
+    assert "of speech: its last 1.00 s are cut" in r.output
     assert load_track(out / "ground_truth.fap").n_frames == 120
     bad = CliRunner().invoke(
         main, ["capture", "import", str(repo_root / "README.md"), "--out", str(tmp_path / "x.fap")]
