@@ -12,6 +12,7 @@ PosixPath('/tmp/facepair-doctest.png')
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 from collections.abc import Callable
@@ -29,7 +30,7 @@ from renderer.face import Face
 from renderer.gl import check_antialias
 from renderer.pipeline import align_tracks, render_frames
 
-RENDERER_VERSION = "1.5"
+RENDERER_VERSION = "1.6"
 
 log = logging.getLogger(__name__)
 
@@ -141,18 +142,32 @@ class RenderSettings:
 
 def load_face(settings: RenderSettings) -> Face:
     """The face the settings name: a face JSON file, a glTF / VRM avatar, or the built-in
-    head."""
+    head. A file is read once while it (and an avatar's sidecar) stays as it is: a study
+    renders every clip with one avatar, which may take a second to read."""
     if settings.face is None:
         from renderer.headmodel import builtin_face
 
         return builtin_face(settings.look)
-    if Path(settings.face).suffix.lower() in AVATAR_SUFFIXES:
+    path = Path(settings.face)
+    stamps: list[tuple[int, int] | None] = []
+    for p in (path, path.with_name(path.stem + ".avatar.json")):
+        try:
+            stat = p.stat()
+            stamps.append((stat.st_mtime_ns, stat.st_size))
+        except OSError:
+            stamps.append(None)
+    return _read_face(str(path.resolve()), tuple(stamps))
+
+
+@functools.lru_cache(maxsize=2)
+def _read_face(path: str, _stamps: tuple) -> Face:
+    if Path(path).suffix.lower() in AVATAR_SUFFIXES:
         from renderer.avatar import load_avatar
 
-        return load_avatar(settings.face)
+        return load_avatar(path)
     from renderer.objface import load_face as load_face_file
 
-    return load_face_file(settings.face)
+    return load_face_file(path)
 
 
 def _render_clip(

@@ -35,6 +35,8 @@ import numpy as np
 
 from app.errors import InputError
 from app.stimuli.capture.arkit import ARKIT_MAP, BLENDSHAPES, arkit_weights
+from renderer.avatareyes import eye_geometry, find_eyes
+from renderer.avatarmouth import head_region, mouth_points, opening_shape
 from renderer.deform import EYE_TURNS, HEAD_TURNS, Rig, about, fap_rotation
 from renderer.face import MOUTH_FEATURE_POINTS, Face, fapu_from_feature_points, vertex_normals
 from renderer.gltfio import GltfScene, read_gltf
@@ -42,6 +44,9 @@ from renderer.lips import MOUTH_SHAPES, mouth_faps, mouth_weights
 from renderer.shapenames import VRM_PRESETS, arkit_spelling, canonical
 from renderer.skin import ZoneNormals, one_ring
 
+#: A normal delta smaller than this (per component) is rounding, not a turn of the surface
+#: (the file's deltas carry noise of 1e-7; a turn of 0.01 degree is 1.7e-4).
+NORMAL_CHANGE = 1e-5
 #: Avatar file suffixes ``RenderSettings.face`` accepts.
 AVATAR_SUFFIXES: tuple[str, ...] = (".glb", ".gltf", ".vrm")
 #: The bones the rotations of the ARKit table turn (VRM humanoid names).
@@ -100,6 +105,10 @@ class AvatarFace(Face):
     drives: dict[str, tuple[str, ...]] = field(default_factory=dict)
     eye_pivots: dict[str, np.ndarray] = field(default_factory=dict)
     file_normals: np.ndarray | None = None
+    #: how the eyes were found (:mod:`renderer.avatareyes`), for what a command reports
+    eyes_found: str = ""
+    #: what was inferred about the avatar, one line each (the eyes, a shape standing in)
+    notes: list[str] = field(default_factory=list)
 
     def normals(self) -> np.ndarray:
         """The file's vertex normals (they stay smooth across UV seams), else computed."""
@@ -151,6 +160,19 @@ class AvatarRig(Rig):
                 face.n_vertices,
             )
         )
+        # the mosaic's reach (renderer.mouthregion): motion of a sculpted shape smaller than a
+        # five-hundredth of the eye distance (a fifth of a pixel at the default size) or above
+        # the middle of the nose is no mouth motion; the face is drawn with its mouth at rest
+        fp = face.feature_points
+        eyes_y = (fp["3.5"][1] + fp["3.6"][1]) / 2.0
+        mouth_y = (fp["2.2"][1] + fp["2.3"][1]) / 2.0
+        self.motion_tolerance = 0.002 * float(np.linalg.norm(fp["3.5"] - fp["3.6"]))
+        self.normal_tolerance = 0.01
+        self.mouth_ceiling = float(eyes_y - 0.45 * (eyes_y - mouth_y))
+        if self.zone_normals is not None:
+            # the file's normals (smooth across UV seams) turn by what the motion changes in
+            # the recomputed ones; where nothing moves they stay the file's, bit for bit
+            self.rest_zone_normals = self.zone_normals(self.v0)
         self._set_pose({s: face.eye_pivots.get(s, face.eye_centre(s)) for s in ("l", "r")})
         self.rest_mouth_vertices = None
 
@@ -170,77 +192,21 @@ class AvatarRig(Rig):
             z = self.zone
             pos[z] += np.tensordot(coeff[on], self.dpos[on], axes=1)
             if self.zone_normals is None:
-                n = self.n0[z] + np.tensordot(coeff[on], self.dnrm[on], axes=1)
-                nrm[z] = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+                z, change = z, np.tensordot(coeff[on], self.dnrm[on], axes=1)
             else:
-                nrm[self.zone_normals.zone] = self.zone_normals(pos)
+                z = self.zone_normals.zone
+                change = self.zone_normals(pos) - self.rest_zone_normals
+            # only normals that turn are renormalised: rounding elsewhere would read as motion
+            # of the whole face (renderer.mouthregion bounds what the mouth changes)
+            turned = np.abs(change).max(axis=1) > NORMAL_CHANGE
+            n = self.n0[z[turned]] + change[turned]
+            nrm[z[turned]] = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
         eyes = {
             side: about(fap_rotation(f, turns), self.eye_centres[side])
             for side, turns in EYE_TURNS.items()
         }
         head = fap_rotation(f, HEAD_TURNS)
         return FaceFrame(pos, nrm, about(head, self.pivot), eyes["l"], eyes["r"])
-
-
-def mouth_points(
-    vertices: np.ndarray, jaw: np.ndarray, eye_l: np.ndarray, eye_r: np.ndarray
-) -> dict[str, int]:
-    """Mouth feature points (2.2-2.9, 8.1-8.8) of an avatar as vertex indices, from the
-    displacement ``jaw`` (n, 3) of its ``JawOpen`` shape and its eye positions.
-
-    The lower lip's middle (2.3, 8.2) is the highest vertex near the midline that the jaw
-    moves by at least half its largest displacement, among the front-most ones (the lower
-    teeth and tongue move too, behind it); the upper lip's (2.2, 8.1) the nearest vertex above
-    it, not behind it, that the jaw barely moves. The corners lie 0.4 eye distances (an
-    adult's mouth width is about 0.8 of the pupil distance) to either side, set back a little;
-    the points between are halfway. Each is the nearest vertex to where it is expected.
-    """
-    v = np.asarray(vertices, dtype=np.float64)
-    disp = np.linalg.norm(jaw, axis=1)
-    es = float(np.linalg.norm(eye_l - eye_r))
-    mid = (eye_l + eye_r) / 2.0
-    near_mid = (np.abs(v[:, 0] - mid[0]) < 0.15 * es) & (v[:, 1] < mid[1] - 0.3 * es)
-    moved = near_mid & (disp >= 0.5 * disp.max())
-    if not moved.any():
-        raise InputError(
-            "JawOpen moves no vertex below the eyes near the midline: the mouth "
-            "cannot be found (give its feature points in the sidecar)",
-            field="feature_points",
-        )
-    front = moved & (v[:, 2] > v[moved, 2].max() - 0.25 * es)
-    central = front & (np.abs(v[:, 0] - mid[0]) < 0.05 * es)
-    front = central if central.any() else front
-    lower = int(np.flatnonzero(front)[np.argmax(v[front, 1])])
-    above = (
-        near_mid
-        & (disp < 0.15 * disp.max())
-        & (v[:, 1] >= v[lower, 1])
-        & (v[:, 1] < v[lower, 1] + 0.5 * es)
-        & (v[:, 2] > v[lower, 2] - 0.1 * es)
-    )
-    upper = (
-        int(np.flatnonzero(above)[np.argmin(np.linalg.norm(v[above] - v[lower], axis=1))])
-        if above.any()
-        else _nearest(v, v[lower] + [0.0, 0.05 * es, 0.0])
-    )
-    centre = (v[upper] + v[lower]) / 2.0
-    centre[0] = mid[0]
-    corner = {s: _nearest(v, centre + [s * 0.4 * es, 0.0, -0.12 * es]) for s in (1, -1)}
-    out = {"2.2": upper, "2.3": lower, "2.4": corner[1], "2.5": corner[-1]}
-    for name, a, b in (
-        ("2.6", upper, corner[1]),
-        ("2.7", upper, corner[-1]),
-        ("2.8", lower, corner[1]),
-        ("2.9", lower, corner[-1]),
-    ):
-        out[name] = _nearest(v, (v[a] + v[b]) / 2.0)
-    for inner, outer in zip(MOUTH_FEATURE_POINTS[:8], MOUTH_FEATURE_POINTS[8:], strict=True):
-        out[outer] = out[inner]
-    return out
-
-
-def _nearest(v: np.ndarray, point: np.ndarray) -> int:
-    return int(np.argmin(np.linalg.norm(v - point, axis=1)))
 
 
 def _sidecar(path: Path, scene: GltfScene) -> dict[str, Any]:
@@ -320,38 +286,95 @@ def _subtree(parents: np.ndarray, root: int) -> np.ndarray:
     return inside
 
 
+def _node_facts(scene: GltfScene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per node: how many vertices it moves (skinned to it by more than half, or in a mesh of
+    its subtree), its depth in the hierarchy, and the x of what it holds (else its own)."""
+    k = len(scene.parents)
+    depth = np.zeros(k, int)
+    for i in range(k):
+        j = scene.parents[i]
+        while j >= 0 and depth[i] <= k:
+            depth[i] += 1
+            j = scene.parents[j]
+    main = scene.influence_nodes[np.arange(len(scene.vertices)), scene.influence_weights.argmax(1)]
+    holds = np.zeros(k, int)
+    x = scene.world[:, 0, 3].copy()
+    for node in range(k):
+        inside = _subtree(scene.parents, node)[main]
+        holds[node] = int(inside.sum())
+        if holds[node]:
+            x[node] = float(scene.vertices[inside, 0].mean())
+    return holds, depth, x
+
+
+def _rig_nodes(scene: GltfScene, spec: dict[str, Any]) -> tuple[dict[str, int | None], str]:
+    """The head and eye nodes (None where absent) and how the eyes were found: the sidecar's
+    and the VRM humanoid's names first, then the naming conventions of
+    :mod:`renderer.avatareyes` with the sides taken from the geometry."""
+    bones = spec.get("bones", {})
+
+    def named(k: str) -> int | None:
+        if isinstance(bones.get(k), int):
+            return int(bones[k])
+        if isinstance(bones.get(k), str) or k not in scene.humanoid:
+            return _find(k, scene.node_names, bones) if k == "head" or k in bones else None
+        return scene.humanoid[k]
+
+    nodes: dict[str, int | None] = {k: named(k) for k in ("head", "leftEye", "rightEye")}
+    how = "as named in the sidecar or the VRM humanoid"
+    if nodes["leftEye"] is None or nodes["rightEye"] is None:
+        labels = [f"{n} {m}" for n, m in zip(scene.node_names, scene.mesh_names, strict=True)]
+        found = find_eyes(labels, *_node_facts(scene))
+        if found is not None:
+            nodes["leftEye"], nodes["rightEye"] = found.nodes["l"], found.nodes["r"]
+            how = found.how
+    return nodes, how
+
+
+def _eye_error(scene: GltfScene, path: Path) -> InputError:
+    seen = [
+        n
+        for n, m in zip(scene.node_names, scene.mesh_names, strict=True)
+        if "eye" in f"{n}{m}".lower()
+    ]
+    found = f"nodes naming an eye: {', '.join(seen[:8])}" if seen else "no node names an eye"
+    return InputError(
+        f"the eyes cannot be found ({found}); name the eye nodes in {path.stem}.avatar.json "
+        '({"bones": {"leftEye": ..., "rightEye": ...}}, the character\'s own left and right; '
+        "see docs/reference/renderer.md, Avatars)",
+        path=path,
+    )
+
+
 def load_avatar(path: str | Path) -> AvatarFace:
     """Read a glTF / VRM avatar as an :class:`AvatarFace` (see the module docstring)."""
     path = Path(path)
     scene = read_gltf(path)
     spec = _sidecar(path, scene)
-    shapes_needed, bones_needed = driven()
-    shapes, drives = _shapes(scene, list(shapes_needed), spec.get("blendshapes", {}))
+    shapes_needed, _bones = driven()
+    renamed = spec.get("blendshapes", {})
+    shapes, drives = _shapes(scene, list(shapes_needed), renamed)
+    absent = {canonical(k) for k, v in renamed.items() if v is None}
     covered = set(shapes) | {s for d in drives.values() for s in d}
-    nodes = {
-        k: (
-            spec["bones"][k]
-            if isinstance(spec.get("bones", {}).get(k), int)
-            else scene.humanoid.get(k, _find(k, scene.node_names, spec.get("bones", {})))
-        )
-        for k in bones_needed
-    }
     lacking = [
         f"blendshape {arkit_spelling(k)} (FAP {', '.join(map(str, faps))})"
         for k, faps in shapes_needed.items()
-        if k not in covered
+        if k not in covered and canonical(k) not in absent
     ]
-    lacking += [
-        f"bone {k} (FAP {', '.join(map(str, bones_needed[k]))})"
-        for k, i in nodes.items()
-        if i is None or not 0 <= i < len(scene.parents)
-    ]
+    nodes, eyes_how = _rig_nodes(scene, spec)
+    unskinned = scene.skinned is None or not scene.skinned.any()
+    if nodes["head"] is None and not unskinned:
+        lacking.append("bone head (FAP 48, 49, 50)")
     if lacking:
         raise InputError(
             "missing " + "; ".join(lacking) + " (rename them in "
-            f"{path.stem}.avatar.json, see docs/reference/renderer.md)",
+            f"{path.stem}.avatar.json, or declare them absent with null; see "
+            "docs/reference/renderer.md)",
             path=path,
         )
+    eye_nodes = (nodes["leftEye"], nodes["rightEye"])
+    if any(i is None or not 0 <= i < len(scene.parents) for i in eye_nodes):
+        raise _eye_error(scene, path)
     targets = {k: (dp.astype(np.float32), dn.astype(np.float32)) for k, (dp, dn) in shapes.items()}
     total = np.maximum(scene.influence_weights.sum(axis=1), 1e-12)
 
@@ -359,24 +382,40 @@ def load_avatar(path: str | Path) -> AvatarFace:
         inside = _subtree(scene.parents, node)[scene.influence_nodes]
         return (scene.influence_weights * inside).sum(axis=1) / total
 
-    head = share(nodes["head"])  # type: ignore[arg-type]
+    v = scene.vertices
     groups = {
         f"eyeball_{s}": np.flatnonzero(share(nodes[b]) > 0.5)  # type: ignore[arg-type]
         for s, b in (("l", "leftEye"), ("r", "rightEye"))
     }
-    for name, value in spec.get("groups", {}).items():
-        groups[name] = np.asarray(value, dtype=np.int64)
     pivots = {
         s: scene.world[nodes[b], :3, 3].copy()  # type: ignore[index]
         for s, b in (("l", "leftEye"), ("r", "rightEye"))
     }
-    v = scene.vertices
+    pupils = dict(pivots)
+    balls = {s: v[groups[f"eyeball_{s}"]] for s in ("l", "r")}
+    middles = {s: (b.min(axis=0) + b.max(axis=0)) / 2.0 for s, b in balls.items() if len(b)}
+    inter_eye = float(
+        np.linalg.norm(middles["l"] - middles["r"])
+        if len(middles) == 2
+        else np.linalg.norm(pivots["l"] - pivots["r"])
+    )
+    for s in ("l", "r"):
+        placed = eye_geometry(balls[s], pivots[s], max(inter_eye, 1e-9))
+        if placed is not None:  # a bone away from its eyeball (VRoid's): the eyeball decides
+            pupils[s], pivots[s] = placed
+    # a head made of unskinned meshes (Face Cap's) turns as one, its eyes and teeth too
+    head = np.ones(len(v)) if unskinned else share(nodes["head"])  # type: ignore[arg-type]
+    for name, value in spec.get("groups", {}).items():
+        groups[name] = np.asarray(value, dtype=np.int64)
+    eyes = (pupils["l"] + pupils["r"]) / 2.0
+    es = float(np.linalg.norm(pupils["l"] - pupils["r"]))
+    neck = (
+        scene.world[nodes["head"], :3, 3].copy()  # type: ignore[index]
+        if nodes["head"] is not None
+        else eyes + np.array([0.0, -0.87, -1.61]) * es  # the built-in head's proportions
+    )
     fp_vertices: dict[str, int] = {}
-    points: dict[str, np.ndarray] = {
-        "3.5": pivots["l"],
-        "3.6": pivots["r"],
-        "7.1": scene.world[nodes["head"], :3, 3].copy(),
-    }  # type: ignore[index]
+    points: dict[str, np.ndarray] = {"3.5": pupils["l"], "3.6": pupils["r"], "7.1": neck}
     for name, value in spec.get("feature_points", {}).items():
         if isinstance(value, int) and 0 <= value < len(v):
             fp_vertices[name] = value
@@ -387,8 +426,26 @@ def load_avatar(path: str | Path) -> AvatarFace:
             raise InputError(
                 "expected a vertex index or [x, y, z]", path=path, field=f"feature_points.{name}"
             )
+    notes = [f"eyes found {eyes_how}"]
+    pool = {k: dp for k, (dp, _) in scene.expressions.items()}
+    pool.update({k: dp for k, (dp, _) in scene.targets.items()})
+    opening = opening_shape(pool, head_region(v, pupils["l"], pupils["r"]))
+    jaw = targets.get("JawOpen")
+    if opening is not None and jaw is not None and not np.abs(jaw[0]).any():
+        # VRoid's exports carry an empty jawOpen: FAP 3 opens the jaw by the shape that does
+        shape = scene.targets.get(opening[0]) or scene.expressions.get(opening[0])
+        if shape is not None:
+            targets["JawOpen"] = (shape[0].astype(np.float32), shape[1].astype(np.float32))
+            notes.append(f"jawOpen moves nothing: {opening[0]} opens the jaw instead")
     if not all(k in fp_vertices for k in MOUTH_FEATURE_POINTS):
-        fp_vertices.update(mouth_points(v, targets["JawOpen"][0], pivots["l"], pivots["r"]))
+        if opening is None:
+            raise InputError(
+                "no mouth shape (jawOpen, aa, mouthOpen, mouth...) moves the face below the "
+                "eyes: the mouth cannot be found (give its feature points 2.2-2.9 in "
+                f"{path.stem}.avatar.json)",
+                path=path,
+            )
+        fp_vertices.update(mouth_points(v, opening[1], pupils["l"], pupils["r"]))
         points.update({k: v[fp_vertices[k]].copy() for k in MOUTH_FEATURE_POINTS})
     # one texture for the whole avatar is sampled per pixel, as the built-in head's is
     colors = scene.colors if scene.untextured_colors is None else scene.untextured_colors
@@ -408,6 +465,8 @@ def load_avatar(path: str | Path) -> AvatarFace:
         file_normals=scene.normals,
         uvs=scene.uvs,
         texture=scene.texture,
+        eyes_found=eyes_how,
+        notes=notes,
     )
 
 

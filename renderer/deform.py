@@ -181,7 +181,18 @@ class FaceFrame:
 
 
 class Rig:
-    """The deformation of one face, precomputed once: zones, weights, pivots."""
+    """The deformation of one face, precomputed once: zones, weights, pivots.
+
+    What counts as the mouth's motion for the mosaic (:mod:`renderer.mouthregion`): a vertex
+    moved by more than ``motion_tolerance`` or whose normal turns by more than
+    ``normal_tolerance``, no higher than ``mouth_ceiling`` (None: anywhere). The built-in head
+    counts every change; an avatar's sculpted shapes move skin up to the brows by fractions of
+    a pixel (:class:`renderer.avatar.AvatarRig`).
+    """
+
+    motion_tolerance: float = 0.0
+    normal_tolerance: float = 0.0
+    mouth_ceiling: float | None = None
 
     def __init__(self, face: Face) -> None:
         self.face = face

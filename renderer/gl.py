@@ -129,9 +129,15 @@ in vec3 v_spec;
 in vec2 v_uv;
 out vec4 f_color;
 void main() {
-    f_color = vec4(texture(albedo, v_uv).rgb * v_light + v_spec, 1.0);
+    vec4 texel = texture(albedo, v_uv);
+    CUTOUT
+    f_color = vec4(texel.rgb * v_light + v_spec, 1.0);
 }
 """
+
+#: A texel a cut-out material does not draw (alpha made 0 or 1 per material, with filtering
+#: in between: :mod:`renderer.gltftexture`), dropped before it writes colour or depth.
+_CUTOUT = "if (texel.a < 0.5) discard;"
 
 #: Discontinuity edge overdraw (see :mod:`renderer.edges`): each input triangle is an edge
 #: (a, b) plus the vertex opposite it in its front-facing triangle; out comes a strip reaching
@@ -183,6 +189,7 @@ VARYINGS_IN
 noperspective in float g_dist;
 out vec4 f_color;
 void main() {
+    CUTOUT
     f_color = vec4(COLOUR, clamp(1.0 - g_dist, 0.0, 1.0));
 }
 """
@@ -197,8 +204,9 @@ _TEXTURED: tuple[tuple[tuple[str, str], ...], str, str] = (
 )
 
 
-def shaders(textured: bool) -> dict[str, str]:
-    """The GLSL of the face and of its edge overdraw, plain (per-vertex colour) or textured."""
+def shaders(textured: bool, cutout: bool = False) -> dict[str, str]:
+    """The GLSL of the face and of its edge overdraw, plain (per-vertex colour) or textured;
+    ``cutout``: the texture's alpha says which texels are drawn (an avatar's masked cards)."""
     varyings, uniforms, colour = _TEXTURED if textured else _PLAIN
     names = [name for _, name in varyings]
 
@@ -212,14 +220,17 @@ def shaders(textured: bool) -> dict[str, str]:
     )
     for n in names:
         colour = colour.replace(f"v_{n}", f"g_{n}")
+    cut = "vec4 texel = texture(albedo, g_uv); " + _CUTOUT if textured and cutout else ""
     edge_fragment = (
         _EDGE_FRAGMENT.replace("UNIFORMS", uniforms)
         .replace("VARYINGS_IN", declare("in {type} g_{name};"))
+        .replace("CUTOUT", cut)
         .replace("COLOUR", colour)
     )
+    fragment = _FRAGMENT_TEXTURED.replace("CUTOUT", _CUTOUT if cutout else "")
     return {
         "vertex": _VERTEX_TEXTURED if textured else _VERTEX,
-        "fragment": _FRAGMENT_TEXTURED if textured else _FRAGMENT,
+        "fragment": fragment if textured else _FRAGMENT,
         "flat_fragment": _FRAGMENT_FLAT,
         "edge_geometry": geometry,
         "edge_fragment": edge_fragment,
@@ -334,16 +345,19 @@ def project(vp: np.ndarray, points: np.ndarray, size: int) -> np.ndarray:
     return np.column_stack([(ndc[:, 0] + 1) * size / 2, (1 - ndc[:, 1]) * size / 2])
 
 
-def flat_colors(face) -> np.ndarray:
+def flat_colors(face, *, alpha: bool = False) -> np.ndarray:
     """A textured face's vertex colours times the texel at each vertex's UV (the nearest, as
-    the texture's wrap takes it), for the triangles drawn without the texture."""
+    the texture's wrap takes it), for the triangles drawn without the texture; ``alpha``:
+    that texel's coverage instead (0..1, 1 for an RGB texture)."""
     tex = np.asarray(face.texture, dtype=np.float32) / 255.0
     h, w = tex.shape[:2]
     uv = np.asarray(face.uvs, dtype=np.float64)
     cols = np.floor(uv[:, 0] % 1.0 * w).astype(int) % w
     rows = np.clip(np.floor(uv[:, 1] * h).astype(int), 0, h - 1)
+    if alpha:
+        return tex[rows, cols, 3] if tex.shape[2] == 4 else np.ones(len(uv), np.float32)
     out = np.array(face.colors, dtype=np.float32)
-    out[:, :3] *= tex[rows, cols]
+    out[:, :3] *= tex[rows, cols, :3]
     return out
 
 
@@ -352,7 +366,8 @@ MIPMAP_LEVELS = 3
 
 
 def albedo_texture(ctx, pixels: np.ndarray):
-    """A mipmapped RGB texture of ``pixels`` (h, w, 3) uint8, row 0 at v = 0.
+    """A mipmapped RGB texture of ``pixels`` (h, w, 3) uint8 (RGBA for (h, w, 4): an avatar's
+    cut-outs), row 0 at v = 0.
 
     Mipmaps, as the head's texels are finer than its pixels at 368 px (pores and brow hairs
     would shimmer as the head moves); bilinear within the nearest level, which llvmpipe
@@ -364,7 +379,7 @@ def albedo_texture(ctx, pixels: np.ndarray):
     import moderngl
 
     pixels = np.ascontiguousarray(pixels, dtype=np.uint8)
-    texture = ctx.texture((pixels.shape[1], pixels.shape[0]), 3, pixels.tobytes())
+    texture = ctx.texture((pixels.shape[1], pixels.shape[0]), pixels.shape[2], pixels.tobytes())
     texture.build_mipmaps(max_level=MIPMAP_LEVELS)
     texture.filter = (moderngl.LINEAR_MIPMAP_NEAREST, moderngl.LINEAR)
     texture.repeat_x, texture.repeat_y = True, False
@@ -397,7 +412,8 @@ class FaceCanvas:
         self.background = background
         self.vp, self.camera = camera_for(rig)
         face = rig.face
-        glsl = shaders(face.textured)
+        cutout = face.textured and np.asarray(face.texture).shape[2] == 4
+        glsl = shaders(face.textured, cutout)
         self.prog = ctx.program(vertex_shader=glsl["vertex"], fragment_shader=glsl["fragment"])
         self.static = ctx.buffer(face.colors.astype("f4").tobytes())
         self.texture = self.uv_buffer = None
@@ -409,17 +425,21 @@ class FaceCanvas:
         # fetch, which is most of what the texture costs on llvmpipe. Order: flat, textured,
         # so a pass is at most two draws
         flat = np.zeros(face.n_triangles, bool)
+        triangles = face.triangles
         if face.textured:
             uv = np.asarray(face.uvs)[face.triangles]
             flat = (uv == uv[:, :1]).all(axis=(1, 2))
+            if cutout:  # a flat triangle on a cut-out texel is not drawn at all
+                drawn = ~flat | (flat_colors(face, alpha=True)[triangles[:, 0]] >= 0.5)
+                triangles, flat = triangles[drawn], flat[drawn]
         # the inside of the mouth (cavity, teeth, tongue) at both ends, so a face whose lips
         # are closed, where none of it can show, is drawn without it (draw)
         inside = np.zeros(face.n_vertices, bool)
         inside[face.groups.get("mouth_interior", [])] = True
-        interior = inside[face.triangles].all(axis=1)
+        interior = inside[triangles].all(axis=1)
         order = [flat & interior, flat & ~interior, ~flat & ~interior, ~flat & interior]
         self.index = ctx.buffer(
-            np.concatenate([face.triangles[m] for m in order]).astype("i4").tobytes()
+            np.concatenate([triangles[m] for m in order]).astype("i4").tobytes()
         )
         ends = np.cumsum([int(m.sum()) for m in order])
         #: the triangles of a face with its lips closed: all but the inside of the mouth
@@ -435,7 +455,8 @@ class FaceCanvas:
             self._vertex_array(self.prog, pos, nrm, self.index) for pos, nrm in self.dynamic
         ]
         #: per face, (first, end, vertex array) runs of triangles in drawing order
-        self.runs = [[(0, face.n_triangles, vao)] for vao in self.vaos]
+        self.n_triangles = len(triangles)
+        self.runs = [[(0, self.n_triangles, vao)] for vao in self.vaos]
         programs = [self.prog]
         if face.textured:
             self.flat_static = ctx.buffer(flat_colors(face).astype("f4").tobytes())
@@ -455,8 +476,8 @@ class FaceCanvas:
         if antialias == "edges":
             hidden = np.zeros(face.n_vertices, bool)
             hidden[face.groups.get("hidden_outline", [])] = True
-            self.edges = edge_table(face.triangles, hidden)
-            self.triangles = np.asfortranarray(face.triangles, dtype=np.intp)
+            self.edges = edge_table(triangles, hidden)
+            self.triangles = np.asfortranarray(triangles, dtype=np.intp)
             self.edge_prog = ctx.program(
                 vertex_shader=glsl["vertex"],
                 geometry_shader=glsl["edge_geometry"],
@@ -524,7 +545,7 @@ class FaceCanvas:
         out = self.buffer if out is None else out
         if self.texture is not None:  # another canvas of this context may have bound its own
             self.texture.use(location=0)
-        first, end = self.closed_mouth if lips_closed else (0, self.rig.face.n_triangles)
+        first, end = self.closed_mouth if lips_closed else (0, self.n_triangles)
         for k, frame in enumerate(frames):
             positions, normals = self.rig.posed(frame)
             self.dynamic[k][0].write(positions)

@@ -15,6 +15,8 @@ accessors over one binary blob, in place, so that :mod:`renderer.gltfio` reads i
   ``KHR_texture_transform`` on the texture (:func:`texture_transform`).
 - ``KHR_texture_basisu``: the texture's KTX2 source (ETC1S or UASTC) is transcoded to RGBA8 by
   Basis Universal's transcoder (``opengl_basisu``) (:func:`decode_ktx2`).
+- ``EXT_texture_webp``: the texture's WebP source (VRoid Studio and glTF-Transform write them,
+  often with no PNG fallback) is decoded by Pillow (:mod:`renderer.gltftexture`).
 
 Anything else in ``extensionsRequired`` (glTF 2.0 sec. 3.12: a loader must refuse a file whose
 required extension it does not know) is refused first, in one line that names the extension and
@@ -40,13 +42,13 @@ READ: dict[str, str] = {
     "EXT_meshopt_compression": "meshoptimizer compression",
     "KHR_draco_mesh_compression": "Draco mesh compression",
     "KHR_texture_basisu": "KTX2 / Basis Universal textures",
+    "EXT_texture_webp": "WebP textures",
     "KHR_texture_transform": "texture coordinate transforms",
     "KHR_materials_unlit": "unlit materials (drawn lit)",
     "KHR_materials_emissive_strength": "emissive strength (not drawn)",
 }
 #: A command that rewrites a file without the extension, for those facepair does not read.
 CONVERSIONS: dict[str, str] = {
-    "EXT_texture_webp": "gltf-transform png in.glb out.glb",
     "EXT_texture_avif": "gltf-transform png in.glb out.glb",
     "EXT_mesh_gpu_instancing": "gltf-transform flatten in.glb out.glb",
     "KHR_meshopt_compression": "gltfpack -i in.glb -o out.glb -noq",
@@ -64,11 +66,11 @@ _ALIGN = 16
 def check_required(gltf: Any, path: Path) -> None:
     """Refuse a file that requires an extension facepair does not read, saying how to convert it.
 
-    >>> class G: extensionsRequired = ["EXT_texture_webp"]
+    >>> class G: extensionsRequired = ["EXT_texture_avif"]
     >>> check_required(G(), Path("a.glb"))
     Traceback (most recent call last):
     ...
-    app.errors.InputError: a.glb: requires the glTF extension EXT_texture_webp, which facepair \
+    app.errors.InputError: a.glb: requires the glTF extension EXT_texture_avif, which facepair \
 does not read; convert the file first: gltf-transform png in.glb out.glb
     """
     for name in gltf.extensionsRequired or []:
@@ -258,11 +260,13 @@ def _unpack_draco(gltf, prim, draco, blob: bytes, append, where: str, path: Path
 
 
 def texture_source(gltf: Any, texture_index: int) -> int | None:
-    """The image a texture shows: its KHR_texture_basisu (KTX2) source first, else ``source``."""
+    """The image a texture shows: its KHR_texture_basisu (KTX2) or EXT_texture_webp source
+    first, else ``source`` (the fallback such a texture may carry)."""
     tex = gltf.textures[texture_index]
-    basisu = (tex.extensions or {}).get("KHR_texture_basisu")
-    if isinstance(basisu, dict) and isinstance(basisu.get("source"), int):
-        return int(basisu["source"])
+    for name in ("KHR_texture_basisu", "EXT_texture_webp"):
+        ext = (tex.extensions or {}).get(name)
+        if isinstance(ext, dict) and isinstance(ext.get("source"), int):
+            return int(ext["source"])
     return tex.source
 
 

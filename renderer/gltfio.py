@@ -6,11 +6,12 @@ scene's space by their node's world transform; skinned meshes are taken as bound
 vertices already in the skeleton's space, the usual ``inverseBindMatrices`` = inverse joint
 world transforms). Morph targets are matched across primitives by name (``mesh.extras
 .targetNames``, the convention of Blender's exporter, or the primitive's ``extras``); a
-primitive without a target contributes zeros to it. Base colours come from ``COLOR_0``,
-``baseColorFactor`` and the ``baseColor`` texture sampled at each vertex's UV; the specular
-strength from the material's roughness and metalness. VRM 0.x avatars face -z and are turned
-half round about y so that every avatar faces +z, as glTF and the renderer expect (Khronos,
-glTF 2.0 sec. 3.4; VRM 1.0 "Model orientation").
+primitive without a target contributes zeros to it. Base colours come from ``COLOR_0`` and
+``baseColorFactor`` per vertex and from the ``baseColor`` textures per pixel, every material's
+in one atlas with its alpha mode (:mod:`renderer.gltftexture`); the specular strength from the
+material's roughness and metalness. Normals are unit length whatever the node transforms'
+scale. VRM 0.x avatars face -z and are turned half round about y so that every avatar faces
++z, as glTF and the renderer expect (Khronos, glTF 2.0 sec. 3.4; VRM 1.0 "Model orientation").
 
 Writing is :mod:`renderer.gltfwrite`. pygltflib parses the container; accessors are decoded
 here with numpy.
@@ -31,7 +32,6 @@ Example
 from __future__ import annotations
 
 import base64
-import io
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -40,14 +40,9 @@ from typing import Any
 import numpy as np
 
 from app.errors import InputError
-from renderer.gltfdecode import (
-    check_required,
-    decode_ktx2,
-    texture_source,
-    texture_transform,
-    unpack,
-)
+from renderer.gltfdecode import check_required, texture_source, texture_transform, unpack
 from renderer.gltfrig import bind_transforms, to_rest, vrm_expressions
+from renderer.gltftexture import WHITE, Tile, build_atlas, decode_image
 
 #: glTF accessor component type -> numpy dtype (glTF 2.0 sec. 3.6.2.2).
 COMPONENT_TYPES = {
@@ -83,14 +78,19 @@ class GltfScene:
     world: np.ndarray  # (k, 4, 4) node world transforms at rest
     humanoid: dict[str, int] = field(default_factory=dict)  # VRM bone name -> node
     extras: dict[str, Any] = field(default_factory=dict)  # the file's root extras
-    # one baseColor texture shared by every primitive, to sample per pixel: (n, 2) UVs, the
-    # (h, w, 3) uint8 image and the colours without the texture (else all three None)
+    # the base colour textures of every primitive as one atlas to sample per pixel
+    # (renderer.gltftexture): (n, 2) UVs into it, the (h, w, 3) uint8 image ((h, w, 4) when
+    # some texels are cut out) and the colours without the texture (else all three None)
     uvs: np.ndarray | None = None
     texture: np.ndarray | None = None
     untextured_colors: np.ndarray | None = None
     # VRM expressions (0.x blendShapeMaster groups, 1.0 VRMC_vrm.expressions) by name, each the
     # weighted sum of the morph targets it binds: name -> (dpos, dnormal), (n, 3)
     expressions: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    # each node's mesh name ("" for none): eyes may be meshes named like eyes
+    mesh_names: list[str] = field(default_factory=list)
+    # whether each vertex is skinned (a head made of unskinned meshes turns as one)
+    skinned: np.ndarray | None = None
 
 
 def _load(path: Path):
@@ -193,50 +193,47 @@ def _local(node) -> np.ndarray:
     return m
 
 
-def _image_pixels(gltf, blob: bytes, index: int | None, base: Path) -> np.ndarray | None:
-    import imageio.v3 as iio
-
-    if index is None:
-        return None
+def _image_bytes(gltf, blob: bytes, index: int, base: Path) -> bytes | None:
     image = gltf.images[index]
     if image.bufferView is not None:
         view = gltf.bufferViews[image.bufferView]
-        data = blob[view.byteOffset or 0 : (view.byteOffset or 0) + view.byteLength]
-    elif image.uri and image.uri.startswith("data:"):
-        data = base64.b64decode(image.uri.split(",", 1)[1])
-    elif image.uri:
-        data = (base / image.uri).read_bytes()
-    else:
-        return None
-    return decode_ktx2(data) if data[:5] == b"\xabKTX " else iio.imread(io.BytesIO(data))
+        return blob[view.byteOffset or 0 : (view.byteOffset or 0) + view.byteLength]
+    if image.uri and image.uri.startswith("data:"):
+        return base64.b64decode(image.uri.split(",", 1)[1])
+    if image.uri:
+        target = (base / image.uri).resolve()
+        if not target.is_file() or base.resolve() not in target.parents:
+            raise ValueError(f"{image.uri} is not a file beside the glTF")
+        return target.read_bytes()
+    return None
 
 
-def _texture_rgb(gltf, blob: bytes, texture_index: int, base: Path) -> np.ndarray | None:
-    """The base colour image of texture ``texture_index`` as (h, w, 3) floats, or None.
-
-    The KHR_texture_basisu (KTX2) source first, then the texture's own ``source`` (the
-    fallback PNG or JPEG such files may carry).
-    """
+def _texture_rgba(gltf, blob: bytes, texture_index: int, path: Path) -> np.ndarray | None:
+    """The base colour image of texture ``texture_index`` as (h, w, 4) uint8 RGBA, or None
+    when the texture names no image. Its KTX2 (``KHR_texture_basisu``) or WebP
+    (``EXT_texture_webp``) source first, then its own ``source`` (the PNG or JPEG fallback such
+    files may carry); an image that names data it cannot decode is refused by name."""
     try:
-        sources = dict.fromkeys(
-            (texture_source(gltf, texture_index), _plain_source(gltf, texture_index))
-        )
+        sources = [
+            i
+            for i in dict.fromkeys(
+                (texture_source(gltf, texture_index), _plain_source(gltf, texture_index))
+            )
+            if i is not None
+        ]
     except (IndexError, TypeError, AttributeError):
         return None
-    pixels = None
+    problem = ""
     for index in sources:
         try:
-            pixels = _image_pixels(gltf, blob, index, base)
-        except Exception:  # an unreadable texture falls back to the material's colour
-            pixels = None
-        if pixels is not None:
-            break
-    if pixels is None:
-        return None
-    pixels = np.asarray(pixels, dtype=np.float64)
-    if pixels.ndim == 2:
-        pixels = pixels[..., None].repeat(3, axis=2)
-    return pixels[..., :3] / (65535.0 if pixels.max() > 255 else 255.0)
+            data = _image_bytes(gltf, blob, index, path.parent)
+            if data is not None:
+                return decode_image(data)
+        except (ValueError, IndexError, TypeError, AttributeError, OSError) as exc:
+            problem = f"image {index} cannot be read: {str(exc).splitlines()[0][:100]}"
+    if problem:
+        raise InputError(f"texture {texture_index}: {problem}", path=path)
+    return None
 
 
 def _plain_source(gltf, texture_index: int) -> int | None:
@@ -246,14 +243,14 @@ def _plain_source(gltf, texture_index: int) -> int | None:
         return None
 
 
-def _colors(
-    gltf, blob: bytes, prim, n: int, path: Path
-) -> tuple[np.ndarray, np.ndarray, tuple[int, np.ndarray, np.ndarray] | None]:
-    """Per-vertex display RGB and specular strength of a primitive (PBR-lite): with the
-    baseColor texture sampled at each vertex, without it, and the texture (its index, the
-    UVs and the image) if there is one."""
+#: A primitive's base colour texture: (texture index, alpha mode, cutoff), its UVs and image.
+TextureUse = tuple[tuple[int, str, float], np.ndarray, np.ndarray]
+
+
+def _colors(gltf, blob: bytes, prim, n: int, path: Path) -> tuple[np.ndarray, TextureUse | None]:
+    """Per-vertex display RGB and specular strength of a primitive (PBR-lite), without its
+    texture, and the texture it samples (see :data:`TextureUse`), if any."""
     out = np.ones((n, 4))
-    texel = np.ones((n, 3))
     texture = None
     out[:, 3] = 0.18
     mat = gltf.materials[prim.material] if prim.material is not None else None
@@ -268,23 +265,20 @@ def _colors(
         uv_name = f"TEXCOORD_{info.texCoord or 0}" if info is not None else None
         uv_index = getattr(prim.attributes, uv_name, None) if uv_name else None
         if info is not None and uv_index is not None:
-            rgb = _texture_rgb(gltf, blob, info.index, path.parent)
-            if rgb is not None:
+            rgba = _texture_rgba(gltf, blob, info.index, path)
+            if rgba is not None:
                 uv = texture_transform(info, _accessor(gltf, blob, uv_index, path)[:, :2])
-                texture = (info.index, uv, rgb)
-                uv = np.where((uv >= 0) & (uv <= 1), uv, uv % 1.0)  # repeat, edges kept
-                h, w = rgb.shape[:2]
-                rows = np.clip((uv[:, 1] * h).astype(int), 0, h - 1)  # the nearest texel
-                texel = rgb[rows, np.clip((uv[:, 0] * w).astype(int), 0, w - 1)]
+                mode = str(getattr(mat, "alphaMode", None) or "OPAQUE")
+                cut = getattr(mat, "alphaCutoff", None)
+                cutoff = 0.5 if cut is None else float(cut)
+                texture = ((int(info.index), mode, cutoff), uv, rgba)
     if prim.attributes.COLOR_0 is not None:
         c = _accessor(gltf, blob, prim.attributes.COLOR_0, path)
         out[:, :3] *= np.sqrt(np.clip(c[:, :3], 0, 1))
     spec = getattr(prim.attributes, SPECULAR_ATTRIBUTE, None)
     if spec is not None:
         out[:, 3] = _accessor(gltf, blob, spec, path)[:, 0]
-    textured = out.copy()
-    textured[:, :3] *= texel
-    return textured, out, texture
+    return out, texture
 
 
 def _target_names(mesh, prim) -> list[str]:
@@ -410,25 +404,31 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
                 )
                 if bind is not None:
                     pos, nrm, deltas = to_rest(bind[joints], weights, pos, nrm, deltas)
+                skinned = True
             else:
+                skinned = False
                 m = world[i]
                 pos = pos @ m[:3, :3].T + m[:3, 3]
+                # normals and their deltas by the inverse transpose (row-wise), without its
+                # scale: a delta stays in proportion to the unit normal it is added to
+                turn = np.linalg.inv(m[:3, :3])
+                turn /= np.cbrt(max(abs(float(np.linalg.det(turn))), 1e-300))
                 if nrm is not None:
-                    nrm = nrm @ np.linalg.inv(m[:3, :3])  # the inverse transpose, row-wise
+                    nrm = nrm @ turn
                 for name, (dp, dn) in deltas.items():
-                    deltas[name] = (dp @ m[:3, :3].T, dn @ np.linalg.inv(m[:3, :3]))
+                    deltas[name] = (dp @ m[:3, :3].T, dn @ turn)
                 nodes = np.tile([i, i, i, i], (n, 1))
                 weights = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
-            col, plain, texture = _colors(gltf, blob, prim, n, path)
+            plain, texture = _colors(gltf, blob, prim, n, path)
             parts.append(
                 {
                     "mesh": node.mesh,
+                    "skinned": skinned,
                     "by_index": [deltas[name] for name in _target_names(mesh, prim)],
                     "pos": pos,
                     "nrm": nrm,
                     "tri": tri + offset,
                     "deltas": deltas,
-                    "col": col,
                     "plain": plain,
                     "texture": texture,
                     "nodes": nodes,
@@ -448,14 +448,20 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
         for name in names
     }
     vertices = np.vstack([p["pos"] for p in parts])
-    normals = None if any(p["nrm"] is None for p in parts) else np.vstack([p["nrm"] for p in parts])
+    normals = None
+    if all(p["nrm"] is not None for p in parts):
+        # a node's scale (10 x 0.01 x 0.0019 on a gltfpack export) stretches its normals
+        normals = np.vstack([p["nrm"] for p in parts])
+        length = np.linalg.norm(normals, axis=1, keepdims=True)
+        normals = np.where(length > 1e-12, normals / np.maximum(length, 1e-300), normals)
     if not np.isfinite(vertices).all():
         raise InputError("vertex positions must be finite numbers", path=path)
+    plain = np.vstack([p["plain"] for p in parts])
     scene = GltfScene(
         vertices=vertices,
         normals=normals,
         triangles=np.vstack([p["tri"] for p in parts]),
-        colors=np.vstack([p["col"] for p in parts]),
+        colors=plain,
         targets=targets,  # type: ignore[arg-type]
         influence_nodes=np.vstack([p["nodes"] for p in parts]),
         influence_weights=np.vstack([p["weights"] for p in parts]),
@@ -466,15 +472,47 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
         extras=gltf.extras if isinstance(gltf.extras, dict) else {},
     )
     scene.expressions = vrm_expressions(gltf, parts, len(vertices))
-    shared = {p["texture"][0] if p["texture"] else None for p in parts}
-    if len(shared) == 1 and None not in shared:
-        image = parts[0]["texture"][2]
-        scene.texture = np.clip(np.round(image * 255.0), 0, 255).astype(np.uint8)
-        scene.uvs = np.vstack([p["texture"][1] for p in parts]).astype(np.float32)
-        scene.untextured_colors = np.vstack([p["plain"] for p in parts])
+    scene.skinned = np.concatenate([np.full(len(p["pos"]), p["skinned"]) for p in parts])
+    scene.mesh_names = [
+        str(gltf.meshes[node.mesh].name or "") if node.mesh is not None else ""
+        for node in gltf.nodes
+    ]
+    if any(p["texture"] for p in parts):
+        _texture_atlas(scene, parts)
     if turned:
         _turn_half_round(scene)
     return scene
+
+
+def _texture_atlas(scene: GltfScene, parts: list[dict[str, Any]]) -> None:
+    """Every primitive's base colour texture in one atlas the renderer samples per pixel
+    (:mod:`renderer.gltftexture`); ``colors`` gets each vertex's texel for what reads
+    colours per vertex."""
+    keys: dict[tuple[int, str, float], int] = {}
+    tiles: list[Tile] = []
+    for p in parts:
+        if p["texture"] is not None and p["texture"][0] not in keys:
+            key, _, image = p["texture"]
+            keys[key] = len(tiles)
+            tiles.append(Tile(image, key[1], key[2]))
+    if any(p["texture"] is None for p in parts):
+        tiles.append(WHITE)
+    atlas = build_atlas(tiles)
+    uvs = []
+    for p in parts:
+        if p["texture"] is None:
+            uvs.append(atlas.place(len(tiles) - 1, np.full((len(p["pos"]), 2), 0.5)))
+        else:
+            uvs.append(atlas.place(keys[p["texture"][0]], p["texture"][1]))
+    scene.uvs = np.vstack(uvs).astype(np.float32)
+    scene.texture = atlas.image if atlas.cutout else np.ascontiguousarray(atlas.image[..., :3])
+    scene.untextured_colors = scene.colors
+    h, w = atlas.image.shape[:2]
+    rows = np.clip((scene.uvs[:, 1] * h).astype(int), 0, h - 1)
+    cols = np.clip((scene.uvs[:, 0] * w).astype(int), 0, w - 1)
+    baked = scene.colors.copy()
+    baked[:, :3] *= atlas.image[rows, cols, :3] / 255.0
+    scene.colors = baked
 
 
 def _turn_half_round(scene: GltfScene) -> None:

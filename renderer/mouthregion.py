@@ -13,12 +13,15 @@ same region of the head): per vertex an axis-aligned box in the face's own frame
   :mod:`renderer.deform`; an interval sum bounds any mix of them),
 * grown by how far the jaw's turn can swing the lips' displacement (``2 |d| sin(a / 2)``),
 
-for every vertex whose position or normal any of those FAPs changes, and the rest positions
-of the other corners of their triangles (a triangle's pixels lie in the hull of its
-corners). The boxes' corners are cut down to their convex hull. Per frame the envelope is
-posed with the frame's head turn and projected (:meth:`MotionEnvelope.pixels`); the mosaic's
-box holds those pixels (:func:`renderer.mosaic.mouth_box`), so no pixel outside its blocks
-depends on the jaw or the lips.
+for every vertex whose position or normal any of those FAPs changes (beyond the rig's
+tolerances, and below its ceiling: an avatar's sculpted shapes move skin up to the brows by
+fractions of a pixel, :class:`renderer.deform.Rig`), and the rest positions of the other
+corners of their triangles (a triangle's pixels lie in the hull of its corners). The boxes'
+corners are cut down to their convex hull. Per frame the envelope is posed with the frame's
+head turn and projected (:meth:`MotionEnvelope.pixels`); the mosaic's box holds those pixels
+(:func:`renderer.mosaic.mouth_box`), so no pixel outside its blocks depends on the jaw or the
+lips. The blocks never cover the eyes, lids and brows (:func:`upper_face`): a gaze, blink or
+brow study must show them, and the face under the blocks is drawn with its mouth at rest.
 
 Example
 -------
@@ -78,8 +81,9 @@ def motion_envelope(rig: Rig, dense: list[np.ndarray]) -> MotionEnvelope:
         f = zero.copy()
         f[fap - 1] = value
         frame = rig.deform(f)
-        changed[(frame.positions != rest.positions).any(axis=1)] = True
-        changed[(frame.normals != n0).any(axis=1)] = True
+        moved = np.abs(frame.positions - rest.positions).max(axis=1) > rig.motion_tolerance
+        turned = np.abs(frame.normals - n0).max(axis=1) > rig.normal_tolerance
+        changed[moved | turned] = True
         return frame.positions.astype(np.float64)
 
     # the jaw's arc; its widest turn bounds how far it swings the lips' displacement
@@ -104,6 +108,8 @@ def motion_envelope(rig: Rig, dense: list[np.ndarray]) -> MotionEnvelope:
     grow = (bulge + swing)[:, None]
     box_lo, box_hi = box_lo + d_lo - grow, box_hi + d_hi + grow
 
+    if rig.mouth_ceiling is not None:
+        changed &= p0[:, 1] <= rig.mouth_ceiling
     triangles = rig.face.triangles
     touched = changed[triangles].any(axis=1)
     corners = np.zeros(len(p0), bool)
@@ -134,3 +140,23 @@ def _hull(points: np.ndarray, weights: np.ndarray) -> MotionEnvelope:
         keep.append(idx)
     kept = np.concatenate(keep) if keep else np.zeros(0, int)
     return MotionEnvelope(points[kept], weights[kept])
+
+
+#: FAP values that show where the brows and lids are: the brows raised, the lids closed.
+UPPER_FACE_FAPS = {31: 100.0, 32: 100.0, 33: 100.0, 34: 100.0, 35: 100.0, 36: 100.0}
+UPPER_FACE_FAPS |= {19: 1024.0, 20: 1024.0, 21: 1024.0, 22: 1024.0}
+
+
+def upper_face(rig: Rig, share: float = 0.25) -> np.ndarray:
+    """The vertices the mosaic must never cover: the eyeballs, and what raising the brows and
+    closing the lids moves by at least ``share`` of its largest motion (the brows and lids
+    themselves, not the forehead's faint stretch)."""
+    zero = np.zeros(N_FAPS)
+    moving = zero.copy()
+    for fap, value in UPPER_FACE_FAPS.items():
+        moving[fap - 1] = value
+    rest, moved = rig.deform(zero).positions, rig.deform(moving).positions
+    d = np.linalg.norm(moved.astype(np.float64) - rest, axis=1)
+    near = np.flatnonzero(d >= share * d.max()) if d.max() > 0 else np.zeros(0, int)
+    eyes = [np.asarray(rig.eye_vertices[s], dtype=int) for s in ("l", "r")]
+    return np.unique(np.concatenate([near, *eyes]))

@@ -32,7 +32,7 @@ from renderer.deform import MOUTH_FAPS_INDEX, FaceFrame, Rig
 from renderer.face import MOUTH_FEATURE_POINTS, Face
 from renderer.gl import FaceCanvas, device_name, project
 from renderer.mosaic import cells_meeting, mouth_box, pixelate_face
-from renderer.mouthregion import MotionEnvelope, motion_envelope
+from renderer.mouthregion import MotionEnvelope, motion_envelope, upper_face
 
 
 @dataclass
@@ -107,6 +107,7 @@ class _Drawer:
         self.envelope = envelope
         if mosaic_block and envelope is None:
             self.envelope = motion_envelope(self.rig, dense)
+        self.upper_face = upper_face(self.rig) if mosaic_block else np.zeros(0, int)
         self.canvas = FaceCanvas(
             self.rig, size, len(dense), antialias=antialias, samples=samples, background=background
         )
@@ -151,7 +152,25 @@ class _Drawer:
         rows = slice((lips[1] - y0) // block, (lips[3] - y0) // block)
         cols = slice((lips[0] - x0) // block, (lips[2] - x0) // block)
         cells[rows, cols] = True
+        # never over the eyes and brows: a turned and pitched head brings the blocks the
+        # envelope meets up to the lids and the brows' inner ends, and a gaze, blink or brow
+        # study must show them (the face is drawn with its mouth at rest, so a block left out
+        # shows no mouth motion)
+        for px, py in self.upper_face_pixels(frame):
+            r0, r1 = int((py - 1.0 - y0) // block), int((py + 1.0 - y0) // block)
+            c0, c1 = int((px - 1.0 - x0) // block), int((px + 1.0 - x0) // block)
+            cells[max(r0, 0) : max(r1 + 1, 0), max(c0, 0) : max(c1 + 1, 0)] = False
         return box, cells
+
+    def upper_face_pixels(self, frame: FaceFrame) -> np.ndarray:
+        """The pixels (x, y) of the eyes, lids and brows (:func:`upper_face`) in ``frame``'s
+        pose (the head turned; the eyes' own turns and the brows' motion stay within the cells
+        these reach)."""
+        idx = self.upper_face
+        p = frame.positions[idx].astype(np.float64)
+        turned = p @ frame.head[:3, :3].T + frame.head[:3, 3]
+        p = p + self.rig.weights["head"][idx][:, None] * (turned - p)
+        return project(self.canvas.vp, p, self.size)
 
     def release(self) -> None:
         self.canvas.release()

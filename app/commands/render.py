@@ -65,6 +65,16 @@ def _fitted_to_audio(tracks: dict[str, Any], audio: str, fps: float | None, pad:
             click.echo(f"note: {Path(path).name}: {note}", err=True)
 
 
+def _face_notes(settings: Any) -> None:
+    """What was inferred about an avatar (how its eyes were found, a shape standing in for
+    another), a line each, before the render (which reads the avatar from the same cache)."""
+    from renderer.api import load_face
+
+    if settings.face is not None:
+        for note in getattr(load_face(settings), "notes", ()):
+            click.echo(f"note: {note}", err=True)
+
+
 @contextmanager
 def _progress_bar(label: str):
     from tqdm import tqdm
@@ -191,6 +201,7 @@ def pair(
     settings = _clip_settings(size, mosaic_block, face, antialias, samples, look, fps, workers)
     tracks = load_track(left), load_track(right)
     _fitted_to_audio({left: tracks[0], right: tracks[1]}, audio, fps, pad)
+    _face_notes(settings)
     with _progress_bar("render pair") as progress:
         path = render_pair(
             *tracks, audio, out, settings=settings, cache_dir=cache_dir, progress=progress
@@ -226,6 +237,7 @@ def single(
     settings = _clip_settings(size, mosaic_block, face, antialias, samples, look, fps, workers)
     track = load_track(track_path)
     _fitted_to_audio({track_path: track}, audio, fps, pad)
+    _face_notes(settings)
     with _progress_bar("render single") as progress:
         path = render_single(
             track, audio, out, settings=settings, cache_dir=cache_dir, progress=progress
@@ -267,6 +279,7 @@ def still(
         size, mosaic_block, face, antialias=antialias, samples=int(samples), look=look
     )
     right = load_track(right_path) if right_path else None
+    _face_notes(settings)
     path = render_still(
         load_track(track_path), frame, out, right=right, settings=settings, mosaic=not no_mosaic
     )

@@ -61,12 +61,22 @@ def test_missing_blendshape_names_it_and_its_faps(exported_head, tmp_path):
     assert "JawOpen" in load_avatar(path).targets
 
 
-def test_missing_bone_names_it_and_its_faps(exported_head, tmp_path):
-    path = _edited(exported_head, tmp_path, _rename_node("leftEye", "eyeball"))
-    with pytest.raises(InputError, match=r"bone leftEye \(FAP 23, 25\)"):
+def test_eyes_no_name_can_find_are_refused_naming_what_was_found(exported_head, tmp_path):
+    path = _edited(exported_head, tmp_path, _rename_node("leftEye", "joint7"))
+    with pytest.raises(InputError) as err:
         load_avatar(path)
-    path.with_name("avatar.avatar.json").write_text(json.dumps({"bones": {"leftEye": "eyeball"}}))
+    message = str(err.value)
+    assert message.startswith(f"{path}: the eyes cannot be found (nodes naming an eye: rightEye)")
+    assert "avatar.avatar.json" in message and "\n" not in message
+    path.with_name("avatar.avatar.json").write_text(
+        json.dumps({"bones": {"leftEye": "joint7", "rightEye": "rightEye"}})
+    )
     assert len(load_avatar(path).groups["eyeball_l"]) > 0
+    # an eye named without a side is told from its partner by where it is
+    path = _edited(exported_head, tmp_path, _rename_node("leftEye", "eyeball"), "b.glb")
+    avatar = load_avatar(path)
+    assert avatar.eyes_found == "by place"
+    assert avatar.eye_pivots["l"][0] > avatar.eye_pivots["r"][0]
 
 
 def test_bone_names_match_common_rig_spellings(exported_head, tmp_path):

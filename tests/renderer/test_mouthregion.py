@@ -12,10 +12,10 @@ import pytest
 from scipy import ndimage
 
 from app.stimuli.track import MotionTrack
-from renderer.deform import Rig
+from renderer.deform import MOUTH_FAPS, Rig
 from renderer.gl import camera_for, project
 from renderer.headmodel import builtin_face
-from renderer.mouthregion import motion_envelope
+from renderer.mouthregion import motion_envelope, upper_face
 from renderer.pipeline import render_frames
 
 pytestmark = pytest.mark.gl
@@ -64,7 +64,9 @@ def test_every_pixel_the_mouth_changes_lies_in_the_mosaic(jaw):
         (closed, _), (opened, _) = _frames(track, 0)
         (_, inside), (_, inside_open) = _frames(track, 8)
         assert np.array_equal(inside, inside_open)  # the blocks follow the head, not the mouth
-        changed = (closed != opened).any(axis=2)
+        # more than one level: a level's shading change of the cheek beside an eye, which the
+        # blocks leave alone (the next test), is no motion shown
+        changed = (np.abs(closed.astype(int) - opened.astype(int)) > 1).any(axis=2)
         assert changed.sum() > 100, pose  # the jaw does open
         assert not (changed & ~inside).any(), (pose, int((changed & ~inside).sum()))
         assert inside[: int(SIZE * 0.4)].sum() == 0 or pose[2] != 0  # below the eyes
@@ -78,6 +80,23 @@ def test_with_the_mosaic_the_open_mouth_changes_no_pixel_and_leaves_no_hole(jaw)
         background = _background_mask(opened)
         holes = ndimage.binary_fill_holes(~background) & background
         assert not holes.any(), (pose, int(holes.sum()))
+
+
+def test_no_block_covers_the_eyes_or_brows_at_any_pose():
+    """Pitched down 20 degrees, the blocks reached the lower half of both irises; turned and
+    pitched, the inner ends of the brows."""
+    rig = Rig(builtin_face())
+    vp, _ = camera_for(rig)
+    watched = upper_face(rig)
+    assert set(rig.eye_vertices["l"]) <= set(watched) and len(watched) > 400
+    for pose in CORNERS + [(0, -20, 0), (0, 20, 0)]:
+        track = _closed_then_open(*pose, 350)
+        for (_, inside), faps in zip(_frames(track, 8), track.dense(), strict=True):
+            at_rest = np.where(np.isin(np.arange(1, 69), MOUTH_FAPS), 0.0, faps)
+            pos, _ = rig.posed(rig.deform(at_rest))
+            xy = np.round(project(vp, pos[watched].astype(np.float64), SIZE)).astype(int)
+            covered = inside[xy[:, 1], xy[:, 0]]
+            assert not covered.any(), (pose, int(covered.sum()))
 
 
 def test_the_envelope_is_the_lower_face_and_grows_with_the_jaw():
