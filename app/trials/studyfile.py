@@ -138,6 +138,9 @@ RENDER_KEYS: Final[dict[str, tuple[tuple[type, ...], str]]] = {
     "preset": ((str,), "a string"),
     "look": ((str,), "a string"),
 }
+#: Files ``[render] face`` may name: a glTF 2.0 / VRM avatar or a face JSON file
+#: (``renderer.avatar.AVATAR_SUFFIXES`` and the face format; docs/reference/renderer.md).
+FACE_SUFFIXES: Final = (".glb", ".gltf", ".vrm", ".json")
 #: What a participant counted as dropped (idle past the deployment's DROPPED_AFTER_MINUTES)
 #: meets on coming back: ``resume`` takes their list slot back, ``refuse`` ends their session.
 REJOIN_POLICIES: Final = ("resume", "refuse")
@@ -332,8 +335,10 @@ class _StudyReader(ExperimenterSideReader):
                 raise self.error(
                     key, f"needs a ground_truth for every clip; missing for {', '.join(lacking)}"
                 )
-        table = self.table(top.get("render", {}), "render", tuple(RENDER_KEYS))
+        table = self.table(top.get("render", {}), "render", (*RENDER_KEYS, "face"))
         render: dict[str, Any] = {}
+        if "face" in table:
+            render["face"] = self.file(table, "face", "render.face", FACE_SUFFIXES)
         for key, (types, expected) in RENDER_KEYS.items():
             if key in table:
                 render[key] = self.get(table, key, f"render.{key}", types, expected)

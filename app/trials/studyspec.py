@@ -222,7 +222,7 @@ class StudySpec:
         out["rejoin"] = self.rejoin
         out["auto_exclude"] = list(self.auto_exclude)
         if self.render:
-            out["render"] = dict(self.render)
+            out["render"] = {k: str(v) if k == "face" else v for k, v in self.render.items()}
         if self.exclude:
             out["exclude"] = self.exclude
         out["practice"] = (
@@ -260,6 +260,8 @@ class StudySpec:
         for condition in document["conditions"]:
             if "tracks" in condition:
                 condition["tracks"] = {c: Path(p).name for c, p in condition["tracks"].items()}
+        if "face" in document.get("render", {}):
+            document["render"]["face"] = Path(document["render"]["face"]).name
         return dump_toml(document)
 
 

@@ -42,7 +42,7 @@ _FORM_FIELDS = {
 def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
     """The web form as a study-file mapping, validated by the same parser as a TOML file.
 
-    The files are in ``folder``'s ``audio``, ``ground_truth`` and ``tracks`` folders.
+    The files are in ``folder``'s ``audio``, ``ground_truth``, ``tracks`` and ``face`` folders.
     """
 
     def names(field: str) -> list[str]:
@@ -104,6 +104,18 @@ def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
     }
     if form.replay.data == "max_plays":
         data["replay"]["max_plays"] = form.max_plays.data or 1
+    if form.lips.data:
+        data["lips"] = form.lips.data
+    if form.pad.data:
+        data["pad"] = True
+    faces = [n for n in names("face") if not n.lower().endswith(".avatar.json")]
+    if len(faces) > 1:
+        raise InputError(
+            f"one avatar at most, got {', '.join(faces)} (its sidecar is <name>.avatar.json)",
+            field="avatar",
+        )
+    if faces:
+        data["render"] = {"face": f"face/{faces[0]}"}
     if form.reference.data:
         data["reference"] = form.reference.data.strip()
     if form.redirect_url.data:
@@ -166,7 +178,7 @@ def _create(file_form: StudyFileForm, web_form: StudyWebForm, folder: Path):  # 
             raise InputError(exc.message, path=source, field=exc.field) from None
     if web_form.submit.data:
         uploads.restore(web_form.kept.data, user.id, folder)  # type: ignore[union-attr]
-        for field in ("audio", "ground_truth", "tracks"):
+        for field in ("audio", "ground_truth", "tracks", "face"):
             uploads.save_uploads(getattr(web_form, field).data or [], folder / field)
         if not web_form.validate_on_submit():
             return None

@@ -194,7 +194,7 @@ def render_stimulus(
     from app.stimuli.io import load_track
 
     root = media_dir(study)
-    settings = renderer.RenderSettings(**study.settings.get("render", {}))
+    settings = renderer.RenderSettings(**render_settings(study))
     rel = clip_file(study, stim)
     (root / rel).parent.mkdir(parents=True, exist_ok=True)
     left, right = (
@@ -221,6 +221,19 @@ def render_stimulus(
     stim.video_path = rel
     db.session.commit()
     return rel
+
+
+def render_settings(study: Study) -> dict[str, Any]:
+    """The study's ``[render]`` settings, its avatar (and the avatar's sidecar) fetched to this
+    machine and named by their local path."""
+    settings = dict(study.settings.get("render") or {})
+    if settings.get("face"):
+        rel = str(settings["face"])
+        sidecar = str(Path(rel).with_name(Path(rel).stem + ".avatar.json"))
+        if media.stored(study, sidecar):
+            media.fetch(study, sidecar)
+        settings["face"] = str(media.fetch(study, rel))
+    return settings
 
 
 def rendered(study: Study, stim: Stimulus) -> bool:

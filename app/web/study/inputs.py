@@ -1,7 +1,8 @@
 """Every file a new study brings, checked before the study is created: each clip's speech
 decodes (:func:`app.stimuli.audiofile.check_audio_file`: container, header, length, silence),
 each ground truth and uploaded track parses (:func:`app.stimuli.io.load_track`) and is as
-long as its clip's speech (:func:`app.stimuli.lengths.length_note`). A bad file is
+long as its clip's speech (:func:`app.stimuli.lengths.length_note`), and the avatar of
+``[render] face`` loads (``renderer.api.load_face``). A bad file is
 refused at upload with the one line the pipeline would have given, naming the file as the
 experimenter uploaded it (never a server path), so it never becomes a failed job."""
 
@@ -49,6 +50,12 @@ def check_study_inputs(spec: StudySpec) -> list[str]:
                 _check_track(clip.ground_truth, seconds[clip.name], spec.pad, offset)
             except InputError as exc:
                 raise _named(exc, clip.ground_truth, what) from None
+    face = spec.render.get("face")
+    if face is not None:
+        try:
+            _check_face(Path(face))
+        except InputError as exc:
+            raise _named(exc, Path(face), "the face of [render]") from None
     for condition in spec.conditions:
         for clip_name, path in condition.tracks.items():
             try:
@@ -62,3 +69,11 @@ def _check_track(path: Path, seconds: float, pad: bool, offset: float = 0.0) -> 
     """A track file parses and, unless ``pad``, is as long as ``seconds`` of speech."""
     track = load_track(path)
     length_note(track, round(seconds * track.fps), track.fps, what="track", offset=offset, pad=pad)
+
+
+def _check_face(path: Path) -> None:
+    """The study's avatar or face file reads as the render job will read it (its sidecar
+    ``<stem>.avatar.json`` beside it, when one was uploaded too)."""
+    from renderer.api import RenderSettings, load_face  # reads files only: no GL is made
+
+    load_face(RenderSettings(face=str(path)))

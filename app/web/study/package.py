@@ -12,6 +12,7 @@ import json
 import platform
 import zipfile
 from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
 from typing import Any
 
 import sqlalchemy as sa
@@ -58,7 +59,7 @@ def _library_version(name: str) -> str | None:
 
 
 def media_manifest(study: Study) -> list[dict[str, Any]]:
-    """Every clip (speech and ground truth), track and rendered video of ``study`` with its
+    """Every clip (speech and ground truth), track, avatar and rendered video of ``study`` with its
     path in the study's media folder and SHA-256 (None where the file is missing)."""
     entries: list[tuple[str, str, str]] = []
     for clip in study.clips:
@@ -72,6 +73,9 @@ def media_manifest(study: Study) -> list[dict[str, Any]]:
         .order_by(Condition.position, Track.clip_id)
     )
     entries += [("track", f"{t.condition.name} / {t.clip.name}", t.path) for t in tracks]
+    face = (study.settings.get("render") or {}).get("face")
+    if face:  # the avatar every clip was rendered with
+        entries.append(("avatar", Path(str(face)).name, str(face)))
     videos = db.session.scalars(
         sa.select(Stimulus)
         .where(Stimulus.study_id == study.id, Stimulus.video_path.is_not(None))

@@ -189,7 +189,8 @@ def create_study(
             "pad": spec.pad,
             "normalize": spec.normalize,
             "rejoin": spec.rejoin,
-            "render": {**spec.render, **(render or {})},
+            "render": {k: v for k, v in {**spec.render, **(render or {})}.items() if k != "face"},
+            # [render] face: the stored avatar, set in _media_rows
             "exclude": spec.exclude or None,
             "participation": spec.participation.to_dict(),
             "auto_exclude": list(spec.auto_exclude),
@@ -224,6 +225,15 @@ def _media_rows(study: Study, spec: StudySpec) -> None:
         study.clips.append(
             Clip(name=clip.name, audio_path=audio, ground_truth_path=truth, position=position)
         )
+    face = spec.render.get("face")
+    if face is not None:
+        # the avatar (and its sidecar, when one came with it) beside the study's media; the
+        # render job reads it from there (app.web.jobs.tasks.render_settings)
+        stored = _copy(study, Path(face), f"render/{_stored_name(face)}")
+        sidecar = Path(face).with_name(Path(face).stem + ".avatar.json")
+        if sidecar.is_file():
+            _copy(study, sidecar, f"render/{Path(stored).stem}.avatar.json")
+        study.settings = {**study.settings, "render": {**study.settings["render"], "face": stored}}
     for position, cond in enumerate(spec.conditions):
         # each under its own name, which the notes on it use (the researcher knows no other)
         uploads = {
@@ -340,7 +350,7 @@ def duplicate_study(study: Study, owner: User, *, with_clips: bool) -> Study:
     db.session.add(copy)
     db.session.flush()
     source, target = media_dir(study), media_dir(copy)
-    kept = ("clips", "uploads") + (("tracks", "videos") if with_clips else ())
+    kept = ("clips", "uploads", "render") + (("tracks", "videos") if with_clips else ())
     for folder in kept:
         if (source / folder).is_dir():
             shutil.copytree(source / folder, target / folder, dirs_exist_ok=True)
