@@ -105,6 +105,42 @@ def extreme_poses(size: int = 256) -> list[Path]:
     return out
 
 
+#: The avatar contact sheet's columns: the built-in head, then the structures other tools
+#: write (tests/renderer/avatar_fixtures.py), then the head exported and read back.
+AVATAR_COLUMNS = ("built-in", "facecap", "rpm", "vroid", "vrm1", "mixamo", "eyes as meshes")
+
+
+def avatar_structures(size: int = 224) -> Path:
+    """Contact sheet of the avatar structures: top row every morph weight 0 (the frame that
+    drew black before), bottom row frame 45 of the demo ground truth under the mosaic."""
+    import imageio.v3 as iio
+
+    from app.stimuli.io import load_track
+    from tests.renderer.avatar_fixtures import build_avatar, build_eye_mesh_only
+
+    track = load_track(ROOT / "app" / "data" / "demo" / "ground_truth.fap")
+    rows: list[list[np.ndarray]] = [[], []]
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        for column in AVATAR_COLUMNS:
+            face = None
+            if column == "eyes as meshes":
+                face = build_eye_mesh_only(folder)
+            elif column != "built-in":
+                face = build_avatar(column, folder)
+            settings = RenderSettings(size=size, face=str(face) if face else None)
+            for row, (frame, mosaic) in enumerate(((0, False), (45, True))):
+                still = folder / "s.png"
+                path = render_still(track, frame, still, settings=settings, mosaic=mosaic)
+                rows[row].append(iio.imread(path))
+                rows[row].append(np.full((size, 4, 3), 255, np.uint8))
+    top, bottom = (np.hstack(r[:-1]) for r in rows)
+    sheet = np.vstack([top, np.full((4, top.shape[1], 3), 255, np.uint8), bottom])
+    out = OUT / "avatar-structures.png"
+    iio.imwrite(out, sheet)
+    return out
+
+
 def load_builtin():
     from renderer.headmodel import builtin_face
 
@@ -143,6 +179,7 @@ def main() -> None:
         print(path)
     for path in extreme_poses():
         print(path)
+    print(avatar_structures())
 
 
 if __name__ == "__main__":

@@ -123,6 +123,90 @@ def test_uploaded_study_file_cannot_reach_outside_its_upload(app, client, web, t
         assert db.session.scalar(sa.select(sa.func.count()).select_from(Study)) == 0
 
 
+def test_the_web_form_takes_an_avatar_and_the_lips_and_padding(app, client, web, tmp_path):
+    """An avatar made by another tool (Ready Player Me's structure), with a sidecar, uploaded
+    on the form: kept beside the study's media and named by [render] face."""
+    from app.web.infra.storage import media_dir
+    from tests.renderer.avatar_fixtures import build_avatar
+
+    web.user()
+    web.login(client)
+    page = client.get("/experimenter/studies/new").get_data(as_text=True)
+    token = re.search(r'name="web-csrf_token" type="hidden" value="([^"]+)"', page).group(1)
+    wav = web.write_wav(tmp_path / "clip_a.wav")
+    avatar = build_avatar("rpm", tmp_path, name="Her Avatar.glb")
+    sidecar = tmp_path / "Her Avatar.avatar.json"
+    sidecar.write_text('{"bones": {"head": "Head"}}')
+    from werkzeug.test import EnvironBuilder
+
+    builder = EnvironBuilder(
+        path="/experimenter/studies/new",
+        method="POST",
+        content_type="multipart/form-data",
+        data={
+            "web-csrf_token": token,
+            "web-submit": "1",
+            "web-title": "Avatar study",
+            "web-question": "Which one?",
+            "web-models": ["none", "random"],
+            "web-audio": [(io.BytesIO(wav.read_bytes()), "clip_a.wav")],
+            "web-face": [(io.BytesIO(p.read_bytes()), p.name) for p in (avatar, sidecar)],
+            "web-lips": "own",
+            "web-pad": "y",
+            "web-design": "all_ordered",
+            "web-undecided_allowed": "y",
+            "web-undecided_label": "Same",
+            "web-replay": "unlimited",
+            "web-catch_trials": "0",
+            "web-target_participants": "12",
+            "web-seed": "5",
+        },
+    )
+    environ = builder.get_environ()
+    try:  # a body of megabytes is spooled to a file, which the test client leaves open
+        response = client.open(environ)
+    finally:
+        environ["wsgi.input"].close()
+        builder.close()
+    assert response.status_code == 302, response.get_data(as_text=True)
+    with app.app_context():
+        study = db.session.scalar(sa.select(Study).where(Study.title == "Avatar study"))
+        face = study.settings["render"]["face"]
+        assert face == "render/Her_Avatar.glb"
+        assert (media_dir(study) / "render" / "Her_Avatar.avatar.json").is_file()
+        assert (study.settings["lips"], study.settings["pad"]) == ("own", True)
+        assert 'face = "Her_Avatar.glb"' in study.source_toml or "Her Avatar.glb" in (
+            study.source_toml
+        )
+
+
+def test_an_avatar_that_does_not_load_is_refused_at_upload(app, client, web, tmp_path):
+    web.user()
+    web.login(client)
+    page = client.get("/experimenter/studies/new").get_data(as_text=True)
+    token = re.search(r'name="file-csrf_token" type="hidden" value="([^"]+)"', page).group(1)
+    wav = web.write_wav(tmp_path / "s1.wav")
+    text = web.toml() + '\n[render]\nface = "broken.glb"\n'
+    response = client.post(
+        "/experimenter/studies/new",
+        content_type="multipart/form-data",
+        data={
+            "file-csrf_token": token,
+            "file-submit": "1",
+            "file-study_file": (io.BytesIO(text.encode()), "study.toml"),
+            "file-media": [
+                (io.BytesIO(wav.read_bytes()), "s1.wav"),
+                (io.BytesIO(b"glTF junk"), "broken.glb"),
+            ],
+        },
+    )
+    assert response.status_code == 400
+    page = response.get_data(as_text=True)
+    assert "broken.glb: the face of [render]: not a readable glTF 2.0 / VRM file" in page
+    with app.app_context():
+        assert db.session.scalar(sa.select(sa.func.count()).select_from(Study)) == 0
+
+
 def test_create_study_from_web_form(app, client, web, tmp_path):
     web.user()
     web.login(client)

@@ -492,3 +492,42 @@ def test_render_job_renders_one_face_per_condition_and_clip_in_the_rating_design
         assert len(stimuli) == 4 and all(s.left_id == s.right_id for s in stimuli)
         for s in stimuli:
             assert singles[Path(s.video_path).name].equals(own[(s.left.name, s.clip.name)])
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("kind", ["facecap", "rpm", "vroid", "vrm1", "mixamo", "exported"])
+def test_a_study_renders_its_pairs_with_an_avatar_of_each_structure(app, tmp_path, kind):
+    """[render] face names an avatar uploaded with the study file; the render job draws every
+    clip with it (tests/renderer/avatar_fixtures.py: the structures other tools write)."""
+    import imageio.v3 as iio
+
+    from app.web.jobs.tasks import generate_tracks, render_clips
+    from app.web.models import Stimulus
+    from tests.renderer.avatar_fixtures import build_avatar
+
+    if kind == "exported":  # facepair face export, loaded back as an avatar
+        from renderer.faceexport import export_builtin_head
+
+        avatar = export_builtin_head(tmp_path / "exported.glb")
+    else:
+        avatar = build_avatar(kind, tmp_path)
+    write_tone_wav(tmp_path / "s1.wav", seconds=0.3)
+    text = TOML.format().replace(
+        "[render]\nsize = 128\nmosaic_block = 16",
+        f'[render]\nsize = 64\nmosaic_block = 8\nface = "{avatar.name}"',
+    )
+    spec = loads_study(text, base_dir=tmp_path)
+    with app.app_context():
+        study = create_study(create_test_user(), spec)
+        db.session.commit()
+        study = db.session.get(Study, study.id)
+        assert study.settings["render"]["face"] == f"render/{avatar.name}"
+        generate_tracks(study, lambda done, total: None)
+        render_clips(study, lambda done, total: None)
+        videos = [
+            media_dir(study) / s.video_path
+            for s in db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study.id))
+        ]
+    assert videos and all(v.is_file() for v in videos)
+    frame = iio.imread(videos[0], index=3)
+    assert frame.shape == (64, 128, 3) and frame.mean() > 60  # lit faces, not black
