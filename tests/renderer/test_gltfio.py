@@ -379,3 +379,60 @@ def test_a_ktx2_texture_that_fails_falls_back_to_the_textures_own_source(tmp_pat
     (tmp_path / "a.glb").write_bytes(b"glTF" + struct.pack("<II", 2, 12 + len(body)) + body)
     fallback, png = read_gltf(tmp_path / "a.glb"), read_gltf(DATA / "head-gltfpack.glb")
     np.testing.assert_array_equal(fallback.texture, png.texture)
+
+
+def _with_image(source: Path, path: Path, data: bytes, mime: str = "image/png") -> Path:
+    """``source`` with its (first) image's bytes replaced by ``data``, in a buffer of its own
+    appended to the binary chunk."""
+    gltf = pygltflib.GLTF2().load_binary(str(source))
+    blob = bytearray(gltf.binary_blob())
+    while len(blob) % 4:
+        blob.append(0)
+    gltf.bufferViews.append(
+        pygltflib.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(data))
+    )
+    blob.extend(data)
+    gltf.buffers[0].byteLength = len(blob)
+    gltf.images[0].bufferView = len(gltf.bufferViews) - 1
+    gltf.images[0].mimeType = mime
+    gltf.set_binary_blob(bytes(blob))
+    gltf.save_binary(str(path))
+    return path
+
+
+@settings(
+    max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(data=st.binary(min_size=0, max_size=400), mime=st.sampled_from(["image/png", "image/webp"]))
+def test_a_texture_of_any_bytes_is_one_line_naming_it(exported_head, tmp_path, data, mime):
+    path = _with_image(exported_head, tmp_path / "t.glb", data, mime)
+    try:
+        scene = read_gltf(path)
+    except InputError as exc:
+        line = str(exc)
+        assert line.startswith(f"{path}: texture 0: image 0 cannot be read") and "\n" not in line
+    else:
+        assert scene.texture is not None
+
+
+@pytest.mark.parametrize(
+    ("mode", "fmt"), [("LA", "PNG"), ("RGBA", "WEBP"), ("P", "PNG"), ("I;16", "PNG")]
+)
+def test_a_texture_in_any_channel_layout_reads(exported_head, tmp_path, mode, fmt):
+    """A grey-and-alpha PNG crashed (its two channels did not broadcast); WebP was refused."""
+    from PIL import Image
+
+    grey = np.tile(np.linspace(0, 255, 64).astype(np.uint8), (32, 1))
+    image = {
+        "LA": Image.fromarray(np.dstack([grey, np.full_like(grey, 255)]), "LA"),
+        "RGBA": Image.fromarray(np.dstack([grey, grey, grey, np.full_like(grey, 255)]), "RGBA"),
+        "P": Image.fromarray(grey, "L").convert("P"),
+        "I;16": Image.fromarray(grey.astype(np.uint16) * 257),
+    }[mode]
+    out = io.BytesIO()
+    image.save(out, format=fmt, **({"lossless": True} if fmt == "WEBP" else {}))
+    mime = "image/webp" if fmt == "WEBP" else "image/png"
+    scene = read_gltf(_with_image(exported_head, tmp_path / "g.glb", out.getvalue(), mime))
+    assert scene.texture.shape == (32, 64, 3)
+    assert abs(int(scene.texture[0, 63, 0]) - 255) <= 2 and scene.texture[0, 0, 0] <= 2
+    assert (scene.texture[..., 0] == scene.texture[..., 2]).all()  # grey stays grey

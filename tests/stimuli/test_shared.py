@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from app.errors import InputError
 from app.stimuli.fapfile import write_fap
@@ -68,6 +70,39 @@ def test_face_channels_come_from_the_ground_truth_else_the_first_that_moves_them
     assert differing_channels(out) == []
     assert out["talk"][3].tolist() == [0.0, 0.0, 0.0] and out["still"][48].tolist() == [1, 1, 1]
     assert differing_channels({"still": still, "talk": talk}) == [3]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    data=st.data(),
+    n_tracks=st.integers(1, 4),
+    n_frames=st.integers(1, 20),
+)
+def test_any_tracks_share_every_channel_outside_the_tested(data, n_tracks, n_frames):
+    """Whatever channels each track carries, after the eyes and the rest of the face are
+    shared the tracks differ at most in the tested channels, which are untouched."""
+    values = st.floats(-3000, 3000, allow_nan=False)
+    tracks = {}
+    for k in range(n_tracks):
+        chans = data.draw(st.sets(st.integers(1, 68), max_size=12))
+        cols = {
+            c: np.array(data.draw(st.lists(values, min_size=n_frames, max_size=n_frames)))
+            for c in chans
+        }
+        tracks[f"c{k}"] = (
+            MotionTrack.from_channels(FPS, cols) if cols else MotionTrack.zeros(FPS, n_frames, ())
+        )
+    eyes = {c: np.full(n_frames, 5.0) for c in (19, 23)}
+    cols, _ = face_channels(data.draw(st.sampled_from(["shared", "own"])), tracks)
+    out = share_channels(share_channels(tracks, eyes, EYE_GROUP), cols or {})
+    if cols is not None:
+        assert differing_channels(out) == []
+    else:
+        assert not set(differing_channels(out)) & set(EYE_GROUP)
+    for name, track in tracks.items():
+        assert np.array_equal(
+            out[name].dense()[:, np.array(TESTED) - 1], track.dense()[:, np.array(TESTED) - 1]
+        )
 
 
 # -- every kind of condition, walked through generate --------------------------------------------
