@@ -62,6 +62,13 @@ from app.stimuli.track import MotionTrack
 SOURCE = "synthetic reference speaker (facepair; not a recording)"
 SPEAKER = "synthetic reference speaker"
 _DEG = np.pi / 180 / AU_RADIANS  # AU per degree
+#: The reference speaker's versions (module docstring, "Versions"); 1 is the default.
+VERSIONS = (1, 2)
+#: Version 2: factors of the head's speech-driven part (response and nods) for pitch, yaw, roll.
+V2_SPEECH_GAIN = (1.2, 3.3, 5.0)
+#: Version 2: factors of the head's speech-independent parts (posture drift, turns at talk
+#: onsets, roll tilts of random sign, jitter) for pitch, yaw, roll.
+V2_OTHER_GAIN = (0.9, 0.7, 0.7)
 
 
 def synthesize_reference(
@@ -71,14 +78,21 @@ def synthesize_reference(
     nod_au: float = 2500.0,
     brow_ens: float = 20.0,
     talk_fraction: float = 0.35,
+    version: int = 1,
 ) -> MotionTrack:
-    """The synthetic reference speaker's motion for ``features`` (see the module docstring)."""
+    """The synthetic reference speaker's motion for ``features`` (see the module docstring).
+
+    ``version`` 1 (the default) or 2, whose head carries a learnable speech relation in all
+    three angles (module docstring, "Versions"); they differ in the head only.
+    """
+    if version not in VERSIONS:
+        raise ValueError(f"reference speaker version must be one of {VERSIONS}, got {version!r}")
     n, fps = features.n_frames, features.fps
     rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(6)]
     talking = talking_frames(features.intensity, fps, talk_fraction)
     accents, strength = pitch_accents(features, talking)
 
-    head = _head(features, talking, accents, strength, nod_au, rngs[0])
+    head = _head(features, talking, accents, strength, nod_au, rngs[0], version)
     brows, raises = _eyebrows(n, fps, accents, strength, brow_ens)
     gaze = _gaze(n, fps, talking, head, rngs[1])
     lids, blinks = _blinks(n, fps, talking, rngs[2])
@@ -87,7 +101,7 @@ def synthesize_reference(
     columns = {**head, **brows, **gaze, **lids, **mouth}
     meta: dict[str, Any] = {
         "synthetic": True,
-        "model": "facepair synthetic reference speaker v1",
+        "model": f"facepair synthetic reference speaker v{version}",
         "seed": seed,
         "accent_frames": accents.tolist(),
         "eyebrow_raise_frames": raises,
@@ -160,8 +174,12 @@ def _head(
     strength: np.ndarray,
     nod_au: float,
     rng: np.random.Generator,
+    version: int = 1,
 ) -> dict[int, np.ndarray]:
     n, fps = features.n_frames, features.fps
+    # per-angle factors (pitch, yaw, roll) of the speech-driven and the speech-independent parts;
+    # 1.0 in v1, so v1's values are exactly those of the code before versions existed
+    gs, go = (V2_SPEECH_GAIN, V2_OTHER_GAIN) if version == 2 else ((1.0,) * 3, (1.0,) * 3)
     t = np.arange(max(round(1.0 * fps), 2)) / fps
     tau = 0.1
     gamma = (t / tau) * np.exp(1 - t / tau)  # peaks at 1 at t = tau
@@ -178,19 +196,19 @@ def _head(
     a = np.exp(-1.0 / (0.5 * fps))
     respond = lambda x: signal.lfilter([1 - a], [1.0, -a], x)  # noqa: E731
     # positive pitch is down: loud, high speech lifts the head a little
-    pitch = respond(-900.0 * inten - 600.0 * f0 - 500.0 * inten_1s) + nods
-    yaw = respond(700.0 * f0 + 900.0 * f0_1s - 400.0 * inten)
-    roll = respond(-500.0 * f0 + 400.0 * inten_1s) + roll_tilt
+    pitch = respond(-900.0 * inten - 600.0 * f0 - 500.0 * inten_1s) * gs[0] + nods * gs[0]
+    yaw = respond(700.0 * f0 + 900.0 * f0_1s - 400.0 * inten) * gs[1]
+    roll = respond(-500.0 * f0 + 400.0 * inten_1s) * gs[2] + roll_tilt * go[2]
     onsets = np.flatnonzero(np.diff(talking.astype(int)) == 1) + 1
     turn = np.repeat(
         np.r_[0.0, rng.normal(0, 2.5 * _DEG, len(onsets))], np.diff(np.r_[0, onsets, n])
     )
-    yaw += ndimage.uniform_filter1d(turn, max(round(0.4 * fps), 1), mode="nearest")
-    pitch += _ou(n, fps, 4.0, 1.2 * _DEG, rng)
-    yaw += _ou(n, fps, 6.0, 2.0 * _DEG, rng)
-    roll += _ou(n, fps, 8.0, 0.8 * _DEG, rng)
-    for x in (pitch, yaw, roll):
-        x += _ou(n, fps, 0.1, 0.15 * _DEG, rng)
+    yaw += ndimage.uniform_filter1d(turn, max(round(0.4 * fps), 1), mode="nearest") * go[1]
+    pitch += _ou(n, fps, 4.0, 1.2 * _DEG, rng) * go[0]
+    yaw += _ou(n, fps, 6.0, 2.0 * _DEG, rng) * go[1]
+    roll += _ou(n, fps, 8.0, 0.8 * _DEG, rng) * go[2]
+    for x, g in zip((pitch, yaw, roll), go, strict=True):
+        x += _ou(n, fps, 0.1, 0.15 * _DEG, rng) * g
     return {48: pitch, 49: yaw, 50: roll}
 
 
