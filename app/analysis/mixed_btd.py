@@ -282,7 +282,9 @@ class _Solve:
     x: np.ndarray | None  # A^-1 B
 
 
-MODEL = "Bradley-Terry-Davidson with participant x condition and clip x condition random effects"
+#: The model's name as the report's heading and Table 9b give it: the random effects are
+#: per participant and per clip on each condition's worth (b_pi, c_ki).
+MODEL = "Bradley-Terry-Davidson with participant × condition and clip × condition random effects"
 ESTIMATOR = "penalised quasi-likelihood, REML variances (Schall's update); Wald intervals"
 MIN_VARIANCE = 1e-8  # a random effect taken as absent
 CRAWL_VARIANCE = 0.01  # sd 0.1

@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 from app.analysis.document import Block, Heading, Paragraph, Table, fmt
+from app.analysis.mixed_btd import MODEL
 
 MIXED_TEXT = (
     "Mixed model: the Bradley-Terry-Davidson model with the side factor, each participant's "
@@ -29,7 +30,7 @@ def mixed_blocks(r: dict[str, Any]) -> list[Block]:
     m = r["pooled"].get("mixed_btd")
     if not m:
         return []
-    head = Heading("Bradley-Terry-Davidson with participant and clip random effects")
+    head = Heading(MODEL)  # the effects the methods text and Table 9b's note name
     if all(v is None for v in m["scores"].values()):
         return [head, Paragraph(f"The mixed model could not be fitted: {m['note']}.")]
     ci = int(round(100 * r["options"]["confidence"]))
@@ -64,7 +65,7 @@ def mixed_blocks(r: dict[str, Any]) -> list[Block]:
             "interval over participants.",
             ["condition", "score", f"{ci}% CI", "JOD", f"{ci}% CI (JOD)", "fixed JOD", "fixed CI"],
             rows,
-            note=f"{m['model']}; {m['estimator']}.",
+            note=f"{m['estimator']}.",
             numeric=[False] + [True] * 6,
         ),
     ]

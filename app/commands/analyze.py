@@ -55,7 +55,8 @@ def _summary(results: dict[str, Any]) -> str:
     mixed = pooled.get("mixed_btd")
     if mixed and mixed["sd_participant"] is not None:
         lines.append(
-            f"mixed model (participant and clip random effects): sd participant "
+            f"mixed model (participant × condition and clip × condition random effects): "
+            f"sd participant "
             f"{mixed['sd_participant']:.3f}, sd clip "
             + ("-" if mixed["sd_clip"] is None else f"{mixed['sd_clip']:.3f}")
             + "; JOD "

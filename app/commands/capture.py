@@ -82,6 +82,21 @@ def _save(track, out: str, samples: str) -> dict:
     "none (the camera's or the skeleton's rest pose, BVH's default) or the median over a "
     "calibration window in seconds.",
 )
+@click.option(
+    "--gaze-neutral",
+    type=click.Choice(["none", "median"]),
+    default=None,
+    help="OpenFace: take the take's median gaze out of the eyes (median; a camera below the "
+    "eyes' line makes a take look down throughout) or keep it (none, the default); the "
+    "summary says what it was.",
+)
+@click.option(
+    "--brow-neutral",
+    type=click.Choice(["median", "none"]),
+    default=None,
+    help="ARKit / Live Link Face: the brows relative to the take's rest (median, the default) "
+    "or as recorded (none).",
+)
 def import_(
     source: str,
     kind: str,
@@ -91,6 +106,8 @@ def import_(
     min_confidence: float,
     flip: tuple[str, ...],
     neutral: str | None,
+    gaze_neutral: str | None,
+    brow_neutral: str | None,
 ) -> None:
     """Import SOURCE (a tracker's or a tool's file) as a FAP track, reporting lost frames,
     gaps, the neutral pose and what could not be imported."""
@@ -114,6 +131,12 @@ def import_(
         )
     if neutral is not None and kind not in ("openface", "bvh"):
         raise InputError("--neutral is for OpenFace and BVH files", field="--neutral")
+    if gaze_neutral is not None and kind != "openface":
+        raise InputError("--gaze-neutral is for OpenFace files", field="--gaze-neutral")
+    if brow_neutral is not None and kind != "arkit":
+        raise InputError(
+            "--brow-neutral is for ARKit / Live Link Face files", field="--brow-neutral"
+        )
     track = import_track(
         source,
         kind,
@@ -122,15 +145,12 @@ def import_(
         min_confidence=min_confidence,
         flip=flip,
         neutral=Neutral.parse(neutral) if neutral is not None else None,
+        brow_neutral=brow_neutral,
+        gaze_neutral=gaze_neutral,
     )
     report = _save(track, out, "samples")
     if report["invalid_samples"] or report["filled_frames"]:
-        spans = ", ".join(f"{a:.2f}-{b:.2f} s" for a, b in report["gaps"][:5])
-        click.echo(
-            f"  {report['invalid_samples']} lost samples; {report['filled_frames']} "
-            f"frames filled by interpolation ({spans}"
-            f"{', ...' if len(report['gaps']) > 5 else ''})"
-        )
+        click.echo(f"  {lost_and_filled(report)}")
     if "neutral" in report:
         n = report["neutral"]
         click.echo(
@@ -138,11 +158,34 @@ def import_(
             f"{n['yaw_deg']:g}, roll {n['roll_deg']:g} deg from {n.get('from', 'the camera axis')})"
         )
     if "gaze" in report:
-        click.echo(f"  gaze: {report['gaze']}")
+        offset = report.get("gaze_offset")
+        said = (
+            f" (median: {offset['pitch_deg']:g} deg down, {offset['yaw_deg']:g} deg to the "
+            "face's left)"
+            if offset
+            else ""
+        )
+        click.echo(f"  gaze: {report['gaze']}{said}")
     for line in report.get("warnings", []):
         click.echo(f"  {line}")
     for column, faps in report["missing"].items():
         click.echo(f"  no column {column}: FAP {', '.join(map(str, faps))} not imported")
+
+
+def lost_and_filled(report: dict) -> str:
+    """One line on a capture's lost samples and the frames filled between them.
+
+    >>> lost_and_filled({"invalid_samples": 4, "filled_frames": 0, "gaps": []})
+    '4 lost samples; no frame filled (each lost sample was at an end, or fell between frames)'
+    >>> lost_and_filled({"invalid_samples": 3, "filled_frames": 2, "gaps": [(1.0, 1.1)]})
+    '3 lost samples; 2 frames filled by interpolation (1.00-1.10 s)'
+    """
+    lost = f"{report['invalid_samples']} lost samples"
+    if not report["filled_frames"]:
+        return f"{lost}; no frame filled (each lost sample was at an end, or fell between frames)"
+    spans = ", ".join(f"{a:.2f}-{b:.2f} s" for a, b in report["gaps"][:5])
+    more = ", ..." if len(report["gaps"]) > 5 else ""
+    return f"{lost}; {report['filled_frames']} frames filled by interpolation ({spans}{more})"
 
 
 @capture.command("export")

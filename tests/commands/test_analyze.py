@@ -192,7 +192,10 @@ def test_the_summary_names_the_mixed_model_unless_left_out(tmp_path):
     )
     out = CliRunner().invoke(main, ["analyze", str(tmp_path / "v.csv"), "--bootstrap", "0"])
     assert out.exit_code == 0, out.output
-    assert "mixed model (participant and clip random effects): sd participant" in out.output
+    assert (
+        "mixed model (participant × condition and clip × condition random effects): "
+        "sd participant" in out.output
+    )
     out = CliRunner().invoke(
         main, ["analyze", str(tmp_path / "v.csv"), "--bootstrap", "0", "--no-mixed-model"]
     )

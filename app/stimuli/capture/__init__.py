@@ -85,19 +85,22 @@ def import_track(
 ) -> MotionTrack:
     """Read a tracker's or a tool's file as a FAP track at ``fps``; ``kind`` None detects it.
 
-    ``options`` pass on where they apply: ``max_gap_s``; ``min_confidence`` and ``neutral``
-    (OpenFace); ``flip`` (ARKit rotation columns); ``neutral`` (BVH).
+    ``options`` pass on where they apply: ``max_gap_s``; ``min_confidence``, ``neutral`` and
+    ``gaze_neutral`` (OpenFace); ``flip`` (ARKit rotation columns) and ``brow_neutral``
+    (ARKit); ``neutral`` (BVH).
     """
     from app.stimuli.capture import arkit, bvh, openface, weights
 
     kind = kind or sniff(path)
     gap = {k: options[k] for k in ("max_gap_s",) if options.get(k) is not None}
     if kind == "openface":
-        extra = {k: options[k] for k in ("min_confidence", "neutral") if options.get(k)}
+        keys = ("min_confidence", "neutral", "gaze_neutral")
+        extra = {k: options[k] for k in keys if options.get(k)}
         return openface.read_openface(path, fps, **gap, **extra)
     if kind == "arkit":
         mapping = arkit.arkit_mapping(flip=options.get("flip") or ())
-        return arkit.read_arkit_csv(path, fps, mapping=mapping, **gap)
+        brows = {"brow_neutral": options["brow_neutral"]} if options.get("brow_neutral") else {}
+        return arkit.read_arkit_csv(path, fps, mapping=mapping, **gap, **brows)
     if kind == "a2f-csv":
         return weights.read_a2f_csv(path, fps, **gap)
     if kind == "a2f-json":

@@ -41,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from app.errors import InputError
 from app.stimuli.capture.csvfile import read_numeric_csv
 from app.stimuli.capture.mapping import IRISD_CLOSED, LID_SHARE, FapMapping, columns_to_track
 from app.stimuli.capture.timeline import MAX_GAP_S
@@ -116,6 +117,17 @@ ROTATIONS: tuple[str, ...] = (
 HEADER: tuple[str, ...] = ("Timecode", "BlendShapeCount", *BLENDSHAPES, *ROTATIONS)
 APP_RATES = (24.0, 25.0, 30.0, 48.0, 50.0, 60.0)
 BROW, JAW = 100.0, 800.0
+#: The brow coefficients taken relative to the take's rest (``brow_neutral``).
+BROW_SHAPES = (
+    "BrowDownLeft",
+    "BrowDownRight",
+    "BrowInnerUp",
+    "BrowOuterUpLeft",
+    "BrowOuterUpRight",
+)
+BROW_NEUTRALS = ("median", "none")
+#: A brow rest this far from ARKit's 0 (of 1) is said in the import summary.
+BROW_REST_SAID = 0.02
 _TIMECODE = re.compile(r"^(\d+):(\d{1,2}):(\d{1,2}):(\d{1,3})(?:\.(\d+))?$")
 
 
@@ -181,15 +193,17 @@ def parse_timecode(text: str, app_fps: float) -> float:
     return h * 3600 + mi * 60 + s + ff / app_fps
 
 
-def _irregular_steps(times: np.ndarray, app_fps: float) -> int:
-    """How many steps between stamps are not a whole number of frames (or are 0)."""
+def _irregular_steps(times: np.ndarray, app_fps: float) -> tuple[int, int]:
+    """How many steps between stamps are not a whole number of frames (or are 0), and how
+    many skip a frame (two or more frames long)."""
     steps = np.diff(times) * app_fps
     positive = steps[steps > 1e-9]
     if not len(positive):
-        return len(steps)
+        return len(steps), 0
     unit = float(np.median(positive))
     ratio = steps / unit
-    return int(np.sum((np.abs(ratio - np.round(ratio)) > 0.25) | (np.round(ratio) < 1)))
+    irregular = (np.abs(ratio - np.round(ratio)) > 0.25) | (np.round(ratio) < 1)
+    return int(irregular.sum()), int(np.sum(~irregular & (np.round(ratio) >= 2)))
 
 
 def _subframe(text: str) -> float:
@@ -203,12 +217,18 @@ def frame_times(stamps: list[str], app_fps: float) -> tuple[np.ndarray, bool]:
 
     Both readings are tried: frame numbers alone (:func:`parse_timecode`) and frame numbers
     plus the digits after the point as a fraction of a frame. The reading with fewer steps
-    that are not whole frames wins; a tie keeps the frame numbers alone.
+    that are not whole frames wins, then the one that skips fewer frames (a frame stored a
+    hair early, ``44.999`` before ``46.000``, is one frame from it, not two); a tie keeps the
+    frame numbers alone (a running counter, ``01.001``, ``02.002``, is no fraction).
 
     >>> stamps = ["00:00:00:43.000", "00:00:00:44.000", "00:00:00:44.999", "00:00:00:46.000"]
     >>> times, fraction = frame_times(stamps, 60.0)
     >>> (np.diff(times) * 60).round(3).tolist(), fraction
     ([1.0, 0.999, 1.001], True)
+    >>> times, fraction = frame_times(["00:00:00:42.999", "00:00:00:43.999", "00:00:00:44.999",
+    ...                                "00:00:00:46.000"], 60.0)
+    >>> (np.diff(times) * 60).round(3).tolist(), fraction
+    ([1.0, 1.0, 1.001], True)
     """
     whole = np.array([parse_timecode(s, app_fps) for s in stamps])
     frac = np.array([_subframe(s) for s in stamps])
@@ -227,12 +247,21 @@ def read_arkit_csv(
     app_fps: float | None = None,
     max_gap_s: float = MAX_GAP_S,
     mapping: FapMapping = ARKIT_MAP,
+    brow_neutral: str = "median",
 ) -> MotionTrack:
     """A Live Link Face CSV as a FAP track at ``fps`` (timecode to time, then resampled).
 
     ``app_fps`` is the app's frame rate behind the timecodes; by default the smallest of
     24/25/30/48/50/60 above every frame number in the file (60 for a take under a second).
+    ``brow_neutral``: ``"median"`` takes each brow coefficient relative to its median over
+    the take (the speaker's rest: a take's brows are rarely at ARKit's 0), ``"none"`` keeps
+    them as recorded; the summary reports the rest.
     """
+    if brow_neutral not in BROW_NEUTRALS:
+        raise InputError(
+            f"expected one of {', '.join(BROW_NEUTRALS)}, got {brow_neutral!r}",
+            field="--brow-neutral",
+        )
     p = Path(path)
     table = read_numeric_csv(
         p, check_header=_header_problem, text_columns={"Timecode": _timecode_problem}
@@ -245,8 +274,19 @@ def read_arkit_csv(
         app_fps = next((r for r in APP_RATES if r > top), 60.0)
     times, fraction = frame_times(stamps, app_fps)
 
-    def column(name: str) -> np.ndarray:
+    rest = {}
+    if brow_neutral == "median":
+        for name in BROW_SHAPES:
+            if name.lower() in names:
+                values = data[:, names[name.lower()]]
+                finite = values[np.isfinite(values)]
+                rest[name] = float(np.median(finite)) if len(finite) else 0.0
+
+    def recorded(name: str) -> np.ndarray:
         return data[:, names[name.lower()]]
+
+    def column(name: str) -> np.ndarray:
+        return recorded(name) - rest.get(name, 0.0)
 
     available = {h for h in (*BLENDSHAPES, *ROTATIONS) if h.lower() in names}
     track = columns_to_track(
@@ -260,11 +300,20 @@ def read_arkit_csv(
         rows=rows,
         name=p.stem,
         source=f"ARKit blendshape CSV {p.name}",
+        recorded=recorded,
     )
-    track.metadata["capture"].update(
+    report = track.metadata["capture"]
+    report.update(
         app_fps=app_fps,
         timecode="frame numbers and their sub-frame fractions" if fraction else "frame numbers",
+        brow_rest={k: round(v, 4) for k, v in rest.items()},
     )
+    if any(abs(v) >= BROW_REST_SAID for v in rest.values()):
+        said = ", ".join(f"{k} {v:.2f}" for k, v in rest.items() if abs(v) >= BROW_REST_SAID)
+        report.setdefault("warnings", []).append(
+            f"brows relative to the take's rest (median {said}); --brow-neutral none keeps "
+            "them as recorded"
+        )
     return track
 
 

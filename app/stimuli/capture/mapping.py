@@ -154,15 +154,17 @@ def columns_to_track(
     name: str = "",
     rows: np.ndarray | None = None,
     max_gap_s: float = MAX_GAP_S,
+    recorded: Callable[[str], np.ndarray] | None = None,
 ) -> MotionTrack:
     """A track from the columns of a weight file (ARKit blendshapes and rotations) at their
     ``times`` (seconds, one sample per row): :meth:`FapMapping.apply`, the FAPs of all-zero
-    columns left out (:meth:`FapMapping.constant`), then
+    columns left out (:meth:`FapMapping.constant`, judged on the ``recorded`` columns when
+    ``column`` gives them relative to a rest), then
     :func:`~app.stimuli.capture.timeline.to_track`. ``metadata["capture"]`` adds
     ``missing``, ``constant``, ``left_out`` and ``warnings`` (one line each) to the time
     report."""
     faps = mapping.apply(column, available)
-    held, left_out, warnings = mapping.constant(column, available)
+    held, left_out, warnings = mapping.constant(recorded or column, available)
     for fap in left_out:
         faps.pop(fap, None)
     if not faps:

@@ -63,6 +63,10 @@ from app.stimuli.track import MotionTrack
 REQUIRED = ("frame", "timestamp", "confidence", "success")
 #: Frames whose landmark confidence is lower are treated as lost.
 MIN_CONFIDENCE = 0.75
+#: What ``gaze_neutral`` takes: the take's median gaze out of the eyes, or nothing.
+GAZE_NEUTRALS = ("none", "median")
+#: A take's median gaze this far from the camera (degrees) is said in the import summary.
+GAZE_OFFSET_SAID_DEG = 5.0
 POSE = ("pose_Rx", "pose_Ry", "pose_Rz")
 GAZE_ANGLES = ("gaze_angle_x", "gaze_angle_y")
 #: The person's left eye (FAP 23, 25) is OpenFace's eye 1, the rightmost in the image.
@@ -143,6 +147,7 @@ def _head_and_eyes(
     valid: np.ndarray,
     neutral: Neutral,
     path: str,
+    gaze_neutral: str = "none",
 ) -> tuple[dict[int, np.ndarray], dict[str, Any]]:
     """FAP 48-50 relative to the neutral and FAP 23-26 in the head's frame, and their report."""
     faps: dict[int, np.ndarray] = {}
@@ -175,7 +180,50 @@ def _head_and_eyes(
             if head is not None
             else "in the camera's frame (no pose_R* columns to turn it into the head's)"
         )
+        report_extra.update(_gaze_offset(faps, valid, gaze_neutral))
     return faps, report_extra
+
+
+def _gaze_offset(
+    faps: dict[int, np.ndarray], valid: np.ndarray, gaze_neutral: str
+) -> dict[str, Any]:
+    """The take's median gaze (both eyes' mean, degrees), reported; with ``gaze_neutral``
+    ``"median"`` taken out of FAP 23-26 in place. A take filmed by a camera below the eyes'
+    line looks down by its angle throughout (22 degrees in a real OpenFace take): a face that
+    looks at the floor for a whole study."""
+    offsets = {}
+    for kind, pair in (("yaw", (23, 24)), ("pitch", (25, 26))):
+        both = np.column_stack([faps[f] for f in pair])[valid]
+        finite = both[np.isfinite(both).all(axis=1)]
+        median = np.median(finite, axis=0) if len(finite) else np.zeros(2)
+        offsets[kind] = float(np.degrees(median.mean() * AU_RADIANS))
+        if gaze_neutral == "median":
+            for fap, m in zip(pair, median, strict=True):
+                faps[fap] = faps[fap] - m
+    report: dict[str, Any] = {
+        "gaze_offset": {
+            "method": gaze_neutral,
+            "yaw_deg": round(offsets["yaw"], 2),  # + the face's left
+            "pitch_deg": round(offsets["pitch"], 2),  # + down
+        }
+    }
+    big = max(abs(offsets["yaw"]), abs(offsets["pitch"])) >= GAZE_OFFSET_SAID_DEG
+    if big:
+        up_down = "down" if offsets["pitch"] > 0 else "up"
+        side = "left" if offsets["yaw"] > 0 else "right"
+        where = (
+            f"{abs(offsets['pitch']):.1f} deg {up_down} and "
+            f"{abs(offsets['yaw']):.1f} deg to the face's {side}"
+        )
+        report["warnings"] = [
+            f"the eyes look {where} over the take (median)"
+            + (
+                ", taken out (--gaze-neutral median)"
+                if gaze_neutral == "median"
+                else "; a camera off the eyes' line? --gaze-neutral median takes it out"
+            )
+        ]
+    return report
 
 
 def read_openface(
@@ -186,16 +234,24 @@ def read_openface(
     max_gap_s: float = MAX_GAP_S,
     mapping: FapMapping = OPENFACE_MAP,
     neutral: Neutral | None = None,
+    gaze_neutral: str = "none",
 ) -> MotionTrack:
     """Read an OpenFace 2.0 CSV as a FAP track at ``fps`` (see the module docstring).
 
-    ``neutral`` says which pose the head is measured from (default: the take's median pose).
+    ``neutral`` says which pose the head is measured from (default: the take's median pose);
+    ``gaze_neutral`` ``"median"`` takes the take's median gaze out of the eyes (default
+    ``"none"``: kept, and reported as ``gaze_offset`` with a warning from 5 degrees).
     The track's ``metadata["capture"]`` reports dropped frames, filled gaps, the neutral
     (``neutral``: method and its pitch, yaw, roll in degrees from the camera's axis), the gaze
     source and the FAPs left out for want of columns (``missing``). Bad input: one
     :class:`InputError` naming the file, row and column.
     """
     neutral = neutral or Neutral()
+    if gaze_neutral not in GAZE_NEUTRALS:
+        raise InputError(
+            f"expected one of {', '.join(GAZE_NEUTRALS)}, got {gaze_neutral!r}",
+            field="--gaze-neutral",
+        )
     table = read_numeric_csv(path, check_header=_header_problem)
     header, data, rows = table.header, table.values, table.lines
     col = {name: i for i, name in enumerate(header)}
@@ -206,7 +262,7 @@ def read_openface(
 
     valid = (column("success") > 0.5) & (column("confidence") >= min_confidence)
     with np.errstate(over="ignore", invalid="ignore"):  # overflowing values: lost samples
-        faps, report_extra = _head_and_eyes(column, names, valid, neutral, str(path))
+        faps, report_extra = _head_and_eyes(column, names, valid, neutral, str(path), gaze_neutral)
     faps.update(mapping.apply(column, names))
     if not faps:
         raise InputError(
@@ -229,5 +285,7 @@ def read_openface(
     for cols, given in ((POSE, [48, 49, 50]), (GAZE_ANGLES, [23, 24, 25, 26])):
         if given[0] not in faps:
             missing.update({c: given for c in cols if c not in names})
+    warnings = report_extra.pop("warnings", [])
     report.update(report_extra, missing=missing)
+    report["warnings"] = [*report.get("warnings", []), *warnings]
     return mapping.limit(track).replace(metadata={**track.metadata, "capture": report})

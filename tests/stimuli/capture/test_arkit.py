@@ -48,7 +48,8 @@ def test_a_live_link_take_maps_to_faps(tmp_path):
     t, v = take()
     path = write_live_link(tmp_path / "take.csv", 240, v)
     assert sniff_csv(path) == "arkit"
-    track = read_arkit_csv(path, 30.0)
+    # the table itself: coefficients as recorded (the take's rest: its own test, below)
+    track = read_arkit_csv(path, 30.0, brow_neutral="none")
     report = track.metadata["capture"]
     assert report["app_fps"] == 60 and report["capture_fps"] == 60
     assert track.n_frames == 120  # 4 s at 30 fps
@@ -77,10 +78,11 @@ def test_dropped_frames_are_filled_and_flip_turns_an_axis(tmp_path):
 
 def test_round_trip_through_the_writer(tmp_path):
     t, v = take(app_fps=30, n=120)
-    first = read_arkit_csv(write_live_link(tmp_path / "a.csv", 120, v, app_fps=30), 30.0)
+    written = write_live_link(tmp_path / "a.csv", 120, v, app_fps=30)
+    first = read_arkit_csv(written, 30.0, brow_neutral="none")
     write_arkit_csv(first, tmp_path / "b.csv")
     assert (tmp_path / "b.csv").read_text().splitlines()[0] == ",".join(HEADER)
-    again = read_arkit_csv(tmp_path / "b.csv", 30.0)
+    again = read_arkit_csv(tmp_path / "b.csv", 30.0, brow_neutral="none")
     assert again.channels == first.channels
     for c in first.channels:
         # six decimals of radians are 0.1 AU; of blendshapes, 1e-4 FAP units
@@ -180,14 +182,15 @@ def test_columns_that_are_zero_in_every_frame_are_left_out_with_a_warning(tmp_pa
     for name in ("HeadYaw", "HeadPitch", "HeadRoll"):
         v[name] = np.zeros(240)  # recorded with head rotation off
     path = write_live_link(tmp_path / "take.csv", 240, v)
-    track = read_arkit_csv(path, 30.0)
+    track = read_arkit_csv(path, 30.0, brow_neutral="none")
     assert not {48, 49, 50} & set(track.channels) and 3 in track.channels
     report = track.metadata["capture"]
     assert report["left_out"] == [48, 49, 50]
     assert report["constant"]["HeadYaw"] == 0.0 and report["constant"]["JawOpen"] == 0.25
     assert len(report["warnings"]) == 2 and all("\n" not in w for w in report["warnings"])
     assert report["warnings"][1].startswith("FAP 48, 49, 50 left out")
-    r = CliRunner().invoke(main, ["capture", "import", str(path), "--out", str(tmp_path / "g.fap")])
+    out = ["--out", str(tmp_path / "g.fap"), "--brow-neutral", "none"]
+    r = CliRunner().invoke(main, ["capture", "import", str(path), *out])
     assert r.exit_code == 0, r.output
     assert "constant in every frame: " in r.output and "HeadPitch = 0" in r.output
     assert "FAP 48, 49, 50 left out: their columns are 0 in every frame" in r.output
@@ -284,3 +287,58 @@ def test_samples_twice_a_timecode_frame_are_placed_by_their_fractions(tmp_path):
     report = read_arkit_csv(path, 30.0, app_fps=30.0).metadata["capture"]
     assert report["capture_fps"] == 60 and report["duplicates"] == 0
     assert report["samples"] == 240 and report["filled_frames"] == 0
+
+
+def test_brows_are_taken_from_the_takes_rest_and_said(tmp_path):
+    """A real take held BrowDown at 0.2-0.3 throughout: imported as recorded, its brows were
+    furrowed in every frame. Relative to the take's median they rest at 0 and keep their
+    raises."""
+    n = 240
+    t = np.arange(n) / 60.0
+    raise_ = np.where((t > 1.0) & (t < 1.6), 0.35, 0.0)  # one inner raise of 0.35
+    values = {
+        "BrowDownLeft": np.full(n, 0.25),
+        "BrowDownRight": np.full(n, 0.22),
+        "BrowInnerUp": 0.05 + raise_,
+        "JawOpen": 0.2 + 0.1 * np.sin(6 * t),
+    }
+    path = write_live_link(tmp_path / "take.csv", n, values)
+    as_recorded = read_arkit_csv(path, 30.0, brow_neutral="none")
+    assert np.median(as_recorded[31]) == pytest.approx(5 - 25, abs=1)  # furrowed throughout
+    track = read_arkit_csv(path, 30.0)
+    assert np.median(track[31]) == pytest.approx(0.0, abs=0.5)
+    assert track[31].max() == pytest.approx(35.0, abs=2.0)  # the raise (a spline overshoots 1)
+    report = track.metadata["capture"]
+    assert report["brow_rest"]["BrowDownLeft"] == pytest.approx(0.25)
+    said = [w for w in report["warnings"] if w.startswith("brows relative to the take's rest")]
+    assert said == [
+        "brows relative to the take's rest (median BrowDownLeft 0.25, BrowDownRight 0.22, "
+        "BrowInnerUp 0.05); --brow-neutral none keeps them as recorded"
+    ]
+    r = CliRunner().invoke(main, ["capture", "import", str(path), "--out", str(tmp_path / "g.fap")])
+    assert r.exit_code == 0 and "brows relative to the take's rest" in r.output
+    bad = CliRunner().invoke(
+        main,
+        ["capture", "import", str(path), "--out", str(tmp_path / "g.fap"), "--brow-neutral", "x"],
+    )
+    assert bad.exit_code == 2
+
+
+def test_a_frame_stamped_early_is_no_gap(tmp_path):
+    """The app stores a frame a hair early: 42.999, 43.999, 44.999, then 46.000. Read by the
+    frame numbers alone that was a one-frame gap (44 to 46) which is not there."""
+    from app.stimuli.capture.arkit import HEADER
+
+    lines = [",".join(HEADER)]
+    stamps = [f"14:03:52:{k:02d}.999" for k in range(30, 45)] + [
+        f"14:03:52:{k:02d}.000" for k in range(46, 60)
+    ]
+    for k, stamp in enumerate(stamps):
+        row = [stamp, "61"] + ["0.0"] * (len(HEADER) - 2)
+        row[HEADER.index("JawOpen")] = f"{0.1 + 0.01 * k:.8f}"
+        lines.append(",".join(row))
+    path = tmp_path / "early.csv"
+    path.write_text("\n".join(lines) + "\n")
+    report = read_arkit_csv(path, 30.0).metadata["capture"]
+    assert report["filled_frames"] == 0 and report["invalid_samples"] == 0, report
+    assert report["timecode"] == "frame numbers and their sub-frame fractions"

@@ -315,3 +315,34 @@ def test_any_numbers_or_bytes_are_a_track_or_one_input_error(tmp_path, rows, dat
         read_openface(path, FPS)
     except InputError as exc:
         assert "\n" not in str(exc) and "numbers.csv" in str(exc)
+
+
+def test_a_take_looking_down_throughout_is_said_and_can_be_taken_out(tmp_path):
+    """A real take's eyes sat 22 degrees down for its whole length (the camera below the
+    eyes' line): reported, kept by default, taken out with gaze_neutral = "median"."""
+    n = 240
+    t = np.arange(n) / FPS
+    down = np.radians(22.0) + 0.05 * np.sin(2 * np.pi * 0.5 * t)  # glances about 22 down
+    values = {"pose_Tz": np.full(n, 600.0)}
+    for eye in ("0", "1"):  # the camera frame: y down, z away from the camera
+        values[f"gaze_{eye}_x"] = np.zeros(n)
+        values[f"gaze_{eye}_y"] = np.sin(down)
+        values[f"gaze_{eye}_z"] = -np.cos(down)
+    values["gaze_angle_y"] = down
+    path = write_openface(tmp_path / "of.csv", t, values)
+    kept = read_openface(path, FPS)
+    report = kept.metadata["capture"]
+    assert report["gaze_offset"]["pitch_deg"] == pytest.approx(22.0, abs=0.3)
+    assert abs(report["gaze_offset"]["yaw_deg"]) < 0.3
+    assert np.degrees(np.median(kept[25]) * 1e-5) == pytest.approx(22.0, abs=0.3)  # + down
+    warning = [w for w in report["warnings"] if w.startswith("the eyes look 22.0 deg down")]
+    assert warning and "--gaze-neutral median takes it out" in warning[0]
+    taken = read_openface(path, FPS, gaze_neutral="median")
+    assert abs(np.median(taken[25])) < 1.0 and abs(np.median(taken[26])) < 1.0
+    np.testing.assert_allclose(
+        taken[25] - taken[25].mean(), kept[25] - kept[25].mean(), atol=1e-6
+    )  # the glances stay
+    r = CliRunner().invoke(main, ["capture", "import", str(path), "--out", str(tmp_path / "g.fap")])
+    assert r.exit_code == 0 and "22 deg down" in r.output and "--gaze-neutral median" in r.output
+    with pytest.raises(InputError, match="expected one of none, median"):
+        read_openface(path, FPS, gaze_neutral="mean")
