@@ -22,9 +22,11 @@ TEST_DIST ?= loadscope --no-loadscope-reorder
 HOST ?= 127.0.0.1
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # Debian packages: EGL/Mesa for headless rendering, chromium + driver for browser tests,
-# nginx for the front-proxy test (X-Accel-Redirect); npm for axe-core (accessibility checks),
+# nginx for the front-proxy test (X-Accel-Redirect); espeak-ng, festival with two voices and
+# sox for the voices the stimuli tests synthesise; npm for axe-core (accessibility checks),
 # from Debian only where no npm command is there (a Node.js install may bring its own).
-DEBS_TEST := chromium chromium-driver libegl1 libgl1-mesa-dri libegl-mesa0 nginx-light
+DEBS_TEST := chromium chromium-driver libegl1 libgl1-mesa-dri libegl-mesa0 nginx-light \
+	espeak-ng festival festvox-us-slt-hts festvox-kallpc16k sox
 DEBS_DEMO := libegl1 libgl1-mesa-dri libegl-mesa0
 
 .PHONY: demo test venv debs-test debs-demo axe lint bench clean

@@ -187,6 +187,9 @@ def features_from_samples(
 FIRST_PASS_RANGE = (60.0, 750.0)
 #: Second-pass range from the first pass's quartiles: floor = 0.75 x q25, ceiling = 1.5 x q75.
 FLOOR_FACTOR, CEILING_FACTOR = 0.75, 1.5
+#: The range is widened towards the first pass's extremes at most this factor beyond the
+#: quartiles (De Looze & Hirst's ceiling for expressive speech).
+WIDEST = 2.5
 #: Fewest voiced first-pass frames to trust the quartiles; fewer keeps the first-pass range.
 MIN_VOICED_FOR_RANGE = 10
 #: A voiced frame further than this (octaves) from the median of its neighbourhood is an error.
@@ -206,28 +209,57 @@ def _check_range(floor: float | None, ceiling: float | None) -> None:
 
 
 def speaker_pitch_range(
-    first_pass_f0: np.ndarray, floor: float | None = None, ceiling: float | None = None
+    first_pass_f0: np.ndarray,
+    floor: float | None = None,
+    ceiling: float | None = None,
+    fps: float = 30.0,
 ) -> tuple[float, float, str]:
-    """The speaker's F0 floor and ceiling: given values kept, missing ones from the quartiles.
+    """The speaker's F0 floor and ceiling: given values kept where they hold the speaker,
+    the rest from the first pass's distribution.
 
     Two-pass rule of De Looze & Hirst (2008), widely used with Praat: a first pass over
-    :data:`FIRST_PASS_RANGE`, then ``floor = 0.75 * q25`` and ``ceiling = 1.5 * q75`` of its
-    voiced F0. With fewer than :data:`MIN_VOICED_FOR_RANGE` voiced frames the first-pass range
-    stands. Returns ``(floor, ceiling, how)``.
+    :data:`FIRST_PASS_RANGE`, its octave jumps removed (:func:`remove_octave_jumps`), then
+    ``floor = 0.75 * q25`` and ``ceiling = 1.5 * q75`` of its voiced F0, widened to 0.9 x its
+    2nd and 1.1 x its 98th percentile where the speaker reaches further (a glide, wide
+    intonation), but never past ``q25 / 2.5`` and ``2.5 * q75`` (:data:`WIDEST`: the first
+    pass of a voice at its floor holds a few octave errors its jump removal misses). With
+    fewer than :data:`MIN_VOICED_FOR_RANGE` voiced frames the first-pass range stands. A
+    given floor above the speaker's first quartile, or a given ceiling below
+    the third, does not hold the speaker: a 67 Hz bass analysed over 75-600 Hz read as 500 Hz
+    in places, and the estimate replaces it, said in ``how``. Returns ``(floor, ceiling, how)``.
 
     >>> speaker_pitch_range(np.r_[np.zeros(5), np.linspace(100, 140, 41)])
     (82.5, 195.0, 'two-pass estimate (De Looze & Hirst 2008)')
+    >>> speaker_pitch_range(np.full(40, 62.0), 75.0, 600.0)[2]
+    'two-pass estimate: the given 75-600 Hz does not hold this speaker (median 62 Hz)'
     """
     voiced = np.asarray(first_pass_f0, dtype=np.float64)
+    voiced, _ = remove_octave_jumps(voiced, fps)
     voiced = voiced[voiced > 0]
+    estimate = None
+    if len(voiced) >= MIN_VOICED_FOR_RANGE:
+        q02, q25, q75, q98 = np.percentile(voiced, [2, 25, 75, 98])
+        estimate = (  # widened by the extremes, never past 2.5 times the quartiles
+            min(FLOOR_FACTOR * q25, max(0.9 * q02, q25 / WIDEST)),
+            max(CEILING_FACTOR * q75, min(1.1 * q98, WIDEST * q75)),
+        )
     if floor is not None and ceiling is not None:
-        return float(floor), float(ceiling), "given"
-    if len(voiced) < MIN_VOICED_FOR_RANGE:
+        holds = estimate is None or (
+            floor <= np.percentile(voiced, 25) and ceiling >= np.percentile(voiced, 75)
+        )
+        if holds:
+            return float(floor), float(ceiling), "given"
+        assert estimate is not None
+        how = (
+            f"two-pass estimate: the given {floor:g}-{ceiling:g} Hz does not hold this "
+            f"speaker (median {np.median(voiced):.0f} Hz)"
+        )
+        return round(float(estimate[0]), 3), round(float(estimate[1]), 3), how
+    if estimate is None:
         lo, hi = FIRST_PASS_RANGE
         how = "first-pass range (too little voicing to estimate the speaker's)"
     else:
-        q25, q75 = np.percentile(voiced, [25, 75])
-        lo, hi = FLOOR_FACTOR * q25, CEILING_FACTOR * q75
+        lo, hi = estimate
         how = "two-pass estimate (De Looze & Hirst 2008)"
     lo = float(floor) if floor is not None else float(lo)
     hi = float(ceiling) if ceiling is not None else float(hi)
@@ -284,12 +316,10 @@ def _features(
 ) -> SpeechFeatures:
     n = round(sound.duration * fps)
     t = np.arange(n) / fps
-    first = None
-    if floor is None or ceiling is None:
-        first = _pitch(sound, fps, *FIRST_PASS_RANGE, t)
-    floor, ceiling, how = speaker_pitch_range(
-        first if first is not None else np.zeros(0), floor, ceiling
-    )
+    # the first pass runs even with a given range: it tells whether that range holds the
+    # speaker (speaker_pitch_range)
+    first = _pitch(sound, fps, *FIRST_PASS_RANGE, t)
+    floor, ceiling, how = speaker_pitch_range(first, floor, ceiling, fps)
     f0, n_jumps = remove_octave_jumps(_pitch(sound, fps, floor, ceiling, t), fps)
     inten = sound.to_intensity(minimum_pitch=floor, time_step=1.0 / fps)
     db = np.maximum(inten.values[0], INTENSITY_FLOOR_DB)

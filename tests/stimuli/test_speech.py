@@ -216,3 +216,18 @@ def test_demo_speaker_has_no_octave_error_left(demo_wav):
     voiced = feats.f0[feats.voiced]
     assert voiced.max() < 2 * np.median(voiced)  # the 371 Hz frame of a 126 Hz voice is gone
     assert 80 < feats.metadata["pitch_floor"] < 100 < 180 < feats.metadata["pitch_ceiling"]
+
+
+@pytest.mark.parametrize(("start", "end"), [(80.0, 400.0), (400.0, 80.0), (60.0, 250.0)])
+def test_the_pitch_range_follows_a_glide_to_its_ends(start, end):
+    """The quartiles alone (0.75 q25 to 1.5 q75) cut a glide's lowest fifth: its first 1.5 s
+    went unvoiced. The range now reaches the first pass's extremes (bounded), and F0 follows
+    the glide everywhere with no octave error."""
+    from app.stimuli.speech import features_from_samples
+
+    x, truth = harmonic_glide(start, end, 10.0)
+    feats = features_from_samples(x, 16000, 30.0)
+    t = np.arange(feats.n_frames) / 30.0
+    assert feats.voiced.mean() > 0.97
+    error = np.abs(np.log2(feats.f0[feats.voiced] / truth(t[feats.voiced])))
+    assert np.percentile(error, 99) < 0.05 and error.max() < 0.3

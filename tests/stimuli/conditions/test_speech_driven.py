@@ -64,14 +64,38 @@ def test_a_long_hold_warns():
 
 def test_auto_thresholds():
     feats = known_features()
-    assert resolve_threshold("auto", "f0", feats) == np.percentile(feats.f0, 75)
+    assert resolve_threshold("p75", "f0", feats) == np.percentile(feats.f0, 75)
+    assert resolve_threshold("auto", "f0", feats) is None  # calibrated by the condition
     voiced_db = feats.intensity[feats.voiced]
     assert resolve_threshold("auto", "intensity", feats) == np.percentile(voiced_db, 30)
     louder = SpeechFeatures(30.0, feats.f0, np.linspace(50, 80, feats.n_frames), feats.f0)
     assert resolve_threshold("auto", "intensity", louder) == pytest.approx(59.0)  # 30 % up
     assert resolve_threshold("210", "f0", feats) == 210.0
-    with pytest.raises(InputError, match="number or 'auto'"):
+    with pytest.raises(InputError, match="number, 'auto' or a percentile"):
         resolve_threshold("high", "f0", feats)
+
+
+def test_auto_f0_threshold_holds_the_brows_up_the_tables_share_of_the_time():
+    """Accents of rising height: a fixed threshold fires on the few highest (or none); the
+    calibrated one is the level at which the raises take 30 % of the time, Table 8's."""
+    fps, n = 30.0, 900
+    t = np.arange(n) / fps
+    accent = np.zeros(n)
+    for k, start in enumerate(np.arange(0.5, 29.0, 1.5)):  # 19 accents, peaks 123..204 Hz
+        on = (t >= start) & (t < start + 0.5)
+        accent[on] = 4.5 * k
+    f0 = 120.0 + accent + 3 * np.sin(2 * np.pi * 3 * t)
+    intensity = np.where((t % 1.5) < 1.0, 60.0, 30.0)  # a pause after every accent
+    feats = SpeechFeatures(fps, f0, intensity, f0.copy())
+    share = {}
+    for threshold in ("auto", "p75", 207.0):
+        cond = make_condition("speech_driven", f0_threshold=threshold)
+        info = cond.eyebrows(feats)[1]
+        share[threshold] = sum(r - s for s, r in info["raises"]) / n
+    assert share[207.0] == 0.0  # no accent reaches the thesis' level
+    assert abs(share["auto"] - 0.30) < 0.05 < abs(share["p75"] - 0.30)
+    lower = make_condition("speech_driven", brow_share=0.15).eyebrows(feats)[1]["raises"]
+    assert sum(r - s for s, r in lower) / n < share["auto"]
 
 
 def test_auto_release_does_not_depend_on_recording_gain():
