@@ -262,6 +262,14 @@ def fit_head_model(
     "own (each condition's, for clips without the mosaic that compare lip motion).",
 )
 @click.option(
+    "--brows",
+    type=click.Choice(["own", "none", "rule"]),
+    default="own",
+    show_default=True,
+    help="Eyebrows: each condition's own, none in any, or the thesis' speech-driven rule in "
+    "every condition (a study of head and eyes alone; live_gmm moves no brow).",
+)
+@click.option(
     "--pad",
     is_flag=True,
     help="Pad (holding the last frame) or cut a ground truth or imported track whose length "
@@ -280,8 +288,9 @@ def fit_head_model(
     "--f0-threshold",
     default="auto",
     show_default=True,
-    help="Eyebrow rule F0 threshold in Hz (the thesis: 207), or 'auto' (75th "
-    "percentile of the speaker's voiced F0).",
+    help="Eyebrow rule F0 threshold in Hz (the thesis: 207), 'auto' (the percentile of the "
+    "speaker's voiced F0 at which the brows are raised 30 % of the time, Table 8's share) or "
+    "a percentile such as 'p75'.",
 )
 @click.option(
     "--intensity-threshold",
@@ -310,6 +319,7 @@ def generate(
     eyes: str,
     imported: tuple[str, ...],
     lips: str,
+    brows: str,
     pad: bool,
     posture: str,
     seed: int,
@@ -367,6 +377,7 @@ def generate(
             eyes=eyes,
             posture=posture,
             lips=lips,
+            brows=brows,
             pad=pad,
             models=model_files,
             progress=progress,

@@ -28,6 +28,7 @@ from app.errors import InputError
 from app.stimuli.conditions import DISPLAY_NAMES, IMPORTED, condition_class, make_condition
 from app.stimuli.conditions.imported import ImportedCondition
 from app.stimuli.eyes import DEFAULT_EYES, check_eyes, eye_channels
+from app.stimuli.fap import EYEBROWS
 from app.stimuli.io import load_track, save_track
 from app.stimuli.lengths import length_note
 from app.stimuli.measures import measure_track
@@ -35,8 +36,10 @@ from app.stimuli.normalize import normalize_tracks
 from app.stimuli.posture import DEFAULT_POSTURE, check_posture, rest_posture, share_posture
 from app.stimuli.progress import Progress, progress_steps
 from app.stimuli.shared import (
+    DEFAULT_BROWS,
     DEFAULT_LIPS,
     EYE_GROUP,
+    check_brows,
     check_lips,
     face_channels,
     moves,
@@ -117,6 +120,7 @@ def generate_conditions(
     posture: str = DEFAULT_POSTURE,
     lips: str = DEFAULT_LIPS,
     pad: bool = False,
+    brows: str = DEFAULT_BROWS,
 ) -> GenerationResult:
     """Generate the tracks of ``conditions`` for one recording.
 
@@ -130,7 +134,10 @@ def generate_conditions(
     gives every condition the ground truth's rest head pose, ``"per_condition"`` keeps each
     condition's own, as in the thesis' experiment 1 (:mod:`app.stimuli.posture`); ``lips``:
     ``"shared"`` gives every condition the same jaw, lips and rest of the lower face (under
-    the mouth mosaic), ``"own"`` keeps each condition's (a study that compares lip motion).
+    the mouth mosaic), ``"own"`` keeps each condition's (a study that compares lip motion);
+    ``brows``: ``"own"`` keeps each condition's eyebrows, ``"none"`` gives none to any,
+    ``"rule"`` the thesis' speech-driven rule (sec. 4.3.4.1) to every condition, for a study
+    of head and eyes alone.
     ``normalize`` scales and offsets every condition's head angles to the ground truth's mean
     and sd (thesis sec. 5.3). A ground truth or imported track longer or shorter than the
     speech by more than :data:`app.stimuli.lengths.LENGTH_TOLERANCE_S` is refused unless
@@ -142,6 +149,7 @@ def generate_conditions(
     check_eyes(eyes)
     check_posture(posture)
     check_lips(lips)
+    check_brows(brows)
     if ground_truth is None and any(m == "ground_truth" for m, _ in requests.values()):
         raise InputError("the ground_truth condition needs --ground-truth FILE", field="conditions")
     if normalize and ground_truth is None:
@@ -224,6 +232,7 @@ def generate_conditions(
             "lips = 'own': each condition keeps its own jaw and lip motion (for a study "
             "without the mouth mosaic that compares it)"
         )
+    tracks, brows_from = _share_brows(tracks, requests, brows, features, notes)
     step()
 
     factors = None
@@ -239,6 +248,7 @@ def generate_conditions(
     summary["notes"] = notes + summary["notes"]
     summary["eyes_from"] = eyes_from
     summary["lips"] = {"mode": lips, "from": lips_from}
+    summary["brows"] = {"mode": brows, "from": brows_from}
     summary["posture"] = {
         "mode": posture,
         "rest_head_au": rest,
@@ -248,6 +258,32 @@ def generate_conditions(
     }
     step()
     return GenerationResult(tracks, features, _jsonable(summary))
+
+
+def _share_brows(
+    tracks: dict[str, MotionTrack],
+    requests: Mapping[str, ConditionRequest],
+    brows: str,
+    features: SpeechFeatures,
+    notes: list[str],
+) -> tuple[dict[str, MotionTrack], str]:
+    """Every track with the study's eyebrows (``brows``), and where they come from."""
+    if brows == "own":
+        still = [n for n, (m, _) in requests.items() if m == "live_gmm"]
+        moving = [n for n, t in tracks.items() if moves(t, EYEBROWS)]
+        if still and moving:
+            notes.append(
+                f"{', '.join(still)} (live_gmm) moves no eyebrow, as Le et al.'s model has "
+                f"none, while {', '.join(moving)} do: their pairs differ in the brows too; "
+                "brows = 'none' or 'rule' gives every condition the same"
+            )
+        return tracks, "each condition's own"
+    if brows == "none":
+        return share_channels(tracks, {}, EYEBROWS), "none (no eyebrow motion)"
+    from app.stimuli.conditions.speech_driven import SpeechDrivenCondition
+
+    cols, _ = SpeechDrivenCondition().eyebrows(features)
+    return share_channels(tracks, cols, EYEBROWS), "the thesis' speech-driven rule"
 
 
 def _share_eyes(

@@ -9,7 +9,9 @@ holds for a condition a researcher brings as much as for a built-in one, so afte
 condition is generated (or imported) each clip's channels fall in three groups:
 
 - **tested** (:data:`TESTED`: head 48-50 and eyebrows 31-38): each condition's own; only the
-  head's rest posture is shared (:mod:`app.stimuli.posture`);
+  head's rest posture is shared (:mod:`app.stimuli.posture`); the study's ``brows``
+  (:data:`BROW_MODES`) may share the eyebrows too, none or the thesis' rule in every
+  condition, for a study of head and eyes alone;
 - **eyes** (:data:`EYE_GROUP`: eyelids 19-22, gaze 23-26, eyeball thrust and pupils 27-30): one
   set for every condition, by the study's ``eyes`` (:mod:`app.stimuli.eyes`); ``eyes = "own"``
   keeps each condition's own instead, and then every condition must carry eye motion;
@@ -57,6 +59,20 @@ FACE_GROUP: tuple[int, ...] = tuple(
 )
 LIP_MODES: tuple[str, ...] = ("shared", "own")
 DEFAULT_LIPS = "shared"
+#: The study's ``brows``: each condition's own (the thesis' conditions differ in brows as in
+#: head), none in any condition, or the thesis' speech-driven rule in every condition (a
+#: study of head and eyes alone: Le et al.'s live model has no brows).
+BROW_MODES: tuple[str, ...] = ("own", "none", "rule")
+DEFAULT_BROWS = "own"
+
+
+def check_brows(mode: str) -> str:
+    """``mode`` if it is one of :data:`BROW_MODES`, else an InputError naming the field."""
+    if mode not in BROW_MODES:
+        raise InputError(
+            f"brows must be one of {', '.join(BROW_MODES)}, got {mode!r}", field="brows"
+        )
+    return mode
 
 
 def check_lips(mode: str) -> str:
@@ -126,15 +142,17 @@ def share_channels(
     return out
 
 
-def differing_channels(tracks: Mapping[str, MotionTrack]) -> list[int]:
-    """The channels outside :data:`TESTED` whose values differ between ``tracks`` (of one clip,
+def differing_channels(
+    tracks: Mapping[str, MotionTrack], tested: tuple[int, ...] = TESTED
+) -> list[int]:
+    """The channels outside ``tested`` whose values differ between ``tracks`` (of one clip,
     of one length): empty when the faces share everything the study does not test."""
     dense = [t.dense() for t in tracks.values()]
     if len(dense) < 2:
         return []
+    first, rest = dense[0], dense[1:]
     return [
         c
         for c in range(1, N_FAPS + 1)
-        if c not in TESTED
-        and any(not np.array_equal(dense[0][:, c - 1], d[:, c - 1]) for d in dense)
+        if c not in tested and any(not np.array_equal(first[:, c - 1], d[:, c - 1]) for d in rest)
     ]

@@ -29,7 +29,7 @@ from typing import Any, Final
 from app.errors import InputError
 from app.stimuli.eyes import DEFAULT_EYES, EYE_MODES
 from app.stimuli.posture import DEFAULT_POSTURE, POSTURES
-from app.stimuli.shared import LIP_MODES
+from app.stimuli.shared import BROW_MODES, DEFAULT_BROWS, LIP_MODES
 from app.trials.adaptive import MIN_CONDITIONS
 from app.trials.design import DESIGNS, RATING_DESIGNS, REFERENCE_DESIGNS, ConditionPair
 from app.trials.fields import MISSING, describe
@@ -164,6 +164,7 @@ _TOP_KEYS: Final = (
     "eyes",
     "posture",
     "lips",
+    "brows",
     "pad",
     "normalize",
     "rejoin",
@@ -254,6 +255,7 @@ class _StudyReader(ExperimenterSideReader):
         posture = self.choice(top, "posture", "posture", POSTURES, DEFAULT_POSTURE)
         lips = self.choice(top, "lips", "lips", LIP_MODES, None) if "lips" in top else None
         pad = bool(self.get(top, "pad", "pad", (bool,), "true or false", False))
+        brows = self.choice(top, "brows", "brows", BROW_MODES, DEFAULT_BROWS)
         exclude = self.text(top, "exclude", "exclude", "")
         names = [c.name for c in conditions]
         if design in REFERENCE_DESIGNS:
@@ -304,6 +306,7 @@ class _StudyReader(ExperimenterSideReader):
             eyes=eyes,
             posture=posture,
             lips=lips,
+            brows=brows,
             pad=pad,
             normalize=normalize,
             render=render,

@@ -107,6 +107,8 @@ class StudySpec:
     #: The jaw, lips and rest of the lower face (:mod:`app.stimuli.shared`): ``shared``,
     #: ``own``, or None: shared under the mouth mosaic, each condition's own without it.
     lips: str | None = None
+    #: The eyebrows (:mod:`app.stimuli.shared`): each condition's own, none, or the rule's.
+    brows: str = "own"
     #: Whether a ground truth or imported track longer or shorter than its speech beyond
     #: :data:`app.stimuli.lengths.LENGTH_TOLERANCE_S` is padded or cut instead of refused.
     pad: bool = False
@@ -216,6 +218,8 @@ class StudySpec:
             out["posture"] = self.posture
         if self.lips is not None:
             out["lips"] = self.lips
+        if self.brows != "own":
+            out["brows"] = self.brows
         if self.pad:
             out["pad"] = True
         out["normalize"] = self.normalize

@@ -282,3 +282,25 @@ def test_a_ground_truth_off_the_speech_is_refused_too(tmp_path, demo_wav):
     truth = _track_file(tmp_path, 10.0)
     with pytest.raises(InputError, match=r"^mine_300.fap: ground truth: 10.00 s of motion"):
         generate_conditions(demo_wav, conditions="none", ground_truth=truth)
+
+
+# -- brows: a study of head and eyes alone ---------------------------------------------------------
+
+
+@pytest.mark.parametrize("brows", ["none", "rule"])
+def test_shared_brows_leave_only_the_head_to_compare(demo_wav, brows):
+    """live_gmm moves no eyebrow (Le et al. model none): against RANDOM or SPEECH_DRIVEN its
+    pairs differed in brows too. brows = none / rule gives every condition the same."""
+    from app.stimuli.fap import HEAD
+
+    conditions = {"live": "live_gmm", "random": "random", "speech_driven": "speech_driven"}
+    own = generate_conditions(demo_wav, conditions=conditions, seed=2)
+    assert set(differing_channels(own.tracks, tested=HEAD)) & set(range(31, 39))
+    assert any("moves no eyebrow" in n for n in own.summary["notes"])
+    shared = generate_conditions(demo_wav, conditions=conditions, seed=2, brows=brows)
+    assert differing_channels(shared.tracks, tested=HEAD) == []
+    brow = shared.tracks["random"].get(31)
+    assert (brow.max() > 0) == (brows == "rule")
+    if brows == "rule":  # the rule's raises, the same as SPEECH_DRIVEN's own
+        assert np.array_equal(brow, own.tracks["speech_driven"][31])
+    assert shared.summary["brows"]["mode"] == brows

@@ -106,6 +106,8 @@ def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
         data["replay"]["max_plays"] = form.max_plays.data or 1
     if form.lips.data:
         data["lips"] = form.lips.data
+    if form.brows.data and form.brows.data != "own":
+        data["brows"] = form.brows.data
     if form.pad.data:
         data["pad"] = True
     faces = [n for n in names("face") if not n.lower().endswith(".avatar.json")]

@@ -37,6 +37,11 @@ EYES_CHOICES = [
     SelectChoice("still", "Still: open, looking ahead, no blinks (the thesis's faces)"),
     SelectChoice("own", "Each condition's own (every condition must carry eye motion)"),
 ]
+BROWS_CHOICES = [
+    SelectChoice("own", "Each condition's own"),
+    SelectChoice("none", "None in any condition (head and eyes alone)"),
+    SelectChoice("rule", "The thesis's speech-driven rule in every condition"),
+]
 LIPS_CHOICES = [
     SelectChoice("", "Shared under the mouth mosaic (the default)"),
     SelectChoice("shared", "Shared: the same jaw and lips in every condition"),
@@ -138,6 +143,7 @@ class StudyWebForm(FlaskForm):
         "Gaze and eyelids, the same in every condition", choices=EYES_CHOICES, default=DEFAULT_EYES
     )
     lips = SelectField("Jaw, lips and the rest of the lower face", choices=LIPS_CHOICES, default="")
+    brows = SelectField("Eyebrows", choices=BROWS_CHOICES, default="own")
     pad = BooleanField(
         "Pad or cut a ground truth or uploaded track more than 0.2 s off its audio "
         "(else it is refused)"

@@ -97,7 +97,7 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
     from app.stimuli.generate import generate_conditions
     from app.stimuli.io import save_track
     from app.stimuli.posture import DEFAULT_POSTURE
-    from app.stimuli.shared import lips_for
+    from app.stimuli.shared import DEFAULT_BROWS, lips_for
 
     root = media_dir(study)
     total = len(study.clips) * len(study.conditions)
@@ -132,6 +132,7 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
             eyes=settings.get("eyes", DEFAULT_EYES),
             posture=settings.get("posture", DEFAULT_POSTURE),
             lips=lips,
+            brows=settings.get("brows", DEFAULT_BROWS),
             pad=bool(settings.get("pad", False)),
             normalize=bool(settings.get("normalize", False)),
         )

@@ -186,6 +186,7 @@ def create_study(
             "eyes": spec.eyes,
             "posture": spec.posture,
             "lips": spec.lips,
+            "brows": spec.brows,
             "pad": spec.pad,
             "normalize": spec.normalize,
             "rejoin": spec.rejoin,
