@@ -112,9 +112,24 @@ def _speech_options(f):
     "--out", required=True, type=click.Path(dir_okay=False), help="Track to write (.fap or .csv)."
 )
 @click.option("--seed", type=int, default=0, show_default=True)
+@click.option(
+    "--version",
+    "version",
+    type=click.Choice(["1", "2"]),
+    default="1",
+    show_default=True,
+    help="1: the shipped demo ground truth's (speech drives a third of the head's pitch, little "
+    "of its yaw and roll); 2: speech drives about half of each angle (docs/reference/live.md).",
+)
 @_speech_options
 def reference(
-    audio: str, out: str, seed: int, fps: float, pitch_floor: float, pitch_ceiling: float
+    audio: str,
+    out: str,
+    seed: int,
+    version: str,
+    fps: float,
+    pitch_floor: float,
+    pitch_ceiling: float,
 ) -> None:
     """Write the SYNTHETIC reference speaker's motion for a recording (a ground-truth stand-in)."""
     from app.stimuli.io import save_track
@@ -122,11 +137,11 @@ def reference(
     from app.stimuli.speech import extract_features
 
     feats = extract_features(audio, fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling)
-    track = synthesize_reference(feats, seed=seed)
+    track = synthesize_reference(feats, seed=seed, version=int(version))
     save_track(track, out)
     click.echo(
         f"{out}: {track.n_frames} frames at {track.fps:g} fps of the SYNTHETIC "
-        f"reference speaker (seed {seed}); not a recording"
+        f"reference speaker (seed {seed}, version {version}); not a recording"
     )
 
 
@@ -431,6 +446,13 @@ def generate(
 )
 @click.option("--reference-seed", type=int, default=0, show_default=True)
 @click.option(
+    "--reference-version",
+    type=click.Choice(["1", "2"]),
+    default="1",
+    show_default=True,
+    help="With --reference: the reference speaker's version (see 'stimuli reference').",
+)
+@click.option(
     "--repeat",
     type=click.IntRange(min=1),
     default=1,
@@ -455,6 +477,7 @@ def train_live(
     ground_truth: tuple[str, ...],
     reference: bool,
     reference_seed: int,
+    reference_version: str,
     repeat: int,
     out: str,
     fps: float,
@@ -504,7 +527,9 @@ def train_live(
             if reference:
                 from app.stimuli.reference_speaker import synthesize_reference
 
-                truths.append(synthesize_reference(f, seed=reference_seed + i))
+                truths.append(
+                    synthesize_reference(f, seed=reference_seed + i, version=int(reference_version))
+                )
             else:
                 truths.append(load_track(ground_truth[i]))
             bar.update()

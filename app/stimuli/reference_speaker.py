@@ -15,9 +15,10 @@ prosody literature summarised in thesis sec. 2.3 and 4.3 and Le, Ma & Deng (2012
 - **Head** (FAP 48-50, AU): a nod (pitch down) after each accent (gamma pulse, peak 100 ms
   after the accent, ``nod_au`` x strength); a roll tilt at each accent with random sign; a
   speech-driven part that is a causal first-order response (time constant 0.5 s) to the
-  standardised intensity, conditioned F0 and their 1-s means - the ARX-like structure a learner
-  can recover; slow posture drift (Ornstein-Uhlenbeck, time constants 4-8 s); a yaw turn at
-  each talk onset; small AR(1) jitter.
+  intensity, conditioned F0 and their centred 1-s means, each standardised over the whole
+  recording (so per speaker) - the ARX-like structure a learner can recover; slow posture
+  drift (Ornstein-Uhlenbeck, time constants 4-8 s); a yaw turn at each talk onset; small
+  AR(1) jitter.
 - **Eyebrows** (FAP 31-34, ENS): a raise at accents of strength >= 1 (rise 100 ms, hold 250 ms
   + 100 ms per unit strength, fall 200 ms), inner ``brow_ens`` x strength (20 to 50 units),
   middle 0.8x; left = right; the outer eyebrows stay neutral, as the thesis captured none.
@@ -32,6 +33,30 @@ prosody literature summarised in thesis sec. 2.3 and 4.3 and Le, Ma & Deng (2012
   the previous blink; closing 75 ms, opening 150 ms; upper lids 0.8 and lower lids 0.2 of the
   iris diameter, so the lids meet.
 - **Jaw and lips** (FAP 3-5, 51-52, MNS): from the 3-frame-smoothed intensity above the floor.
+
+Versions (``synthesize_reference(..., version=)``; they differ in the head only, and so in the
+gaze through its counter-rotation of the head):
+
+- **1** (the default; the shipped demo ground truth and the default models were made with it):
+  the speech-driven part of the head (:func:`head_speech_part`: the response and, for pitch,
+  the nods) has a standard deviation of about 0.83, 0.67 and 0.13 deg against the whole
+  head's 1.44, 3.08 and 0.95 deg (pitch, yaw, roll; the demo speech in the voices of
+  :mod:`app.stimuli.live.corpus`, 7 takes of 120 s): speech drives 33 %, 5 % and 2 % of the
+  variance. The rest (posture drift, turns, tilts of random sign, jitter) is unrelated to what
+  is said, so even a model that knew the speech-driven part exactly would correlate with the
+  held-out truth at about 0.6 (pitch), 0.17 (yaw) and 0.0 (roll) - and a generator with the
+  truth's amplitude at about the square of that (0.36, 0.03, 0.00). Yaw and roll carry no
+  speech relation that a held-out evaluation could show (measured: docs/reference/live.md,
+  "Held-out speakers").
+- **2**: the same structure with each angle's standard deviation (v1's, in the range of the
+  thesis' captured speakers) split evenly between the speech-driven part and the rest: the
+  speech-driven part x 1.2, 3.3 and 5.0 (:data:`V2_SPEECH_GAIN`), everything else x 0.9,
+  0.7 and 0.7 (:data:`V2_OTHER_GAIN`), so speech drives about half of each angle's variance
+  (the knowing model's held-out correlation about 0.7). A design figure for a synthetic
+  speaker, between v1's near-absent coupling and a head that is all speech; the visual-prosody
+  literature finds head motion substantially but far from fully predictable from prosody.
+  The factors follow from the variance shares above, not from any model's results; the live
+  model's held-out evaluation uses this version.
 
 Everything is vectorised per component; events (accents, blinks, saccades) are few. The output
 is deterministic for a seed. ``track.metadata`` lists the accent, eyebrow-raise and blink
@@ -83,7 +108,8 @@ def synthesize_reference(
     """The synthetic reference speaker's motion for ``features`` (see the module docstring).
 
     ``version`` 1 (the default) or 2, whose head carries a learnable speech relation in all
-    three angles (module docstring, "Versions"); they differ in the head only.
+    three angles (module docstring, "Versions"); they differ in the head only (and the gaze,
+    which counter-rotates it).
     """
     if version not in VERSIONS:
         raise ValueError(f"reference speaker version must be one of {VERSIONS}, got {version!r}")
@@ -167,26 +193,35 @@ def _standard(x: np.ndarray) -> np.ndarray:
     return (x - x.mean()) / sd if sd > 0 else np.zeros_like(x)
 
 
-def _head(
+def head_speech_part(
     features: SpeechFeatures,
-    talking: np.ndarray,
+    *,
+    nod_au: float = 2500.0,
+    talk_fraction: float = 0.35,
+    version: int = 1,
+) -> dict[int, np.ndarray]:
+    """The part of the reference speaker's head (FAP 48-50, AU) that the speech drives: the
+    first-order response to the standardised speech contours, and for pitch the nods at
+    accents. The rest of the head (posture drift, turns at talk onsets, roll tilts of random
+    sign, jitter) does not depend on what is said. This is the most any speech-driven model
+    can recover: held-out figures compare with it (docs/reference/live.md)."""
+    talking = talking_frames(features.intensity, features.fps, talk_fraction)
+    accents, strength = pitch_accents(features, talking)
+    parts = _speech_drive(features, accents, strength, nod_au, version)
+    return {48: parts[0], 49: parts[1], 50: parts[2]}
+
+
+def _speech_drive(
+    features: SpeechFeatures,
     accents: np.ndarray,
     strength: np.ndarray,
     nod_au: float,
-    rng: np.random.Generator,
-    version: int = 1,
-) -> dict[int, np.ndarray]:
+    version: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(pitch, yaw, roll) speech-driven parts, AU, scaled for ``version``."""
     n, fps = features.n_frames, features.fps
-    # per-angle factors (pitch, yaw, roll) of the speech-driven and the speech-independent parts;
-    # 1.0 in v1, so v1's values are exactly those of the code before versions existed
-    gs, go = (V2_SPEECH_GAIN, V2_OTHER_GAIN) if version == 2 else ((1.0,) * 3, (1.0,) * 3)
-    t = np.arange(max(round(1.0 * fps), 2)) / fps
-    tau = 0.1
-    gamma = (t / tau) * np.exp(1 - t / tau)  # peaks at 1 at t = tau
-    nods = _pulses(n, accents, nod_au * strength, gamma)
-    roll_tilt = _pulses(
-        n, accents, 0.5 * nod_au * strength * rng.choice([-1.0, 1.0], len(accents)), gamma
-    )
+    gs = V2_SPEECH_GAIN if version == 2 else (1.0,) * 3
+    nods = _pulses(n, accents, nod_au * strength, _gamma(fps))
     inten = _standard(features.intensity)
     f0 = _standard(features.f0_conditioned)
     inten_1s, f0_1s = (
@@ -198,7 +233,35 @@ def _head(
     # positive pitch is down: loud, high speech lifts the head a little
     pitch = respond(-900.0 * inten - 600.0 * f0 - 500.0 * inten_1s) * gs[0] + nods * gs[0]
     yaw = respond(700.0 * f0 + 900.0 * f0_1s - 400.0 * inten) * gs[1]
-    roll = respond(-500.0 * f0 + 400.0 * inten_1s) * gs[2] + roll_tilt * go[2]
+    roll = respond(-500.0 * f0 + 400.0 * inten_1s) * gs[2]
+    return pitch, yaw, roll
+
+
+def _gamma(fps: float) -> np.ndarray:
+    """The nod and tilt pulse: a gamma shape peaking at 1 after 0.1 s, 1 s long."""
+    t = np.arange(max(round(1.0 * fps), 2)) / fps
+    tau = 0.1
+    return (t / tau) * np.exp(1 - t / tau)
+
+
+def _head(
+    features: SpeechFeatures,
+    talking: np.ndarray,
+    accents: np.ndarray,
+    strength: np.ndarray,
+    nod_au: float,
+    rng: np.random.Generator,
+    version: int = 1,
+) -> dict[int, np.ndarray]:
+    n, fps = features.n_frames, features.fps
+    # factors (pitch, yaw, roll) of the speech-independent parts; 1.0 in v1, so that v1's values
+    # are exactly those of the code before versions existed
+    go = V2_OTHER_GAIN if version == 2 else (1.0,) * 3
+    roll_tilt = _pulses(
+        n, accents, 0.5 * nod_au * strength * rng.choice([-1.0, 1.0], len(accents)), _gamma(fps)
+    )
+    pitch, yaw, roll = _speech_drive(features, accents, strength, nod_au, version)
+    roll = roll + roll_tilt * go[2]
     onsets = np.flatnonzero(np.diff(talking.astype(int)) == 1) + 1
     turn = np.repeat(
         np.r_[0.0, rng.normal(0, 2.5 * _DEG, len(onsets))], np.diff(np.r_[0, onsets, n])

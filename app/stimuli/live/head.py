@@ -34,6 +34,12 @@ about 40 % of the ground truth's head sd on held-out speech, since the part of t
 speech does not predict is averaged away; the draw keeps it (98-113 %), with no more power
 above 4 Hz than the ground truth. Proposals have per-axis variance ``proposal x sigma^2``
 (:data:`DEFAULT_PROPOSAL`); the cost per frame stays fixed.
+
+Since file version 3 this draw is not the generator's default: it random-walks between the
+postures the angle mixtures encode and keeps little of what the speech predicts (held-out r with
+the truth about 0; docs/reference/live.md, "Why the head did not follow the speech"). The
+generator reads the mixtures by their conditional expectation instead
+(:mod:`app.stimuli.live.expectation`); this sampler serves ``synthesis="langevin"``.
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ Example
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from sklearn.mixture import GaussianMixture
@@ -139,6 +139,11 @@ class MixtureBank:
     mu0: np.ndarray  # (G, K)
     mur: np.ndarray  # (G, K, D-1)
     const: np.ndarray  # (G, K)
+    # the fixed coordinates' marginal (precision, log weight + normalising constant) and the
+    # regression of the free coordinate on them: E[x0 | r] = mu0 + beta . (r - mu_r) per component
+    marg_prec: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (G, K, D-1, D-1)
+    marg_const: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (G, K)
+    beta: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (G, K, D-1)
 
     @classmethod
     def stack(cls, mixtures: list[Mixture]) -> MixtureBank:
@@ -157,8 +162,23 @@ class MixtureBank:
         lam00 = prec[..., 0, 0]
         mu0 = mu[..., 0]
         const = logw - 0.5 * (d * _LOG_2PI + logdet_cov) - 0.5 * lam00 * mu0 * mu0
+        cov_rr = cov[..., 1:, 1:]
+        marg_prec = np.linalg.inv(cov_rr)
+        marg_prec = 0.5 * (marg_prec + np.swapaxes(marg_prec, -1, -2))
+        _, logdet_rr = np.linalg.slogdet(cov_rr)
+        marg_const = logw - 0.5 * ((d - 1) * _LOG_2PI + logdet_rr)
+        beta = np.einsum("gkij,gkj->gki", marg_prec, cov[..., 1:, 0])
         return cls(
-            tuple(mixtures), lam00, prec[..., 0, 1:], prec[..., 1:, 1:], mu0, mu[..., 1:], const
+            tuple(mixtures),
+            lam00,
+            prec[..., 0, 1:],
+            prec[..., 1:, 1:],
+            mu0,
+            mu[..., 1:],
+            const,
+            marg_prec,
+            marg_const,
+            beta,
         )
 
     def slice_coefficients(self, fixed: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -173,3 +193,19 @@ class MixtureBank:
         b = np.einsum("gki,gki->gk", self.lam0r, d)
         c = np.einsum("gki,gkij,gkj->gk", d, self.lamrr, d)
         return self.const + self.mu0 * b - 0.5 * c, self.lam00 * self.mu0 - b, -0.5 * self.lam00
+
+    def conditional_mean(self, fixed: np.ndarray) -> np.ndarray:
+        """The expectation of each mixture's free coordinate given the others (Gaussian mixture
+        regression): ``fixed`` (G, D-1) -> (G,), or (n, G, D-1) -> (n, G) for n frames.
+
+        ``E[x0 | r] = sum_k gamma_k(r) (mu0_k + beta_k . (r - mu_r,k))``, with ``gamma_k`` the
+        components' responsibilities under the marginal of ``r`` and ``beta_k`` the regression
+        coefficients of ``Sigma_k`` (zero-weight components get no responsibility).
+        """
+        d = fixed[..., None, :] - self.mur  # (..., G, K, D-1)
+        maha = np.einsum("...gki,gkij,...gkj->...gk", d, self.marg_prec, d)
+        logp = self.marg_const - 0.5 * maha
+        logp = logp - logp.max(axis=-1, keepdims=True)
+        w = np.exp(logp)
+        means = self.mu0 + np.einsum("gki,...gki->...gk", self.beta, d)
+        return (w * means).sum(axis=-1) / w.sum(axis=-1)

@@ -1,8 +1,11 @@
 """The trained live head-and-eye model: training from speech + ground truth, and its file.
 
 :func:`train_live_model` fits the three modules of Le, Ma & Deng 2012 in the order the paper
-chains them (sec. 3): head (sec. 5) on (head pose, pitch, loudness); gaze (sec. 6) on
-(ground-truth head pose, loudness) -> gaze; eyelids (sec. 7) on gaze -> lids and the blinks.
+chains them (sec. 3): head (sec. 5) on (head pose, pitch, loudness), with the speech-driven pose
+read from its angle mixtures and the variation around it (:mod:`app.stimuli.live.expectation`);
+gaze (sec. 6) on (ground-truth head pose, loudness) -> gaze; eyelids (sec. 7) on gaze -> lids
+and the blinks. Pitch and loudness are standardised per speaker, causally, per take
+(:class:`app.stimuli.live.inputs.SpeakerNorm`), as the generator does.
 
 File format (``.npz``, read with ``allow_pickle=False``; see docs/reference/live.md): numeric arrays
 named below plus ``meta``, a UTF-8 JSON document stored as a uint8 array, holding the format name
@@ -22,16 +25,27 @@ import numpy as np
 
 from app.errors import InputError
 from app.stimuli.fap import DEG_PER_AU, EYELIDS, GAZE, HEAD_PITCH, HEAD_ROLL, HEAD_YAW
+from app.stimuli.live.expectation import SpeechPose, fit_speech_pose
 from app.stimuli.live.eyelids import EyelidModel, fit_eyelid_model
 from app.stimuli.live.gaze import FixationModel, GazeModel, fit_fixation_model, fit_gaze_model
 from app.stimuli.live.head import HeadModel, fit_head_model
-from app.stimuli.live.inputs import SMOOTH_S, SpeechScale, smoothed_inputs, talking_mode
+from app.stimuli.live.inputs import (
+    SMOOTH_S,
+    SPEAKER_NORM_S,
+    SpeechScale,
+    smoothed_inputs,
+    speaker_normalised,
+    talking_mode,
+)
 from app.stimuli.live.mixture import Mixture, MixtureBank
 from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
 FORMAT = "facepair-live-gmm"
-VERSION = 2
+VERSION = 3
+#: How the generator reads the head model: the GMMs' expectation plus variation (the default,
+#: :mod:`app.stimuli.live.expectation`) or the earlier per-frame Langevin draw of eq. 3.
+SYNTHESES = ("expectation", "langevin")
 _MIX = ("weights", "means", "covariances")
 
 
@@ -47,6 +61,8 @@ class LiveModel:
     fixations: FixationModel
     summary: dict[str, Any] = field(default_factory=dict)
     talk_window_s: float = 0.5
+    pose: SpeechPose | None = None  # alignment and variation; None: Langevin synthesis only
+    speaker_norm_s: float = 0.0  # per-speaker normalisation time constant, s (0: none)
 
 
 def head_angles(track: MotionTrack) -> np.ndarray:
@@ -71,13 +87,16 @@ def train_live_model(
     seed: int = 0,
     n_iter: int = 17,
     head_weights: Sequence[float] | None = None,
+    speaker_norm_s: float | None = SPEAKER_NORM_S,
     progress: Callable[[], None] | None = None,
 ) -> LiveModel:
     """Fit the live model to speech features and a ground-truth track, or to several takes
     (lists of the same length, concatenated for fitting; nothing temporal spans two takes).
     Each ground truth is resampled to its features' frame rate and length. ``progress`` is
     called once per fitted part (12 calls). ``head_weights``: the exponents of eq. 4's five
-    likelihoods (default :data:`app.stimuli.live.head.DEFAULT_WEIGHTS`).
+    likelihoods (default :data:`app.stimuli.live.head.DEFAULT_WEIGHTS`). ``speaker_norm_s``:
+    time constant of the per-speaker normalisation (None or 0: the training statistics for
+    every speaker, as before version 3).
 
     Raises :class:`InputError` if the ground truth has no head motion or too few frames.
     """
@@ -110,7 +129,10 @@ def train_live_model(
     pitch_st = np.concatenate([p for p, _ in contours])
     loud_db = np.concatenate([lo for _, lo in contours])
     scale = SpeechScale.fit_contours(pitch_st, loud_db)
-    pz, lz = scale.pitch_z(pitch_st), scale.loud_z(loud_db)
+    norm_s = float(speaker_norm_s or 0.0)
+    normed = [speaker_normalised(p, lo, scale, fps, norm_s) for p, lo in contours]  # per take
+    pz = np.concatenate([p for p, _ in normed])
+    lz = np.concatenate([lo for _, lo in normed])
     angles = np.concatenate([head_angles(gt) for gt in gts])
     if not np.any(angles.std(axis=0) > 1e-9):
         raise InputError(
@@ -130,6 +152,7 @@ def train_live_model(
         weights=head_weights,
         progress=progress,
     )
+    pose, pose_summary = fit_speech_pose(head, angles, pz, lz, fps, starts)
     gaze_gt = np.concatenate([gaze_angles(gt) for gt in gts])
     h = np.column_stack([angles, lz])
     gaze = fit_gaze_model(h, gaze_gt, starts)
@@ -169,13 +192,15 @@ def train_live_model(
         "n_components": n_components,
         "seed": seed,
         "input_smoothing_s": SMOOTH_S,
+        "speaker_normalisation_s": norm_s,
         "head_weights": [float(w) for w in head.weights],
+        "head_expectation": pose_summary,
         "gaze_enabled": gaze.enabled,
         "gaze_canonical_correlations": [float(c) for c in gaze.correlations],
         "eyelids": lid_summary,
         "fixations": fix_summary,
     }
-    return LiveModel(fps, scale, head, gaze, eyelids, fixations, summary)
+    return LiveModel(fps, scale, head, gaze, eyelids, fixations, summary, 0.5, pose, norm_s)
 
 
 # -- file format ---------------------------------------------------------------------------------
@@ -194,11 +219,14 @@ def save_model(model: LiveModel, path: str | Path) -> Path:
         for attr in _MIX:
             arrays[f"{bank_name}_{attr}"] = np.stack([getattr(m, attr) for m in padded])
     h = model.head
+    if model.pose is None:
+        raise ValueError("a live model without its speech pose (alignment, variation) is not saved")
     arrays.update(
         head_kin_mean=h.kin_mean,
         head_kin_std=h.kin_std,
         head_step_std=h.step_std,
         head_weights=h.weights,
+        head_expectation=model.pose.to_array(),
     )
     g = model.gaze
     for name in (
@@ -233,6 +261,7 @@ def save_model(model: LiveModel, path: str | Path) -> Path:
         "gaze": {"lambdas": list(g.lambdas), "enabled": g.enabled},
         "eyelids": {"top_share": model.eyelids.top_share, "shape_s": list(model.eyelids.shape)},
         "talk_window_s": model.talk_window_s,
+        "speech": {"speaker_normalisation_s": model.speaker_norm_s},
         "training": model.summary,
     }
     arrays["meta"] = np.frombuffer(json.dumps(meta, indent=1).encode("utf-8"), dtype=np.uint8)
@@ -248,6 +277,7 @@ _SHAPES: dict[str, tuple[int | None, ...]] = {
     "head_kin_std": (5,),
     "head_step_std": (3,),
     "head_weights": (5,),
+    "head_expectation": (3, 6),
     "head_voiced_weights": (5, None),
     "head_voiced_means": (5, None, 3),
     "head_voiced_covariances": (5, None, 3, 3),
@@ -347,6 +377,7 @@ def load_model(path: str | Path) -> LiveModel:
         top_share = float(meta["eyelids"]["top_share"])
         shape = tuple(float(x) for x in meta["eyelids"]["shape_s"])
         window = float(meta.get("talk_window_s", 0.5))
+        norm_s = float(meta["speech"]["speaker_normalisation_s"])
         summary = dict(meta.get("training", {}))
     except (KeyError, TypeError, ValueError) as exc:
         raise InputError(f"bad or missing setting {exc}", path=path, field="meta") from None
@@ -357,9 +388,11 @@ def load_model(path: str | Path) -> LiveModel:
         or len(lambdas) != 2
         or len(shape) != 3
         or min(shape) <= 0
+        or not norm_s >= 0
     ):
         raise InputError(
-            "settings out of range (fps, n_iter, proposal, lambdas, blink shape)",
+            "settings out of range (fps, n_iter, proposal, lambdas, blink shape, "
+            "speaker normalisation)",
             path=path,
             field="meta",
         )
@@ -371,6 +404,16 @@ def load_model(path: str | Path) -> LiveModel:
     ):
         if np.any(sd <= 0):
             raise InputError("standard deviations must be positive", path=path, field=name)
+    pose = SpeechPose.from_array(a["head_expectation"], fps)
+    stationary = all(
+        np.all(np.abs(np.roots([1.0, -p[0], -p[1]])) < 1.0) for p in pose.ar if np.any(p != 0)
+    )
+    if np.any(pose.tau_s < 0) or np.any(pose.innovation_sd < 0) or not stationary:
+        raise InputError(
+            "time constants and sds must not be negative, the variation must be stationary",
+            path=path,
+            field="head_expectation",
+        )
     if np.any(a["gaze_fixation_offsets"][:, 2:] < 0):
         raise InputError(
             "standard deviations must not be negative", path=path, field="gaze_fixation_offsets"
@@ -413,4 +456,6 @@ def load_model(path: str | Path) -> LiveModel:
         fixations,
         summary,
         window,
+        pose,
+        norm_s,
     )

@@ -1,9 +1,12 @@
 """The streaming head-and-eye generator: one frame of speech in, one frame of motion out.
 
 The three modules run in the paper's chain (Le, Ma & Deng 2012, sec. 3, Fig. 1): the head
-(sec. 5) from the frame's pitch and loudness and the two previous poses; the gaze (sec. 6) from
-the new pose and the loudness; the eyelids (sec. 7) from the new gaze and the mode. Only the
-current and past input is read. The offline path (:meth:`LiveGenerator.run`,
+(sec. 5) from the frame's pitch and loudness, standardised per speaker
+(:class:`app.stimuli.live.inputs.SpeakerNorm`): by default the angle GMMs' expectation,
+aligned, plus the variation speech does not predict (:mod:`app.stimuli.live.expectation`;
+``synthesis="langevin"``: the earlier per-frame draw from eq. 3 near the two previous poses);
+the gaze (sec. 6) from the new pose and the loudness; the eyelids (sec. 7) from the new gaze
+and the mode. Only the current and past input is read. The offline path (:meth:`LiveGenerator.run`,
 :func:`generate_track`) is a loop over :meth:`LiveGenerator.step`, so streaming and offline
 generation give identical frames for the same seed.
 
@@ -16,8 +19,8 @@ gaze 3.3 times the reference speaker's share of variance above 4 Hz on held-out 
 0.5-1.1 and 0.7-0.9 times. Both are times, so any frame rate gets the same motion.
 
 Randomness: one ``numpy`` generator per random process, spawned from ``SeedSequence(seed)``:
-the head's start noise (eq. 5) and Langevin steps, the blink intervals (eq. 19) and the
-fixations are drawn in frame order.
+the head's variation (or, with ``synthesis="langevin"``, eq. 5's start noise and the Langevin
+steps), the blink intervals (eq. 19) and the fixations are drawn in frame order.
 
 Example
 -------
@@ -30,15 +33,17 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from typing import Any
 
 import numpy as np
 
 from app.stimuli.fap import DEG_PER_AU, EYELIDS, GAZE, HEAD
 from app.stimuli.live.audio import AudioFrameStream
+from app.stimuli.live.expectation import PoseTracker, frame_expectation
 from app.stimuli.live.eyelids import BlinkClock
 from app.stimuli.live.gaze import FixationClock
-from app.stimuli.live.inputs import LOUDNESS_FLOOR_DB, ContourSmoother, smooth_frames
-from app.stimuli.live.model import LiveModel
+from app.stimuli.live.inputs import LOUDNESS_FLOOR_DB, ContourSmoother, SpeakerNorm, smooth_frames
+from app.stimuli.live.model import SYNTHESES, LiveModel
 from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
@@ -51,11 +56,32 @@ SACCADE_S = 0.1
 
 
 class LiveGenerator:
-    """Stateful per-frame generator. ``fps`` defaults to the model's training frame rate."""
+    """Stateful per-frame generator. ``fps`` defaults to the model's training frame rate.
 
-    def __init__(self, model: LiveModel, *, fps: float | None = None, seed: int = 0) -> None:
+    ``synthesis``: ``"expectation"`` (default; needs the model's speech pose) or
+    ``"langevin"`` (:data:`app.stimuli.live.model.SYNTHESES`); ``variation`` scales the
+    expectation synthesis's variation (1: the training motion's amplitude; 0: the speech-driven
+    part alone). ``speaker_norm_s`` overrides the model's per-speaker normalisation time
+    constant (0: the training statistics for every speaker).
+    """
+
+    def __init__(
+        self,
+        model: LiveModel,
+        *,
+        fps: float | None = None,
+        seed: int = 0,
+        synthesis: str = "expectation",
+        variation: float = 1.0,
+        speaker_norm_s: float | None = None,
+    ) -> None:
+        if synthesis not in SYNTHESES:
+            raise ValueError(f"synthesis must be one of {SYNTHESES}, got {synthesis!r}")
+        if synthesis == "expectation" and model.pose is None:
+            raise ValueError("this model has no speech pose: use synthesis='langevin'")
         self.model = model
         self.fps = float(fps or model.fps)
+        self.synthesis = synthesis
         head_seq, blink_seq, fix_seq = np.random.SeedSequence(seed).spawn(3)
         self._rng = np.random.default_rng(head_seq)
         self._blinks = BlinkClock(
@@ -67,6 +93,13 @@ class LiveGenerator:
             offsets=model.fixations.offsets,
         )
         rest = model.head.kin_mean[:3].copy()
+        self._tracker = (
+            PoseTracker(model.pose, rest, self.fps, self._rng, variation)
+            if synthesis == "expectation" and model.pose is not None
+            else None
+        )
+        norm_s = model.speaker_norm_s if speaker_norm_s is None else speaker_norm_s
+        self._norm = SpeakerNorm(model.scale, self.fps, norm_s)
         self._prev1, self._prev2 = rest.copy(), rest.copy()
         self._pose_out = rest.copy()
         self._pose_gain = 1.0 - math.exp(-1.0 / (HEAD_SMOOTH_S * self.fps))
@@ -100,12 +133,16 @@ class LiveGenerator:
             12.0 * (math.log2(f0) - math.log2(100.0)) if math.isfinite(f0) and f0 > 0 else math.nan
         )
         pitch_st = self._smooth_pitch.step(pitch_st)
-        lz, pz = scale.loud_z(loud_db), scale.pitch_z(pitch_st)
-        # Head (sec. 5): eq. 5 start, Langevin steps on eq. 4.
-        coeffs = m.head.frame_coefficients(pz, lz)
-        start = self._prev1 + self._noise * self._rng.standard_normal(3)
-        drawn = m.head.sample(start, self._prev1, self._prev2, self.fps, coeffs, self._rng)
-        self._prev2, self._prev1 = self._prev1, drawn
+        pz, lz = self._norm.step(pitch_st, loud_db)
+        if self._tracker is not None:
+            # Head (sec. 5.1's angle GMMs): their expectation, aligned, plus the variation
+            drawn = self._tracker.step(frame_expectation(m.head, pz, lz))
+        else:
+            # Head (sec. 5.2): eq. 5 start, Langevin steps on eq. 4.
+            coeffs = m.head.frame_coefficients(pz, lz)
+            start = self._prev1 + self._noise * self._rng.standard_normal(3)
+            drawn = m.head.sample(start, self._prev1, self._prev2, self.fps, coeffs, self._rng)
+            self._prev2, self._prev1 = self._prev1, drawn
         # the shown pose: the draws low-passed, so their frame-to-frame noise is not jitter
         self._pose_out = self._pose_out + self._pose_gain * (drawn - self._pose_out)
         pose = self._pose_out
@@ -157,11 +194,17 @@ class LiveGenerator:
 
 
 def generate_track(
-    model: LiveModel, features: SpeechFeatures, *, seed: int = 0, name: str = "live_gmm"
+    model: LiveModel,
+    features: SpeechFeatures,
+    *,
+    seed: int = 0,
+    name: str = "live_gmm",
+    **options: Any,
 ) -> MotionTrack:
     """Offline generation over whole speech features (raw F0, so unvoiced frames stay
-    unvoiced): a :class:`MotionTrack` with FAPs 19-26 and 48-50."""
-    gen = LiveGenerator(model, fps=features.fps, seed=seed)
+    unvoiced): a :class:`MotionTrack` with FAPs 19-26 and 48-50. ``options``: those of
+    :class:`LiveGenerator` (``synthesis``, ``variation``, ``speaker_norm_s``)."""
+    gen = LiveGenerator(model, fps=features.fps, seed=seed, **options)
     values = gen.run(features.f0, features.intensity)
     return MotionTrack(
         features.fps,
@@ -172,6 +215,7 @@ def generate_track(
         metadata={
             "condition": "live_gmm",
             "seed": seed,
+            "synthesis": gen.synthesis,
             "blinks": len(gen.blink_log),
             "model_training": model.summary,
         },

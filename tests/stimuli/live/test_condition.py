@@ -55,22 +55,28 @@ def _head_correlation(track, truth) -> float:
 def test_learns_head_motion_of_the_reference_speaker_better_than_random(
     live_training_data, live_held_out_speech
 ):
-    # Train on one stretch of speech with the reference speaker's motion; test on other speech
-    # with reference motion of another seed, which the models never saw.
-    train_speech = live_training_data[0].slice(0, 1500)  # 50 s: r 0.21, against 0.15 on 100 s
-    train_truth = synthesize_reference(train_speech, seed=0)
-    held_truth = synthesize_reference(live_held_out_speech, seed=3)
+    # Train on one stretch of speech with the reference speaker's motion (version 2, whose
+    # head carries a speech relation in every angle); test on other speech against the
+    # reference motion of six other seeds, which the models never saw. (Against one seed of
+    # version 1 this test once passed on a lucky draw: over 20 seeds the Langevin model's mean
+    # r was 0.03 / 0.02 / 0.02, that seed's yaw 0.55.)
+    train_speech = live_training_data[0]
+    train_truth = synthesize_reference(train_speech, seed=0, version=2)
+    held = [synthesize_reference(live_held_out_speech, seed=s, version=2) for s in range(3, 9)]
     live = make_condition("live_gmm").fit(train_speech, train_truth)
     rand = make_condition("random").fit(train_speech, train_truth)
-    seeds = range(3)
-    r_live = np.mean(
-        [_head_correlation(live.generate(live_held_out_speech, seed=s), held_truth) for s in seeds]
-    )
-    r_rand = np.mean(
-        [_head_correlation(rand.generate(live_held_out_speech, seed=s), held_truth) for s in seeds]
-    )
-    assert r_live > r_rand + 0.05, (r_live, r_rand)
-    assert r_live > 0.08
+
+    def mean_r(cond) -> np.ndarray:
+        tracks = [cond.generate(live_held_out_speech, seed=s) for s in range(2)]
+        return np.mean(
+            [[np.corrcoef(t[c], h[c])[0, 1] for c in (48, 49, 50)] for t in tracks for h in held],
+            axis=0,
+        )
+
+    r_live, r_rand = mean_r(live), mean_r(rand)
+    # measured: live 0.12 / 0.43 / 0.73 (pitch / yaw / roll), random within +/- 0.05
+    assert np.all(r_live > r_rand + 0.05), (r_live, r_rand)
+    assert np.all(r_live > 0.08) and r_live.mean() > 0.3, r_live
 
 
 def test_fit_without_ground_truth_keeps_the_file_model(tmp_path, live_model, live_training_data):

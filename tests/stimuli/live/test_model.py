@@ -104,13 +104,29 @@ def test_mismatched_files_name_the_field(live_model, tmp_path):
             "gaze_fixation_intervals",
         ),
         "step sd": (lambda a: a.update(head_step_std=np.zeros(3)), "head_step_std"),
-        "version 1": (
+        "version 2": (
+            lambda a: a.update(meta=_with_meta(a, version=2)),
+            "version 2, this program reads version 3",
+        ),
+        "speech pose": (
+            lambda a: a.update(head_expectation=a["head_expectation"][:2]),
+            "head_expectation",
+        ),
+        "explosive variation": (
             lambda a: a.update(
-                meta=np.frombuffer(
-                    json.dumps({"format": "facepair-live-gmm", "version": 1}).encode(), np.uint8
+                head_expectation=np.column_stack(
+                    [
+                        a["head_expectation"][:, :3],
+                        np.full((3, 2), [1.5, 0.2]),
+                        a["head_expectation"][:, 5],
+                    ]
                 )
             ),
-            "version 1, this program reads version 2",
+            "head_expectation",
+        ),
+        "speaker normalisation": (
+            lambda a: a.update(meta=_with_meta(a, speech={"speaker_normalisation_s": -1.0})),
+            "meta",
         ),
         "proposal": (
             lambda a: a.update(meta=_with_meta(a, head={"n_iter": 17, "proposal": -1.0})),
