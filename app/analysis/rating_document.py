@@ -62,7 +62,8 @@ def mos_figure(results: dict[str, Any]) -> Figure:
 METHOD = (
     "Model: y_pki = mu_i + u_p + v_k + e_pki, the rating y of condition i by participant p on "
     "clip k, with participant and clip random intercepts u_p ~ N(0, s_p^2) and v_k ~ N(0, "
-    "s_k^2), crossed (Baayen, Davidson & Bates 2008), fitted by REML (statsmodels MixedLM). "
+    "s_k^2), crossed (Baayen, Davidson & Bates 2008), fitted by REML as lme4 fits it (the "
+    "profiled criterion on the sparse structure, Bates et al. 2015). "
     "The MOS of a condition is mu_i with its Wald interval; contrasts mu_a - mu_b with Wald z "
     "tests, Holm (1979) over the pairs. The raw MOS is the mean rating, its interval the t "
     "interval over the participants' means (ITU-T P.910, sec. 12). Ratings: ITU-T P.910 "
