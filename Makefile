@@ -23,10 +23,12 @@ HOST ?= 127.0.0.1
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # Debian packages: EGL/Mesa for headless rendering, chromium + driver for browser tests,
 # nginx for the front-proxy test (X-Accel-Redirect); espeak-ng, festival with two voices and
-# sox for the voices the stimuli tests synthesise; npm for axe-core (accessibility checks),
+# sox for the voices the stimuli tests synthesise; R with lme4, BradleyTerry2 and psychotools,
+# the references the analysis tests compare with; npm for axe-core (accessibility checks),
 # from Debian only where no npm command is there (a Node.js install may bring its own).
 DEBS_TEST := chromium chromium-driver libegl1 libgl1-mesa-dri libegl-mesa0 nginx-light \
-	espeak-ng festival festvox-us-slt-hts festvox-kallpc16k sox
+	espeak-ng festival festvox-us-slt-hts festvox-kallpc16k sox \
+	r-base-core r-cran-lme4 r-cran-bradleyterry2 r-cran-psychotools
 DEBS_DEMO := libegl1 libgl1-mesa-dri libegl-mesa0
 
 .PHONY: demo test venv debs-test debs-demo axe lint bench clean

@@ -36,7 +36,7 @@ import numpy as np
 from scipy import optimize
 
 from app.analysis.json_values import json_number
-from app.analysis.scaling import bootstrap_weights, canonical_participant_order, connected
+from app.analysis.scaling import canonical_participant_order, connected, resampled_sums
 from app.analysis.signtest import sign_test_p
 
 JOD_PER_LOG_WORTH = float(1.0 / np.log(3.0))
@@ -144,9 +144,12 @@ def _finite(beta: np.ndarray, ties: bool) -> np.ndarray:
     )
 
 
-def fit_btd(counts: np.ndarray) -> BTDFit:
+def fit_btd(counts: np.ndarray, *, side: bool = True) -> BTDFit:
     """Maximum-likelihood fit of an (n, n, 3) count array: [left, right] cell = votes with
     condition ``left`` on the left panel, answers left / right / undecided.
+
+    ``side=False`` fixes g at 1 (Davidson's model without the order effect, as psychotools'
+    ``btmodel`` fits it): for data whose sides carry no information, or a comparison with it.
 
     >>> c = np.zeros((2, 2, 3)); c[0, 1] = [8, 1, 2]; c[1, 0] = [2, 4, 2]  # pi = (4, 1), g 2
     >>> f = fit_btd(c); np.round(f.theta, 6).tolist(), round(f.gamma, 6), round(f.nu, 6)
@@ -170,13 +173,19 @@ def fit_btd(counts: np.ndarray) -> BTDFit:
         )
     ties, x = _setup(counts)
     cells = _cells(counts[None], ties)
+    if not side:
+        # lambda leaves the likelihood; the penalty lambda^2 / 2 holds it at 0 exactly
+        x = x.copy()
+        x[..., n] = 0.0
+    hold = np.zeros(x.shape[-1])
+    hold[n] = 0.0 if side else 1.0
 
     def objective(beta: np.ndarray) -> tuple[float, np.ndarray]:
         nll, grad, _ = _terms(beta[None], cells, x)
-        return float(nll[0]), grad[0]
+        return float(nll[0]) + 0.5 * float(hold @ beta**2), grad[0] + hold * beta
 
     def hessian(beta: np.ndarray) -> np.ndarray:
-        return _terms(beta[None], cells, x)[2][0]
+        return _terms(beta[None], cells, x)[2][0] + np.diag(hold)
 
     res = optimize.minimize(
         objective,
@@ -247,15 +256,15 @@ def fit_btd_many(
 
 
 def bootstrap_btd(
-    per_participant: np.ndarray, weights: np.ndarray, confidence: float
+    per_participant: np.ndarray, replicates: int, seed: int, confidence: float
 ) -> tuple[np.ndarray, int]:
     """Percentile intervals (k, 2) of (theta..., g, nu) and the replicates that converged.
 
-    ``per_participant`` is (P, n, n, 3); ``weights`` (B, P) from
-    :func:`app.analysis.scaling.bootstrap_weights`. Too few converged replicates: NaN.
+    ``per_participant`` is (P, n, n, 3), resampled as
+    :func:`app.analysis.scaling.bootstrap_weights` draws. Too few converged replicates: NaN.
     """
     p, n = per_participant.shape[0], per_participant.shape[-2]
-    boot = (weights @ per_participant.reshape(p, -1)).reshape(-1, n, n, 3)
+    boot = resampled_sums(per_participant.reshape(p, -1), replicates, seed).reshape(-1, n, n, 3)
     beta, ok = fit_btd_many(boot)
     values = np.column_stack([beta[:, :n], np.exp(beta[:, n:])])
     if values.shape[1] == n + 1:
@@ -336,7 +345,7 @@ def btd_summary(
     if fit.converged and bootstrap > 0 and t.shape[0] > 1:
         sub = t[:, active][:, :, active]
         sub = sub[canonical_participant_order(sub)]
-        ci, used = bootstrap_btd(sub, bootstrap_weights(sub.shape[0], bootstrap, seed), confidence)
+        ci, used = bootstrap_btd(sub, bootstrap, seed, confidence)
     scores: dict[str, Any] = {c: None for c in names}
     intervals: dict[str, Any] = {c: [None, None] for c in names}
     for q, c in enumerate(active.tolist()):
