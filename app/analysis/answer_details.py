@@ -120,7 +120,9 @@ def reason_summary(frame: pd.DataFrame, conditions: Sequence[str]) -> dict[str, 
     """
     if "reasons" not in frame or frame.empty:
         return None
-    ticked = frame["reasons"].astype(str).str.split(";")
+    reasons = frame["reasons"].astype(str)
+    if not (reasons.str.strip().str.len() > 0).any():  # no tag on any vote: nothing to count
+        return None
     choice = frame["choice"].astype(str).to_numpy()
     chosen = np.where(
         choice == "left",
@@ -130,13 +132,15 @@ def reason_summary(frame: pd.DataFrame, conditions: Sequence[str]) -> dict[str, 
     columns = [*conditions, "undecided"]
     tally: dict[str, dict[str, int]] = {}
     with_tags = 0
-    for tags, who in zip(ticked, chosen, strict=True):
-        tags = [t.strip() for t in tags if t.strip()]
-        with_tags += bool(tags)
+    # each distinct (reasons, chosen) once, with its count: a few dozen, not one per vote
+    combos = pd.DataFrame({"reasons": reasons.to_numpy(), "who": chosen})
+    for (text, who), count in combos.value_counts(sort=False).items():
+        tags = [t.strip() for t in str(text).split(";") if t.strip()]
+        with_tags += int(count) if tags else 0
         for tag in dict.fromkeys(tags):
             row = tally.setdefault(tag, {"total": 0, **dict.fromkeys(columns, 0)})
-            row["total"] += 1
-            row[who] = row.get(who, 0) + 1
+            row["total"] += int(count)
+            row[who] = row.get(who, 0) + int(count)
     if not tally:
         return None
     ranked = sorted(tally.items(), key=lambda item: (-item[1]["total"], item[0]))

@@ -29,12 +29,12 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import stats
+from scipy import sparse, stats
 
 from app.analysis.agreement import coefficient_of_agreement
 from app.analysis.counts import undecided_pairs, wins
 from app.analysis.json_values import json_number as _num
-from app.analysis.scaling import bootstrap_weights, canonical_participant_order
+from app.analysis.scaling import bootstrap_columns, canonical_participant_order
 from app.analysis.signed_rank import signed_rank_test
 from app.analysis.signtest import sign_test_p
 from app.analysis.ttest import holm
@@ -83,29 +83,46 @@ def rank_biserial(d: ArrayLike) -> float | None:
 
 
 def bootstrap_rank_biserial(d: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """r of every resample at once; ``weights[b, p]`` = times participant p is drawn in b.
+    """r of every resample at once; ``weights[b, p]`` = times participant p is drawn in b
+    (or, to share one copy between calls, its transpose as float32: ``columns[p, b]``, see
+    :func:`resample_columns`).
 
     A participant drawn w times adds w tied values, so the mid-rank of a group of equal |d| is
     (weight of all smaller values) + (weight of the group + 1) / 2: the ranks follow from
     cumulative weights over the sorted distinct |d|, without sorting each resample.
     Participants with NaN or zero d carry no rank (zero_method "wilcox").
     """
-    keep = ~np.isnan(d) & (d != 0)
-    x, w = d[keep], weights[:, keep].astype(float)
+    columns = weights if weights.dtype == np.float32 else resample_columns(weights)
+    replicates = columns.shape[1]
+    keep = np.flatnonzero(~np.isnan(d) & (d != 0))
+    x = d[keep]
     if x.size == 0:
-        return np.full(weights.shape[0], np.nan)
+        return np.full(replicates, np.nan)
     distinct, group = np.unique(np.abs(x), return_inverse=True)
-    member = np.zeros((x.size, distinct.size))
-    member[np.arange(x.size), group] = 1.0
-    in_group = w @ member
-    positive = w @ (member * (x > 0)[:, None])
+    g = distinct.size
+    # each resample's weight per distinct |d| (rows 0..g-1) and its positive part (g..2g-1):
+    # a sparse indicator of participants by group times the resamples' columns, one pass
+    positive = x > 0
+    rows = np.concatenate([group, g + group[positive]])
+    cols = np.concatenate([keep, keep[positive]])
+    member = sparse.csr_matrix(
+        (np.ones(rows.size, np.float32), (rows, cols)), shape=(2 * g, columns.shape[0])
+    )
+    sums = (member @ columns).T.astype(np.float64)  # (replicates, 2g), whole counts
+    in_group, positive_w = sums[:, :g], sums[:, g:]
     before = np.cumsum(in_group, axis=1) - in_group
     mid = before + (in_group + 1.0) / 2.0
-    plus = (mid * positive).sum(axis=1)
+    plus = (mid * positive_w).sum(axis=1)
     size = in_group.sum(axis=1)
     total = size * (size + 1.0) / 2.0
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(size > 0, (2.0 * plus - total) / np.where(size > 0, total, 1.0), np.nan)
+
+
+def resample_columns(weights: np.ndarray) -> np.ndarray:
+    """The resamples' weights by participant, ``(n_part, replicates)`` float32 (exact: whole
+    counts below 2**24), contiguous for the sparse products above."""
+    return np.ascontiguousarray(np.asarray(weights).T, dtype=np.float32)
 
 
 def _percentile_ci(values: np.ndarray, confidence: float) -> list[float | None]:
@@ -137,11 +154,9 @@ def participant_level_tests(
         t = t[canonical_participant_order(t)]
     d = net_preference(t)
     i, j = np.triu_indices(len(names), 1)
-    weights = (
-        bootstrap_weights(t.shape[0], bootstrap, seed)
-        if bootstrap > 0 and t.shape[0] > 1
-        else np.zeros((0, t.shape[0]), dtype=np.int64)
-    )
+    resampled = bootstrap > 0 and t.shape[0] > 1
+    # one copy of the resamples' weights for every pair (and every section)
+    columns = bootstrap_columns(t.shape[0], bootstrap, seed) if resampled else None
     rows = []
     for q, (a, b) in enumerate(zip(i, j, strict=True)):
         col = d[:, q]
@@ -161,8 +176,8 @@ def participant_level_tests(
             row["W"], row["p"] = _num(w[0]), _num(p[0])
         row["effect"] = rank_biserial(judged)
         row["effect_ci"] = (
-            _percentile_ci(bootstrap_rank_biserial(col, weights), confidence)
-            if weights.shape[0]
+            _percentile_ci(bootstrap_rank_biserial(col, columns), confidence)
+            if columns is not None
             else [None, None]
         )
         rows.append(row)

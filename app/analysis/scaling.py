@@ -17,6 +17,8 @@ intervals of the scale recomputed on participants resampled with replacement (se
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy import sparse, stats
@@ -84,19 +86,58 @@ def canonical_participant_order(per_participant: np.ndarray) -> np.ndarray:
     return np.lexsort(flat.T[::-1])
 
 
+@functools.lru_cache(maxsize=4)
 def bootstrap_weights(n_part: int, replicates: int, seed: int) -> np.ndarray:
     """(replicates, n_part) counts: how often each participant is drawn in each resample.
 
     A resample of participants with replacement is a weight vector, so a statistic that is a
     sum over participants is recomputed for all replicates at once as ``weights @ data``.
+    The same draws serve every statistic of an analysis (the pooled votes and each clip's,
+    the scale, the scores and the signed-rank effect sizes): they are drawn once (10,000
+    participants x 1,000 resamples took 0.15 s, 33 times over) and handed out read-only.
 
     >>> bootstrap_weights(5, 3, seed=0).sum(axis=1).tolist()
     [5, 5, 5]
     """
     rng = np.random.default_rng(seed)
     draws = rng.integers(0, n_part, size=(replicates, n_part))
-    flat_draws = (np.arange(replicates)[:, None] * n_part + draws).ravel()
-    return np.bincount(flat_draws, minlength=replicates * n_part).reshape(replicates, n_part)
+    counts = np.empty((replicates, n_part), np.int32 if n_part < 2**31 else np.int64)
+    for row, drawn in zip(counts, draws, strict=True):  # a row at a time stays in cache
+        row[:] = np.bincount(drawn, minlength=n_part)
+    counts.flags.writeable = False
+    return counts
+
+
+@functools.lru_cache(maxsize=4)
+def bootstrap_columns(n_part: int, replicates: int, seed: int) -> np.ndarray:
+    """The weights of :func:`bootstrap_weights` by participant, ``(n_part, replicates)``
+    float32, contiguous and read-only: the right-hand side of the sparse products below,
+    converted once for every statistic (whole counts below 2**24 are exact in float32)."""
+    columns = np.ascontiguousarray(bootstrap_weights(n_part, replicates, seed).T, np.float32)
+    columns.flags.writeable = False
+    return columns
+
+
+def resampled_sums(data: np.ndarray, replicates: int, seed: int) -> np.ndarray:
+    """``bootstrap_weights(P, replicates, seed) @ data`` for ``data`` (P, F): each
+    resample's sums over its participants, (replicates, F), to the same digits.
+
+    A participant's row of counts is mostly zeros (a clip shows each participant a few
+    pairs), so the product runs over the non-zero counts only: the sparse data times the
+    float32 columns of :func:`bootstrap_columns`. Sums of halves (undecided votes split)
+    and whole counts are exact in float32 below 2**23, which holds for any study whose
+    resampled totals stay under 8 million votes; otherwise the product is dense float64.
+    """
+    data = np.asarray(data, dtype=np.float64)
+    n_part = data.shape[0]
+    halves = data * 2.0
+    exact = bool(np.all(halves == np.round(halves)))
+    columns = bootstrap_columns(n_part, replicates, seed)
+    heaviest = float(columns.max(initial=0.0))
+    if not exact or np.abs(data).sum(axis=0).max(initial=0.0) * heaviest >= 2.0**23:
+        return np.asarray(bootstrap_weights(n_part, replicates, seed) @ data, np.float64)
+    rows = sparse.csr_matrix(data.T.astype(np.float32))
+    return np.asarray(rows @ columns, dtype=np.float64).T
 
 
 def bootstrap_scale(
@@ -121,8 +162,7 @@ def bootstrap_scale(
         nan = np.full(k, np.nan)
         return scale, nan, nan
     data = data[canonical_participant_order(data)]
-    weights = bootstrap_weights(n_part, replicates, seed)
-    boot = (weights @ data.reshape(n_part, -1)).reshape(replicates, k, k)
+    boot = resampled_sums(data.reshape(n_part, -1), replicates, seed).reshape(replicates, k, k)
     values = thurstone_case_v(boot, anchor=anchor, sigma=sigma)
     ok = ~np.isnan(values).any(axis=1)
     if ok.sum() < max(10, replicates // 2):

@@ -260,8 +260,17 @@ def analyze(
                 )
             return
     summaries = read_summaries(measures_paths)
-    steps = 2 + (html_path is not None) + (pdf_path is not None and html_path is not None)
+    # reading, the statistics (each clip, the pooled votes, the mixed model's updates: the
+    # analysis says how many) and the report
+    writes = (html_path is not None) + (pdf_path is not None and html_path is not None)
+    steps = 2 + writes
     with tqdm(total=steps, desc="analyze", unit="step", disable=None) as bar:
+
+        def statistics(done: int, total: int) -> None:
+            bar.total = 1 + total + writes
+            bar.n = 1 + done
+            bar.refresh()
+
         if package is not None:  # read once, above
             table, names, exclude = package_votes(package, votes, names, exclude)
         else:
@@ -280,6 +289,7 @@ def analyze(
             anchor=anchor,
             exclude=exclude,
             mixed_model=mixed_model,
+            progress=statistics,
         )
         if summaries:
             from app.analysis.objective import (
@@ -293,14 +303,16 @@ def analyze(
                 report_scores(results),
                 confidence=results["options"]["confidence"],
             )
-        bar.update()
+        bar.n = bar.total - writes
+        bar.refresh()
         if json_path is not None:
             Path(json_path).write_text(
                 json.dumps(results, indent=1, allow_nan=False) + "\n", encoding="utf-8"
             )
         if html_path is not None:
             write_report(results, html_path, pdf_path)
-            bar.update(steps - bar.n)
+            bar.n = bar.total
+            bar.refresh()
     click.echo(_summary(results))
 
 
