@@ -44,7 +44,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import signal
 
 from app.stimuli.live.head import HeadModel
 
@@ -127,6 +126,8 @@ def low_pass_gain(tau_s: float, fps: float) -> float:
 
 
 def _low_pass(x: np.ndarray, k: float, start: float) -> np.ndarray:
+    from scipy import signal  # where the alignment is fitted only (its import takes 0.4 s)
+
     return signal.lfilter([k], [1.0, -(1.0 - k)], x, zi=[(1.0 - k) * start])[0]
 
 

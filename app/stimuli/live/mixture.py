@@ -29,7 +29,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from sklearn.mixture import GaussianMixture
 from threadpoolctl import threadpool_limits
 
 _LOG_2PI = float(np.log(2.0 * np.pi))
@@ -104,6 +103,10 @@ def fit_mixture(
     waking its threads than on the arithmetic (a 100-s take trained in 3.7 s of CPU with two
     OpenBLAS threads on a busy two-core machine, 0.3 s with one; the fits are identical).
     """
+    # scikit-learn only where a model is trained: generating from a trained one does without
+    # it (its import was a third of a second of every `stimuli generate`)
+    from sklearn.mixture import GaussianMixture
+
     x = np.asarray(x, dtype=np.float64)
     k = int(max(1, min(n_components, len(x) // 15)))
     gm = GaussianMixture(
