@@ -22,8 +22,7 @@ known FAP tracks in, the clip the capture would have recorded out.
 Example
 -------
 >>> import numpy as np
->>> from app.stimuli.fap import AU_RADIANS, HEAD_PITCH, HEAD_ROLL, HEAD_YAW
-from app.stimuli.track import MotionTrack
+>>> from app.stimuli.track import MotionTrack
 >>> track = MotionTrack.zeros(30.0, 2, (48,))
 >>> frames = list(marker_frames(track, 128))
 >>> frames[0].shape, frames[0].dtype.name, int(frames[0].max()) > 200

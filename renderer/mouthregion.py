@@ -31,7 +31,7 @@ Example
 >>> rig = Rig(builtin_face())
 >>> jaw = np.zeros((4, 68)); jaw[:, 2] = [0, 100, 350, 200]
 >>> env = motion_envelope(rig, [jaw])
->>> bool(env.points[:, 1].min() < rig.face.feature_points["2.1"][1] - 10)  # below the chin
+>>> bool(env.points[:, 1].min() < rig.face.feature_points["2.1"][1])  # below the chin at rest
 True
 """
 

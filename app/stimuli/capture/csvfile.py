@@ -10,7 +10,8 @@ Example
 -------
 >>> import tempfile, os
 >>> path = os.path.join(tempfile.mkdtemp(), "t.csv")
->>> _ = open(path, "w").write("time, x\\n0.0, 1\\n0.1, 2\\n")
+>>> with open(path, "w") as out:
+...     _ = out.write("time, x\\n0.0, 1\\n0.1, 2\\n")
 >>> table = read_numeric_csv(path)
 >>> table.header, table.values.tolist(), table.lines.tolist()
 (['time', 'x'], [[0.0, 1.0], [0.1, 2.0]], [2, 3])

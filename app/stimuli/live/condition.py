@@ -8,10 +8,14 @@ that ships with the project (:data:`DEFAULT_MODEL_PATH`).
 
 Example
 -------
->>> cond = LiveGmmCondition()                                     # doctest: +SKIP
->>> track = cond.generate(features, seed=3)                       # doctest: +SKIP
->>> track.channels
-(19, 20, 21, 22, 23, 24, 25, 26, 48, 49, 50)
+>>> import numpy as np
+>>> from app.stimuli.speech import SpeechFeatures
+>>> t = np.arange(150) / 25.0                      # 6 s of a voice gliding 100-140 Hz
+>>> f0 = 120 + 20 * np.sin(np.pi * t)
+>>> features = SpeechFeatures(25.0, f0, 60 + 5 * np.sin(t), f0)
+>>> track = LiveGmmCondition().generate(features, seed=3)
+>>> track.n_frames, track.channels                 # eyes, brows (at rest) and head
+(150, (19, 20, 21, 22, 23, 24, 25, 26, 31, 32, 33, 34, 35, 36, 37, 38, 48, 49, 50))
 """
 
 from __future__ import annotations
