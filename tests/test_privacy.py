@@ -215,3 +215,52 @@ def test_the_personal_data_routes_never_answer_5xx(app, web):
 
     hostile()
     assert _counts(app, study_id)[0] == 1  # never confirmed, so nothing was deleted
+
+
+def test_a_rating_participant_has_answered_the_trials_they_rated(app, client, web):
+    """``answered`` counts a rating study's answers too: the trials rated (a parallel page
+    rates every version of its clip: one trial), with the checks rated and passed."""
+    from tests.conftest import ParticipantActions
+    from tests.test_ratings import PARALLEL, _rate
+
+    rating = web.study(design="rating", catch_kind="instructed", catch=1)
+    person = ParticipantActions(app.test_client(), app)
+    token = person.join(_slug(app, rating))
+    while (trial := person.current_trial()) is not None:
+        with app.app_context():
+            check = db.session.get(Trial, trial).kind == "catch"
+        assert _rate(person.client, token, trial, 1 if check else 4).status_code == 201
+    parallel = web.study(design="parallel", extra=PARALLEL)
+    person = ParticipantActions(app.test_client(), app)
+    token = person.join(_slug(app, parallel))
+    page = {"token": token, "trial_id": person.current_trial(), "scores": [90, 40], "plays": 2}
+    page["idempotency_key"] = "parallel-answered-1"
+    assert person.client.post("/api/v1/ratings", json=page).status_code == 201
+    web.login(client)
+    with app.app_context():
+        trials = db.session.scalar(
+            sa.select(sa.func.count(Trial.id)).where(Trial.kind != "practice")
+            .join(Participant).where(Participant.study_id == rating)
+        )  # fmt: skip
+    (rated,) = _csv(client.get(f"/experimenter/studies/{rating}/participants.csv"))
+    assert (rated["status"], rated["answered"]) == ("finished", str(trials))
+    assert (rated["catch_passed"], rated["catch_total"]) == ("1", "1")
+    (side_by_side,) = _csv(client.get(f"/experimenter/studies/{parallel}/participants.csv"))
+    assert (side_by_side["status"], side_by_side["answered"]) == ("finished", "1")
+
+
+def test_deleting_a_rating_participant_on_request(app, client, participant, web):
+    """A rating study's participant is deleted with their ratings (their trials cannot go
+    while ratings name them), and the message counts ratings."""
+    from app.web.models import Rating
+    from tests.test_ratings import _parallel_participants
+
+    study_id = _parallel_participants(app, client, participant, web, (95, 95))
+    web.login(client)
+    page = _delete(client, web, study_id, "P0000").get_data(as_text=True)
+    assert "Deleted P0000: 2 ratings" in page
+    with app.app_context():
+        left = db.session.scalars(sa.select(Rating.participant_id).distinct()).all()
+        assert len(left) == 1 and _counts(app, study_id)[:3] == (1, 0, 1)
+    export = client.get(f"/experimenter/studies/{study_id}/ratings.csv").get_data(as_text=True)
+    assert "P0000" not in export and export.count("P0001") == 2

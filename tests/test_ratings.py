@@ -461,7 +461,7 @@ def test_the_closing_report_of_a_parallel_study_post_screens(app, client, partic
     response.close()
     assert "Design: parallel against the hidden reference none" in html
     assert "rated the hidden reference below 90 on 1 of 1 clips" in html
-    assert "1 participants included, 1 left out." in html
+    assert "1 participant included, 1 left out." in html
 
 
 def test_the_monitor_tallies_ratings_per_condition(app, client, participant, web):
@@ -498,3 +498,67 @@ def test_the_monitor_tallies_ratings_per_condition(app, client, participant, web
     page = client.get(f"/experimenter/studies/{study_id}/monitor").get_data(as_text=True)
     assert "Ratings per condition" in page and "Votes per pair" not in page
     assert 'id="stat-ratings">' + str(real) in page and "3.50" in page
+
+
+def _parallel_participants(app, client, participant, web, reference_scores) -> int:
+    """A parallel study with one finished participant per score given to the hidden
+    reference (the other version rated 60); its id."""
+    from app.web.models import Trial
+    from app.web.study.ratings import shown_items
+
+    study_id = web.study(design="parallel", extra=PARALLEL)
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    for reference_score in reference_scores:
+        token = participant.join(slug)
+        trial = participant.current_trial()
+        with app.app_context():
+            row = db.session.get(Trial, trial)
+            shown = [c.name for c in shown_items(row.participant, row)]
+        scores = [reference_score if c == "none" else 60 for c in shown]
+        payload = {"token": token, "trial_id": trial, "scores": scores, "plays": 2}
+        payload["idempotency_key"] = f"screen-{trial:08d}"
+        assert client.post("/api/v1/ratings", json=payload).status_code == 201
+        client.delete_cookie(f"fp-{study_id}")
+    return study_id
+
+
+def test_a_parallel_study_its_post_screening_empties_says_so(app, client, participant, web):
+    """Both participants miss the hidden reference: the report page speaks of ratings and
+    names the post-screening and whom it left out, ratings.csv says why beside each rating,
+    and the monitor counts them."""
+    import csv
+    import io
+
+    from app.web.models import Job
+
+    study_id = _parallel_participants(app, client, participant, web, (50, 40))
+    web.login(client)
+    text = client.get(f"/experimenter/studies/{study_id}/ratings.csv").get_data(as_text=True)
+    rows = list(csv.DictReader(io.StringIO(text)))
+    assert len(rows) == 4 and {r["excluded"] for r in rows} == {""}
+    assert {r["participant"]: r["screened"] for r in rows} == {
+        "P0000": "rated the hidden reference below 90 on 1 of 1 clips (more than 15 %; "
+        "ITU-R BS.1534-3 sec. 4.1.2)",
+        "P0001": "rated the hidden reference below 90 on 1 of 1 clips (more than 15 %; "
+        "ITU-R BS.1534-3 sec. 4.1.2)",
+    }
+    monitor = client.get(f"/experimenter/studies/{study_id}/monitor").get_data(as_text=True)
+    assert 'id="stat-screened">2<' in monitor
+    assert "would leave out 2 of the 2 participants" in monitor
+    assert monitor.count("no: rated the hidden reference below 90") == 2
+    token = web.csrf(client, f"/experimenter/studies/{study_id}")
+    client.post(f"/experimenter/studies/{study_id}/status/close", data={"csrf_token": token})
+    with app.app_context():
+        job = db.session.scalar(sa.select(Job).where(Job.kind == "report"))
+        assert job.status == "done" and job.message.startswith("no ratings to analyse yet")
+    response = client.get(f"/experimenter/studies/{study_id}/report/")
+    page = html.unescape(response.get_data(as_text=True))
+    response.close()
+    assert "No ratings to analyse yet" in page and "vote" not in page.lower()
+    assert "2 participants joined: 0 left out by exclusions, 2 by the hidden-reference " in page
+    assert "Post-screening (ITU-R BS.1534-3, sec. 4.1.2, adapted to video)" in page
+    assert "P0000: rated the hidden reference below 90 on 1 of 1 clips" in page
+    assert "P0001: rated the hidden reference below 90 on 1 of 1 clips" in page
+    study_page = client.get(f"/experimenter/studies/{study_id}").get_data(as_text=True)
+    assert 'id="report-pdf"' not in study_page

@@ -97,6 +97,29 @@ def fmt_p(p: float | None) -> str:
     return "1" if p >= 0.9995 else f"{p:.3f}".lstrip("0")
 
 
+def judgements_per_pair(section: dict[str, Any], undecided: str, dash: str = "-") -> str:
+    """How often each pair of different conditions was judged (``m`` of the agreement test):
+    its votes in both side orders, the undecided ones where they are ``split`` and not where
+    they are excluded; one number, or the range ``min-max``; "-" when no pair was shown.
+    Pairs judged fewer than 3 times count here though the agreement test leaves them out.
+
+    >>> pair = {"wins": 1, "losses": 1, "undecided": 1}  # A|B and B|A, and one undecided
+    >>> judgements_per_pair({"sign_tests": [pair]}, "exclude")
+    '2'
+    """
+    counts = [_judgements(s, undecided) for s in section["sign_tests"]]
+    if not counts:
+        return "-"
+    low, high = min(counts), max(counts)
+    return f"{low}" if low == high else f"{low}{dash}{high}"
+
+
+def _judgements(sign_test: dict[str, Any], undecided: str) -> int:
+    """One pair's judgements (:func:`judgements_per_pair`)."""
+    split = sign_test["undecided"] if undecided == "split" else 0
+    return int(sign_test["wins"] + sign_test["losses"] + split)
+
+
 def _p_eq(p: float | None) -> str:
     text = fmt_p(p)
     return f"p {text}" if text.startswith("<") else f"p = {text}"
@@ -127,11 +150,7 @@ def _summary_text(r: dict[str, Any]) -> list[str]:
     ag = pooled["agreement"]
     if ag["u"] is not None:
         verdict = "agreed beyond chance" if ag["p"] < ALPHA else "did not agree beyond chance"
-        spread = (
-            f"{ag['judges_min']}"
-            if ag["judges_min"] == ag["judges_max"]
-            else f"{ag['judges_min']}-{ag['judges_max']}"
-        )
+        spread = judgements_per_pair(pooled, opts["undecided"])
         out.append(
             f"Pooled over clips, the judgements {verdict} (Kendall & Babington Smith "
             f"u = {ag['u']:.3f}, χ²({ag['df']:.2f}) = {ag['chi2']:.2f}, {_p_eq(ag['p'])}; "
@@ -283,18 +302,16 @@ def _t_table(section: dict[str, Any], caption: str) -> Table:
 
 
 def _agreement_table(r: dict[str, Any]) -> Table:
+    rule = r["options"]["undecided"]
     rows = []
+    few = False  # a pair judged too few times for the test, in a clip or pooled
     for label, s in [*r["clips"].items(), ("pooled", r["pooled"])]:
         a = s["agreement"]
-        m = (
-            f"{a['judges_min']}"
-            if a["judges_min"] == a["judges_max"]
-            else f"{a['judges_min']}-{a['judges_max']}"
-        )
+        few = few or any(_judgements(t, rule) < 3 for t in s["sign_tests"])
         rows.append(
             [
                 label,
-                m,
+                judgements_per_pair(s, rule),
                 fmt(a["u"], 3),
                 fmt(a["chi2"]),
                 fmt(a["df"]),
@@ -303,15 +320,22 @@ def _agreement_table(r: dict[str, Any]) -> Table:
                 fmt_p(a["p_corrected"]),
             ]
         )
-    rule = r["options"]["undecided"]
     return Table(
         "Table 4. Coefficient of agreement u (Kendall & Babington Smith 1940) with its "
         f"chi-square test; undecided votes: {rule}.",
         ["clip", "judgements per pair", "u", "χ²", "df", "p", "χ² corr.", "p corr."],
         rows,
         note="Each presentation is one judgement (a pair shown in "
-        "both side orders counts twice); same-condition pairs are left out; 'corr.' "
-        "subtracts 1 from Σ (continuity correction).",
+        "both side orders counts twice"
+        + ("" if rule == "split" else "; undecided votes are not counted")
+        + "); same-condition pairs are left out; 'corr.' "
+        "subtracts 1 from Σ (continuity correction)."
+        + (
+            " A pair judged fewer than 3 times tells the test nothing and is left out of u "
+            "('-' where no pair was judged 3 times)."
+            if few
+            else ""
+        ),
         numeric=[False] + [True] * 7,
     )
 

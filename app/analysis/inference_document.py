@@ -18,6 +18,7 @@ from app.analysis.document import (
     counted,
     fmt,
     fmt_p,
+    judgements_per_pair,
 )
 from app.analysis.mixed_document import MIXED_TEXT, mixed_blocks, objective_blocks
 
@@ -55,11 +56,7 @@ def _which_to_cite(r: dict[str, Any]) -> Paragraph:
     pooled = r["pooled"]
     a = pooled["agreement"]
     one = pooled["one_per_participant"]["agreement"]
-    judges = (
-        f"{a['judges_min']}"
-        if a["judges_min"] == a["judges_max"]
-        else f"{a['judges_min']}–{a['judges_max']}"
-    )
+    judges = judgements_per_pair(pooled, r["options"]["undecided"], dash="–")
     text = (
         f"Which is which: the sign tests of Table 2 and the agreement test of Table 4 treat "
         f"every presentation as an independent judge ({judges} judgements per pair from "
@@ -249,6 +246,7 @@ def _quality_blocks(r: dict[str, Any]) -> list[Block]:
                 fmt_p(p["side_p"]),
                 fmt(p["undecided"]),
                 fmt(p["tau"]),
+                # quality's `catch` field: identical pairs of the design, not catch trials
                 "-"
                 if p["catch"] is None
                 else f"{round(p['catch'] * p['catch_trials'])}/{p['catch_trials']}",
@@ -273,14 +271,18 @@ def _quality_blocks(r: dict[str, Any]) -> list[Block]:
             "side p",
             "undecided",
             "τ_b",
-            "catch",
+            "identical undecided",
             "median ms",
             "outlier",
             "Excluded",
         ],
         rows,
         note=(f"{more} more participants are in the JSON output. " if more > 0 else "")
-        + "catch: identical-clip pairs answered undecided / shown; outlier: pwcmp's "
+        + "identical undecided: the pairs with the same condition on both sides (A|A, the "
+        "design's identical-clip pairs; not catch trials) answered undecided / shown; the "
+        "exclusion rules call this share 'catch' (--exclude 'catch<1.0'). "
+        + _catch_trials_text(r["input"].get("catch_votes", 0))
+        + " Outlier: pwcmp's "
         "distance below the first quartile of the leave-one-out log-likelihood, in "
         "IQRs (above 1.5 is unusual). "
         + (
@@ -291,6 +293,20 @@ def _quality_blocks(r: dict[str, Any]) -> list[Block]:
         numeric=[False] + [True] * 8 + [False],
     )
     return [Paragraph(text), table, *_seen_blocks(q)]
+
+
+def _catch_trials_text(votes: int) -> str:
+    """What became of the catch trials (attention checks, ``kind = catch``): never in a
+    statistic nor in the quality table."""
+    if not votes:
+        return (
+            "The votes hold no catch trial (attention check, kind = catch) of an included "
+            "participant."
+        )
+    return (
+        f"Catch trials (attention checks, kind = catch) are in no statistic and not in this "
+        f"table: {counted(votes, 'catch-trial vote')} of the included participants left out."
+    )
 
 
 #: The per-participant measures of the media log and identical pairs (``app.analysis.quality``).

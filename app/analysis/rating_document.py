@@ -22,6 +22,7 @@ from app.analysis.document import (
     fmt,
     fmt_p,
 )
+from app.analysis.rating_results import screening_rule
 from app.trials.rating import SCALE_RANGE
 
 
@@ -94,11 +95,7 @@ def rating_blocks(r: dict[str, Any]) -> list[Block]:
         rule = r["screening"]
         caught = ", ".join(sorted(rule["excluded"])) or "nobody"
         doc.append(
-            Paragraph(
-                "Post-screening (ITU-R BS.1534-3, sec. 4.1.2, adapted to video): a participant "
-                f"who rates the hidden reference below {rule['below']:g} on more than "
-                f"{100 * rule['share']:g} % of the clips is left out; left out by it: {caught}."
-            )
+            Paragraph(f"{screening_rule(rule['below'], rule['share'])}; left out by it: {caught}.")
         )
     if info["left_out"]:
         doc.append(
@@ -131,8 +128,7 @@ def rating_blocks(r: dict[str, Any]) -> list[Block]:
                 for c in mos["conditions"]
             ],
             note=f"sd participant {fmt(mos['sd_participant'])}, sd clip "
-            f"{fmt(mos['sd_clip'])}, sd residual {fmt(mos['sd_residual'])}; "
-            f"{'converged' if mos['converged'] else 'not converged'}.",
+            f"{fmt(mos['sd_clip'])}, sd residual {fmt(mos['sd_residual'])}" + _convergence(r) + ".",
             numeric=[False, True, False, True, False],
         )
     )
@@ -159,19 +155,30 @@ def rating_blocks(r: dict[str, Any]) -> list[Block]:
     return doc
 
 
+def _convergence(r: dict[str, Any]) -> str:
+    """Whether the mixed model converged, as the end of Table 1's note; nothing with one
+    participant (no model's interval is reported: ``rating_results.ONE_PARTICIPANT``)."""
+    if r["input"]["participants"] < 2:
+        return ""
+    return "; converged" if r["mos"]["converged"] else "; not converged"
+
+
 def summary_text(r: dict[str, Any]) -> str:
     """A short terminal table of an :func:`analyze_ratings` result."""
     mos, info = r["mos"], r["input"]
     width = max(len(c) for c in [*r["conditions"], "condition"])
     lines = [
-        f"{info['ratings']} ratings, {info['participants']} participants, "
-        f"{len(info['clips'])} clips; scale {r['scale']}; left out: "
+        f"{counted(info['ratings'], 'rating')}, {counted(info['participants'], 'participant')}, "
+        f"{counted(len(info['clips']), 'clip')}; scale {r['scale']}; left out: "
         + (", ".join(sorted(info["left_out"])) or "nobody"),
         f"{'condition':<{width}}  MOS    95% CI",
     ]
     for c in r["conditions"]:
         low, high = mos["ci"][c]
         lines.append(f"{c:<{width}}  {fmt(mos['mos'][c]):>5}  [{fmt(low)}, {fmt(high)}]")
+    if info["participants"] < 2:
+        lines.append("contrasts: not tested (no interval with one participant)")
+        return "\n".join(lines)
     differ = [c for c in mos["contrasts"] if c["p_holm"] is not None and c["p_holm"] < 0.05]
     lines.append(f"contrasts: {len(differ)} of {len(mos['contrasts'])} pairs differ (Holm p < .05)")
     return "\n".join(lines)

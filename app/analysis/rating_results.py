@@ -52,6 +52,12 @@ RATING_COLUMNS: tuple[tuple[str, str], ...] = (
     ("focus_lost", "times the window lost focus during the trial"),
     ("status", "the participant's status (started, finished, dropped, ...)"),
     ("excluded", "why the analysis leaves the participant out; empty to include"),
+    (
+        "screened",
+        "parallel design: why the hidden-reference post-screening leaves the participant "
+        "out (ITU-R BS.1534-3 sec. 4.1.2); empty otherwise. For people: the analysis "
+        "decides it again from the scores",
+    ),
     ("prolific_id", "pseudonymised Prolific ID"),
     ("study", "study title"),
 )
@@ -59,6 +65,9 @@ REQUIRED = ("participant", "clip", "condition", "score")
 #: The columns :func:`read_ratings` keeps from a file (the others are for people and tools).
 ANALYSED = (*REQUIRED, "kind", "excluded", "reference", "scale")
 KINDS = ("trial", "catch")
+#: How :func:`analyze_ratings`' error begins when no rating is left to analyse (the web
+#: report then writes its page saying so: ``app.web.study.exports``).
+NO_RATINGS = "no ratings to analyse"
 
 
 def is_ratings_file(path: str | Path) -> bool:
@@ -180,6 +189,52 @@ def reference_screening(
     return out
 
 
+def screening_rule(below: float = REFERENCE_BELOW, share: float = REFERENCE_SHARE) -> str:
+    """The post-screening in words, as the report and the web pages give it.
+
+    >>> screening_rule()[:40]
+    'Post-screening (ITU-R BS.1534-3, sec. 4.'
+    """
+    return (
+        "Post-screening (ITU-R BS.1534-3, sec. 4.1.2, adapted to video): a participant who "
+        f"rates the hidden reference below {below:g} on more than {100 * share:g} % of the "
+        "clips is left out"
+    )
+
+
+def post_screening(
+    frame: pd.DataFrame, *, below: float = REFERENCE_BELOW, share: float = REFERENCE_SHARE
+) -> dict[str, str]:
+    """The participants :func:`analyze_ratings` leaves out by :func:`reference_screening`,
+    each with the reason: those not ``excluded`` otherwise, in a table that rates a hidden
+    reference (a ``parallel`` test); none in any other table."""
+    if not frame["reference"].any():
+        return {}
+    return reference_screening(frame[frame["excluded"] == ""], below=below, share=share)
+
+
+def _nothing_to_analyse(
+    frame: pd.DataFrame, screened: dict[str, str], below: float, share: float
+) -> str:
+    """:data:`NO_RATINGS`, and where the post-screening left participants out, how many of
+    those it screened and by which rule (one line)."""
+    if not screened:
+        return NO_RATINGS
+    screened_from = int(frame.loc[frame["excluded"] == "", "participant"].nunique())
+    if screened_from == 1:
+        who = "the only participant"
+    elif len(screened) == screened_from:
+        who = f"all {screened_from} participants"
+    else:
+        who = f"{len(screened)} of {screened_from} participants"
+    marked = int(frame.loc[frame["excluded"] != "", "participant"].nunique())
+    return (
+        f"{NO_RATINGS}: the hidden-reference post-screening (ITU-R BS.1534-3 sec. 4.1.2) "
+        f"left out {who}, who rated the hidden reference below {below:g} on more than "
+        f"{100 * share:g} % of their clips" + (f"; {marked} more marked excluded" if marked else "")
+    )
+
+
 def write_ratings_csv(rows: Sequence[dict[str, Any]], out: IO[str] | str | Path) -> None:
     """Write ratings (dicts keyed by :data:`RATING_COLUMNS`) as CSV; a key outside the
     format is refused, so what is written is what :func:`read_ratings` reads."""
@@ -223,19 +278,20 @@ def analyze_ratings(
         .drop_duplicates("participant")
         .itertuples(index=False)
     }
-    screened: dict[str, str] = {}
-    if frame["reference"].any():
-        screened = reference_screening(
-            frame[frame["excluded"] == ""], below=reference_below, share=reference_share
-        )
-        left_out |= screened
+    screened = post_screening(frame, below=reference_below, share=reference_share)
+    left_out |= screened
     included = frame[(frame["excluded"] == "") & ~frame["participant"].isin(list(screened))]
     checks = included[included["kind"] == "catch"]
     scale = _scale(frame)
     kept = included[included["kind"] == "trial"].rename(columns={"score": "rating"})
     if kept.empty:
-        raise InputError("no ratings to analyse", field="ratings")
+        raise InputError(
+            _nothing_to_analyse(frame, screened, reference_below, reference_share),
+            field="ratings",
+        )
     mos = mixed_mos(kept, conditions, confidence)
+    if kept["participant"].nunique() < 2:
+        mos = _without_intervals(mos)
     return {
         "kind": "rating",
         "conditions": mos["conditions"],
@@ -255,6 +311,35 @@ def analyze_ratings(
                 "failed": int((checks["score"] > catch_ceiling(scale)).sum()),
             },
         },
+    }
+
+
+#: Why a one-participant analysis has no interval (:func:`_without_intervals`).
+ONE_PARTICIPANT = "one participant: no interval (the participants are the sampled unit)"
+
+
+def _without_intervals(mos: dict[str, Any]) -> dict[str, Any]:
+    """``mos`` (a :func:`~app.analysis.ratings.mixed_mos` result) of one participant's ratings
+    as far as one participant tells: each condition's estimate, and null for every interval,
+    test and variance component. With the participant random effect absent from the model,
+    the Wald intervals would be conditional on that one person (zero-width where they gave a
+    condition one score throughout), where the model's intervals are over participants.
+
+    >>> one = {"ci": {"a": [2.0, 2.0]}, "contrasts": [], "note": None}
+    >>> _without_intervals(one)["ci"], _without_intervals(one)["note"][:15]
+    ({'a': [None, None]}, 'one participant')
+    """
+    return {
+        **mos,
+        "ci": {c: [None, None] for c in mos["ci"]},
+        "contrasts": [
+            {**row, "ci": [None, None], "z": None, "p": None, "p_holm": None}
+            for row in mos["contrasts"]
+        ],
+        "sd_participant": None,
+        "sd_clip": None,
+        "sd_residual": None,
+        "note": ONE_PARTICIPANT,
     }
 
 

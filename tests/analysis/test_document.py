@@ -173,3 +173,23 @@ def test_what_participants_saw_is_reported_when_the_votes_have_a_media_log():
         isinstance(b, Table) and b.caption.startswith("Table 11")
         for b in build_document(analyze(plain, bootstrap=0))
     )
+
+
+def test_a_pair_judged_in_both_orders_is_judged_twice():
+    """One participant judges A|B and B|A once each: the pair has 2 judgements (too few for
+    the agreement test, whose statistics stay "-"), not 0."""
+    import pandas as pd
+
+    from app.analysis.document import Paragraph
+
+    frame = pd.DataFrame(
+        [("p", "x", "A", "B", "left"), ("p", "x", "B", "A", "right")],
+        columns=["participant", "clip", "left", "right", "choice"],
+    )
+    blocks = build_document(analyze(frame, bootstrap=0))
+    table = next(b for b in blocks if isinstance(b, Table) and b.caption.startswith("Table 4"))
+    assert [row[:3] for row in table.rows] == [["x", "2", "-"], ["pooled", "2", "-"]]
+    assert "judged fewer than 3 times" in table.note
+    text = " ".join(b.text for b in blocks if isinstance(b, Paragraph))
+    assert "(2 judgements per pair from 1 participant" in text
+    assert "0 judgements per pair" not in text

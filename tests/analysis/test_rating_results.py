@@ -210,3 +210,42 @@ def test_a_ratings_file_without_its_scores_is_named_as_ratings(tmp_path):
     assert "header: missing column(s): score" in out.output and "choice" not in out.output
     (tmp_path / "v.csv").write_text("participant,clip,left,right,choice\np,s,a,b,left\n")
     assert not is_ratings_file(tmp_path / "v.csv")
+
+
+def test_a_test_whose_post_screening_leaves_out_everyone_says_so(tmp_path):
+    """Every participant misses the hidden reference: the one line begins as any ratings
+    table without a rating does, and names the screening, how many it left out and its rule."""
+    rows = [{**row, "score": 50} if row["reference"] else row for row in _parallel_rows()]
+    path = tmp_path / "ratings.csv"
+    path.write_text(ratings_text(rows))
+    with pytest.raises(InputError) as caught:
+        analyze_ratings(read_ratings(path))
+    message = caught.value.message
+    assert message.startswith("no ratings to analyse")
+    assert "the hidden-reference post-screening (ITU-R BS.1534-3 sec. 4.1.2) left out all 4 " in (
+        message
+    )
+    assert "below 90 on more than 15 %" in message and "\n" not in message
+    out = CliRunner().invoke(main, ["analyze", str(path)])
+    assert out.exit_code == 2 and "left out all 4 participants" in out.output
+    assert "Traceback" not in out.output
+
+
+def test_the_screened_column_is_for_people(tmp_path):
+    """``screened`` (the export's record of the post-screening) is not read back: the analysis
+    decides the screening from the scores, and a file without the column reads the same."""
+    rows = _parallel_rows()
+    with_column = tmp_path / "new.csv"
+    with_column.write_text(
+        ratings_text([{**row, "screened": "a note" if row["participant"] == "P00" else ""}
+                      for row in rows])
+    )  # fmt: skip
+    old = tmp_path / "old.csv"  # as written before the column was added
+    table = pd.read_csv(with_column, dtype=str, keep_default_na=False)
+    table.drop(columns="screened").to_csv(old, index=False)
+    assert "screened" in with_column.read_text().splitlines()[0]
+    assert "screened" not in old.read_text().splitlines()[0]
+    new_frame, old_frame = read_ratings(with_column), read_ratings(old)
+    assert "screened" not in new_frame.columns
+    pd.testing.assert_frame_equal(new_frame, old_frame)
+    assert list(analyze_ratings(new_frame)["input"]["left_out"]) == ["P03"]

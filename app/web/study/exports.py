@@ -24,7 +24,16 @@ import pandas as pd
 import sqlalchemy as sa
 
 from app.analysis.package import RESULTS
-from app.analysis.rating_results import analyze_ratings, ratings_text, read_ratings
+from app.analysis.rating_results import (
+    NO_RATINGS,
+    REFERENCE_BELOW,
+    REFERENCE_SHARE,
+    analyze_ratings,
+    post_screening,
+    ratings_text,
+    read_ratings,
+    screening_rule,
+)
 from app.analysis.results import analyze
 from app.analysis.votes import VOTE_COLUMNS, VotesTable, read_votes, write_votes_csv
 from app.errors import InputError
@@ -126,7 +135,10 @@ def vote_rows(study: Study, *, pilot: str = "without") -> list[dict[str, Any]]:
 
 def rating_rows(study: Study, *, pilot: str = "without") -> list[dict[str, Any]]:
     """One dict per stored rating (``app.analysis.rating_results.RATING_COLUMNS``), ordered
-    by participant and trial position; ``pilot`` as for :func:`vote_rows`."""
+    by participant and trial position; ``pilot`` as for :func:`vote_rows`. In the
+    ``parallel`` design ``screened`` says why the hidden-reference post-screening leaves a
+    participant out (``app.analysis.rating_results.post_screening`` on these rows, as the
+    analysis decides it again from the file)."""
     people = _people(study, pilot)
     scale = rating_scale(study)
     query = (
@@ -181,10 +193,15 @@ def rating_rows(study: Study, *, pilot: str = "without") -> list[dict[str, Any]]
                 "focus_lost": rating.focus_lost,
                 "status": people[person].status,
                 "excluded": people[person].excluded,
+                "screened": "",
                 "prolific_id": pseudonym(study.pseudonym_key, pid),
                 "study": study.title,
             }
         )
+    if study.design == "parallel" and rows:
+        screened = post_screening(pd.DataFrame(rows))
+        for row in rows:
+            row["screened"] = screened.get(row["participant"], "")
     return rows
 
 
@@ -219,8 +236,9 @@ def write_report_files(study: Study) -> Path:
     if study.design in RATING_DESIGNS:
         return _write_rating_report(study, path)
     csv_path = path.parent / "votes.csv"
-    # The report names the file it analysed: the one written here.
-    votes = dataclasses.replace(votes_table(study), source=str(csv_path))
+    # The report names the file it analysed by its place beside the report and in the study's
+    # package (votes.csv), never by the server's folder.
+    votes = dataclasses.replace(votes_table(study), source=csv_path.name)
     write_votes_csv(votes, csv_path)
     # exclusion rules as `facepair analyze --exclude` reads them (app.analysis.quality)
     exclude = study.settings.get("exclude")
@@ -246,30 +264,37 @@ def _write_analysis(results: dict[str, Any], path: Path) -> Path:
     return path
 
 
-def _write_no_answers_page(study: Study, path: Path) -> Path:
+def _write_no_answers_page(
+    study: Study, path: Path, *, screened: dict[str, str] | None = None
+) -> Path:
     """The page saying there is nothing to analyse yet, in place of the report; an earlier
-    report's PDF and numbers go, as they would contradict it."""
+    report's PDF and numbers go, as they would contradict it. ``screened``: the participants
+    the post-screening of a ``parallel`` study left out, with the reason."""
     path.with_suffix(".pdf").unlink(missing_ok=True)
     (path.parent / RESULTS).unlink(missing_ok=True)
-    path.write_text(no_votes_page(study), encoding="utf-8")
+    path.write_text(no_votes_page(study, screened=screened), encoding="utf-8")
     return path
 
 
 def _write_rating_report(study: Study, path: Path) -> Path:
     """The rating design's report: ``ratings.csv`` written beside it and analysed as
     ``facepair analyze ratings.csv`` does (:func:`app.analysis.rating_results.analyze_ratings`)."""
+    from app.analysis.document import counted
+
     csv_path = path.parent / "ratings.csv"
     csv_path.write_text(ratings_csv(study), encoding="utf-8")
+    table = read_ratings(csv_path)
     try:
         results = analyze_ratings(
-            read_ratings(csv_path),
+            table,
             conditions=[c.name for c in study.conditions],
-            source=str(csv_path),
+            source=csv_path.name,
         )
     except InputError as exc:
-        if exc.message != NO_RATINGS:
+        # the message goes on to say why, e.g. the post-screening left everyone out
+        if not exc.message.startswith(NO_RATINGS):
             raise
-        return _write_no_answers_page(study, path)
+        return _write_no_answers_page(study, path, screened=post_screening(table))
     included = results["input"]["participants"]
     left_out = results["input"]["left_out"]
     results["study"] = {
@@ -280,7 +305,7 @@ def _write_rating_report(study: Study, path: Path) -> Path:
         f"{', '.join(c.name for c in study.conditions)}; clips "
         f"{', '.join(c.name for c in study.clips)}; question: {study.question!r}; "
         f"{study.catch_trials} attention checks per participant.",
-        "participants": f"{included} participants included, {len(left_out)} left out.",
+        "participants": f"{counted(included, 'participant')} included, {len(left_out)} left out.",
         "date": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
         "command": shlex.join(
             ["facepair", "analyze", "ratings.csv", "--report", "report.html", "--pdf", "report.pdf"]
@@ -290,15 +315,15 @@ def _write_rating_report(study: Study, path: Path) -> Path:
     return _write_analysis(results, path)
 
 
-#: The rating analysis's message when no rating is left (``analyze_ratings``).
-NO_RATINGS = "no ratings to analyse"
 #: The analysis's message when no vote is left to analyse (``app.analysis.results.analyze``).
 NO_VOTES = "no valid votes to analyse"
 
 
-def no_votes_page(study: Study) -> str:
-    """The report page of a study without a vote from an included participant: it says so and
-    who was left out (pilots, exclusions), in place of statistics and a PDF."""
+def no_votes_page(study: Study, *, screened: dict[str, str] | None = None) -> str:
+    """The report page of a study without a vote (in the rating designs, a rating) from an
+    included participant: it says so and who was left out (pilots, exclusions and, in the
+    ``parallel`` design, the hidden-reference post-screening: ``screened``, each participant
+    with the reason), in place of statistics and a PDF."""
     from flask import render_template
 
     from app.analysis.document import counted
@@ -306,15 +331,27 @@ def no_votes_page(study: Study) -> str:
     rows = participant_table(study, dropped_after=dropped_after())
     pilots = sum(row.pilot for row in rows)
     left_out = [(row.label, row.excluded) for row in rows if row.excluded and not row.pilot]
+    screening = None
+    by_screening = ""
+    if study.design == "parallel":
+        screened = screened or {}
+        screening = {
+            "rule": screening_rule(REFERENCE_BELOW, REFERENCE_SHARE),
+            "count": counted(len(screened), "participant"),
+            "left_out": sorted(screened.items()),
+        }
+        by_screening = f", {len(screened)} by the hidden-reference post-screening"
     counts = (
-        f"{counted(len(rows), 'participant')} joined: {len(left_out)} left out by exclusions "
-        f"and {counted(pilots, 'pilot')} (never analysed)."
+        f"{counted(len(rows), 'participant')} joined: {len(left_out)} left out by exclusions"
+        f"{by_screening} and {counted(pilots, 'pilot')} (never analysed)."
     )
     return render_template(
         "experimenter/report_no_votes.html",
         study=study,
+        answer="rating" if study.design in RATING_DESIGNS else "vote",
         counts=counts,
         left_out=left_out,
+        screening=screening,
         date=dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
     )
 

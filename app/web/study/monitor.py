@@ -1,22 +1,30 @@
 """The live monitor of a study: how many participants have each status, votes per pair (or,
-in the rating designs, ratings per condition), timings."""
+in the rating designs, ratings per condition, and in the ``parallel`` design whom the
+hidden-reference post-screening would leave out), timings."""
 
 from __future__ import annotations
 
 import datetime as dt
 import statistics
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+import pandas as pd
 import sqlalchemy as sa
 
+from app.analysis.rating_results import (
+    REFERENCE_BELOW,
+    REFERENCE_SHARE,
+    post_screening,
+    screening_rule,
+)
 from app.trials.design import RATING_DESIGNS
 from app.trials.rating import catch_passed
 from app.trials.rules import CHOICES, VoteChoice
 from app.web.extensions import db
 from app.web.models import (
     Condition,
-    Pair,
     Participant,
     Rating,
     Stimulus,
@@ -26,7 +34,8 @@ from app.web.models import (
     Vote,
     utcnow,
 )
-from app.web.study.participants import STATUSES, status_of
+from app.web.study.enrolment import dropped_after as dropped_after_setting
+from app.web.study.participants import STATUSES, participant_table, status_of
 from app.web.study.studies import rating_scale
 
 
@@ -53,7 +62,11 @@ def study_monitor(study: Study, *, dropped_after: dt.timedelta) -> dict[str, Any
     statuses = dict.fromkeys(STATUSES, 0)
     for person in participants:
         statuses[status_of(person, now=now, dropped_after=dropped_after)] += 1
-    rating = rating_monitor(study) if study.design in RATING_DESIGNS else None
+    rating = (
+        rating_monitor(study, dropped_after=dropped_after)
+        if study.design in RATING_DESIGNS
+        else None
+    )
     # a rating study has no votes: its times and checks are its ratings'
     pairs, median_ms, catch = (
         ([], rating["median_ms"], rating["checks"]) if rating else _pair_tallies(study)
@@ -131,13 +144,21 @@ def _pair_tallies(study: Study) -> tuple[list[PairStats], float | None, dict[str
     return list(pairs.values()), median_ms, {"total": catch_total, "passed": catch_passed}
 
 
-def rating_monitor(study: Study) -> dict[str, Any]:
+def rating_monitor(study: Study, *, dropped_after: dt.timedelta | None = None) -> dict[str, Any]:
     """The rating designs' live tallies: for each condition, in the study's order, the ratings
     of real trials so far, their raw mean score (the report's MOS comes from the mixed model)
     and the median time to rate; and the checks rated and passed (a check asks for the
-    scale's lowest level: ``app.trials.rating.catch_passed``). Pilots are not counted."""
+    scale's lowest level: ``app.trials.rating.catch_passed``). Pilots are not counted. In the
+    ``parallel`` design ``screening`` says whom the hidden-reference post-screening would
+    leave out of a report written now (:func:`reference_screening_now`); None otherwise."""
     rows = db.session.execute(
-        sa.select(Rating.condition_id, Rating.score, Rating.response_ms, Trial.kind)
+        sa.select(
+            Rating.participant_id,
+            Rating.condition_id,
+            Rating.score,
+            Rating.response_ms,
+            Trial.kind,
+        )
         .join(Trial, Rating.trial_id == Trial.id)
         .join(Participant, Rating.participant_id == Participant.id)
         .where(Participant.study_id == study.id, Participant.pilot.is_(False))
@@ -150,7 +171,7 @@ def rating_monitor(study: Study) -> dict[str, Any]:
     times: dict[int, list[int]] = {c.id: [] for c in conditions}
     checks = passed = 0
     every_time = [r.response_ms for r in rows if r.response_ms is not None]
-    for condition_id, score, response_ms, kind in rows:
+    for _, condition_id, score, response_ms, kind in rows:
         if kind == "catch":
             checks += 1
             passed += catch_passed(scale, score)
@@ -158,6 +179,12 @@ def rating_monitor(study: Study) -> dict[str, Any]:
             scores[condition_id].append(score)
             if response_ms is not None:
                 times[condition_id].append(response_ms)
+    screening = None
+    if study.design == "parallel":
+        reference = next((c.id for c in conditions if c.name == study.reference), None)
+        screening = reference_screening_now(
+            study, rows, reference, dropped_after=dropped_after or dropped_after_setting()
+        )
     return {
         "ratings": sum(len(v) for v in scores.values()),
         "conditions": [
@@ -171,8 +198,36 @@ def rating_monitor(study: Study) -> dict[str, Any]:
         ],
         "checks": {"total": checks, "passed": passed},
         "median_ms": statistics.median(every_time) if every_time else None,
+        "screening": screening,
     }
 
 
-def pair_label(pair: Pair | None) -> str:
-    return pair.label if pair is not None else "catch"
+def reference_screening_now(
+    study: Study, rows: Sequence[Any], reference: int | None, *, dropped_after: dt.timedelta
+) -> dict[str, Any]:
+    """Whom the hidden-reference post-screening (``app.analysis.rating_results
+    .post_screening``, the report's thresholds) would leave out of a report written now:
+    it screens the participants the report would otherwise include (not a pilot, nothing in
+    ``excluded``), from ``rows`` (participant id, condition id, score, response time, trial
+    kind) with ``reference`` the hidden reference's condition id. Returns ``{"rule",
+    "screened": how many it screened, "excluded": {label: why}}``."""
+    included = {
+        row.id: row.label
+        for row in participant_table(study, dropped_after=dropped_after)
+        if not row.pilot and not row.excluded
+    }
+    mine = [r for r in rows if r[0] in included]
+    frame = pd.DataFrame(
+        {
+            "participant": [included[r[0]] for r in mine],
+            "score": [r[2] for r in mine],
+            "reference": [r[1] == reference for r in mine],
+            "kind": [r[4] for r in mine],
+            "excluded": "",
+        }
+    )
+    return {
+        "rule": screening_rule(REFERENCE_BELOW, REFERENCE_SHARE),
+        "screened": int(frame["participant"].nunique()),
+        "excluded": post_screening(frame) if not frame.empty else {},
+    }
