@@ -531,7 +531,12 @@ class FaceCanvas:
                 vao.render(self._modes[2], vertices=3 * (hi - lo), first=3 * lo)
 
     def draw(
-        self, frames: list[FaceFrame], out: np.ndarray | None = None, *, lips_closed: bool = False
+        self,
+        frames: list[FaceFrame],
+        out: np.ndarray | None = None,
+        *,
+        lips_closed: bool = False,
+        slots: list[int] | None = None,
     ) -> np.ndarray:
         """Draw one frame per face (left to right) into ``out`` (default: a buffer reused by the
         next draw); returns the (H, W, 3) uint8 frame, top row first.
@@ -539,6 +544,8 @@ class FaceCanvas:
         ``lips_closed``: every frame has its jaw and lip FAPs at zero (the mouth at rest the
         mosaic shows), so the inside of the mouth (the ``mouth_interior`` group) is hidden
         behind the lips and not drawn: the same pixels, a thousand triangles fewer.
+        ``slots``: the side (0 = left) of ``out`` each face goes to (default: in turn), for a
+        pair whose faces are drawn by two canvases (two meshes).
         """
         ctx, size = self.ctx, self.size
         solid = self._modes[0]
@@ -560,7 +567,8 @@ class FaceCanvas:
             if self.samples:
                 ctx.copy_framebuffer(self.resolved, self.fbo)
             self.resolved.read_into(self.face_buffer, components=3)
-            out[:, k * size : (k + 1) * size] = self.face_buffer[::-1]
+            slot = k if slots is None else slots[k]
+            out[:, slot * size : (slot + 1) * size] = self.face_buffer[::-1]
         return out
 
     def _overdraw_edges(self, k: int, positions: np.ndarray, table: EdgeTable) -> None:

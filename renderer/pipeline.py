@@ -30,9 +30,11 @@ from renderer import defaults
 from renderer.avatar import AvatarFace, AvatarRig
 from renderer.deform import MOUTH_FAPS_INDEX, FaceFrame, Rig
 from renderer.face import MOUTH_FEATURE_POINTS, Face
+from renderer.faceregions import face_envelopes, mesh_frames_of, never_covered
 from renderer.gl import FaceCanvas, device_name, project
+from renderer.meshface import MeshFace, MeshRig
 from renderer.mosaic import cells_meeting, mouth_box, pixelate_face
-from renderer.mouthregion import MotionEnvelope, motion_envelope, upper_face
+from renderer.mouthregion import MotionEnvelope
 
 
 @dataclass
@@ -49,6 +51,8 @@ class RenderedFrame:
 
 @lru_cache(maxsize=4)
 def _rig_for(face_key: str, face: Face) -> Rig:
+    if isinstance(face, MeshFace):
+        return MeshRig(face)
     if isinstance(face, AvatarFace):
         return AvatarRig(face)
     return Rig(face)
@@ -81,67 +85,112 @@ CHUNK_FRAMES = 6
 
 
 class _Drawer:
-    """Draws frames of fixed tracks: deform, GL draw, mouth mosaic.
+    """Draws frames of fixed tracks: deform (or take a mesh's frame), GL draw, mouth mosaic.
 
-    With the mosaic, each face is drawn with its mouth at rest (the jaw and lip FAPs at zero)
-    and the box covers everything the clip's mouth moves (:mod:`renderer.mouthregion`): the
-    pixels outside it are those of the moving mouth's drawing, and the blocks inside take their
-    colours from the mouth at rest, so nothing of the mouth's motion shows, one drawing a face.
+    With the mosaic, each face is drawn with its mouth at rest (the jaw and lip FAPs at zero; a
+    mesh's lower face taken back to its template, :mod:`renderer.meshface`) and the box covers
+    everything the clip's mouth moves (:mod:`renderer.mouthregion`, :mod:`renderer.meshmosaic`):
+    the pixels outside it are those of the moving mouth's drawing, and the blocks inside take
+    their colours from the mouth at rest, so nothing of the mouth's motion shows, one drawing a
+    face. Faces of one kind share a canvas; a pair of different faces (a mesh beside the
+    built-in head) has one per face, each framed on its own face.
     """
 
     def __init__(
         self,
         dense: list[np.ndarray],
-        face: Face,
+        faces: list[Face],
         size: int,
         antialias: str,
         samples: int,
         background: tuple[float, float, float],
         mosaic_block: int | None,
         mosaic_margin: float,
-        envelope: MotionEnvelope | None = None,
+        envelopes: list[MotionEnvelope] | None = None,
+        mesh_frames: list[np.ndarray | None] | None = None,
     ) -> None:
-        self.rig = rig_for(face)
         self.dense, self.size = dense, size
+        self.faces = faces
+        self.rigs = [rig_for(f) for f in faces]
+        self.mesh_frames = mesh_frames or [None] * len(faces)
         self.mosaic_block, self.mosaic_margin = mosaic_block, mosaic_margin
-        self.envelope = envelope
-        if mosaic_block and envelope is None:
-            self.envelope = motion_envelope(self.rig, dense)
-        self.upper_face = upper_face(self.rig) if mosaic_block else np.zeros(0, int)
-        self.canvas = FaceCanvas(
-            self.rig, size, len(dense), antialias=antialias, samples=samples, background=background
+        if mosaic_block and envelopes is None:
+            envelopes = face_envelopes(faces, self.rigs, dense, self.mesh_frames)
+        self.envelopes: list[MotionEnvelope | None] = (
+            list(envelopes) if envelopes else [None] * len(faces)
         )
+        self.upper = [never_covered(rig) if mosaic_block else np.zeros(0, int) for rig in self.rigs]
+        groups: dict[str, list[int]] = {}
+        for k, face in enumerate(faces):
+            groups.setdefault(face.content_hash(), []).append(k)
+        self.groups = list(groups.values())
+        self.canvases = [
+            FaceCanvas(
+                self.rigs[g[0]],
+                size,
+                len(g),
+                antialias=antialias,
+                samples=samples,
+                background=background,
+            )
+            for g in self.groups
+        ]
+        self.canvas_of = {k: c for g, c in zip(self.groups, self.canvases, strict=True) for k in g}
+        self.buffer = np.empty((size, size * len(faces), 3), np.uint8)
+        self.background_u8 = self.canvases[0].background_u8
+
+    @property
+    def canvas(self) -> FaceCanvas:
+        """The canvas of the first face (all faces' when they are of one kind)."""
+        return self.canvases[0]
+
+    def face_frame(self, k: int, i: int, at_rest: bool) -> FaceFrame:
+        """Frame ``i`` of face ``k``, its mouth at rest with ``at_rest``."""
+        rig, faps = self.rigs[k], self.dense[k][i]
+        frames = self.mesh_frames[k]
+        if frames is not None:
+            assert isinstance(rig, MeshRig)
+            positions = rig.at_rest(frames[i]) if at_rest else frames[i]
+            return rig.frame(positions, faps)
+        if at_rest:
+            faps = faps.copy()
+            faps[MOUTH_FAPS_INDEX] = 0.0
+        return rig.deform(faps)
 
     def draw(self, i: int, out: np.ndarray | None = None) -> RenderedFrame:
-        rig, size, block = self.rig, self.size, self.mosaic_block
+        block = self.mosaic_block
+        single = len(self.canvases) == 1
+        if out is None:
+            out = self.canvas.buffer if single else self.buffer
+        frames = [self.face_frame(k, i, bool(block)) for k in range(len(self.faces))]
+        for g, canvas in zip(self.groups, self.canvases, strict=True):
+            canvas.draw(
+                [frames[k] for k in g], out, lips_closed=bool(block), slots=None if single else g
+            )
         if not block:
-            deformed = [rig.deform(d[i]) for d in self.dense]
-            return RenderedFrame(i, self.canvas.draw(deformed, out), [])
-        at_rest = []
-        for d in self.dense:
-            faps = d[i].copy()
-            faps[MOUTH_FAPS_INDEX] = 0.0
-            at_rest.append(rig.deform(faps))
-        image = self.canvas.draw(at_rest, out, lips_closed=True)
+            return RenderedFrame(i, out, [])
         boxes, masks = [], []
-        for k, frame in enumerate(at_rest):
-            (x0, y0, x1, y1), cells = self.mosaic_cells(frame)
-            box = (x0 + k * size, y0, x1 + k * size, y1)
-            pixelate_face(image, box, block, self.canvas.background_u8, cells)
+        for k, frame in enumerate(frames):
+            (x0, y0, x1, y1), cells = self.mosaic_cells(frame, k)
+            box = (x0 + k * self.size, y0, x1 + k * self.size, y1)
+            pixelate_face(out, box, block, self.background_u8, cells)
             boxes.append(box)
             masks.append(cells)
-        return RenderedFrame(i, image, boxes, masks)
+        return RenderedFrame(i, out, boxes, masks)
 
-    def mosaic_cells(self, frame: FaceFrame) -> tuple[tuple[int, int, int, int], np.ndarray]:
-        """The mosaic in a face's pixels: its box and its cells (rows, columns; True for a
+    def mosaic_cells(
+        self, frame: FaceFrame, k: int = 0
+    ) -> tuple[tuple[int, int, int, int], np.ndarray]:
+        """The mosaic in face ``k``'s pixels: its box and its cells (rows, columns; True for a
         block). The blocks are the cells of the mouth at rest grown by the margin, and the
-        cells that meet the region the clip's mouth moves through (:attr:`envelope`, posed
+        cells that meet the region the clip's mouth moves through (its envelope, posed
         as ``frame``, grown by :data:`ENVELOPE_PAD`): a tilted or turned head's mosaic follows
         its lower face instead of filling a box up to the eyes."""
-        assert self.envelope is not None and self.mosaic_block
-        vp, size, block = self.canvas.vp, self.size, self.mosaic_block
-        mouth = project(vp, self.rig.world_points(frame, MOUTH_FEATURE_POINTS), size)
-        moves = project(vp, self.envelope.world(frame), size)
+        envelope, block = self.envelopes[k], self.mosaic_block
+        assert envelope is not None and block
+        vp, size, rig = self.canvas_of[k].vp, self.size, self.rigs[k]
+        mouth = project(vp, rig.world_points(frame, MOUTH_FEATURE_POINTS), size)
+        moves = project(vp, envelope.world(frame), size)
         margin = self.mosaic_margin
         box = mouth_box(
             mouth, size, size, block=block, margin=margin, cover=moves, pad=ENVELOPE_PAD
@@ -156,24 +205,25 @@ class _Drawer:
         # envelope meets up to the lids and the brows' inner ends, and a gaze, blink or brow
         # study must show them (the face is drawn with its mouth at rest, so a block left out
         # shows no mouth motion)
-        for px, py in self.upper_face_pixels(frame):
+        for px, py in self.upper_face_pixels(frame, k):
             r0, r1 = int((py - 1.0 - y0) // block), int((py + 1.0 - y0) // block)
             c0, c1 = int((px - 1.0 - x0) // block), int((px + 1.0 - x0) // block)
             cells[max(r0, 0) : max(r1 + 1, 0), max(c0, 0) : max(c1 + 1, 0)] = False
         return box, cells
 
-    def upper_face_pixels(self, frame: FaceFrame) -> np.ndarray:
-        """The pixels (x, y) of the eyes, lids and brows (:func:`upper_face`) in ``frame``'s
-        pose (the head turned; the eyes' own turns and the brows' motion stay within the cells
-        these reach)."""
-        idx = self.upper_face
+    def upper_face_pixels(self, frame: FaceFrame, k: int = 0) -> np.ndarray:
+        """The pixels (x, y) of face ``k``'s eyes, lids and brows (:func:`upper_face`) in
+        ``frame``'s pose (the head turned; the eyes' own turns and the brows' motion stay
+        within the cells these reach)."""
+        idx = self.upper[k]
         p = frame.positions[idx].astype(np.float64)
         turned = p @ frame.head[:3, :3].T + frame.head[:3, 3]
-        p = p + self.rig.weights["head"][idx][:, None] * (turned - p)
-        return project(self.canvas.vp, p, self.size)
+        p = p + self.rigs[k].weights["head"][idx][:, None] * (turned - p)
+        return project(self.canvas_of[k].vp, p, self.size)
 
     def release(self) -> None:
-        self.canvas.release()
+        for canvas in self.canvases:
+            canvas.release()
 
 
 _WORKER: dict[str, Any] = {}
@@ -222,7 +272,7 @@ def _worker_draw(jobs: list[tuple[int, int]]) -> list[tuple[int, int, list, list
 
 def render_frames(
     tracks: list[MotionTrack],
-    face: Face,
+    face: Face | list[Face],
     *,
     size: int,
     antialias: str = defaults.ANTIALIAS,
@@ -236,6 +286,9 @@ def render_frames(
 ) -> Iterator[RenderedFrame]:
     """Yield the side-by-side frames of ``tracks`` (one face per track, left to right).
 
+    ``face``: the face of every track, or one per track (a mesh condition's is its
+    :class:`renderer.meshface.MeshFace`, whose frames are read at the track's times:
+    :func:`app.stimuli.meshes.sequence.sample`, after the ``offset_s`` its alignment recorded).
     ``antialias`` and ``samples``: see :class:`renderer.gl.FaceCanvas`. ``mosaic_block`` None
     or 0 leaves the mouth visible. ``frames`` picks frame indices
     (default: all). The tracks must share frame rate and length (see :func:`align_tracks`).
@@ -244,20 +297,26 @@ def render_frames(
     ``on_device(name)`` is called once, before the first frame, with the GL_RENDERER string
     of the device that draws them (a worker's, when workers draw).
     """
+    faces = list(face) if isinstance(face, list) else [face] * len(tracks)
+    if len(faces) != len(tracks):
+        raise ValueError(f"{len(faces)} faces for {len(tracks)} tracks")
     dense = [t.dense() for t in tracks]
+    mesh_frames = [mesh_frames_of(t, f) for t, f in zip(tracks, faces, strict=True)]
     indices = list(frames if frames is not None else range(tracks[0].n_frames))
     # the region the mouth moves through, from the whole clip's tracks (frames picks a part)
-    envelope = motion_envelope(rig_for(face), dense) if mosaic_block else None
+    rigs = [rig_for(f) for f in faces]
+    envelopes = face_envelopes(faces, rigs, dense, mesh_frames) if mosaic_block else None
     args = (
         dense,
-        face,
+        faces,
         size,
         antialias,
         samples,
         background,
         mosaic_block,
         mosaic_margin,
-        envelope,
+        envelopes,
+        mesh_frames,
     )
     if workers > 1 and len(indices) >= PARALLEL_MIN_FRAMES:
         yield from _render_parallel(

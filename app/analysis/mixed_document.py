@@ -78,8 +78,13 @@ def objective_blocks(r: dict[str, Any]) -> list[Block]:
     if not o:
         return []
     head = Heading("Objective measures and the preference")
+    field = field_metric_blocks(o.get("field_metrics") or {})
     if not o["measures"]:
-        return [head, Paragraph("No objective measure varied across the clips' conditions.")]
+        return [
+            head,
+            Paragraph("No objective measure varied across the clips' conditions."),
+            *field,
+        ]
     ci = int(round(100 * o["confidence"]))
     shown = o["measures"][:15]
     text = (
@@ -108,6 +113,42 @@ def objective_blocks(r: dict[str, Any]) -> list[Block]:
             f"Table 9c. Objective measures against the preference (the {len(shown)} with the "
             "smallest p).",
             ["measure", "slope (JOD/SD)", f"{ci}% CI", "p", "p (Holm)", "R² within clips"],
+            rows,
+            numeric=[False] + [True] * 5,
+        ),
+        *field,
+    ]
+
+
+def field_metric_blocks(field: dict[str, Any]) -> list[Block]:
+    """The 3D talking-head field's metrics of the mesh conditions (LVE, FDD against a mesh
+    ground truth: :mod:`app.stimuli.meshes.metrics`), per condition, beside the preference."""
+    if not field:
+        return []
+    text = (
+        "The mesh conditions against the clips' ground-truth vertex sequences, mean over clips: "
+        "lip vertex error (LVE: per frame the largest lip-vertex distance, averaged; Fan et al. "
+        "2022) and upper-face dynamics deviation (FDD: the ground truth's spread of upper-face "
+        "motion minus the condition's; Xing et al. 2023), in millimetres, and as the projects' "
+        "code squares them (file units squared, comparable with their tables). Objective "
+        "measures beside the perceptual scale, not part of it."
+    )
+
+    def cell(v: dict[str, Any], key: str) -> str:
+        if key not in v:
+            return "-"
+        return fmt(v[key], 3) if key.endswith("_mm") else f"{v[key]:.3e}"
+
+    keys = ("lve_mm", "fdd_mm", "lve_squared", "fdd_squared")
+    rows = [
+        [name, str(v.get("clips", "")), *(cell(v, k) for k in keys)]
+        for name, v in sorted(field.items())
+    ]
+    return [
+        Paragraph(text),
+        Table(
+            "Table 9d. LVE and FDD of the mesh conditions.",
+            ["condition", "clips", "LVE (mm)", "FDD (mm)", "LVE (squared)", "FDD (squared)"],
             rows,
             numeric=[False] + [True] * 5,
         ),

@@ -158,6 +158,37 @@ def objective_to_perceptual(
     }
 
 
+#: The 3D talking-head field's metrics a mesh condition's summary holds (``measures.mesh``:
+#: :mod:`app.stimuli.meshes.metrics`), in the order the report lists them.
+FIELD_METRICS: tuple[str, ...] = ("lve_mm", "fdd_mm", "lve_squared", "fdd_squared")
+
+
+def field_metrics(
+    measures: Mapping[tuple[str, str], Mapping[str, float]],
+) -> dict[str, dict[str, Any]]:
+    """Per condition, the mean over its clips of each of :data:`FIELD_METRICS` (LVE and FDD of
+    a mesh condition against a mesh ground truth) and the number of clips; conditions without
+    them are left out. Reported beside the preference, never mixed into it.
+
+    >>> m = {("a", "ff"): {"mesh.lve_mm": 2.0}, ("b", "ff"): {"mesh.lve_mm": 4.0}, ("a", "x"): {}}
+    >>> field_metrics(m)
+    {'ff': {'clips': 2, 'lve_mm': 3.0}}
+    """
+    out: dict[str, dict[str, Any]] = {}
+    conditions = sorted({c for _, c in measures})
+    for condition in conditions:
+        rows = [v for (_, c), v in measures.items() if c == condition]
+        entry: dict[str, Any] = {}
+        for name in FIELD_METRICS:
+            values = [r[f"mesh.{name}"] for r in rows if f"mesh.{name}" in r]
+            if values:
+                entry["clips"] = max(entry.get("clips", 0), len(values))
+                entry[name] = float(np.mean(values))
+        if entry:
+            out[condition] = entry
+    return out
+
+
 def report_scores(results: Mapping[str, Any]) -> dict[tuple[str, str], float | None]:
     """The per-clip Bradley-Terry-Davidson scores (JOD) of an analysis
     (:func:`app.analysis.results.analyze`) as ``{(clip, condition): score}``."""

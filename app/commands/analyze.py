@@ -293,16 +293,17 @@ def analyze(
         )
         if summaries:
             from app.analysis.objective import (
+                field_metrics,
                 measures_from_summaries,
                 objective_to_perceptual,
                 report_scores,
             )
 
+            measures = measures_from_summaries(summaries)
             results["objective"] = objective_to_perceptual(
-                measures_from_summaries(summaries),
-                report_scores(results),
-                confidence=results["options"]["confidence"],
+                measures, report_scores(results), confidence=results["options"]["confidence"]
             )
+            results["objective"]["field_metrics"] = field_metrics(measures)
         bar.n = bar.total - writes
         bar.refresh()
         if json_path is not None:

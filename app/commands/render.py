@@ -9,6 +9,8 @@ from typing import Any
 
 import click
 
+from app.commands.meshopts import mesh_options, mesh_settings
+
 _track = click.Path(dir_okay=False)
 
 
@@ -63,6 +65,27 @@ def _fitted_to_audio(tracks: dict[str, Any], audio: str, fps: float | None, pad:
         )
         if note:
             click.echo(f"note: {Path(path).name}: {note}", err=True)
+
+
+def _load(path: str, mesh: dict[str, Any]) -> Any:
+    """A track file, a mesh or FLAME sequence read with the ``mesh`` options."""
+    from app.stimuli.io import load_track
+
+    return load_track(path, mesh=mesh)
+
+
+def _mesh_notes(tracks: dict[str, Any], mesh_eyes: str) -> list[Any]:
+    """The tracks with the eyes ``mesh_eyes`` gives them beside a mesh, each mesh's notes (and
+    the eyes') a line each."""
+    from app.stimuli.meshes.fairness import match_mesh_eyes
+
+    for track in tracks.values():
+        for note in track.metadata.get("mesh_notes", ()):
+            click.echo(f"note: {note}", err=True)
+    out, note = match_mesh_eyes(tracks, mesh_eyes)
+    if note:
+        click.echo(f"note: {note}", err=True)
+    return list(out.values())
 
 
 def _face_notes(settings: Any) -> None:
@@ -172,12 +195,18 @@ def render() -> None:
 
 
 @render.command("pair")
-@click.option("--left", required=True, type=_track, help="Track of the left face (.fap/.csv).")
+@click.option(
+    "--left",
+    required=True,
+    type=_track,
+    help="Track of the left face (.fap/.csv; a mesh .npy/.npz or FLAME .npz/.pkl).",
+)
 @click.option("--right", required=True, type=_track, help="Track of the right face.")
 @click.option("--audio", required=True, type=click.Path(dir_okay=False), help="Speech audio.")
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output .mp4.")
 @_common
 @_clip_options
+@mesh_options
 def pair(
     left: str,
     right: str,
@@ -193,14 +222,21 @@ def pair(
     cache_dir: str | None,
     pad: bool,
     workers: int,
+    template: str | None,
+    mesh_fps: float | None,
+    units: str,
+    regions: str | None,
+    flame_model: str | None,
+    mesh_eyes: str,
 ) -> None:
     """Side-by-side clip LEFT | RIGHT over AUDIO, mouths hidden by a mosaic."""
-    from app.stimuli.io import load_track
     from renderer import render_pair
 
     settings = _clip_settings(size, mosaic_block, face, antialias, samples, look, fps, workers)
-    tracks = load_track(left), load_track(right)
-    _fitted_to_audio({left: tracks[0], right: tracks[1]}, audio, fps, pad)
+    mesh = mesh_settings(template, mesh_fps, units, regions, flame_model)
+    loaded = {"left": _load(left, mesh), "right": _load(right, mesh)}
+    _fitted_to_audio({left: loaded["left"], right: loaded["right"]}, audio, fps, pad)
+    tracks = _mesh_notes(loaded, mesh_eyes)
     _face_notes(settings)
     with _progress_bar("render pair") as progress:
         path = render_pair(
@@ -215,6 +251,7 @@ def pair(
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output .mp4.")
 @_common
 @_clip_options
+@mesh_options
 def single(
     track_path: str,
     audio: str,
@@ -229,14 +266,20 @@ def single(
     cache_dir: str | None,
     pad: bool,
     workers: int,
+    template: str | None,
+    mesh_fps: float | None,
+    units: str,
+    regions: str | None,
+    flame_model: str | None,
+    mesh_eyes: str,
 ) -> None:
     """Single-face clip of TRACK over AUDIO."""
-    from app.stimuli.io import load_track
     from renderer import render_single
 
     settings = _clip_settings(size, mosaic_block, face, antialias, samples, look, fps, workers)
-    track = load_track(track_path)
+    track = _load(track_path, mesh_settings(template, mesh_fps, units, regions, flame_model))
     _fitted_to_audio({track_path: track}, audio, fps, pad)
+    (track,) = _mesh_notes({"track": track}, mesh_eyes)
     _face_notes(settings)
     with _progress_bar("render single") as progress:
         path = render_single(
@@ -258,6 +301,7 @@ def single(
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output .png.")
 @click.option("--no-mosaic", is_flag=True, help="Show the mouth.")
 @_common
+@mesh_options
 def still(
     track_path: str,
     right_path: str | None,
@@ -270,17 +314,31 @@ def still(
     samples: str,
     look: str,
     no_mosaic: bool,
+    template: str | None,
+    mesh_fps: float | None,
+    units: str,
+    regions: str | None,
+    flame_model: str | None,
+    mesh_eyes: str,
 ) -> None:
     """PNG still of frame FRAME of TRACK."""
-    from app.stimuli.io import load_track
     from renderer import render_still
 
     settings = _settings(
         size, mosaic_block, face, antialias=antialias, samples=int(samples), look=look
     )
-    right = load_track(right_path) if right_path else None
+    mesh = mesh_settings(template, mesh_fps, units, regions, flame_model)
+    loaded = {"track": _load(track_path, mesh)}
+    if right_path:
+        loaded["right"] = _load(right_path, mesh)
+    tracks = _mesh_notes(loaded, mesh_eyes)
     _face_notes(settings)
     path = render_still(
-        load_track(track_path), frame, out, right=right, settings=settings, mosaic=not no_mosaic
+        tracks[0],
+        frame,
+        out,
+        right=tracks[1] if right_path else None,
+        settings=settings,
+        mosaic=not no_mosaic,
     )
     click.echo(str(path))

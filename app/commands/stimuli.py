@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING
 
 import click
 
+from app.commands.meshopts import mesh_options, mesh_settings
+
 if TYPE_CHECKING:
     from app.stimuli.track import MotionTrack
 
@@ -325,6 +327,7 @@ def fit_head_model(
 @click.option("--plot/--no-plot", default=True, show_default=True, help="Also draw summary.png.")
 @_greta_option
 @_speech_options
+@mesh_options
 def generate(
     audio: str,
     ground_truth: str | None,
@@ -346,6 +349,12 @@ def generate(
     fps: float,
     pitch_floor: float | None,
     pitch_ceiling: float | None,
+    template: str | None,
+    mesh_fps: float | None,
+    units: str,
+    regions: str | None,
+    flame_model: str | None,
+    mesh_eyes: str,
 ) -> None:
     """Generate the motion track of each condition for a recording, with objective measures.
 
@@ -401,6 +410,8 @@ def generate(
             condition_params={
                 n: sd_params for n, (m, _) in requests.items() if m == "speech_driven"
             },
+            meshes=mesh_settings(template, mesh_fps, units, regions, flame_model),
+            mesh_eyes=mesh_eyes,
         )
         written = write_outputs(result, out_dir, plot=plot, greta=greta)
     finally:

@@ -32,6 +32,8 @@ from app.stimuli.fap import EYEBROWS
 from app.stimuli.io import load_track, save_track
 from app.stimuli.lengths import length_note
 from app.stimuli.measures import measure_track
+from app.stimuli.meshes.fairness import DEFAULT_MESH_EYES, check_mesh_eyes, match_mesh_eyes
+from app.stimuli.meshes.summary import mesh_entries
 from app.stimuli.normalize import normalize_tracks
 from app.stimuli.posture import DEFAULT_POSTURE, check_posture, rest_posture, share_posture
 from app.stimuli.progress import Progress, progress_steps
@@ -121,6 +123,8 @@ def generate_conditions(
     lips: str = DEFAULT_LIPS,
     pad: bool = False,
     brows: str = DEFAULT_BROWS,
+    meshes: Mapping[str, Any] | None = None,
+    mesh_eyes: str = DEFAULT_MESH_EYES,
 ) -> GenerationResult:
     """Generate the tracks of ``conditions`` for one recording.
 
@@ -150,6 +154,7 @@ def generate_conditions(
     check_posture(posture)
     check_lips(lips)
     check_brows(brows)
+    check_mesh_eyes(mesh_eyes)
     if ground_truth is None and any(m == "ground_truth" for m, _ in requests.values()):
         raise InputError("the ground_truth condition needs --ground-truth FILE", field="conditions")
     if normalize and ground_truth is None:
@@ -169,7 +174,7 @@ def generate_conditions(
         audio_path, fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling
     )
     notes: list[str] = []
-    gt_track = _load_ground_truth(ground_truth, fps)
+    gt_track = _load_ground_truth(ground_truth, fps, meshes)
     gt_aligned = None
     if gt_track is not None:
         offsets = [p.get("offset", 0.0) for m, p in requests.values() if m == "ground_truth"]
@@ -195,6 +200,8 @@ def generate_conditions(
             if "model_path" not in inspect.signature(condition_class(model)).parameters:
                 raise InputError(f"condition {name!r} ({model}) takes no model file", field="model")
             kw["model_path"] = str(models[name])
+        if model == IMPORTED and meshes:
+            kw["mesh"] = {**dict(meshes), **dict(kw.get("mesh") or {})}
         cond = make_condition(model, **kw)
         if isinstance(cond, ImportedCondition):
             source = cond.source_track(features.fps)
@@ -224,6 +231,8 @@ def generate_conditions(
         tracks = share_posture(tracks, rest)
 
     tracks, eyes_from = _share_eyes(tracks, requests, eyes, features, gt_aligned, seed)
+    tracks, mesh_eyes_note = match_mesh_eyes(tracks, mesh_eyes)
+    notes += [mesh_eyes_note] if mesh_eyes_note else []
     face_cols, lips_from = face_channels(lips, tracks, gt_aligned)
     if face_cols is not None:
         tracks = share_channels(tracks, face_cols)
@@ -249,6 +258,8 @@ def generate_conditions(
     summary["eyes_from"] = eyes_from
     summary["lips"] = {"mode": lips, "from": lips_from}
     summary["brows"] = {"mode": brows, "from": brows_from}
+    if mesh_eyes_note:
+        summary["mesh_eyes"] = {"mode": mesh_eyes, "note": mesh_eyes_note}
     summary["posture"] = {
         "mode": posture,
         "rest_head_au": rest,
@@ -324,13 +335,15 @@ def _share_eyes(
 
 
 def _load_ground_truth(
-    ground_truth: str | Path | MotionTrack | None, fps: float
+    ground_truth: str | Path | MotionTrack | None,
+    fps: float,
+    meshes: Mapping[str, Any] | None = None,
 ) -> MotionTrack | None:
     if ground_truth is None or isinstance(ground_truth, MotionTrack):
         return ground_truth
     if not Path(ground_truth).is_file():
         raise InputError("no such ground-truth file", path=ground_truth)
-    return load_track(ground_truth, fps=fps)
+    return load_track(ground_truth, fps=fps, mesh=meshes)
 
 
 def _speech_summary(features: SpeechFeatures) -> dict[str, Any]:
@@ -386,6 +399,8 @@ def _summary(
             gt_info["capture"] = capture
             notes.append(capture_note(gt.source, capture))
     conds: dict[str, Any] = {}
+    mesh_info, mesh_measures, mesh_notes = mesh_entries(tracks, gt_aligned, features)
+    notes += mesh_notes
     for name, track in tracks.items():
         entry: dict[str, Any] = {
             "display_name": DISPLAY_NAMES.get(name, name),
@@ -396,6 +411,10 @@ def _summary(
             "parameters": described.get(name, {}),
             "measures": measure_track(track, features, gt_aligned),
         }
+        if name in mesh_info:
+            entry["mesh"] = mesh_info[name]
+        if name in mesh_measures:
+            entry["measures"]["mesh"] = mesh_measures[name]
         for key in (
             "model",
             "head_model",

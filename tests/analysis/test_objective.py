@@ -102,3 +102,15 @@ def test_any_summary_json_gives_finite_rows_or_skips(raw, values):
     scores = {("s", str(i)): values[i] for i in range(6)}
     out = objective_to_perceptual(measures, scores)
     assert len(out["measures"]) + len(out["skipped"]) == len(flat)
+
+
+def test_field_metrics_are_each_mesh_conditions_mean_over_its_clips():
+    from app.analysis.objective import field_metrics
+
+    measures = {
+        ("s1", "ff"): {"mesh.lve_mm": 2.0, "mesh.fdd_mm": 0.5, "head.speed": 9.0},
+        ("s2", "ff"): {"mesh.lve_mm": 4.0, "mesh.fdd_mm": -0.5},
+        ("s1", "built_in"): {"head.speed": 3.0},
+    }
+    out = field_metrics(measures)
+    assert out == {"ff": {"clips": 2, "lve_mm": 3.0, "fdd_mm": 0.0}}

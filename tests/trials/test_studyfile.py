@@ -196,7 +196,7 @@ BAD_FIELDS: list[tuple[dict[str, Any], str]] = [
     ({"conditions.1.settings": 2}, "conditions[1].settings: expected a table, got 2"),
     (
         {"conditions.1.seed": 2},
-        "conditions[1].seed: unknown key (expected one of name, model, settings, tracks)",
+        "conditions[1].seed: unknown key (expected one of name, model, settings, tracks, mesh)",
     ),
     (
         {
@@ -238,7 +238,8 @@ BAD_FIELDS: list[tuple[dict[str, Any], str]] = [
                 "tracks": {"s2": "media/x.txt", "s7": "media/up_s7.fap"},
             }
         },
-        "conditions[0].tracks.s2: expected a .fap or .csv or .json or .bvh file, got 'media/x.txt'",
+        "conditions[0].tracks.s2: expected a .fap or .csv or .json or .bvh or .npy or .npz or "
+        ".pkl file, got 'media/x.txt'",
     ),
     (
         {"clips.1.ground_truth": DELETE},

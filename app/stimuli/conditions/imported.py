@@ -22,6 +22,7 @@ Example
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -38,15 +39,23 @@ class ImportedCondition(ConditionModel):
     label : the name the researcher knows it by (the uploaded file's name); default the
         file's name.
     offset : seconds the track started after the audio (as the ground truth's ``offset``).
+    mesh : how to read a mesh or FLAME sequence (:class:`app.stimuli.meshes.source.MeshOptions`
+        as a mapping: template, fps, units, regions, pose, flame_model).
     """
 
     name = "imported"
 
     def __init__(
-        self, *, track: str | Path | MotionTrack, label: str | None = None, offset: float = 0.0
+        self,
+        *,
+        track: str | Path | MotionTrack,
+        label: str | None = None,
+        offset: float = 0.0,
+        mesh: Mapping[str, Any] | None = None,
     ) -> None:
         self.track = track
         self.offset = float(offset)
+        self.mesh = dict(mesh or {})
         default = track.source or track.name if isinstance(track, MotionTrack) else Path(track).name
         self.label = label or default or "track"
         self._loaded: dict[float, MotionTrack] = {}
@@ -61,7 +70,7 @@ class ImportedCondition(ConditionModel):
             if not Path(self.track).is_file():
                 raise InputError("no such track file", path=self.label)
             try:
-                self._loaded[fps] = load_track(self.track, fps=fps)
+                self._loaded[fps] = load_track(self.track, fps=fps, mesh=self.mesh)
             except InputError as exc:
                 # the stored copy's path means nothing to the researcher: name her file
                 raise InputError(

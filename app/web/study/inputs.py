@@ -8,7 +8,9 @@ experimenter uploaded it (never a server path), so it never becomes a failed job
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 from app.errors import InputError
 from app.stimuli.audiofile import read_speech_audio
@@ -47,7 +49,7 @@ def check_study_inputs(spec: StudySpec) -> list[str]:
         if clip.ground_truth is not None:
             what = f"the ground truth of clip {clip.name}"
             try:
-                _check_track(clip.ground_truth, seconds[clip.name], spec.pad, offset)
+                _check_track(clip.ground_truth, seconds[clip.name], spec.pad, offset, spec.meshes)
             except InputError as exc:
                 raise _named(exc, clip.ground_truth, what) from None
     face = spec.render.get("face")
@@ -59,15 +61,23 @@ def check_study_inputs(spec: StudySpec) -> list[str]:
     for condition in spec.conditions:
         for clip_name, path in condition.tracks.items():
             try:
-                _check_track(path, seconds[clip_name], spec.pad)
+                mesh = {**spec.meshes, **condition.mesh}
+                _check_track(path, seconds[clip_name], spec.pad, mesh=mesh)
             except InputError as exc:
                 raise _named(exc, path, f"condition {condition.name}, clip {clip_name}") from None
     return summaries
 
 
-def _check_track(path: Path, seconds: float, pad: bool, offset: float = 0.0) -> None:
-    """A track file parses and, unless ``pad``, is as long as ``seconds`` of speech."""
-    track = load_track(path)
+def _check_track(
+    path: Path,
+    seconds: float,
+    pad: bool,
+    offset: float = 0.0,
+    mesh: Mapping[str, Any] | None = None,
+) -> None:
+    """A track file parses (a mesh or FLAME sequence with the study's ``mesh`` options) and,
+    unless ``pad``, is as long as ``seconds`` of speech."""
+    track = load_track(path, mesh=mesh)
     length_note(track, round(seconds * track.fps), track.fps, what="track", offset=offset, pad=pad)
 
 
