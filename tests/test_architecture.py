@@ -34,7 +34,7 @@ WEB = ("app/web",)
 #: The blueprints: they call the services, never each other.
 BLUEPRINTS = ("app.web.api", "app.web.participant", "app.web.experimenter", "app.web.questionnaire")
 #: The services and what they stand on: no request handling, so no blueprint.
-SERVICES = ("app/web/study", "app/web/infra", "app/web/jobs")
+SERVICES = ("app/web/study", "app/web/infra", "app/web/jobs", "app/web/prolific")
 GL = ("moderngl", "renderer.gl")
 
 

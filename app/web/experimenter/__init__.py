@@ -5,4 +5,10 @@ from flask import Blueprint
 bp = Blueprint("experimenter", __name__, url_prefix="/experimenter")
 
 # Each module adds its routes to ``bp`` (one module per idea).
-from app.web.experimenter import create, lifecycle, participants, views  # noqa: E402, F401
+from app.web.experimenter import (  # noqa: E402, F401
+    create,
+    lifecycle,
+    participants,
+    prolific,
+    views,
+)
