@@ -73,7 +73,7 @@ def run(votes: int) -> dict[str, list[tuple[int, float]]]:
     out: dict[str, list[tuple[int, float]]] = {}
     with app.app_context():
         upgrade()
-        owner = create_user("bench@example.org", "adaptive benchmark")
+        owner = create_user("bench@example.org", "adaptive benchmark orchid tundra")
         db.session.commit()
         for design in ("unordered_counterbalanced", "adaptive"):
             text = STUDY.format(design=design, conditions=CONDITIONS)

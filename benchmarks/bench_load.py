@@ -96,7 +96,7 @@ def prepare(url: str, media: Path) -> str:
     )
     with app.app_context():
         upgrade()
-        owner = create_user("load@example.org", "load benchmark")
+        owner = create_user("load@example.org", "load benchmark orchid tundra")
         db.session.commit()
         study_file = ROOT / "app" / "data" / "examples" / "study.toml"
         text = study_file.read_text(encoding="utf-8")

@@ -77,7 +77,7 @@ model = "speech_driven"
 name = "s1"
 audio = "{audio}"
 """
-EXPERIMENTER = ("chaos@example.org", "chaos experimenter")
+EXPERIMENTER = ("chaos@example.org", "chaos experimenter orchid tundra")
 
 
 @dataclass

@@ -19,6 +19,7 @@ def nginx_conf(folder: Path, *, upstream: str, media: Path, port: int) -> Path:
             "access_log /var/log/nginx/access.log facepair_private;",
             f"access_log {folder / 'access.log'} facepair_private;",
         ),
+        ("error_log /var/log/nginx/error.log emerg;", f"error_log {folder / 'error.log'} emerg;"),
     ):
         assert old in server, old
         server = server.replace(old, new)

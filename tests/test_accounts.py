@@ -16,7 +16,7 @@ from app.web.extensions import db
 from app.web.infra.accounts import authenticate, create_user, login_is_live, password_problem
 from app.web.infra.passwords import is_common
 from app.web.models import LoginSession, User
-from tests.conftest import csrf_token
+from tests.conftest import PASSWORD, csrf_token
 
 DASHBOARD = "/experimenter/"
 
@@ -66,9 +66,7 @@ def test_a_password_change_ends_the_other_logins_and_keeps_this_one(app, web):
     mine = _logged_in(app, web)
     other = app.test_client()
     assert web.login(other).status_code == 302
-    weak = _post(
-        mine, "/experimenter/account/password", current="correct horse", password="password1234"
-    )
+    weak = _post(mine, "/experimenter/account/password", current=PASSWORD, password="password1234")
     assert weak.status_code == 400 and "common password" in weak.get_data(as_text=True)
     wrong = _post(
         mine, "/experimenter/account/password", current="not it", password="a new long passphrase"
@@ -77,14 +75,14 @@ def test_a_password_change_ends_the_other_logins_and_keeps_this_one(app, web):
     changed = _post(
         mine,
         "/experimenter/account/password",
-        current="correct horse",
+        current=PASSWORD,
         password="a new long passphrase",
     )
     assert changed.status_code == 302
     assert mine.get(DASHBOARD).status_code == 200 and other.get(DASHBOARD).status_code == 302
     with app.app_context():
         assert authenticate("exp@example.org", "a new long passphrase") is not None
-        assert authenticate("exp@example.org", "correct horse") is None
+        assert authenticate("exp@example.org", PASSWORD) is None
 
 
 def test_idle_and_absolute_timeouts_end_a_login(app, web):
@@ -148,6 +146,20 @@ def test_addresses_that_are_not_e_mail_are_refused(app, email):
     with app.app_context(), pytest.raises(InputError) as caught:
         create_user(email, "correct horse battery")
     assert str(caught.value).startswith("email: not an e-mail address")
+
+
+def test_a_password_longer_than_the_estimator_reads_is_judged_not_a_crash():
+    """zxcvbn raises on more than 72 characters; passwords may have 128."""
+    import secrets
+
+    assert password_problem(secrets.token_urlsafe(96)[:128]) is None
+    assert "common password" in (password_problem("password" * 16) or "")
+
+
+def test_the_accounts_own_words_do_not_make_a_password(app):
+    assert "common password" in (password_problem("Alice.Smith.2026", "alice.smith@lab.org") or "")
+    assert password_problem("Alice.Smith.2026", "bob@lab.org") is None
+    assert "common password" in (password_problem("Summer2026!!") or "")
 
 
 @settings(
@@ -267,3 +279,108 @@ def test_cli_password_change_ends_logins(app, monkeypatch, web):
     assert client.get(DASHBOARD).status_code == 302
     with app.app_context():
         assert db.session.scalar(sa.select(User.email)) == "exp@example.org"
+
+
+def _unlock_link(app, monkeypatch, email="exp@example.org") -> str:
+    """``facepair experimenter unlock`` run with the server's key; returns the printed link."""
+    import secrets
+
+    from tests.commands.test_web import _env
+
+    key = secrets.token_hex(32)
+    app.config["SECRET_KEY"] = key  # the server's key, as the command reads it
+    _env(monkeypatch, app)
+    monkeypatch.setenv("SECRET_KEY", key)
+    result = CliRunner().invoke(
+        main, ["experimenter", "unlock", email, "--site", "https://studies.example.org/"]
+    )
+    assert result.exit_code == 0, result.output
+    link = result.output.split()[-1]
+    assert link.startswith("https://studies.example.org/experimenter/login?unlock="), link
+    return link.removeprefix("https://studies.example.org")
+
+
+def test_an_owner_held_at_429_from_a_new_browser_gets_in_with_an_unlock_link(app, web, monkeypatch):
+    """An attacker's failures hold the account at 429, and the owner's browser never logged
+    in before (no device cookie): the unlock link gives it a count of its own, and the right
+    password then passes; a wrong one still fails, and the attacker stays held."""
+    app.config["LOGIN_LIMIT_PER_ACCOUNT"] = "5 per hour"  # a slow run outlasts a minute
+    web.user()
+    # made first: the command's app, in this process, starts the limiter's memory afresh
+    link = _unlock_link(app, monkeypatch)
+    attacker = app.test_client()
+    attacker.environ_base["REMOTE_ADDR"] = "10.6.6.6"
+    codes = [web.login(attacker, password=f"guess {i}").status_code for i in range(10)]
+    assert codes[-1] == 429
+    owner = app.test_client()
+    held = web.login(owner)
+    page = held.get_data(as_text=True)
+    assert held.status_code == 429 and "facepair experimenter unlock" in page
+    opened = owner.get(link)
+    assert opened.status_code == 200 and "may now log in as exp@example.org" in opened.get_data(
+        as_text=True
+    )
+    assert web.login(owner, password="not the password").status_code == 200
+    assert web.login(owner).status_code == 302
+    assert web.login(attacker, password="guess 11").status_code == 429
+
+
+def test_one_unlock_link_opened_many_times_is_one_count(app, web, monkeypatch):
+    """A leaked link is one more bucket, not a new one at every opening."""
+    app.config["LOGIN_LIMIT_PER_ACCOUNT"] = "5 per hour"
+    web.user()
+    link = _unlock_link(app, monkeypatch)
+    first, second = app.test_client(), app.test_client()
+    first.get(link)
+    codes = [web.login(first, password=f"guess {i}").status_code for i in range(6)]
+    assert codes[-1] == 429
+    second.get(link)
+    assert web.login(second, password="guess 7").status_code == 429
+
+
+@pytest.mark.parametrize("token", ["", "x" * 40, "not.a.token", "A" * 600])
+def test_a_bad_or_expired_unlock_link_changes_nothing(app, web, monkeypatch, token):
+    web.user()
+    browser = app.test_client()
+    page = browser.get(f"/experimenter/login?unlock={token}")
+    assert page.status_code == 200 and "fp-device" not in page.headers.get("Set-Cookie", "")
+    if token:
+        assert "not valid or has expired" in page.get_data(as_text=True)
+    link = _unlock_link(app, monkeypatch)
+    import app.web.experimenter.views as views
+
+    monkeypatch.setattr(views, "UNLOCK_MINUTES", 0)
+    with monkeypatch.context() as later:
+        import time
+
+        now = time.time()
+        later.setattr(time, "time", lambda: now + 5)
+        stale = browser.get(link)
+    assert "not valid or has expired" in stale.get_data(as_text=True)
+    assert "fp-device" not in stale.headers.get("Set-Cookie", "")
+
+
+def test_unlock_names_an_unknown_experimenter_in_one_line(app, monkeypatch):
+    from tests.commands.test_web import _env
+
+    _env(monkeypatch, app)
+    monkeypatch.setenv("SECRET_KEY", "a" * 64)
+    weak = CliRunner().invoke(main, ["experimenter", "unlock", "exp@example.org"])
+    assert weak.exit_code == 2 and weak.output.startswith("facepair: error: SECRET_KEY: guessable")
+    import secrets
+
+    monkeypatch.setenv("SECRET_KEY", secrets.token_hex(32))
+    result = CliRunner().invoke(main, ["experimenter", "unlock", "nobody@example.org"])
+    lines = [ln for ln in result.output.splitlines() if ln.strip()]
+    assert result.exit_code == 2 and len(lines) == 1, result.output
+    assert "no experimenter nobody@example.org" in lines[0]
+
+
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(token=st.text(max_size=700))
+def test_any_unlock_parameter_is_a_login_page(app, token):
+    answer = app.test_client().get("/experimenter/login", query_string={"unlock": token})
+    assert answer.status_code == 200
+    assert "fp-device" not in answer.headers.get("Set-Cookie", "")

@@ -16,6 +16,7 @@ import sqlalchemy as sa
 
 from app.web.extensions import db
 from app.web.models import Participant, Study, Trial, Vote
+from tests.conftest import PASSWORD
 
 pytestmark = pytest.mark.browser
 
@@ -57,7 +58,7 @@ def log_in(page, url: str) -> None:
     """The test experimenter logs in on the login page."""
     page.goto(f"{url}/experimenter/")
     page.fill("input[name=email]", "exp@example.org")
-    page.fill("input[name=password]", "correct horse")
+    page.fill("input[name=password]", PASSWORD)
     page.click("input[type=submit]")
 
 

@@ -436,3 +436,28 @@ def test_the_release_reads_the_active_participants_index(app, web):
             )
         db.session.rollback()
     assert "ix_participant_active" in plan, plan
+
+
+def test_a_crowd_of_consents_to_four_workers_all_enrol(app, web, tmp_path):
+    """20 consents at once to 4 gunicorn workers, no consent limit: on PostgreSQL two arrivals
+    each held the list whose count they lost while trying the other's, and 5 to 7 of 20 ended
+    in a deadlock (503). Now every one enrols and the lists agree with who holds a slot."""
+    import secrets
+
+    from tests.support.served import consent_crowd, facepair_serve, serve_env
+
+    study_id = web.study()
+    env = serve_env(
+        tmp_path,
+        DATABASE_URL=app.config["SQLALCHEMY_DATABASE_URI"],
+        SECRET_KEY=secrets.token_hex(32),
+        MEDIA_ROOT=app.config["MEDIA_ROOT"],
+    )
+    (tmp_path / "instance").mkdir()
+    (tmp_path / "instance" / "config.py").write_text(
+        'CONSENT_LIMIT_PER_ADDRESS = ""\nCONSENT_LIMIT_PER_STUDY = ""\n'
+    )
+    with facepair_serve(env, workers=4, log=tmp_path / "serve.log") as base:
+        codes = consent_crowd(base, _slug(app, study_id), 20)
+    assert codes == [302] * 20, codes
+    assert _slots(app) == 20

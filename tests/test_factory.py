@@ -1,3 +1,4 @@
+import secrets
 import subprocess
 import sys
 
@@ -20,7 +21,7 @@ def test_default_database_is_sqlite_in_instance_folder(monkeypatch, tmp_path):
 
 def test_database_url_from_environment(monkeypatch):
     monkeypatch.setenv("DATABASE_URL", "postgresql+psycopg://postgres@127.0.0.1/test")
-    monkeypatch.setenv("SECRET_KEY", "a-long-random-deployment-key")
+    monkeypatch.setenv("SECRET_KEY", secrets.token_hex(32))
     assert create_app().config["SQLALCHEMY_DATABASE_URI"].startswith("postgresql+psycopg")
 
 

@@ -155,3 +155,38 @@ def test_nginx_refuses_a_consent_flood_from_one_address(live_server, proxy):
                 codes.append(refused.code)
     # the app refuses a form without its CSRF token (400); nginx refuses the flood (429)
     assert codes.count(429) >= 10 and 429 not in codes[:11], codes
+
+
+def test_nginx_logs_no_address_nor_prolific_id_of_a_refused_consent(live_server, proxy, tmp_path):
+    """nginx's error log wrote every refused consent as "limiting requests, ... client:
+    127.0.0.1, ... request: "POST /s/<slug>?PROLIFIC_PID=...&SESSION_ID=..."": its format
+    cannot be changed, so deploy/nginx.conf writes no line about a request to it."""
+    app = live_server.app
+    app.config["CONSENT_LIMIT_PER_ADDRESS"] = ""
+    app.config["CONSENT_LIMIT_PER_STUDY"] = ""
+    study_id = live_server.study()
+    with app.app_context():
+        slug = db.session.get(Study, study_id).slug
+    pid, session_id = "5f3c2a9e8d7b6a5f4e3d2c1b", "sess-6c1f0e9d"
+    codes = []
+    for _ in range(25):
+        request = urllib.request.Request(
+            f"{proxy}/s/{slug}?PROLIFIC_PID={pid}&SESSION_ID={session_id}",
+            data=b"agree=1",
+            method="POST",
+        )
+        try:
+            with urllib.request.urlopen(request, timeout=10) as answer:
+                codes.append(answer.status)
+        except urllib.error.HTTPError as refused:
+            with refused:
+                codes.append(refused.code)
+    assert 429 in codes, codes  # nginx refused some: the lines the error log used to keep
+    _get(f"{proxy}/p/no-such-token-4f2a/video/1?PROLIFIC_PID={pid}")  # the app's 404
+    time.sleep(0.3)
+    folder = tmp_path / "nginx"
+    for name in ("error.log", "access.log"):
+        log = (folder / name).read_text() if (folder / name).exists() else ""
+        for secret in ("127.0.0.1", pid, session_id, "PROLIFIC_PID", "no-such-token"):
+            assert secret not in log, f"{name}: {log[-2000:]}"
+    assert f'"POST /s/{slug}" 429' in (folder / "access.log").read_text()

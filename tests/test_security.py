@@ -4,10 +4,13 @@ import re
 import secrets
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from app.errors import InputError
 from app.web import create_app
 from app.web.infra.security import safe_next
+from tests.conftest import PASSWORD
 
 
 def _bare(tmp_path, **config):
@@ -23,6 +26,53 @@ def test_no_real_secret_key_is_refused_outside_tests(tmp_path, monkeypatch, key)
     with pytest.raises(InputError) as caught:
         _bare(tmp_path, SECRET_KEY=key)
     assert str(caught.value).startswith("SECRET_KEY: ") and "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize(
+    "key",
+    [
+        "abcdefghijklmnopqrstuvwxyz0123456789",  # the alphabet
+        "qwertyuiopasdfghjklzxcvbnmqwertyuiop",  # keyboard rows
+        "1qaz2wsx3edc4rfv5tgb6yhn7ujm8ik,9ol.",  # a keyboard's columns
+        "0123456789abcdef" * 2,  # a repeated chunk
+        "0123456789abcdef" * 4,
+        "correcthorsebatterystaple",  # dictionary words, and short
+        "correcthorsebatterystaple" * 2,
+        "ThisIsMyVeryLongAndSecureSecretKey!",
+        "please-change-this-secret-key-in-production",
+    ],
+)
+def test_a_guessable_secret_key_is_refused_with_how_to_make_one(tmp_path, monkeypatch, key):
+    """These passed the old check (16 characters, 80 bits of character frequencies); the key
+    signs sessions and login device cookies, so whoever guesses it logs in unlimited."""
+    monkeypatch.delenv("SECRET_KEY", raising=False)
+    with pytest.raises(InputError) as caught:
+        _bare(tmp_path, SECRET_KEY=key)
+    message = str(caught.value)
+    assert message.startswith(("SECRET_KEY: guessable", "SECRET_KEY: shorter than 32"))
+    assert "\n" not in message
+    assert message.endswith('python -c "import secrets; print(secrets.token_hex(32))"')
+    assert key[:12] not in message  # the refusal never repeats the key
+
+
+def test_the_keys_made_as_documented_pass_every_time():
+    from app.web.infra.passwords import key_problem
+
+    for _ in range(40):
+        for key in (secrets.token_hex(32), secrets.token_hex(16), secrets.token_urlsafe(32)):
+            assert key_problem(key) is None, key
+    # longer than zxcvbn reads (72 characters, beyond which it raised): judged, not a crash
+    assert key_problem(secrets.token_hex(64)) is None
+    assert key_problem("qwertyuiop" * 12) is not None
+
+
+@settings(max_examples=60, deadline=None)
+@given(key=st.text(max_size=200))
+def test_any_key_is_judged_in_one_line(key):
+    from app.web.infra.passwords import GENERATE_KEY, key_problem
+
+    problem = key_problem(key)
+    assert problem is None or ("\n" not in problem and problem.endswith(GENERATE_KEY))
 
 
 def test_a_real_secret_key_is_accepted(tmp_path, monkeypatch):
@@ -54,12 +104,12 @@ def test_passwords_are_hashed_with_scrypt_by_default_and_old_hashes_still_check(
     assert app.config["PASSWORD_HASH_METHOD"] == "scrypt:32768:8:1"
     with app.app_context():
         user = User(email="a@example.org")
-        user.set_password("correct horse")
+        user.set_password(PASSWORD)
         assert user.password_hash.startswith("scrypt:32768:8:1$")
-        assert user.check_password("correct horse") and not user.check_password("wrong")
+        assert user.check_password(PASSWORD) and not user.check_password("wrong")
         # a hash made under another setting (tests' one round, an older deployment) checks
-        user.password_hash = generate_password_hash("correct horse", "pbkdf2:sha256:1")
-        assert user.check_password("correct horse")
+        user.password_hash = generate_password_hash(PASSWORD, "pbkdf2:sha256:1")
+        assert user.check_password(PASSWORD)
 
 
 @pytest.mark.parametrize(
@@ -104,7 +154,7 @@ def test_login_never_redirects_off_site(client, web, query):
     token = web.csrf(client, "/experimenter/login")
     response = client.post(
         f"/experimenter/login?next={query}",
-        data={"csrf_token": token, "email": "exp@example.org", "password": "correct horse"},
+        data={"csrf_token": token, "email": "exp@example.org", "password": PASSWORD},
     )
     assert response.status_code == 302
     location = response.headers["Location"]
@@ -136,7 +186,7 @@ def test_session_cookie_is_secure_over_https(app, web):
         data={
             "csrf_token": token.group(1),
             "email": "exp@example.org",
-            "password": "correct horse",
+            "password": PASSWORD,
         },
     )
     assert response.status_code == 302
@@ -212,8 +262,9 @@ def test_successful_logins_do_not_count(app, web):
 
 
 def test_token_authenticated_endpoints_are_exactly_the_participant_json_ones(app):
-    """Every JSON endpoint but the job status authenticates by the participant's token, so its
-    session cookie is never read; a new endpoint must be placed on one side or the other."""
+    """Every JSON endpoint but the job status and Prolific's webhook (signed by Prolific)
+    authenticates by the participant's token, so its session cookie is never read; a new
+    endpoint must be placed on one side or the other."""
     from app.web.infra.security import token_authenticated
 
     sides = {}
@@ -229,7 +280,9 @@ def test_token_authenticated_endpoints_are_exactly_the_participant_json_ones(app
         "api.post_play": True,
         "api.post_environment": True,
         "api.progress": True,
+        "api.post_unplayable": True,
         "api.job_status": False,
+        "api.prolific_webhook": False,
     }
     for path in ("/experimenter/login", "/s/slug", "/p/tok/trial", "/api/v1/jobs/1", "/"):
         assert not token_authenticated(path), path

@@ -136,3 +136,33 @@ def test_gunicorn_runs_the_config_module_and_logs_no_token(tmp_path):
     text = log.read_text()
     assert "/p/<token>/trial" in text, (tmp_path / "error.log").read_text()[-2000:]
     assert "tok-secret" not in text and "pid-secret" not in text and "127.0.0.1" not in text
+
+
+def test_two_serves_on_one_host_share_no_control_socket(tmp_path):
+    """gunicorn 25.1+ opened its control socket at ~/.gunicorn/gunicorn.ctl (or under
+    $XDG_RUNTIME_DIR) for every serve of a user: the second took the first one's, and the
+    first to stop removed it. facepair serve opens none."""
+    import secrets
+
+    from tests.support.served import facepair_serve, serve_env, served_socket_paths
+
+    run = tmp_path / "run"
+    run.mkdir(mode=0o700)
+    envs = []
+    for name in ("one", "two"):
+        env = serve_env(
+            tmp_path / name,
+            DATABASE_URL=f"sqlite:///{tmp_path / name / 'facepair.sqlite'}",
+            SECRET_KEY=secrets.token_hex(32),
+        )
+        env.update(HOME=str(tmp_path / "home"), XDG_RUNTIME_DIR=str(run))
+        envs.append(env)
+    (tmp_path / "home").mkdir()
+    with (
+        facepair_serve(envs[0], workers=1, log=tmp_path / "one.log"),
+        facepair_serve(envs[1], workers=1, log=tmp_path / "two.log"),
+    ):
+        sockets = served_socket_paths(envs[0])
+    logs = (tmp_path / "one.log").read_text() + (tmp_path / "two.log").read_text()
+    assert sockets == [] and "Control socket" not in logs, (sockets, logs[-2000:])
+    assert settings("127.0.0.1", 5000, 1)["control_socket_disable"] is True

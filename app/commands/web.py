@@ -1,4 +1,5 @@
-"""Web commands: ``facepair serve``, ``demo``, ``worker``, ``experimenter add``.
+"""Web commands: ``facepair serve``, ``worker``, ``experimenter add`` (``demo``:
+:mod:`app.commands.demo`).
 
 The database schema comes from the migrations (``facepair db upgrade``, :mod:`app.commands.db`);
 ``demo`` runs that upgrade itself on the embedded SQLite default, every other command expects it
@@ -13,11 +14,7 @@ from typing import Any
 
 import click
 
-from app.data import data_path
 from app.errors import InputError
-
-DEMO_EMAIL = "demo@example.org"
-DEMO_PASSWORD = "facepair-demo"
 
 
 def _app(**config: Any):  # type: ignore[no-untyped-def]
@@ -30,26 +27,6 @@ def _offline_app():  # type: ignore[no-untyped-def]
     """The app for commands that answer no web request: no session is ever signed, so no
     deployment key is needed."""
     return _app(REQUIRE_SECRET_KEY=False)
-
-
-def _demo_app():  # type: ignore[no-untyped-def]
-    """The demo's app: only on its embedded SQLite file (it writes a publicly known login), with
-    ``SECRET_KEY`` from the environment or a random key kept in the instance folder."""
-    import os
-
-    from app.web import embedded_database_uri
-    from app.web.infra.security import stored_secret_key
-
-    probe = _offline_app()
-    if probe.config["SQLALCHEMY_DATABASE_URI"] != embedded_database_uri(probe.instance_path):
-        raise InputError(
-            "the demo runs only on its embedded SQLite file (it creates the "
-            "public demo login); unset DATABASE_URL",
-            field="DATABASE_URL",
-        )
-    if os.environ.get("SECRET_KEY"):
-        return _app()
-    return _app(SECRET_KEY=stored_secret_key(Path(probe.instance_path)))
 
 
 @contextmanager
@@ -66,7 +43,8 @@ def _context(app):  # type: ignore[no-untyped-def]
 
 
 def _run_jobs(study_id: int, kinds: tuple[str, ...]) -> None:
-    """Run jobs in this process with a progress bar each; a failed job is an error."""
+    """Run jobs in this process with a progress bar each (on stderr); a failed job is an
+    error."""
     from tqdm import tqdm
 
     from app.web.extensions import transaction
@@ -92,37 +70,6 @@ def _run_jobs(study_id: int, kinds: tuple[str, ...]) -> None:
             raise click.ClickException(f"{kind} failed: {job.message}")  # type: ignore[union-attr]
 
 
-def _jobs_child(study_id: int, kinds: tuple[str, ...], config: dict[str, Any]) -> None:
-    app = _app(**config)
-    try:
-        with _context(app):
-            _run_jobs(study_id, kinds)
-    except click.ClickException as exc:
-        click.echo(f"facepair: error: {exc.message}", err=True)
-        raise SystemExit(1) from None
-
-
-def _run_jobs_apart(app, study_id: int, kinds: tuple[str, ...]) -> None:  # type: ignore[no-untyped-def]
-    """:func:`_run_jobs` in a spawned process: a process that is about to serve (and fork
-    gunicorn workers) must never hold a GL context, or the forked workers hang in it."""
-    import multiprocessing
-
-    config = {
-        "REQUIRE_SECRET_KEY": False,
-        "SQLALCHEMY_DATABASE_URI": app.config["SQLALCHEMY_DATABASE_URI"],
-        "MEDIA_ROOT": app.config["MEDIA_ROOT"],
-    }
-    process = multiprocessing.get_context("spawn").Process(
-        target=_jobs_child, args=(study_id, kinds, config), name="facepair-demo-jobs"
-    )
-    process.start()
-    process.join()
-    if process.exitcode != 0:
-        raise click.ClickException(
-            f"{' and '.join(kinds)} of study {study_id} failed (exit code {process.exitcode})"
-        )
-
-
 def _create_study(path: Path, owner_email: str) -> int:
     import sqlalchemy as sa
 
@@ -143,7 +90,12 @@ def _create_study(path: Path, owner_email: str) -> int:
     return study.id
 
 
-def _serve(app, host: str, port: int, workers: int, dev: bool) -> None:  # type: ignore[no-untyped-def]
+def _serve(  # type: ignore[no-untyped-def]
+    app, host: str, port: int, workers: int, dev: bool, log: Path | None = None
+) -> None:
+    """Serve ``app`` with gunicorn (``dev``: Flask's server). With ``log`` (the demo, on this
+    machine alone) gunicorn's messages and access log go to that file and the warning about a
+    missing front proxy, a production matter, is not shown."""
     if dev:
         app.run(host=host, port=port, threaded=True, use_reloader=False)
         return
@@ -152,12 +104,15 @@ def _serve(app, host: str, port: int, workers: int, dev: bool) -> None:  # type:
     from app.web.serving import proxy_warning, settings
 
     warning = proxy_warning(int(app.config.get("TRUST_PROXY") or 0))
-    if warning:
+    if warning and log is None:
         click.echo(warning, err=True)
+    chosen = settings(host, port, workers)
+    if log is not None:
+        chosen |= {"errorlog": str(log), "accesslog": str(log)}
 
     class Server(BaseApplication):  # type: ignore[misc]
         def load_config(self) -> None:
-            for key, value in settings(host, port, workers).items():
+            for key, value in chosen.items():
                 self.cfg.set(key, value)
 
         def load(self):  # type: ignore[no-untyped-def]
@@ -251,56 +206,43 @@ def password(email: str, password: str) -> None:
         click.echo(f"password of {user.email} changed; {ended} login(s) ended")
 
 
-@click.command()
-@click.option("--host", default="127.0.0.1", show_default=True)
-@click.option("--port", default=5000, show_default=True, type=int)
+@experimenter.command("unlock")
+@click.argument("email")
 @click.option(
-    "--study-file",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=data_path("examples", "study.toml"),
-    show_default=True,
+    "--site",
+    default="",
+    metavar="URL",
+    help="The site's address (https://studies.example.org), put before the link's path.",
 )
-@click.option("--no-serve", is_flag=True, help="Set everything up, print the URLs, exit.")
-def demo(host: str, port: int, study_file: Path, no_serve: bool) -> None:
-    """Migrate the embedded database, create a demo experimenter and a ready, open demo study
-    (tracks generated, clips rendered from the demo speech), then serve it."""
+def unlock(email: str, site: str) -> None:
+    """Print a link that lets one browser log in to EMAIL although others' failed logins hold
+    the account or its network at 429 (too many attempts). Opened within an hour, it gives
+    that browser a login-limit count of its own; the password is still needed. Run it with
+    the server's SECRET_KEY (its environment or instance config)."""
     import sqlalchemy as sa
-    from flask_migrate import upgrade
 
+    from app.commands.db import migrated
+    from app.web.experimenter.views import UNLOCK_MINUTES, unlock_token
     from app.web.extensions import db
-    from app.web.infra.accounts import create_user
-    from app.web.models import Study, User
+    from app.web.models import User
 
-    app = _demo_app()
+    app = _app()
     with _context(app):
-        upgrade()
-        user = db.session.scalar(sa.select(User).where(User.email == DEMO_EMAIL))
+        migrated()
+        address = email.strip().lower()
+        user = db.session.scalar(sa.select(User).where(User.email == address))
         if user is None:
-            user = create_user(DEMO_EMAIL, DEMO_PASSWORD)
-            db.session.commit()
-        study = db.session.scalar(
-            sa.select(Study)
-            .where(Study.owner_id == user.id, Study.status == "open")
-            .order_by(Study.id.desc())
-        )
-        if study is None:
-            click.echo(f"creating the demo study from {study_file} ...", err=True)
-            study_id = _create_study(study_file, DEMO_EMAIL)
-            _run_jobs_apart(app, study_id, ("generate", "render"))
-            study = db.session.get(Study, study_id)
-            study.status = "open"  # type: ignore[union-attr]
-            db.session.commit()
-        slug, study_id = study.slug, study.id  # type: ignore[union-attr]
-    base = f"http://{host}:{port}"
+            raise InputError(f"no experimenter {address}", field="email")
+        token = unlock_token(user.email)
+    link = f"{site.rstrip('/')}/experimenter/login?unlock={token}"
     click.echo(
-        f"\n  participant:   {base}/s/{slug}\n"
-        f"  experimenter:  {base}/experimenter/studies/{study_id}\n"
-        f"  login:         {DEMO_EMAIL} / {DEMO_PASSWORD}\n"
+        f"open this link in the browser that will log in as {user.email} "
+        f"(valid {UNLOCK_MINUTES} minutes; it does not log in by itself):\n  {link}"
     )
-    if not no_serve:
-        _serve(app, host, port, workers=1, dev=False)
 
 
 def register(main: click.Group) -> None:
+    from app.commands.demo import demo
+
     for command in (serve, worker, experimenter, demo):
         main.add_command(command)

@@ -11,6 +11,13 @@ request to delete their data (docs/operations.md, "Logs"). :class:`PrivateAccess
 the route's template instead (``GET /p/<token>/trial 200``, from the Flask URL rule the app
 records in the request's WSGI environ, :func:`record_route`), no address, query, referrer or
 user agent; a request no route matched is logged as ``<unmatched>``.
+
+**No control socket.** gunicorn 25.1 and later open a control socket for ``gunicornc``
+(reload, stop, change the worker count) at ``$XDG_RUNTIME_DIR/gunicorn.ctl`` or
+``~/.gunicorn/gunicorn.ctl``: one path for every gunicorn of a user on the host, so a second
+``facepair serve`` took the first one's socket, and whichever stopped first removed the
+other's. It is turned off (``control_socket_disable``); signals do the same work (HUP reloads,
+TERM stops, TTIN and TTOU add and remove a worker).
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ import logging
 import os
 from typing import Any
 
+from gunicorn.config import KNOWN_SETTINGS
 from gunicorn.glogging import Logger
 
 #: The WSGI environ key where the app leaves the matched route's template for the log.
@@ -76,7 +84,16 @@ def settings(host: str, port: int, workers: int) -> dict[str, object]:
         "accesslog": accesslog,
         "access_log_format": access_log_format,
         "logger_class": logger_class,
+        **control_socket_off(),
     }
+
+
+def control_socket_off() -> dict[str, object]:
+    """The setting that turns gunicorn's control socket off, where this gunicorn has one
+    (25.1 and later; the module docstring says why)."""
+    if any(setting.name == "control_socket_disable" for setting in KNOWN_SETTINGS):
+        return {"control_socket_disable": True}
+    return {}
 
 
 def proxy_warning(trust_proxy: int) -> str | None:
@@ -102,5 +119,7 @@ limit_request_field_size = 8190
 accesslog = "-"
 access_log_format = ACCESS_LOG_FORMAT
 logger_class = "app.web.serving.PrivateAccessLogger"
+# an unknown name is ignored by a gunicorn older than 25.1, which has no control socket
+control_socket_disable = True
 bind = os.environ.get("FACEPAIR_BIND", "0.0.0.0:8000")
 workers = int(os.environ.get("FACEPAIR_WORKERS", "3"))

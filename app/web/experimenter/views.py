@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import secrets
 from collections.abc import Callable
+from typing import Any
 
 import sqlalchemy as sa
 from flask import (
@@ -11,16 +12,18 @@ from flask import (
     abort,
     current_app,
     flash,
+    make_response,
     redirect,
     render_template,
     request,
     session,
     url_for,
 )
-from itsdangerous import BadSignature, URLSafeSerializer
+from itsdangerous import BadSignature, URLSafeSerializer, URLSafeTimedSerializer
 from werkzeug.utils import secure_filename
 
 from app.errors import InputError
+from app.trials.design import RATING_DESIGNS
 from app.trials.questions import PAGES
 from app.web.experimenter import bp
 from app.web.experimenter.access import own_study
@@ -115,8 +118,9 @@ def _login_address() -> str:
     return f"device:{device}" if device else "address:" + (request.remote_addr or "unknown")
 
 
-def _remember_device(response: Response, email: str) -> Response:
-    value = _device_serializer().dumps({"email": email, "id": secrets.token_urlsafe(12)})
+def _remember_device(response: Response, email: str, device: str | None = None) -> Response:
+    device = device or secrets.token_urlsafe(12)
+    value = _device_serializer().dumps({"email": email, "id": device})
     response.set_cookie(
         DEVICE_COOKIE,
         value,
@@ -127,6 +131,40 @@ def _remember_device(response: Response, email: str) -> Response:
         path=url_for(".login"),
     )
     return response
+
+
+#: How long an unlock link (``facepair experimenter unlock``) may be opened.
+UNLOCK_MINUTES = 60
+
+
+def _unlock_serializer() -> URLSafeTimedSerializer:
+    return URLSafeTimedSerializer(current_app.secret_key, salt="facepair-login-unlock")
+
+
+def unlock_token(email: str) -> str:
+    """The token of an unlock link for the experimenter ``email``: opened in a browser, it
+    gives that browser a device cookie for the account (its failed logins then count in a
+    bucket of their own), the way out for an owner whose account or address an attacker's
+    failures hold at 429. It logs no one in: the password is still needed. Every opening of
+    one link gives the same device, so a leaked link is one more bucket, not many (OWASP
+    Authentication Cheat Sheet, "Account Lockout"; ASVS 4.0, 2.2.1)."""
+    return _unlock_serializer().dumps({"email": email, "id": secrets.token_urlsafe(12)})
+
+
+def _unlocked(token: str) -> tuple[str, str] | None:
+    """The account and device an unlock link's ``token`` names, said in a flashed message;
+    None (and a message saying so) if it is not valid or has expired."""
+    try:
+        data = _unlock_serializer().loads(token, max_age=UNLOCK_MINUTES * 60)
+    except BadSignature:
+        data = None
+    email = data.get("email") if isinstance(data, dict) else None
+    device = data.get("id") if isinstance(data, dict) else None
+    if not isinstance(email, str) or not isinstance(device, str):
+        flash("This unlock link is not valid or has expired; ask for a new one.", "error")
+        return None
+    flash(f"This browser may now log in as {email}: others' failed logins no longer hold it.")
+    return email, device
 
 
 def _login_failed(response: Response) -> bool:
@@ -160,7 +198,23 @@ def login():  # type: ignore[no-untyped-def]
             answer = redirect(safe_next(request.args.get("next"), url_for(".studies")))
             return _remember_device(answer, user.email)
         flash("Unknown e-mail or wrong password.", "error")
-    return render_template("experimenter/login.html", form=form)
+    token = request.args.get("unlock") if request.method == "GET" else None
+    unlocked = _unlocked(token[:500]) if token else None
+    page = make_response(render_template("experimenter/login.html", form=form))
+    return _remember_device(page, *unlocked) if unlocked else page
+
+
+@bp.errorhandler(429)
+def too_many_logins(error: Any):  # type: ignore[no-untyped-def]
+    """The login limits: the login page again, saying to wait, and what an owner whose own
+    browser is held can do (an unlock link from whoever runs the site)."""
+    flash(
+        "Too many failed logins for this account or from this network; try again later. "
+        "If this is your account, whoever runs this site can give you an unlock link "
+        "(facepair experimenter unlock).",
+        "error",
+    )
+    return render_template("experimenter/login.html", form=LoginForm()), 429
 
 
 @bp.post("/logout")
@@ -432,9 +486,11 @@ def delete_participant(study_id: int):  # type: ignore[no-untyped-def]
         )
         return redirect(url_for(".study", study_id=study.id))
     db.session.commit()
+    answers = (
+        f"{deleted.ratings} ratings" if study.design in RATING_DESIGNS else f"{deleted.votes} votes"
+    )
     flash(
-        f"Deleted {', '.join(deleted.labels)}: {deleted.votes} votes, their schedule and "
-        "their Prolific IDs.",
+        f"Deleted {', '.join(deleted.labels)}: {answers}, their schedule and their Prolific IDs.",
         "ok",
     )
     if study.status == "closed":  # the old report counted their votes

@@ -26,7 +26,7 @@ from werkzeug.security import check_password_hash, generate_password_hash
 from app.errors import InputError
 from app.web.extensions import db
 from app.web.infra.limits import fits
-from app.web.infra.passwords import is_common
+from app.web.infra.passwords import is_common, user_words
 from app.web.models import (
     LoginSession,
     Study,
@@ -197,13 +197,13 @@ MIN_PASSWORD, MAX_PASSWORD = 12, 128
 
 def password_problem(password: str, email: str = "") -> str | None:
     """Why ``password`` is refused, or None: shorter than :data:`MIN_PASSWORD` or longer than
-    :data:`MAX_PASSWORD` characters, among the common passwords of
-    :func:`app.web.infra.passwords.is_common`, or the account's own e-mail."""
+    :data:`MAX_PASSWORD` characters, guessable by :func:`app.web.infra.passwords.is_common`
+    (the account's e-mail and its parts counting as known words), or the e-mail itself."""
     if len(password) < MIN_PASSWORD:
         return f"at least {MIN_PASSWORD} characters (a passphrase of a few words is best)"
     if len(password) > MAX_PASSWORD:
         return f"at most {MAX_PASSWORD} characters"
-    if is_common(password):
+    if is_common(password, user_words(email)):
         return "a common password that attackers try first; choose another"
     if email and password.strip().lower() in {email.lower(), email.split("@")[0].lower()}:
         return "must not be the e-mail address"

@@ -9,7 +9,6 @@ set ``X-Forwarded-*``), ``LOGIN_LIMIT_PER_ACCOUNT`` and ``_PER_ADDRESS``, and ``
 
 from __future__ import annotations
 
-import math
 import re
 import secrets
 from pathlib import Path
@@ -23,13 +22,10 @@ from werkzeug.security import generate_password_hash
 
 from app.errors import InputError
 from app.web.extensions import limiter
+from app.web.infra.passwords import GENERATE_KEY, key_problem
 
 if TYPE_CHECKING:
     from flask import Flask, Response
-
-#: Keys that are public knowledge: the placeholder older versions shipped with, and the like.
-KNOWN_KEYS = frozenset({"dev-only-change-me", "dev", "change-me", "changeme", "secret"})
-MIN_KEY_LENGTH = 16
 
 #: Scripts only from this origin (no 'unsafe-inline'); videos play from blob: URLs.
 CONTENT_SECURITY_POLICY = (
@@ -51,8 +47,11 @@ _STRIPPED = re.compile(r"[\x00-\x20\x7f]")
 
 
 def check_secret_key(app: Flask) -> None:
-    """Refuse to run with a missing or publicly known ``SECRET_KEY``: whoever knows the key can
-    sign an experimenter session and download any study's votes."""
+    """Refuse to run with a missing or guessable ``SECRET_KEY``: whoever knows the key can
+    sign an experimenter session and download any study's votes, and mint login device
+    cookies, each a login-limit bucket of its own. The key is judged by what it is
+    (:func:`app.web.infra.passwords.key_problem`): a placeholder, the alphabet, a keyboard row,
+    a repeated chunk or a phrase of words is refused, in one line that says how to make one."""
     key = app.config.get("SECRET_KEY")
     if app.testing or not app.config.get("REQUIRE_SECRET_KEY", True):
         if not key:
@@ -60,56 +59,21 @@ def check_secret_key(app: Flask) -> None:
             app.config["SECRET_KEY"] = secrets.token_hex(32)
         return
     if not key:
-        raise InputError(
-            "not set; generate one with: python -c 'import secrets; print(secrets.token_hex(32))'",
-            field="SECRET_KEY",
-        )
+        raise InputError(f"not set; {GENERATE_KEY}", field="SECRET_KEY")
     text = key.decode("latin-1") if isinstance(key, bytes) else str(key)
-    if text in KNOWN_KEYS or len(text) < MIN_KEY_LENGTH:
-        raise InputError(
-            f"a publicly known or short key (fewer than {MIN_KEY_LENGTH} "
-            "characters); generate a random one",
-            field="SECRET_KEY",
-        )
-    bits = key_entropy_bits(text)
-    if bits < MIN_KEY_BITS:
-        raise InputError(
-            f"too predictable (about {bits:.0f} bits, at least {MIN_KEY_BITS} needed: "
-            "repeated or patterned characters); generate one with: "
-            "python -c 'import secrets; print(secrets.token_hex(32))'",
-            field="SECRET_KEY",
-        )
-
-
-#: The least a key must carry, estimated by :func:`key_entropy_bits` (ASVS 2.9 / 6.2: a
-#: secret an attacker cannot enumerate; ``secrets.token_hex(32)`` gives about 250).
-MIN_KEY_BITS = 80
-
-
-def key_entropy_bits(key: str) -> float:
-    """An upper estimate of the key's entropy in bits: its length times the Shannon entropy of
-    its characters' frequencies (``"a" * 16`` has 0 bits, ``"abab..."`` 1 bit a character, a
-    64-digit random hex key about 240). A low value proves a key weak; a high one cannot prove
-    it random.
-
-    >>> key_entropy_bits("a" * 16), round(key_entropy_bits("ab" * 16))
-    (0.0, 32)
-    """
-    counts: dict[str, int] = {}
-    for ch in key:
-        counts[ch] = counts.get(ch, 0) + 1
-    n = len(key)
-    per_char = -sum(c / n * math.log2(c / n) for c in counts.values()) if n else 0.0
-    return max(0.0, per_char * n)
+    problem = key_problem(text)
+    if problem:
+        raise InputError(problem, field="SECRET_KEY")
 
 
 def stored_secret_key(instance: Path) -> str:
     """A random key kept in ``instance/secret_key`` (created on first use, readable by the
-    owner only): for the demo on its own SQLite file, never for a shared deployment."""
+    owner only): for the demo on its own SQLite file, never for a shared deployment. A stored
+    key that :func:`~app.web.infra.passwords.key_problem` refuses is replaced."""
     path = instance / "secret_key"
     if path.is_file():
-        key = path.read_text(encoding="ascii").strip()
-        if len(key) >= MIN_KEY_LENGTH:
+        key = path.read_text(encoding="ascii", errors="replace").strip()
+        if key_problem(key) is None:
             return key
     key = secrets.token_hex(32)
     path.parent.mkdir(parents=True, exist_ok=True)

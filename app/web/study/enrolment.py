@@ -163,7 +163,14 @@ def choose_list(study: Study, counts: dict[int, int]) -> int:
 
 def _take_list(study: Study) -> tuple[int, int, int]:
     """Raise the count of the least-filled list; returns its id, its index and its arrivals
-    before."""
+    before.
+
+    On PostgreSQL each attempt is a savepoint: an UPDATE that waited for another arrival's
+    and then found the count changed has still locked the row (the newest version is locked
+    before the condition is checked again), and two arrivals each holding a lost list while
+    trying the other's deadlocked (20 consents at once to 4 workers: 5 to 7 answered 503).
+    Rolling back to the savepoint lets that lock go."""
+    savepoints = db.engine.dialect.name == "postgresql"
     for _ in range(MAX_ATTEMPTS):
         rows = db.session.execute(
             sa.select(
@@ -173,6 +180,7 @@ def _take_list(study: Study) -> tuple[int, int, int]:
         counts = {row.index: row.n_assigned for row in rows}
         index = choose_list(study, counts)
         row = next(r for r in rows if r.index == index)
+        attempt = db.session.begin_nested() if savepoints else None
         # n_arrived only grows, so this guard cannot be fooled by a release in between.
         result = db.session.execute(
             sa.update(StudyList)
@@ -185,7 +193,11 @@ def _take_list(study: Study) -> tuple[int, int, int]:
             .execution_options(synchronize_session=False)
         )
         if result.rowcount == 1:
+            if attempt is not None:
+                attempt.commit()
             return row.id, row.index, row.n_arrived
+        if attempt is not None:
+            attempt.rollback()
     raise EnrolmentBusy("too many participants arriving at once; please reload the page")
 
 
@@ -261,25 +273,15 @@ def _seen() -> sa.Update:
 
 def practice_stimulus(participant: Participant) -> Stimulus | None:
     """The clip of the practice pair on the instructions page (votes on it are never stored):
-    the schedule's practice trial, else the study's first rendered pair of two conditions."""
+    the schedule's practice trial, or None when the schedule has none (``practice = false``,
+    and the rating designs). No other clip stands in for it: that would show a practice the
+    study file turned off, and one of the study's own pairs before its trial."""
     practice = db.session.scalar(
         sa.select(Trial)
         .where(Trial.participant_id == participant.id, Trial.kind == "practice")
         .limit(1)
     )
-    if practice is not None:
-        return practice.stimulus
-    study = participant.study
-    return db.session.scalar(
-        sa.select(Stimulus)
-        .where(
-            Stimulus.study_id == study.id,
-            Stimulus.video_path.is_not(None),
-            Stimulus.left_id != Stimulus.right_id,
-        )
-        .order_by(Stimulus.id)
-        .limit(1)
-    )
+    return practice.stimulus if practice is not None else None
 
 
 def release_dropped(
