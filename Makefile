@@ -1,8 +1,9 @@
 # facepair: the two commands a newcomer needs.
 #   make demo   set up .venv and run the demo (the embedded default: SQLite, local files);
-#               make demo PORT=8080 HOST=0.0.0.0 to serve elsewhere
-#   make test   set up .venv, the Debian packages and axe-core the tests need, lint, then run
-#               every test
+#               make demo PORT=8080 HOST=0.0.0.0 to serve elsewhere. It prints the links and
+#               the login; pip's, apt's and the demo's own output go to instance/demo.log
+#   make test   set up .venv, the Debian packages, axe-core and puppeteer-core the tests need,
+#               lint, then run every test
 #   make lint   ruff on the whole tree, mypy on the pure packages (also the first step of test)
 SHELL := /bin/bash
 PYTHON ?= python3
@@ -24,26 +25,38 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # Debian packages: EGL/Mesa for headless rendering, chromium + driver for browser tests,
 # nginx for the front-proxy test (X-Accel-Redirect); espeak-ng, festival with two voices and
 # sox for the voices the stimuli tests synthesise; R with lme4, BradleyTerry2 and psychotools,
-# the references the analysis tests compare with; npm for axe-core (accessibility checks),
-# from Debian only where no npm command is there (a Node.js install may bring its own).
-DEBS_TEST := chromium chromium-driver libegl1 libgl1-mesa-dri libegl-mesa0 nginx-light \
+# the references the analysis tests compare with; npm for axe-core (accessibility checks) and
+# puppeteer-core, from Debian only where no npm command is there (a Node.js install may bring
+# its own); Firefox ESR (driven by puppeteer-core) and WebKitGTK's driver with Xvfb, its
+# display, for the participant flow in every engine (tests/support/engines.py).
+DEBS_TEST := chromium chromium-driver firefox-esr webkit2gtk-driver xvfb \
+	libegl1 libgl1-mesa-dri libegl-mesa0 nginx-light \
 	espeak-ng festival festvox-us-slt-hts festvox-kallpc16k sox \
 	r-base-core r-cran-lme4 r-cran-bradleyterry2 r-cran-psychotools
 DEBS_DEMO := libegl1 libgl1-mesa-dri libegl-mesa0
+# Where the set-up's output goes (pip's and apt's, warnings included): the demo's log file for
+# make demo (the greeting names it), .cache/setup.log otherwise; a failed step shows its tail.
+DEMO_LOG := instance/demo.log
+SETUP_LOG := .cache/setup.log
+demo: SETUP_LOG := $(DEMO_LOG)
+# Run a set-up command quietly: its output appended to $(SETUP_LOG), shown only if it fails.
+logged = mkdir -p $(dir $(SETUP_LOG)) && { echo "== $(1)"; $(1); } >>$(SETUP_LOG) 2>&1 || \
+	{ echo "failed: $(1); the end of $(SETUP_LOG):"; tail -n 15 $(SETUP_LOG); exit 1; }
 
-.PHONY: demo test venv debs-test debs-demo axe lint bench clean
+.PHONY: demo test venv debs-test debs-demo axe puppeteer lint bench clean
 
 venv: $(STAMP)
 
 # The demo needs the runtime dependencies only; the tests add pytest, playwright, ruff, mypy.
 $(STAMP_RUN): pyproject.toml
-	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e .
+	@echo "setting up $(VENV) (the first time: a few minutes; pip's output in $(SETUP_LOG))"
+	@test -x $(PY) || { $(call logged,$(PYTHON) -m venv $(VENV)); }
+	@$(call logged,$(PY) -m pip install -q --upgrade pip)
+	@$(call logged,$(PY) -m pip install -q -e .)
 	@touch $(STAMP_RUN)
 
 $(STAMP): $(STAMP_RUN) pyproject.toml
-	$(PY) -m pip install -q -e '.[test]'
+	@$(call logged,$(PY) -m pip install -q -e '.[test]')
 	@touch $(STAMP)
 
 # apt-get update runs once, and only when a package is missing.
@@ -51,15 +64,15 @@ debs-test:
 	@missing=$$(for p in $(DEBS_TEST); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done; \
 	  command -v npm >/dev/null 2>&1 || echo npm); \
 	if [ -n "$$missing" ]; then \
-	  echo "installing Debian packages: $$missing"; \
-	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
+	  echo "installing Debian packages: $$missing (apt's output in $(SETUP_LOG))"; \
+	  $(call logged,$(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing); \
 	fi
 
 debs-demo:
 	@missing=$$(for p in $(DEBS_DEMO); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
 	if [ -n "$$missing" ]; then \
-	  echo "installing Debian packages: $$missing"; \
-	  $(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
+	  echo "installing Debian packages: $$missing (apt's output in $(SETUP_LOG))"; \
+	  $(call logged,$(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing); \
 	fi
 
 # axe-core from the npm registry into .cache/axe-core (its pinned version: tests/support/axe.py);
@@ -67,11 +80,16 @@ debs-demo:
 axe: $(STAMP) debs-test
 	$(PY) -m tests.support.axe
 
-test: $(STAMP) debs-test axe lint
+# puppeteer-core from the npm registry into .cache/puppeteer-core, with no browser download (its
+# pinned version: tests/support/puppeteer.py); it drives Debian's Firefox ESR over WebDriver BiDi.
+puppeteer: $(STAMP) debs-test
+	$(PY) -m tests.support.puppeteer
+
+test: $(STAMP) debs-test axe puppeteer lint
 	$(PY) -m pytest -n $(TEST_WORKERS) --dist $(TEST_DIST)
 
 demo: $(STAMP_RUN) debs-demo
-	$(VENV)/bin/facepair demo --host $(HOST) --port $(PORT)
+	@$(VENV)/bin/facepair demo --host $(HOST) --port $(PORT) --log $(DEMO_LOG)
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
@@ -82,4 +100,4 @@ bench: $(STAMP)
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
 
 clean:
-	rm -rf $(VENV) .pytest_cache build dist *.egg-info .cache/axe-core
+	rm -rf $(VENV) .pytest_cache build dist *.egg-info .cache/axe-core .cache/puppeteer-core

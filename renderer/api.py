@@ -25,7 +25,7 @@ from app.stimuli.track import MotionTrack
 from renderer import defaults
 from renderer.avatar import AVATAR_SUFFIXES
 from renderer.cache import cache_key, cached_path, deliver
-from renderer.encode import ClipWriter, check_audio
+from renderer.encode import WEBM_SUFFIX, ClipWriter, check_audio
 from renderer.face import Face
 from renderer.gl import check_antialias
 from renderer.pipeline import align_tracks, render_frames
@@ -159,6 +159,46 @@ def load_face(settings: RenderSettings) -> Face:
     return _read_face(str(path.resolve()), tuple(stamps))
 
 
+def load_faces(
+    tracks: list[MotionTrack], settings: RenderSettings, audio_path: str | Path | None = None
+) -> list[Face]:
+    """The face of each track: a mesh condition's own (:mod:`renderer.meshface`; its lips
+    found from the motion that follows ``audio_path``'s energy where no region file names
+    them), else the face the settings name (:func:`load_face`)."""
+    from app.stimuli.meshes.source import mesh_of
+
+    faces: list[Face] = []
+    for track in tracks:
+        seq = mesh_of(track)
+        if seq is None:
+            faces.append(load_face(settings))
+            continue
+        audio = str(Path(audio_path).resolve()) if audio_path is not None else None
+        faces.append(_mesh_face(seq.digest(), seq, audio))
+    return faces
+
+
+@functools.lru_cache(maxsize=4)
+def _mesh_face(_digest: str, seq: Any, audio: str | None) -> Face:
+    from app.stimuli.meshes.regions import speech_energy
+    from renderer.meshface import mesh_face
+
+    energy = None
+    if audio is not None and seq.lips is None:
+        energy = speech_energy(audio, seq.fps, seq.n_frames)
+    return mesh_face(seq, energy)
+
+
+def faces_hash(faces: list[Face], tracks: list[MotionTrack]) -> str:
+    """The faces' share of the cache key: the face's hash when every track has the same (as
+    before meshes), else each face's with the offset a mesh's frames are read at."""
+    hashes = [f.content_hash() for f in faces]
+    if len(set(hashes)) == 1 and not any("mesh" in t.metadata for t in tracks):
+        return hashes[0]
+    offsets = [t.metadata.get("offset_s", 0.0) for t in tracks]
+    return "|".join(f"{h}@{o!r}" for h, o in zip(hashes, offsets, strict=True))
+
+
 @functools.lru_cache(maxsize=2)
 def _read_face(path: str, _stamps: tuple) -> Face:
     if Path(path).suffix.lower() in AVATAR_SUFFIXES:
@@ -179,6 +219,7 @@ def _render_clip(
     cache_dir: str | Path | None,
     progress: Progress | None,
     caption: str | None = None,
+    webm_path: str | Path | None = None,
 ) -> Path:
     settings = settings or RenderSettings()
     stamp = None
@@ -189,24 +230,34 @@ def _render_clip(
         kind = f"{kind}+caption:{caption}"
     audio = check_audio(audio_path)
     tracks = align_tracks(tracks, settings.fps)
-    face = load_face(settings)
+    faces = load_faces(tracks, settings, audio)
     out = Path(out_path)
-    target = out
+    webm = Path(webm_path) if webm_path is not None else None
+    target, webm_target = out, webm
     if cache_dir is not None:
-        key = cache_key(kind, tracks, audio, face.content_hash(), settings, RENDERER_VERSION)
+        key = cache_key(kind, tracks, audio, faces_hash(faces, tracks), settings, RENDERER_VERSION)
         target = cached_path(cache_dir, key, ".mp4")
-        if target.is_file():
+        # the WebM's encoder settings are constants of renderer.encode: they name its entry
+        webm_target = cached_path(cache_dir, key, WEBM_SUFFIX) if webm is not None else None
+        if target.is_file() and (webm_target is None or webm_target.is_file()):
             if progress:
                 progress(tracks[0].n_frames, tracks[0].n_frames)
+            if webm is not None and webm_target is not None:
+                deliver(webm_target, webm)
             return deliver(target, out)
         target.parent.mkdir(parents=True, exist_ok=True)
     out.parent.mkdir(parents=True, exist_ok=True)
+    if webm is not None:
+        webm.parent.mkdir(parents=True, exist_ok=True)
     n = tracks[0].n_frames
     partial = target.with_name(target.stem + ".part.mp4")
+    webm_partial = (
+        webm_target.with_name(webm_target.stem + ".part.webm") if webm_target is not None else None
+    )
     devices: list[str] = []
     frames = render_frames(
         tracks,
-        face,
+        faces,
         **settings.drawing(),
         workers=settings.workers or os.cpu_count() or 1,
         on_device=devices.append,
@@ -222,12 +273,17 @@ def _render_clip(
         preset=settings.preset,
         audio_bitrate=settings.audio_bitrate,
         threads=settings.encode_threads,
+        webm_path=webm_partial,
     ) as writer:
         for frame in frames:
             writer.write(frame.image if stamp is None else stamp(frame.image))
             if progress:
                 progress(frame.index + 1, n)
     partial.replace(target)
+    if webm is not None and webm_partial is not None and webm_target is not None:
+        webm_partial.replace(webm_target)
+        if webm_target != webm:
+            deliver(webm_target, webm)
     log.info(
         "%s clip %s: %d frames of %d px drawn on %s",
         kind,
@@ -249,6 +305,7 @@ def render_pair(
     cache_dir: str | Path | None = None,
     progress: Progress | None = None,
     caption: str | None = None,
+    webm_path: str | Path | None = None,
 ) -> Path:
     """Render ``left`` | ``right`` side by side over ``audio_path`` into an MP4.
 
@@ -257,11 +314,20 @@ def render_pair(
     other track is resampled and padded or trimmed to it); the audio is padded or trimmed to
     the clip. With ``cache_dir`` the clip is looked up by content hash and rendered only once.
     ``progress(done, total)`` is called after each frame. ``caption`` is drawn across the top
-    of every frame (:mod:`renderer.caption`: an attention check's "PRESS LEFT"). Returns
-    ``out_path``.
+    of every frame (:mod:`renderer.caption`: an attention check's "PRESS LEFT"). With
+    ``webm_path`` the same frames are also written there as the WebM rendition (VP9 + Opus,
+    :mod:`renderer.encode`), for browsers without H.264. Returns ``out_path``.
     """
     return _render_clip(
-        "pair", [left, right], audio_path, out_path, settings, cache_dir, progress, caption
+        "pair",
+        [left, right],
+        audio_path,
+        out_path,
+        settings,
+        cache_dir,
+        progress,
+        caption,
+        webm_path,
     )
 
 
@@ -273,9 +339,13 @@ def render_single(
     settings: RenderSettings | None = None,
     cache_dir: str | Path | None = None,
     progress: Progress | None = None,
+    webm_path: str | Path | None = None,
 ) -> Path:
-    """Render one face over ``audio_path`` into an MP4 (as :func:`render_pair`)."""
-    return _render_clip("single", [track], audio_path, out_path, settings, cache_dir, progress)
+    """Render one face over ``audio_path`` into an MP4 (and ``webm_path``'s WebM rendition,
+    as :func:`render_pair`)."""
+    return _render_clip(
+        "single", [track], audio_path, out_path, settings, cache_dir, progress, None, webm_path
+    )
 
 
 def render_still(
@@ -298,11 +368,11 @@ def render_still(
     n = tracks[0].n_frames
     if not isinstance(frame, int) or not 0 <= frame < n:
         raise InputError(f"must be a frame index in 0..{n - 1}, got {frame!r}", field="frame")
-    face = load_face(settings)
+    faces = load_faces(tracks, settings)
     drawing = settings.drawing()
     if not mosaic:
         drawing["mosaic_block"] = 0
-    rendered = next(render_frames(tracks, face, **drawing, frames=range(frame, frame + 1)))
+    rendered = next(render_frames(tracks, faces, **drawing, frames=range(frame, frame + 1)))
     out = Path(out_path)
     out.parent.mkdir(parents=True, exist_ok=True)
     iio.imwrite(out, rendered.image.copy())

@@ -8,12 +8,20 @@ never lengthens it (``-shortest`` alone can die on a broken pipe when the audio 
 No input's metadata is copied (``-map_metadata -1``): the clip carries ffmpeg's own stream
 handler names and nothing else a participant could read a condition from.
 
+A second rendition for browsers without H.264 (WebKitGTK without its codec plugins, some
+Linux builds of Firefox) can be written from the same frames in the same ffmpeg process: VP9
+(libvpx, real-time mode) and Opus in WebM (``webm_path``), blinded the same way and with no
+encoder names either (:data:`WEBM_VIDEO`). :func:`write_webm` makes one from a finished MP4
+instead, for clips rendered before renditions existed (a second generation: measured in
+docs/benchmarks.md, "Renditions").
+
 Frames are written to ffmpeg's stdin by a writer thread, so GL rendering (the caller's thread)
 and encoding (ffmpeg's process) overlap on two cores.
 """
 
 from __future__ import annotations
 
+import hashlib
 import queue
 import subprocess
 import tempfile
@@ -49,11 +57,71 @@ def check_audio(audio_path: str | Path | None) -> Path | None:
     return p
 
 
-class ClipWriter:
-    """Streams RGB frames into an MP4. Use as a context manager; ``write`` copies the frame.
+#: The WebM rendition's video: VP9 in libvpx's real-time mode at speed 6 and CRF 20. On a
+#: 10 s pair clip at 368 px (benchmarks/bench_renditions.py, docs/benchmarks.md "Renditions")
+#: it adds 2.6 s of ffmpeg CPU to the MP4's 1.5 s, at about the MP4's size and an SSIM of
+#: 0.990 against the lossless frames (x264's MP4: 0.994).
+WEBM_VIDEO: tuple[str, ...] = (
+    "-c:v",
+    "libvpx-vp9",
+    "-deadline",
+    "realtime",
+    "-cpu-used",
+    "6",
+    "-crf",
+    "20",
+    "-b:v",
+    "0",
+    "-row-mt",
+    "1",
+    "-pix_fmt",
+    "yuv420p",
+)
+#: The WebM rendition's audio: Opus, mono, as the MP4's AAC is.
+WEBM_AUDIO: tuple[str, ...] = ("-c:a", "libopus", "-b:a", "96k", "-ac", "1")
+#: The end of a cached WebM's name (renderer.cache): the encoder settings' digest, so a
+#: changed setting never serves a WebM made with the old ones.
+WEBM_SUFFIX = f"-{hashlib.sha256(repr(WEBM_VIDEO + WEBM_AUDIO).encode()).hexdigest()[:8]}.webm"
 
-    ``threads``: libx264 threads (0 = one per core). One is the cheapest in CPU time and, at
-    a few hundred frames per second, keeps ahead of the renderer.
+
+def _blinded() -> list[str]:
+    """Output options that keep every input's tags and chapters out of the file."""
+    # Nothing of the inputs' tags (an audio file's title or handler name) reaches the clip a
+    # participant receives: its metadata may name what a condition is.
+    return ["-map_metadata", "-1", "-map_chapters", "-1"]
+
+
+def _webm_output(
+    path: Path,
+    *,
+    audio: bool,
+    threads: int,
+    n_frames: int | None = None,
+    duration: float | None = None,
+) -> list[str]:
+    """The ffmpeg output options of a WebM rendition at ``path``: VP9 (+ Opus with ``audio``),
+    blinded as the MP4 and without encoder names (``bitexact``: the muxer writes its bare
+    name, "Lavf", where it must name one; the streams' encoder tags are removed). With
+    ``n_frames`` and ``duration`` the audio is padded and both are cut as the MP4's are."""
+    args: list[str] = []
+    if audio:
+        args += ["-af", "apad"] if duration is not None else []
+        args += [*WEBM_AUDIO, "-flags:a", "+bitexact", "-metadata:s:a", "encoder="]
+    args += [*_blinded(), "-fflags", "+bitexact", *WEBM_VIDEO, "-threads", str(threads)]
+    args += ["-flags:v", "+bitexact", "-metadata:s:v", "encoder="]
+    if n_frames is not None and duration is not None:
+        args += ["-frames:v", str(n_frames), "-t", f"{duration:.6f}"]
+    # the index up front, as +faststart puts the MP4's: playback starts before the end; the
+    # first track of each kind marked default, as the MP4's are
+    return args + ["-cues_to_front", "1", "-default_mode", "infer", "-f", "webm", str(path)]
+
+
+class ClipWriter:
+    """Streams RGB frames into an MP4 (and, with ``webm_path``, a WebM rendition of the same
+    frames). Use as a context manager; ``write`` copies the frame.
+
+    ``threads``: libx264 (and libvpx) threads (0 = one per core). One is the cheapest in CPU
+    time and, at a few hundred frames per second, keeps ahead of the renderer.
     """
 
     def __init__(
@@ -69,8 +137,10 @@ class ClipWriter:
         preset: str = "superfast",
         audio_bitrate: str = "128k",
         threads: int = 1,
+        webm_path: str | Path | None = None,
     ) -> None:
         self.path = Path(path)
+        self.webm_path = Path(webm_path) if webm_path is not None else None
         self.n_frames = n_frames
         duration = n_frames / fps
         cmd = [
@@ -109,12 +179,7 @@ class ClipWriter:
                 "1",
             ]
         cmd += [
-            # Nothing of the inputs' tags (an audio file's title or handler name) reaches the
-            # clip a participant receives: its metadata may name what a condition is.
-            "-map_metadata",
-            "-1",
-            "-map_chapters",
-            "-1",
+            *_blinded(),
             "-c:v",
             "libx264",
             "-threads",
@@ -133,6 +198,16 @@ class ClipWriter:
             "+faststart",
             str(self.path),
         ]
+        if self.webm_path is not None:
+            # The same decoded frames (and audio) feed both encoders: one generation each.
+            cmd += ["-map", "0:v:0"] + (["-map", "1:a:0"] if audio_path is not None else [])
+            cmd += _webm_output(
+                self.webm_path,
+                audio=audio_path is not None,
+                threads=threads,
+                n_frames=n_frames,
+                duration=duration,
+            )
         self._stderr = tempfile.TemporaryFile()
         self._proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stderr=self._stderr)
         self._queue: queue.Queue[bytes | None] = queue.Queue(maxsize=16)
@@ -183,6 +258,8 @@ class ClipWriter:
         self._proc.wait()
         self._stderr.close()
         self.path.unlink(missing_ok=True)
+        if self.webm_path is not None:
+            self.webm_path.unlink(missing_ok=True)
 
     def __enter__(self) -> ClipWriter:
         return self
@@ -192,3 +269,38 @@ class ClipWriter:
             self.close()
         else:
             self.abort()
+
+
+def write_webm(mp4_path: str | Path, webm_path: str | Path, *, threads: int = 1) -> Path:
+    """Write the WebM rendition (:data:`WEBM_VIDEO`, :data:`WEBM_AUDIO`) of a finished MP4
+    clip: its decoded frames and audio encoded again, blinded as :class:`ClipWriter`'s. For
+    clips rendered before renditions existed; a clip rendered now gets its WebM from the
+    frames themselves (``ClipWriter(webm_path=...)``). Written to ``*.part.webm`` and renamed,
+    so a killed job leaves no half file under the final name. Returns ``webm_path``.
+
+    Raises :class:`~app.errors.InputError` when the MP4 is missing, ``RuntimeError`` with
+    ffmpeg's last line when it cannot be read.
+    """
+    source, out = Path(mp4_path), Path(webm_path)
+    if not source.is_file():
+        raise InputError("clip not found", path=source)
+    listing = subprocess.run(
+        [ffmpeg_exe(), "-hide_banner", "-nostdin", "-i", str(source)],
+        capture_output=True,
+        text=True,
+    ).stderr
+    audio = " Audio: " in listing
+    partial = out.with_name(out.stem + ".part.webm")
+    cmd = [ffmpeg_exe(), "-y", "-hide_banner", "-loglevel", "error", "-nostdin", "-i", str(source)]
+    # the MP4's audio is already padded and cut to its frames: taken as it is
+    cmd += ["-map", "0:v:0"] + (["-map", "0:a:0"] if audio else [])
+    cmd += _webm_output(partial, audio=audio, threads=threads)
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode != 0:
+        partial.unlink(missing_ok=True)
+        err = done.stderr.strip().splitlines()
+        raise RuntimeError(
+            f"ffmpeg failed (exit {done.returncode}) writing {out}: {err[-1] if err else ''}"
+        )
+    partial.replace(out)
+    return out

@@ -28,6 +28,9 @@ from tests.support.services import (
 )
 
 REPO = Path(__file__).resolve().parent.parent
+#: The test experimenters' password, one that the password policy accepts
+#: (app.web.infra.passwords: zxcvbn score 4); every test that logs in uses this one.
+PASSWORD = "violet kettle harbour lantern"
 
 
 @pytest.fixture
@@ -331,6 +334,14 @@ def tiny_video(tmp_path_factory) -> Path:
     return make_clip(tmp_path_factory.mktemp("video") / "tiny.mp4")
 
 
+@pytest.fixture(scope="session")
+def tiny_webm(tiny_video, tmp_path_factory) -> Path:
+    """The tiny clip's WebM rendition (VP9 + Opus), as the render job makes one."""
+    from renderer.encode import write_webm
+
+    return write_webm(tiny_video, tmp_path_factory.mktemp("webm") / "tiny.webm")
+
+
 STUDY_TOML = """
 title = "Test study"
 question = "Which face moves more naturally?"
@@ -387,7 +398,7 @@ def study_toml(
     )
 
 
-def create_test_user(email: str = "exp@example.org", password: str = "correct horse"):
+def create_test_user(email: str = "exp@example.org", password: str = PASSWORD):
     from app.web.extensions import db
     from app.web.infra.accounts import create_user
 
@@ -403,9 +414,11 @@ def create_test_study(
     *,
     owner_email: str = "exp@example.org",
     status: str = "open",
+    webm: Path | None = None,
     **toml,
 ) -> int:
-    """A study from a TOML file; with ``video`` every stimulus 'rendered' as that file."""
+    """A study from a TOML file; with ``video`` every stimulus 'rendered' as that file (and
+    with ``webm`` given that file as its WebM rendition)."""
     import sqlalchemy as sa
 
     from app.trials.studyfile import loads_study
@@ -431,6 +444,9 @@ def create_test_study(
                 (media_dir(study) / "videos").mkdir(parents=True, exist_ok=True)
                 shutil.copyfile(video, media_dir(study) / rel)
                 stimulus.video_path = rel
+                if webm is not None:
+                    shutil.copyfile(webm, media_dir(study) / f"videos/{stimulus.id}.webm")
+                    stimulus.webm_path = f"videos/{stimulus.id}.webm"
             study.status = status
         db.session.commit()
         return study.id
@@ -502,7 +518,7 @@ def participant(client, app) -> ParticipantActions:
     return ParticipantActions(client, app)
 
 
-def login(client, email: str = "exp@example.org", password: str = "correct horse"):
+def login(client, email: str = "exp@example.org", password: str = PASSWORD):
     token = csrf_token(client, "/experimenter/login")
     return client.post(
         "/experimenter/login", data={"csrf_token": token, "email": email, "password": password}
@@ -518,7 +534,7 @@ def web(app, tmp_path, tiny_video):
     def study(video: bool = True, **toml) -> int:
         return create_test_study(app, tmp_path, tiny_video if video else None, **toml)
 
-    def user(email: str = "exp@example.org", password: str = "correct horse"):
+    def user(email: str = "exp@example.org", password: str = PASSWORD):
         with app.app_context():
             return create_test_user(email, password).id
 

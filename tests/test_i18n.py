@@ -56,20 +56,22 @@ def test_the_template_holds_every_string_of_the_source(tmp_path):
         capture_output=True,
     )
     with open(fresh, "rb") as source:
-        found = {m.id for m in read_po(source) if m.id}
-    assert found == {m.id for m in _template() if m.id}
+        found = {(m.context, m.id) for m in read_po(source) if m.id}
+    # a message is its context (msgctxt) and its text: "none" as a demographic answer is
+    # not the same message as a plain "none"
+    assert found == {(m.context, m.id) for m in _template() if m.id}
 
 
 @pytest.mark.parametrize("lang", SHIPPED)
 def test_every_catalogue_is_complete_with_matching_placeholders(lang):
-    template = {m.id for m in _template() if m.id}
+    template = {(m.context, m.id) for m in _template() if m.id}
     catalogue = _catalogue(lang)
     assert not catalogue.fuzzy
     seen = set()
     for message in catalogue:
         if not message.id:
             continue
-        seen.add(message.id)
+        seen.add((message.context, message.id))
         assert not message.fuzzy, (lang, message.id)
         ids = [message.id] if isinstance(message.id, str) else list(message.id)
         strings = [message.string] if isinstance(message.string, str) else list(message.string)
@@ -242,7 +244,8 @@ PSEUDO_STUDY = dict(
     max_plays=2,
     catch=1,
     catch_kind="instructed",
-    extra="""[answer]
+    extra="""demographics = true
+[answer]
 reasons = ["lips", "eyes"]
 [attention]
 max_failed = 2
@@ -256,6 +259,16 @@ max = 24
 )
 
 
+#: Answers to the built-in demographic questions: the stored codes, in every language.
+DEMOGRAPHIC_ANSWERS = {
+    "age_band": "65 or over",
+    "gender": "prefer not to say",
+    "native_language": "Welsh",
+    "vision_corrected": "yes, and I am wearing them now",
+    "animation_experience": "I work in animation",
+}
+
+
 AUDIO_CHECK = """[audio_check]
 kind = "antiphase"
 trials = 1
@@ -265,7 +278,8 @@ attempts = 2
 
 
 def test_no_fixed_string_escapes_translation_on_any_participant_page(pseudo_app, web):
-    """Consent, questionnaire (with an error), instructions, trial, done, already started,
+    """Consent, questionnaire (the built-in demographic questions and the study's own, with
+    an error), instructions, trial, done, already started,
     busy, paused, closed and session-ended pages, and the audio check's question, retry and
     result pages, under the pseudo-locale."""
     app = pseudo_app
@@ -278,7 +292,8 @@ def test_no_fixed_string_escapes_translation_on_any_participant_page(pseudo_app,
     pages["questionnaire"] = client.post(
         url, data={"csrf_token": csrf_token(client, url), "hours": "99"}
     )
-    client.post(url, data={"csrf_token": csrf_token(client, url), "hours": "3"})
+    answered = {"csrf_token": csrf_token(client, url), "hours": "3", **DEMOGRAPHIC_ANSWERS}
+    assert client.post(url, data=answered).status_code == 302
     pages["instructions"] = client.get(f"/p/{token}/instructions")
     pages["trial"] = client.get(f"/p/{token}/trial")
     while (trial := person.current_trial()) is not None:
@@ -331,17 +346,27 @@ def test_no_fixed_string_escapes_translation_on_any_participant_page(pseudo_app,
             ended = render_template(
                 "participant/unavailable.html", study=study, reason=ended_reason(SESSION_ENDED)
             )
+            # the end of a session whose browser plays none of the clips' renditions
+            unplayable = render_template(
+                "participant/unavailable.html", study=study, unplayable=True
+            )
         assert participant is not None
     problems = {}
     for name, response in pages.items():
         assert response.status_code < 500 or name == "paused", name
         problems[name] = _escaped(response.get_data(as_text=True))
     rendered = {"busy": busy, "closed": closed, "viewing": viewing, "ended": ended}
+    rendered["unplayable"] = unplayable
     for name, html in (rendered | {"audio check passed": passed}).items():
         problems[name] = _escaped(html)
     assert {name: found for name, found in problems.items() if found} == {}
     # The pages did render their fixed text (in full-width letters), not nothing.
     assert "Ｐａｉｒ" in pages["trial"].get_data(as_text=True)
+    # The demographic questions are facepair's own words: through the catalogue, with the
+    # stored codes as the options' values.
+    questionnaire = pages["questionnaire"].get_data(as_text=True)
+    assert "Ｙｏｕｒ ａｇｅ" in questionnaire and "ｐｒｅｆｅｒ ｎｏｔ ｔｏ ｓａｙ" in questionnaire
+    assert 'value="prefer not to say"' in questionnaire
 
 
 @pytest.mark.parametrize("name", ["participant.js", "rating.js"])

@@ -180,3 +180,109 @@ def test_the_cli_writes_the_package_and_its_report(app, web, participant, monkey
         main, ["study", "export", str(study_id), "--out", out, "--package", "--pilots"]
     )
     assert both.exit_code == 2 and "pilots:" in both.output
+
+
+def _pdf_text(data: bytes) -> str:
+    """The text a PDF draws (the strings of its ``Tj``/``TJ`` operators, a ``TJ`` array's pieces
+    joined), from its streams inflated: enough to grep a report's PDF for a path without a PDF
+    library."""
+    import re
+    import zlib
+
+    streams = []
+    for raw in re.findall(rb"stream\r?\n(.*?)\r?\nendstream", data, re.S):
+        try:
+            streams.append(zlib.decompress(raw))
+        except zlib.error:
+            streams.append(raw)
+    text = []
+    for stream in streams:
+        for array in re.findall(rb"\[((?:\((?:\\.|[^\\)])*\)|[^\](])*)\]\s*TJ", stream):
+            text.append(b"".join(re.findall(rb"\(((?:\\.|[^\\)])*)\)", array)))
+        text += re.findall(rb"\(((?:\\.|[^\\)])*)\)\s*Tj", stream)
+    return b"\n".join([*streams, *text]).decode("latin-1")
+
+
+#: Where an absolute path of a Unix or Windows machine starts (after a quote, a space, an
+#: equals sign or a bracket): what a file inside a package must never name.
+ABSOLUTE_PATH = (
+    r"""(?:^|[\s"'(=\[,])"""
+    r"(?:/(?:tmp|home|root|srv|var|usr|opt|work|mnt|data|Users|private)/|[A-Za-z]:\\)"
+)
+
+
+def _assert_no_server_path(app, archive: zipfile.ZipFile, *also: str) -> None:
+    """No member of ``archive`` (a PDF's text layer and inflated streams included) names the
+    instance folder, the media folder, the working directory or any absolute path."""
+    import os
+    import re
+
+    folders = {app.instance_path, app.config["MEDIA_ROOT"], os.getcwd(), *also}
+    for name in archive.namelist():
+        data = archive.read(name)
+        texts = [data.decode("utf-8", errors="replace")]
+        if name.endswith(".pdf"):
+            texts.append(_pdf_text(data))
+        for text in texts:
+            for folder in folders:
+                assert folder not in text, f"{name} names {folder}"
+            found = re.search(ABSOLUTE_PATH, text, re.M)
+            assert found is None, f"{name}: {text[max(0, found.start() - 80) : found.end() + 80]!r}"
+
+
+@pytest.mark.slow
+def test_no_file_of_a_package_names_a_server_path(
+    app, client, web, participant, tmp_path, repo_root
+):
+    """A pair study's and a rating study's packages name their files by their place in the
+    package (``votes.csv``, ``ratings.csv``): never the server's instance or media folder,
+    in results.json, the report's HTML or its PDF."""
+    from tests.test_ratings import _rate_all
+
+    rating = web.study(design="rating", catch_kind="instructed", catch=1)
+    with app.app_context():
+        slug = db.session.get(Study, rating).slug
+    for score in (4, 5, 3):
+        _rate_all(app, client, participant, slug, score)
+        client.delete_cookie(f"fp-{rating}")
+    pair = _closed_study(app, client, web, participant)
+    token = web.csrf(client, f"/experimenter/studies/{rating}")
+    client.post(f"/experimenter/studies/{rating}/status/close", data={"csrf_token": token})
+    for study_id, table in ((pair, "votes.csv"), (rating, "ratings.csv")):
+        response = client.get(f"/experimenter/studies/{study_id}/package.zip")
+        assert response.status_code == 200, response.headers.get("Location")
+        archive = zipfile.ZipFile(io.BytesIO(response.data))
+        assert {"report.pdf", "results.json"} <= set(archive.namelist())
+        assert json.loads(archive.read("results.json"))["input"]["source"] == table
+        _assert_no_server_path(app, archive, str(tmp_path), str(repo_root))
+
+
+def test_a_package_names_a_study_files_media_by_name(app, client, web, tmp_path):
+    """A study created from a file naming its speech by an absolute path (``facepair study
+    create`` on the server) is packaged with a study file naming it by file name, as the web
+    form keeps one; and a report written before reports named their table by its place in the
+    package (results.json's ``input.source``) is packaged naming it by its place."""
+    from app.trials.studyfile import loads_study
+    from app.web.infra.storage import report_path
+    from app.web.study.package import build_package
+    from app.web.study.studies import create_study
+
+    web.write_wav(tmp_path / "s1.wav")
+    text = web.toml(design="all_ordered").replace('"s1.wav"', json.dumps(str(tmp_path / "s1.wav")))
+    with app.app_context():
+        owner = db.session.get(Study, web.study()).owner
+        study = create_study(owner, loads_study(text, base_dir=tmp_path), source_toml=text)
+        db.session.commit()
+        folder = report_path(study).parent
+        folder.mkdir(parents=True)
+        (folder / "votes.csv").write_text("participant\n")
+        (folder / "report.html").write_text("<p>votes.csv</p>")
+        results = {"input": {"source": str(folder / "votes.csv")}, "options": {}, "conditions": []}
+        (folder / "results.json").write_text(json.dumps(results))
+        archive = zipfile.ZipFile(io.BytesIO(build_package(study)))
+    assert json.loads(archive.read("results.json"))["input"]["source"] == "votes.csv"
+    assert 'audio = "s1.wav"' in archive.read("study.toml").decode()
+    manifest = json.loads(archive.read("manifest.json"))
+    for name, digest in manifest["files"].items():
+        assert hashlib.sha256(archive.read(name)).hexdigest() == digest, name
+    _assert_no_server_path(app, archive, str(tmp_path))

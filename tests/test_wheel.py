@@ -39,6 +39,8 @@ PACKAGE_DATA = (
     "app/data/demo/ground_truth.fap",
     "app/data/demo/COPYING.cmu_arctic",
     "app/data/examples/study.toml",
+    # the study-file reference the New-study page links (pyproject.toml's force-include)
+    "app/data/docs/studyfile.md",
     "app/data/examples/votes.csv",
     "app/data/models/head_arx_default.json",
     "app/data/models/live_gmm_default.npz",

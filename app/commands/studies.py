@@ -1,5 +1,6 @@
-"""``facepair study create/list/open/pause/close/reopen/export``: a study's life cycle from the
-shell, with the same rules as the experimenter's pages (:mod:`app.web.study.studies`)."""
+"""``facepair study create/list/open/pause/close/reopen/export/renditions``: a study's life
+cycle from the shell, with the same rules as the experimenter's pages
+(:mod:`app.web.study.studies`)."""
 
 from __future__ import annotations
 
@@ -178,6 +179,30 @@ def export(study_id: int, out: Path, pilots: bool, package: bool) -> None:
         else:
             (out / name).write_text(content, encoding="utf-8")
     click.echo(f"study {study_id}: {', '.join(files)} written to {out}")
+
+
+@study.command("renditions")
+@click.argument("study_id", type=int)
+def renditions(study_id: int) -> None:
+    """Make the WebM rendition (VP9 + Opus, for browsers without H.264) of every rendered clip
+    of STUDY_ID that has none: clips rendered before renditions existed. Any state of the
+    study, open ones included: the WebM shows what the MP4 shows, and the MP4 stays as it is."""
+    from tqdm import tqdm
+
+    from app.web.jobs.renditions import add_missing_webm
+
+    with _context(_offline_app()):
+        migrated()
+        found = _study(study_id)
+        with tqdm(desc="WebM renditions", unit="clip", leave=True) as bar:
+
+            def echo(done: int, total: int) -> None:
+                bar.total = total
+                bar.n = done
+                bar.refresh()
+
+            made = add_missing_webm(found, echo)
+    click.echo(f"study {study_id}: {made} WebM rendition{'' if made == 1 else 's'} made")
 
 
 def _package(found) -> tuple[str, bytes]:  # type: ignore[no-untyped-def]

@@ -28,14 +28,17 @@ from typing import Any, Final
 
 from app.errors import InputError
 from app.stimuli.eyes import DEFAULT_EYES, EYE_MODES
+from app.stimuli.meshes.fairness import DEFAULT_MESH_EYES, MESH_EYES
 from app.stimuli.posture import DEFAULT_POSTURE, POSTURES
 from app.stimuli.shared import BROW_MODES, DEFAULT_BROWS, LIP_MODES
 from app.trials.adaptive import MIN_CONDITIONS
 from app.trials.design import DESIGNS, RATING_DESIGNS, REFERENCE_DESIGNS, ConditionPair
 from app.trials.fields import MISSING, describe
+from app.trials.meshtables import read_mesh_table
 from app.trials.participation import PARTICIPATION_KEYS, read_participation
 from app.trials.questions import ExperimenterSideReader
 from app.trials.rating import DEFAULT_RATING_SCALE, RATING_SCALES
+from app.trials.recruiting import read_recruiting
 from app.trials.rules import DEFAULT_UNDECIDED_LABEL, REPLAY_KINDS, ReplayPolicy
 from app.trials.schedule import CATCH_KINDS
 from app.trials.studyspec import MODELS, ClipSpec, ConditionSpec, StudySpec
@@ -51,7 +54,9 @@ __all__ = [
 ]
 
 AUDIO_SUFFIXES: Final = (".wav", ".flac", ".ogg", ".mp3", ".aiff", ".aif")
-TRACK_SUFFIXES: Final = (".fap", ".csv", ".json", ".bvh")
+#: A track file: FAPs (.fap, .csv), a tracker's or tool's file (.csv, .json, .bvh), or a mesh or
+#: FLAME sequence (.npy, .npz, .pkl: docs/reference/meshes.md).
+TRACK_SUFFIXES: Final = (".fap", ".csv", ".json", ".bvh", ".npy", ".npz", ".pkl")
 
 
 def load_study_file(
@@ -167,6 +172,8 @@ _TOP_KEYS: Final = (
     "brows",
     "pad",
     "normalize",
+    "meshes",
+    "mesh_eyes",
     "rejoin",
     "render",
     "exclude",
@@ -183,6 +190,8 @@ _TOP_KEYS: Final = (
     "auto_exclude",
     "demographics",
     "questions",
+    # -- recruiting on Prolific (docs/reference/studyfile.md, "[prolific]") --
+    "prolific",
 )
 
 
@@ -256,6 +265,8 @@ class _StudyReader(ExperimenterSideReader):
         lips = self.choice(top, "lips", "lips", LIP_MODES, None) if "lips" in top else None
         pad = bool(self.get(top, "pad", "pad", (bool,), "true or false", False))
         brows = self.choice(top, "brows", "brows", BROW_MODES, DEFAULT_BROWS)
+        meshes = read_mesh_table(self, top.get("meshes", {}), "meshes")
+        mesh_eyes = self.choice(top, "mesh_eyes", "mesh_eyes", MESH_EYES, DEFAULT_MESH_EYES)
         exclude = self.text(top, "exclude", "exclude", "")
         names = [c.name for c in conditions]
         if design in REFERENCE_DESIGNS:
@@ -282,6 +293,7 @@ class _StudyReader(ExperimenterSideReader):
         if rating and participation.mismatched:
             raise self.error("mismatched", f"only applies to the pair designs, not {design!r}")
         auto_exclude, questions = self.experimenter_side(top)
+        recruiting = read_recruiting(self, top["prolific"]) if "prolific" in top else None
         spec = StudySpec(
             title=title,
             question=question,
@@ -307,6 +319,8 @@ class _StudyReader(ExperimenterSideReader):
             posture=posture,
             lips=lips,
             brows=brows,
+            meshes=meshes,
+            mesh_eyes=mesh_eyes,
             pad=pad,
             normalize=normalize,
             render=render,
@@ -316,6 +330,7 @@ class _StudyReader(ExperimenterSideReader):
             rating_scale=rating_scale,
             auto_exclude=auto_exclude,
             questions=questions,
+            prolific=recruiting,
         )
         main = len(replace(spec, catch_trials=0, practice=None).schedule(seed=0, list_index=0))
         if catch_trials > main:
@@ -411,10 +426,12 @@ class _StudyReader(ExperimenterSideReader):
         clip_names = [c.name for c in clips]
         for index, item in enumerate(items):
             name = f"conditions[{index}]"
-            item = self.table(item, name, ("name", "model", "settings", "tracks"))
+            item = self.table(item, name, ("name", "model", "settings", "tracks", "mesh"))
             cond = self.identifier(item, "name", f"{name}.name")
             if cond in [c.name for c in out]:
                 raise self.error(f"{name}.name", f"repeats condition name {cond!r}")
+            if "mesh" in item and "tracks" not in item:
+                raise self.error(f"{name}.mesh", "only applies to a condition of uploaded tracks")
             if "tracks" in item:
                 for key in ("model", "settings"):
                     if key in item:
@@ -430,7 +447,8 @@ class _StudyReader(ExperimenterSideReader):
                     c: self.file(tracks, c, f"{name}.tracks.{c}", TRACK_SUFFIXES)
                     for c in clip_names
                 }
-                out.append(ConditionSpec(cond, None, {}, paths))
+                mesh = read_mesh_table(self, item.get("mesh", {}), f"{name}.mesh")
+                out.append(ConditionSpec(cond, None, {}, paths, mesh))
                 continue
             if "model" not in item and cond not in MODELS:
                 raise self.error(

@@ -24,6 +24,7 @@ from app.trials.fields import key_text
 from app.trials.participation import ParticipationSpec
 from app.trials.questions import QuestionSpec
 from app.trials.rating import DEFAULT_RATING_SCALE
+from app.trials.recruiting import RecruitingSpec
 from app.trials.rules import DEFAULT_UNDECIDED_LABEL, ReplayPolicy
 from app.trials.schedule import (
     ScheduledTrial,
@@ -58,13 +59,15 @@ class ConditionSpec:
     ``model`` names an entry of ``app.stimuli.conditions.CONDITIONS`` and ``settings`` are its
     keyword parameters (``make_condition(model, **settings)``); with ``tracks`` (clip name ->
     ``.fap``/``.csv`` path) the condition is an uploaded motion track per clip and ``model`` is
-    ``None``.
+    ``None``; ``mesh`` says how its mesh or FLAME files are read, over the study's ``meshes``
+    (:mod:`app.trials.meshtables`).
     """
 
     name: str
     model: str | None = None
     settings: Mapping[str, Any] = field(default_factory=dict)
     tracks: Mapping[str, Path] = field(default_factory=dict)
+    mesh: Mapping[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, slots=True)
@@ -109,6 +112,10 @@ class StudySpec:
     lips: str | None = None
     #: The eyebrows (:mod:`app.stimuli.shared`): each condition's own, none, or the rule's.
     brows: str = "own"
+    #: How the study's mesh and FLAME sequences are read (:mod:`app.trials.meshtables`).
+    meshes: Mapping[str, Any] = field(default_factory=dict)
+    #: The eyes beside a mesh condition (:mod:`app.stimuli.meshes.fairness`).
+    mesh_eyes: str = "match"
     #: Whether a ground truth or imported track longer or shorter than its speech beyond
     #: :data:`app.stimuli.lengths.LENGTH_TOLERANCE_S` is padded or cut instead of refused.
     pad: bool = False
@@ -124,6 +131,9 @@ class StudySpec:
     auto_exclude: tuple[str, ...] = ("catch_failed", "unfinished")
     #: Questionnaire pages before and after the trials (:mod:`app.trials.questions`).
     questions: tuple[QuestionSpec, ...] = ()
+    #: The ``[prolific]`` table (:mod:`app.trials.recruiting`), if the study recruits through
+    #: facepair's Prolific client.
+    prolific: RecruitingSpec | None = None
 
     @property
     def condition_names(self) -> list[str]:
@@ -222,6 +232,10 @@ class StudySpec:
             out["brows"] = self.brows
         if self.pad:
             out["pad"] = True
+        if self.meshes:
+            out["meshes"] = dict(self.meshes)
+        if self.mesh_eyes != "match":
+            out["mesh_eyes"] = self.mesh_eyes
         out["normalize"] = self.normalize
         out["rejoin"] = self.rejoin
         out["auto_exclude"] = list(self.auto_exclude)
@@ -246,6 +260,8 @@ class StudySpec:
         out["clips"] = [_clip_dict(c) for c in self.clips]
         if self.questions:
             out["questions"] = [q.to_dict() for q in self.questions]
+        if self.prolific is not None:
+            out["prolific"] = self.prolific.to_dict()
         return out
 
     def to_toml(self) -> str:
@@ -273,6 +289,8 @@ def _condition_dict(condition: ConditionSpec) -> dict[str, Any]:
     out: dict[str, Any] = {"name": condition.name}
     if condition.tracks:
         out["tracks"] = {clip: str(path) for clip, path in condition.tracks.items()}
+        if condition.mesh:
+            out["mesh"] = dict(condition.mesh)
     else:
         out["model"] = condition.model
         if condition.settings:

@@ -128,6 +128,18 @@ class LoginSession(db.Model):
     ended_at: so.Mapped[dt.datetime | None] = so.mapped_column()
 
 
+class RateCounter(db.Model):
+    """One window of a consent limit, counted in the database where there is no Redis
+    (:mod:`app.web.infra.throttle`), so every web process raises the same count."""
+
+    #: The limit and what it counts: a study, or a study and a keyed hash of a client address
+    #: (never the address itself).
+    key: so.Mapped[str] = so.mapped_column(sa.String(200), primary_key=True)
+    count: so.Mapped[int]
+    #: The end of the window; the next count starts a new one, the next consent deletes it.
+    expires_at: so.Mapped[dt.datetime] = so.mapped_column(index=True)
+
+
 #: What a collaborator may do with a shared study: look (read) or everything but delete (full).
 SHARE_ACCESS = ("read", "full")
 
@@ -229,6 +241,9 @@ class Stimulus(db.Model):
     right_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("condition.id"))
     #: Relative to the study's media folder; None until rendered.
     video_path: so.Mapped[str | None] = so.mapped_column(sa.String(500))
+    #: The same clip as WebM (VP9 + Opus) for browsers without H.264, beside the MP4; None
+    #: where it has none (rendered before renditions: ``facepair study renditions``).
+    webm_path: so.Mapped[str | None] = so.mapped_column(sa.String(500))
     #: The side an attention check tells the participant to press ("left"/"right"), or "".
     instruction: so.Mapped[str] = so.mapped_column(sa.String(10), default="")
     #: The side showing another clip's motion in an appropriateness pair, or "".

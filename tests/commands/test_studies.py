@@ -125,3 +125,36 @@ def test_a_rating_study_exports_its_ratings(app, monkeypatch, web, tmp_path):
     with open(out / "ratings.csv", encoding="utf-8") as handle:
         ratings = list(csv.DictReader(handle))
     assert [(r["score"], r["scale"], r["kind"]) for r in ratings] == [("4", "acr5", "trial")]
+
+
+def test_renditions_makes_the_missing_webms_of_an_open_study(app, monkeypatch, web):
+    """Clips rendered before renditions existed get their WebM from their MP4, blinded as it
+    is; clips that have one keep it; a second run has nothing to do."""
+    from app.web.infra.storage import media_dir
+    from app.web.models import Stimulus
+
+    _env(monkeypatch, app)
+    study_id = web.study(status="open")
+    runner = CliRunner()
+    made = runner.invoke(main, ["study", "renditions", str(study_id)])
+    assert made.exit_code == 0, made.output
+    with app.app_context():
+        study = db.session.get(Study, study_id)
+        stimuli = db.session.scalars(sa.select(Stimulus).where(Stimulus.study_id == study_id))
+        webms = {s.video_path: s.webm_path for s in stimuli}
+        assert webms and all(w == v.removesuffix(".mp4") + ".webm" for v, w in webms.items())
+        for webm in webms.values():
+            data = (media_dir(study) / webm).read_bytes()
+            assert data[:4] == b"\x1a\x45\xdf\xa3"  # an EBML (WebM) header
+            assert b"Lavc" not in data and b"libvpx" not in data
+        assert study.status == "open"
+    n = len(webms)
+    assert made.output.strip().endswith(f"study {study_id}: {n} WebM renditions made")
+    again = runner.invoke(main, ["study", "renditions", str(study_id)])
+    assert again.exit_code == 0
+    assert again.output.strip().endswith(f"study {study_id}: 0 WebM renditions made")
+    missing = runner.invoke(main, ["study", "renditions", "999"])
+    assert missing.exit_code == 2
+    assert missing.output.strip() == (
+        "facepair: error: STUDY_ID: no study 999 (see 'facepair study list')"
+    )

@@ -9,6 +9,7 @@ import sqlalchemy as sa
 
 from app.web.extensions import db
 from app.web.models import Job, Participant, Stimulus, Study, Track, User
+from tests.conftest import PASSWORD
 
 
 def _slug(app, study_id):
@@ -46,7 +47,7 @@ def test_login_never_redirects_off_site(app, client, web):
     token = web.csrf(client, "/experimenter/login")
     response = client.post(
         "/experimenter/login?next=//evil.example/x",
-        data={"csrf_token": token, "email": "exp@example.org", "password": "correct horse"},
+        data={"csrf_token": token, "email": "exp@example.org", "password": PASSWORD},
     )
     assert response.headers["Location"] == "/experimenter/"
 
@@ -55,7 +56,7 @@ def test_passwords_are_hashed(app, web):
     web.user()
     with app.app_context():
         user = db.session.scalar(sa.select(User))
-        assert "correct horse" not in user.password_hash and user.check_password("correct horse")
+        assert PASSWORD not in user.password_hash and user.check_password(PASSWORD)
 
 
 def test_each_experimenter_sees_only_their_studies(app, client, web):
@@ -381,9 +382,9 @@ def test_preview_clip(app, client, web):
 
 
 @pytest.fixture
-def fake_renderer(monkeypatch, tiny_video):
-    """The render job with the renderer stubbed: it copies a tiny clip (the real renderer is
-    tested on its own); records the calls."""
+def fake_renderer(monkeypatch, tiny_video, tiny_webm):
+    """The render job with the renderer stubbed: it copies a tiny clip and its WebM rendition
+    (the real renderer is tested on its own); records the calls."""
     import shutil
 
     calls = []
@@ -393,9 +394,13 @@ def fake_renderer(monkeypatch, tiny_video):
         def __init__(self, **kwargs):
             self.kwargs = kwargs
 
-    def render_pair(left, right, audio, out, *, settings=None, cache_dir=None, progress=None):
+    def render_pair(
+        left, right, audio, out, *, settings=None, cache_dir=None, progress=None, webm_path=None
+    ):
         calls.append((left.n_frames, right.n_frames, str(audio)))
         shutil.copyfile(tiny_video, out)
+        if webm_path is not None:
+            shutil.copyfile(tiny_webm, webm_path)
         return out
 
     module.RenderSettings, module.render_pair = RenderSettings, render_pair
@@ -517,7 +522,11 @@ def test_disk_full_in_a_job_is_its_error(app, web, monkeypatch):
         )
 
 
-def test_retry_resumes_from_the_clips_already_rendered(app, client, web, fake_renderer):
+def test_retry_resumes_from_the_clips_already_rendered(
+    app, client, web, fake_renderer, tiny_video, tiny_webm
+):
+    import shutil
+
     from app.web.infra.storage import media_dir
 
     study_id = web.study(video=False, design="all_ordered")
@@ -525,14 +534,19 @@ def test_retry_resumes_from_the_clips_already_rendered(app, client, web, fake_re
     with app.app_context():
         study = db.session.get(Study, study_id)
         _generated_tracks(study)
-        # A render killed half way: two clips in place, the row failed.
+        # A render killed half way: two clips in place with their WebM, a third killed
+        # between its MP4 and its WebM; the row failed.
         stimuli = db.session.scalars(
             sa.select(Stimulus).where(Stimulus.study_id == study_id).order_by(Stimulus.id)
         ).all()
-        for stimulus in stimuli[:2]:
+        (media_dir(study) / "videos").mkdir(exist_ok=True)
+        for stimulus in stimuli[:3]:
             stimulus.video_path = f"videos/kept-{stimulus.id}.mp4"
-            (media_dir(study) / "videos").mkdir(exist_ok=True)
-            (media_dir(study) / stimulus.video_path).write_bytes(b"rendered before")
+            shutil.copyfile(tiny_video, media_dir(study) / stimulus.video_path)
+        for stimulus in stimuli[:2]:
+            stimulus.webm_path = f"videos/kept-{stimulus.id}.webm"
+            shutil.copyfile(tiny_webm, media_dir(study) / stimulus.webm_path)
+        half = stimuli[2].id
         failed = Job(
             study_id=study_id,
             kind="render",
@@ -549,11 +563,17 @@ def test_retry_resumes_from_the_clips_already_rendered(app, client, web, fake_re
     assert (
         _post(client, f"/experimenter/studies/{study_id}/jobs/{failed_id}/retry").status_code == 302
     )
-    assert len(fake_renderer) == n_stimuli - 2  # only the missing clips were rendered
+    # only the missing clips were rendered; the half-made one got its WebM from its MP4
+    assert len(fake_renderer) == n_stimuli - 3
     with app.app_context():
         retried = db.session.scalar(sa.select(Job).where(Job.id != failed_id))
         assert (retried.kind, retried.status) == ("render", "done")
         assert retried.message == f"{n_stimuli} clips rendered (2 kept from before)"
+        remade = db.session.get(Stimulus, half)
+        assert remade.video_path == f"videos/kept-{half}.mp4"
+        assert remade.webm_path == f"videos/kept-{half}.webm"
+        webm = media_dir(db.session.get(Study, study_id)) / remade.webm_path
+        assert webm.read_bytes()[:4] == b"\x1a\x45\xdf\xa3"  # an EBML (WebM) header
     # Only a failed job can be retried.
     _post(client, f"/experimenter/studies/{study_id}/jobs/{retried.id}/retry")
     with app.app_context():

@@ -227,7 +227,12 @@ def test_a_clip_longer_than_the_stale_timeout_keeps_its_job_alive(app, web, monk
     app.config["JOB_STALE_AFTER_SECONDS"] = 1.0
     study_id = web.study(video=False)
     with app.app_context():
+        from app.web.infra.storage import media_dir
+
         clip = db.session.scalar(sa.select(Clip).where(Clip.study_id == study_id))
+        # a track file in place (read as nothing: load_track is stubbed below)
+        media_dir(clip.study).mkdir(parents=True, exist_ok=True)
+        (media_dir(clip.study) / "x.fap").write_text("# a track\n")
         for condition in db.session.scalars(
             sa.select(Condition).where(Condition.study_id == study_id)
         ):
@@ -235,13 +240,14 @@ def test_a_clip_longer_than_the_stale_timeout_keeps_its_job_alive(app, web, monk
         db.session.commit()
     swept = []
 
-    def slow_clip(left, right, audio, out, *, settings, cache_dir, progress=None):
+    def slow_clip(left, right, audio, out, *, settings, cache_dir, progress=None, webm_path):
         for frame in range(15):  # 1.5 s for one clip: past the 1 s timeout
             time.sleep(0.1)
             if progress is not None:
                 progress(frame, 15)
         swept.append(tasks.sweep_stale(study_id, stale_after=1.0))
         out.write_bytes(b"video")
+        webm_path.write_bytes(b"webm")
         return out
 
     monkeypatch.setattr(renderer, "render_pair", slow_clip)
@@ -320,9 +326,12 @@ def test_render_job_lends_the_other_clips_motion_and_draws_the_instruction(
     write_tone_wav(tmp_path / "short.wav", seconds=0.6)
     calls = {}
 
-    def record(left, right, audio, out, *, settings, cache_dir, progress=None, caption=None):
+    def record(
+        left, right, audio, out, *, settings, cache_dir, progress=None, caption=None, webm_path
+    ):
         calls[out.name] = (left, right, audio.name, caption)
         out.write_bytes(b"video")
+        webm_path.write_bytes(b"webm")  # the same frames' WebM, beside the MP4
         return out
 
     monkeypatch.setattr(renderer, "render_pair", record)
@@ -337,6 +346,7 @@ def test_render_job_lends_the_other_clips_motion_and_draws_the_instruction(
         }
         stimuli = db.session.scalars(sa.select(Stimulus)).all()
         assert all(s.video_path for s in stimuli)
+        assert all(s.webm_path == s.video_path.replace(".mp4", ".webm") for s in stimuli)
         foreign = {
             (s.clip.name, s.foreign_side): Path(s.video_path).name
             for s in stimuli
@@ -463,9 +473,10 @@ def test_render_job_renders_one_face_per_condition_and_clip_in_the_rating_design
     write_tone_wav(tmp_path / "short.wav", seconds=0.4)
     singles: dict[str, object] = {}
 
-    def single(track, audio, out, *, settings, cache_dir, progress=None):
+    def single(track, audio, out, *, settings, cache_dir, progress=None, webm_path):
         singles[out.name] = track
         out.write_bytes(b"video")
+        webm_path.write_bytes(b"webm")
         return out
 
     def pair(*args, **kwargs):

@@ -1,9 +1,10 @@
 """Blinding, tested as an attacker would: a participant walks a whole study (the pair designs,
 and the rating designs: one face a trial, or versions beside a reference) and keeps every byte
 their browser receives (headers, pages, scripts, JSON answers, redirects, the first and last
-256 KB of every clip); none of it may name a condition, a model, a side assignment, an attention
-check's expected answer or a mismatched side. Run for every media backend, with the clips made
-by the real render job's naming and the real encoder (only the drawing is left out)."""
+256 KB of every clip, in both its renditions, MP4 and WebM); none of it may name a condition, a
+model, a side assignment, an attention check's expected answer or a mismatched side. Run for
+every media backend, with the clips made by the real render job's naming and the real encoder
+(only the drawing is left out)."""
 
 import re
 import secrets
@@ -72,11 +73,12 @@ audio = "c2.wav"
 
 def _fake_draw(left, right, audio, out, **kwargs):
     """The renderer's drawing left out, its encoder kept: a few frames of the pair's length
-    and the clip's own audio, through renderer.encode.ClipWriter."""
+    and the clip's own audio, through renderer.encode.ClipWriter (the WebM beside the MP4)."""
     from renderer.encode import ClipWriter
 
     frames = 6
-    with ClipWriter(out, 64, 32, 25.0, frames, audio) as writer:
+    webm = kwargs.get("webm_path")
+    with ClipWriter(out, 64, 32, 25.0, frames, audio, webm_path=webm) as writer:
         for k in range(frames):
             writer.write(np.full((32, 64, 3), 30 * k, np.uint8))
 
@@ -173,7 +175,7 @@ class Browser:
         assert joined.status_code == 302
         who = joined.headers["Location"].split("/p/")[1].split("/")[0]
         text = self.get(f"/p/{who}/instructions").get_data(as_text=True)
-        for url in re.findall(r'data-video-url="([^"]+)"', text):
+        for url in re.findall(r'data-(?:video|webm)-url="([^"]+)"', text):
             self.clip(url)
         for asset in set(re.findall(r'(?:src|href)="(/static/[^"?]+)', text)):
             self.get(asset)
@@ -184,7 +186,7 @@ class Browser:
         return [
             re.search(rb'filename="?([^";\r\n]+)', chunk).group(1)
             for chunk in self.received
-            if b"content-type: video/mp4" in chunk[:2048].lower()
+            if re.search(rb"content-type: video/(mp4|webm)", chunk[:2048].lower())
         ]
 
     def trials(self, who: str):
@@ -202,7 +204,7 @@ class Browser:
         who = self.join(slug)
         voted = 0
         for trial_id, text in self.trials(who):
-            for url in re.findall(r'data-(?:video|preload)-url="([^"]+)"', text):
+            for url in re.findall(r'data-(?:video|preload|webm|preload-webm)-url="([^"]+)"', text):
                 self.clip(url)
             played = self.post("/api/v1/plays", json={"token": who, "trial_id": trial_id})
             assert played.status_code == 200, played.get_data(as_text=True)
@@ -222,8 +224,9 @@ class Browser:
             assert vote.status_code == 201, vote.get_data(as_text=True)
             answer = vote.get_json()
             upcoming = answer.get("next_trial") or {}
-            if upcoming.get("video_url"):
-                self.clip(upcoming["video_url"])
+            for url in (upcoming.get("video_url"), upcoming.get("webm_url")):
+                if url:
+                    self.clip(url)
             voted += 1
         done = self.get(f"/p/{who}/done")
         assert done.status_code == 200
@@ -248,7 +251,8 @@ def test_nothing_a_participant_receives_names_what_a_clip_shows(
     voted = browser.walk(slug)
     assert voted >= 6
     names = browser.clip_names()
-    assert names and all(re.fullmatch(rb"(pair-\d\d|practice)\.mp4", n) for n in names), names
+    assert names and all(re.fullmatch(rb"(pair-\d\d|practice)\.(mp4|webm)", n) for n in names)
+    assert any(n.endswith(b".webm") for n in names), names
     assert _leaks(browser.received) == []
 
 
@@ -301,9 +305,14 @@ def _walk_ratings(browser: Browser, slug: str) -> int:
     for trial_id, text in browser.trials(who):
         items = re.search(r'data-items="(\d+)"', text)
         urls = re.findall(r'data-(?:video|reference)-url="([^"]+)"', text)
+        webms = re.findall(r'data-(?:webm|reference-webm)-url="([^"]+)"', text)
         if items:
             base = re.search(r'data-item-url="([^"]+)"', text).group(1)
             urls += [f"{base}{k}" for k in range(int(items.group(1)))]
+            base = re.search(r'data-item-webm-url="([^"]+)"', text).group(1)
+            webms += [f"{base}{k}" for k in range(int(items.group(1)))]
+        for url in webms:
+            browser.clip(url)
         for url in urls:
             browser.clip(url)
             played = browser.post("/api/v1/plays", json={"token": who, "trial_id": trial_id})
@@ -340,7 +349,8 @@ def test_nothing_a_rater_receives_names_what_a_clip_shows(
     assert rated >= (2 if design == "parallel" else 6)
     names = browser.clip_names()
     # a clip by its place in the schedule; a parallel trial's versions by their place on the page
-    assert names and all(re.fullmatch(rb"clip-\d\d(-\d+)?\.mp4", n) for n in names), names
+    assert names and all(re.fullmatch(rb"clip-\d\d(-\d+)?\.(mp4|webm)", n) for n in names)
+    assert any(n.endswith(b".webm") for n in names), names
     assert _leaks(browser.received) == []
 
 

@@ -213,3 +213,118 @@ def test_the_audio_check_plays_its_sounds_and_opens_the_trials(
     with live_server.app.app_context():
         person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
         assert person.audio_check["passed"] is True and person.audio_check["scores"] == [2]
+
+
+#: A rating and a parallel study's own words in each language (title, question, consent,
+#: instructions), and what the parallel page says before a play and once every version was
+#: played and rated.
+RATING_WORDS = {
+    "en": {
+        "study": ("Talking faces", "How natural is the motion?", "You agree.", "Watch closely."),
+        "agree": "I agree",
+        "rating": "an animated face, one at a time",
+        "parallel": "each in several versions",
+        "start": "Click “Reference” or a version's number to watch it.",
+        "done": "Every version is played and rated: press Next, or change a rating first.",
+    },
+    "de": {
+        "study": (
+            WORDS["de"][0],
+            "Wie natürlich ist die Bewegung?",
+            "Sie stimmen der Teilnahme zu.",
+            "Sehen Sie genau hin.",
+        ),
+        "agree": "Ich stimme zu",
+        "rating": "eines nach dem anderen",
+        "parallel": "jedes in mehreren Versionen",
+        "start": "Klicken Sie auf „Referenz“ oder auf die Nummer einer Version, um sie anzusehen.",
+        "done": "Jede Version ist abgespielt und bewertet: Drücken Sie auf Weiter oder ändern Sie "
+        "vorher noch eine Bewertung.",
+    },
+    "ar": {
+        "study": (
+            WORDS["ar"][0],
+            "ما مدى طبيعية الحركة؟",
+            "أنت توافق على المشاركة.",
+            "شاهد بتمعّن.",
+        ),
+        "agree": "أوافق",
+        "rating": "واحدًا تلو الآخر",
+        "parallel": "كل مقطع في عدة نسخ",
+        "start": "انقر على «المرجع» أو على رقم نسخة لمشاهدتها.",
+        "done": "تم تشغيل كل النسخ وتقييمها: اضغط «التالي»، أو غيّر أحد التقييمات أولًا.",
+    },
+}
+
+
+@pytest.mark.parametrize("design", ["rating", "parallel"])
+@pytest.mark.parametrize("language", RATING_WORDS)
+def test_the_rating_designs_speak_of_their_own_pages(
+    live_server,
+    browser,  # noqa: F811
+    tiny_video,
+    tmp_path,
+    language,
+    design,
+):
+    """A rating and a parallel study at desktop size in English, German and Arabic: the consent
+    page describes the design's own task, and the parallel page names its own buttons (it has
+    no Play button) and, with every version played and rated, says Next is next, as the
+    instructions promise, with the keyboard alone. Screenshots of consent, instructions and
+    the first trial to ``$FACEPAIR_SCREENSHOTS``."""
+    words = RATING_WORDS[language]
+    clip = Path(os.environ.get("FACEPAIR_DEMO_CLIP_SINGLE", tiny_video))
+    extra = f'language = "{language}"\n'
+    if design == "parallel":
+        extra += 'reference = "none"\n'
+    study_id = create_test_study(
+        live_server.app, tmp_path, clip, design=design, catch_kind="instructed", extra=extra
+    )
+    with live_server.app.app_context():
+        study = db.session.get(Study, study_id)
+        study.title, study.question, study.consent, study.instructions = words["study"]
+        db.session.commit()
+    context = _context(browser, {"width": 1366, "height": 768}, False)
+    page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    name = f"participant-{design}-{{}}-{language}"
+    try:
+        page.goto(f"{live_server.url}/s/{_slug(live_server.app, study_id)}")
+        consent = page.inner_text("main")
+        other = "parallel" if design == "rating" else "rating"
+        assert words[design] in consent and words[other] not in consent
+        _shot(page, name.format("consent"))
+        page.click(f"text={words['agree']}")
+        page.wait_for_url("**/instructions")
+        _shot(page, name.format("instructions"))
+        page.click("#start")
+        page.wait_for_selector(".rater[data-trial-id]")
+        if design == "rating":
+            page.wait_for_selector(".play:not([disabled])", timeout=20000)
+            _shot(page, name.format("trial"))
+            return
+        page.wait_for_selector(".overlay-text")
+        assert page.inner_text(".overlay-text") == words["start"]
+        _shot(page, name.format("trial"))
+        # The keyboard alone, as the instructions say: Tab to each button and slider, Space
+        # presses a button, the arrow keys move a slider.
+        page.focus(".item-play.reference")
+        page.keyboard.press("Space")
+        # the play was granted: the overlay gives way to the clip (and stays away after it)
+        page.wait_for_selector(".rater .overlay", state="hidden")
+        for item in range(page.locator("input[type=range]").count()):
+            page.keyboard.press("Tab")
+            page.keyboard.press("Space")
+            page.wait_for_selector(f'.item-play[data-item="{item}"].played', timeout=20000)
+            page.keyboard.press("Tab")
+            for _ in range(5):
+                page.keyboard.press("ArrowRight")
+        assert page.inner_text(".rater .hint") == words["done"]
+        page.keyboard.press("Tab")
+        trial = page.get_attribute(".rater", "data-trial-id")
+        page.keyboard.press("Space")
+        page.wait_for_selector(f'.rater[data-trial-id="{trial}"]', state="detached", timeout=20000)
+    finally:
+        context.close()
+    assert errors == []

@@ -6,6 +6,7 @@ import sqlalchemy as sa
 from app.web.extensions import db
 from app.web.models import Participant, Study, Trial, Vote
 from tests.conftest import csrf_token
+from tests.test_adaptive_votes import EIGHT
 
 
 def _status(client, url):
@@ -196,6 +197,40 @@ def test_back_after_a_vote_never_shows_the_practice_again(app, client, participa
     assert trial.headers["Cache-Control"] == "no-store"
     back = client.get(f"/p/{token}/instructions")
     assert back.status_code == 302 and back.headers["Location"].endswith(f"/p/{token}")
+
+
+#: What each design's test study adds to the file (a reference, eight conditions).
+DESIGN_EXTRA = {
+    "all_ordered": "",
+    "reference": 'reference = "none"\n',
+    "unordered_counterbalanced": "",
+    "adaptive": EIGHT,
+    "rating": "",
+    "parallel": 'reference = "none"\n',
+}
+
+
+@pytest.mark.parametrize("design", DESIGN_EXTRA)
+def test_practice_false_means_no_practice_in_every_design(app, client, participant, web, design):
+    """``practice = false``: no practice on the instructions page, no practice clip and no
+    practice trial, whatever the design; a pair design's default practice pair is still
+    shown (the rating designs have none)."""
+    catch_kind = "instructed" if design == "rating" else "identical"
+    for practice in (False, True):
+        settings = "practice = false\n" if not practice else ""
+        extra = settings + DESIGN_EXTRA[design]
+        study_id = web.study(design=design, catch_kind=catch_kind, extra=extra)
+        token = participant.join(_slug(app, study_id))
+        page = client.get(f"/p/{token}/instructions").get_data(as_text=True)
+        shown = practice and design not in ("rating", "parallel")
+        assert ("Practice pair" in page) == shown, (design, practice)
+        assert ("practice.mp4" in page) == shown
+        assert _status(client, f"/p/{token}/practice.mp4") == (200 if shown else 404)
+        with app.app_context():
+            kinds = db.session.scalars(
+                sa.select(Trial.kind).join(Participant).where(Participant.token == token)
+            ).all()
+        assert ("practice" in kinds) == shown
 
 
 def test_study_text_is_paragraphs_not_ragged_lines(app, client, participant, web):

@@ -4,6 +4,7 @@ import csv
 import io
 import re
 
+import pytest
 import sqlalchemy as sa
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -95,6 +96,60 @@ def test_the_path_passes_through_both_pages(app, client, web, participant):
             "hours": "3.5",
         }
     ]
+
+
+#: Each language's words for the built-in questions the test reads (the catalogues').
+DEMOGRAPHIC_WORDS = {
+    "de": {
+        "Your age": "Ihr Alter",
+        "prefer not to say": "keine Angabe",
+        "I work in animation": "Ich arbeite im Animationsbereich",
+        "Your native language": "Ihre Muttersprache",
+    },
+    "ar": {
+        "Your age": "عمرك",
+        "prefer not to say": "أفضّل عدم الإجابة",
+        "I work in animation": "أعمل في مجال الرسوم المتحركة",
+        "Your native language": "لغتك الأم",
+    },
+}
+
+
+@pytest.mark.parametrize("language", DEMOGRAPHIC_WORDS)
+def test_the_demographic_questions_speak_the_study_language_and_store_codes(
+    app, client, web, participant, language
+):
+    """``demographics = true`` asks facepair's own questions in the study's language; an
+    option's value, what is stored and what answers.csv holds stay the same code in every
+    language. The study's own questions stay as the study file wrote them."""
+    own = '[[questions]]\nname = "fav"\ntext = "Lieblingsfarbe"\ntype = "choice"\n'
+    own += 'choices = ["rot", "blau"]\n'
+    extra = f'language = "{language}"\ndemographics = true\n' + own
+    study_id = web.study(design="all_ordered", extra=extra)
+    token = participant.join(_slug(app, study_id))
+    page = participant.client.get(f"/p/{token}/questions/before").get_data(as_text=True)
+    shown = set(re.findall(r">([^<>]+)<", page))
+    for english, translated in DEMOGRAPHIC_WORDS[language].items():
+        assert translated in shown and english not in shown, (english, translated)
+    assert not shown & {"female", "male", "none", "Your gender", "65 or over"}
+    assert {"Lieblingsfarbe", "rot", "blau"} <= shown
+    values = set(re.findall(r'type="radio" name="\w+" value="([^"]+)"', page))
+    assert {"prefer not to say", "I work in animation", "65 or over", "rot"} <= values
+    # The label shown is not an answer: the option's code is.
+    label = DEMOGRAPHIC_WORDS[language]["prefer not to say"]
+    refused = _answer(participant.client, token, "before", **(BEFORE | {"gender": label}))
+    assert refused.status_code == 400
+    kept = refused.get_data(as_text=True)
+    assert 'id="error-gender"' in kept and 'value="Welsh"' in kept
+    answers = BEFORE | {"age_band": "prefer not to say", "gender": "non-binary", "fav": "rot"}
+    assert _answer(participant.client, token, "before", **answers).status_code == 302
+    with app.app_context():
+        person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        assert person.answers == {"before": answers}
+    web.login(client)
+    url = f"/experimenter/studies/{study_id}/answers.csv"
+    rows = list(csv.DictReader(io.StringIO(client.get(url).get_data(as_text=True))))
+    assert [{k: rows[0][k] for k in answers}] == [answers]
 
 
 def test_the_report_summarises_the_answers(app, client, web, participant):

@@ -178,6 +178,48 @@ def test_cache_serves_the_same_render_and_never_a_stale_one(tmp_path, tone_wav):
     assert len(list(cache.glob("*.mp4"))) == 2
 
 
+@pytest.mark.gl
+def test_the_webm_rendition_shows_the_same_frames_and_is_cached_beside_the_mp4(tmp_path, tone_wav):
+    """One render writes both renditions from the same frames; the cache hands back both,
+    and a WebM asked of a cached MP4 that has none renders the clip again."""
+    a, b = _tracks(8)
+    audio = tone_wav(1.0)
+    cache = tmp_path / "cache"
+    render_pair(a, b, audio, tmp_path / "0.mp4", settings=SETTINGS, cache_dir=cache)
+    calls = []
+    first = render_pair(
+        a,
+        b,
+        audio,
+        tmp_path / "1.mp4",
+        settings=SETTINGS,
+        cache_dir=cache,
+        webm_path=tmp_path / "1.webm",
+        progress=lambda d, n: calls.append(d),
+    )
+    assert len(calls) == 8  # the cached MP4 alone did not serve
+    mp4_meta, mp4_frames = decode(first)
+    webm_meta, webm_frames = decode(tmp_path / "1.webm")
+    assert webm_meta["codec"] == "vp9" and webm_meta["size"] == mp4_meta["size"]
+    assert len(webm_frames) == len(mp4_frames) == 8
+    for x, y in zip(webm_frames, mp4_frames, strict=True):  # both near the same drawing
+        assert np.abs(x.astype(int) - y.astype(int)).mean() < 3
+    assert abs(audio_seconds(tmp_path / "1.webm") - 8 / 30) < 0.025
+    calls.clear()
+    render_pair(
+        a,
+        b,
+        audio,
+        tmp_path / "2.mp4",
+        settings=SETTINGS,
+        cache_dir=cache,
+        webm_path=tmp_path / "2.webm",
+        progress=lambda d, n: calls.append(d),
+    )
+    assert calls == [8]
+    assert (tmp_path / "2.webm").read_bytes() == (tmp_path / "1.webm").read_bytes()
+
+
 def test_bad_settings_and_audio_are_input_errors(tmp_path):
     with pytest.raises(InputError, match="size: must be a multiple of 16"):
         RenderSettings(size=100)

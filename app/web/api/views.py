@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 import re
 from functools import cache
-from typing import Any
+from typing import Any, NamedTuple
 
 import sqlalchemy as sa
 from flask import Response, abort, current_app, jsonify, make_response, request, url_for
@@ -27,9 +27,12 @@ from app.web.infra.limits import fits
 from app.web.jobs.tasks import sweep_study_jobs
 from app.web.models import Job, Participant, Study, Trial
 from app.web.study.medialog import MediaLogError, environment_fields
+from app.web.study.participants import end_for_browser
 from app.web.study.progress import progress as participant_progress
 from app.web.study.ratings import record_rating, shown_items
+from app.web.study.renditions import versions_have_webm, webm_offered
 from app.web.study.studies import participation
+from app.web.study.useragent import browser_of
 from app.web.study.votes import (
     Voter,
     VoteRejected,
@@ -105,7 +108,7 @@ def post_vote():  # type: ignore[no-untyped-def]
     except VoteRejected as exc:
         return _refused(exc, voter.participant)
     vote = outcome.vote
-    resume, video = _participant_urls(payload["token"])
+    urls = _participant_urls(payload["token"])
     body = {
         "status": "recorded" if outcome.created else "duplicate",
         "vote": {
@@ -117,12 +120,12 @@ def post_vote():  # type: ignore[no-untyped-def]
         },
         "answered": outcome.answered,
         "total": outcome.total,
-        "next": resume,
+        "next": urls.resume,
     }
     if outcome.answered >= outcome.total:
         body["next_trial"] = None  # every pair answered
     elif outcome.upcoming is not None:
-        body["next_trial"] = _next_trial(video, outcome.upcoming)
+        body["next_trial"] = _next_trial(urls, outcome.upcoming)
     db.session.commit()
     # The answer as jsonify would give it, without its indentation check and sorting: a
     # vote's answer is read by a script, not a person.
@@ -163,38 +166,36 @@ def post_rating():  # type: ignore[no-untyped-def]
         "answered": outcome.answered,
         "total": outcome.total,
     }
-    body["next"], video = _participant_urls(payload["token"])
+    urls = _participant_urls(payload["token"])
+    body["next"] = urls.resume
     if outcome.answered >= outcome.total:
         body["next_trial"] = None  # every clip rated
     elif outcome.upcoming is not None:
-        body["next_trial"] = _next_rating(rater.participant, video, outcome.upcoming)
+        body["next_trial"] = _next_rating(rater.participant, urls, outcome.upcoming)
     db.session.commit()
     return jsonify(body), 201 if outcome.created else 200
 
 
-def _next_rating(participant: Participant, video: str, row: Any) -> dict[str, Any]:
+def _next_rating(participant: Participant, urls: ParticipantUrls, row: Any) -> dict[str, Any]:
     """The next trial as ``participant/rating.html`` or ``parallel.html`` shows it, for
     ``static/rating.js`` to go on to without loading the page (which stays the reference): the
-    clip's URL, the next one's to preload and whether it is a catch trial; for the parallel
-    design the reference's URL, the items' URL up to the item's number and how many items the
-    page shows."""
+    clip's URLs (MP4, WebM), the next one's to preload and whether it is a catch trial; for the
+    parallel design the reference's URLs, the items' URLs up to the item's number and how
+    many items the page shows."""
     shown: dict[str, Any] = {"trial_id": row.trial_id, "plays": row.plays}
     if participant.study.design != "parallel":
-        following = row.following
-        return {
-            **shown,
-            "video_url": f"{video}{row.trial_id}",
-            "preload_url": None if following is None else f"{video}{following}",
-            "catch": row.kind == "catch",
-        }
+        return {**shown, **_clip_urls(urls, row), "catch": row.kind == "catch"}
     trial = db.session.get(Trial, row.trial_id)
-    item_url = url_for(
-        "participant.item_video", token=participant.token, trial_id=row.trial_id, item=0
-    )
+    token, trial_id = participant.token, row.trial_id
+    item_url = url_for("participant.item_video", token=token, trial_id=trial_id, item=0)
+    webm = versions_have_webm(trial.stimulus.clip_id)  # type: ignore[union-attr]
+    item_webm = url_for("participant.item_webm", token=token, trial_id=trial_id, item=0)
     return {
         **shown,
-        "reference_url": f"{video}{row.trial_id}",
+        "reference_url": f"{urls.video}{trial_id}",
         "item_url": item_url[:-1],
+        "reference_webm_url": f"{urls.webm}{trial_id}" if webm else None,
+        "item_webm_url": item_webm[:-1] if webm else None,
         "items": len(shown_items(participant, trial)),  # type: ignore[arg-type]
     }
 
@@ -206,10 +207,21 @@ _VERBATIM = re.compile(r"[A-Za-z0-9_.~-]+")
 _TOKEN = "~token~"
 
 
-def _participant_urls(token: str) -> tuple[str, str]:
-    """The participant's resume URL and their clips' URL up to the trial's id, as
+class ParticipantUrls(NamedTuple):
+    """A participant's resume URL and their clips' URLs (MP4, WebM) up to the trial's id."""
+
+    resume: str
+    video: str
+    webm: str
+
+    def with_token(self, token: str) -> ParticipantUrls:
+        return ParticipantUrls(*(url.replace(_TOKEN, token) for url in self))
+
+
+def _participant_urls(token: str) -> ParticipantUrls:
+    """The participant's resume URL and their clips' URLs up to the trial's id, as
     ``url_for`` builds them; the routes are built once per application and script root
-    (every vote answers with both), and a token ``url_for`` would quote is built the usual
+    (every vote answers with them), and a token ``url_for`` would quote is built the usual
     way."""
     routes = current_app.extensions.setdefault("facepair.participant_urls", {})
     root = request.script_root
@@ -220,25 +232,38 @@ def _participant_urls(token: str) -> tuple[str, str]:
     found = routes.get(root)
     if found is None or not _VERBATIM.fullmatch(token):
         return _built(token)
-    resume, video = found
-    return resume.replace(_TOKEN, token), video.replace(_TOKEN, token)
+    return found.with_token(token)
 
 
-def _built(token: str) -> tuple[str, str]:
+def _built(token: str) -> ParticipantUrls:
     video = url_for("participant.video", token=token, trial_id=0)
-    return url_for("participant.resume", token=token), video.removesuffix("0")
+    webm = url_for("participant.video_webm", token=token, trial_id=0)
+    return ParticipantUrls(
+        url_for("participant.resume", token=token), video.removesuffix("0"), webm.removesuffix("0")
+    )
 
 
-def _next_trial(video: str, row: Any) -> dict[str, Any]:
-    """The next pair as ``participant/trial.html`` shows it, for the player to go on to
-    without loading that page (``static/participant.js``); the page stays the reference.
-    ``video`` is the participant's clip URL up to the trial's id."""
+def _clip_urls(urls: ParticipantUrls, row: Any) -> dict[str, str | None]:
+    """The next trial's clip URLs and the one after it's, to preload: each MP4, and each WebM
+    where the clip has one (:func:`app.web.study.progress.next_trial_of`)."""
     following = row.following
+    return {
+        "video_url": f"{urls.video}{row.trial_id}",
+        "webm_url": f"{urls.webm}{row.trial_id}" if row.webm else None,
+        "preload_url": None if following is None else f"{urls.video}{following}",
+        "preload_webm_url": (
+            f"{urls.webm}{following}" if following is not None and row.following_webm else None
+        ),
+    }
+
+
+def _next_trial(urls: ParticipantUrls, row: Any) -> dict[str, Any]:
+    """The next pair as ``participant/trial.html`` shows it, for the player to go on to
+    without loading that page (``static/participant.js``); the page stays the reference."""
     return {
         "trial_id": row.trial_id,
         "plays": row.plays,
-        "video_url": f"{video}{row.trial_id}",
-        "preload_url": None if following is None else f"{video}{following}",
+        **_clip_urls(urls, row),
         "instructed": instructed_side(row.kind, row.expected, lambda: row.instruction),
     }
 
@@ -338,6 +363,32 @@ def post_environment(token: str):  # type: ignore[no-untyped-def]
         participant.environment = found
         db.session.commit()
     return jsonify({"viewing_ok": found["viewing_ok"]}), 200
+
+
+@bp.post("/participants/<token>/unplayable")
+def post_unplayable(token: str):  # type: ignore[no-untyped-def]
+    """The participant's browser played none of the clip's renditions (each one it tried was
+    served and refused as a format it cannot play): their session ends and their list slot
+    goes back (:func:`app.web.study.participants.end_for_browser`); the answer names the final
+    page. Repeating it changes nothing; a finished participant is refused (409)."""
+    participant = (
+        db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        if fits(Participant.token, token)
+        else None
+    )
+    if participant is None:
+        return _error("unknown participant", 404)
+    if participant.finished_at is not None:
+        return _error("this participant has finished", 409)
+    if end_for_browser(participant, webm_offered=webm_offered(participant)):
+        # The browser by its name: the failure may come before the environment's report.
+        agent = limits.printable(request.user_agent.string)[:300]
+        environment = dict(participant.environment or {})
+        if not environment.get("browser"):
+            environment["browser"], environment["browser_version"] = browser_of(agent)
+            participant.environment = environment
+    db.session.commit()
+    return jsonify({"next": url_for("participant.unplayable", token=token)}), 200
 
 
 @bp.get("/participants/<token>/progress")

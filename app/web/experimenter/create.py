@@ -13,15 +13,17 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from flask import flash, redirect, render_template, request, url_for
+from flask import Response, abort, flash, redirect, render_template, request, url_for
 from wtforms import SelectChoice
 
+from app.data import data_path
 from app.errors import InputError
-from app.trials.participation import PORTRAIT_MODES
+from app.trials.participation import LANGUAGES, PORTRAIT_MODES
 from app.trials.rules import DEFAULT_UNDECIDED_LABEL
 from app.trials.studyfile import MODELS, loads_study, parse_study
 from app.web.experimenter import bp, uploads
 from app.web.experimenter.forms import StudyFileForm, StudyWebForm
+from app.web.experimenter.studyform import add_settings, field_errors, mark_field
 from app.web.extensions import db
 from app.web.infra.accounts import current_user, login_required
 from app.web.infra.storage import disk_full, disk_full_message
@@ -49,7 +51,9 @@ def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
         where = folder / field
         return sorted(p.name for p in where.iterdir()) if where.is_dir() else []
 
-    truths = names("ground_truth")
+    # a mesh track's template and head pose go beside it under its name, not as tracks
+    siblings = (".obj", ".ply", ".pose.npy")
+    truths = [t for t in names("ground_truth") if not t.lower().endswith(siblings)]
     clips = []
     for name in names("audio"):
         clip: dict[str, Any] = {"name": Path(name).stem, "audio": f"audio/{name}"}
@@ -60,10 +64,12 @@ def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
     conditions: list[dict[str, Any]] = [{"name": m, "model": m} for m in form.models.data or []]
     uploaded: dict[str, dict[str, str]] = {}
     for name in names("tracks"):
+        if name.lower().endswith(siblings):
+            continue
         condition, _, clip_name = Path(name).stem.partition("__")
         if not clip_name:
             raise InputError(
-                "expected <condition>__<clip> with .fap, .csv, .json or .bvh",
+                "expected <condition>__<clip> with .fap, .csv, .json, .bvh, .npy, .npz or .pkl",
                 path=name,
                 field="tracks",
             )
@@ -83,7 +89,7 @@ def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
             "label": form.undecided_label.data or DEFAULT_UNDECIDED_LABEL,
         },
         "replay": {"policy": form.replay.data},
-        "catch": {"trials": form.catch_trials.data or 0, "kind": form.catch_kind.data},
+        "catch": {"trials": form.catch_trials.data or 0},
         "clips": clips,
         "conditions": conditions,
         "eyes": form.eyes.data,
@@ -110,6 +116,8 @@ def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
         data["brows"] = form.brows.data
     if form.pad.data:
         data["pad"] = True
+    if form.mesh_fps.data:
+        data["meshes"] = {"fps": float(form.mesh_fps.data)}
     faces = [n for n in names("face") if not n.lower().endswith(".avatar.json")]
     if len(faces) > 1:
         raise InputError(
@@ -122,6 +130,7 @@ def _web_form_mapping(form: StudyWebForm, folder: Path) -> dict[str, Any]:
         data["reference"] = form.reference.data.strip()
     if form.redirect_url.data:
         data["redirect_url"] = form.redirect_url.data.strip()
+    add_settings(form, data)
     return data
 
 
@@ -163,7 +172,7 @@ def _create(file_form: StudyFileForm, web_form: StudyWebForm, folder: Path):  # 
         uploads.save_uploads([upload] if upload else [], folder / "study_file")
         uploads.save_uploads(file_form.media.data or [], folder / "media")
         if not file_form.validate_on_submit():
-            return None
+            return _refused(file_form)
         studies = sorted((folder / "study_file").glob("*"))
         if not studies:
             raise InputError("choose a study file (.toml)", field="study file")
@@ -183,13 +192,14 @@ def _create(file_form: StudyFileForm, web_form: StudyWebForm, folder: Path):  # 
         for field in ("audio", "ground_truth", "tracks", "face"):
             uploads.save_uploads(getattr(web_form, field).data or [], folder / field)
         if not web_form.validate_on_submit():
-            return None
+            return _refused(web_form)
         if not (folder / "audio").is_dir() or not any((folder / "audio").iterdir()):
             raise InputError("choose at least one audio file", field="clips")
         data = _web_form_mapping(web_form, folder)
         try:
             spec = parse_study(data, source="form", base_dir=folder, confine=True)
         except InputError as exc:
+            mark_field(web_form, exc.field, exc.message)
             raise form_error(exc, data) from None
         check_study_inputs(spec)
         try:
@@ -197,8 +207,15 @@ def _create(file_form: StudyFileForm, web_form: StudyWebForm, folder: Path):  # 
             source = spec.to_portable_toml()
             return create_study(user, spec, source_toml=source)  # type: ignore[arg-type]
         except InputError as exc:
+            mark_field(web_form, exc.field, exc.message)
             raise form_error(exc, data) from None
     return None
+
+
+def _refused(form: StudyFileForm | StudyWebForm) -> None:
+    """A form its own validation refused: one line for each bad field, naming it."""
+    for line in field_errors(form):
+        flash(line, "error")
 
 
 @bp.route("/studies/new", methods=["GET", "POST"])
@@ -242,5 +259,42 @@ def new_study():  # type: ignore[no-untyped-def]
 
 def _page(file_form: StudyFileForm, web_form: StudyWebForm, kept: dict[str, list[str]]) -> str:
     return render_template(
-        "experimenter/new_study.html", file_form=file_form, web_form=web_form, kept=kept
+        "experimenter/new_study.html",
+        file_form=file_form,
+        web_form=web_form,
+        kept=kept,
+        languages=LANGUAGES,
+    )
+
+
+def study_file_reference_path() -> Path | None:
+    """docs/reference/studyfile.md: the wheel carries it as ``app/data/docs/studyfile.md``
+    (pyproject.toml's force-include), a checkout has it in its docs folder."""
+    for path in (
+        data_path("docs", "studyfile.md"),
+        Path(__file__).resolve().parents[3] / "docs" / "reference" / "studyfile.md",
+    ):
+        if path.is_file():
+            return path
+    return None
+
+
+@bp.get("/studies/new/studyfile.md")
+@login_required
+def study_file_reference():  # type: ignore[no-untyped-def]
+    """Every key a study file can say (docs/reference/studyfile.md), as text."""
+    path = study_file_reference_path()
+    if path is None:
+        abort(404)
+    return Response(path.read_bytes(), mimetype="text/plain; charset=utf-8")
+
+
+@bp.get("/studies/new/example.toml")
+@login_required
+def example_study_file():  # type: ignore[no-untyped-def]
+    """The shipped example study file (the thesis's Experiment 1 on the demo speech)."""
+    return Response(
+        data_path("examples", "study.toml").read_bytes(),
+        mimetype="text/plain; charset=utf-8",
+        headers={"Content-Disposition": 'attachment; filename="study.toml"'},
     )

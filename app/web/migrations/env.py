@@ -9,8 +9,11 @@ from alembic import context
 # access to the values within the .ini file in use.
 config = context.config
 
-# Logging from alembic.ini, without silencing the application's own loggers.
-fileConfig(config.config_file_name, disable_existing_loggers=False)
+# Logging from alembic.ini, without silencing the application's own loggers; left alone where
+# the caller set logging up already, as logging.basicConfig does (facepair demo sends these
+# INFO lines to its log file, not the terminal).
+if not logging.getLogger().handlers:
+    fileConfig(config.config_file_name, disable_existing_loggers=False)
 logger = logging.getLogger("alembic.env")
 
 

@@ -6,4 +6,4 @@ from flask import Blueprint
 bp = Blueprint("participant", __name__)
 
 # Their routes register on bp.
-from app.web.participant import audio, items, views  # noqa: E402, F401
+from app.web.participant import audio, items, renditions, views  # noqa: E402, F401

@@ -13,7 +13,6 @@ from typing import Any
 import sqlalchemy as sa
 from flask import (
     abort,
-    current_app,
     g,
     make_response,
     redirect,
@@ -25,13 +24,14 @@ from flask_babel import lazy_gettext
 from flask_wtf import FlaskForm
 from markupsafe import Markup, escape
 from sqlalchemy.exc import IntegrityError
+from werkzeug.exceptions import TooManyRequests
 from wtforms import HiddenField, SubmitField
 
 from app.trials import rules
 from app.trials.design import RATING_DESIGNS
 from app.trials.participation import ParticipationSpec
-from app.web.extensions import db, limiter
-from app.web.infra import limits
+from app.web.extensions import db
+from app.web.infra import limits, throttle
 from app.web.infra.i18n import use_language
 from app.web.infra.limits import fits
 from app.web.infra.media import media_response
@@ -47,6 +47,7 @@ from app.web.study.enrolment import (
     touch_with_progress,
     unstarted_after,
 )
+from app.web.study.participants import ended_by_browser
 from app.web.study.progress import next_trials
 from app.web.study.ratings import shown_items
 from app.web.study.studies import participation, rating_scale
@@ -105,7 +106,8 @@ def _participant(token: str) -> Participant:
 @bp.app_template_global("script_strings")
 def _script_strings(study: Study) -> dict[str, Any]:
     """The strings of ``participant.js`` for a page of ``study`` (``participant/layout.html``)."""
-    return script_strings(study.max_plays if study.replay == "max_plays" else None)
+    max_plays = study.max_plays if study.replay == "max_plays" else None
+    return script_strings(max_plays, rating=study.design in RATING_DESIGNS)
 
 
 @bp.app_template_filter("paragraphs")
@@ -142,54 +144,7 @@ def _by_prolific_id(study: Study, pid: str | None) -> Participant | None:
     )
 
 
-def _consent_address_limits() -> str:
-    return str(current_app.config.get("CONSENT_LIMIT_PER_ADDRESS") or "")
-
-
-def _consent_study_limits() -> str:
-    return str(current_app.config.get("CONSENT_LIMIT_PER_STUDY") or "")
-
-
-def _no_address_limit() -> bool:
-    return not _consent_address_limits()
-
-
-def _no_study_limit() -> bool:
-    return not _consent_study_limits()
-
-
-def _consent_address() -> str:
-    return f"consent:{request.view_args.get('slug') if request.view_args else ''}:" + (
-        request.remote_addr or "unknown"
-    )
-
-
-def _consent_study() -> str:
-    return f"consent:{request.view_args.get('slug') if request.view_args else ''}"
-
-
-def _enrolled(_response: Any) -> bool:
-    # Only a new participant counts: a resume, a refused form or the consent page do not.
-    return bool(g.get("enrolled"))
-
-
 @bp.route("/s/<slug>", methods=["GET", "POST"])
-@limiter.limit(
-    _consent_address_limits,
-    key_func=_consent_address,
-    methods=["POST"],
-    deduct_when=_enrolled,
-    exempt_when=_no_address_limit,
-    scope="consent-address",
-)
-@limiter.limit(
-    _consent_study_limits,
-    key_func=_consent_study,
-    methods=["POST"],
-    deduct_when=_enrolled,
-    exempt_when=_no_study_limit,
-    scope="consent-study",
-)
 def start(slug: str):  # type: ignore[no-untyped-def]
     study = _study(slug)
     token = request.cookies.get(_cookie_name(study))
@@ -215,6 +170,12 @@ def start(slug: str):  # type: ignore[no-untyped-def]
             column: (getattr(form, field).data or None) for field, column in PROLIFIC_FIELDS.items()
         }
         agent = limits.printable(request.user_agent.string)[:300]
+        # Counted first, in one atomic step that decides (in this transaction when the count
+        # is kept in the database, so a consent that fails takes its count back with it).
+        wait = throttle.count_consent(slug, request.remote_addr or "unknown")
+        if wait is not None:
+            db.session.rollback()
+            raise TooManyRequests(retry_after=wait)
         try:
             participant = enrol(
                 study,
@@ -226,7 +187,6 @@ def start(slug: str):  # type: ignore[no-untyped-def]
             # Read before the commit expires them: afterwards each was a query of its own.
             token, cookie = participant.token, _cookie_name(study)
             db.session.commit()
-            g.enrolled = True
             answer = make_response(redirect(url_for(".resume", token=token)))
             return _set_cookie(answer, cookie, token)
         except IntegrityError:
@@ -242,8 +202,8 @@ def start(slug: str):  # type: ignore[no-untyped-def]
 
 @bp.errorhandler(429)
 def too_many_consents(error: Any):  # type: ignore[no-untyped-def]
-    """The consent limits above: a page that says to wait (Flask-Limiter adds Retry-After),
-    in the study's language (the limit is checked before the view reads the study)."""
+    """The consent limits (:mod:`app.web.infra.throttle`): a page that says to wait, with
+    Retry-After, in the study's language."""
     slug = (request.view_args or {}).get("slug")
     if isinstance(slug, str) and fits(Study.slug, slug):
         study = db.session.scalar(sa.select(Study).where(Study.slug == slug))
@@ -251,6 +211,9 @@ def too_many_consents(error: Any):  # type: ignore[no-untyped-def]
             use_language(participation(study).language)
     response = make_response(render_template("participant/busy.html"), 429)
     response.headers["Cache-Control"] = "no-store"
+    wait = getattr(error, "retry_after", None)
+    if wait is not None:
+        response.headers["Retry-After"] = str(wait)
     return response
 
 
@@ -274,6 +237,8 @@ def _resume_known(study: Study, participant: Participant, session_id: str | None
 @bp.get("/p/<token>")
 def resume(token: str):  # type: ignore[no-untyped-def]
     participant = _participant(token)
+    if ended_by_browser(participant):
+        return redirect(url_for(".unplayable", token=token))
     if participant.finished_at is not None or participant.screened_out_at is not None:
         return redirect(url_for(".done", token=token))
     if participant.started_at is None:
@@ -284,7 +249,7 @@ def resume(token: str):  # type: ignore[no-untyped-def]
 @bp.get("/p/<token>/instructions")
 def instructions(token: str):  # type: ignore[no-untyped-def]
     participant = _participant(token)
-    if participant.started_at is not None:
+    if participant.started_at is not None or ended_by_browser(participant):
         # The back button after a vote: the practice is over, the study goes on.
         return redirect(url_for(".resume", token=token))
     practice = practice_stimulus(participant)
@@ -334,6 +299,8 @@ def _no_store(body: str):  # type: ignore[no-untyped-def]
 def trial(token: str):  # type: ignore[no-untyped-def]
     participant = _participant(token)
     study = participant.study
+    if ended_by_browser(participant):
+        return redirect(url_for(".unplayable", token=token))
     if participant.screened_out_at is not None:
         return redirect(url_for(".done", token=token))
     if participant.started_at is None and audiocheck.pending(participant):
@@ -418,12 +385,12 @@ def practice_video(token: str):  # type: ignore[no-untyped-def]
     return _send_video(participant.study, stimulus.video_path, "practice.mp4")
 
 
-def _send_video(study: Study, rel: str | None, name: str):  # type: ignore[no-untyped-def]
+def _send_video(study: Study, rel: str | None, name: str, mimetype: str = "video/mp4"):  # type: ignore[no-untyped-def]
     # Blinding: the browser is told only the pair's place in this participant's schedule,
     # never the stored name (docs/reference/web.md, "Blinding"); the caller checked the clip is in
     # this participant's schedule (app.web.infra.media sends it, never first).
     return media_response(
-        study, rel, mimetype="video/mp4", cache_seconds=CLIP_CACHE_SECONDS, download_name=name
+        study, rel, mimetype=mimetype, cache_seconds=CLIP_CACHE_SECONDS, download_name=name
     )
 
 

@@ -24,6 +24,7 @@ from app.web.models import Participant
 from app.web.questionnaire import bp
 from app.web.study.questionnaires import pending_page, save_answers, study_questions
 from app.web.study.studies import participation
+from app.web.study.wording import question_words
 
 
 @bp.app_template_filter("bound")
@@ -121,6 +122,7 @@ def page(token: str, page: str):  # type: ignore[no-untyped-def]
         participant=participant,
         page=page,
         questions=questions,
+        words={q.name: question_words(q) for q in questions},
         values=values,
         errors=errors,
         form=form,

@@ -155,16 +155,121 @@
     });
   }
 
-  // A clip that fails to load before it was `loaded()` is asked for again by `load`, after
-  // 2, 4, 8 ... seconds (at most 15); `shown` says so on the page.
-  function reloadOnError(video, loaded, load, shown) {
-    var attempts = 0;
-    video.addEventListener("error", function () {
-      if (loaded()) return;
-      attempts += 1;
-      shown();
-      window.setTimeout(load, Math.min(15000, 1000 * Math.pow(2, attempts)));
+  // The renditions of a clip a page may offer (app.web.participant.renditions): the MP4
+  // (H.264 + AAC), and where the clip has one its WebM (VP9 + Opus), for browsers without
+  // H.264 (WebKitGTK without its codec plugins, some Linux builds of Firefox).
+  var MP4 = 'video/mp4; codecs="avc1.640028, mp4a.40.2"';
+  var WEBM = 'video/webm; codecs="vp9, opus"';
+
+  // The renditions `video` may play, in the page's order (MP4, then WebM): those the browser
+  // expects to play with their codecs first, then those it only knows the container of; a
+  // rendition it rules out ("") is never asked for.
+  function playable(video, mp4Url, webmUrl) {
+    var offered = [{ url: mp4Url, type: MP4 }];
+    if (webmUrl) offered.push({ url: webmUrl, type: WEBM });
+    var sure = [], unsure = [];
+    offered.forEach(function (source) {
+      if (video.canPlayType(source.type)) sure.push(source);
+      else if (video.canPlayType(source.type.split(";")[0])) unsure.push(source);
     });
+    return sure.concat(unsure);
+  }
+
+  // Whether the server sent `url` (2xx, or a redirect to the media store): asked when the
+  // browser refuses a clip as a format it cannot play, since a browser says the same of a
+  // missing file or an error page. `answer(true | false)`; a lost connection is false.
+  function served(url, answer) {
+    fetch(url, {
+      credentials: "same-origin", cache: "no-store", redirect: "manual",
+      headers: { Range: "bytes=0-1" }
+    }).then(function (response) {
+      if (response.body && response.body.cancel) response.body.cancel().catch(function () {});
+      answer(response.type === "opaqueredirect" || response.ok);
+    }, function () { answer(false); });
+  }
+
+  // A clip played from the first of its renditions this browser can play. `show(mp4, webm)`
+  // asks for a clip; one that fails before its first frame is asked for again after 2, 4, 8
+  // ... seconds (at most 15; `retrying()` says so on the page), unless the server sent it and
+  // the browser could not play it (MEDIA_ERR_SRC_NOT_SUPPORTED or MEDIA_ERR_DECODE): that is
+  // final for this rendition, and the next one is tried. With none left `unplayable()` ends
+  // the session, unless this browser has played one of these kinds of clip before (then a
+  // clip it refuses is the server's trouble: asked for again, from the first). A player taken
+  // off the page asks for nothing more.
+  function ClipSource(video, retrying, unplayable) {
+    var sources = [], index = 0, attempts = 0, ready = false, timer = null;
+    var playedName = "fp-played-types";
+    function load() {
+      window.clearTimeout(timer);
+      if (!video.isConnected) return;
+      var source = sources[index];
+      if (!source) { unplayable(); return; }
+      video.preload = "auto";
+      video.src = source.url;
+      video.load();
+    }
+    function later() {
+      attempts += 1;
+      retrying();
+      timer = window.setTimeout(load, Math.min(15000, 1000 * Math.pow(2, attempts)));
+    }
+    video.addEventListener("loadeddata", function () {
+      ready = true;
+      var played = load_(playedName) || {};
+      if (sources[index] && !played[sources[index].type]) {
+        played[sources[index].type] = true;
+        store(playedName, played);
+      }
+    });
+    video.addEventListener("error", function () {
+      var source = sources[index];
+      if (ready || !source || video.getAttribute("src") !== source.url) return;
+      var code = video.error ? video.error.code : 0;
+      if (code !== 3 && code !== 4) { later(); return; }
+      served(source.url, function (sent) {
+        if (!sent) { later(); return; }
+        index += 1;
+        attempts = 0;
+        var played = load_(playedName) || {};
+        var before = sources.some(function (s) { return played[s.type]; });
+        if (index >= sources.length && before) {
+          index = 0;
+          later();
+        } else load();
+      });
+    });
+    this.show = function (mp4Url, webmUrl) {
+      sources = playable(video, mp4Url, webmUrl);
+      index = 0;
+      attempts = 0;
+      ready = false;
+      load();
+    };
+    // The rendition being played: WEBM, MP4, or null before the first.
+    this.type = function () { return sources[index] ? sources[index].type : null; };
+  }
+
+  // The browser plays none of a clip's renditions: the server ends the session (its list slot
+  // goes to the next participant) and names the final page, which replaces this one. Sent
+  // again, as a vote is, until the server has it; refused (a finished participant), nothing.
+  function endUnplayable(url) {
+    var attempt = 0;
+    function again() {
+      attempt += 1;
+      resendLater(retryWait(attempt, null), send);
+    }
+    function send() {
+      fetch(url, {
+        method: "POST", credentials: "same-origin", cache: "no-store",
+        headers: { Accept: "application/json" }
+      }).then(function (response) {
+        if (response.status >= 500) return again();
+        return response.json().then(function (body) {
+          if (response.ok && body.next) window.location.replace(body.next);
+        });
+      }, again);
+    }
+    send();
   }
 
   // How much of the clip has arrived, in percent, or null before the browser knows.
@@ -211,7 +316,8 @@
   window.facepairVotes = { action: voteAction, wait: retryWait, MediaLog: MediaLog, store: store,
                            load: load_, newKey: newKey, post: postAnswer, later: resendLater,
                            requestPlay: requestPlay, buffered: bufferedPercent,
-                           playFromStart: playFromStart, reloadOnError: reloadOnError,
+                           playFromStart: playFromStart, ClipSource: ClipSource,
+                           endUnplayable: endUnplayable, WEBM: WEBM,
                            showInPlace: showInPlace };
 
   // The page's words, in the study's language (app.web.study.wording.script_strings).
@@ -302,9 +408,11 @@
       loading.hidden = true;
       update();
       if (!practice) playButton.focus();
-      // While this pair is judged, the next clip comes into the browser's cache.
-      if (d.preloadUrl && window.fetch) {
-        fetch(d.preloadUrl, { credentials: "same-origin" }).then(function (r) {
+      // While this pair is judged, the next clip comes into the browser's cache, in the
+      // rendition this one plays in.
+      var preload = clip.type() === WEBM && d.preloadWebmUrl ? d.preloadWebmUrl : d.preloadUrl;
+      if (preload && window.fetch) {
+        fetch(preload, { credentials: "same-origin" }).then(function (r) {
           return r.blob();
         }).catch(function () { /* fetched again when its page opens */ });
       }
@@ -319,16 +427,12 @@
       overlayText.textContent = fmt(T.loading_percent, { percent: percent });
     }
 
-    function load() {
-      video.preload = "auto";
-      video.src = d.videoUrl;
-      video.load();
-    }
+    var clip = new ClipSource(video, function () {
+      overlayText.textContent = T.load_retry;
+    }, function () { endUnplayable(d.unplayableUrl); });
+    function load() { clip.show(d.videoUrl, d.webmUrl); }
     video.addEventListener("progress", showProgress);
     video.addEventListener("loadeddata", ready);
-    reloadOnError(video, function () { return state.loaded; }, load, function () {
-      overlayText.textContent = T.load_retry;
-    });
 
     function start() {
       playFromStart(video, media, state, overlay, update, function () {
@@ -514,8 +618,12 @@
     d.trialId = String(next.trial_id);
     d.plays = String(next.plays);
     d.videoUrl = next.video_url;
+    if (next.webm_url) d.webmUrl = next.webm_url;
+    else delete d.webmUrl;
     if (next.preload_url) d.preloadUrl = next.preload_url;
     else delete d.preloadUrl;
+    if (next.preload_webm_url) d.preloadWebmUrl = next.preload_webm_url;
+    else delete d.preloadWebmUrl;
     showInPlace(
       root, fresh, fmt(T.pair_of, { number: body.answered + 1, total: body.total }),
       body.answered, body.total,

@@ -34,6 +34,11 @@
     var next = root.querySelector(".next");
     var pendingName = "fp-pending-rating-" + d.token;
     var media = new shared.MediaLog(video);
+    // The clip from the first rendition this browser plays (static/participant.js); a browser
+    // that plays none ends the session.
+    var clip = new shared.ClipSource(video, function () {
+      overlayText.textContent = T.load_retry;
+    }, function () { if (!retired) shared.endUnplayable(d.unplayableUrl); });
     var state = { playing: false, plays: parseInt(d.plays || "0", 10), watched: false,
                   firstPlay: null, presentedAt: null, sent: false, requesting: false, attempt: 0 };
     // Replaced by the next clip's rater: nothing more is sent from this one.
@@ -73,7 +78,7 @@
           say(fmt(T.closed, { reason: body.message || T.study_closed }), "error");
         } else {
           state.sent = false;
-          say(T.refused_rating, "error");
+          say(parallel ? T.refused_parallel : T.refused_rating, "error");
           if (page) page.update();
         }
       });
@@ -118,7 +123,10 @@
       shared.playFromStart(video, media, state, overlay, function () {
         if (page) page.update();
       }, function () {
-        overlayText.textContent = coarse ? T.start_tap : T.start_press;
+        // The parallel page has no Play button: the version's own button starts it.
+        overlayText.textContent = parallel ?
+          (coarse ? T.parallel_start_tap : T.parallel_start_press) :
+          (coarse ? T.start_tap : T.start_press);
       });
     }
 
@@ -164,9 +172,7 @@
       }
       function load() {
         if (retired) return;  // a retry timer of a clip rated before it loaded
-        video.preload = "auto";
-        video.src = d.videoUrl;
-        video.load();
+        clip.show(d.videoUrl, d.webmUrl);
       }
       video.addEventListener("loadeddata", function () {
         if (loaded) return;
@@ -177,9 +183,12 @@
         loading.hidden = true;
         update();
         playButton.focus();
-        // While this clip is rated, the next one comes into the browser's cache.
-        if (d.preloadUrl && window.fetch) {
-          fetch(d.preloadUrl, { credentials: "same-origin" }).then(function (r) {
+        // While this clip is rated, the next one comes into the browser's cache, in the
+        // rendition this one plays in.
+        var preload = clip.type() === shared.WEBM && d.preloadWebmUrl ? d.preloadWebmUrl :
+          d.preloadUrl;
+        if (preload && window.fetch) {
+          fetch(preload, { credentials: "same-origin" }).then(function (r) {
             return r.blob();
           }).catch(function () { /* fetched again when it is shown */ });
         }
@@ -189,9 +198,6 @@
         if (loaded || percent === null) return;
         loading.value = percent;
         overlayText.textContent = fmt(T.loading_percent, { percent: percent });
-      });
-      shared.reloadOnError(video, function () { return loaded; }, load, function () {
-        overlayText.textContent = T.load_retry;
       });
       video.addEventListener("ended", function () {
         state.playing = false;
@@ -243,7 +249,7 @@
     function parallelPage() {
       var buttons = root.querySelectorAll(".item-play");
       var sliders = root.querySelectorAll("input[type=range]");
-      var played = {}, moved = {}, shownItem = null;
+      var played = {}, moved = {}, shownItem = null, shownUrl = null;
 
       function complete() {
         for (var i = 0; i < sliders.length; i++) {
@@ -254,13 +260,15 @@
       function update() {
         for (var i = 0; i < buttons.length; i++) {
           var item = buttons[i].dataset.item;
-          buttons[i].disabled = state.sent || state.requesting;
+          // Not disabled while a play is asked for (playItem ignores a press meanwhile): a
+          // disabled button loses the keyboard's focus, and the Tab key its place.
+          buttons[i].disabled = state.sent;
           buttons[i].classList.toggle("played", Boolean(played[item]));
           buttons[i].classList.toggle("playing", state.playing && shownItem === item);
         }
         for (var j = 0; j < sliders.length; j++) sliders[j].disabled = state.sent;
         next.disabled = state.sent || !complete();
-        if (!state.sent) hint.textContent = complete() ? T.hint_rate : T.hint_parallel;
+        if (!state.sent) hint.textContent = complete() ? T.hint_parallel_done : T.hint_parallel;
       }
       function playItem(item) {
         if (state.sent || state.requesting) return;
@@ -268,9 +276,12 @@
         askPlay(function () {
           shownItem = item;
           var url = item === "reference" ? d.referenceUrl : d.itemUrl + item;
-          if (video.getAttribute("src") !== url) {
-            video.src = url;
-            video.load();
+          var webm = !d.itemWebmUrl ? null :
+            item === "reference" ? d.referenceWebmUrl : d.itemWebmUrl + item;
+          // the version on screen is played again as it is; another is asked for
+          if (shownUrl !== url) {
+            shownUrl = url;
+            clip.show(url, webm);
           }
           start();
         }, function () { say(T.no_more_plays, "error"); update(); });
@@ -307,7 +318,8 @@
       return {
         update: update,
         begin: function () {
-          overlayText.textContent = coarse ? T.hint_watch_tap : T.hint_watch_press;
+          overlayText.textContent = coarse ? T.hint_parallel_start_tap :
+            T.hint_parallel_start_press;
           loading.hidden = true;
           update();
         },
@@ -346,10 +358,21 @@
       if (next.items !== fresh.querySelectorAll("input[type=range]").length) return false;
       d.referenceUrl = next.reference_url;
       d.itemUrl = next.item_url;
+      if (next.item_webm_url) {
+        d.referenceWebmUrl = next.reference_webm_url;
+        d.itemWebmUrl = next.item_webm_url;
+      } else {
+        delete d.referenceWebmUrl;
+        delete d.itemWebmUrl;
+      }
     } else {
       d.videoUrl = next.video_url;
+      if (next.webm_url) d.webmUrl = next.webm_url;
+      else delete d.webmUrl;
       if (next.preload_url) d.preloadUrl = next.preload_url;
       else delete d.preloadUrl;
+      if (next.preload_webm_url) d.preloadWebmUrl = next.preload_webm_url;
+      else delete d.preloadWebmUrl;
     }
     d.trialId = String(next.trial_id);
     d.plays = String(next.plays);

@@ -18,8 +18,9 @@ line naming the first bad field, so a hostile or broken client never causes a 5x
 
 from __future__ import annotations
 
-import re
 from typing import Any, Final
+
+from app.web.study.useragent import browser_of
 
 #: Summary fields stored as vote columns (and exported), with their upper bounds.
 MEDIA_COUNTS: Final = {
@@ -40,16 +41,6 @@ ENVIRONMENT_COUNTS: Final = {
     "viewport_h": 100_000,
     "face_px": 100_000,
 }
-
-# Order matters: Edge and Opera announce Chrome too, Chrome announces Safari.
-_BROWSERS: Final = (
-    ("Edge", r"Edg(?:e|A|iOS)?/(\d+)"),
-    ("Opera", r"OPR/(\d+)"),
-    ("Samsung Internet", r"SamsungBrowser/(\d+)"),
-    ("Firefox", r"(?:Firefox|FxiOS)/(\d+)"),
-    ("Chrome", r"(?:Chrome|CriOS)/(\d+)"),
-    ("Safari", r"Version/(\d+)[.\d]* (?:Mobile/\S+ )?Safari/"),
-)
 
 
 class MediaLogError(ValueError):
@@ -93,18 +84,6 @@ def media_fields(media: Any) -> tuple[dict[str, Any], dict[str, Any]]:
         for d in durations[:MAX_STALLS_KEPT]
     ]
     return columns, {k: v for k, v in log.items() if v is not None}
-
-
-def browser_of(user_agent: str) -> tuple[str, str]:
-    """(family, major version) read from a User-Agent header; ("other", "") if unknown.
-
-    Parsed on the server from the header every request carries, not fingerprinted in the page.
-    """
-    for family, pattern in _BROWSERS:
-        found = re.search(pattern, user_agent)
-        if found:
-            return family, found.group(1)
-    return "other", ""
 
 
 def environment_fields(payload: Any, user_agent: str, *, min_face_px: int) -> dict[str, Any]:

@@ -10,9 +10,10 @@ import datetime as dt
 import io
 import json
 import platform
+import tomllib
 import zipfile
 from importlib.metadata import PackageNotFoundError, version
-from pathlib import Path
+from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Any
 
 import sqlalchemy as sa
@@ -31,6 +32,8 @@ from app.analysis.package import (
 )
 from app.errors import InputError
 from app.trials.design import RATING_DESIGNS
+from app.trials.fields import upload_name
+from app.trials.studyfile import loads_study
 from app.web.extensions import db
 from app.web.infra import media
 from app.web.infra.storage import report_path
@@ -88,6 +91,8 @@ def media_manifest(study: Study) -> list[dict[str, Any]]:
         if s.foreign_side:
             shown += f" (mismatched {s.foreign_side})"
         entries.append(("video", shown, s.video_path or ""))
+        if s.webm_path:  # the same clip for browsers without H.264: some saw this file
+            entries.append(("video (WebM)", shown, s.webm_path))
     out = []
     for kind, name, rel in entries:
         path = media.fetch(study, rel)
@@ -100,6 +105,41 @@ def media_manifest(study: Study) -> list[dict[str, Any]]:
             }
         )
     return out
+
+
+def _absolute(path: str) -> bool:
+    return PurePosixPath(path).is_absolute() or PureWindowsPath(path).is_absolute()
+
+
+def packaged_study_file(text: str) -> str:
+    """The study file as the package holds it: as it was written, but every file it names by
+    an absolute path (a study file read on the server, ``facepair study create``) named by its
+    file name, as the web form's study file names them: a package never names a server path.
+
+    >>> print(packaged_study_file('[[clips]]\\nname = "s1"\\naudio = "/srv/lab/s1.wav"\\n'), end="")
+    [[clips]]
+    name = "s1"
+    audio = "s1.wav"
+    """
+    try:
+        document = tomllib.loads(text)
+    except tomllib.TOMLDecodeError:
+        return text
+    named: list[Any] = [document.get("render", {}).get("face")]
+    for clip in document.get("clips", []):
+        named += [clip.get("audio"), clip.get("ground_truth")]
+    for condition in document.get("conditions", []):
+        named += list(condition.get("tracks", {}).values())
+    for path in {p for p in named if isinstance(p, str) and _absolute(p)}:
+        for literal in (json.dumps(path, ensure_ascii=False), f"'{path}'"):
+            text = text.replace(literal, json.dumps(upload_name(path), ensure_ascii=False))
+    if any(isinstance(p, str) and _absolute(p) and p in text for p in named):
+        # written with escapes the plain forms above miss: the study as the file it amounts to
+        try:
+            return loads_study(text, check_files=False).to_portable_toml()
+        except InputError:  # a file of an older schema: as written
+            return text
+    return text
 
 
 def build_package(study: Study) -> bytes:
@@ -117,8 +157,12 @@ def build_package(study: Study) -> bytes:
             "no report yet: close the study (or press Write report) first", field="package"
         )
     results = json.loads(report[RESULTS]) if RESULTS in report else None
+    if results is not None and results.get("input", {}).get("source") not in (None, table):
+        # a report written before reports named their table by its place: the server's path
+        results["input"]["source"] = table
+        report[RESULTS] = (json.dumps(results, indent=1, allow_nan=False) + "\n").encode()
     members: dict[str, bytes] = {
-        "study.toml": study.source_toml.encode("utf-8"),
+        "study.toml": packaged_study_file(study.source_toml).encode("utf-8"),
         **report,
         "participants.csv": participants_csv(study).encode("utf-8"),
         "answers.csv": answers_csv(study).encode("utf-8"),

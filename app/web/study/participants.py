@@ -12,6 +12,10 @@ answered by :func:`exclusion_reason`: pilot participants, excluded, returned and
 ones, and those caught by the study's automatic rules (:data:`AUTO_RULES`, set by the study
 file's ``auto_exclude``) are left out, each with the reason the report prints.
 
+A participant whose browser plays none of the clips' renditions (no H.264, and no WebM/VP9 or
+none offered) is excluded by the study itself, with that reason (:func:`end_for_browser`): the
+page reports it, and the session ends there.
+
 An excluded or returned participant gives their list slot back
 (``app.web.study.enrolment.move_slot``), so the next arrival fills the gap in the
 counterbalancing, and so does a participant who finishes having failed a catch trial (under
@@ -213,6 +217,37 @@ def remove(participant: Participant, *, how: str, reason: str) -> None:
     participant.exclusion_kind = how
     participant.exclusion_reason = reason[:300]
     _give_back_slot(participant)
+
+
+#: ``exclusion_kind`` of a participant whose browser played none of the clips' renditions.
+BROWSER = "browser"
+
+
+def browser_reason(webm_offered: bool) -> str:
+    """Why a participant whose browser played no rendition is left out: which renditions the
+    page offered (a study rendered before renditions offered the MP4 alone)."""
+    if webm_offered:
+        return "browser cannot play the clips (no H.264 or WebM/VP9)"
+    return "browser cannot play the clips (no H.264; no WebM offered)"
+
+
+def end_for_browser(participant: Participant, *, webm_offered: bool) -> bool:
+    """End the session of ``participant``, whose browser could play none of the renditions
+    offered: excluded (kind :data:`BROWSER`, :func:`browser_reason`), the list slot given back
+    at once rather than after the idle limit. False, and nothing changed, when they are
+    already out. Not committed."""
+    if participant.excluded_at is not None:
+        return False
+    participant.excluded_at = utcnow()
+    participant.exclusion_kind = BROWSER
+    participant.exclusion_reason = browser_reason(webm_offered)
+    _give_back_slot(participant)
+    return True
+
+
+def ended_by_browser(participant: Participant) -> bool:
+    """Whether the participant's session ended because their browser played no clip."""
+    return participant.excluded_at is not None and participant.exclusion_kind == BROWSER
 
 
 def restore(participant: Participant) -> None:

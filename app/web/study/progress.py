@@ -70,11 +70,12 @@ def _unanswered(rated: bool = False) -> sa.Select[tuple[Trial]]:
 def upcoming(rated: bool = False) -> sa.Select[Any]:
     """The bound participant's next trial without a vote, as the trial page shows it: one
     row (none when every trial is answered) with what the page needs of it (its plays, kind,
-    expected answer, its stimulus's on-screen instruction) and the id of the trial after it,
-    whose clip is preloaded (NULL when it is the last). The vote's answer carries it
-    (:func:`app.web.study.votes.record_vote`), so the browser needs no trial page per pair. One pass
-    over the participant's trials: the one after comes from ``lead`` over the same rows, and the
-    instruction is read for the one row kept."""
+    expected answer, its stimulus's on-screen instruction and WebM rendition) and the id of
+    the trial after it, whose clip is preloaded (NULL when it is the last), with its WebM.
+    The vote's answer carries it (:func:`app.web.study.votes.record_vote`), so the browser
+    needs no trial page per pair. One pass over the participant's trials: the one after comes
+    from ``lead`` over the same rows, and the instruction and WebMs are read for the one row
+    kept."""
     pending = (
         _without_vote(
             sa.select(
@@ -84,6 +85,9 @@ def upcoming(rated: bool = False) -> sa.Select[Any]:
                 Trial.expected,
                 Trial.stimulus_id,
                 sa.func.lead(Trial.id).over(order_by=Trial.position).label("following"),
+                sa.func.lead(Trial.stimulus_id)
+                .over(order_by=Trial.position)
+                .label("following_stimulus_id"),
             ),
             rated,
         )
@@ -96,6 +100,15 @@ def upcoming(rated: bool = False) -> sa.Select[Any]:
         .scalar_subquery()
         .label("instruction")
     )
+
+    def webm(stimulus_id: Any, name: str) -> Any:
+        return (
+            sa.select(Stimulus.webm_path)
+            .where(Stimulus.id == stimulus_id)
+            .scalar_subquery()
+            .label(name)
+        )
+
     return sa.select(
         pending.c.trial_id,
         pending.c.plays,
@@ -103,6 +116,8 @@ def upcoming(rated: bool = False) -> sa.Select[Any]:
         pending.c.expected,
         instruction,
         pending.c.following,
+        webm(pending.c.stimulus_id, "webm"),
+        webm(pending.c.following_stimulus_id, "following_webm"),
     )
 
 
@@ -110,7 +125,8 @@ def upcoming(rated: bool = False) -> sa.Select[Any]:
 def progress_and_upcoming(rated: bool = False) -> sa.Select[Any]:
     """:func:`progress_counts` and :func:`upcoming`'s columns in one row, for the bound
     ``participant_id``: (answered, total, trial_id, plays, kind, expected, instruction,
-    following), the upcoming columns NULL when every trial is answered. What a vote's answer
+    following, webm, following_webm), the upcoming columns NULL when every trial is
+    answered. What a vote's answer
     needs, read in one round trip after the vote is stored."""
     answered, total = progress_counts(rated)
     counts_row = sa.select(answered.label("answered"), total.label("total")).subquery("progress")
@@ -123,8 +139,8 @@ def next_trial_of(
 ) -> SimpleNamespace | None:
     """The next trial in a :func:`progress_and_upcoming` row, as an answer carries it to the
     page (its id, plays, kind, expected answer, instruction and the trial after it, None where
-    ``preload`` is false), or None: every trial answered, the participant screened out, or no
-    trial left unanswered."""
+    ``preload`` is false; ``webm`` and ``following_webm``: whether each has its WebM), or
+    None: every trial answered, the participant screened out, or no trial left unanswered."""
     if answered >= total or participant.screened_out_at is not None or row.trial_id is None:
         return None
     return SimpleNamespace(
@@ -134,6 +150,8 @@ def next_trial_of(
         expected=row.expected,
         instruction=row.instruction,
         following=row.following if preload else None,
+        webm=row.webm is not None,
+        following_webm=preload and row.following_webm is not None,
     )
 
 

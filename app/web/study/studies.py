@@ -187,6 +187,8 @@ def create_study(
             "posture": spec.posture,
             "lips": spec.lips,
             "brows": spec.brows,
+            # [meshes]: the stored copies of its files, set in _media_rows
+            "mesh_eyes": spec.mesh_eyes,
             "pad": spec.pad,
             "normalize": spec.normalize,
             "rejoin": spec.rejoin,
@@ -213,7 +215,11 @@ def create_study(
 
 
 def _media_rows(study: Study, spec: StudySpec) -> None:
-    """Clips and conditions, their audio and tracks copied into the study's folder."""
+    """Clips and conditions, their audio and tracks copied into the study's folder (a mesh
+    condition's with the files it is read with: :mod:`app.web.study.meshmedia`)."""
+    from app.web.study.meshmedia import copy_mesh_files, copy_siblings
+
+    mesh_files: list[str] = []
     for position, clip in enumerate(spec.clips):
         audio = _copy(study, clip.audio, f"clips/{clip.name}/audio{clip.audio.suffix.lower()}")
         truth = None
@@ -223,6 +229,7 @@ def _media_rows(study: Study, spec: StudySpec) -> None:
                 clip.ground_truth,
                 f"clips/{clip.name}/ground_truth{clip.ground_truth.suffix.lower()}",
             )
+            mesh_files += copy_siblings(study, clip.ground_truth, truth, _copy)
         study.clips.append(
             Clip(name=clip.name, audio_path=audio, ground_truth_path=truth, position=position)
         )
@@ -241,15 +248,23 @@ def _media_rows(study: Study, spec: StudySpec) -> None:
             clip: _copy(study, Path(path), f"uploads/{cond.name}/{clip}/{_stored_name(path)}")
             for clip, path in cond.tracks.items()
         }
+        for clip, path in cond.tracks.items():
+            mesh_files += copy_siblings(study, Path(path), uploads[clip], _copy)
+        params = dict(cond.settings)
+        if cond.mesh:
+            params["mesh"] = copy_mesh_files(study, cond.mesh, f"meshes/{cond.name}", _copy)
         study.conditions.append(
             Condition(
                 name=cond.name,
                 model=cond.model or "upload",
-                params=dict(cond.settings),
+                params=params,
                 uploads=uploads,
                 position=position,
             )
         )
+    meshes = copy_mesh_files(study, spec.meshes, "meshes", _copy) if spec.meshes else {}
+    if meshes or mesh_files:
+        study.settings = {**study.settings, "meshes": meshes, "mesh_files": mesh_files}
     db.session.flush()
 
 
@@ -351,7 +366,8 @@ def duplicate_study(study: Study, owner: User, *, with_clips: bool) -> Study:
     db.session.add(copy)
     db.session.flush()
     source, target = media_dir(study), media_dir(copy)
-    kept = ("clips", "uploads", "render") + (("tracks", "videos") if with_clips else ())
+    # meshes: the [meshes] files of a study of mesh conditions (app.web.study.meshmedia)
+    kept = ("clips", "uploads", "render", "meshes") + (("tracks", "videos") if with_clips else ())
     for folder in kept:
         if (source / folder).is_dir():
             shutil.copytree(source / folder, target / folder, dirs_exist_ok=True)
@@ -396,6 +412,7 @@ def duplicate_study(study: Study, owner: User, *, with_clips: bool) -> Study:
             foreign_side=s.foreign_side,
             foreign_clip_id=clips[s.foreign_clip_id].id if s.foreign_clip_id else None,
             video_path=s.video_path if with_clips else None,
+            webm_path=s.webm_path if with_clips else None,
         )
         for s in stimuli
     )

@@ -8,12 +8,13 @@ language; it formats ``%(name)s`` placeholders itself, so every language orders 
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 from flask_babel import gettext as _
-from flask_babel import lazy_gettext, ngettext
+from flask_babel import lazy_gettext, ngettext, pgettext
 
 from app.trials import rules
+from app.trials.questions import DEMOGRAPHICS, QuestionSpec
 from app.trials.rating import ACR_LEVELS
 from app.web.study.enrolment import SESSION_ENDED
 from app.web.study.votes import SCREENED_OUT
@@ -45,6 +46,77 @@ SIDE_NAMES = {
     "right": lazy_gettext("right"),
     "undecided": lazy_gettext("undecided"),
 }
+
+
+def demographic_words() -> dict[str, str]:
+    """The built-in demographic questions (:data:`app.trials.questions.DEMOGRAPHICS`) and their
+    options with words in them, by their English text, in the page's language: facepair's own
+    words. The answer stored and exported stays the option as written there.
+
+    Each is looked up in the catalogue's context ``demographics`` (gettext's ``msgctxt``):
+    short words such as "none", "no" or "other" are translated as answers to these questions
+    ("none": no experience with animation), which would be wrong anywhere else.
+    """
+    return {
+        "Your age": pgettext("demographics", "Your age"),
+        "65 or over": pgettext("demographics", "65 or over"),
+        "prefer not to say": pgettext("demographics", "prefer not to say"),
+        "Your gender": pgettext("demographics", "Your gender"),
+        "female": pgettext("demographics", "female"),
+        "male": pgettext("demographics", "male"),
+        "non-binary": pgettext("demographics", "non-binary"),
+        "other": pgettext("demographics", "other"),
+        "Your native language": pgettext("demographics", "Your native language"),
+        "Do you wear glasses or contact lenses to see a screen?": pgettext(
+            "demographics", "Do you wear glasses or contact lenses to see a screen?"
+        ),
+        "no": pgettext("demographics", "no"),
+        "yes, and I am wearing them now": pgettext(
+            "demographics", "yes, and I am wearing them now"
+        ),
+        "yes, but I am not wearing them now": pgettext(
+            "demographics", "yes, but I am not wearing them now"
+        ),
+        "Your experience with computer animation": pgettext(
+            "demographics", "Your experience with computer animation"
+        ),
+        "none": pgettext("demographics", "none"),
+        "I watch animated films or play games": pgettext(
+            "demographics", "I watch animated films or play games"
+        ),
+        "I have made animations": pgettext("demographics", "I have made animations"),
+        "I work in animation": pgettext("demographics", "I work in animation"),
+    }
+
+
+class QuestionWords(NamedTuple):
+    """A questionnaire question as its page shows it."""
+
+    #: The question.
+    text: str
+    #: Each option as (the answer stored and exported, the label shown).
+    options: tuple[tuple[str, str], ...]
+    #: facepair's own words (a built-in demographic question, translated), not the study
+    #: file's (shown as written, in the study's language).
+    builtin: bool
+
+
+def question_words(question: QuestionSpec) -> QuestionWords:
+    """``question``'s text and options in the page's language: a built-in demographic
+    question (as the study file's ``demographics = true`` added it) through the catalogue,
+    the study's own questions as written. Options keep their stored value either way, so
+    ``answers.csv`` reads the same in every language."""
+    if question not in DEMOGRAPHICS:
+        return QuestionWords(question.text, tuple((c, c) for c in question.choices), False)
+
+    words = demographic_words()
+
+    def word(text: str) -> str:
+        return words.get(text, text)
+
+    options = tuple((choice, word(choice)) for choice in question.choices)
+    return QuestionWords(word(question.text), options, True)
+
 
 #: Why a session or study takes no more answers, as the services say it (English, in the API's
 #: ``error``), and as the participant reads it (one or two whole sentences).
@@ -78,9 +150,11 @@ def ended_reason(message: str) -> str:
     return str(found) if found is not None else message
 
 
-def script_strings(max_plays: int | None = None) -> dict[str, Any]:
-    """What ``participant.js`` says, in the page's language. ``plays_left[n]`` is the text for
-    ``n`` plays left (``n`` up to ``max_plays``: each language has its own plural forms)."""
+def script_strings(max_plays: int | None = None, *, rating: bool = False) -> dict[str, Any]:
+    """What ``participant.js`` (and ``rating.js``) says, in the page's language. ``plays_left[n]``
+    is the text for ``n`` plays left (``n`` up to ``max_plays``: each language has its own
+    plural forms); ``rating``: a page of the rating designs, where a trial is a clip, not a
+    pair."""
     return {
         "play": _("Play"),
         "play_again": _("Play again"),
@@ -105,7 +179,9 @@ def script_strings(max_plays: int | None = None) -> dict[str, Any]:
         # Python's format: %% is one percent sign.
         "loading_percent": _("Loading… %(percent)s%%"),
         "load_retry": _("Could not load the video, retrying…"),
-        "no_more_plays": _("No more plays of this pair."),
+        "no_more_plays": (
+            _("No more plays of this clip.") if rating else _("No more plays of this pair.")
+        ),
         "offline": _(
             "No connection to the server. Your answer (%(choice)s) is kept on this page and "
             "will be sent automatically; please keep this page open. Retrying in "
@@ -135,9 +211,20 @@ def script_strings(max_plays: int | None = None) -> dict[str, Any]:
         "hint_watch_press": _("Press Play (or Space) to watch the face."),
         "hint_rate": _("Rate the face you saw."),
         "hint_slider": _("Move the slider to your rating, then press Next."),
+        # the parallel design: no Play button, the reference and each version have their own
         "hint_parallel": _(
             "Play every version and move its slider; Next is enabled once each version was "
             "played and rated."
+        ),
+        "hint_parallel_start_tap": _("Tap “Reference” or a version's number to watch it."),
+        "hint_parallel_start_press": _("Click “Reference” or a version's number to watch it."),
+        "hint_parallel_done": _(
+            "Every version is played and rated: press Next, or change a rating first."
+        ),
+        "parallel_start_tap": _("Please tap the button again to start"),
+        "parallel_start_press": _("Please press the button again to start"),
+        "refused_parallel": _(
+            "Your ratings were not accepted. Please play every version, then rate them again."
         ),
         "offline_rating": _(
             "No connection to the server. Your rating is kept on this page and will be sent "
