@@ -58,7 +58,18 @@ def main() -> None:
 
 
 def _register() -> None:
-    from app.commands import analyze, capture, face, plan, render, stimuli, studies, web
+    from app.commands import (
+        analyze,
+        capture,
+        face,
+        leaderboard,
+        plan,
+        prolific,
+        render,
+        stimuli,
+        studies,
+        web,
+    )
 
     main.add_command(stimuli.stimuli)
     main.add_command(capture.capture)
@@ -68,6 +79,8 @@ def _register() -> None:
     main.add_command(plan.plan)
     web.register(main)
     studies.register(main)
+    prolific.register(main)
+    leaderboard.register(main)
 
 
 _register()

@@ -87,6 +87,8 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
         # given back (a burst of consents that never start must not hold the lists).
         UNSTARTED_AFTER_MINUTES=15,
         MAX_CONTENT_LENGTH=200 * 1024 * 1024,
+        # Leaderboard submissions taken per client address (Flask-Limiter syntax; "" for none).
+        LEADERBOARD_UPLOAD_LIMIT="20 per hour",
         # Seconds a client is asked to wait (Retry-After) while the database is unreachable.
         RETRY_AFTER_SECONDS=5,
     )

@@ -19,6 +19,7 @@ from app.web.experimenter import bp as experimenter_bp
 from app.web.extensions import csrf, db
 from app.web.infra import limits
 from app.web.infra.limits import INT32, text_problem
+from app.web.leaderboard import bp as leaderboard_bp
 from app.web.participant import bp as participant_bp
 from app.web.questionnaire import bp as questionnaire_bp
 from app.web.questionnaire.views import questionnaire_first
@@ -148,6 +149,7 @@ def init_web(app: Flask) -> None:
     app.before_request(questionnaire_first)
     app.register_blueprint(experimenter_bp)
     app.register_blueprint(api_bp)
+    app.register_blueprint(leaderboard_bp)
     # The JSON API authenticates participants by the token in the request body, not a cookie,
     # so a cross-site form cannot forge a vote; experimenter endpoints there are GET only.
     csrf.exempt(api_bp)

@@ -35,6 +35,7 @@ from app.web.extensions import db, transaction
 from app.web.infra import media
 from app.web.infra.storage import disk_full, disk_full_message, media_dir
 from app.web.jobs import rq_job_id
+from app.web.jobs.renditions import add_webm, has_webm, webm_file
 from app.web.models import Clip, Job, Stimulus, Study, Track, utcnow
 
 log = logging.getLogger(__name__)
@@ -98,6 +99,11 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
     from app.stimuli.io import save_track
     from app.stimuli.posture import DEFAULT_POSTURE
     from app.stimuli.shared import DEFAULT_BROWS, lips_for
+    from app.web.study.meshmedia import (
+        fetch_mesh_options,
+        fetch_siblings,
+        publish_bundle,
+    )
 
     root = media_dir(study)
     total = len(study.clips) * len(study.conditions)
@@ -117,11 +123,17 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
                 raise ValueError(
                     f"condition {condition.name}: no uploaded track for clip {clip.name}"
                 )
+            fetch_siblings(study, source)  # a mesh's template and pose beside it
             conditions[condition.name] = {
                 "track": str(media.fetch(study, source)),
                 # stored as uploads/<condition>/<clip>/<the file's own name>
                 "label": Path(source).name,
             }
+            if condition.params.get("mesh"):
+                mesh = fetch_mesh_options(study, condition.params["mesh"])
+                conditions[condition.name]["mesh"] = mesh
+        if clip.ground_truth_path:
+            fetch_siblings(study, clip.ground_truth_path)
         result = generate_conditions(
             media.fetch(study, clip.audio_path),
             conditions=conditions,
@@ -135,6 +147,8 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
             brows=settings.get("brows", DEFAULT_BROWS),
             pad=bool(settings.get("pad", False)),
             normalize=bool(settings.get("normalize", False)),
+            meshes=fetch_mesh_options(study, settings.get("meshes")),
+            mesh_eyes=settings.get("mesh_eyes", "match"),
         )
         notes += [f"clip {clip.name}: {n}" for n in result.summary["notes"] if _job_note(n)]
         for condition in study.conditions:
@@ -142,6 +156,7 @@ def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
             (root / rel).parent.mkdir(parents=True, exist_ok=True)
             save_track(result.tracks[condition.name], root / rel)
             media.publish(study, rel)
+            publish_bundle(study, rel, root)  # a mesh condition's vertices, beside its track
             _upsert_track(condition.id, clip.id, rel)
             done += 1
             progress(done, total)
@@ -189,15 +204,26 @@ def render_stimulus(
     progress: Callable[[int, int], None],
 ) -> str:
     """Render one stimulus video (``renderer.render_pair``; ``renderer.render_single`` for
-    the rating design's single faces), record and publish it; returns
-    its path in the study's folder. ``progress(frame, frames)`` is called every frame."""
+    the rating design's single faces) with its WebM rendition from the same frames, record
+    and publish both; returns the MP4's path in the study's folder. A stimulus whose MP4 is
+    in place already (rendered before renditions, or by a job stopped before its WebM) gets
+    only the WebM, made from that MP4 (:mod:`app.web.jobs.renditions`). ``progress(frame,
+    frames)`` is called every frame."""
     import renderer
     from app.stimuli.io import load_track
 
+    if stim.video_path and media.stored(study, stim.video_path):
+        add_webm(study, stim)
+        db.session.commit()
+        return stim.video_path
     root = media_dir(study)
     settings = renderer.RenderSettings(**render_settings(study))
     rel = clip_file(study, stim)
     (root / rel).parent.mkdir(parents=True, exist_ok=True)
+    from app.web.study.meshmedia import fetch_bundle
+
+    for key in _track_keys(stim):
+        fetch_bundle(study, tracks[key])  # a mesh condition's vertices, beside its track
     left, right = (
         load_track(media.fetch(study, tracks[(condition, clip)]))
         for condition, clip in _track_keys(stim)
@@ -213,13 +239,24 @@ def render_stimulus(
         left, right = (lent, right) if stim.foreign_side == "left" else (left, lent)
     caption = {"caption": f"press {stim.instruction}"} if stim.instruction else {}
     audio = media.fetch(study, stim.clip.audio_path)
-    out = {"settings": settings, "cache_dir": root / "cache", "progress": progress}
+    webm = webm_file(rel)
+    out = {
+        "settings": settings,
+        "cache_dir": root / "cache",
+        "progress": progress,
+        "webm_path": root / webm,
+    }
     if study.design in RATING_DESIGNS:  # one face, rated on its own
         renderer.render_single(left, audio, root / rel, **out)
     else:
         renderer.render_pair(left, right, audio, root / rel, **out, **caption)
     media.publish(study, rel)
     stim.video_path = rel
+    if (root / webm).is_file():
+        media.publish(study, webm)
+        stim.webm_path = webm
+    else:  # a renderer that wrote the MP4 alone: the WebM from it
+        add_webm(study, stim)
     db.session.commit()
     return rel
 
@@ -238,8 +275,9 @@ def render_settings(study: Study) -> dict[str, Any]:
 
 
 def rendered(study: Study, stim: Stimulus) -> bool:
-    """Whether the stimulus's video is in place (a retried job keeps it)."""
-    return bool(stim.video_path) and media.stored(study, stim.video_path)
+    """Whether the stimulus's video and its WebM rendition are in place (a retried job keeps
+    them; one with the MP4 alone gets the WebM)."""
+    return bool(stim.video_path) and media.stored(study, stim.video_path) and has_webm(study, stim)
 
 
 def render_clips(study: Study, progress: Callable[[int, int], None]) -> str:
@@ -299,12 +337,14 @@ def build_report(study: Study, progress: Callable[[int, int], None]) -> str:
     db.session.commit()
     progress(1, 1)
     if not path.with_suffix(".pdf").is_file():
-        return NO_VOTES_SUMMARY
+        return NO_RATINGS_SUMMARY if study.design in RATING_DESIGNS else NO_VOTES_SUMMARY
     return f"report written: {path.name}"
 
 
 #: A report job's summary when the study has no vote to analyse (the page says so, no PDF).
 NO_VOTES_SUMMARY = "no votes to analyse yet: report page written (no PDF)"
+#: The same for a rating study without a rating to analyse.
+NO_RATINGS_SUMMARY = "no ratings to analyse yet: report page written (no PDF)"
 
 
 def failure_message(exc: BaseException) -> str:
@@ -329,10 +369,21 @@ def failure_message(exc: BaseException) -> str:
 _ABSOLUTE_PATH = re.compile(r"(?<![\w.:/])/(?:[^\s/:'\"]+/)+[^\s/:'\",;)]*")
 
 
+def prepare_clips(study: Study, progress: Callable[[int, int], None]) -> str:
+    """Generate the tracks, then render the clips, in one job: what a study made without an
+    experimenter at the buttons needs (a leaderboard round or preview, ``app.web.board``), since
+    two jobs on several RQ workers could render before the tracks exist."""
+    generated = generate_tracks(study, lambda done, total: progress(done, 2 * total))
+    rendered = render_clips(study, lambda done, total: progress(total + done, 2 * total))
+    return f"{generated}; {rendered}"
+
+
 TASKS: dict[str, Callable[[Study, Callable[[int, int], None]], str]] = {
     "generate": generate_tracks,
     "render": render_clips,
     "report": build_report,
+    # not one of JOB_KINDS (the study page's buttons): started by the leaderboard
+    "prepare": prepare_clips,
 }
 
 
