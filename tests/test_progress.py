@@ -54,14 +54,24 @@ def test_a_parallel_trial_counts_once_for_all_its_versions(app, client, particip
 
 def test_the_next_trial_an_answer_carries(app, participant, web):
     row = SimpleNamespace(
-        trial_id=7, plays=1, kind="catch", expected="left", instruction=None, following=8
+        trial_id=7,
+        plays=1,
+        kind="catch",
+        expected="left",
+        instruction=None,
+        following=8,
+        webm="pair-02.webm",
+        following_webm=None,
     )
     token = _person(app, participant, web)
     with app.app_context():
         person = _row(token)
         shown = next_trial_of(row, person, 1, 3)
         assert (shown.trial_id, shown.kind, shown.following) == (7, "catch", 8)
-        assert next_trial_of(row, person, 1, 3, preload=False).following is None
+        # whether each clip has its WebM rendition: this one has, the next one not (yet)
+        assert (shown.webm, shown.following_webm) == (True, False)
+        unloaded = next_trial_of(row, person, 1, 3, preload=False)
+        assert unloaded.following is None and unloaded.following_webm is False
         assert next_trial_of(row, person, 3, 3) is None  # every trial answered
         assert next_trial_of(SimpleNamespace(trial_id=None), person, 1, 3) is None
         person.screened_out_at = utcnow()

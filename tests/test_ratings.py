@@ -106,6 +106,12 @@ def _shown(page: str, *names: str) -> dict[str, str]:
     return found
 
 
+def _optional(page: str, name: str) -> str | None:
+    """A data attribute a rating page may leave out (None then)."""
+    match = re.search(rf'data-{name}="([^"]*)"', page)
+    return None if match is None else html.unescape(match.group(1))
+
+
 def test_each_rating_answer_carries_the_next_clip_as_its_page_shows_it(
     app, client, participant, web
 ):
@@ -125,6 +131,9 @@ def test_each_rating_answer_carries_the_next_clip_as_its_page_shows_it(
                 "plays": int(shown["plays"]),
                 "video_url": shown["video-url"],
                 "preload_url": None if preload is None else html.unescape(preload.group(1)),
+                # the WebM renditions: none here (the test's renders write MP4s only)
+                "webm_url": _optional(page, "webm-url"),
+                "preload_webm_url": _optional(page, "preload-webm-url"),
                 "catch": 'class="instructed"' in page,
             }
             preloaded.append(carried["preload_url"])
@@ -156,6 +165,8 @@ def test_a_parallel_answer_carries_the_next_page(app, client, participant, web):
                 "reference_url": shown["reference-url"],
                 "item_url": shown["item-url"],
                 "items": int(shown["items"]),
+                "reference_webm_url": _optional(page, "reference-webm-url"),
+                "item_webm_url": _optional(page, "item-webm-url"),
             }
         payload = {"token": token, "trial_id": trial, "scores": [70, 30], "plays": 3}
         answer = client.post(

@@ -86,6 +86,9 @@ def _page_shows(client, token):
         "plays": int(attribute("plays")),
         "video_url": attribute("video-url"),
         "preload_url": attribute("preload-url"),
+        # the WebM renditions (none here: the test's renders write MP4s only)
+        "webm_url": attribute("webm-url"),
+        "preload_webm_url": attribute("preload-webm-url"),
         "instructed": None if instructed is None else instructed.group(1),
     }, (int(progress.group(1)) - 1, int(progress.group(2)))
 

@@ -414,6 +414,7 @@ def test_the_participant_urls_of_a_vote_answer_are_url_fors(app, token, root):
 
     for _ in range(2):  # built, then from the routes kept for this script root
         with app.test_request_context("/api/v1/votes", base_url=f"http://h{root}"):
-            resume, video = _participant_urls(token)
+            resume, video, webm = _participant_urls(token)
             assert resume == url_for("participant.resume", token=token)
             assert f"{video}12" == url_for("participant.video", token=token, trial_id=12)
+            assert f"{webm}12" == url_for("participant.video_webm", token=token, trial_id=12)
