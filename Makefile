@@ -5,12 +5,16 @@
 #   make test   set up .venv, the Debian packages, axe-core and puppeteer-core the tests need,
 #               lint, then run every test
 #   make lint   ruff on the whole tree, mypy on the pure packages (also the first step of test)
+#   make lock   remake requirements.lock from pyproject.toml's newest allowed versions
 SHELL := /bin/bash
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP_RUN := $(VENV)/.installed-runtime
 STAMP := $(VENV)/.installed-test
+# Every package installed, pinned (pip's -c): the toolchain (pip, ruff, mypy, pytest) and every
+# dependency, so a release of one cannot turn CI red; make lock remakes it.
+LOCK := requirements.lock
 PORT ?= 5000
 # pytest-xdist workers for make test (each takes its own test databases: tests/support/services.py).
 # One process more than the two cores: a third of a run is spent waiting (browsers, servers,
@@ -43,20 +47,20 @@ demo: SETUP_LOG := $(DEMO_LOG)
 logged = mkdir -p $(dir $(SETUP_LOG)) && { echo "== $(1)"; $(1); } >>$(SETUP_LOG) 2>&1 || \
 	{ echo "failed: $(1); the end of $(SETUP_LOG):"; tail -n 15 $(SETUP_LOG); exit 1; }
 
-.PHONY: demo test venv debs-test debs-demo axe puppeteer lint bench clean
+.PHONY: demo test venv debs-test debs-demo axe puppeteer lint lock bench clean
 
 venv: $(STAMP)
 
 # The demo needs the runtime dependencies only; the tests add pytest, playwright, ruff, mypy.
-$(STAMP_RUN): pyproject.toml
+$(STAMP_RUN): pyproject.toml $(LOCK)
 	@echo "setting up $(VENV) (the first time: a few minutes; pip's output in $(SETUP_LOG))"
 	@test -x $(PY) || { $(call logged,$(PYTHON) -m venv $(VENV)); }
-	@$(call logged,$(PY) -m pip install -q --upgrade pip)
-	@$(call logged,$(PY) -m pip install -q -e .)
+	@$(call logged,$(PY) -m pip install -q -c $(LOCK) --upgrade pip)
+	@$(call logged,$(PY) -m pip install -q -c $(LOCK) -e .)
 	@touch $(STAMP_RUN)
 
-$(STAMP): $(STAMP_RUN) pyproject.toml
-	@$(call logged,$(PY) -m pip install -q -e '.[test]')
+$(STAMP): $(STAMP_RUN) pyproject.toml $(LOCK)
+	@$(call logged,$(PY) -m pip install -q -c $(LOCK) -e '.[test]')
 	@touch $(STAMP)
 
 # apt-get update runs once, and only when a package is missing.
@@ -64,14 +68,14 @@ debs-test:
 	@missing=$$(for p in $(DEBS_TEST); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done; \
 	  command -v npm >/dev/null 2>&1 || echo npm); \
 	if [ -n "$$missing" ]; then \
-	  echo "installing Debian packages: $$missing (apt's output in $(SETUP_LOG))"; \
+	  echo "installing Debian packages: $$(echo $$missing) (apt's output in $(SETUP_LOG))"; \
 	  $(call logged,$(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing); \
 	fi
 
 debs-demo:
 	@missing=$$(for p in $(DEBS_DEMO); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
 	if [ -n "$$missing" ]; then \
-	  echo "installing Debian packages: $$missing (apt's output in $(SETUP_LOG))"; \
+	  echo "installing Debian packages: $$(echo $$missing) (apt's output in $(SETUP_LOG))"; \
 	  $(call logged,$(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing); \
 	fi
 
@@ -91,10 +95,21 @@ test: $(STAMP) debs-test axe puppeteer lint
 demo: $(STAMP_RUN) debs-demo
 	@$(VENV)/bin/facepair demo --host $(HOST) --port $(PORT) --log $(DEMO_LOG)
 
+# A fresh environment with pyproject.toml's dependencies at their newest allowed versions, frozen
+# into requirements.lock (docs/developer/testing.md: run make test on it before committing it).
+lock:
+	rm -rf .cache/lock-venv
+	$(PYTHON) -m venv .cache/lock-venv
+	.cache/lock-venv/bin/pip install -q --upgrade pip
+	.cache/lock-venv/bin/pip install -q -e '.[test]'
+	{ sed -n '1,3p' $(LOCK); .cache/lock-venv/bin/pip freeze --all --exclude-editable; } > $(LOCK).new
+	mv $(LOCK).new $(LOCK)
+	rm -rf .cache/lock-venv
+
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
-	$(VENV)/bin/mypy app/stimuli app/analysis app/trials renderer
+	$(VENV)/bin/mypy app/stimuli app/analysis app/trials app/leaderboard renderer
 
 bench: $(STAMP)
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
