@@ -1,6 +1,7 @@
 """The import arrows of docs/developer/architecture.md, read from the source with ``ast``.
 
-The pure packages (``app.stimuli``, ``app.trials``, ``app.analysis``, ``renderer``) import
+The pure packages (``app.stimuli``, ``app.trials``, ``app.analysis``, ``app.leaderboard``,
+``renderer``) import
 neither a web framework nor the web layer; the web layer never imports moderngl or the GL
 context, and loads the renderer only inside the job that renders.
 """
@@ -13,7 +14,7 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
-PURE = ("app/stimuli", "app/trials", "app/analysis", "renderer")
+PURE = ("app/stimuli", "app/trials", "app/analysis", "app/leaderboard", "renderer")
 #: What the pure packages may import from the project besides each other: the package root
 #: (its version; Flask is imported inside ``create_app`` only), errors and shipped data.
 SHARED = ("app", "app.errors", "app.data")
@@ -32,9 +33,15 @@ WEB_FRAMEWORKS = (
 )
 WEB = ("app/web",)
 #: The blueprints: they call the services, never each other.
-BLUEPRINTS = ("app.web.api", "app.web.participant", "app.web.experimenter", "app.web.questionnaire")
+BLUEPRINTS = (
+    "app.web.api",
+    "app.web.participant",
+    "app.web.experimenter",
+    "app.web.questionnaire",
+    "app.web.leaderboard",
+)
 #: The services and what they stand on: no request handling, so no blueprint.
-SERVICES = ("app/web/study", "app/web/infra", "app/web/jobs", "app/web/prolific")
+SERVICES = ("app/web/study", "app/web/infra", "app/web/jobs", "app/web/prolific", "app/web/board")
 GL = ("moderngl", "renderer.gl")
 
 
