@@ -151,6 +151,8 @@ FACE_SUFFIXES: Final = (".glb", ".gltf", ".vrm", ".json")
 REJOIN_POLICIES: Final = ("resume", "refuse")
 #: ``renderer.gl.ANTIALIAS_MODES``, repeated so that reading a study file imports no GL.
 ANTIALIAS_MODES: Final = ("edges", "msaa", "none")
+#: The smallest face ``renderer.RenderSettings`` renders (pixels, a multiple of 16).
+MIN_FACE_SIZE: Final = 64
 #: ``renderer.headmodel.LOOKS`` (the built-in head's looks), repeated for the same reason.
 LOOKS: Final = ("textured", "plain")
 
@@ -364,6 +366,14 @@ class _StudyReader(ExperimenterSideReader):
             self.choice(render, "antialias", "render.antialias", ANTIALIAS_MODES)
         if "look" in render:
             self.choice(render, "look", "render.look", LOOKS)
+        size = render.get("size")
+        if size is not None and (size < MIN_FACE_SIZE or size % 16):
+            # renderer.RenderSettings' rule, checked here so a study is refused at upload and
+            # not in its render job
+            raise self.error(
+                "render.size",
+                f"expected a multiple of 16 of at least {MIN_FACE_SIZE} pixels, got {size}",
+            )
         return eyes, normalize, render
 
     def rating_scale(self, top: Mapping[str, Any], design: str) -> str:

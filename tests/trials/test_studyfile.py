@@ -267,6 +267,11 @@ BAD_FIELDS: list[tuple[dict[str, Any], str]] = [
         "eyes: needs a ground_truth for every clip; missing for s2",
     ),
     ({"render": {"size": "big"}}, "render.size: expected an integer"),
+    (
+        {"render": {"size": -3}},
+        "render.size: expected a multiple of 16 of at least 64 pixels, got -3",
+    ),
+    ({"render": {"size": 100}}, "render.size: expected a multiple of 16 of at least 64 pixels"),
     ({"render": {"colour": 1}}, "render.colour: unknown key (expected one of size,"),
     ({"render": {"antialias": "fxaa"}}, "render.antialias: expected one of edges, msaa, none"),
     ({"render": {"look": "shiny"}}, "render.look: expected one of textured, plain"),
