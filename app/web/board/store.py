@@ -16,21 +16,16 @@ from pathlib import Path
 from flask import current_app
 
 from app.web.board.models import Season
+from app.web.infra.storage import media_folder, within
 
 
 def season_dir(season: Season) -> Path:
-    path = Path(current_app.config["MEDIA_ROOT"]) / f"season-{season.id}"
-    path.mkdir(parents=True, exist_ok=True)
-    return path
+    return media_folder(f"season-{season.id}")
 
 
 def season_file(season: Season, rel: str) -> Path:
     """The absolute path of ``rel`` in the season's folder (never outside it)."""
-    root = season_dir(season).resolve()
-    path = (root / rel).resolve()
-    if root not in path.parents:
-        raise ValueError(f"{rel}: outside the season's folder")
-    return path
+    return within(season_dir(season), rel, "the season's folder")
 
 
 def keep(season: Season, source: Path, rel: str) -> str:

@@ -10,19 +10,30 @@ from flask import current_app
 from app.web.models import Study
 
 
-def media_dir(study: Study) -> Path:
-    path = Path(current_app.config["MEDIA_ROOT"]) / f"study-{study.id}"
+def media_folder(name: str) -> Path:
+    """``MEDIA_ROOT/<name>``, made if missing: a study's or a leaderboard season's folder."""
+    path = Path(current_app.config["MEDIA_ROOT"]) / name
     path.mkdir(parents=True, exist_ok=True)
     return path
 
 
-def media_file(study: Study, rel: str) -> Path:
-    """The absolute path of ``rel``, refusing anything outside the study's folder."""
-    root = media_dir(study).resolve()
+def within(folder: Path, rel: str, what: str) -> Path:
+    """The absolute path of ``rel`` in ``folder``, refusing anything outside it (``what``
+    names the folder in the message)."""
+    root = folder.resolve()
     path = (root / rel).resolve()
     if root not in path.parents:
-        raise ValueError(f"{rel}: outside the study's media folder")
+        raise ValueError(f"{rel}: outside {what}")
     return path
+
+
+def media_dir(study: Study) -> Path:
+    return media_folder(f"study-{study.id}")
+
+
+def media_file(study: Study, rel: str) -> Path:
+    """The absolute path of ``rel``, refusing anything outside the study's folder."""
+    return within(media_dir(study), rel, "the study's media folder")
 
 
 def disk_full(exc: BaseException) -> bool:
