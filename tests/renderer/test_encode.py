@@ -48,30 +48,7 @@ def test_a_clip_without_audio_has_the_frames_written(tmp_path):
 def test_no_tag_of_the_audio_file_reaches_the_clip(tmp_path):
     """Blinding: an audio file whose title and handler name say what a condition is gives a
     clip whose bytes carry neither (ffmpeg copies an input stream's tags by default)."""
-    import subprocess
-
-    from renderer.encode import ffmpeg_exe
-
-    audio = tmp_path / "voice.m4a"
-    subprocess.run(
-        [
-            ffmpeg_exe(),
-            "-v",
-            "error",
-            "-f",
-            "lavfi",
-            "-i",
-            "sine=frequency=300:duration=0.4",
-            "-metadata",
-            "title=zebraface_left",
-            "-metadata:s:a:0",
-            "handler_name=speech_driven_right",
-            "-c:a",
-            "aac",
-            str(audio),
-        ],
-        check=True,
-    )
+    audio = _tagged_audio(tmp_path)
     out = tmp_path / "clip.mp4"
     with ClipWriter(out, 64, 48, 25.0, 10, audio) as writer:
         for _ in range(10):
