@@ -12,11 +12,9 @@ from __future__ import annotations
 
 from flask import abort, redirect, render_template, url_for
 
-from app.trials.design import RATING_DESIGNS
-from app.web.extensions import db
 from app.web.models import Trial
 from app.web.participant import bp
-from app.web.participant.views import _no_store, _participant, _send_video
+from app.web.participant.views import _no_store, _own_trial, _participant, _send_video
 from app.web.study.enrolment import practice_stimulus
 from app.web.study.participants import ended_by_browser
 from app.web.study.renditions import versions_have_webm
@@ -41,12 +39,7 @@ def items_webm(trial: Trial) -> bool:
 @bp.get("/p/<token>/webm/<int:trial_id>")
 def video_webm(token: str, trial_id: int):  # type: ignore[no-untyped-def]
     """The WebM of one of the participant's trials (as ``participant.video`` sends the MP4)."""
-    participant = _participant(token)
-    trial = db.session.get(Trial, trial_id)
-    if trial is None or trial.participant_id != participant.id:
-        abort(404)
-    shows = "clip" if participant.study.design in RATING_DESIGNS else "pair"
-    name = "practice" if trial.kind == "practice" else f"{shows}-{trial.position + 1:02d}"
+    participant, trial, name = _own_trial(token, trial_id)
     return _send_video(participant.study, trial.stimulus.webm_path, f"{name}.webm", WEBM)
 
 

@@ -365,15 +365,22 @@ def trial(token: str):  # type: ignore[no-untyped-def]
     return _no_store(page)
 
 
-@bp.get("/p/<token>/video/<int:trial_id>")
-def video(token: str, trial_id: int):  # type: ignore[no-untyped-def]
+def _own_trial(token: str, trial_id: int) -> tuple[Participant, Trial, str]:
+    """The participant, one of their trials (404 for anyone else's) and the opaque name its
+    clip is sent under, without extension (``pair-03``, ``clip-03``, ``practice``)."""
     participant = _participant(token)
     trial = db.session.get(Trial, trial_id)
     if trial is None or trial.participant_id != participant.id:
         abort(404)
     shows = "clip" if participant.study.design in RATING_DESIGNS else "pair"
-    name = "practice.mp4" if trial.kind == "practice" else f"{shows}-{trial.position + 1:02d}.mp4"
-    return _send_video(participant.study, trial.stimulus.video_path, name)
+    name = "practice" if trial.kind == "practice" else f"{shows}-{trial.position + 1:02d}"
+    return participant, trial, name
+
+
+@bp.get("/p/<token>/video/<int:trial_id>")
+def video(token: str, trial_id: int):  # type: ignore[no-untyped-def]
+    participant, trial, name = _own_trial(token, trial_id)
+    return _send_video(participant.study, trial.stimulus.video_path, f"{name}.mp4")
 
 
 @bp.get("/p/<token>/practice.mp4")
