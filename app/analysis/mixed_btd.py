@@ -25,9 +25,12 @@ mode) with REML variances by Schall's update (Schall 1991, Biometrika 78, 719-72
    concave problem: Newton steps with step halving);
 2. each variance becomes (sum of its squared modes + trace of its block of H^-1) / number of
    effects, H the Hessian of that penalised objective at the mode over all effects (fixed ones
-   included, hence REML-like); the updates are accelerated by SQUAREM (Varadhan & Roland 2008)
-   and a variance below sd 0.02 is taken as 0; the updates stop when the distance left to
-   their fixed point, estimated from the rate of the last two, is under ``tol``;
+   included, hence REML-like); between updates the effects take one Newton step towards their
+   mode (the working-variate iteration, as ``glmmPQL`` alternates one weighted fit with the
+   variances; the mode is found in full at the variances' fixed point); the updates are
+   accelerated by SQUAREM (Varadhan & Roland 2008) and a variance below sd 0.02 is taken as 0;
+   the updates stop when the distance left to their fixed point, estimated from the rate of
+   the last two, is under ``tol``;
 3. the covariance of the fixed effects is the fixed block of H^-1 (Wald intervals, normal
    quantile), the scores theta centred to mean 0.
 
@@ -46,7 +49,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import stats
+from scipy import sparse, stats
 
 from app.analysis.btd import BOUND, JOD_PER_LOG_WORTH, fit_btd
 from app.analysis.json_values import json_number
@@ -87,23 +90,49 @@ class _Model:
         # participant a few pairs per clip, so most of the (P, K, n, n) cells are empty
         total = t.sum(axis=-1)
         cp, ck, ci, cj = np.nonzero(total)
-        self.cells = (cp, ck, ci, cj)
         self.y = t[cp, ck, ci, cj]  # (N, 3)
         self.total = total[cp, ck, ci, cj]
-        n, K = self.n, self.K
-        # flat indices the sums over cells go to
-        self.at_pi, self.at_pj = cp * n + ci, cp * n + cj
-        self.at_ki, self.at_kj = ck * n + ci, ck * n + cj
+        n, K, cells = self.n, self.K, len(cp)
         # the cells' worths in the flattened (P, K, n) worths
         self.at_wi, self.at_wj = (cp * K + ck) * n + ci, (cp * K + ck) * n + cj
 
-        # the n x n Hessian blocks of each (participant, clip), laid out (P, n, K, n) so that
-        # a participant's rows against the clip effects are contiguous: entries (i, i),
-        # (j, j), (i, j) and (j, i), one bincount over all four
-        def at(row: np.ndarray, col: np.ndarray) -> np.ndarray:
-            return ((cp * n + row) * K + ck) * n + col
+        # A vote's log-likelihood depends on its worths through a_i - a_j alone, so its
+        # derivative in a_j is minus that in a_i, and its n x n Hessian block is its second
+        # derivative in that difference times (e_i - e_j)(e_i - e_j)'. The sums of the cells
+        # into participants, clips and (participant, clip) blocks are therefore products with
+        # fixed signed incidence matrices, made once, a column per cell (one sparse product
+        # against several quantities at once is 3-10x faster than a bincount per quantity and
+        # side, and the columns need no sorting to build)
+        def incidence(rows: list[np.ndarray], signs: list[float], size: int) -> sparse.csc_array:
+            at = np.empty(cells * len(rows), dtype=np.int32 if size < 2**31 else np.int64)
+            for q, row in enumerate(rows):
+                at[q :: len(rows)] = row
+            values = np.empty(at.size)
+            for q, sign in enumerate(signs):
+                values[q :: len(rows)] = sign
+            return sparse.csc_array(
+                (values, at, np.arange(0, at.size + 1, len(rows), dtype=at.dtype)),
+                shape=(size, cells),
+            )
 
-        self.at_block = np.concatenate([at(ci, ci), at(cj, cj), at(ci, cj), at(cj, ci)])
+        self.to_p = incidence([cp * n + ci, cp * n + cj], [1.0, -1.0], self.P * n)
+        self.to_k = incidence([ck * n + ci, ck * n + cj], [1.0, -1.0], K * n)
+
+        # the n x n Hessian blocks of each (participant, clip): +1 at (i, i) and (j, j), -1 at
+        # (i, j) and (j, i), laid out as the participant-dense block B (P, n, m) holds them,
+        # after its fixed-effect columns, so the product lands in B itself
+        self.sums = {"y_l": float(self.y[:, 0].sum()), "y_t": float(self.y[:, 2].sum())}
+        self.y_half = self.y[:, 0] + self.y[:, 2] / 2.0  # a left vote counts 1, undecided 1/2
+        width, offset = (self.m, self.nf) if self.use_c else (K * n, 0)
+
+        def at(row: np.ndarray, column: np.ndarray) -> np.ndarray:
+            return (cp * n + row) * width + offset + ck * n + column
+
+        self.to_block = incidence(
+            [at(ci, ci), at(cj, cj), at(ci, cj), at(cj, ci)],
+            [1.0, 1.0, -1.0, -1.0],
+            self.P * n * width,
+        )
 
     def terms(self, z: np.ndarray, b: np.ndarray) -> dict[str, Any]:
         """Log-likelihood, its gradient and minus its Hessian in blocks: dense-dense C,
@@ -111,13 +140,12 @@ class _Model:
 
         Every vote's worths are a = theta + b_p + c_k, so the derivatives are taken in the
         (participant, clip) worths of the cells that hold votes and summed into participants,
-        clips or both (bincounts over the cells: the cost is linear in those cells, not in
-        P K n^2). Local variables of a vote (i left, j right): a_i, a_j, lambda, kappa; minus
-        the Hessian of its log-likelihood in them is J' W J with W = N (diag(pi) - pi pi')
-        and J the outcomes' coefficients.
+        clips or both (sparse products over the cells: the cost is linear in those cells, not
+        in P K n^2). Local variables of a vote (i left, j right): delta = a_i - a_j, lambda,
+        kappa; minus the Hessian of its log-likelihood in them is J' W J with W = N (diag(pi) -
+        pi pi') and J the outcomes' coefficients (left 1, 1, 0; undecided 1/2, 0, 1; right 0).
         """
         P, K, n, m, nf = self.P, self.K, self.n, self.m, self.nf
-        cp, ck, ci, cj = self.cells
         lam = z[n]
         kap = z[n + 1] if self.ties else 0.0
         c = z[nf:].reshape(K, n) if self.use_c else np.zeros((K, n))
@@ -127,73 +155,87 @@ class _Model:
         # right's worth cancels from the log-likelihood, the counts of a cell adding up to
         # its total)
         flat = worth.ravel()
-        delta = np.take(flat, self.at_wi) - np.take(flat, self.at_wj)
-        y_l, y_r, y_t = self.y[:, 0], self.y[:, 1], self.y[:, 2]
+        delta = np.take(flat, self.at_wi)
+        delta -= np.take(flat, self.at_wj)
+        y_l, y_t = self.y[:, 0], self.y[:, 2]
         total = self.total
-        # (exponents held within +-600: far beyond any estimable effect, short of overflow)
-        x_l = np.exp(np.clip(lam + delta, -600.0, 600.0))
-        x_t = np.exp(np.clip(kap + delta / 2.0, -600.0, 600.0)) if self.ties else 0.0 * x_l
-        d = 1.0 + x_l + x_t
-        pr = 1.0 / d
-        pl, pt = x_l * pr, x_t * pr
-        tie = y_t * (kap + delta / 2.0) if self.ties else 0.0
-        ll = float((y_l * (lam + delta) + tie - total * np.log(d)).sum())
-        g_l, g_r, g_t = y_l - total * pl, y_r - total * pr, y_t - total * pt
-        g_i, g_j = g_l + g_t / 2.0, g_r + g_t / 2.0
-        w_ll, w_rr, w_tt = total * pl * (1 - pl), total * pr * (1 - pr), total * pt * (1 - pt)
-        w_lr, w_lt, w_rt = -total * pl * pr, -total * pl * pt, -total * pr * pt
-        h_ii = w_ll + w_lt + w_tt / 4.0
-        h_jj = w_rr + w_rt + w_tt / 4.0
-        h_ij = w_lr + (w_lt + w_rt) / 2.0 + w_tt / 4.0
-        l_i, l_j = w_ll + w_lt / 2.0, w_lr + w_lt / 2.0  # with lambda
-        k_i, k_j = w_lt + w_tt / 2.0, w_rt + w_tt / 2.0  # with kappa
-
-        def per(at_i: np.ndarray, at_j: np.ndarray, wi: np.ndarray, wj: np.ndarray, size: int):
-            return np.bincount(at_i, wi, size) + np.bincount(at_j, wj, size)
-
-        # the (participant, clip) n x n blocks of minus the Hessian in the worths
-        size = P * n * K * n
-        blocks = np.bincount(self.at_block, np.concatenate([h_ii, h_jj, h_ij, h_ij]), size).reshape(
-            P, n, K, n
-        )
-        g_p = per(self.at_pi, self.at_pj, g_i, g_j, P * n).reshape(P, n)
-        g_k = per(self.at_ki, self.at_kj, g_i, g_j, K * n).reshape(K, n)
-        h_al_p = per(self.at_pi, self.at_pj, l_i, l_j, P * n).reshape(P, n)
-        h_al_k = per(self.at_ki, self.at_kj, l_i, l_j, K * n).reshape(K, n)
+        # (exponents held within +-600: far beyond any estimable effect, short of overflow;
+        # the arrays over the cells are few and reused in place: this is the fit's inner loop)
+        pl = np.clip(delta + lam, -600.0, 600.0)
+        np.exp(pl, out=pl)
+        d = pl + 1.0
+        if self.ties:
+            pt = np.clip(delta / 2.0 + kap, -600.0, 600.0)
+            np.exp(pt, out=pt)
+            d += pt
+        pr = np.reciprocal(d)
+        pl *= pr  # P(left)
+        if self.ties:
+            pt *= pr  # P(undecided)
+        np.log(d, out=d)
+        ll = float(y_l @ delta) + lam * self.sums["y_l"] - float(total @ d)
+        if self.ties:
+            ll += float(y_t @ delta) / 2.0 + kap * self.sums["y_t"]
+        tpl = total * pl
+        tpt = total * pt if self.ties else None
+        # per cell, in delta: the gradient, minus the second derivative, and minus the cross
+        # derivatives with lambda and kappa (w_xy: minus the Hessian in the outcomes' logits)
+        per_cell = np.empty((len(total), 3 if self.ties else 2))
+        g, with_l = per_cell[:, 0], per_cell[:, 1]
+        np.subtract(self.y_half, tpl, out=g)
+        hess = tpl * pr  # w_ll + w_lt + w_tt / 4, without ties
+        np.multiply(tpl, pr, out=with_l)  # w_ll + w_lt / 2, without ties
+        if self.ties:
+            assert tpt is not None
+            g -= tpt / 2.0
+            hess += tpt * (1.0 - pt) / 4.0
+            with_l += tpl * pt / 2.0
+            np.multiply(tpt, (pr - pl) / 2.0, out=per_cell[:, 2])  # w_lt + w_tt / 2
+        by_p = self.to_p @ per_cell  # (P n, 2 or 3)
+        by_k = self.to_k @ per_cell  # (K n, 2 or 3)
+        # the (participant, clip) n x n blocks of minus the Hessian in the worths, in B
+        placed = self.to_block @ hess
+        if self.use_c:
+            bb = placed.reshape(P, n, m)
+            blocks = bb[:, :, nf:].reshape(P, n, K, n)
+        else:
+            bb, blocks = np.empty((P, n, m)), placed.reshape(P, n, K, n)
+        g_p, h_al_p = by_p[:, 0].reshape(P, n), by_p[:, 1].reshape(P, n)
         aa = np.einsum("pikj->pij", blocks)  # (P, n, n); 5x faster than .sum(axis=2)
         per_clip = blocks.sum(axis=0).transpose(1, 0, 2)  # (K, n, n)
         gz, gb = np.zeros(m), np.zeros((P, n))
         cc = np.zeros((m, m))
+        sum_tpl = float(tpl.sum())
         gz[:n] = g_p.sum(axis=0)
-        gz[n] = g_l.sum()
+        gz[n] = self.sums["y_l"] - sum_tpl
         cc[:n, :n] = aa.sum(axis=0)
         cc[:n, n] = h_al_p.sum(axis=0)
-        cc[n, n] = w_ll.sum()
+        cc[n, n] = sum_tpl - float(tpl @ pl)  # w_ll
         if self.ties:
-            h_ak_p = per(self.at_pi, self.at_pj, k_i, k_j, P * n).reshape(P, n)
-            gz[n + 1] = g_t.sum()
+            assert tpt is not None
+            sum_tpt = float(tpt.sum())
+            h_ak_p = by_p[:, 2].reshape(P, n)
+            gz[n + 1] = self.sums["y_t"] - sum_tpt
             cc[:n, n + 1] = h_ak_p.sum(axis=0)
-            cc[n, n + 1] = w_lt.sum()
-            cc[n + 1, n + 1] = w_tt.sum()
+            cc[n, n + 1] = -float(tpl @ pt)  # w_lt
+            cc[n + 1, n + 1] = sum_tpt - float(tpt @ pt)  # w_tt
         if self.use_c:
-            gz[nf:] = g_k.ravel()
+            gz[nf:] = by_k[:, 0]
             for k in range(K):
                 block = slice(nf + k * n, nf + (k + 1) * n)
                 cc[block, block] = per_clip[k]
                 cc[:n, block] = per_clip[k]
-            cc[n, nf:] = h_al_k.ravel()
+            cc[n, nf:] = by_k[:, 1]
             if self.ties:
-                cc[n + 1, nf:] = per(self.at_ki, self.at_kj, k_i, k_j, K * n)
-        bb = np.zeros((P, n, m))
+                cc[n + 1, nf:] = by_k[:, 2]
         if self.use_p:
             gb = g_p
             bb[:, :, :n] = aa
             bb[:, :, n] = h_al_p
             if self.ties:
                 bb[:, :, n + 1] = h_ak_p
-            if self.use_c:
-                bb[:, :, nf:] = blocks.reshape(P, n, K * n)
         else:
+            bb[:] = 0.0
             aa = np.zeros((P, n, n))
         upper = np.triu(cc, 1)
         cc = np.triu(cc) + upper.T  # filled above the diagonal only
@@ -233,8 +275,9 @@ class _Model:
         if not use_p:
             s_inv = np.linalg.inv(s)
             return _Solve(s_inv @ gz, b.copy(), s_inv, None, None)
-        bb = t["B"].copy()
-        if not use_c:
+        bb = t["B"]
+        if not use_c and m > nf:  # the clip effects held at 0: no coupling to them
+            bb = bb.copy()
             bb[:, :, nf:] = 0.0
         gb = -t["gb"] + b / var[0]
         a_inv = np.linalg.inv(t["A"] + np.eye(n) / var[0])
@@ -257,10 +300,17 @@ class _Model:
         *,
         tol: float = 1e-7,
         max_iter: int = 50,
+        one_step: bool = False,
     ) -> tuple[np.ndarray, np.ndarray, _Solve, bool, dict[str, Any]]:
         """The joint mode of fixed and random effects for the given variances (Newton steps
         with step halving from ``z``, ``b``; ``t`` their :meth:`terms` if known, which do not
-        depend on the variances), the solve there and its terms."""
+        depend on the variances), the solve there and its terms.
+
+        ``one_step``: take one Newton step only and return its end with the solve at its start
+        (the working-variate iteration of PQL, Breslow & Clayton 1993 sec. 2: one step of the
+        effects per variance update). At the fixed point of the variance updates the step is 0
+        and the solve is the mode's; on the way, each update costs one pass over the votes and
+        one solve instead of two passes and three solves."""
         t = self.terms(z, b) if t is None else t
         f = self.penalised(z, b, var, t["ll"])
         for _ in range(max_iter):
@@ -278,6 +328,8 @@ class _Model:
                 scale /= 2.0
             else:  # no step decreases F beyond rounding: this is the mode
                 return z, b, step, True, t
+            if one_step:
+                return z_new, b_new, step, True, t_new
             z, b, t, f = z_new, b_new, t_new, f_new
             moved = max(np.abs(scale * step.dz).max(), np.abs(scale * step.db).max(initial=0.0))
             if moved < tol:
@@ -397,7 +449,7 @@ def _fit(
     def schall(log_var: np.ndarray) -> np.ndarray:
         """One variance update in log variances, from the mode at ``exp(log_var)``."""
         var = np.exp(log_var)
-        z, b, at, ok, t = model.mode(var, state["z"], state["b"], state["t"], tol=1e-3)
+        z, b, at, ok, t = model.mode(var, state["z"], state["b"], state["t"], one_step=True)
         state.update(z=z, b=b, t=t, ok=state["ok"] and ok, updates=state["updates"] + 1)
         if progress is not None:
             progress(min(state["updates"], max_updates), max_updates)
