@@ -176,7 +176,7 @@ def extras(path: Path, tmp: Path) -> None:
     """Bootstrap statistics, the report and the planner on the same votes (in this process)."""
     from app.analysis import analyze, read_votes
     from app.analysis.plan import StudyPlan, plan_study
-    from app.analysis.report import write_report
+    from app.analysis.report.writer import write_report
 
     table = read_votes(path)
     t_stats, results = _best(lambda: analyze(table, conditions=list(TRUTH)))

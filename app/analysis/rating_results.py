@@ -10,7 +10,7 @@ of ``kind = catch``) and the participants the export marks ``excluded`` are left
 the reason printed, in the ``parallel`` design also those the post-screening of ITU-R
 BS.1534-3 catches (:func:`reference_screening`), and the rest go to the linear mixed model of
 :func:`app.analysis.ratings.mixed_mos` (MOS with confidence intervals, pairwise contrasts with
-Holm). The report's content is :mod:`app.analysis.rating_document`.
+Holm). The report's content is :mod:`app.analysis.report.rating_document`.
 
 >>> [c for c, _ in RATING_COLUMNS if c in REQUIRED]
 ['participant', 'clip', 'condition', 'score']

@@ -231,7 +231,7 @@ def analyze(
 
     from app.analysis import analyze as run_analysis
     from app.analysis import read_votes
-    from app.analysis.report import write_report
+    from app.analysis.report.writer import write_report
 
     if pdf_path is not None and html_path is None:
         raise click.UsageError("--pdf needs --report (both come from the same content)")
@@ -329,9 +329,9 @@ def _analyze_ratings(
     """``facepair analyze ratings.csv``: MOS with intervals and Holm-adjusted contrasts
     (:func:`app.analysis.rating_results.analyze_ratings`), written as the votes' are;
     ``source`` names the file in the results (``path`` unless given)."""
-    from app.analysis.rating_document import summary_text
     from app.analysis.rating_results import analyze_ratings, read_ratings
-    from app.analysis.report import write_report
+    from app.analysis.report.rating_document import summary_text
+    from app.analysis.report.writer import write_report
 
     below, share = screening
     results = analyze_ratings(

@@ -307,7 +307,7 @@ def plan(
     if plot_path is not None:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-        from app.analysis.figures import power_figure
+        from app.analysis.report.figures import power_figure
 
         fig = power_figure(result)
         FigureCanvasAgg(fig)

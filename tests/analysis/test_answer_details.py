@@ -1,14 +1,11 @@
-"""The 5-level strengths and reason tags summarised (``app.analysis.answer_details``) and their
-report section (``app.analysis.answer_document``), on votes whose answers are known."""
+"""The 5-level strengths and reason tags summarised (``app.analysis.answer_details``), on votes
+whose answers are known."""
 
 import pandas as pd
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from app.analysis import analyze
 from app.analysis.answer_details import LEVELS, reason_summary, strength_summary
-from app.analysis.answer_document import answer_detail_blocks
-from app.analysis.document import Heading, Plot, Table, build_document
 
 # (left, right, choice, strength, reasons): a vs b and b vs a, both presentation orders.
 VOTES = [
@@ -68,28 +65,6 @@ def test_reason_tags_by_the_condition_chosen():
     assert summary["tags"]["head"] == {"total": 1, "a": 0, "b": 1, "c": 0, "undecided": 0}
     assert (summary["votes"], summary["of"]) == (5, 6)
     assert reason_summary(_frame().assign(reasons=""), ["a", "b", "c"]) is None
-
-
-def test_the_report_has_the_tables_and_figures_only_when_asked():
-    frame = pd.concat([_frame(participant="p1"), _frame(participant="p2")])
-    results = analyze(frame, conditions=["a", "b", "c"], bootstrap=20, mixed_model=False)
-    assert results["strengths"]["pooled"] == [4, 2, 2, 2, 2]
-    assert results["reasons"]["tags"]["lips"]["total"] == 6
-    blocks = answer_detail_blocks(results)
-    assert isinstance(blocks[0], Heading) and blocks[0].text == "Answer details"
-    tables = [b for b in blocks if isinstance(b, Table)]
-    assert tables[0].rows[0] == ["a vs b", "4", "2", "2", "2", "0", "10", "0.80"]
-    assert tables[0].rows[-1][0] == "all pairs" and tables[1].rows[0][:2] == ["lips", "6"]
-    assert sum(isinstance(b, Plot) for b in blocks) == 2
-    headings = [b.text for b in build_document(results) if isinstance(b, Heading)]
-    assert "Answer details" in headings
-    plain = analyze(
-        frame.drop(columns=["strength", "reasons"]),
-        conditions=["a", "b", "c"],
-        bootstrap=20,
-        mixed_model=False,
-    )
-    assert answer_detail_blocks(plain) == []
 
 
 @settings(max_examples=60, deadline=None)

@@ -178,7 +178,8 @@ def test_a_few_simulated_studies_land_near_the_truth():
 @pytest.mark.slow
 def test_the_analysis_reports_it_beside_the_fixed_model(tmp_path):
     from app.analysis import analyze
-    from app.analysis.document import Table, build_document
+    from app.analysis.report.blocks import Table
+    from app.analysis.report.document import build_document
     from app.analysis.simulate import simulate_votes
 
     votes = simulate_votes({"a": -0.5, "b": 0.0, "c": 0.6}, participants=12, seed=3)

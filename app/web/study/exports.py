@@ -255,7 +255,7 @@ def write_report_files(study: Study) -> Path:
 def _write_analysis(results: dict[str, Any], path: Path) -> Path:
     """The report at ``path``, its PDF beside it, and every number of it as ``results.json``
     (for the study's package, app.web.study.package)."""
-    from app.analysis.report import write_report  # matplotlib: only when a report is written
+    from app.analysis.report.writer import write_report  # matplotlib: only when a report is written
 
     write_report(results, path, path.with_suffix(".pdf"))
     (path.parent / RESULTS).write_text(
@@ -279,7 +279,7 @@ def _write_no_answers_page(
 def _write_rating_report(study: Study, path: Path) -> Path:
     """The rating design's report: ``ratings.csv`` written beside it and analysed as
     ``facepair analyze ratings.csv`` does (:func:`app.analysis.rating_results.analyze_ratings`)."""
-    from app.analysis.document import counted
+    from app.analysis.report.blocks import counted
 
     csv_path = path.parent / "ratings.csv"
     csv_path.write_text(ratings_csv(study), encoding="utf-8")
@@ -326,7 +326,7 @@ def no_votes_page(study: Study, *, screened: dict[str, str] | None = None) -> st
     with the reason), in place of statistics and a PDF."""
     from flask import render_template
 
-    from app.analysis.document import counted
+    from app.analysis.report.blocks import counted
 
     rows = participant_table(study, dropped_after=dropped_after())
     pilots = sum(row.pilot for row in rows)
@@ -357,9 +357,10 @@ def no_votes_page(study: Study, *, screened: dict[str, str] | None = None) -> st
 
 
 def report_head(study: Study, results: dict[str, Any], *, exclude: str | None) -> dict[str, Any]:
-    """What the report says of the study itself (``app.analysis.document``'s study head)."""
+    """What the report says of the study itself (the study head of
+    ``app.analysis.report.document``)."""
 
-    from app.analysis.document import counted
+    from app.analysis.report.blocks import counted
 
     left_out = results["input"]["left_out"]
     design = (

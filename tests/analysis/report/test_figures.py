@@ -1,6 +1,7 @@
 import pytest
 
-from app.analysis import analyze, figures
+from app.analysis import analyze
+from app.analysis.report import figures
 from app.analysis.simulate import simulate_votes
 
 

@@ -1,13 +1,13 @@
 """Report blocks for participant-level inference, the Bradley-Terry-Davidson model and
 participant quality (:mod:`app.analysis.participant_level`, :mod:`app.analysis.btd`,
-:mod:`app.analysis.quality`); :func:`app.analysis.document.build_document` places them."""
+:mod:`app.analysis.quality`); :func:`app.analysis.report.document.build_document` places them."""
 
 from __future__ import annotations
 
 from typing import Any
 
-from app.analysis import figures
-from app.analysis.document import (
+from app.analysis.report import figures
+from app.analysis.report.blocks import (
     ALPHA,
     MAX_LISTED_PARTICIPANTS,
     Block,
@@ -20,7 +20,7 @@ from app.analysis.document import (
     fmt_p,
     judgements_per_pair,
 )
-from app.analysis.mixed_document import MIXED_TEXT, mixed_blocks, objective_blocks
+from app.analysis.report.mixed_document import MIXED_TEXT, mixed_blocks, objective_blocks
 
 METHOD_TEXT = (
     "Participant-level tests: for each pair (a, b), each participant's net preference "

@@ -1,12 +1,7 @@
 from app.analysis import analyze
-from app.analysis.document import Heading, Plot, Table, build_document, fmt, fmt_p
+from app.analysis.report.blocks import Heading, Paragraph, Plot, Table
+from app.analysis.report.document import build_document
 from app.analysis.simulate import simulate_votes
-
-
-def test_number_formats():
-    assert fmt_p(0.0004) == "< .001" and fmt_p(0.0283) == ".028" and fmt_p(1.0) == "1"
-    assert fmt_p(None) == "-" and fmt(None) == "-" and fmt(0.12345, 3) == "0.123"
-    assert fmt(12) == "12"
 
 
 def test_document_order_and_tables():
@@ -50,8 +45,6 @@ def test_any_small_study_builds_a_document():
 
 def test_one_participant_is_one_participant_and_no_folder_is_printed(tmp_path):
     import pandas as pd
-
-    from app.analysis.document import Paragraph
 
     frame = pd.DataFrame(
         [("p", "x", "A", "B", "left"), ("p", "x", "B", "A", "right")],
@@ -100,8 +93,6 @@ def test_catch_rows_and_excluded_participants_stay_out(tmp_path):
 
 
 def test_a_study_head_names_the_study_and_the_command():
-    from app.analysis.document import Paragraph
-
     votes = simulate_votes({"a": 0.0, "b": 1.0}, participants=3, clips=("x",))
     results = analyze(votes, bootstrap=0)
     results["study"] = {
@@ -179,8 +170,6 @@ def test_a_pair_judged_in_both_orders_is_judged_twice():
     """One participant judges A|B and B|A once each: the pair has 2 judgements (too few for
     the agreement test, whose statistics stay "-"), not 0."""
     import pandas as pd
-
-    from app.analysis.document import Paragraph
 
     frame = pd.DataFrame(
         [("p", "x", "A", "B", "left"), ("p", "x", "B", "A", "right")],

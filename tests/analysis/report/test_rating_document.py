@@ -3,9 +3,9 @@ post-screening paragraph of a parallel test, and the terminal summary."""
 
 from __future__ import annotations
 
-from app.analysis.document import Heading, Paragraph, Plot, Table
-from app.analysis.rating_document import mos_figure, rating_blocks, summary_text
 from app.analysis.rating_results import analyze_ratings, ratings_text, read_ratings
+from app.analysis.report.blocks import Heading, Paragraph, Plot, Table
+from app.analysis.report.rating_document import mos_figure, rating_blocks, summary_text
 from tests.analysis.test_rating_results import _parallel_rows, _rows
 
 

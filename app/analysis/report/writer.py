@@ -1,9 +1,9 @@
 """Write the results of :func:`app.analysis.analyze` as one self-contained HTML file and a PDF.
 
-Both come from the same blocks (:func:`app.analysis.document.build_document`): the HTML embeds
-each plot as a base64 PNG and needs nothing else (no scripts, no network); the PDF is laid out
-on A4 pages with matplotlib's PdfPages - text, tables and the same plot images - so no browser
-or external program is needed.
+Both come from the same blocks (:func:`app.analysis.report.document.build_document`): the HTML
+embeds each plot as a base64 PNG and needs nothing else (no scripts, no network); the PDF is laid
+out on A4 pages with matplotlib's PdfPages - text, tables and the same plot images - so no
+browser or external program is needed.
 """
 
 from __future__ import annotations
@@ -22,7 +22,8 @@ from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure
 from matplotlib.image import imread
 
-from app.analysis.document import Block, Heading, Paragraph, Plot, Table, build_document
+from app.analysis.report.blocks import Block, Heading, Paragraph, Plot, Table
+from app.analysis.report.document import build_document
 from app.errors import InputError
 
 PNG_DPI = 130

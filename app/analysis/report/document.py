@@ -1,51 +1,34 @@
 """The report's content - headings, generated text, tables, plots - independent of its format.
 
-:func:`build_document` turns an :func:`app.analysis.analyze` result into a list of blocks that
-:mod:`app.analysis.report` writes as HTML and as PDF, so both say the same. Numbers are printed
-the way a paper's results section prints them (APA: p without leading zero, "< .001").
+:func:`build_document` turns an :func:`app.analysis.analyze` result into a list of blocks
+(:mod:`app.analysis.report.blocks`) that :mod:`app.analysis.report.writer` writes as HTML and as
+PDF, so both say the same.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from matplotlib.figure import Figure
-
-from app.analysis import figures
-
-ALPHA = 0.05
-MAX_LISTED_PARTICIPANTS = 60
-
-
-@dataclass
-class Heading:
-    text: str
-    level: int = 2
-
-
-@dataclass
-class Paragraph:
-    text: str
-
-
-@dataclass
-class Table:
-    caption: str
-    header: list[str]
-    rows: list[list[str]]
-    note: str = ""
-    numeric: list[bool] = field(default_factory=list)
-
-
-@dataclass
-class Plot:
-    caption: str
-    figure: Figure
-
-
-Block = Heading | Paragraph | Table | Plot
+from app.analysis.report import figures
+from app.analysis.report.answer_document import answer_detail_blocks
+from app.analysis.report.blocks import (
+    ALPHA,
+    MAX_LISTED_PARTICIPANTS,
+    Block,
+    Heading,
+    Paragraph,
+    Plot,
+    Table,
+    counted,
+    fmt,
+    fmt_p,
+    judgements_per_pair,
+    pair_judgements,
+)
+from app.analysis.report.inference_document import METHOD_TEXT as MODEL_TEXT
+from app.analysis.report.inference_document import inference_blocks
+from app.analysis.report.rating_document import rating_blocks
 
 METHOD_TEXT = (
     "Ballots are the collapsed ballots of the thesis (sec. 5.2): the times a condition was "
@@ -68,56 +51,6 @@ METHOD_TEXT = (
     "1 JOD = 75 % preference; percentile intervals from {boot} bootstrap resamples of "
     "participants (seed {seed}).",
 )
-
-
-def counted(n: int, noun: str) -> str:
-    """``n`` and the noun, singular for one (never "1 participants").
-
-    >>> counted(1, "participant"), counted(3, "vote")
-    ('1 participant', '3 votes')
-    """
-    return f"{n} {noun}{'' if n == 1 else 's'}"
-
-
-def fmt(x: float | int | None, digits: int = 2) -> str:
-    """A number for the reader; "-" for a statistic that could not be computed."""
-    if x is None:
-        return "-"
-    if isinstance(x, int) or float(x).is_integer() and abs(x) >= 1000:
-        return f"{int(x)}"
-    return f"{x:.{digits}f}"
-
-
-def fmt_p(p: float | None) -> str:
-    """APA-style p: ".023", "< .001", "1"; "-" when undefined."""
-    if p is None:
-        return "-"
-    if p < 0.001:
-        return "< .001"
-    return "1" if p >= 0.9995 else f"{p:.3f}".lstrip("0")
-
-
-def judgements_per_pair(section: dict[str, Any], undecided: str, dash: str = "-") -> str:
-    """How often each pair of different conditions was judged (``m`` of the agreement test):
-    its votes in both side orders, the undecided ones where they are ``split`` and not where
-    they are excluded; one number, or the range ``min-max``; "-" when no pair was shown.
-    Pairs judged fewer than 3 times count here though the agreement test leaves them out.
-
-    >>> pair = {"wins": 1, "losses": 1, "undecided": 1}  # A|B and B|A, and one undecided
-    >>> judgements_per_pair({"sign_tests": [pair]}, "exclude")
-    '2'
-    """
-    counts = [_judgements(s, undecided) for s in section["sign_tests"]]
-    if not counts:
-        return "-"
-    low, high = min(counts), max(counts)
-    return f"{low}" if low == high else f"{low}{dash}{high}"
-
-
-def _judgements(sign_test: dict[str, Any], undecided: str) -> int:
-    """One pair's judgements (:func:`judgements_per_pair`)."""
-    split = sign_test["undecided"] if undecided == "split" else 0
-    return int(sign_test["wins"] + sign_test["losses"] + split)
 
 
 def _p_eq(p: float | None) -> str:
@@ -307,7 +240,7 @@ def _agreement_table(r: dict[str, Any]) -> Table:
     few = False  # a pair judged too few times for the test, in a clip or pooled
     for label, s in [*r["clips"].items(), ("pooled", r["pooled"])]:
         a = s["agreement"]
-        few = few or any(_judgements(t, rule) < 3 for t in s["sign_tests"])
+        few = few or any(pair_judgements(t, rule) < 3 for t in s["sign_tests"])
         rows.append(
             [
                 label,
@@ -481,10 +414,8 @@ def _appropriateness_blocks(appropriate: dict[str, dict[str, Any]]) -> list[Bloc
 
 def build_document(r: dict[str, Any]) -> list[Block]:
     """Every block of the report, in reading order (a rating study's:
-    :func:`app.analysis.rating_document.rating_blocks`)."""
+    :func:`app.analysis.report.rating_document.rating_blocks`)."""
     if r.get("kind") == "rating":
-        from app.analysis.rating_document import rating_blocks
-
         return (_study_blocks(r["study"]) if r.get("study") else []) + rating_blocks(r)
     pooled = r["pooled"]
     doc: list[Block] = _study_blocks(r["study"]) if r.get("study") else []
@@ -565,20 +496,14 @@ def build_document(r: dict[str, Any]) -> list[Block]:
         )
     )
     doc.append(_scale_table(r))
-    from app.analysis.inference_document import inference_blocks
-
     doc += inference_blocks(r)
     doc += _appropriateness_blocks(r.get("appropriateness") or {})
-    from app.analysis.answer_document import answer_detail_blocks
-
     doc += answer_detail_blocks(r)
     doc.append(Heading("Per clip"))
     for clip, section in r["clips"].items():
         doc.append(_sign_table(section, f"Sign tests, clip {clip}."))
         doc.append(_t_table(section, f"Paired samples test, clip {clip} (mean = a minus b)."))
     doc.append(Heading("Method"))
-    from app.analysis.inference_document import METHOD_TEXT as MODEL_TEXT
-
     for text in (*METHOD_TEXT, *MODEL_TEXT):
         doc.append(
             Paragraph(text.format(seed=r["options"]["seed"], boot=r["options"]["bootstrap"]))

@@ -1,12 +1,13 @@
 """The participant-level, model and quality blocks of the pair report
-(``app.analysis.inference_document``): what Table 10 counts is what it says it counts."""
+(``app.analysis.report.inference_document``): what Table 10 counts is what it says it counts."""
 
 from __future__ import annotations
 
 import pandas as pd
 
 from app.analysis import analyze
-from app.analysis.document import Table, build_document
+from app.analysis.report.blocks import Table
+from app.analysis.report.document import build_document
 
 COLUMNS = ["participant", "clip", "left", "right", "choice", "kind", "excluded"]
 

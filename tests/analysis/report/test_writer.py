@@ -5,7 +5,7 @@ import pytest
 
 from app.analysis import analyze
 from app.analysis.example import EXAMPLE, TRUE_SCALE
-from app.analysis.report import write_report
+from app.analysis.report.writer import write_report
 from app.analysis.simulate import simulate_votes
 from app.errors import InputError
 

@@ -1,6 +1,6 @@
 """The report of a ratings analysis (:func:`app.analysis.rating_results.analyze_ratings`): its
-blocks (:mod:`app.analysis.report` writes them as HTML and PDF), its MOS figure and the terminal
-summary of ``facepair analyze ratings.csv``. Importing it loads matplotlib; reading and
+blocks (:mod:`app.analysis.report.writer` writes them as HTML and PDF), its MOS figure and the
+terminal summary of ``facepair analyze ratings.csv``. Importing it loads matplotlib; reading and
 analysing a ratings table does not.
 """
 
@@ -12,7 +12,8 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from app.analysis.document import (
+from app.analysis.rating_results import screening_rule
+from app.analysis.report.blocks import (
     Block,
     Heading,
     Paragraph,
@@ -22,7 +23,6 @@ from app.analysis.document import (
     fmt,
     fmt_p,
 )
-from app.analysis.rating_results import screening_rule
 from app.trials.rating import SCALE_RANGE
 
 

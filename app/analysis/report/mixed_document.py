@@ -1,13 +1,13 @@
 """Report blocks for the Bradley-Terry-Davidson model with participant and clip random effects
 (:mod:`app.analysis.mixed_btd`), beside the fixed model; placed by
-:func:`app.analysis.inference_document.inference_blocks`."""
+:func:`app.analysis.report.inference_document.inference_blocks`."""
 
 from __future__ import annotations
 
 from typing import Any
 
-from app.analysis.document import Block, Heading, Paragraph, Table, fmt
 from app.analysis.mixed_btd import MODEL
+from app.analysis.report.blocks import Block, Heading, Paragraph, Table, fmt
 
 MIXED_TEXT = (
     "Mixed model: the Bradley-Terry-Davidson model with the side factor, each participant's "

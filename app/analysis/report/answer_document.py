@@ -9,8 +9,8 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
-from app.analysis.document import Block, Heading, Paragraph, Plot, Table, fmt
-from app.analysis.figures import GREY, PALETTE, stacked_bars
+from app.analysis.report.blocks import Block, Heading, Paragraph, Plot, Table, fmt
+from app.analysis.report.figures import GREY, PALETTE, stacked_bars
 
 #: Diverging colours of the five levels: clearly / slightly the first condition (blue), cannot
 #: decide (grey), slightly / clearly the second (red).
