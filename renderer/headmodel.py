@@ -29,7 +29,10 @@ from renderer import headparts as hp
 from renderer.face import OPTIONAL_GROUPS, REQUIRED_GROUPS, Face, fapu_from_feature_points
 from renderer.mouthparts import mouth_parts, oral_cavity
 from renderer.neckear import ear, neck_and_shoulders
+from renderer.part import merge
 from renderer.sdf import capsule, ellipsoid, ray_surface, smax, smin
+from renderer.skinpaint import hair_mask
+from renderer.skintexture import cached_skin_texture, white_uv
 
 #: Ray origin inside the head: the skin is star-shaped about it.
 CENTRE = np.array([0.0, -5.0, 12.0])
@@ -66,7 +69,7 @@ def _skin_sdf(p: np.ndarray) -> np.ndarray:
     d = smin(d, ellipsoid(q, (0, -52.5, 93.5), (24, 6.5, 10)), 4)  # upper lip
     d = smin(d, ellipsoid(q, (0, -64.5, 91.5), (21, 7.5, 10)), 4)  # lower lip
     # hair volume on the skull
-    return d - 5.0 * hp.hair_mask(p)
+    return d - 5.0 * hair_mask(p)
 
 
 def _lid_cover(q: np.ndarray) -> np.ndarray:
@@ -151,11 +154,9 @@ def builtin_face(look: str = "textured") -> Face:
     parts.append(neck_and_shoulders())
     texture = None
     if textured:
-        from renderer.skintexture import cached_skin_texture, white_uv
-
         grid = parts[0].vertices[: N_ELEVATION * N_AZIMUTH].reshape(N_ELEVATION, N_AZIMUTH, 3)
         texture = cached_skin_texture(grid, MOUTH_Y, MOUTH_HALF_WIDTH)
-    mesh = hp.merge(parts, white_uv(N_ELEVATION) if textured else None)
+    mesh = merge(parts, white_uv(N_ELEVATION) if textured else None)
 
     fp_vertices = {k[3:]: int(v[0]) for k, v in mesh.groups.items() if k.startswith("fp:")}
     feature_points = {k: mesh.vertices[i].astype(np.float64) for k, i in fp_vertices.items()}

@@ -1,76 +1,27 @@
-"""Parts of the built-in head: the skin ray grid, eyeballs, eyelids, ears, mouth, neck.
+"""Parts of the built-in head: the skin ray grid, eyeballs, eyelids, eyelashes.
 
-Each builder returns a :class:`Part`: vertices, triangles, RGB + specular colours, vertex
-groups (``fp:<name>`` marks a feature-point vertex) and per-vertex weight layers for the
-deformation (``head``, ``jaw``, ``upper_lip``, ``lower_lip``, ``eyelid_*``). Parts are merged by
-:func:`merge`. See :mod:`renderer.headmodel` for the numbers that place them.
+Each builder returns a :class:`renderer.part.Part`: vertices, triangles, RGB + specular
+colours, vertex groups (``fp:<name>`` marks a feature-point vertex) and per-vertex weight
+layers for the deformation (``head``, ``jaw``, ``upper_lip``, ``lower_lip``, ``eyelid_*``).
+Parts are merged by :func:`renderer.part.merge`; the skin's lips, brows, cheeks and hair are
+painted by :mod:`renderer.skinpaint`, or textured (:mod:`renderer.skintexture`, with its seams
+split by :mod:`renderer.uvseam`). See :mod:`renderer.headmodel` for the numbers that place them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 
+from renderer.part import Part
 from renderer.sdf import smoothstep
+from renderer.skinpaint import SKIN, paint_skin
+from renderer.skintexture import grid_uvs, pole_uv
+from renderer.uvseam import split_seams
 
-SKIN = np.array([0.80, 0.60, 0.50])
-LIPS = np.array([0.66, 0.34, 0.34])
-HAIR = np.array([0.20, 0.14, 0.10])
-BROW = np.array([0.26, 0.18, 0.13])
-LAYER_DEFAULTS = {"head": 1.0}
 #: Jaw weights below this are cut (the rest rescaled to stay continuous).
 JAW_WEIGHT_FLOOR = 0.06
-
-
-@dataclass
-class Part:
-    vertices: np.ndarray
-    triangles: np.ndarray
-    colors: np.ndarray
-    groups: dict[str, np.ndarray] = field(default_factory=dict)
-    layers: dict[str, np.ndarray] = field(default_factory=dict)
-    uvs: np.ndarray | None = None  # (n, 2) texture coordinates, if the part is textured
-
-
-def merge(parts: list[Part], default_uv: tuple[float, float] | None = None) -> Part:
-    """Concatenate parts, offsetting indices; missing layers get their default (head 1, else 0).
-
-    With ``default_uv``, the merged part has texture coordinates: each part's own, or
-    ``default_uv`` on a part without them.
-    """
-    offsets = np.cumsum([0] + [len(p.vertices) for p in parts])
-    names = sorted({k for p in parts for k in p.layers})
-    layers = {
-        k: np.concatenate(
-            [p.layers.get(k, np.full(len(p.vertices), LAYER_DEFAULTS.get(k, 0.0))) for p in parts]
-        )
-        for k in names
-    }
-    groups: dict[str, list[np.ndarray]] = {}
-    for off, p in zip(offsets, parts, strict=False):
-        for k, idx in p.groups.items():
-            groups.setdefault(k, []).append(np.asarray(idx) + off)
-    return Part(
-        vertices=np.concatenate([p.vertices for p in parts]),
-        triangles=np.concatenate(
-            [p.triangles + off for off, p in zip(offsets, parts, strict=False)]
-        ),
-        colors=np.concatenate([p.colors for p in parts]),
-        groups={k: np.concatenate(v).astype(np.int64) for k, v in groups.items()},
-        layers=layers,
-        uvs=None
-        if default_uv is None
-        else np.concatenate(
-            [
-                p.uvs
-                if p.uvs is not None
-                else np.tile(np.asarray(default_uv, np.float32), (len(p.vertices), 1))
-                for p in parts
-            ]
-        ).astype(np.float32),
-    )
 
 
 def _grid_triangles(
@@ -128,62 +79,6 @@ def _warp(
     cdf = np.concatenate([[0.0], np.cumsum((dens[1:] + dens[:-1]) / 2 * np.diff(x))])
     u = np.linspace(0.0, cdf[-1], n + (0 if endpoint else 1))[:n]
     return np.interp(u, cdf, x)
-
-
-def hair_mask(p: np.ndarray) -> np.ndarray:
-    """1 where hair grows on the skull (hairline by azimuth about the head's vertical axis)."""
-    az = np.degrees(np.abs(np.arctan2(p[:, 0], p[:, 2] + 5.0)))
-    line = np.interp(az, [0, 30, 50, 72, 85, 110, 140, 180], [76, 70, 52, 30, 40, 5, -40, -48])
-    return smoothstep(line - 4.0, line + 7.0, p[:, 1])
-
-
-def cheek_mask(p: np.ndarray) -> np.ndarray:
-    """0..1 where the cheeks flush, on the front of the face."""
-    x, y, z = np.abs(p[:, 0]), p[:, 1], p[:, 2]
-    return np.exp(-(((x - 40) / 18) ** 2 + ((y + 25) / 16) ** 2)) * smoothstep(40, 60, z)
-
-
-def lip_mask(p: np.ndarray, mouth_y: float, half_width: float) -> np.ndarray:
-    """0..1 on the vermilion: upper lip with a cupid's bow, fuller lower lip."""
-    x, y, z = np.abs(p[:, 0]), p[:, 1], p[:, 2]
-    prof = np.sqrt(np.clip(1 - (x / half_width) ** 2, 0, 1))
-    upper = mouth_y + 8.0 * prof**0.7 - 1.6 * np.exp(-((x / 4.0) ** 2)) + 0.6
-    lower = mouth_y - 10.0 * np.sqrt(np.clip(1 - (x / (half_width - 1)) ** 2, 0, 1)) ** 0.8
-    lip = smoothstep(upper + 1.0, upper - 1.0, y) * smoothstep(lower - 1.0, lower + 1.0, y)
-    return lip * smoothstep(70, 80, z) * smoothstep(half_width + 0.5, half_width - 2.0, x)
-
-
-def brow_arch(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Centre height and half height (mm) of the eyebrow's arch at ``|x|``: from beside the
-    nose bridge (x = 13) to the temple (x = 53)."""
-    t = (x - 13.0) / 40.0
-    centre = 29.0 + 6.5 * np.sin(np.pi * np.clip(t, 0, 1) * 0.85) - 2.5 * t
-    return centre, 3.6 * (1 - t) + 1.6 * t
-
-
-def brow_mask(p: np.ndarray) -> np.ndarray:
-    """0..1 over the eyebrows (:func:`brow_arch`), on the front of the face."""
-    x, y, z = np.abs(p[:, 0]), p[:, 1], p[:, 2]
-    t = (x - 13.0) / 40.0
-    centre, half = brow_arch(x)
-    return (
-        smoothstep(half + 1.8, half - 1.2, np.abs(y - centre))
-        * smoothstep(-0.05, 0.05, t)
-        * smoothstep(1.05, 0.9, t)
-        * smoothstep(45, 60, z)
-    )
-
-
-def paint_skin(p: np.ndarray, mouth_y: float, half_width: float) -> np.ndarray:
-    """Skin colour with lips, eyebrows, cheeks and hair painted on (RGB + specular)."""
-    col = np.tile(SKIN, (len(p), 1))
-    col = col + 0.5 * cheek_mask(p)[:, None] * (np.array([0.84, 0.50, 0.45]) - SKIN)
-    lip = lip_mask(p, mouth_y, half_width)
-    col = col + lip[:, None] * (LIPS - col)
-    col = col + 0.92 * brow_mask(p)[:, None] * (BROW - col)
-    col = col + hair_mask(p)[:, None] * (HAIR - col)
-    spec = 0.18 + 0.15 * lip
-    return np.column_stack([col, spec])
 
 
 def skin_grid(
@@ -246,8 +141,6 @@ def skin_grid(
     colors = paint_skin(verts, mouth_y, half_width)
     uvs = None
     if textured:
-        from renderer.skintexture import grid_uvs, pole_uv
-
         uvs = np.vstack([grid_uvs(n_elevation, n_azimuth), [pole_uv(n_elevation)]])
         uvs = np.vstack([uvs, uvs[slit]]).astype(np.float32)
         colors[:, :3] = 1.0
@@ -326,8 +219,6 @@ def skin_grid(
     skin = Part(verts, tris, colors, groups, layers, uvs)
     if not textured:
         return skin
-    from renderer.uvseam import split_seams
-
     columns = np.concatenate(
         [np.arange(n_elevation * n_azimuth) % n_azimuth, [-1], slit % n_azimuth]
     )

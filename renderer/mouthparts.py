@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from renderer.headparts import Part, ellipsoid_mesh, merge
+from renderer.headparts import ellipsoid_mesh
+from renderer.part import Part, merge
 from renderer.sdf import smoothstep
 
 #: The cavity's loops behind the lip margin: how far in (mm behind the lip vertex), how far up

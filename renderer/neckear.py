@@ -23,8 +23,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from renderer.headparts import SKIN, Part, ellipsoid_mesh, merge
+from renderer.headparts import ellipsoid_mesh
+from renderer.part import Part, merge
 from renderer.sdf import smoothstep
+from renderer.skinpaint import SKIN
 
 NECK_BASE_Y = -215.0
 NECK_RINGS, NECK_SEGMENTS = 10, 28

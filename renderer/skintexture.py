@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from renderer import headparts as hp
+import renderer.skinpaint as paint
 from renderer.sdf import smoothstep
 
 #: Texels along each side of the texture.
@@ -181,7 +181,7 @@ def brow_strands(rng: np.random.Generator, n_hairs: int = 1100) -> np.ndarray:
     """Coverage (0..1) of one brow's hairs on a frontal map (rows up from y = 14 mm, columns
     out from x = 6 mm, 0.1 mm a texel); the other brow is its mirror image.
 
-    Roots fill the brow's arch (:func:`renderer.headparts.brow_arch`); each hair is a short
+    Roots fill the brow's arch (:func:`renderer.skinpaint.brow_arch`); each hair is a short
     arc whose direction turns from rising (the inner end, the brow's head) to running outwards
     along the arch, tilted towards the arch's centre line, so the hairs meet along it as a
     real brow's do. Lengths 4-9 mm; the hairs thin towards their tips.
@@ -189,7 +189,7 @@ def brow_strands(rng: np.random.Generator, n_hairs: int = 1100) -> np.ndarray:
     shape = (int(40 / _BROW_MM), int(62 / _BROW_MM))
     t = rng.beta(1.3, 1.6, n_hairs)  # more hairs at the head of the brow
     x = 13.0 + 40.0 * t
-    centre, half = hp.brow_arch(x)
+    centre, half = paint.brow_arch(x)
     across = rng.uniform(-1.0, 1.0, n_hairs)
     y = centre + 1.05 * half * across
     rise = np.radians(75.0) * smoothstep(0.35, 0.0, t)
@@ -233,7 +233,7 @@ def skin_texture(
     ----------
     grid : the skin's ray grid, rows of elevation by columns of azimuth (model mm).
     mouth_y, half_width : the mouth line and the half width of the lips, as for
-        :func:`renderer.headparts.paint_skin`.
+        :func:`renderer.skinpaint.paint_skin`.
     size : texels per side; seed : the noise's seed (the same seed, the same texture).
 
     Returns
@@ -264,15 +264,15 @@ def skin_texture(
     lip_lines = noise((1.2, 0.3))
     x, y, z = np.abs(pos[..., 0]), pos[..., 1], pos[..., 2]
 
-    col = np.broadcast_to(hp.SKIN, pos.shape).copy()
+    col = np.broadcast_to(paint.SKIN, pos.shape).copy()
     face = smoothstep(40.0, 70.0, z)
     # redness where the skin is thin or flushed: cheeks, nose tip and wings, chin, lids
     flush = (
-        hp.cheek_mask(flat).reshape(x.shape)
+        paint.cheek_mask(flat).reshape(x.shape)
         + 0.7 * np.exp(-((x / 14.0) ** 2 + ((y + 27.0) / 9.0) ** 2)) * face
         + 0.35 * np.exp(-((x / 16.0) ** 2 + ((y + 95.0) / 10.0) ** 2)) * face
     )
-    col += 0.55 * np.clip(flush, 0, 1)[..., None] * (np.array([0.84, 0.49, 0.44]) - hp.SKIN)
+    col += 0.55 * np.clip(flush, 0, 1)[..., None] * (np.array([0.84, 0.49, 0.44]) - paint.SKIN)
     # darker, cooler skin under the eyes
     under = np.exp(-(((x - 30.0) / 11.0) ** 2 + ((y + 2.0) / 4.5) ** 2)) * face
     col *= 1.0 - 0.10 * under[..., None] * np.array([0.8, 1.0, 0.9])
@@ -285,23 +285,23 @@ def skin_texture(
     )
     detail /= detail[face > 0.5].mean()  # detail, not a darker skin: the tone stays SKIN's
     col *= detail[..., None]
-    col += 0.1 * np.clip(blotch, 0, None)[..., None] * (np.array([0.84, 0.49, 0.44]) - hp.SKIN)
+    col += 0.1 * np.clip(blotch, 0, None)[..., None] * (np.array([0.84, 0.49, 0.44]) - paint.SKIN)
     # lips: the vermilion, with fine vertical lines and a darker line where they meet
-    lip = hp.lip_mask(flat, mouth_y, half_width).reshape(x.shape)
-    lips = hp.LIPS * (1.0 + 0.06 * lip_lines)[..., None] * (1.0 + 0.03 * grain)[..., None]
+    lip = paint.lip_mask(flat, mouth_y, half_width).reshape(x.shape)
+    lips = paint.LIPS * (1.0 + 0.06 * lip_lines)[..., None] * (1.0 + 0.03 * grain)[..., None]
     meet = np.exp(-(((y - mouth_y) / 1.6) ** 2)) * smoothstep(half_width + 1, 0, x)
     lips *= 1.0 - 0.35 * meet[..., None]
     col += lip[..., None] * (lips - col)
     # eyebrows: a faint shade where they grow, the strands over it
-    brow_area = hp.brow_mask(flat).reshape(x.shape)
-    col += 0.35 * brow_area[..., None] * (hp.BROW - col)
+    brow_area = paint.brow_mask(flat).reshape(x.shape)
+    col += 0.35 * brow_area[..., None] * (paint.BROW - col)
     strands = brow_strands(rng)
     coords = np.stack([(y - _BROW_Y0) / _BROW_MM, (x - _BROW_X0) / _BROW_MM])
     hair = map_coordinates(strands, coords, order=1, mode="constant") * smoothstep(45, 60, z)
-    brow_colour = hp.BROW * 0.8 * (1.0 + 0.1 * grain)[..., None]
+    brow_colour = paint.BROW * 0.8 * (1.0 + 0.1 * grain)[..., None]
     col += np.clip(hair, 0, 1)[..., None] * (brow_colour - col)
-    scalp = hp.hair_mask(flat).reshape(x.shape)
-    hair_colour = hp.HAIR * (1.0 + 0.35 * streak + 0.1 * grain)[..., None]
+    scalp = paint.hair_mask(flat).reshape(x.shape)
+    hair_colour = paint.HAIR * (1.0 + 0.35 * streak + 0.1 * grain)[..., None]
     col += scalp[..., None] * (hair_colour - col)
 
     out = np.clip(np.round(col * 255.0), 0, 255).astype(np.uint8)
@@ -333,13 +333,13 @@ def cached_skin_texture(
     render job may stay silent), reading the stored texels milliseconds.
 
     The file name is a SHA-256 of the grid, the parameters and the source of the modules
-    that paint (this one and :mod:`renderer.headparts`), so a changed head or painter never
+    that paint (this one and :mod:`renderer.skinpaint`), so a changed head or painter never
     reads a stale texture. A cache folder that cannot be written is skipped, not an error.
     """
     h = hashlib.sha256()
     h.update(np.ascontiguousarray(grid, dtype="<f8").tobytes())
     h.update(repr((float(mouth_y), float(half_width), int(size), int(seed))).encode())
-    for module in (__file__, hp.__file__):
+    for module in (__file__, paint.__file__):
         h.update(Path(module).read_bytes())
     path = (directory or cache_dir()) / f"skin-{h.hexdigest()[:32]}.npy"
     try:

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from renderer.headparts import Part
+from renderer.part import Part
 
 
 def split_seams(part: Part, columns: np.ndarray, n_azimuth: int, pole: int) -> Part:

@@ -11,7 +11,7 @@ Per participant, over all their votes:
   pooled Bradley-Terry-Davidson scores of all participants (or, where the model has no finite
   maximum, the pooled wins).
 - ``catch``: share of identical-clip pairs (the same condition on both sides) answered
-  "undecided", the answer ``app.trials.schedule`` expects of an identical catch trial; null
+  "undecided", the answer ``app.trials.catch`` expects of an identical catch trial; null
   for a participant who saw none.
 - ``median_ms``: median response time (``response_ms``), null when the column is empty.
 - ``outlier``: pwcmp's outlier distance (Perez-Ortiz & Mantiuk 2017, sec. 9): with L_p the

@@ -50,13 +50,13 @@ def _fitted_to_audio(tracks: dict[str, Any], audio: str, fps: float | None, pad:
     from pathlib import Path
 
     from app.errors import InputError
-    from app.stimuli import speech
     from app.stimuli.audiofile import read_audio
     from app.stimuli.lengths import length_note
+    from app.stimuli.speechaudio import MAX_DURATION_S
 
     if not Path(audio).is_file():
         raise InputError("audio file not found", path=audio)
-    decoded = read_audio(audio, max_duration=speech.MAX_DURATION_S)
+    decoded = read_audio(audio, max_duration=MAX_DURATION_S)
     seconds = len(decoded.samples) / decoded.sample_rate
     for path, track in tracks.items():
         rate = fps or track.fps

@@ -57,7 +57,7 @@ def convert(source: str, target: str, fps: float | None, greta: bool) -> None:
 def convert_notes(track: MotionTrack) -> list[str]:
     """The lines a conversion owes its user: high-level FAPs kept, a capture's losses."""
     from app.stimuli.fapfile import high_level_note
-    from app.stimuli.generate import capture_note
+    from app.stimuli.summary import capture_note
 
     notes = []
     high = high_level_note(track)
@@ -628,7 +628,7 @@ def evaluate(
 
     from app.errors import InputError
     from app.stimuli.evaluate import evaluate_conditions, load_takes, plot_evaluation, split_take
-    from app.stimuli.generate import _jsonable
+    from app.stimuli.summary import jsonable
 
     for given, truths, flag in (
         (audio, ground_truth, "--ground-truth"),
@@ -659,7 +659,7 @@ def evaluate(
         file=sys.stderr,
         disable=None,
     ) as bar:
-        report = _jsonable(
+        report = jsonable(
             evaluate_conditions(
                 train,
                 test,

@@ -27,9 +27,9 @@ from pathlib import Path
 import numpy as np
 
 from app.data import data_path
-from app.stimuli.audiofile import read_speech_audio
 from app.stimuli.fap import AU_RADIANS, HEAD
 from app.stimuli.io import load_track, save_track
+from app.stimuli.speechaudio import read_speech_audio
 from app.stimuli.track import MotionTrack
 
 #: Where the demo speech is cut (seconds): the pause after "ever" (energy minimum).

@@ -454,28 +454,3 @@ def _last_error(messages: str) -> str:
     lines = [ln.strip() for ln in messages.splitlines() if ln.strip()]
     useful = [ln for ln in lines if not ln.startswith(("Input #", "Stream #", "Duration:"))]
     return " ".join((useful or lines or ["no message"])[-1].split())[:160]
-
-
-def check_audio_file(path: str | Path, *, max_duration: float | None = None) -> str:
-    """Check an uploaded audio file as the speech pipeline will read it; its summary line.
-
-    The same checks as :func:`app.stimuli.speech.load_sound` (container, header, length,
-    silence), so a form can refuse a bad file with the line of :class:`InputError` it raises
-    before a job ever meets the file.
-
-    >>> check_audio_file("app/data/demo/speech.wav")  # doctest: +SKIP
-    'speech.wav: WAV (16-bit PCM), 16000 Hz, mono, 4.00 s; read directly'
-    """
-    return read_speech_audio(path, max_duration=max_duration).summary
-
-
-def read_speech_audio(path: str | Path, *, max_duration: float | None = None) -> DecodedAudio:
-    """:func:`read_audio` with the speech pipeline's limits (length, silence)."""
-    from app.stimuli import speech  # speech imports this module: resolve at call time
-
-    return read_audio(
-        path,
-        max_duration=speech.MAX_DURATION_S if max_duration is None else max_duration,
-        min_duration=speech.MIN_DURATION_S,
-        silence_peak=speech.SILENCE_PEAK,
-    )

@@ -3,8 +3,9 @@
 The pipeline of thesis sec. 4.3: speech features per video frame (:mod:`app.stimuli.speech`);
 each condition fitted on the ground truth where it learns from it and generated from the speech;
 optionally normalised to the reference condition (sec. 5.3); objective measures of every track
-(:mod:`app.stimuli.measures`). :func:`write_outputs` writes ``<condition>.fap`` per condition
-and ``summary.json``.
+(:mod:`app.stimuli.measures`) in the generation's summary (:mod:`app.stimuli.summary`).
+:func:`write_outputs` writes ``<condition>.fap`` per condition, ``summary.json`` and its
+picture (:mod:`app.stimuli.plot`).
 
 Example
 -------
@@ -18,23 +19,19 @@ from __future__ import annotations
 import inspect
 import json
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from app.errors import InputError
-from app.stimuli.conditions import DISPLAY_NAMES, IMPORTED, condition_class, make_condition
+from app.stimuli.conditions import IMPORTED, condition_class, make_condition
 from app.stimuli.conditions.imported import ImportedCondition
 from app.stimuli.eyes import DEFAULT_EYES, check_eyes, eye_channels
 from app.stimuli.fap import EYEBROWS
 from app.stimuli.io import load_track, save_track
 from app.stimuli.lengths import length_note
-from app.stimuli.measures import measure_track
 from app.stimuli.meshes.fairness import DEFAULT_MESH_EYES, check_mesh_eyes, match_mesh_eyes
-from app.stimuli.meshes.summary import mesh_entries
 from app.stimuli.normalize import normalize_tracks
+from app.stimuli.plot import plot_conditions
 from app.stimuli.posture import DEFAULT_POSTURE, check_posture, rest_posture, share_posture
 from app.stimuli.progress import Progress, progress_steps
 from app.stimuli.shared import (
@@ -48,18 +45,10 @@ from app.stimuli.shared import (
     share_channels,
 )
 from app.stimuli.speech import SpeechFeatures, extract_features
+from app.stimuli.summary import GenerationResult, capture_note, generation_summary, jsonable
 from app.stimuli.track import MotionTrack, align_to_features
 
 DEFAULT_CONDITIONS = ("none", "random", "speech_driven", "ground_truth")
-
-
-@dataclass(eq=False)
-class GenerationResult:
-    """The tracks by condition name, the speech features and a JSON-able summary."""
-
-    tracks: dict[str, MotionTrack]
-    features: SpeechFeatures
-    summary: dict[str, Any] = field(default_factory=dict)
 
 
 #: One condition of a generation: the registry model and its parameters.
@@ -251,7 +240,7 @@ def generate_conditions(
         tracks, factors = normalize_tracks(tracks, gt_names[0] if gt_names else gt_aligned)
         step()
 
-    summary = _summary(
+    summary = generation_summary(
         audio_path, features, gt_track, gt_aligned, tracks, described, factors, seed, eyes
     )
     summary["notes"] = notes + summary["notes"]
@@ -268,7 +257,7 @@ def generate_conditions(
         else ("median of the ground truth" if gt_aligned is not None else "neutral"),
     }
     step()
-    return GenerationResult(tracks, features, _jsonable(summary))
+    return GenerationResult(tracks, features, jsonable(summary))
 
 
 def _share_brows(
@@ -346,140 +335,6 @@ def _load_ground_truth(
     return load_track(ground_truth, fps=fps, mesh=meshes)
 
 
-def _speech_summary(features: SpeechFeatures) -> dict[str, Any]:
-    voiced = features.f0[features.voiced]
-    return {
-        **features.metadata,
-        "fps": features.fps,
-        "frames": features.n_frames,
-        "voiced_fraction": float(features.voiced.mean()) if features.n_frames else 0.0,
-        "f0_hz": {
-            "median": float(np.median(voiced)) if len(voiced) else None,
-            "min": float(voiced.min()) if len(voiced) else None,
-            "max": float(voiced.max()) if len(voiced) else None,
-        },
-        "intensity_db": {
-            "min": float(features.intensity.min()),
-            "median": float(np.median(features.intensity)),
-            "max": float(features.intensity.max()),
-        },
-    }
-
-
-def _summary(
-    audio_path: str | Path,
-    features: SpeechFeatures,
-    gt: MotionTrack | None,
-    gt_aligned: MotionTrack | None,
-    tracks: dict[str, MotionTrack],
-    described: dict[str, Any],
-    factors: dict[str, Any] | None,
-    seed: int,
-    eyes: str,
-) -> dict[str, Any]:
-    from app import __version__
-
-    notes: list[str] = []
-    gt_info: dict[str, Any] | None = None
-    if gt is not None:
-        synthetic = "synthetic" in f"{gt.source} {gt.speaker} {gt.name}".lower()
-        gt_info = {
-            "source": gt.source,
-            "speaker": gt.speaker,
-            "fps": gt.fps,
-            "frames": gt.n_frames,
-            "synthetic": synthetic,
-        }
-        if synthetic:
-            notes.append(
-                "the ground truth is SYNTHETIC (facepair's reference speaker), not captured motion"
-            )
-        capture = gt.metadata.get("capture")
-        if capture:
-            gt_info["capture"] = capture
-            notes.append(capture_note(gt.source, capture))
-    conds: dict[str, Any] = {}
-    mesh_info, mesh_measures, mesh_notes = mesh_entries(tracks, gt_aligned, features)
-    notes += mesh_notes
-    for name, track in tracks.items():
-        entry: dict[str, Any] = {
-            "display_name": DISPLAY_NAMES.get(name, name),
-            "file": f"{name}.fap",
-            "source": track.source,
-            "frames": track.n_frames,
-            "channels": list(track.channels),
-            "parameters": described.get(name, {}),
-            "measures": measure_track(track, features, gt_aligned),
-        }
-        if name in mesh_info:
-            entry["mesh"] = mesh_info[name]
-        if name in mesh_measures:
-            entry["measures"]["mesh"] = mesh_measures[name]
-        for key in (
-            "model",
-            "head_model",
-            "head_mean",
-            "eyebrows",
-            "amplitudes",
-            "carried_from_ground_truth",
-            "eyes",
-        ):
-            if key in track.metadata:
-                entry[key] = track.metadata[key]
-        if track.metadata.get("head_model"):
-            notes.append(f"{name}: {track.metadata['head_model']}")
-        warning = track.metadata.get("eyebrows", {}).get("warning")
-        if warning:
-            notes.append(f"{name}: {warning}")
-        conds[name] = entry
-    return {
-        "generator": f"facepair {__version__}",
-        "audio": str(audio_path),
-        "seed": seed,
-        "speech": _speech_summary(features),
-        "ground_truth": gt_info,
-        "eyes": eyes,
-        "normalized": factors is not None,
-        "normalization": factors,
-        "conditions": conds,
-        "notes": notes,
-    }
-
-
-def capture_note(source: str, capture: Mapping[str, Any], what: str = "ground truth") -> str:
-    """One line on an imported ground truth (or another imported track, ``what``): lost
-    samples, filled frames, FAPs absent from the file and the importer's warnings."""
-    note = (
-        f"{what} imported from {source}: {capture['samples']} samples at "
-        f"{capture['capture_fps']:g} fps, {capture['invalid_samples']} lost, "
-        f"{capture['filled_frames']} frames filled by interpolation"
-    )
-    missing = sorted({f for faps in capture.get("missing", {}).values() for f in faps})
-    if missing:
-        note += f"; FAPs {', '.join(map(str, missing))} absent from the file"
-    warnings = [str(w) for w in capture.get("warnings", ()) or ()]
-    if warnings:
-        note += "; " + "; ".join(warnings)
-    return note
-
-
-def _jsonable(x: Any) -> Any:
-    """Plain JSON types: numpy scalars to Python, non-finite floats to None, keys to str."""
-    if isinstance(x, Mapping):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    if isinstance(x, (float, np.floating)):
-        return float(x) if np.isfinite(x) else None
-    if isinstance(x, Path):
-        return str(x)
-    return x
-
-
 def write_outputs(
     result: GenerationResult, out_dir: str | Path, *, plot: bool = True, greta: bool = False
 ) -> list[Path]:
@@ -501,7 +356,5 @@ def write_outputs(
     summary_path.write_text(json.dumps(result.summary, indent=1) + "\n", encoding="utf-8")
     written.append(summary_path)
     if plot:
-        from app.stimuli.plot import plot_conditions
-
         written.append(plot_conditions(result, out / "summary.png"))
     return written

@@ -9,14 +9,12 @@ truth drawn thick; the speech-driven eyebrow raises are shaded. Uses matplotlib'
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from app.stimuli.conditions import DISPLAY_NAMES
 from app.stimuli.fap import DEG_PER_AU
-
-if TYPE_CHECKING:
-    from app.stimuli.generate import GenerationResult
+from app.stimuli.summary import GenerationResult
 
 _COLOURS = {
     "ground_truth": "black",
@@ -33,8 +31,6 @@ def plot_conditions(result: GenerationResult, path: str | Path) -> Path:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from app.stimuli.conditions import DISPLAY_NAMES
 
     feats = result.features
     t = np.arange(feats.n_frames) / feats.fps

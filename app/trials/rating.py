@@ -9,7 +9,7 @@ P.910 sec. 6: "each test condition" with every source sequence).
 
 Presentation order is balanced two ways. Conditions: a participant's trials fall into one
 block per clip slot, and inside every block the conditions follow one row of a balanced
-Latin square (Williams 1949, :func:`app.trials.schedule.williams_square`) chosen by the
+Latin square (Williams 1949, :func:`app.trials.counterbalance.williams_square`) chosen by the
 participant's list, so over one cycle of lists every condition is at every place in the
 block equally often and follows every other condition equally often. Clips: shuffled per
 participant from the stored seed and spread over the blocks so that the condition at place
@@ -35,7 +35,9 @@ from typing import Final
 
 import numpy as np
 
-from app.trials.schedule import ScheduledTrial, catch_slots, williams_square
+from app.trials.catch import catch_slots
+from app.trials.counterbalance import williams_square
+from app.trials.trial import ScheduledTrial
 
 RATING_SCALES: Final = ("acr5", "slider")
 """Rating scales: ``acr5`` (ITU-T P.910 ACR, five labelled levels scored 5..1) or

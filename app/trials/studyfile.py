@@ -32,6 +32,7 @@ from app.stimuli.meshes.fairness import DEFAULT_MESH_EYES, MESH_EYES
 from app.stimuli.posture import DEFAULT_POSTURE, POSTURES
 from app.stimuli.shared import BROW_MODES, DEFAULT_BROWS, LIP_MODES
 from app.trials.adaptive import MIN_CONDITIONS
+from app.trials.catch import CATCH_KINDS
 from app.trials.design import DESIGNS, RATING_DESIGNS, REFERENCE_DESIGNS, ConditionPair
 from app.trials.fields import MISSING, describe
 from app.trials.meshtables import read_mesh_table
@@ -40,7 +41,6 @@ from app.trials.questions import ExperimenterSideReader
 from app.trials.rating import DEFAULT_RATING_SCALE, RATING_SCALES
 from app.trials.recruiting import read_recruiting
 from app.trials.rules import DEFAULT_UNDECIDED_LABEL, REPLAY_KINDS, ReplayPolicy
-from app.trials.schedule import CATCH_KINDS
 from app.trials.studyspec import MODELS, ClipSpec, ConditionSpec, StudySpec
 
 __all__ = [

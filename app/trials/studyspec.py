@@ -26,13 +26,9 @@ from app.trials.questions import QuestionSpec
 from app.trials.rating import DEFAULT_RATING_SCALE
 from app.trials.recruiting import RecruitingSpec
 from app.trials.rules import DEFAULT_UNDECIDED_LABEL, ReplayPolicy
-from app.trials.schedule import (
-    ScheduledTrial,
-    make_schedule,
-    n_lists_for,
-    shown_stimuli,
-    variant_stimuli,
-)
+from app.trials.schedule import make_schedule, n_lists_for
+from app.trials.stimuli import shown_stimuli, variant_stimuli
+from app.trials.trial import ScheduledTrial
 
 KNOWN_MODELS: Final = ("none", "random", "speech_driven", "ground_truth", "live_gmm")
 """The models of the stimulus engine's interface; every one must be a key of
@@ -160,7 +156,7 @@ class StudySpec:
 
     def stimuli(self) -> list[tuple[str, ConditionPair]]:
         """Every (clip name, displayed pair) some schedule shows: the side-by-side clips to render
-        (:func:`app.trials.schedule.shown_stimuli`)."""
+        (:func:`app.trials.stimuli.shown_stimuli`)."""
         return shown_stimuli(
             clips=self.clip_names,
             pairs=self.pairs(),
@@ -173,7 +169,7 @@ class StudySpec:
 
     def variants(self) -> list[tuple[str, ConditionPair, str, str]]:
         """Attention-check and appropriateness clips to render besides :meth:`stimuli`
-        (:func:`app.trials.schedule.variant_stimuli`)."""
+        (:func:`app.trials.stimuli.variant_stimuli`)."""
         return variant_stimuli(
             clips=self.clip_names,
             pairs=self.pairs(),

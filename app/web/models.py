@@ -355,7 +355,7 @@ class Trial(db.Model):
     #: The design pair shown (either side order); None for an "identical" catch trial.
     pair_id: so.Mapped[int | None] = so.mapped_column(sa.ForeignKey("pair.id"))
     stimulus_id: so.Mapped[int] = so.mapped_column(sa.ForeignKey("stimulus.id"))
-    #: "trial" or "catch" (``app.trials.schedule.TRIAL_KINDS``).
+    #: "trial" or "catch" (``app.trials.trial.TRIAL_KINDS``).
     kind: so.Mapped[str] = so.mapped_column(sa.String(10), default="trial")
     #: For a catch trial, the answer an attentive participant gives.
     expected: so.Mapped[str | None] = so.mapped_column(sa.String(10))

@@ -128,7 +128,7 @@ def test_any_value_of_a_top_key_is_read_or_refused_in_one_line(bench, key, value
 
 
 def _targets(bench) -> list[SegmentTarget]:
-    from app.stimuli.audiofile import read_speech_audio
+    from app.stimuli.speechaudio import read_speech_audio
 
     out = []
     for name, *_ in SEGMENTS:

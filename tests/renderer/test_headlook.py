@@ -153,8 +153,8 @@ def test_the_hairline_is_painted_as_designed():
 
     from renderer.gl import camera_for
     from renderer.headmodel import CENTRE, _skin_sdf
-    from renderer.headparts import hair_mask
     from renderer.sdf import ray_surface
+    from renderer.skinpaint import hair_mask
 
     face = builtin_face("plain")  # the textured look paints the hairline into its texture
     h = hair_mask(face.vertices.astype(float))

@@ -106,7 +106,7 @@ def _partial_peaks(coverage):
 
 
 def test_brow_hairs_are_strands_not_a_painted_band():
-    from renderer.headparts import brow_mask
+    from renderer.skinpaint import brow_mask
 
     hair = brow_strands(np.random.default_rng(1))
     assert 0.05 < (hair > 0.5).mean() < 0.4

@@ -310,23 +310,6 @@ def test_a_live_model_keeps_its_own_eyes_and_shares_them(repo_root):
     assert result.summary["eyes_from"] == "condition live_gmm (live_gmm)"
 
 
-def test_capture_note_carries_the_importers_warnings():
-    from app.stimuli.generate import capture_note
-
-    capture = {
-        "samples": 600,
-        "capture_fps": 60.0,
-        "invalid_samples": 2,
-        "filled_frames": 1,
-        "missing": {"eyes": [23, 24]},
-        "warnings": ["HeadPitch is constant (0): a take recorded without head rotation?"],
-    }
-    note = capture_note("take.csv", capture)
-    assert note.startswith("ground truth imported from take.csv: 600 samples at 60 fps, 2 lost")
-    assert "FAPs 23, 24 absent from the file" in note
-    assert note.endswith("HeadPitch is constant (0): a take recorded without head rotation?")
-
-
 def test_cli_imports_a_track_as_a_condition_and_refuses_a_short_one(repo_root, tmp_path):
     from app.stimuli.fapfile import write_fap
     from app.stimuli.track import MotionTrack

@@ -12,9 +12,7 @@ from app.stimuli.speech import (
     load_audio,
     loudness_sones,
     mean_filter,
-    remove_octave_jumps,
     smooth_1s,
-    speaker_pitch_range,
 )
 from tests.stimuli.conftest import harmonic_glide, write_wav
 
@@ -169,15 +167,6 @@ def test_demo_speech_is_real_speech(demo_wav):
     assert 80 < np.median(feats.f0[feats.voiced]) < 200
 
 
-def test_speaker_pitch_range_from_known_quartiles():
-    f0 = np.r_[np.zeros(20), np.linspace(100.0, 140.0, 41)]  # q25 = 110, q75 = 130
-    assert speaker_pitch_range(f0) == (82.5, 195.0, "two-pass estimate (De Looze & Hirst 2008)")
-    assert speaker_pitch_range(f0, floor=70.0)[:2] == (70.0, 195.0)
-    assert speaker_pitch_range(f0, 60.0, 300.0) == (60.0, 300.0, "given")
-    lo, hi, how = speaker_pitch_range(np.full(5, 120.0))  # too little voicing
-    assert (lo, hi) == (60.0, 750.0) and "first-pass" in how
-
-
 def test_two_pass_range_brackets_a_known_voice():
     x, _ = harmonic_glide(110.0, 150.0, 2.0)
     feats = features_from_samples(x, 16000, fps=30)
@@ -185,30 +174,6 @@ def test_two_pass_range_brackets_a_known_voice():
     assert feats.metadata["pitch_range"].startswith("two-pass")
     assert abs(feats.metadata["pitch_floor"] - 0.75 * q25) < 3
     assert abs(feats.metadata["pitch_ceiling"] - 1.5 * q75) < 5
-
-
-def test_octave_jumps_are_unvoiced_and_accents_kept():
-    fps = 30.0
-    f0 = np.full(60, 126.0)
-    f0[20:26] = [140.0, 160.0, 180.0, 200.0, 190.0, 170.0]  # a genuine accent, 0.2 s rise
-    f0[40] = 371.0  # the demo speaker's octave error
-    f0[50] = 63.0  # and a halving
-    clean, removed = remove_octave_jumps(f0, fps)
-    assert removed == 2 and clean[40] == 0 and clean[50] == 0
-    np.testing.assert_array_equal(clean[20:26], f0[20:26])
-    cond = condition_f0(clean)
-    assert cond.max() == 200.0  # the spline bridges the errors: no 371 Hz raise trigger
-
-
-def test_an_octave_error_between_pauses_is_unvoiced():
-    """A short voiced stretch alone between two pauses: its neighbours are across the pauses."""
-    f0 = np.r_[np.full(8, 80.0), np.zeros(5), np.full(3, 360.0), np.zeros(5), np.full(8, 82.0)]
-    clean, removed = remove_octave_jumps(f0, 30.0)
-    assert removed == 3 and np.all(clean[13:16] == 0)
-    np.testing.assert_array_equal(clean[:8], f0[:8])
-    np.testing.assert_array_equal(clean[-8:], f0[-8:])
-    alone = np.r_[np.zeros(5), np.full(3, 360.0), np.zeros(5)]  # nothing to compare with
-    assert remove_octave_jumps(alone, 30.0)[1] == 0
 
 
 def test_demo_speaker_has_no_octave_error_left(demo_wav):

@@ -5,9 +5,33 @@ from __future__ import annotations
 import subprocess
 import sys
 
-from app.trials import assignment, design, fields, rules, schedule, studyfile, studyspec
+from app.trials import (
+    assignment,
+    catch,
+    counterbalance,
+    design,
+    fields,
+    rules,
+    schedule,
+    stimuli,
+    studyfile,
+    studyspec,
+    trial,
+)
 
-MODULES = (assignment, design, fields, rules, schedule, studyfile, studyspec)
+MODULES = (
+    assignment,
+    catch,
+    counterbalance,
+    design,
+    fields,
+    rules,
+    schedule,
+    stimuli,
+    studyfile,
+    studyspec,
+    trial,
+)
 
 
 def test_importing_the_package_loads_no_web_framework(repo_root: object) -> None:

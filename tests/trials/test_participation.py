@@ -14,7 +14,8 @@ from hypothesis import strategies as st
 from app.errors import InputError
 from app.trials.design import build_pairs
 from app.trials.participation import AudioCheckSpec, ParticipationSpec
-from app.trials.schedule import foreign_clip, make_schedule, variant_stimuli
+from app.trials.schedule import foreign_clip, make_schedule
+from app.trials.stimuli import variant_stimuli
 from app.trials.studyfile import loads_study, parse_study
 
 

@@ -21,7 +21,8 @@ from app.trials.rating import (
     rating_lists,
     rating_schedule,
 )
-from app.trials.schedule import make_schedule, n_lists_for, shown_stimuli
+from app.trials.schedule import make_schedule, n_lists_for
+from app.trials.stimuli import shown_stimuli
 from app.trials.studyfile import parse_study
 
 StudyData = Callable[[], dict[str, Any]]

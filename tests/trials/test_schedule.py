@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import doctest
 from collections import Counter
-from itertools import pairwise
 
 import pytest
 from hypothesis import given, settings
@@ -12,16 +11,8 @@ from hypothesis import strategies as st
 
 from app.trials import schedule
 from app.trials.design import PAIR_DESIGNS, ConditionPair, build_pairs, stimulus_pairs
-from app.trials.schedule import (
-    CATCH_KINDS,
-    ScheduledTrial,
-    balanced_orientation,
-    make_schedule,
-    n_lists_for,
-    participant_seed,
-    shown_stimuli,
-    williams_square,
-)
+from app.trials.schedule import make_schedule, n_lists_for, participant_seed
+from app.trials.trial import ScheduledTrial
 
 THESIS = ["none", "random", "speech_driven", "ground_truth"]
 
@@ -195,98 +186,6 @@ def test_unblocked_schedules_interleave_clips() -> None:
     assert len(_runs(t.clip for t in trials[0])) > 2
 
 
-@given(st.integers(1, 12))
-def test_williams_square_is_a_balanced_latin_square(n: int) -> None:
-    rows = williams_square(n)
-    assert len(rows) == (2 * n if n % 2 and n > 1 else n)
-    for row in rows:
-        assert sorted(row) == list(range(n))
-    for position in range(n):
-        column = Counter(row[position] for row in rows)
-        assert set(column.values()) == {len(rows) // n}
-    adjacent = Counter(pair for row in rows for pair in pairwise(row))
-    if n > 1:
-        assert len(adjacent) == n * (n - 1)
-        assert set(adjacent.values()) == {len(rows) // n}
-
-
-@given(
-    st.sets(
-        st.tuples(st.integers(0, 7), st.integers(0, 7)).filter(lambda e: e[0] < e[1]), min_size=1
-    )
-)
-def test_balanced_orientation_keeps_edges_and_balances_every_vertex(
-    edges: set[tuple[int, int]],
-) -> None:
-    comparisons = [ConditionPair(str(a), str(b)) for a, b in sorted(edges)]
-    oriented = balanced_orientation(comparisons)
-    assert [p.conditions for p in oriented] == [p.conditions for p in comparisons]
-    left = Counter(p.left for p in oriented)
-    right = Counter(p.right for p in oriented)
-    assert all(abs(left[v] - right[v]) <= 1 for v in set(left) | set(right))
-
-
-def test_balanced_orientation_of_a_triangle_is_a_cycle() -> None:
-    oriented = balanced_orientation(
-        [ConditionPair("a", "b"), ConditionPair("a", "c"), ConditionPair("b", "c")]
-    )
-    assert Counter(p.left for p in oriented) == Counter({"a": 1, "b": 1, "c": 1})
-
-
-def test_identical_catch_trials_show_one_condition_twice_and_expect_undecided() -> None:
-    pairs = build_pairs(THESIS, "unordered_counterbalanced")
-    trials = make_schedule(
-        clips=["s2", "s7"],
-        pairs=pairs,
-        design="unordered_counterbalanced",
-        seed=3,
-        list_index=0,
-        n_lists=4,
-        catch_trials=3,
-        practice_pair=ConditionPair("none", "ground_truth"),
-    )
-    assert len(trials) == 1 + 12 + 3
-    assert trials[0].kind == "practice" and trials[0].expected is None
-    catches = [t for t in trials if t.kind == "catch"]
-    assert len(catches) == 3
-    for catch in catches:
-        assert catch.left == catch.right and catch.expected == "undecided"
-        before = trials[catch.position - 1]
-        assert before.kind == "trial" and before.clip == catch.clip
-        assert catch.left in (before.left, before.right)
-        assert catch.catch_passed("undecided") is True and catch.catch_passed("left") is False
-    assert trials[1].catch_passed("left") is None
-
-
-@pytest.mark.parametrize("n_catch", [1, 2, 3, 4, 5, 12])
-def test_instructed_catch_trials_are_spread_and_balanced(n_catch: int) -> None:
-    pairs = build_pairs(THESIS, "unordered_counterbalanced")
-    for seed in range(20):
-        trials = make_schedule(
-            clips=["s2", "s7"],
-            pairs=pairs,
-            design="unordered_counterbalanced",
-            seed=seed,
-            list_index=1,
-            n_lists=4,
-            catch_trials=n_catch,
-            catch_kind="instructed",
-        )
-        main_before = [
-            sum(1 for u in trials[: t.position] if u.kind == "trial")
-            for t in trials
-            if t.kind == "catch"
-        ]
-        assert len(main_before) == n_catch
-        for i, count in enumerate(main_before):  # catch i lies in segment i of the 12 trials
-            assert 12 * i // n_catch < count <= 12 * (i + 1) // n_catch
-        answers = Counter(t.expected for t in trials if t.kind == "catch")
-        assert set(answers) <= {"left", "right"}
-        assert abs(answers["left"] - answers["right"]) <= 1
-        shown = {(t.clip, t.pair) for t in trials if t.kind == "trial"}
-        assert all((t.clip, t.pair) in shown for t in trials if t.kind == "catch")
-
-
 def test_practice_clip_defaults_to_the_first_block() -> None:
     pairs = build_pairs(THESIS, "all_ordered")
     for k, first in enumerate(["s2", "s7"]):
@@ -358,42 +257,6 @@ def test_bad_arguments_are_refused(changes: dict[str, object], message: str) -> 
     args.update(changes)
     with pytest.raises(ValueError, match=message):
         make_schedule(**args)  # type: ignore[arg-type]
-
-
-@settings(max_examples=40, deadline=None)
-@given(
-    designs, n_conditions, n_clips, st.integers(0, 3), st.sampled_from(CATCH_KINDS), st.booleans()
-)
-def test_shown_stimuli_cover_every_schedule_and_nothing_more(
-    design: str, n: int, m: int, n_catch: int, catch_kind: str, practice_on_clip: bool
-) -> None:
-    conditions = [f"c{i}" for i in range(n)]
-    clips = [f"s{j}" for j in range(m)]
-    reference = conditions[-1] if design == "reference" else None
-    pairs = build_pairs(conditions, design, reference=reference)
-    n_catch = min(n_catch, m * (n - 1))
-    practice = ConditionPair(conditions[0], conditions[1])
-    practice_clip = clips[-1] if practice_on_clip else None
-    options = dict(
-        clips=clips,
-        pairs=pairs,
-        design=design,
-        catch_trials=n_catch,
-        catch_kind=catch_kind,
-        practice_pair=practice,
-        practice_clip=practice_clip,
-    )
-    stimuli = shown_stimuli(**options)  # type: ignore[arg-type]
-    assert len(stimuli) == len(set(stimuli))
-    n_lists = n_lists_for(design, n_clips=m)
-    seen: set[tuple[str, ConditionPair]] = set()
-    for seed in range(6):
-        for k in range(n_lists):
-            trials = make_schedule(seed=seed, list_index=k, n_lists=n_lists, **options)  # type: ignore[arg-type]
-            seen |= {(t.clip, t.pair) for t in trials}
-    assert seen <= set(stimuli)
-    every_main = {(c, p) for c in clips for p in stimulus_pairs(pairs, design)}
-    assert every_main <= seen  # nothing to render that no list shows
 
 
 def test_a_stored_seed_keeps_giving_the_same_schedule() -> None:

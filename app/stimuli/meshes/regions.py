@@ -324,10 +324,10 @@ def upper_face_band(template: np.ndarray, mouth: MouthPoints) -> np.ndarray:
 def speech_energy(audio_path: str | Path, fps: float, n_frames: int) -> np.ndarray:
     """The speech's RMS energy (dB) in each video frame of ``fps`` (``n_frames`` of them), for
     :func:`find_lips`."""
-    from app.stimuli import speech
     from app.stimuli.audiofile import read_audio
+    from app.stimuli.speechaudio import MAX_DURATION_S
 
-    audio = read_audio(audio_path, max_duration=speech.MAX_DURATION_S)
+    audio = read_audio(audio_path, max_duration=MAX_DURATION_S)
     x = np.asarray(audio.samples, dtype=np.float64)
     if x.ndim > 1:
         x = x.mean(axis=1)

@@ -27,7 +27,7 @@ from app.leaderboard.season import (
     manifest_sha256,
     parse_season,
 )
-from app.stimuli.audiofile import read_speech_audio
+from app.stimuli.speechaudio import read_speech_audio
 from app.trials.studyfile import parse_study
 from app.web.board.models import BoardSystem, Season
 from app.web.board.store import forget, keep, season_dir

@@ -20,6 +20,7 @@ from sqlalchemy import orm as so
 
 from app.trials import assignment, design
 from app.trials import schedule as schedules
+from app.trials.trial import ScheduledTrial
 from app.web.extensions import db
 from app.web.models import (
     Clip,
@@ -128,8 +129,8 @@ def _read_design(study_id: int) -> Design:
     )
 
 
-def schedule(study: Study, *, seed: int, list_index: int) -> list[schedules.ScheduledTrial]:
-    """One participant's trials (:class:`app.trials.schedule.ScheduledTrial`), in presentation
+def schedule(study: Study, *, seed: int, list_index: int) -> list[ScheduledTrial]:
+    """One participant's trials (:class:`app.trials.trial.ScheduledTrial`), in presentation
     order."""
     settings = study.settings or {}
     fixed = study_design(study)

@@ -1,5 +1,5 @@
 """Every file a new study brings, checked before the study is created: each clip's speech
-decodes (:func:`app.stimuli.audiofile.check_audio_file`: container, header, length, silence),
+decodes (:func:`app.stimuli.speechaudio.check_audio_file`: container, header, length, silence),
 each ground truth and uploaded track parses (:func:`app.stimuli.io.load_track`) and is as
 long as its clip's speech (:func:`app.stimuli.lengths.length_note`), and the avatar of
 ``[render] face`` loads (``renderer.api.load_face``). A bad file is
@@ -13,9 +13,9 @@ from pathlib import Path
 from typing import Any
 
 from app.errors import InputError
-from app.stimuli.audiofile import read_speech_audio
 from app.stimuli.io import load_track
 from app.stimuli.lengths import length_note
+from app.stimuli.speechaudio import read_speech_audio
 from app.trials.studyspec import StudySpec
 
 

@@ -17,7 +17,8 @@ from app.errors import InputError
 from app.trials import design
 from app.trials.participation import ParticipationSpec
 from app.trials.rating import DEFAULT_RATING_SCALE
-from app.trials.schedule import foreign_clip, shown_stimuli, variant_stimuli
+from app.trials.schedule import foreign_clip
+from app.trials.stimuli import shown_stimuli, variant_stimuli
 from app.web.extensions import db
 from app.web.infra import media
 from app.web.infra.storage import media_dir
@@ -77,8 +78,8 @@ def rating_scale(study: Any) -> str:
 
 def stimulus_combinations(study: Study) -> list[tuple[str, str, str, str, str]]:
     """Every (clip, left, right, instruction, foreign side) some participant may see: the
-    displayed pairs (:func:`app.trials.schedule.shown_stimuli`), then the attention-check and
-    appropriateness variants (:func:`app.trials.schedule.variant_stimuli`)."""
+    displayed pairs (:func:`app.trials.stimuli.shown_stimuli`), then the attention-check and
+    appropriateness variants (:func:`app.trials.stimuli.variant_stimuli`)."""
     clips, pairs = [c.name for c in study.clips], design_pairs(study)
     plain = shown_stimuli(
         clips=clips,
