@@ -4,7 +4,8 @@
 #               the login; pip's, apt's and the demo's own output go to instance/demo.log
 #   make test   set up .venv, the Debian packages, axe-core and puppeteer-core the tests need,
 #               lint, then run every test
-#   make lint   ruff on the whole tree, mypy on the pure packages (also the first step of test)
+#   make lint   ruff on the whole tree, mypy on the pure packages, the size check of modules,
+#               functions and page scripts (also the first step of test)
 #   make lock   remake requirements.lock from pyproject.toml's newest allowed versions
 SHELL := /bin/bash
 PYTHON ?= python3
@@ -110,6 +111,7 @@ lint: $(STAMP)
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/mypy app/stimuli app/analysis app/trials app/leaderboard renderer
+	$(PY) -m tests.support.sizes
 
 bench: $(STAMP)
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done

@@ -2,7 +2,7 @@
 the participant page's script does, and an experimenter rendering a study from the web.
 
 Every request goes to 127.0.0.1. A request is sent again after a network error or a 5xx,
-honouring Retry-After (what ``static/participant.js`` does with a vote, and what a person does
+honouring Retry-After (what ``static/pair.js`` does with a vote, and what a person does
 with a page that failed), never after a 4xx; every 5xx is counted by its cause.
 """
 

@@ -217,7 +217,7 @@ async def take_part(
 ) -> None:
     """One participant's browser: consent, then play, clip, vote per trial, with a trial
     page where the browser loads one: for the first pair, and whenever a vote's answer does
-    not carry the next pair (``static/participant.js``)."""
+    not carry the next pair (``static/pair.js``)."""
     tally.active += 1
     tally.peak = max(tally.peak, tally.active)
     try:

@@ -26,6 +26,7 @@ from tests.support.services import (
     ensure_services,
     redis_databases,
 )
+from tests.support.waits import WaitingBrowser
 
 REPO = Path(__file__).resolve().parent.parent
 #: The test experimenters' password, one that the password policy accepts
@@ -89,7 +90,7 @@ CHROMIUM_ARGS = [
 def browser():
     """Debian's chromium through Playwright, started once per test process (a start and stop
     cost about a second of CPU). Each test opens its own context, with cookies, storage and
-    cache of its own, and closes it."""
+    cache of its own, and closes it; a context waits at most ``tests.support.waits.WAIT_S``."""
     if not CHROMIUM.exists():
         pytest.skip("Debian's chromium is not installed (make test installs it)")
     from playwright.sync_api import sync_playwright
@@ -100,7 +101,7 @@ def browser():
             executable_path=str(CHROMIUM), headless=True, args=CHROMIUM_ARGS
         )
         try:
-            yield browser
+            yield WaitingBrowser(browser)
         finally:
             browser.close()
     finally:

@@ -49,7 +49,7 @@ def _take_part(live_server, chromium, slug, pid, shots_dir=None):  # noqa: ANN00
             choice = ("left", "right", "undecided")[step % 3]
             page.click(f'.vote[data-choice="{choice}"]')
             clicked[trial] = choice
-            _gone(page, trial, timeout=60000)
+            _gone(page, trial)
             page.wait_for_load_state()
             step += 1
         page.wait_for_url("**/done")

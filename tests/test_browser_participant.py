@@ -20,6 +20,7 @@ import sqlalchemy as sa
 from app.web.extensions import db
 from app.web.models import Participant, Study, Trial
 from tests.conftest import create_test_study, login, make_clip
+from tests.support.waits import played, until, until_page
 from tests.test_browser import (
     trial_page_loads,
 )
@@ -48,7 +49,12 @@ audio = "s1.wav"
 """
 # Which step of the schedule stalls and which is reloaded (0 is the first trial).
 STALL_STEP, RELOAD_STEP = 1, 2
-HELD_MS = 2500  # how long the stalled clip's second half is held back (its first half: ~1.5 s)
+HELD_MS = 2500  # how long the stalled clip's second half is held back once playback ran dry
+#: Playback under way has run out of data: a stall, as the player's media log counts one.
+RUN_DRY = (
+    "(v => v.currentTime > 0 && !v.paused && !v.ended && v.readyState < v.HAVE_FUTURE_DATA)"
+    "(document.querySelector('.player video'))"
+)
 
 
 @pytest.fixture(scope="module")
@@ -134,7 +140,7 @@ def _take_part(
         _press(page, "#start", touch)
         step = 0
         while True:
-            page.wait_for_selector(".player[data-trial-id], .done", timeout=30000)
+            page.wait_for_selector(".player[data-trial-id], .done")
             if "/trial" not in page.url:
                 break
             trial = int(page.get_attribute(".player", "data-trial-id"))
@@ -144,22 +150,25 @@ def _take_part(
                 # This trial's page is opened again with the route in place.
                 stall.suffix = f"/video/{trial}"
                 page.reload()
-            page.wait_for_selector(".play:not([disabled])", timeout=20000)
+            page.wait_for_selector(".play:not([disabled])")
             _press(page, ".play", touch)
             if step == STALL_STEP:
+                # The second half stays held back for HELD_MS once playback has run dry (the
+                # stall's length, not a wait for the page), however long it took to get there.
+                until_page(page, RUN_DRY)
+                until(page, lambda: stall.held, f"the second half asked for: {stall.asked}")
                 page.wait_for_timeout(HELD_MS)
-                assert stall.held, f"the second half was never asked for: {stall.asked}"
                 stall.release()
                 stall.suffix = None
             if step == RELOAD_STEP:
                 # The play was counted by the server: the reload does not give it back.
-                page.wait_for_selector(".vote:not([disabled])", timeout=20000)
+                page.wait_for_selector(".vote:not([disabled])")
                 page.reload()
-                page.wait_for_selector(".play:not([disabled])", timeout=20000)
+                page.wait_for_selector(".play:not([disabled])")
                 assert int(page.get_attribute(".player", "data-plays")) == 1
                 _press(page, ".play", touch)
                 plays = 2
-            page.wait_for_selector(".vote:not([disabled])", timeout=20000)
+            page.wait_for_selector(".vote:not([disabled])")
             # The attention check is answered as its clip says; the others vary the level.
             side = expected if kind == "catch" else ("left", "right")[step % 2]
             strength = 2 if kind == "catch" else 1 + step % 2
@@ -177,9 +186,7 @@ def _take_part(
                 "plays": plays,
                 "stalled": step == STALL_STEP,
             }
-            page.wait_for_selector(
-                f'.player[data-trial-id="{trial}"]', state="detached", timeout=30000
-            )
+            page.wait_for_selector(f'.player[data-trial-id="{trial}"]', state="detached")
             step += 1
         assert page.inner_text("#completion-code") == "DONE-123"
     finally:
@@ -281,10 +288,10 @@ def test_trial_page_layout_and_screenshots(
         _press(page, "#start", touch)
         page.wait_for_selector(".player[data-trial-id]")
         before = page.locator(".stage").bounding_box()
-        page.wait_for_selector(".play:not([disabled])", timeout=20000)
+        page.wait_for_selector(".play:not([disabled])")
         assert page.locator(".stage").bounding_box() == before  # no layout shift
         _press(page, ".play", touch)
-        page.wait_for_timeout(1000)
+        played(page)
         page.screenshot(path=shots / f"participant-trial-{name}.png")
         video = page.locator("video").bounding_box()
         assert video["y"] >= 0 and video["y"] + video["height"] <= viewport["height"]
@@ -299,16 +306,16 @@ def test_trial_page_layout_and_screenshots(
             )  # subpixel rounding
         # The next pair comes in place (the vote's answer carries it): the same layout.
         first = page.get_attribute(".player", "data-trial-id")
-        page.wait_for_selector(".vote:not([disabled])", timeout=20000)
+        page.wait_for_selector(".vote:not([disabled])")
         _press(page, ".vote >> nth=0", touch)
         if page.locator(".reasons .confirm").count():
             _press(page, ".reasons .confirm", touch)
         page.wait_for_selector(f'.player[data-trial-id="{first}"]', state="detached")
-        page.wait_for_selector(".play:not([disabled])", timeout=20000)
+        page.wait_for_selector(".play:not([disabled])")
         assert page.inner_text(".progress-text").startswith("Pair 2 of ")
         assert page.locator(".status").inner_text() == ""
         _press(page, ".play", touch)
-        page.wait_for_timeout(1000)  # as the first pair was measured
+        played(page)  # as the first pair was measured
         assert page.locator(".stage").bounding_box() == before
         assert [page.locator(".vote").nth(i).bounding_box() for i in range(5)] == boxes
         page.screenshot(path=shots / f"participant-trial-{name}-next.png")

@@ -23,6 +23,7 @@ from app.analysis.rating_results import analyze_ratings, read_ratings
 from app.web.extensions import db
 from app.web.models import Participant, Rating, Study, Trial
 from tests.conftest import create_test_study, login
+from tests.support.waits import played, until
 from tests.test_browser import (
     trial_page_loads,
 )
@@ -70,7 +71,7 @@ def _take_part(live_server, chromium, slug, pid, *, slider: bool):
         press("#start")
         step = 0
         while True:
-            page.wait_for_selector(".rater[data-trial-id], .done", timeout=30000)
+            page.wait_for_selector(".rater[data-trial-id], .done")
             if "/trial" not in page.url:
                 break
             trial = int(page.get_attribute(".rater", "data-trial-id"))
@@ -84,18 +85,19 @@ def _take_part(live_server, chromium, slug, pid, *, slider: bool):
                 assert instructed.inner_text() == "For this clip, please answer Bad."
             else:
                 assert instructed.count() == 0
-            page.wait_for_selector(".play:not([disabled])", timeout=20000)
+            page.wait_for_selector(".play:not([disabled])")
             # the next clip is fetched while this one is rated
             following = page.get_attribute(".rater", "data-preload-url")
             if following:
-                for _ in range(100):
-                    if any(url.endswith(following) for url in requested):
-                        preloaded += 1
-                        break
-                    page.wait_for_timeout(50)
+                until(
+                    page,
+                    lambda wanted=following: any(url.endswith(wanted) for url in requested),
+                    f"the next clip fetched ahead: {following}",
+                )
+                preloaded += 1
             if slider:
                 press(".play")
-                page.wait_for_selector("input[type=range]:not([disabled])", timeout=20000)
+                page.wait_for_selector("input[type=range]:not([disabled])")
                 assert page.is_disabled(".next")  # not before the slider was moved
                 page.focus("input[type=range]")
                 page.keyboard.press("Home")
@@ -106,13 +108,11 @@ def _take_part(live_server, chromium, slug, pid, *, slider: bool):
                 press(".next")
             else:
                 page.keyboard.press("Space")
-                page.wait_for_selector(".level:not([disabled])", timeout=20000)
+                page.wait_for_selector(".level:not([disabled])")
                 score = 1 if kind == "catch" else int(KEYS[step % len(KEYS)])
                 page.keyboard.press(str(score))
             given[trial] = score
-            page.wait_for_selector(
-                f'.rater[data-trial-id="{trial}"]', state="detached", timeout=30000
-            )
+            page.wait_for_selector(f'.rater[data-trial-id="{trial}"]', state="detached")
             step += 1
         assert page.inner_text("#completion-code") == "DONE-123"
     finally:
@@ -203,10 +203,10 @@ def test_rating_page_layout_and_screenshots(
         press("#start")
         page.wait_for_selector(".rater[data-trial-id]")
         before = page.locator(".stage").bounding_box()
-        page.wait_for_selector(".play:not([disabled])", timeout=20000)
+        page.wait_for_selector(".play:not([disabled])")
         assert page.locator(".stage").bounding_box() == before  # no layout shift
         press(".play")
-        page.wait_for_timeout(1000)
+        played(page)
         if touch:
             page.focus("input[type=range]")
             page.keyboard.press("End")
@@ -268,7 +268,7 @@ def test_a_participant_rates_every_version_in_parallel(
         press("text=I agree")
         press("#start")
         while True:
-            page.wait_for_selector(".rater[data-trial-id], .done", timeout=30000)
+            page.wait_for_selector(".rater[data-trial-id], .done")
             if "/trial" not in page.url:
                 break
             trial = int(page.get_attribute(".rater", "data-trial-id"))
@@ -276,12 +276,14 @@ def test_a_participant_rates_every_version_in_parallel(
             shown = _shown(live_server.app, trial)
             assert page.locator("input[type=range]").count() == len(shown) == 2
             press(".item-play.reference")
-            page.wait_for_timeout(300)
+            # The reference's play granted and its clip asked for: a version's button pressed
+            # while a play is asked for does nothing.
+            page.wait_for_selector(".rater video[src]")
             scores = {}
             for item, condition in enumerate(shown):
                 assert page.is_disabled(".next")  # not before every version was played and rated
                 press(f'.item-play[data-item="{item}"]')
-                page.wait_for_selector(f'.item-play[data-item="{item}"].played', timeout=20000)
+                page.wait_for_selector(f'.item-play[data-item="{item}"].played')
                 scores[condition] = 95 if condition == "none" else 30 + 10 * item
                 _set_slider(page, f'input[data-item="{item}"]', scores[condition])
             if not given:
@@ -289,9 +291,7 @@ def test_a_participant_rates_every_version_in_parallel(
                 page.screenshot(path=shots / f"participant-parallel-{name}.png")
             given[trial] = scores
             press(".next")
-            page.wait_for_selector(
-                f'.rater[data-trial-id="{trial}"]', state="detached", timeout=30000
-            )
+            page.wait_for_selector(f'.rater[data-trial-id="{trial}"]', state="detached")
         assert page.inner_text("#completion-code") == "DONE-123"
     finally:
         context.close()
@@ -353,13 +353,11 @@ def test_an_experimenter_runs_a_rating_study_through_the_pipeline(
                             _set_slider(person, f'input[data-item="{item}"]', 95)
                     person.click(".next")
                 else:
-                    person.wait_for_selector(".play:not([disabled])", timeout=20000)
+                    person.wait_for_selector(".play:not([disabled])")
                     person.keyboard.press("Space")
-                    person.wait_for_selector(".level:not([disabled])", timeout=20000)
+                    person.wait_for_selector(".level:not([disabled])")
                     person.keyboard.press("1")  # Bad: the check, if this is one, is passed
-                person.wait_for_selector(
-                    f'.rater[data-trial-id="{trial}"]', state="detached", timeout=30000
-                )
+                person.wait_for_selector(f'.rater[data-trial-id="{trial}"]', state="detached")
                 person.wait_for_load_state()
             assert person.inner_text("#completion-code") == "DONE-123"
         finally:
@@ -395,28 +393,28 @@ def test_a_rating_given_offline_is_kept_and_sent_once(
         page.goto(f"{live_server.url}/s/{slug}")
         page.click("text=I agree")
         page.click("#start")
-        page.wait_for_selector(".play:not([disabled])", timeout=20000)
+        page.wait_for_selector(".play:not([disabled])")
         first = int(page.get_attribute(".rater", "data-trial-id"))
         page.keyboard.press("Space")
-        page.wait_for_selector(".level:not([disabled])", timeout=20000)
+        page.wait_for_selector(".level:not([disabled])")
         context.set_offline(True)
         page.keyboard.press("4")
-        page.wait_for_selector(".status-offline", timeout=10000)
+        page.wait_for_selector(".status-offline")
         assert "kept on this page" in page.inner_text(".status")
         context.set_offline(False)
-        page.wait_for_selector(f'.rater[data-trial-id="{first}"]', state="detached", timeout=60000)
+        page.wait_for_selector(f'.rater[data-trial-id="{first}"]', state="detached")
         # The next rating cannot reach the server, then the page is reloaded: the kept rating
         # goes out first, before the page plays anything.
-        page.wait_for_selector(".play:not([disabled])", timeout=20000)
+        page.wait_for_selector(".play:not([disabled])")
         second = int(page.get_attribute(".rater", "data-trial-id"))
         page.keyboard.press("Space")
-        page.wait_for_selector(".level:not([disabled])", timeout=20000)
+        page.wait_for_selector(".level:not([disabled])")
         page.route("**/api/v1/ratings", lambda route: route.abort())
         page.keyboard.press("2")
-        page.wait_for_selector(".status-offline", timeout=10000)
+        page.wait_for_selector(".status-offline")
         page.unroute("**/api/v1/ratings")
         page.reload()
-        page.wait_for_selector(f'.rater[data-trial-id="{second}"]', state="detached", timeout=60000)
+        page.wait_for_selector(f'.rater[data-trial-id="{second}"]', state="detached")
     finally:
         context.close()
     assert errors == []

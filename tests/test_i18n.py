@@ -369,11 +369,14 @@ def test_no_fixed_string_escapes_translation_on_any_participant_page(pseudo_app,
     assert 'value="prefer not to say"' in questionnaire
 
 
-@pytest.mark.parametrize("name", ["participant.js", "rating.js"])
+@pytest.mark.parametrize(
+    "name",
+    ["participant.js", "pair.js", "instructions.js", "audio_check.js", "done.js", "rating.js"],
+)
 def test_the_script_shows_no_string_of_its_own(name):
-    """Every sentence ``participant.js`` (and ``rating.js``) shows comes from the page's JSON
-    blob: the script's string literals hold no words with spaces besides these (selectors,
-    media queries)."""
+    """Every sentence a participant page's script shows comes from the page's JSON blob: the
+    script's string literals hold no words with spaces besides these (selectors, media
+    queries)."""
     script = (REPO / "app/web/static" / name).read_text(encoding="utf-8")
     code = re.sub(r"/\*.*?\*/|//[^\n]*", "", script, flags=re.S)
     literals = re.findall(r'"((?:[^"\\\n]|\\.)*)"', code)

@@ -55,7 +55,7 @@ def _first_trial(live_server, chromium, tmp_path, clip, viewport, touch, agree: 
     page.wait_for_url("**/instructions")
     press("#start")
     page.wait_for_selector(".player[data-trial-id]")
-    page.wait_for_selector(".play:not([disabled])", timeout=20000)
+    page.wait_for_selector(".play:not([disabled])")
     return context, page, press, errors
 
 
@@ -99,7 +99,7 @@ def test_the_left_answer_is_under_the_left_face_in_a_right_to_left_study(
         assert title["x"] + title["width"] > viewport["width"] * 0.9
         trial = int(page.get_attribute(".player", "data-trial-id"))
         press(".play")
-        page.wait_for_selector(".vote:not([disabled])", timeout=20000)
+        page.wait_for_selector(".vote:not([disabled])")
         _shot(page, f"participant-trial-arabic-{name}")
         press('.vote[data-choice="left"]')
         page.wait_for_selector(f'.player[data-trial-id="{trial}"]', state="detached")
@@ -134,8 +134,8 @@ def test_a_german_study_speaks_german_to_the_vote(
         assert page.inner_text(".progress-text") == "Paar 1 von 2"
         assert page.inner_text(".plays-left") == "Noch 2 Wiedergaben"
         press(".play")
-        page.wait_for_selector(".vote:not([disabled])", timeout=20000)
-        page.wait_for_selector(".play:has-text('Erneut abspielen')", timeout=20000)
+        page.wait_for_selector(".vote:not([disabled])")
+        page.wait_for_selector(".play:has-text('Erneut abspielen')")
         assert page.inner_text(".plays-left") == "Noch 1 Wiedergabe"
         _shot(page, f"participant-trial-german-{name}")
         trial = int(page.get_attribute(".player", "data-trial-id"))
@@ -144,12 +144,12 @@ def test_a_german_study_speaks_german_to_the_vote(
         # The second pair comes in place, the bar (its label in German) moved on with it.
         assert page.inner_text(".progress-text") == "Paar 2 von 2"
         assert page.get_attribute(".study-bar progress", "value") == "1"
-        page.wait_for_selector(".play:not([disabled])", timeout=20000)
+        page.wait_for_selector(".play:not([disabled])")
         press(".play")
-        page.wait_for_selector(".vote:not([disabled])", timeout=20000)
+        page.wait_for_selector(".vote:not([disabled])")
         press('.vote[data-choice="left"]')
         # Every pair answered: the completion page, in German too.
-        page.wait_for_selector("h1:text('Vielen Dank!')", timeout=20000)
+        page.wait_for_selector("h1:text('Vielen Dank!')")
         assert "Ihr Abschlusscode:" in page.inner_text(".done")
     finally:
         context.close()
@@ -196,7 +196,7 @@ def test_the_audio_check_plays_its_sounds_and_opens_the_trials(
                 " { a.defaultPlaybackRate = 4; a.playbackRate = 4; }"
             )
             press(".play-sounds")
-            page.wait_for_selector(".sound-choice:not([disabled])", timeout=20000)
+            page.wait_for_selector(".sound-choice:not([disabled])")
             if question == 1:
                 _shot(page, f"participant-audio-check-{name}")
             with live_server.app.app_context():
@@ -301,7 +301,7 @@ def test_the_rating_designs_speak_of_their_own_pages(
         page.click("#start")
         page.wait_for_selector(".rater[data-trial-id]")
         if design == "rating":
-            page.wait_for_selector(".play:not([disabled])", timeout=20000)
+            page.wait_for_selector(".play:not([disabled])")
             _shot(page, name.format("trial"))
             return
         page.wait_for_selector(".overlay-text")
@@ -316,7 +316,7 @@ def test_the_rating_designs_speak_of_their_own_pages(
         for item in range(page.locator("input[type=range]").count()):
             page.keyboard.press("Tab")
             page.keyboard.press("Space")
-            page.wait_for_selector(f'.item-play[data-item="{item}"].played', timeout=20000)
+            page.wait_for_selector(f'.item-play[data-item="{item}"].played')
             page.keyboard.press("Tab")
             for _ in range(5):
                 page.keyboard.press("ArrowRight")
@@ -324,7 +324,7 @@ def test_the_rating_designs_speak_of_their_own_pages(
         page.keyboard.press("Tab")
         trial = page.get_attribute(".rater", "data-trial-id")
         page.keyboard.press("Space")
-        page.wait_for_selector(f'.rater[data-trial-id="{trial}"]', state="detached", timeout=20000)
+        page.wait_for_selector(f'.rater[data-trial-id="{trial}"]', state="detached")
     finally:
         context.close()
     assert errors == []

@@ -71,7 +71,7 @@ def _trial(live_server, chromium, tmp_path, clip, viewport: dict, touch: bool, *
         page.wait_for_url("**/instructions")
         _press(page, "#start", touch)
         page.wait_for_selector(".player[data-trial-id]")
-        page.wait_for_selector(".play:not([disabled])", timeout=20000)
+        page.wait_for_selector(".play:not([disabled])")
         yield page
     finally:
         context.close()
@@ -80,8 +80,8 @@ def _trial(live_server, chromium, tmp_path, clip, viewport: dict, touch: bool, *
 
 def _ended(page) -> None:
     """Wait until the play just started has reached its end (the overlay comes back)."""
-    page.wait_for_selector(".overlay", state="hidden", timeout=20000)
-    page.wait_for_selector(".overlay", state="visible", timeout=20000)
+    page.wait_for_selector(".overlay", state="hidden")
+    page.wait_for_selector(".overlay", state="visible")
 
 
 @pytest.mark.parametrize("name, viewport, touch", SIZES[:2])
@@ -101,14 +101,14 @@ def test_used_plays_and_a_reload_still_let_the_participant_answer(
     with _trial(*setup, replay="max_plays", max_plays=2) as page:
         trial = int(page.get_attribute(".player", "data-trial-id"))
         for _ in range(2):
-            page.wait_for_selector(".play:not([disabled])", timeout=20000)
+            page.wait_for_selector(".play:not([disabled])")
             _press(page, ".play", touch)
             _ended(page)
         page.reload()
-        page.wait_for_selector(".plays-left:text('0 plays left')", timeout=20000)
+        page.wait_for_selector(".plays-left:text('0 plays left')")
         assert page.get_attribute(".player", "data-plays") == "2"
         assert page.locator(".play").is_disabled()
-        page.wait_for_selector(".vote:not([disabled])", timeout=5000)
+        page.wait_for_selector(".vote:not([disabled])")
         assert "please answer" in page.inner_text(".hint")
         if touch:
             _press(page, '.vote[data-choice="right"]', touch)
@@ -133,10 +133,10 @@ def test_choosing_an_answer_brings_the_reason_tags_into_view(
     setup = (live_server, browser, tmp_path, tiny_video, viewport, touch)
     with _trial(*setup, extra=REASONS) as page:
         _press(page, ".play", touch)
-        page.wait_for_selector(".vote:not([disabled])", timeout=20000)
+        page.wait_for_selector(".vote:not([disabled])")
         _press(page, '.vote[data-choice="left"][data-strength="2"]', touch)
+        # shown and brought into view in one step of the page's script
         page.wait_for_selector(".reasons:not([hidden])")
-        page.wait_for_timeout(300)  # any scrolling done
         _shot(page, f"participant-reasons-{name}")
         box = page.locator(".reasons .confirm").bounding_box()
         assert box["y"] >= 0 and box["y"] + box["height"] <= viewport["height"], box
@@ -166,9 +166,9 @@ def test_play_again_is_offered_only_after_the_first_play(
     with _trial(live_server, browser, tmp_path, long_clip, DESKTOP, False) as page:
         assert "again" not in page.inner_text(".play")
         page.click(".play")
-        page.wait_for_selector(".overlay", state="hidden", timeout=20000)
+        page.wait_for_selector(".overlay", state="hidden")
         assert "again" not in page.inner_text(".play")  # the first play is running
-        page.wait_for_selector(".overlay", state="visible", timeout=20000)
+        page.wait_for_selector(".overlay", state="visible")
         assert page.inner_text(".play").startswith("Play again")
 
 
@@ -203,7 +203,7 @@ def test_instructions_speak_of_keys_on_desktops_and_of_taps_on_phones(
             assert page.locator("ul.keys kbd:visible").count() == 0
             assert "Tap Play" in text
             # The practice player speaks of taps as well.
-            page.wait_for_selector(".overlay-text:text('Ready: tap Play')", timeout=20000)
+            page.wait_for_selector(".overlay-text:text('Ready: tap Play')")
         else:
             assert "Space" in text and "Tap Play" not in text, text
         assert page.evaluate("document.documentElement.scrollWidth") <= viewport["width"]

@@ -80,22 +80,20 @@ def test_a_browser_without_h264_takes_the_study_from_the_webm(
         page.click("text=I agree")
         page.wait_for_url("**/instructions")
         # the practice pair plays, from its WebM
-        page.wait_for_selector(".play:not([disabled])", timeout=20000)
+        page.wait_for_selector(".play:not([disabled])")
         assert page.eval_on_selector("video", "v => v.currentSrc").endswith("/practice.webm")
         page.click("#start")
         while "/trial" in page.url:
             page.wait_for_selector(".player[data-trial-id]")
             trial = page.get_attribute(".player", "data-trial-id")
-            page.wait_for_selector(".play:not([disabled])", timeout=20000)
+            page.wait_for_selector(".play:not([disabled])")
             shown = page.eval_on_selector("video", "v => v.currentSrc")
             assert shown.endswith(f"/webm/{trial}"), shown
             page.click(".play")
-            page.wait_for_selector(".vote:not([disabled])", timeout=20000)
+            page.wait_for_selector(".vote:not([disabled])")
             page.click('.vote[data-choice="left"]')
             voted += 1
-            page.wait_for_selector(
-                f'.player[data-trial-id="{trial}"]', state="detached", timeout=30000
-            )
+            page.wait_for_selector(f'.player[data-trial-id="{trial}"]', state="detached")
             if "/done" in page.url or page.locator(".done").count():
                 break
         page.wait_for_url("**/done")
@@ -134,7 +132,7 @@ def test_a_browser_that_plays_no_rendition_ends_on_a_page_that_says_so(
     try:
         page.goto(f"{live_server.url}/s/{_slug(live_server.app, study_id)}")
         page.click("form .primary")
-        page.wait_for_url("**/unplayable", timeout=30000)
+        page.wait_for_url("**/unplayable")
         assert page.inner_text("h1") == title
         assert page.get_attribute("html", "lang") == language
         assert page.get_attribute("html", "dir") == ("rtl" if language == "ar" else "ltr")

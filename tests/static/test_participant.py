@@ -1,6 +1,8 @@
-"""The participant script's reading of the server's answers to a vote, run in node: stored,
-refused for good (the study closed), refused (give the answer back) or sent again (only after
-a network error or a 5xx, honouring Retry-After)."""
+"""The participant pages' shared script (``static/participant.js``), run in node: its reading of
+the server's answers to a vote (stored, refused for good because the study closed, refused so
+the answer is given back, or sent again: only after a network error or a 5xx, honouring
+Retry-After), its filling in of translated strings, and each page's own script running on what
+it lends them."""
 
 import json
 import shutil
@@ -9,7 +11,10 @@ from pathlib import Path
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[2] / "app" / "web" / "static" / "participant.js"
+STATIC = Path(__file__).resolve().parents[2] / "app" / "web" / "static"
+SCRIPT = STATIC / "participant.js"
+#: The participant pages' own scripts, each loaded after participant.js (the templates).
+PAGE_SCRIPTS = ("pair.js", "rating.js", "instructions.js", "audio_check.js", "done.js")
 # Just enough of a browser for the script to load on a page without a player.
 PRELUDE = """
 global.window = { localStorage: null, addEventListener: function () {} };
@@ -31,7 +36,7 @@ console.log(JSON.stringify(cases.map(function (c) {
 )
 
 
-def _run(cases: list, harness: str = HARNESS) -> list:
+def _run(cases: object, harness: str = HARNESS) -> list:
     node = shutil.which("node") or shutil.which("nodejs")
     if node is None:
         pytest.skip("node is not installed")
@@ -101,3 +106,20 @@ def test_translated_strings_are_filled_in_as_python_would():
         ["%(num)d plays left", {"num": 3}],
     ]
     assert _run(cases, FORMAT) == [text % values for text, values in cases]
+
+
+PAGE = (
+    PRELUDE
+    + """
+require(JSON.parse(process.argv[2]));
+console.log(JSON.stringify(Object.keys(window.facepairText)));
+"""
+)
+
+
+@pytest.mark.parametrize("name", PAGE_SCRIPTS)
+def test_each_page_script_runs_on_what_the_shared_script_lends(name):
+    """A page's own script takes the helpers and the words from ``window.facepairVotes`` and
+    ``window.facepairText``: loaded after the shared script on a page without its elements,
+    it runs through without an error."""
+    assert _run(str(STATIC / name), PAGE) == ["format", "strings"]

@@ -13,7 +13,8 @@
 
 A test gets a page with :func:`open_page` and drives it with CSS selectors and JavaScript
 expressions only, so the same steps run in every engine. Every wait is on the page's own state
-(an element that appears or goes), bounded by :data:`WAIT_S`; no test sleeps. Where an engine
+(an element that appears or goes), bounded by :data:`tests.support.waits.WAIT_S`; no test
+sleeps. Where an engine
 or its driver is missing the test skips on a developer's machine and fails in CI (``CI=true``),
 as :mod:`tests.support.rscript` does for R: ``make test`` installs them all. Nothing here is part
 of the application.
@@ -33,12 +34,11 @@ from typing import Any
 
 import pytest
 
+from tests.support.waits import WAIT_MS, WAIT_S
+
 ENGINES = ("chromium", "firefox", "webkit", "webkit-no-h264")
 #: GStreamer's H.264 decoders on Debian 12; ranked NONE, WebKitGTK finds none to play H.264 with.
 NO_H264 = {"GST_PLUGIN_FEATURE_RANK": "avdec_h264:NONE,openh264dec:NONE"}
-#: The one bound on every wait for the page's state, in seconds: generous for a loaded two-core
-#: machine, where a clip's first load and an engine's first page can take several seconds.
-WAIT_S = 30
 WEBKIT_DRIVER = "WebKitWebDriver"
 
 
@@ -105,14 +105,14 @@ class ChromiumPage(Page):
         self._page.on("pageerror", lambda exc: self._errors.append(str(exc)))
 
     def goto(self, url: str) -> None:
-        self._page.goto(url, timeout=WAIT_S * 1000)
+        self._page.goto(url, timeout=WAIT_MS)
 
     def click(self, selector: str) -> None:
-        self._page.click(selector, timeout=WAIT_S * 1000)
+        self._page.click(selector, timeout=WAIT_MS)
 
     def wait_for(self, selector: str, *, gone: bool = False) -> None:
         state = "detached" if gone else "attached"
-        self._page.wait_for_selector(selector, state=state, timeout=WAIT_S * 1000)
+        self._page.wait_for_selector(selector, state=state, timeout=WAIT_MS)
 
     def evaluate(self, expression: str) -> Any:
         return self._page.evaluate(expression)

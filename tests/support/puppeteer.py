@@ -22,7 +22,8 @@ import threading
 from pathlib import Path
 from typing import Any
 
-from tests.support.engines import WAIT_S, Page, missing
+from tests.support.engines import Page, missing
+from tests.support.waits import WAIT_S
 
 #: 24.x: the last series that runs on Debian 12's node 18 (25.x needs node 22).
 PUPPETEER_VERSION = "24.43.1"

@@ -105,7 +105,7 @@ def _participant(token: str) -> Participant:
 
 @bp.app_template_global("script_strings")
 def _script_strings(study: Study) -> dict[str, Any]:
-    """The strings of ``participant.js`` for a page of ``study`` (``participant/layout.html``)."""
+    """The strings of the scripts of a page of ``study`` (``participant/layout.html``)."""
     max_plays = study.max_plays if study.replay == "max_plays" else None
     return script_strings(max_plays, rating=study.design in RATING_DESIGNS)
 

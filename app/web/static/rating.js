@@ -2,19 +2,19 @@
  * keys 5 to 1, or on the 0-100 slider) and the parallel design (play the reference and every
  * numbered version of a clip, rate each on its slider, Next once each was played and rated).
  *
- * As a vote (static/participant.js, whose helpers it takes from window.facepairVotes): the
- * answer is kept in localStorage until the server has it, every resend carries the same
- * idempotency key, and only a 5xx or a lost connection is sent again. The answer carries the
- * next clip, which replaces the rated one in place (nextRater), as the next pair replaces a
- * voted one: no page is loaded between clips. */
+ * As a vote (static/pair.js, with the helpers of static/participant.js, which runs first and
+ * lends them as window.facepairVotes and window.facepairText): the answer is kept in
+ * localStorage until the server has it, every resend carries the same idempotency key, and
+ * only a 5xx or a lost connection is sent again. The answer carries the next clip, which
+ * replaces the rated one in place (nextRater), as the next pair replaces a voted one: no page
+ * is loaded between clips. */
 (function () {
   "use strict";
 
   var first = document.querySelector(".rater");
   var shared = window.facepairVotes;
   if (!first || !shared) return;
-  var blob = document.getElementById("i18n");
-  var T = blob ? JSON.parse(blob.textContent) : {};
+  var T = window.facepairText.strings;
   var fmt = window.facepairText.format;
   var coarse = window.matchMedia && window.matchMedia("(pointer: coarse)").matches;
 
@@ -406,6 +406,4 @@
   document.addEventListener("visibilitychange", function () {
     if (document.visibilityState === "hidden") lostFocus();
   });
-  // A page restored from the back-forward cache would show a rated clip: fetch it anew.
-  window.addEventListener("pageshow", function (e) { if (e.persisted) window.location.reload(); });
 })();

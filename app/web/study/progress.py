@@ -4,7 +4,7 @@ trial page shows with the trial after it, and the progress counts.
 Every trial page and every answer asks for these, so the statements are built once with bound
 parameters (``participant_id``) and the next trial and the counts are read in one round trip
 after an answer is stored (:func:`progress_and_upcoming`): the answer carries the next trial
-(:func:`next_trial_of`) and the page goes on to it in place (``static/participant.js``,
+(:func:`next_trial_of`) and the page goes on to it in place (``static/pair.js``,
 ``static/rating.js``). A study holds votes or ratings, never both (:func:`rated`).
 """
 

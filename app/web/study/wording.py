@@ -1,9 +1,10 @@
 """What the participant reads that does not sit in a template: the answer buttons' labels,
 the side names, the reasons a session or study ends, and what the page's script says.
 
-The script (``static/participant.js``) takes its strings from a JSON blob in the page
-(``<script type="application/json" id="i18n">``, :func:`script_strings`), in the study's
-language; it formats ``%(name)s`` placeholders itself, so every language orders them freely.
+The pages' scripts take their strings from a JSON blob in the page (``<script
+type="application/json" id="i18n">``, :func:`script_strings`, read by ``static/participant.js``),
+in the study's language; they format ``%(name)s`` placeholders themselves, so every language
+orders them freely.
 """
 
 from __future__ import annotations
@@ -151,10 +152,10 @@ def ended_reason(message: str) -> str:
 
 
 def script_strings(max_plays: int | None = None, *, rating: bool = False) -> dict[str, Any]:
-    """What ``participant.js`` (and ``rating.js``) says, in the page's language. ``plays_left[n]``
-    is the text for ``n`` plays left (``n`` up to ``max_plays``: each language has its own
-    plural forms); ``rating``: a page of the rating designs, where a trial is a clip, not a
-    pair."""
+    """What the participant pages' scripts (``static/*.js``) say, in the page's language.
+    ``plays_left[n]`` is the text for ``n`` plays left (``n`` up to ``max_plays``: each language
+    has its own plural forms); ``rating``: a page of the rating designs, where a trial is a
+    clip, not a pair."""
     return {
         "play": _("Play"),
         "play_again": _("Play again"),
