@@ -5,15 +5,17 @@
 array (text as a categorical of the values its rows use, choices as a categorical of
 ``CHOICES``, counts ``Int64``, numbers ``Float64``, flags ``boolean``, times UTC), so at most
 one column's pieces and its joined array are held twice. :func:`give_back_freed_memory` hands
-the C heap's free pages back to the system after reading.
+the C heap's free pages back to the system after reading; :func:`system_allocator` keeps
+Arrow's allocations on that heap while a step runs.
 """
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import ctypes.util
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
@@ -110,6 +112,26 @@ def give_back_freed_memory() -> None:
     pa.default_memory_pool().release_unused()  # Arrow's own allocator keeps pages too
     if _LIBC is not None:
         _LIBC.malloc_trim(0)
+
+
+@contextlib.contextmanager
+def system_allocator() -> Iterator[None]:
+    """Arrow's allocations on the C heap while the block (or the decorated function) runs,
+    and the freed pages given back after it.
+
+    pandas keeps text as Arrow strings, and every string operation (a strip, a comparison,
+    a take) allocates from Arrow's default pool; that pool (mimalloc in the wheels) keeps
+    what it frees for later, so a run of such operations held the sum of them: the analysis
+    of a 2.7 MB ratings file peaked 41 MB above its start, 19 MB on the C heap, which reuses
+    the freed blocks. Arrays remember their pool, so those made before or after are unaffected.
+    """
+    before = pa.default_memory_pool()
+    pa.set_memory_pool(pa.system_memory_pool())
+    try:
+        yield
+    finally:
+        pa.set_memory_pool(before)
+        give_back_freed_memory()
 
 
 def _glibc() -> Any:
