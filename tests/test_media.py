@@ -312,7 +312,7 @@ def test_a_store_that_is_away_fails_the_job_and_the_request_with_one_line(
         db.session.commit()
         assert run_job(job.id) == "failed"
         message = db.session.get(Job, job.id).message
-    # The reason in one line, without the exception's class (app.web.jobs.tasks.failure_message).
+    # The reason in one line, without the exception's class (app.web.jobs.rows.failure_message).
     assert message.startswith("the media store (MEDIA_URL, http://127.0.0.1:"), message
     assert "could not take tracks/s1/" in message and "\n" not in message
     token = csrf_token(client, f"/experimenter/studies/{study_id}")

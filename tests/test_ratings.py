@@ -96,6 +96,27 @@ def test_the_slider_takes_0_to_100_and_votes_are_refused(app, client, participan
     assert _rate(client, token, trial, 63).status_code == 201
 
 
+def test_a_refused_rating_is_a_rating_error_never_a_vote_error(app, participant, web):
+    """What only a rating is checked for is refused with ``RatingRejected``, what every answer
+    is checked for with their shared base; neither is a ``VoteRejected``."""
+    from app.web.study.ratings import RatingRejected, record_rating
+    from app.web.study.votes import AnswerRejected, VoteRejected
+
+    token, trial = _join(app, participant, web)
+    payload = {"trial_id": trial, "plays": 1, "watched_to_end": True, "idempotency_key": "k" * 16}
+    with app.app_context():
+        person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
+        with pytest.raises(RatingRejected) as bad_score:
+            record_rating(person, {**payload, "score": 99})
+        assert bad_score.value.status == 400 and bad_score.value.message.startswith("score: ")
+        with pytest.raises(AnswerRejected) as bad_key:
+            record_rating(person, {**payload, "score": 4, "idempotency_key": "short"})
+        assert bad_key.value.status == 400 and bad_key.value.message.startswith("idempotency_key")
+        assert not isinstance(bad_score.value, VoteRejected)
+        assert not isinstance(bad_key.value, VoteRejected | RatingRejected)
+        db.session.rollback()
+
+
 def _shown(page: str, *names: str) -> dict[str, str]:
     """The rater's data attributes ``names`` on a rating page."""
     found = {}

@@ -12,7 +12,7 @@ from sqlalchemy.exc import IntegrityError
 from app.trials.rules import CHOICES, ReplayPolicy
 from app.web.extensions import db
 from app.web.models import Participant, Study, Vote
-from app.web.study.votes import VoteRejected, may_vote, record_vote, replay_policy
+from app.web.study.votes import AnswerRejected, VoteRejected, may_vote, record_vote, replay_policy
 
 
 def _person(app, participant, web, **toml) -> tuple[str, int]:
@@ -41,7 +41,7 @@ def _record(app, token: str, payload: dict):
             outcome = record_vote(person, payload)
             db.session.commit()
             return outcome.vote.choice
-        except VoteRejected as exc:
+        except AnswerRejected as exc:
             db.session.rollback()
             return exc
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import click
 
+from app.commands.webapp import app_context, offline_app
 from app.errors import InputError
 
 
@@ -50,9 +51,7 @@ def upgrade() -> None:
     """Bring the schema up to date (runs every migration not yet applied)."""
     from flask_migrate import upgrade as flask_upgrade
 
-    from app.commands.web import _context, _offline_app
-
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         before, head = revisions()
         flask_upgrade()
         click.echo(
@@ -63,9 +62,7 @@ def upgrade() -> None:
 @db.command("current")
 def current() -> None:
     """Print the database's schema revision and whether it is the code's."""
-    from app.commands.web import _context, _offline_app
-
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         revision, head = revisions()
     if revision is None:
         click.echo(f"no schema yet (the code's is {head}): run 'facepair db upgrade'")

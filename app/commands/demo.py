@@ -24,7 +24,8 @@ from typing import Any
 
 import click
 
-from app.commands.web import _app, _context, _create_study, _offline_app, _run_jobs, _serve
+from app.commands.studysetup import create_from_file, run_jobs_here
+from app.commands.webapp import app_context, offline_app, serve_app, web_app
 from app.data import data_path
 from app.errors import InputError
 
@@ -122,7 +123,7 @@ def _demo_app():  # type: ignore[no-untyped-def]
     from app.web import embedded_database_uri
     from app.web.infra.security import stored_secret_key
 
-    probe = _offline_app()
+    probe = offline_app()
     if probe.config["SQLALCHEMY_DATABASE_URI"] != embedded_database_uri(probe.instance_path):
         raise InputError(
             "the demo runs only on its embedded SQLite file (it creates the "
@@ -130,8 +131,8 @@ def _demo_app():  # type: ignore[no-untyped-def]
             field="DATABASE_URL",
         )
     if os.environ.get("SECRET_KEY"):
-        return _app()
-    return _app(SECRET_KEY=stored_secret_key(Path(probe.instance_path)))
+        return web_app()
+    return web_app(SECRET_KEY=stored_secret_key(Path(probe.instance_path)))
 
 
 def _jobs_child(
@@ -145,10 +146,10 @@ def _jobs_child(
             os.dup2(handle.fileno(), 2)
         logging.basicConfig(level=logging.INFO, stream=sys.stderr, format=LOG_FORMAT)
         logging.captureWarnings(True)
-    app = _app(**config)
+    app = web_app(**config)
     try:
-        with _context(app):
-            _run_jobs(study_id, kinds)
+        with app_context(app):
+            run_jobs_here(study_id, kinds)
     except click.ClickException as exc:
         click.echo(f"facepair: error: {exc.message}", err=True)
         raise SystemExit(1) from None
@@ -157,9 +158,9 @@ def _jobs_child(
 def _run_jobs_apart(  # type: ignore[no-untyped-def]
     app, study_id: int, kinds: tuple[str, ...], log: Path | None = None
 ) -> None:
-    """:func:`app.commands.web._run_jobs` in a spawned process, its output into ``log`` when
-    given: a process that is about to serve (and fork gunicorn workers) must never hold a GL
-    context, or the forked workers hang in it."""
+    """:func:`app.commands.studysetup.run_jobs_here` in a spawned process, its output into
+    ``log`` when given: a process that is about to serve (and fork gunicorn workers) must never
+    hold a GL context, or the forked workers hang in it."""
     import multiprocessing
 
     config = {
@@ -233,7 +234,7 @@ def demo(host: str, port: int, study_file: Path, log: Path | None, no_serve: boo
     app = _demo_app()
     instance = Path(app.instance_path)
     log = (log or instance / LOG_NAME).absolute()
-    with demo_logging(log), _context(app):
+    with demo_logging(log), app_context(app):
         logging.getLogger(__name__).info("facepair demo on %s:%s", host, port)
         upgrade()
         password = _demo_login(instance)
@@ -249,7 +250,7 @@ def demo(host: str, port: int, study_file: Path, log: Path | None, no_serve: boo
                 "its clips (a minute or more) ...",
                 err=True,
             )
-            study_id = _create_study(study_file, DEMO_EMAIL)
+            study_id = create_from_file(study_file, DEMO_EMAIL)
             _run_jobs_apart(app, study_id, ("generate", "render"), log)
             study = db.session.get(Study, study_id)
             study.status = "open"  # type: ignore[union-attr]
@@ -259,4 +260,4 @@ def demo(host: str, port: int, study_file: Path, log: Path | None, no_serve: boo
     if not no_serve:
         click.echo("Serving until Ctrl+C.")
         with demo_logging(log):
-            _serve(app, host, port, workers=1, dev=False, log=log)
+            serve_app(app, host, port, workers=1, dev=False, log=log)

@@ -13,8 +13,10 @@ from pathlib import Path
 
 import click
 
+from app.commands.board import board_lines, season_software
 from app.commands.db import migrated
-from app.commands.web import _context, _offline_app
+from app.commands.leaderboard_demo import demo
+from app.commands.webapp import app_context, offline_app
 from app.errors import InputError
 
 
@@ -78,23 +80,17 @@ def season_create(season_file: Path) -> None:
     from app.web.extensions import db
 
     spec = load_season_file(season_file)
-    app = _offline_app()
-    with _context(app):
+    app = offline_app()
+    with app_context(app):
         migrated()
         from app.web.board.seasons import create_season
 
         created, jobs = create_season(
-            spec, season_file.read_text(encoding="utf-8"), software=_software()
+            spec, season_file.read_text(encoding="utf-8"), software=season_software()
         )
         db.session.commit()
         run_jobs(jobs)
         click.echo(f"season {created.name} created; manifest {created.manifest_sha256}")
-
-
-def _software() -> dict[str, str | None]:
-    from renderer.api import RENDERER_VERSION
-
-    return {"renderer": RENDERER_VERSION}
 
 
 @leaderboard.command("submit")
@@ -148,8 +144,8 @@ def submit(
     from app.web.board.submissions import submit as submit_system
     from app.web.extensions import db
 
-    app = _offline_app()
-    with _context(app):
+    app = offline_app()
+    with app_context(app):
         migrated()
         found = _season(season_name)
         try:
@@ -206,7 +202,7 @@ def queue(season_name: str, system: str) -> None:
     from app.web.board.submissions import queue_system
     from app.web.extensions import db
 
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         migrated()
         found = _season(season_name)
         row = db.session.scalar(
@@ -235,7 +231,7 @@ def round_create(season_name: str) -> None:
     from app.web.board.rounds import create_round, plan_lines
     from app.web.extensions import db
 
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         migrated()
         made, jobs = create_round(_season(season_name))
         db.session.commit()
@@ -255,8 +251,8 @@ def round_open(season_name: str, number: int | None) -> None:
     from app.web.board.rounds import open_round, round_by_number
     from app.web.extensions import db
 
-    app = _offline_app()
-    with _context(app):
+    app = offline_app()
+    with app_context(app):
         migrated()
         found = round_by_number(_season(season_name), number)
         open_round(found)
@@ -277,7 +273,7 @@ def round_close(season_name: str, number: int | None) -> None:
     from app.web.board.rounds import close_round, round_by_number
     from app.web.extensions import db
 
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         migrated()
         found = round_by_number(_season(season_name), number)
         jobs = close_round(found)
@@ -300,8 +296,8 @@ def publish(season_name: str, out: Path | None) -> None:
     from app.web.board.publish import publish as publish_board
     from app.web.extensions import db
 
-    app = _offline_app()
-    with _context(app):
+    app = offline_app()
+    with app_context(app):
         migrated()
         found = _season(season_name)
         board = publish_board(found)
@@ -314,28 +310,6 @@ def publish(season_name: str, out: Path | None) -> None:
             click.echo(f"{len(written)} files written to {out}")
 
 
-def board_lines(board: dict) -> list[str]:  # type: ignore[type-arg]
-    """The board as text: band, system, score [interval], coherence, votes."""
-    lines = []
-    for row in board["systems"]:
-        flags = " (anchor)" * bool(row["anchor"]) + " (preliminary)" * bool(row["preliminary"])
-        coherence = row["coherence"]["score"]
-        lines.append(
-            f"  band {row['rank_band'] or '-'}  {row['name']:<34} "
-            f"{_num(row['score'])} [{_num(row['ci_low'])}, {_num(row['ci_high'])}]  "
-            f"coherence {_num(coherence, 1)}%  {row['votes']} votes{flags}"
-        )
-    for rnd in board["rounds"]:
-        drift = rnd.get("drift") or {}
-        state = "drifted" if drift.get("drifted") else ("no drift" if drift.get("checked") else "-")
-        lines.append(f"  round {rnd['number']}: {rnd['votes']} votes, drift check: {state}")
-    return lines
-
-
-def _num(value: float | None, digits: int = 0) -> str:
-    return "-" if value is None else f"{value:.{digits}f}"
-
-
 @leaderboard.command("status")
 @click.argument("season_name", metavar="SEASON", required=False)
 def status(season_name: str | None) -> None:
@@ -346,7 +320,7 @@ def status(season_name: str | None) -> None:
     from app.web.board.rounds import rounds_of, systems_of
     from app.web.extensions import db
 
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         migrated()
         if season_name is None:
             for row in db.session.scalars(sa.select(Season).order_by(Season.id)):
@@ -361,7 +335,5 @@ def status(season_name: str | None) -> None:
 
 
 def register(main: click.Group) -> None:
-    from app.commands.leaderboard_demo import demo
-
     leaderboard.add_command(demo)
     main.add_command(leaderboard)

@@ -34,6 +34,8 @@ from typing import Any
 
 import click
 
+from app.commands.board import board_lines, season_software
+
 #: The organiser of the demo season (a login on the working folder's database only).
 ORGANISER = "organiser@example.org"
 #: Simulated participants voting at once.
@@ -300,7 +302,6 @@ def demo(out: Path, work: Path | None, participants: int, seed: int) -> None:
     to OUT (about three minutes on two idle cores, mostly rendering the rounds' clips)."""
     from flask_migrate import upgrade
 
-    from app.commands.leaderboard import _software, board_lines
     from app.leaderboard.demo import SYSTEMS, write_benchmark, write_systems
     from app.leaderboard.season import load_season_file
     from app.web import create_app
@@ -345,7 +346,7 @@ def demo(out: Path, work: Path | None, participants: int, seed: int) -> None:
     spec = load_season_file(season_file)
     with app.app_context():
         season, jobs = create_season(
-            spec, season_file.read_text(encoding="utf-8"), software=_software()
+            spec, season_file.read_text(encoding="utf-8"), software=season_software()
         )
         db.session.commit()
         name = season.name

@@ -18,7 +18,7 @@ import click
 
 from app.commands.db import migrated
 from app.commands.studies import _study
-from app.commands.web import _context, _offline_app
+from app.commands.webapp import app_context, offline_app
 from app.errors import InputError
 
 
@@ -109,8 +109,8 @@ def publish(
         raise InputError(
             "give facepair's public address (Prolific sends participants there)", field="base-url"
         )
-    app = _offline_app()
-    with _context(app):
+    app = offline_app()
+    with app_context(app):
         migrated()
         study = _study(study_id)
         text = prolific_file.read_text(encoding="utf-8") if prolific_file else None
@@ -165,7 +165,7 @@ def status(study_id: int) -> None:
     from app.web.prolific.outbox import calls_of
     from app.web.prolific.recruit import money
 
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         migrated()
         study = _study(study_id)
         links = db.session.scalars(
@@ -198,7 +198,7 @@ def sync_command(study_id: int | None, every: bool) -> None:
     participant returned) and send the calls waiting in its outbox."""
     if (study_id is None) == (not every):
         raise InputError("give a STUDY_ID or --all", field="STUDY_ID")
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         migrated()
         failed = _sync_round([study_id] if study_id is not None else None, _client())
     if failed:
@@ -256,7 +256,7 @@ def watch(every: int, rounds: int) -> None:
     --every seconds (for deployments without a public webhook URL; cron may run
     'sync --all' instead)."""
     done = 0
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         migrated()
         client = _client()
         while True:
@@ -321,7 +321,7 @@ def review(
         proposals,
     )
 
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         migrated()
         study = _study(study_id)
         client = _client()
@@ -392,7 +392,7 @@ def bonus(study_id: int, csv_file: Path | None, rule: bool, yes: bool) -> None:
 
     if (csv_file is None) == (not rule):
         raise InputError("give --csv FILE or --rule", field="csv")
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         migrated()
         study = _study(study_id)
         if csv_file is not None:
@@ -458,7 +458,7 @@ def topup(study_id: int, places: int | None, target: int | None, yes: bool) -> N
     from app.web.prolific.outcomes import sync
     from app.web.prolific.recruit import topup_call, topup_proposal
 
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         migrated()
         study = _study(study_id)
         client = _client()
@@ -500,7 +500,7 @@ def resolve_command(call_id: int, how: str | None) -> None:
 
     if how is None:
         raise InputError("give --sent, --not-sent or --cancel", field="resolution")
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         migrated()
         row = db.session.get(ProlificCall, call_id)
         if row is None:
@@ -526,7 +526,7 @@ def hooks(url: str, workspace: str | None, new_secret: bool) -> None:
     status changes."""
     from app.web.prolific.hooks import subscribe, workspace_id
 
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         client = _client()
         secret, lines = subscribe(
             client, workspace_id(client, workspace), url, new_secret=new_secret

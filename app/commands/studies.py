@@ -9,7 +9,8 @@ from pathlib import Path
 import click
 
 from app.commands.db import migrated
-from app.commands.web import _context, _create_study, _offline_app, _run_jobs
+from app.commands.studysetup import create_from_file, run_jobs_here
+from app.commands.webapp import app_context, offline_app
 from app.errors import InputError
 
 
@@ -40,12 +41,12 @@ def create(study_file: Path, owner: str, render: bool, open_: bool) -> None:
     from app.web.extensions import db
     from app.web.models import Study
 
-    app = _offline_app()
-    with _context(app):
+    app = offline_app()
+    with app_context(app):
         migrated()
-        study_id = _create_study(study_file, owner)
+        study_id = create_from_file(study_file, owner)
         if render or open_:
-            _run_jobs(study_id, ("generate", "render"))
+            run_jobs_here(study_id, ("generate", "render"))
         if open_:
             db.session.get(Study, study_id).status = "open"  # type: ignore[union-attr]
             db.session.commit()
@@ -64,7 +65,7 @@ def list_studies(owner: str | None) -> None:
     from app.web.extensions import db
     from app.web.models import Participant, Study, User, Vote
 
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         migrated()
         people = (
             sa.select(
@@ -105,7 +106,7 @@ def _transition(action: str):  # type: ignore[no-untyped-def]
         from app.web.extensions import db
         from app.web.study.studies import change_status
 
-        with _context(_offline_app()):
+        with app_context(offline_app()):
             migrated()
             found = _study(study_id)
             try:
@@ -153,7 +154,7 @@ def export(study_id: int, out: Path, pilots: bool, package: bool) -> None:
 
     if package and pilots:
         raise InputError("a package holds what the report analysed: no pilots", field="pilots")
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         migrated()
         found = _study(study_id)
         files: dict[str, str | bytes]
@@ -191,7 +192,7 @@ def renditions(study_id: int) -> None:
 
     from app.web.jobs.renditions import add_missing_webm
 
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         migrated()
         found = _study(study_id)
         with tqdm(desc="WebM renditions", unit="clip", leave=True) as bar:
@@ -212,7 +213,7 @@ def _package(found) -> tuple[str, bytes]:  # type: ignore[no-untyped-def]
     try:
         return package_name(found), build_package(found)
     except InputError:
-        _run_jobs(found.id, ("report",))
+        run_jobs_here(found.id, ("report",))
         return package_name(found), build_package(found)
 
 

@@ -60,7 +60,7 @@ def _stub_jobs(monkeypatch, web) -> list:
         with open(log, "a", encoding="utf-8") as handle:
             real_stderr, commands.sys.stderr = commands.sys.stderr, handle
             try:
-                commands._run_jobs(study_id, kinds)
+                commands.run_jobs_here(study_id, kinds)
             finally:
                 commands.sys.stderr = real_stderr
 
@@ -186,15 +186,15 @@ def test_the_demo_serves_without_the_proxy_warning_and_logs_to_its_file(
     gunicorn's own lines go to the log file; ``facepair serve`` still warns."""
     from gunicorn.app.base import BaseApplication
 
-    from app.commands.web import _serve
+    from app.commands.webapp import serve_app
 
     served = []
     monkeypatch.setattr(BaseApplication, "run", lambda self: served.append(self.cfg))
     log = tmp_path / "demo.log"
-    _serve(app, "127.0.0.1", 5077, workers=1, dev=False, log=log)
+    serve_app(app, "127.0.0.1", 5077, workers=1, dev=False, log=log)
     assert "TRUST_PROXY" not in capsys.readouterr().err
     assert served[0].errorlog == str(log) and served[0].accesslog == str(log)
-    _serve(app, "127.0.0.1", 5077, workers=1, dev=False)
+    serve_app(app, "127.0.0.1", 5077, workers=1, dev=False)
     assert "TRUST_PROXY is 0" in capsys.readouterr().err
     assert served[1].accesslog == "-"
 

@@ -20,7 +20,7 @@ def season(tmp_path, monkeypatch) -> tuple[Path, dict[str, list[Path]]]:
     from flask_migrate import upgrade
 
     from app.commands import leaderboard as commands
-    from app.commands.web import _context, _offline_app
+    from app.commands.webapp import app_context, offline_app
     from app.leaderboard.season import load_season_file
     from app.web.board.seasons import create_season
     from app.web.extensions import db
@@ -31,7 +31,7 @@ def season(tmp_path, monkeypatch) -> tuple[Path, dict[str, list[Path]]]:
     monkeypatch.setenv("MEDIA_ROOT", str(tmp_path / "media"))
     monkeypatch.setattr(commands, "run_jobs", lambda jobs: None)
     season_file = write_benchmark(tmp_path / "bench", organiser=ORGANISER)
-    with _context(_offline_app()):
+    with app_context(offline_app()):
         upgrade()
         create_user(ORGANISER, "correct horse battery staple")
         create_season(load_season_file(season_file), season_file.read_text())

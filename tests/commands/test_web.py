@@ -65,7 +65,7 @@ def test_serve_refuses_to_start_without_a_real_key(monkeypatch, tmp_path):
     from app.commands import web as commands
 
     started = []
-    monkeypatch.setattr(commands, "_serve", lambda *args: started.append(args))
+    monkeypatch.setattr(commands, "serve_app", lambda *args: started.append(args))
     monkeypatch.setenv("FACEPAIR_INSTANCE", str(tmp_path))
     for key in (None, "dev-only-change-me", "a-long-random-deployment-key"):
         if key is None:

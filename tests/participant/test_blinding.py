@@ -259,10 +259,12 @@ def test_nothing_a_participant_receives_names_what_a_clip_shows(
 def test_the_walk_would_see_a_name_if_one_were_sent(app, client, tmp_path, monkeypatch, request):
     """The attacker's check itself: a clip stored under the names the conditions had is read
     from the walk's bytes (so the test above cannot pass by receiving nothing)."""
-    from app.web.jobs import tasks
+    from app.web.jobs import rendering
 
     monkeypatch.setattr(
-        tasks, "clip_file", lambda study, stim: f"videos/{stim.left.name}__{stim.right.name}.mp4"
+        rendering,
+        "clip_file",
+        lambda study, stim: f"videos/{stim.left.name}__{stim.right.name}.mp4",
     )
     slug = _rendered_study(app, tmp_path, monkeypatch)
     use_backend(app, "accel", request)
@@ -358,9 +360,9 @@ def test_the_rater_walk_would_see_a_name_if_one_were_sent(
     app, client, tmp_path, monkeypatch, request
 ):
     """As for the pairs: clips stored under their condition's name are seen by the walk."""
-    from app.web.jobs import tasks
+    from app.web.jobs import rendering
 
-    monkeypatch.setattr(tasks, "clip_file", lambda study, stim: f"videos/{stim.left.name}.mp4")
+    monkeypatch.setattr(rendering, "clip_file", lambda study, stim: f"videos/{stim.left.name}.mp4")
     slug = _rated_study(app, tmp_path, monkeypatch, "parallel")
     use_backend(app, "accel", request)
     browser = Browser(client)

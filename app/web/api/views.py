@@ -11,13 +11,12 @@ from __future__ import annotations
 
 import json
 import re
-from functools import cache
 from typing import Any, NamedTuple
 
 import sqlalchemy as sa
 from flask import Response, abort, current_app, jsonify, make_response, request, url_for
 
-from app.trials.rules import instructed_side, play_refusal
+from app.trials.rules import instructed_side
 from app.web.api import bp
 from app.web.extensions import db
 from app.web.infra import limits
@@ -25,20 +24,20 @@ from app.web.infra.accounts import current_user, study_access
 from app.web.infra.i18n import use_language
 from app.web.infra.limits import fits
 from app.web.jobs.tasks import sweep_study_jobs
-from app.web.models import Job, Participant, Study, Trial
+from app.web.models import Job, Participant, Trial
 from app.web.study.medialog import MediaLogError, environment_fields
 from app.web.study.participants import end_for_browser
+from app.web.study.plays import PlayRejected, count_play, is_participant
 from app.web.study.progress import progress as participant_progress
 from app.web.study.ratings import record_rating, shown_items
 from app.web.study.renditions import versions_have_webm, webm_offered
 from app.web.study.studies import participation
 from app.web.study.useragent import browser_of
 from app.web.study.votes import (
+    AnswerRejected,
     Voter,
-    VoteRejected,
     participant_for_vote,
     record_vote,
-    replay_policy,
 )
 from app.web.study.wording import ended_reason
 
@@ -73,7 +72,7 @@ def _json_object() -> dict[str, Any] | str:
     return payload if isinstance(payload, dict) else "body: expected a JSON object"
 
 
-def _refused(exc: VoteRejected, participant: Participant):  # type: ignore[no-untyped-def]
+def _refused(exc: AnswerRejected, participant: Participant):  # type: ignore[no-untyped-def]
     """The answer to a refused vote or rating, its transaction rolled back."""
     db.session.rollback()
     if exc.closed:
@@ -105,7 +104,7 @@ def post_vote():  # type: ignore[no-untyped-def]
     payload, voter = request_
     try:
         outcome = record_vote(voter.participant, payload, voter.trial)
-    except VoteRejected as exc:
+    except AnswerRejected as exc:
         return _refused(exc, voter.participant)
     vote = outcome.vote
     urls = _participant_urls(payload["token"])
@@ -146,7 +145,7 @@ def post_rating():  # type: ignore[no-untyped-def]
     payload, rater = request_
     try:
         outcome = record_rating(rater.participant, payload, rater.trial)
-    except VoteRejected as exc:
+    except AnswerRejected as exc:
         return _refused(exc, rater.participant)
     stored = outcome.rating
     if rater.participant.study.design == "parallel":
@@ -259,7 +258,7 @@ def _clip_urls(urls: ParticipantUrls, row: Any) -> dict[str, str | None]:
 
 def _next_trial(urls: ParticipantUrls, row: Any) -> dict[str, Any]:
     """The next pair as ``participant/trial.html`` shows it, for the player to go on to
-    without loading that page (``static/participant.js``); the page stays the reference."""
+    without loading that page (``static/pair.js``); the page stays the reference."""
     return {
         "trial_id": row.trial_id,
         "plays": row.plays,
@@ -268,48 +267,11 @@ def _next_trial(urls: ParticipantUrls, row: Any) -> dict[str, Any]:
     }
 
 
-@cache
-def _play_facts() -> sa.Select[Any]:
-    """The participant of a token with their study's replay policy and the trial, if theirs:
-    one row, built once (a play is asked for before every clip)."""
-    return (
-        sa.select(Study.replay, Study.max_plays, Trial.id.label("trial_id"), Trial.kind)
-        .select_from(Participant)
-        .join(Study, Study.id == Participant.study_id)
-        .outerjoin(
-            Trial,
-            sa.and_(Trial.id == sa.bindparam("trial_id"), Trial.participant_id == Participant.id),
-        )
-        .where(Participant.token == sa.bindparam("token"))
-    )
-
-
-@cache
-def _one_more_play() -> sa.Update:
-    """The trial's play count up by one, unless it has reached ``limit`` (None: no limit)."""
-    limit = sa.bindparam("limit", type_=sa.Integer)
-    return (
-        sa.update(Trial)
-        .where(Trial.id == sa.bindparam("trial_id"), sa.or_(limit.is_(None), Trial.plays < limit))
-        .values(plays=Trial.plays + 1)
-        .returning(Trial.plays)
-    )
-
-
-@cache
-def _plays() -> sa.Select[tuple[int]]:
-    return sa.select(Trial.plays).where(Trial.id == sa.bindparam("trial_id"))
-
-
-def _one_row(statement: Any, values: dict[str, Any]) -> Any:
-    """The one row ``statement`` returns, or None, in the request's transaction."""
-    return db.session.execute(statement, values).one_or_none()
-
-
 @bp.post("/plays")
 def post_play():  # type: ignore[no-untyped-def]
-    """One play of a trial's clip, asked for before it starts: counted here, so the replay
-    policy holds across reloads. 409 when no play is left (``max_plays``)."""
+    """One play of a trial's clip, asked for before it starts: counted on the trial
+    (:func:`app.web.study.plays.count_play`), so the replay policy holds across reloads. 409
+    when no play is left (``max_plays``)."""
     payload = _json_object()
     if isinstance(payload, str):
         return _error(payload, 400)
@@ -317,25 +279,18 @@ def post_play():  # type: ignore[no-untyped-def]
     if not isinstance(token, str) or not fits(Participant.token, token):
         return _error("unknown participant", 403)
     if isinstance(trial_id, bool) or not isinstance(trial_id, int) or not fits(Trial.id, trial_id):
-        known = db.session.scalar(sa.select(Participant.id).where(Participant.token == token))
-        if known is None:
+        if not is_participant(token):
             return _error("unknown participant", 403)
         return _error("trial_id: expected a whole number", 400)
-    facts = _one_row(_play_facts(), {"token": token, "trial_id": trial_id})
-    if facts is None:
-        return _error("unknown participant", 403)
-    if facts.trial_id is None or facts.kind == "practice":
-        return _error("no such trial", 404)
-    policy = replay_policy(facts)
-    limit = policy.max_plays
-    counted = _one_row(_one_more_play(), {"trial_id": trial_id, "limit": limit})
-    if counted is None:
-        plays = _one_row(_plays(), {"trial_id": trial_id}).plays
-        db.session.commit()  # nothing written; ends the transaction (SQLite's write lock) now
-        return jsonify({"error": play_refusal(policy), "plays": plays, "plays_left": 0}), 409
+    try:
+        play = count_play(token, trial_id)
+    except PlayRejected as exc:
+        return _error(exc.message, exc.status)
+    # a refused play wrote nothing: the commit ends the transaction (SQLite's write lock) now
     db.session.commit()
-    left = None if limit is None else max(0, limit - counted.plays)
-    return jsonify({"plays": counted.plays, "plays_left": left}), 200
+    if play.refusal is not None:
+        return jsonify({"error": play.refusal, "plays": play.plays, "plays_left": play.left}), 409
+    return jsonify({"plays": play.plays, "plays_left": play.left}), 200
 
 
 @bp.post("/participants/<token>/environment")

@@ -66,17 +66,11 @@ def _process_executor() -> ProcessPoolExecutor:
 
 def run_in_child(job_id: int, config: dict[str, Any]) -> str:
     """Entry point of a spawned job process: its own application, then the job."""
-    from app.web import create_app
-    from app.web.extensions import db
     from app.web.jobs.tasks import run_job
+    from app.web.standalone import app_context, offline_app
 
-    app = create_app({**config, "REQUIRE_SECRET_KEY": False, "JOB_RUNNER": "inline"})
-    with app.app_context():
-        try:
-            return run_job(job_id)
-        finally:
-            db.session.remove()
-            db.engine.dispose()
+    with app_context(offline_app({**config, "JOB_RUNNER": "inline"})):
+        return run_job(job_id)
 
 
 def _when_finished(app: Flask, job_id: int, future: Future[str]) -> None:
@@ -84,7 +78,7 @@ def _when_finished(app: Flask, job_id: int, future: Future[str]) -> None:
     exc = future.exception()
     if exc is None:
         return
-    from app.web.jobs.tasks import mark_failed
+    from app.web.jobs.rows import mark_failed
 
     with app.app_context():
         mark_failed(job_id, f"the process running it stopped ({type(exc).__name__}: {exc})")
@@ -133,7 +127,7 @@ def _keep_held_alive(interval: float) -> None:
 def _hold(app: Flask, job_id: int, future: Future[str]) -> None:
     """Keep row ``job_id`` alive while it waits in this process's queue."""
     global _keeper
-    from app.web.jobs.tasks import beat_interval
+    from app.web.jobs.rows import beat_interval
 
     with _lock:
         _held[job_id] = (app, future)

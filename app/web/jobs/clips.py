@@ -31,17 +31,10 @@ from sqlalchemy.exc import SQLAlchemyError
 
 from app.web.extensions import db, transaction
 from app.web.jobs import JOB_TIMEOUT, QUEUE, rq_job_id
-from app.web.jobs.tasks import (
-    beat_interval,
-    failure_message,
-    mark_failed,
-    render_inputs,
-    render_stimulus,
-    rendered,
-    rendering_finished,
-    standalone_context,
-)
+from app.web.jobs.rendering import render_inputs, render_stimulus, rendered, rendering_finished
+from app.web.jobs.rows import beat_interval, failure_message, mark_failed
 from app.web.models import Job, Stimulus, Study, utcnow
+from app.web.standalone import app_context, offline_app
 
 log = logging.getLogger(__name__)
 
@@ -220,12 +213,12 @@ def finish_render(job_id: int, kept: int) -> str:
 def render_clip_standalone(job_id: int, stimulus_id: int) -> dict[str, Any]:
     """Entry point of a clip job in the RQ worker."""
 
-    with standalone_context():
+    with app_context(offline_app()):
         return render_clip(job_id, stimulus_id)
 
 
 def finish_render_standalone(job_id: int, kept: int) -> str:
     """Entry point of the closing job in the RQ worker."""
 
-    with standalone_context():
+    with app_context(offline_app()):
         return finish_render(job_id, kept)

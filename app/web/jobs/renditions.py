@@ -4,7 +4,7 @@ codecs). The participant's page offers the MP4, then the WebM, and the browser p
 first it can (``static/participant.js``).
 
 A clip rendered now gets its WebM from the same frames in the same pass
-(:func:`app.web.jobs.tasks.render_stimulus`); one rendered before renditions existed, or whose
+(:func:`app.web.jobs.rendering.render_stimulus`); one rendered before renditions existed, or whose
 WebM went missing, gets it here from its stored MP4 (:func:`add_webm`): the render job does so
 for every clip it finds without one, and ``facepair study renditions`` does it for a study in
 any state, since the WebM shows what the MP4 shows (docs/reference/web.md, "Renditions").
@@ -26,7 +26,7 @@ from app.web.models import Stimulus, Study
 
 def webm_file(video_path: str) -> str:
     """The stored name of the WebM rendition of the clip stored as ``video_path``: the same
-    name (an HMAC that names nothing, :func:`app.web.jobs.tasks.clip_file`), ending ``.webm``.
+    name (an HMAC that names nothing, :func:`app.web.jobs.rendering.clip_file`), ending ``.webm``.
 
     >>> webm_file("videos/0f3a9c2b7d41e5a86b0c.mp4")
     'videos/0f3a9c2b7d41e5a86b0c.webm'

@@ -8,15 +8,12 @@ the application.
 from __future__ import annotations
 
 import datetime as dt
-import hashlib
-import hmac
 import logging
 import math
 import os
 import re
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -29,14 +26,16 @@ from rq.exceptions import NoSuchJobError
 from rq.job import Job as RQJob
 from sqlalchemy.exc import SQLAlchemyError
 
-from app.errors import InputError
 from app.trials.design import RATING_DESIGNS
 from app.web.extensions import db, transaction
 from app.web.infra import media
-from app.web.infra.storage import disk_full, disk_full_message, media_dir
+from app.web.infra.storage import media_dir
 from app.web.jobs import rq_job_id
-from app.web.jobs.renditions import add_webm, has_webm, webm_file
-from app.web.models import Clip, Job, Stimulus, Study, Track, utcnow
+from app.web.jobs.clips import finish_job_id, split_render
+from app.web.jobs.rendering import render_inputs, render_stimulus, rendered, rendering_finished
+from app.web.jobs.rows import beat_interval, failure_message, mark_failed
+from app.web.models import Job, Study, Track, utcnow
+from app.web.standalone import app_context, offline_app
 
 log = logging.getLogger(__name__)
 
@@ -82,12 +81,6 @@ def _progress(
         state["written"] = values
 
     return report
-
-
-def beat_interval(stale_after: float) -> float:
-    """How often a live job (or a queued one's holder) signs of life: well inside the time
-    after which the sweeper gives it up (a fifth of it, at most 30 s)."""
-    return max(0.05, min(30.0, stale_after / 5))
 
 
 def generate_tracks(study: Study, progress: Callable[[int, int], None]) -> str:
@@ -182,104 +175,6 @@ def _upsert_track(condition_id: int, clip_id: int, rel: str) -> None:
         track.path = rel
 
 
-def render_inputs(study: Study) -> tuple[dict[tuple[int, int], str], list[Stimulus]]:
-    """The study's track paths by (condition, clip) and its stimuli in order; raises when a
-    stimulus has no track to show yet."""
-    tracks = {
-        (t.condition_id, t.clip_id): t.path
-        for t in db.session.scalars(sa.select(Track).join(Clip).where(Clip.study_id == study.id))
-    }
-    stimuli = db.session.scalars(
-        sa.select(Stimulus).where(Stimulus.study_id == study.id).order_by(Stimulus.id)
-    ).all()
-    if any(key not in tracks for s in stimuli for key in _track_keys(s)):
-        raise ValueError("generate the tracks first: some conditions have no track yet")
-    return tracks, list(stimuli)
-
-
-def render_stimulus(
-    study: Study,
-    stim: Stimulus,
-    tracks: dict[tuple[int, int], str],
-    progress: Callable[[int, int], None],
-) -> str:
-    """Render one stimulus video (``renderer.render_pair``; ``renderer.render_single`` for
-    the rating design's single faces) with its WebM rendition from the same frames, record
-    and publish both; returns the MP4's path in the study's folder. A stimulus whose MP4 is
-    in place already (rendered before renditions, or by a job stopped before its WebM) gets
-    only the WebM, made from that MP4 (:mod:`app.web.jobs.renditions`). ``progress(frame,
-    frames)`` is called every frame."""
-    import renderer
-    from app.stimuli.io import load_track
-
-    if stim.video_path and media.stored(study, stim.video_path):
-        add_webm(study, stim)
-        db.session.commit()
-        return stim.video_path
-    root = media_dir(study)
-    settings = renderer.RenderSettings(**render_settings(study))
-    rel = clip_file(study, stim)
-    (root / rel).parent.mkdir(parents=True, exist_ok=True)
-    from app.web.study.meshmedia import fetch_bundle
-
-    for key in _track_keys(stim):
-        fetch_bundle(study, tracks[key])  # a mesh condition's vertices, beside its track
-    left, right = (
-        load_track(media.fetch(study, tracks[(condition, clip)]))
-        for condition, clip in _track_keys(stim)
-    )
-    if stim.foreign_side:
-        # The lent motion is time-aligned to this clip's speech and trimmed to its length.
-        matched = right if stim.foreign_side == "left" else left
-        lent = (
-            (left if stim.foreign_side == "left" else right)
-            .resample(matched.fps)
-            .fit_length(matched.n_frames)
-        )
-        left, right = (lent, right) if stim.foreign_side == "left" else (left, lent)
-    caption = {"caption": f"press {stim.instruction}"} if stim.instruction else {}
-    audio = media.fetch(study, stim.clip.audio_path)
-    webm = webm_file(rel)
-    out = {
-        "settings": settings,
-        "cache_dir": root / "cache",
-        "progress": progress,
-        "webm_path": root / webm,
-    }
-    if study.design in RATING_DESIGNS:  # one face, rated on its own
-        renderer.render_single(left, audio, root / rel, **out)
-    else:
-        renderer.render_pair(left, right, audio, root / rel, **out, **caption)
-    media.publish(study, rel)
-    stim.video_path = rel
-    if (root / webm).is_file():
-        media.publish(study, webm)
-        stim.webm_path = webm
-    else:  # a renderer that wrote the MP4 alone: the WebM from it
-        add_webm(study, stim)
-    db.session.commit()
-    return rel
-
-
-def render_settings(study: Study) -> dict[str, Any]:
-    """The study's ``[render]`` settings, its avatar (and the avatar's sidecar) fetched to this
-    machine and named by their local path."""
-    settings = dict(study.settings.get("render") or {})
-    if settings.get("face"):
-        rel = str(settings["face"])
-        sidecar = str(Path(rel).with_name(Path(rel).stem + ".avatar.json"))
-        if media.stored(study, sidecar):
-            media.fetch(study, sidecar)
-        settings["face"] = str(media.fetch(study, rel))
-    return settings
-
-
-def rendered(study: Study, stim: Stimulus) -> bool:
-    """Whether the stimulus's video and its WebM rendition are in place (a retried job keeps
-    them; one with the MP4 alone gets the WebM)."""
-    return bool(stim.video_path) and media.stored(study, stim.video_path) and has_webm(study, stim)
-
-
 def render_clips(study: Study, progress: Callable[[int, int], None]) -> str:
     """Render every stimulus video of the study, one after the other in this process (an RQ
     worker splits the render into one job per clip instead: ``app.web.jobs.clips``)."""
@@ -294,36 +189,6 @@ def render_clips(study: Study, progress: Callable[[int, int], None]) -> str:
         render_stimulus(study, stim, tracks, lambda _frame, _frames, i=i: progress(i, len(stimuli)))
     progress(len(stimuli), len(stimuli))
     return rendering_finished(study, len(stimuli), kept)
-
-
-def rendering_finished(study: Study, total: int, kept: int, workers: int = 0) -> str:
-    """Mark a draft study ready once every clip is rendered; the job's closing message."""
-    if study.status == "draft":
-        study.status = "ready"
-    db.session.commit()
-    by = f" by {workers} workers" if workers > 1 else ""
-    return f"{total} clips rendered{by}" + (f" ({kept} kept from before)" if kept else "")
-
-
-def _track_keys(stim: Stimulus) -> list[tuple[int, int]]:
-    """(condition, clip) of the motion on each side: an appropriateness pair's foreign side
-    shows the motion made for its ``foreign_clip``."""
-    clips = [
-        stim.foreign_clip_id if stim.foreign_side == side and stim.foreign_clip_id else stim.clip_id
-        for side in ("left", "right")
-    ]
-    return [(stim.left_id, clips[0]), (stim.right_id, clips[1])]
-
-
-def clip_file(study: Study, stim: Stimulus) -> str:
-    """The stored name of a stimulus's clip: ``videos/<20 hex digits>.mp4``, an HMAC of the
-    study and stimulus under the app's secret key. It names no condition, side, attention
-    check or mismatched side, and cannot be guessed from the stimulus's number, so neither
-    an object key, a redirect nor a proxy's path tells a participant what the clip shows
-    (docs/reference/web.md, "Blinding"); the same stimulus keeps its name when a job is retried."""
-    key = str(current_app.config["SECRET_KEY"]).encode()
-    digest = hmac.new(key, f"clip/{study.id}/{stim.id}".encode(), hashlib.sha256).hexdigest()
-    return f"videos/{digest[:20]}.mp4"
 
 
 def build_report(study: Study, progress: Callable[[int, int], None]) -> str:
@@ -345,28 +210,6 @@ def build_report(study: Study, progress: Callable[[int, int], None]) -> str:
 NO_VOTES_SUMMARY = "no votes to analyse yet: report page written (no PDF)"
 #: The same for a rating study without a rating to analyse.
 NO_RATINGS_SUMMARY = "no ratings to analyse yet: report page written (no PDF)"
-
-
-def failure_message(exc: BaseException) -> str:
-    """What the experimenter reads on a failed job's row."""
-    if disk_full(exc):
-        return disk_full_message(exc)  # type: ignore[arg-type]
-    if isinstance(exc, InputError):
-        # The file's name only: the experimenter uploaded it; its folder on the server is ours.
-        where = Path(exc.path).name if exc.path else ""
-        text = str(InputError(exc.message, path=where or None, line=exc.line, field=exc.field))
-    else:
-        text = str(exc)
-    # No server path or internal exception name on the page; the log keeps both.
-    text = _ABSOLUTE_PATH.sub(lambda match: Path(match.group(0)).name, text)
-    name = type(exc).__name__
-    if text.startswith(f"{name}: "):
-        text = text[len(name) + 2 :]
-    return text or "the job stopped with an internal error; the server log has the details"
-
-
-#: An absolute POSIX path in an error message (the file name is kept).
-_ABSOLUTE_PATH = re.compile(r"(?<![\w.:/])/(?:[^\s/:'\"]+/)+[^\s/:'\",;)]*")
 
 
 def prepare_clips(study: Study, progress: Callable[[int, int], None]) -> str:
@@ -412,8 +255,6 @@ def run_job(job_id: int, *, echo: Callable[[int, int], None] | None = None) -> s
         study = db.session.get(Study, study_id)
         progress = _progress(job_id, beat_every=beat, echo=echo)
         if kind == "render" and _in_rq_worker():
-            from app.web.jobs.clips import split_render
-
             if split_render(study, job_id, progress):  # type: ignore[arg-type]
                 return "running"  # its clip jobs end the row (app.web.jobs.clips)
         message = TASKS[kind](study, progress)  # type: ignore[arg-type]
@@ -436,41 +277,16 @@ def _in_rq_worker() -> bool:
     return get_current_job() is not None
 
 
-@contextmanager
-def standalone_context() -> Iterator[None]:
-    """An application built from the environment, its connections closed on the way out."""
-    from app.web import create_app
-
-    # A job signs no session: it needs no deployment key.
-    with create_app({"REQUIRE_SECRET_KEY": False}).app_context():
-        try:
-            yield
-        finally:
-            db.session.remove()
-            db.engine.dispose()
-
-
 def run_job_standalone(job_id: int) -> None:
     """Entry point for the RQ worker: builds the app from the environment."""
-    with standalone_context():
+    with app_context(offline_app()):
         run_job(job_id)
-
-
-def mark_failed(job_id: int, reason: str) -> bool:
-    """Mark an unfinished job failed with ``reason``; False if it had already finished."""
-    with transaction() as session:
-        result = session.execute(
-            sa.update(Job)
-            .where(Job.id == job_id, Job.status.in_(("queued", "running")))
-            .values(status="failed", message=reason, finished_at=utcnow())
-        )
-    return result.rowcount == 1
 
 
 def rq_failed(job, connection, exc_type, exc_value, traceback) -> None:  # type: ignore[no-untyped-def]
     """RQ's failure callback (an exception, a timeout, a killed work horse): the row says why."""
     reason = failure_message(exc_value) if exc_value is not None else "failed in the worker"
-    with standalone_context():
+    with app_context(offline_app()):
         mark_failed(int(job.args[0]), reason)
 
 
@@ -493,8 +309,6 @@ def rq_horse_killed(job, retpid, ret_val, rusage) -> None:  # type: ignore[no-un
 def _rq_states(app_redis_url: str, ids: list[int]) -> dict[int, tuple[str, str] | None]:
     """RQ's status of each job and, for a failed one, the last line of its error (None: RQ no
     longer knows it)."""
-
-    from app.web.jobs.clips import finish_job_id
 
     connection = Redis.from_url(app_redis_url, socket_connect_timeout=2, socket_timeout=5)
 

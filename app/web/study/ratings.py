@@ -27,7 +27,7 @@ from app.web.study.enrolment import SESSION_ENDED, touch
 from app.web.study.progress import next_trial_of, progress_and_upcoming
 from app.web.study.studies import rating_scale
 from app.web.study.votes import (
-    VoteRejected,
+    AnswerRejected,
     answer_fields,
     check_answering,
     check_open,
@@ -38,6 +38,10 @@ from app.web.study.votes import (
     screen_out,
     trial_id_of,
 )
+
+
+class RatingRejected(AnswerRejected):
+    """The request cannot be a rating of this participant."""
 
 
 class StoredRating(NamedTuple):
@@ -65,14 +69,15 @@ class RatingOutcome:
 
 def rating_fields(participant: Participant, trial: Trial | None, payload: dict[str, Any]) -> dict:
     """The rating's columns from ``payload``, checked against ``trial`` (the participant's,
-    not the practice) and the study's scale and replay policy. Raises :class:`VoteRejected`
-    with one line naming the field."""
+    not the practice) and the study's scale and replay policy. Raises :class:`RatingRejected`
+    (:class:`app.web.study.votes.AnswerRejected` for the fields every answer carries) with one
+    line naming the field."""
     study = participant.study
     if study.design not in RATING_DESIGNS:
-        raise VoteRejected(f"this study answers by votes (design {study.design!r})", 422)
+        raise RatingRejected(f"this study answers by votes (design {study.design!r})", 422)
     # Another participant's trial is reported exactly like a missing one: nothing leaks.
     if trial is None or trial.participant_id != participant.id:
-        raise VoteRejected("no such trial", 404)
+        raise RatingRejected("no such trial", 404)
     scores = _scores(participant, trial, payload)
     key = idempotency_key(payload, Rating.idempotency_key)
     claimed = int_field(payload, "plays", Rating.plays, required=True) or 0
@@ -80,10 +85,10 @@ def rating_fields(participant: Participant, trial: Trial | None, payload: dict[s
     plays = trial.plays or claimed
     if study.design == "parallel" and plays < len(scores):
         # BS.1534 asks for every item to be heard: at least one play each
-        raise VoteRejected(f"plays: every item is played first ({plays} of {len(scores)})", 422)
+        raise RatingRejected(f"plays: every item is played first ({plays} of {len(scores)})", 422)
     reason = may_vote(study, plays=plays, watched_to_end=bool(payload.get("watched_to_end")))
     if reason:
-        raise VoteRejected(reason, 422)
+        raise RatingRejected(reason, 422)
     return {
         "scores": scores,
         "idempotency_key": key,
@@ -111,17 +116,17 @@ def _scores(participant: Participant, trial: Trial, payload: dict[str, Any]) -> 
         try:
             return {trial.stimulus.left_id: check_score(scale, payload.get("score"))}
         except ValueError as exc:
-            raise VoteRejected(f"score: {exc}") from None
+            raise RatingRejected(f"score: {exc}") from None
     items = shown_items(participant, trial)
     given = payload.get("scores")
     if not isinstance(given, list) or len(given) != len(items):
-        raise VoteRejected(f"scores: expected a list of {len(items)} scores, one per item")
+        raise RatingRejected(f"scores: expected a list of {len(items)} scores, one per item")
     out = {}
     for index, (item, value) in enumerate(zip(items, given, strict=True)):
         try:
             out[item.id] = check_score(scale, value)
         except ValueError as exc:
-            raise VoteRejected(f"scores[{index}]: {exc}") from None
+            raise RatingRejected(f"scores[{index}]: {exc}") from None
     return out
 
 
@@ -168,7 +173,8 @@ def record_rating(
     """Store the rating in ``payload`` once; the caller commits. ``participant`` comes from
     :func:`app.web.study.votes.participant_for_vote` (locked), ``trial`` with it where read.
 
-    Raises :class:`VoteRejected` for a request that is not a valid rating of this participant.
+    Raises :class:`app.web.study.votes.AnswerRejected` for a request that is not a valid
+    rating of this participant: a :class:`RatingRejected` for what only a rating is checked for.
     """
     check_answering(participant)
     check_open(participant.study, pilot=participant.pilot)
@@ -178,9 +184,9 @@ def record_rating(
     fields = rating_fields(participant, trial, payload)  # type: ignore[arg-type]
     assert isinstance(trial, Trial)
     if trial.kind == "practice":
-        raise VoteRejected("the practice is not recorded", 422)
+        raise RatingRejected("the practice is not recorded", 422)
     if not touch(participant):
-        raise VoteRejected(SESSION_ENDED, 409, closed=True)
+        raise RatingRejected(SESSION_ENDED, 409, closed=True)
     key = fields["idempotency_key"]
     stored = _stored(participant.id, trial.id, key)
     created = False
@@ -200,10 +206,10 @@ def record_rating(
         if not created:  # a concurrent request stored them first
             stored = _stored(participant.id, trial.id, key)
             if not stored:  # pragma: no cover - the constraint held, so the rows exist
-                raise VoteRejected("the rating could not be stored; send it again", 503)
+                raise RatingRejected("the rating could not be stored; send it again", 503)
     if stored:
         if any(r.trial_id != trial.id or r.participant_id != participant.id for r in stored):
-            raise VoteRejected("idempotency_key: already used for another trial", 409)
+            raise RatingRejected("idempotency_key: already used for another trial", 409)
         first = stored[0]
         kept = StoredRating(
             trial.id, {r.condition_id: r.score for r in stored}, first.plays, first.response_ms

@@ -237,7 +237,7 @@ def _media_rows(study: Study, spec: StudySpec) -> None:
     face = spec.render.get("face")
     if face is not None:
         # the avatar (and its sidecar, when one came with it) beside the study's media; the
-        # render job reads it from there (app.web.jobs.tasks.render_settings)
+        # render job reads it from there (app.web.jobs.rendering.render_settings)
         stored = _copy(study, Path(face), f"render/{_stored_name(face)}")
         sidecar = Path(face).with_name(Path(face).stem + ".avatar.json")
         if sidecar.is_file():

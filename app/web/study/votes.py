@@ -40,8 +40,12 @@ SCREENED_OUT = (
 )
 
 
-class VoteRejected(Exception):
-    """The request cannot be a vote of this participant; ``status`` is the HTTP status."""
+class AnswerRejected(Exception):
+    """The request cannot be an answer (a vote or a rating) of this participant; ``status`` is
+    the HTTP status. Raised as such by the checks every answer passes (the study open, the
+    participant answering, the fields both carry); :class:`VoteRejected` and
+    :class:`app.web.study.ratings.RatingRejected` for what only a vote or a rating is checked
+    for."""
 
     def __init__(self, message: str, status: int = 400, *, closed: bool = False) -> None:
         super().__init__(message)
@@ -49,6 +53,10 @@ class VoteRejected(Exception):
         self.status = status
         #: Refused for good: the study takes no more answers (the browser stops resending).
         self.closed = closed
+
+
+class VoteRejected(AnswerRejected):
+    """The request cannot be a vote of this participant."""
 
 
 class StoredVote(NamedTuple):
@@ -97,7 +105,7 @@ def parse_time(value: Any) -> dt.datetime | None:
         if stamp.tzinfo is not None:
             stamp = stamp.astimezone(dt.UTC).replace(tzinfo=None)
     except (ValueError, OverflowError) as exc:  # overflow: a time zone beyond year 1 or 9999
-        raise VoteRejected("presented_at: expected an ISO 8601 time") from exc
+        raise AnswerRejected("presented_at: expected an ISO 8601 time") from exc
     return stamp
 
 
@@ -108,15 +116,15 @@ def int_field(
     value = payload.get(name)
     if value is None:
         if required:
-            raise VoteRejected(f"{name}: required")
+            raise AnswerRejected(f"{name}: required")
         return None
     if isinstance(value, float) and value.is_integer():  # never NaN or infinity
         value = int(value)
     if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise VoteRejected(f"{name}: expected a non-negative whole number")
+        raise AnswerRejected(f"{name}: expected a non-negative whole number")
     found = limits.problem(limits.column_of(column), value)
     if found:
-        raise VoteRejected(f"{name}: {found}")
+        raise AnswerRejected(f"{name}: {found}")
     return value
 
 
@@ -125,7 +133,7 @@ def check_open(study: Any, *, pilot: bool) -> None:
     # Pilot participants (``app.web.study.participants``) vote before recruitment opens.
     piloting = pilot and study.status in ("draft", "ready")
     if study.status not in ("open", "paused") and not piloting:
-        raise VoteRejected("this study is closed", 409, closed=True)
+        raise AnswerRejected("this study is closed", 409, closed=True)
 
 
 def trial_id_of(payload: dict[str, Any]) -> int:
@@ -193,7 +201,7 @@ def answer_fields(payload: dict[str, Any], model: Any) -> dict[str, Any]:
     try:
         columns, log = media_fields(payload.get("media"))
     except MediaLogError as exc:
-        raise VoteRejected(str(exc)) from None
+        raise AnswerRejected(str(exc)) from None
     return {
         "response_ms": int_field(payload, "response_ms", model.response_ms),
         "presented_at": parse_time(payload.get("presented_at")),
@@ -207,7 +215,7 @@ def idempotency_key(payload: dict[str, Any], column: Any) -> str:
     key = payload.get("idempotency_key")
     longest = limits.column_of(column).type.length
     if not isinstance(key, str) or not 8 <= len(key) <= longest or not limits.fits(column, key):
-        raise VoteRejected(f"idempotency_key: expected text of 8 to {longest} characters")
+        raise AnswerRejected(f"idempotency_key: expected text of 8 to {longest} characters")
     return key
 
 
@@ -290,7 +298,7 @@ def participant_for_vote(token: Any, trial_id: Any = None) -> Voter | None:
         return None
     try:
         trial_id = trial_id_of({"trial_id": trial_id})
-    except VoteRejected:
+    except AnswerRejected:
         trial_id = None
     row = db.session.execute(_locked_with_trial(), {"token": token, "trial_id": trial_id}).first()
     return None if row is None else Voter(*row)
@@ -320,9 +328,9 @@ def check_answering(participant: Participant) -> None:
     one who still owes the audio check: the trial page sets ``started_at`` only after it, so an
     answer sent without the page is refused while the check is owed."""
     if participant.screened_out_at is not None:
-        raise VoteRejected(SCREENED_OUT, 409, closed=True)
+        raise AnswerRejected(SCREENED_OUT, 409, closed=True)
     if participant.started_at is None and audio_check_pending(participant):
-        raise VoteRejected("audio_check: the audio check comes before the first answer", 409)
+        raise AnswerRejected("audio_check: the audio check comes before the first answer", 409)
 
 
 def record_vote(
@@ -334,8 +342,9 @@ def record_vote(
     :func:`screen_out`, :func:`app.web.study.participants.release_if_left_out`). ``participant``
     comes from :func:`participant_for_vote` (locked), and ``trial`` with it where it read it.
 
-    Raises :class:`VoteRejected` for a request that is not a valid vote of this participant
-    (another participant's trial, a bad choice, a key reused on another trial).
+    Raises :class:`AnswerRejected` for a request that is not a valid vote of this participant:
+    a :class:`VoteRejected` for what only a vote is checked for (another participant's trial,
+    a bad choice, a key reused on another trial).
     """
     check_answering(participant)
     trial, fields = validate(participant, payload, trial)
