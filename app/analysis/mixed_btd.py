@@ -122,6 +122,12 @@ class _Model:
         # (i, j) and (j, i), laid out as the participant-dense block B (P, n, m) holds them,
         # after its fixed-effect columns, so the product lands in B itself
         self.sums = {"y_l": float(self.y[:, 0].sum()), "y_t": float(self.y[:, 2].sum())}
+        self.work = {
+            key: np.empty(cells) for key in ("delta", "pl", "pt", "d", "pr", "tpl", "tpt", "spare")
+        }
+        self.work["hess"] = np.empty(cells)
+        self.work["per_cell"] = np.empty((cells, 3 if self.ties else 2))
+        self.work["worth"] = np.empty((self.P, K, n))
         self.y_half = self.y[:, 0] + self.y[:, 2] / 2.0  # a left vote counts 1, undecided 1/2
         width, offset = (self.m, self.nf) if self.use_c else (K * n, 0)
 
@@ -133,6 +139,80 @@ class _Model:
             [1.0, 1.0, -1.0, -1.0],
             self.P * n * width,
         )
+
+    def _per_cell(
+        self, z: np.ndarray, b: np.ndarray
+    ) -> tuple[float, np.ndarray, np.ndarray, dict[str, float]]:
+        """The log-likelihood and, per cell, in delta = a_i - a_j: the gradient, minus the
+        cross derivatives with lambda (and kappa) as columns of one (N, 2 or 3) array, minus
+        the second derivative, and the sums the fixed effects need (w_xy: minus the Hessian
+        in the outcomes' logits, summed over the cells).
+
+        Each cell relative to its right-hand outcome: the outcomes' odds are exp(lambda +
+        delta) (left), exp(kappa + delta / 2) (undecided) and 1 (the right's worth cancels
+        from the log-likelihood, the counts of a cell adding up to its total). The arrays over
+        the cells are the model's own, rewritten in place at every call: this is the fit's
+        inner loop, and arrays made anew each time cost as much again in page faults.
+        """
+        n, K, nf, w = self.n, self.K, self.nf, self.work
+        lam = z[n]
+        kap = z[n + 1] if self.ties else 0.0
+        worth = w["worth"]  # (P, K, n): theta + b_p + c_k
+        if self.use_c:
+            np.add(b[:, None, :], z[nf:].reshape(K, n)[None, :, :], out=worth)
+        else:
+            worth[:] = b[:, None, :]
+        worth += z[:n]
+        flat = worth.reshape(-1)
+        delta, pl, pt, d, pr, tpl, tpt, spare = (
+            w[k] for k in ("delta", "pl", "pt", "d", "pr", "tpl", "tpt", "spare")
+        )
+        np.take(flat, self.at_wi, out=delta)
+        delta -= np.take(flat, self.at_wj, out=spare)
+        # (exponents held within +-600: far beyond any estimable effect, short of overflow)
+        np.add(delta, lam, out=pl)
+        np.clip(pl, -600.0, 600.0, out=pl)
+        np.exp(pl, out=pl)
+        np.add(pl, 1.0, out=d)
+        if self.ties:
+            np.multiply(delta, 0.5, out=pt)
+            pt += kap
+            np.clip(pt, -600.0, 600.0, out=pt)
+            np.exp(pt, out=pt)
+            d += pt
+        np.reciprocal(d, out=pr)
+        pl *= pr  # P(left)
+        np.log(d, out=d)
+        y_l, y_t, total = self.y[:, 0], self.y[:, 2], self.total
+        ll = float(y_l @ delta) + lam * self.sums["y_l"] - float(total @ d)
+        np.multiply(total, pl, out=tpl)
+        per_cell = w["per_cell"]
+        g, with_l, hess = per_cell[:, 0], per_cell[:, 1], w["hess"]
+        np.subtract(self.y_half, tpl, out=g)
+        np.multiply(tpl, pr, out=hess)  # w_ll + w_lt + w_tt / 4, without ties
+        with_l[:] = hess  # w_ll + w_lt / 2, without ties
+        sums = {"tpl": float(tpl.sum())}
+        sums["w_ll"] = sums["tpl"] - float(tpl @ pl)
+        if self.ties:
+            pt *= pr  # P(undecided)
+            ll += float(y_t @ delta) / 2.0 + kap * self.sums["y_t"]
+            np.multiply(total, pt, out=tpt)
+            np.multiply(tpt, 0.5, out=spare)
+            g -= spare
+            np.subtract(1.0, pt, out=spare)
+            spare *= tpt
+            spare *= 0.25
+            hess += spare
+            np.multiply(tpl, pt, out=spare)
+            spare *= 0.5
+            with_l += spare
+            np.subtract(pr, pl, out=spare)
+            spare *= tpt
+            np.multiply(spare, 0.5, out=per_cell[:, 2])  # w_lt + w_tt / 2
+            sums["tpt"] = float(tpt.sum())
+            sums["w_lt"] = -float(tpl @ pt)
+            sums["w_tt"] = sums["tpt"] - float(tpt @ pt)
+        return ll, per_cell, hess, sums
 
     def terms(self, z: np.ndarray, b: np.ndarray) -> dict[str, Any]:
         """Log-likelihood, its gradient and minus its Hessian in blocks: dense-dense C,
@@ -146,51 +226,7 @@ class _Model:
         pi pi') and J the outcomes' coefficients (left 1, 1, 0; undecided 1/2, 0, 1; right 0).
         """
         P, K, n, m, nf = self.P, self.K, self.n, self.m, self.nf
-        lam = z[n]
-        kap = z[n + 1] if self.ties else 0.0
-        c = z[nf:].reshape(K, n) if self.use_c else np.zeros((K, n))
-        worth = z[:n][None, None, :] + b[:, None, :] + c[None, :, :]  # (P, K, n), small
-        # each cell relative to its right-hand outcome: with delta = a_i - a_j the outcomes'
-        # odds are exp(lambda + delta) (left), exp(kappa + delta / 2) (undecided) and 1 (the
-        # right's worth cancels from the log-likelihood, the counts of a cell adding up to
-        # its total)
-        flat = worth.ravel()
-        delta = np.take(flat, self.at_wi)
-        delta -= np.take(flat, self.at_wj)
-        y_l, y_t = self.y[:, 0], self.y[:, 2]
-        total = self.total
-        # (exponents held within +-600: far beyond any estimable effect, short of overflow;
-        # the arrays over the cells are few and reused in place: this is the fit's inner loop)
-        pl = np.clip(delta + lam, -600.0, 600.0)
-        np.exp(pl, out=pl)
-        d = pl + 1.0
-        if self.ties:
-            pt = np.clip(delta / 2.0 + kap, -600.0, 600.0)
-            np.exp(pt, out=pt)
-            d += pt
-        pr = np.reciprocal(d)
-        pl *= pr  # P(left)
-        if self.ties:
-            pt *= pr  # P(undecided)
-        np.log(d, out=d)
-        ll = float(y_l @ delta) + lam * self.sums["y_l"] - float(total @ d)
-        if self.ties:
-            ll += float(y_t @ delta) / 2.0 + kap * self.sums["y_t"]
-        tpl = total * pl
-        tpt = total * pt if self.ties else None
-        # per cell, in delta: the gradient, minus the second derivative, and minus the cross
-        # derivatives with lambda and kappa (w_xy: minus the Hessian in the outcomes' logits)
-        per_cell = np.empty((len(total), 3 if self.ties else 2))
-        g, with_l = per_cell[:, 0], per_cell[:, 1]
-        np.subtract(self.y_half, tpl, out=g)
-        hess = tpl * pr  # w_ll + w_lt + w_tt / 4, without ties
-        np.multiply(tpl, pr, out=with_l)  # w_ll + w_lt / 2, without ties
-        if self.ties:
-            assert tpt is not None
-            g -= tpt / 2.0
-            hess += tpt * (1.0 - pt) / 4.0
-            with_l += tpl * pt / 2.0
-            np.multiply(tpt, (pr - pl) / 2.0, out=per_cell[:, 2])  # w_lt + w_tt / 2
+        ll, per_cell, hess, sums = self._per_cell(z, b)
         by_p = self.to_p @ per_cell  # (P n, 2 or 3)
         by_k = self.to_k @ per_cell  # (K n, 2 or 3)
         # the (participant, clip) n x n blocks of minus the Hessian in the worths, in B
@@ -205,20 +241,17 @@ class _Model:
         per_clip = blocks.sum(axis=0).transpose(1, 0, 2)  # (K, n, n)
         gz, gb = np.zeros(m), np.zeros((P, n))
         cc = np.zeros((m, m))
-        sum_tpl = float(tpl.sum())
         gz[:n] = g_p.sum(axis=0)
-        gz[n] = self.sums["y_l"] - sum_tpl
+        gz[n] = self.sums["y_l"] - sums["tpl"]
         cc[:n, :n] = aa.sum(axis=0)
         cc[:n, n] = h_al_p.sum(axis=0)
-        cc[n, n] = sum_tpl - float(tpl @ pl)  # w_ll
+        cc[n, n] = sums["w_ll"]
         if self.ties:
-            assert tpt is not None
-            sum_tpt = float(tpt.sum())
             h_ak_p = by_p[:, 2].reshape(P, n)
-            gz[n + 1] = self.sums["y_t"] - sum_tpt
+            gz[n + 1] = self.sums["y_t"] - sums["tpt"]
             cc[:n, n + 1] = h_ak_p.sum(axis=0)
-            cc[n, n + 1] = -float(tpl @ pt)  # w_lt
-            cc[n + 1, n + 1] = sum_tpt - float(tpt @ pt)  # w_tt
+            cc[n, n + 1] = sums["w_lt"]
+            cc[n + 1, n + 1] = sums["w_tt"]
         if self.use_c:
             gz[nf:] = by_k[:, 0]
             for k in range(K):
@@ -381,6 +414,7 @@ MIN_VARIANCE = 1e-8  # a random effect taken as absent
 #: The most variance updates a fit spends: a few dozen settle every study simulated
 #: (benchmarks/bench_analysis.py), one stuck near a bound stops here and says so.
 MAX_UPDATES = 300
+START_VARIANCES = (0.25, 0.25)  # participant, clip: sd 0.5 log-worth units
 CRAWL_VARIANCE = 0.01  # sd 0.1
 NEGLIGIBLE_VARIANCE = 4e-4  # sd 0.02 log-worth units (0.018 JOD): taken as absent
 LOG_MAX_VARIANCE = 3.0  # sd 4.48 log-worth units (4.1 JOD): the fit's bound on a variance
@@ -460,7 +494,7 @@ def _fit(
 
     # SQUAREM (Varadhan & Roland 2008, Scand. J. Stat. 35, 335-353, scheme S3): two updates
     # and an extrapolation along them per cycle; the fixed point is Schall's.
-    log_var = np.log(np.array([0.25, 0.25]))
+    log_var = np.log(np.array(START_VARIANCES))
     settled, probed, left = False, np.zeros(2, dtype=bool), np.inf
     while state["updates"] + 3 <= max_updates:
         one = schall(log_var)
