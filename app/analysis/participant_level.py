@@ -34,7 +34,7 @@ from scipy import sparse, stats
 from app.analysis.agreement import coefficient_of_agreement
 from app.analysis.counts import undecided_pairs, wins
 from app.analysis.json_values import json_number as _num
-from app.analysis.scaling import bootstrap_columns, canonical_participant_order
+from app.analysis.scaling import DENSE_FROM, bootstrap_columns, canonical_participant_order
 from app.analysis.signed_rank import signed_rank_test
 from app.analysis.signtest import sign_test_p
 from app.analysis.ttest import holm
@@ -108,7 +108,10 @@ def bootstrap_rank_biserial(d: np.ndarray, weights: np.ndarray) -> np.ndarray:
     member = sparse.csr_matrix(
         (np.ones(rows.size, np.float32), (rows, cols)), shape=(2 * g, columns.shape[0])
     )
-    sums = (member @ columns).T.astype(np.float64)  # (replicates, 2g), whole counts
+    # (replicates, 2g), whole counts, exact in float32 in any order of addition; dense
+    # where the indicator is (a few distinct |d| with most participants in one)
+    dense = member.nnz >= DENSE_FROM * member.shape[0] * member.shape[1]
+    sums = ((member.toarray() if dense else member) @ columns).T.astype(np.float64)
     in_group, positive_w = sums[:, :g], sums[:, g:]
     before = np.cumsum(in_group, axis=1) - in_group
     mid = before + (in_group + 1.0) / 2.0
