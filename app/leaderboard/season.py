@@ -1,4 +1,4 @@
-"""Season files: one TOML file describing a leaderboard season, and its manifest.
+"""Season files: one TOML file describing a leaderboard season.
 
 A season is a benchmark set (N speech segments, each with its transcript and captured ground
 truth), one frozen render setting (``[render]``: the study file's keys: head or avatar, size,
@@ -9,10 +9,7 @@ rules, language, ...), plus the leaderboard's own rules (``[rounds]``, ``[submis
 checked by the study file's own reader (:func:`app.trials.studyfile.parse_study`) on the round
 study they will make, so a season refuses exactly what a round study would.
 
-The manifest (:func:`build_manifest`) pins the season: the SHA-256 of the file, of every
-segment's audio, transcript and ground truth, of the render and test settings and of the
-avatar; the manifest's own SHA-256 names the season's frozen state. Rounds refuse to start when
-a pinned file no longer matches (``app.web.board``).
+Its manifest, the frozen state by SHA-256, is :mod:`app.leaderboard.manifest`'s.
 
 Every mistake is one :class:`~app.errors.InputError` line naming the file and the field::
 
@@ -22,8 +19,6 @@ Every mistake is one :class:`~app.errors.InputError` line naming the file and th
 
 from __future__ import annotations
 
-import hashlib
-import json
 import re
 import tomllib
 from collections.abc import Mapping, Sequence
@@ -34,10 +29,8 @@ from typing import Any, Final
 from app.errors import InputError
 from app.stimuli.fap import EYEBROWS, EYELIDS, GAZE, HEAD, JAW_LIPS
 from app.trials.fields import FieldReader, describe
-from app.trials.studyfile import AUDIO_SUFFIXES, MODELS, TRACK_SUFFIXES, parse_study
-
-SEASON_FORMAT: Final = "facepair-season/1"
-"""The manifest's ``format``."""
+from app.trials.stimulusside import AUDIO_SUFFIXES, TRACK_SUFFIXES
+from app.trials.studyfile import MODELS, parse_study
 
 TOP_KEYS: Final = (
     "name",
@@ -458,95 +451,3 @@ def _season_field(study_field: str | None) -> str | None:
     if study_field == "target_participants":
         return "rounds.participants"
     return f"test.{study_field}"
-
-
-def canonical_json(value: Any) -> bytes:
-    """The one byte form of a JSON value that its SHA-256 is taken of (sorted keys, no spaces).
-
-    >>> canonical_json({"b": 1, "a": [1.5, "x"]})
-    b'{"a":[1.5,"x"],"b":1}'
-    """
-    return json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=False).encode()
-
-
-def sha256_hex(data: bytes) -> str:
-    return hashlib.sha256(data).hexdigest()
-
-
-def file_sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with Path(path).open("rb") as handle:
-        while block := handle.read(1 << 20):
-            digest.update(block)
-    return digest.hexdigest()
-
-
-def build_manifest(
-    spec: SeasonSpec,
-    *,
-    season_file: str,
-    durations: Mapping[str, float],
-    draw_commitment: str,
-    software: Mapping[str, str | None],
-) -> dict[str, Any]:
-    """The season's manifest: everything that must not change while it runs, by SHA-256.
-
-    ``durations`` are the segments' speech lengths in seconds (what submissions are checked
-    against); ``draw_commitment`` the SHA-256 of the secret that draws stochastic systems'
-    samples (revealed when the season closes, so the draws can be checked then and not gamed
-    before). ``manifest_sha256(manifest)`` names the frozen state.
-    """
-    face = spec.face()
-    render = {k: v for k, v in spec.render.items() if k != "face"}
-    if face is not None:
-        render["face"] = {"name": face.name, "sha256": file_sha256(face)}
-    test = json.loads(canonical_json(dict(spec.test)))
-    rounds, submissions, publish = spec.rounds, spec.submissions, spec.publish
-    return {
-        "format": SEASON_FORMAT,
-        "name": spec.name,
-        "title": spec.title,
-        "licence": spec.licence,
-        "season_file_sha256": sha256_hex(season_file.encode("utf-8")),
-        "draw_commitment": draw_commitment,
-        "segments": [
-            {
-                "name": s.name,
-                "transcript": s.transcript,
-                "duration_s": round(float(durations[s.name]), 6),
-                "audio_sha256": file_sha256(s.audio),
-                "ground_truth_sha256": file_sha256(s.ground_truth),
-            }
-            for s in spec.segments
-        ],
-        "render": render,
-        "render_sha256": sha256_hex(canonical_json(render)),
-        "test": test,
-        "test_sha256": sha256_hex(canonical_json(test)),
-        "rounds": {
-            "anchors": list(rounds.anchors),
-            "top": rounds.top,
-            "segments": rounds.segments,
-            "pairs": rounds.pairs,
-            "participants": rounds.participants,
-        },
-        "submissions": {
-            "frame_rates": list(submissions.frame_rates),
-            "samples": submissions.samples,
-            "require": list(submissions.require),
-            "max_file_mb": submissions.max_file_mb,
-            "pad": submissions.pad,
-        },
-        "publish": {
-            "min_votes": publish.min_votes,
-            "bootstrap": publish.bootstrap,
-            "confidence": publish.confidence,
-            "drift_alpha": publish.drift_alpha,
-        },
-        "software": dict(software),
-    }
-
-
-def manifest_sha256(manifest: Mapping[str, Any]) -> str:
-    """The SHA-256 naming a manifest (of its canonical JSON)."""
-    return sha256_hex(canonical_json(dict(manifest)))

@@ -24,29 +24,26 @@ from typing import Any
 
 from app.errors import InputError
 from app.stimuli.conditions import IMPORTED, condition_class, make_condition
+from app.stimuli.conditions.base import ConditionModel
 from app.stimuli.conditions.imported import ImportedCondition
-from app.stimuli.eyes import DEFAULT_EYES, check_eyes, eye_channels
-from app.stimuli.fap import EYEBROWS
+from app.stimuli.eyes import DEFAULT_EYES, check_eyes
 from app.stimuli.io import load_track, save_track
 from app.stimuli.lengths import length_note
-from app.stimuli.meshes.fairness import DEFAULT_MESH_EYES, check_mesh_eyes, match_mesh_eyes
+from app.stimuli.meshes.fairness import DEFAULT_MESH_EYES, check_mesh_eyes
 from app.stimuli.normalize import normalize_tracks
 from app.stimuli.plot import plot_conditions
-from app.stimuli.posture import DEFAULT_POSTURE, check_posture, rest_posture, share_posture
+from app.stimuli.posture import DEFAULT_POSTURE, check_posture
 from app.stimuli.progress import Progress, progress_steps
 from app.stimuli.shared import (
     DEFAULT_BROWS,
     DEFAULT_LIPS,
-    EYE_GROUP,
     check_brows,
     check_lips,
-    face_channels,
-    moves,
-    share_channels,
 )
 from app.stimuli.speech import SpeechFeatures, extract_features
 from app.stimuli.summary import GenerationResult, capture_note, generation_summary, jsonable
 from app.stimuli.track import MotionTrack, align_to_features
+from app.stimuli.untested import share_untested
 
 DEFAULT_CONDITIONS = ("none", "random", "speech_driven", "ground_truth")
 
@@ -139,6 +136,75 @@ def generate_conditions(
     after each step.
     """
     requests = parse_conditions(conditions)
+    _check_settings(
+        requests, ground_truth, normalize, models, eyes, posture, lips, brows, mesh_eyes
+    )
+    step = progress_steps(progress, len(requests) + 3 + int(normalize))
+
+    features = extract_features(
+        audio_path, fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling
+    )
+    notes: list[str] = []
+    gt_track = _load_ground_truth(ground_truth, fps, meshes)
+    gt_aligned = _align_ground_truth(gt_track, ground_truth, requests, features, pad, notes)
+    step()
+
+    tracks: dict[str, MotionTrack] = {}
+    described: dict[str, Any] = {}
+    for name, (model, params) in requests.items():
+        kw = {**params, **dict((condition_params or {}).get(name, {}))}
+        cond = _make_condition(name, model, kw, models, meshes)
+        tracks[name] = _condition_track(
+            cond, name, model, features, gt_track, gt_aligned, audio_path, seed, pad, notes
+        )
+        described[name] = {"model": model, **cond.describe()}
+        step()
+
+    tracks, shared = share_untested(
+        tracks,
+        [n for n, (m, _) in requests.items() if m == "live_gmm"],
+        features,
+        gt_aligned,
+        eyes=eyes,
+        posture=posture,
+        lips=lips,
+        brows=brows,
+        mesh_eyes=mesh_eyes,
+        seed=seed,
+        notes=notes,
+    )
+    step()
+
+    factors = None
+    if normalize:
+        assert gt_aligned is not None  # checked on entry
+        gt_names = [n for n, (m, _) in requests.items() if m == "ground_truth"]
+        tracks, factors = normalize_tracks(tracks, gt_names[0] if gt_names else gt_aligned)
+        step()
+
+    summary = generation_summary(
+        audio_path, features, gt_track, gt_aligned, tracks, described, factors, seed, eyes
+    )
+    summary["notes"] = notes + summary["notes"]
+    summary.update(shared)
+    step()
+    return GenerationResult(tracks, features, jsonable(summary))
+
+
+def _check_settings(
+    requests: Mapping[str, ConditionRequest],
+    ground_truth: str | Path | MotionTrack | None,
+    normalize: bool,
+    models: Mapping[str, str | Path] | None,
+    eyes: str,
+    posture: str,
+    lips: str,
+    brows: str,
+    mesh_eyes: str,
+) -> None:
+    """Refuse, before any work, the settings that cannot go together: a mode unknown, the
+    ground truth missing where a condition or a setting needs it, a model file for a
+    condition the generation does not have."""
     check_eyes(eyes)
     check_posture(posture)
     check_lips(lips)
@@ -157,170 +223,89 @@ def generate_conditions(
                 f"conditions ({', '.join(requests)})",
                 field="model",
             )
-    step = progress_steps(progress, len(requests) + 3 + int(normalize))
 
-    features = extract_features(
-        audio_path, fps, pitch_floor=pitch_floor, pitch_ceiling=pitch_ceiling
+
+def _align_ground_truth(
+    gt_track: MotionTrack | None,
+    ground_truth: str | Path | MotionTrack | None,
+    requests: Mapping[str, ConditionRequest],
+    features: SpeechFeatures,
+    pad: bool,
+    notes: list[str],
+) -> MotionTrack | None:
+    """The ground truth on the speech's frames (``None`` without one), its length checked
+    against the speech's (:mod:`app.stimuli.lengths`; the ground_truth condition's ``offset``
+    shifts it); a length padded or cut adds a line to ``notes``."""
+    if gt_track is None:
+        return None
+    offsets = [p.get("offset", 0.0) for m, p in requests.values() if m == "ground_truth"]
+    named = None if isinstance(ground_truth, MotionTrack) else Path(str(ground_truth)).name
+    note = length_note(
+        gt_track,
+        features.n_frames,
+        features.fps,
+        what="ground truth",
+        path=named,
+        offset=float(offsets[0]) if offsets else 0.0,
+        pad=pad,
     )
-    notes: list[str] = []
-    gt_track = _load_ground_truth(ground_truth, fps, meshes)
-    gt_aligned = None
-    if gt_track is not None:
-        offsets = [p.get("offset", 0.0) for m, p in requests.values() if m == "ground_truth"]
-        named = None if isinstance(ground_truth, MotionTrack) else Path(str(ground_truth)).name
+    notes += [f"{named}: {note}" if named else note] if note else []
+    return align_to_features(gt_track, features)
+
+
+def _make_condition(
+    name: str,
+    model: str,
+    kw: dict[str, Any],
+    models: Mapping[str, str | Path] | None,
+    meshes: Mapping[str, Any] | None,
+) -> ConditionModel:
+    """The condition ``name`` of the registry's ``model`` with its parameters ``kw``, given
+    its fitted model file (``models``) and, imported, the study's mesh settings."""
+    if models and name in models:
+        if "model_path" not in inspect.signature(condition_class(model)).parameters:
+            raise InputError(f"condition {name!r} ({model}) takes no model file", field="model")
+        kw["model_path"] = str(models[name])
+    if model == IMPORTED and meshes:
+        kw["mesh"] = {**dict(meshes), **dict(kw.get("mesh") or {})}
+    return make_condition(model, **kw)
+
+
+def _condition_track(
+    cond: ConditionModel,
+    name: str,
+    model: str,
+    features: SpeechFeatures,
+    gt_track: MotionTrack | None,
+    gt_aligned: MotionTrack | None,
+    audio_path: str | Path,
+    seed: int,
+    pad: bool,
+    notes: list[str],
+) -> MotionTrack:
+    """One condition's track: an imported one read and its length checked (a note on its
+    length or its capture added to ``notes``), any other fitted on the aligned ground truth
+    where there is one; then generated from the speech."""
+    if isinstance(cond, ImportedCondition):
+        source = cond.source_track(features.fps)
         note = length_note(
-            gt_track,
+            source,
             features.n_frames,
             features.fps,
-            what="ground truth",
-            path=named,
-            offset=float(offsets[0]) if offsets else 0.0,
+            what=f"condition {name}",
+            path=cond.label,
+            offset=cond.offset,
             pad=pad,
         )
-        notes += [f"{named}: {note}" if named else note] if note else []
-        gt_aligned = align_to_features(gt_track, features)
-    step()
-
-    tracks: dict[str, MotionTrack] = {}
-    described: dict[str, Any] = {}
-    for name, (model, params) in requests.items():
-        kw = {**params, **dict((condition_params or {}).get(name, {}))}
-        if models and name in models:
-            if "model_path" not in inspect.signature(condition_class(model)).parameters:
-                raise InputError(f"condition {name!r} ({model}) takes no model file", field="model")
-            kw["model_path"] = str(models[name])
-        if model == IMPORTED and meshes:
-            kw["mesh"] = {**dict(meshes), **dict(kw.get("mesh") or {})}
-        cond = make_condition(model, **kw)
-        if isinstance(cond, ImportedCondition):
-            source = cond.source_track(features.fps)
-            note = length_note(
-                source,
-                features.n_frames,
-                features.fps,
-                what=f"condition {name}",
-                path=cond.label,
-                offset=cond.offset,
-                pad=pad,
-            )
-            notes += [f"{cond.label}: {note}"] if note else []
-            capture = source.metadata.get("capture")
-            if isinstance(capture, Mapping) and {"samples", "capture_fps"} <= capture.keys():
-                notes.append(capture_note(cond.label, capture, what=f"condition {name}"))
-        elif gt_aligned is not None:
-            cond.fit(features, gt_aligned)
-        track = cond.generate(features, seed=seed, ground_truth=gt_track)
-        track.metadata.update(seed=seed, audio=str(audio_path), model=model)
-        tracks[name] = track
-        described[name] = {"model": model, **cond.describe()}
-        step()
-
-    rest = rest_posture(gt_aligned) if posture == "shared" else None
-    if rest is not None:
-        tracks = share_posture(tracks, rest)
-
-    tracks, eyes_from = _share_eyes(tracks, requests, eyes, features, gt_aligned, seed)
-    tracks, mesh_eyes_note = match_mesh_eyes(tracks, mesh_eyes)
-    notes += [mesh_eyes_note] if mesh_eyes_note else []
-    face_cols, lips_from = face_channels(lips, tracks, gt_aligned)
-    if face_cols is not None:
-        tracks = share_channels(tracks, face_cols)
-    elif len(tracks) > 1:
-        notes.append(
-            "lips = 'own': each condition keeps its own jaw and lip motion (for a study "
-            "without the mouth mosaic that compares it)"
-        )
-    tracks, brows_from = _share_brows(tracks, requests, brows, features, notes)
-    step()
-
-    factors = None
-    if normalize:
-        assert gt_aligned is not None  # checked on entry
-        gt_names = [n for n, (m, _) in requests.items() if m == "ground_truth"]
-        tracks, factors = normalize_tracks(tracks, gt_names[0] if gt_names else gt_aligned)
-        step()
-
-    summary = generation_summary(
-        audio_path, features, gt_track, gt_aligned, tracks, described, factors, seed, eyes
-    )
-    summary["notes"] = notes + summary["notes"]
-    summary["eyes_from"] = eyes_from
-    summary["lips"] = {"mode": lips, "from": lips_from}
-    summary["brows"] = {"mode": brows, "from": brows_from}
-    if mesh_eyes_note:
-        summary["mesh_eyes"] = {"mode": mesh_eyes, "note": mesh_eyes_note}
-    summary["posture"] = {
-        "mode": posture,
-        "rest_head_au": rest,
-        "rest_from": None
-        if rest is None
-        else ("median of the ground truth" if gt_aligned is not None else "neutral"),
-    }
-    step()
-    return GenerationResult(tracks, features, jsonable(summary))
-
-
-def _share_brows(
-    tracks: dict[str, MotionTrack],
-    requests: Mapping[str, ConditionRequest],
-    brows: str,
-    features: SpeechFeatures,
-    notes: list[str],
-) -> tuple[dict[str, MotionTrack], str]:
-    """Every track with the study's eyebrows (``brows``), and where they come from."""
-    if brows == "own":
-        still = [n for n, (m, _) in requests.items() if m == "live_gmm"]
-        moving = [n for n, t in tracks.items() if moves(t, EYEBROWS)]
-        if still and moving:
-            notes.append(
-                f"{', '.join(still)} (live_gmm) moves no eyebrow, as Le et al.'s model has "
-                f"none, while {', '.join(moving)} do: their pairs differ in the brows too; "
-                "brows = 'none' or 'rule' gives every condition the same"
-            )
-        return tracks, "each condition's own"
-    if brows == "none":
-        return share_channels(tracks, {}, EYEBROWS), "none (no eyebrow motion)"
-    from app.stimuli.conditions.speech_driven import SpeechDrivenCondition
-
-    cols, _ = SpeechDrivenCondition().eyebrows(features)
-    return share_channels(tracks, cols, EYEBROWS), "the thesis' speech-driven rule"
-
-
-def _share_eyes(
-    tracks: dict[str, MotionTrack],
-    requests: Mapping[str, ConditionRequest],
-    eyes: str,
-    features: SpeechFeatures,
-    gt_aligned: MotionTrack | None,
-    seed: int,
-) -> tuple[dict[str, MotionTrack], str]:
-    """Every track with the clip's eyes under ``eyes`` (:mod:`app.stimuli.eyes`), and where
-    they come from; ``own`` checks that each condition has eyes of its own."""
-    if eyes == "own":
-        lacking = [n for n, t in tracks.items() if not moves(t, EYE_GROUP)]
-        if lacking:
-            named = ", ".join(
-                f"{n} ({tracks[n].metadata['file']})" if "file" in tracks[n].metadata else n
-                for n in lacking
-            )
-            raise InputError(
-                f"eyes = 'own' keeps each condition's own eyes, but condition {named} "
-                "carries no eye motion (FAPs 19-26 absent or 0): give it eye motion, or "
-                "share generated eyes (eyes = 'generated')",
-                field="eyes",
-            )
-        return tracks, "each condition's own"
-    live = [n for n, (m, _) in requests.items() if m == "live_gmm"]
-    if eyes == "generated" and live:  # the live model's own eyes, for every face alike
-        cols = {c: tracks[live[0]].get(c) for c in EYE_GROUP if c in tracks[live[0]].channels}
-        eyes_from = f"condition {live[0]} (live_gmm)"
-    else:
-        cols = eye_channels(eyes, features, gt_aligned, seed=seed)
-        eyes_from = {"generated": "the shipped live model"}.get(eyes, eyes)
-    shared = share_channels(tracks, cols, EYE_GROUP)
-    return {
-        n: t.replace(metadata={**t.metadata, "eyes": eyes}) for n, t in shared.items()
-    }, eyes_from
+        notes += [f"{cond.label}: {note}"] if note else []
+        capture = source.metadata.get("capture")
+        if isinstance(capture, Mapping) and {"samples", "capture_fps"} <= capture.keys():
+            notes.append(capture_note(cond.label, capture, what=f"condition {name}"))
+    elif gt_aligned is not None:
+        cond.fit(features, gt_aligned)
+    track = cond.generate(features, seed=seed, ground_truth=gt_track)
+    track.metadata.update(seed=seed, audio=str(audio_path), model=model)
+    return track
 
 
 def _load_ground_truth(

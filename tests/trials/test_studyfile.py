@@ -464,16 +464,6 @@ def test_the_rejoin_policy_is_read_and_round_trips(
     assert loads_study(spec.to_toml(), base_dir=study_dir).rejoin == "refuse"
 
 
-def test_the_render_choices_repeat_the_renderers() -> None:
-    # repeated so that reading a study file imports no GL: the copies must agree
-    from app.trials import studyfile
-    from renderer.gl import ANTIALIAS_MODES
-    from renderer.headmodel import LOOKS
-
-    assert studyfile.ANTIALIAS_MODES == ANTIALIAS_MODES
-    assert studyfile.LOOKS == LOOKS
-
-
 def test_an_adaptive_design_needs_eight_conditions(
     make_study_data: StudyData, study_dir: Path
 ) -> None:

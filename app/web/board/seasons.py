@@ -2,7 +2,7 @@
 
 :func:`create_season` copies the segments (speech, ground truth) and the avatar into the
 season's folder, writes the manifest (every file and setting by SHA-256,
-:func:`app.leaderboard.season.build_manifest`), adds the season's fixed anchors as systems and
+:func:`app.leaderboard.manifest.build_manifest`), adds the season's fixed anchors as systems and
 makes the anchors' single-face study, whose clips the board links as their renders. Nothing is
 committed: the caller commits, then starts the returned jobs (:func:`start_jobs`).
 """
@@ -20,13 +20,8 @@ from flask import Flask
 
 from app import __version__
 from app.errors import InputError
-from app.leaderboard.season import (
-    SeasonSpec,
-    build_manifest,
-    file_sha256,
-    manifest_sha256,
-    parse_season,
-)
+from app.leaderboard.manifest import build_manifest, file_sha256, manifest_sha256
+from app.leaderboard.season import SeasonSpec, parse_season
 from app.stimuli.speechaudio import read_speech_audio
 from app.trials.studyfile import parse_study
 from app.web.board.models import BoardSystem, Season
