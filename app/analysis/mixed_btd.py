@@ -155,8 +155,8 @@ class _Model:
         inner loop, and arrays made anew each time cost as much again in page faults.
         """
         n, K, nf, w = self.n, self.K, self.nf, self.work
-        lam = z[n]
-        kap = z[n + 1] if self.ties else 0.0
+        lam = float(z[n])
+        kap = float(z[n + 1]) if self.ties else 0.0
         worth = w["worth"]  # (P, K, n): theta + b_p + c_k
         if self.use_c:
             np.add(b[:, None, :], z[nf:].reshape(K, n)[None, :, :], out=worth)
