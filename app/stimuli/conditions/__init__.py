@@ -24,6 +24,7 @@ from typing import Any
 
 from app.errors import InputError
 from app.stimuli.conditions.base import ConditionModel
+from app.stimuli.conditions.names import DISPLAY_NAMES
 
 #: Condition name -> "module:Class" (imported lazily by :func:`make_condition`).
 CONDITIONS: dict[str, str] = {
@@ -38,15 +39,6 @@ CONDITIONS: dict[str, str] = {
 #: (:mod:`app.stimuli.conditions.imported`); not a model a study file names.
 IMPORTED = "imported"
 _IMPORTED_CLASS = "app.stimuli.conditions.imported:ImportedCondition"
-
-#: Condition name -> the name shown in studies and reports (thesis sec. 4.3).
-DISPLAY_NAMES: dict[str, str] = {
-    "none": "NO_PROSODY",
-    "random": "RANDOM",
-    "speech_driven": "SPEECH_DRIVEN",
-    "ground_truth": "GROUND_TRUTH",
-    "live_gmm": "LIVE_GMM",
-}
 
 __all__ = [
     "CONDITIONS",

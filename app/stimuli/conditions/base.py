@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
+from app.stimuli.conditions.names import DISPLAY_NAMES
 from app.stimuli.fap import EYEBROWS, HEAD, JAW_LIPS
 from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack, align_to_features
@@ -61,8 +62,6 @@ class ConditionModel:
 
     def base_track(self, features: SpeechFeatures, ground_truth: MotionTrack | None) -> MotionTrack:
         """The jaw and lips from ``ground_truth`` (aligned) and neutral prosody channels."""
-        from app.stimuli.conditions import DISPLAY_NAMES
-
         carried: dict[int, Any] = {}
         speaker = ""
         if ground_truth is not None:

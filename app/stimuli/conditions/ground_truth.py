@@ -11,6 +11,7 @@ from typing import Any
 
 from app.errors import InputError
 from app.stimuli.conditions.base import ConditionModel
+from app.stimuli.conditions.names import DISPLAY_NAMES
 from app.stimuli.speech import SpeechFeatures
 from app.stimuli.track import MotionTrack
 
@@ -31,8 +32,6 @@ class GroundTruthCondition(ConditionModel):
                 "the ground_truth condition needs a ground-truth track (--ground-truth FILE)",
                 field="ground_truth",
             )
-        from app.stimuli.conditions import DISPLAY_NAMES
-
         return self.aligned(ground_truth, features, self.offset).replace(
             name=DISPLAY_NAMES[self.name], source=ground_truth.source or "ground truth"
         )

@@ -1,14 +1,13 @@
 """Experimenter blueprint: login, studies, jobs, recruitment, monitor, export, reports."""
 
-from flask import Blueprint
-
-bp = Blueprint("experimenter", __name__, url_prefix="/experimenter")
-
 # Each module adds its routes to ``bp`` (one module per idea).
-from app.web.experimenter import (  # noqa: E402, F401
+from app.web.experimenter import (  # noqa: F401
     create,
     lifecycle,
     participants,
     prolific,
     views,
 )
+from app.web.experimenter.blueprint import bp
+
+__all__ = ["bp"]

@@ -16,12 +16,13 @@ from typing import Any
 from flask import Response, abort, flash, redirect, render_template, request, url_for
 from wtforms import SelectChoice
 
+import app.web.experimenter.uploads as uploads
 from app.data import data_path
 from app.errors import InputError
 from app.trials.participation import LANGUAGES, PORTRAIT_MODES
 from app.trials.rules import DEFAULT_UNDECIDED_LABEL
 from app.trials.studyfile import MODELS, loads_study, parse_study
-from app.web.experimenter import bp, uploads
+from app.web.experimenter.blueprint import bp
 from app.web.experimenter.forms import StudyFileForm, StudyWebForm
 from app.web.experimenter.studyform import add_settings, field_errors, mark_field
 from app.web.extensions import db

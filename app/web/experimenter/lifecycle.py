@@ -6,8 +6,8 @@ from __future__ import annotations
 import sqlalchemy as sa
 from flask import abort, flash, redirect, render_template, url_for
 
-from app.web.experimenter import bp
 from app.web.experimenter.access import own_study
+from app.web.experimenter.blueprint import bp
 from app.web.experimenter.forms import (
     ActionForm,
     ConfirmForm,

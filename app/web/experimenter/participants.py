@@ -11,8 +11,8 @@ from werkzeug.utils import secure_filename
 
 from app.errors import InputError
 from app.trials.participation import PARTICIPANT_STATUSES, SCREENED_OUT_REASON
-from app.web.experimenter import bp
 from app.web.experimenter.access import own_study
+from app.web.experimenter.blueprint import bp
 from app.web.experimenter.forms import ExcludeForm, RestoreForm
 from app.web.extensions import db
 from app.web.infra.accounts import current_user, login_required, study_access

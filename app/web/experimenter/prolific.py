@@ -12,8 +12,8 @@ from typing import Any
 from flask import current_app, flash, redirect, render_template, request, url_for
 
 from app.errors import InputError
-from app.web.experimenter import bp
 from app.web.experimenter.access import own_study
+from app.web.experimenter.blueprint import bp
 from app.web.experimenter.forms import ActionForm, ConfirmForm
 from app.web.extensions import db
 from app.web.infra.accounts import current_user, login_required, study_access

@@ -25,8 +25,8 @@ from werkzeug.utils import secure_filename
 from app.errors import InputError
 from app.trials.design import RATING_DESIGNS
 from app.trials.questions import PAGES
-from app.web.experimenter import bp
 from app.web.experimenter.access import own_study
+from app.web.experimenter.blueprint import bp
 from app.web.experimenter.forms import (
     ActionForm,
     ConfirmForm,

@@ -37,7 +37,7 @@ from app.web.board.submissions import (
 )
 from app.web.extensions import csrf, db, limiter
 from app.web.infra.media import media_response
-from app.web.leaderboard import bp
+from app.web.leaderboard.blueprint import bp
 from app.web.leaderboard.views import season_or_404, speech_name
 
 #: Files one submission may hold (segments times samples stays far below it).

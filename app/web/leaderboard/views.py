@@ -16,7 +16,7 @@ from app.web.board.publish import board_page, render_of, round_package, votes_cs
 from app.web.board.seasons import season_by_name, season_spec
 from app.web.extensions import db
 from app.web.infra.media import media_response
-from app.web.leaderboard import bp
+from app.web.leaderboard.blueprint import bp
 
 #: Seconds a browser or proxy may keep the public board's files.
 PUBLIC_CACHE = 300

@@ -10,7 +10,7 @@ from flask_wtf import FlaskForm
 
 from app.stimuli.headphones import interval_onsets
 from app.web.extensions import db
-from app.web.participant import bp
+from app.web.participant.blueprint import bp
 from app.web.participant.views import _no_store, _participant
 from app.web.study import audiocheck
 

@@ -11,7 +11,7 @@ from flask import abort
 
 from app.web.extensions import db
 from app.web.models import Stimulus, Study, Trial
-from app.web.participant import bp
+from app.web.participant.blueprint import bp
 from app.web.participant.views import _participant, _send_video
 from app.web.study.ratings import shown_items
 

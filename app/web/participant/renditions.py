@@ -13,7 +13,7 @@ from __future__ import annotations
 from flask import abort, redirect, render_template, url_for
 
 from app.web.models import Trial
-from app.web.participant import bp
+from app.web.participant.blueprint import bp
 from app.web.participant.views import _no_store, _own_trial, _participant, _send_video
 from app.web.study.enrolment import practice_stimulus
 from app.web.study.participants import ended_by_browser

@@ -36,7 +36,7 @@ from app.web.infra.i18n import use_language
 from app.web.infra.limits import fits
 from app.web.infra.media import media_response
 from app.web.models import Participant, Study, Trial, utcnow
-from app.web.participant import bp
+from app.web.participant.blueprint import bp
 from app.web.study import audiocheck
 from app.web.study.adaptive import ADAPTIVE
 from app.web.study.enrolment import (

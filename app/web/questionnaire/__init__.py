@@ -1,7 +1,6 @@
 """Questionnaire blueprint: the pages of questions before and after a participant's trials."""
 
-from flask import Blueprint
+from app.web.questionnaire import views  # noqa: F401  (its routes register on bp)
+from app.web.questionnaire.blueprint import bp
 
-bp = Blueprint("questionnaire", __name__)
-
-from app.web.questionnaire import views  # noqa: E402, F401  (its routes register on bp)
+__all__ = ["bp"]

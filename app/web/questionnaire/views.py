@@ -21,7 +21,7 @@ from app.web.extensions import db
 from app.web.infra.i18n import use_language
 from app.web.infra.limits import fits
 from app.web.models import Participant
-from app.web.questionnaire import bp
+from app.web.questionnaire.blueprint import bp
 from app.web.study.questionnaires import pending_page, save_answers, study_questions
 from app.web.study.studies import participation
 from app.web.study.wording import question_words
