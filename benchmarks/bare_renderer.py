@@ -24,9 +24,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from renderer import RenderSettings, load_face  # noqa: E402
+from renderer.camera import camera_for  # noqa: E402
 from renderer.deform import about, rotation  # noqa: E402
 from renderer.encode import ClipWriter  # noqa: E402
-from renderer.gl import albedo_texture, camera_for, context, flat_colors, shaders  # noqa: E402
+from renderer.gl import albedo_texture, context, flat_colors  # noqa: E402
+from renderer.glsl import shaders  # noqa: E402
 from renderer.pipeline import rig_for  # noqa: E402
 
 

@@ -20,14 +20,15 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+import renderer.defaults as defaults
 from app.errors import InputError
 from app.stimuli.track import MotionTrack
-from renderer import defaults
 from renderer.avatar import AVATAR_SUFFIXES
 from renderer.cache import cache_key, cached_path, deliver
 from renderer.encode import WEBM_SUFFIX, ClipWriter, check_audio
 from renderer.face import Face
 from renderer.gl import check_antialias
+from renderer.headmodel import builtin_face, check_look
 from renderer.pipeline import align_tracks, render_frames
 
 RENDERER_VERSION = "1.6"
@@ -135,8 +136,6 @@ class RenderSettings:
             )
         if self.fps is not None and not self.fps > 0:
             raise InputError(f"must be positive, got {self.fps!r}", field="fps")
-        from renderer.headmodel import check_look
-
         check_look(self.look)
 
 
@@ -145,8 +144,6 @@ def load_face(settings: RenderSettings) -> Face:
     head. A file is read once while it (and an avatar's sidecar) stays as it is: a study
     renders every clip with one avatar, which may take a second to read."""
     if settings.face is None:
-        from renderer.headmodel import builtin_face
-
         return builtin_face(settings.look)
     path = Path(settings.face)
     stamps: list[tuple[int, int] | None] = []

@@ -6,17 +6,12 @@ import); the weights (clipped to ARKit's 0..1) mix the avatar's morph targets, a
 rotations turn its ``head``, ``leftEye`` and ``rightEye`` bones, rigidly and in the face's own
 frame: the head about the head bone (vertices skinned partly to the head subtree follow in
 proportion, as a neck does), the eyes about the eye bones. The blendshapes and bones the
-table drives (:func:`driven`) must all be present; a missing one is an
+table drives (:func:`renderer.avatarnames.driven`) must all be present; a missing one is an
 :class:`~app.errors.InputError` naming it and the FAPs it would have driven.
 
-Names are matched without regard to case. Blendshapes: the morph target names (``jawOpen``,
-``JawOpen`` or a prefixed ``blendShape1.jawOpen``). Bones: the VRM humanoid (0.x or 1.0), or
-the node names. A sidecar ``<file stem>.avatar.json`` beside the avatar (or the same object
-under ``extras.facepair`` of the glTF root) renames either and may place MPEG-4 feature
-points (see docs/reference/renderer.md, "Avatars")::
-
-    {"blendshapes": {"JawOpen": "mouth_open"}, "bones": {"head": "J_Head"},
-     "feature_points": {"2.2": 812, "3.5": [0.03, 1.52, 0.09]}, "groups": {...}}
+How they are found by name, in any convention, and renamed by a sidecar
+``<file stem>.avatar.json`` that may also place MPEG-4 feature points and vertex groups, is
+:mod:`renderer.avatarnames` (see docs/reference/renderer.md, "Avatars").
 
 Without feature points the renderer places its own: the eyes at the eye bones, the mouth from
 the vertices ``JawOpen`` moves (:func:`mouth_points`); the camera and the mouth mosaic follow
@@ -25,8 +20,6 @@ them as on the built-in head.
 
 from __future__ import annotations
 
-import json
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -35,13 +28,21 @@ import numpy as np
 
 from app.errors import InputError
 from app.stimuli.capture.arkit import ARKIT_MAP, BLENDSHAPES, arkit_weights
-from renderer.avatareyes import eye_geometry, find_eyes
+from renderer.avatareyes import eye_geometry
 from renderer.avatarmouth import head_region, mouth_points, opening_shape
+from renderer.avatarnames import (
+    driven,
+    eye_error,
+    find_shapes,
+    read_sidecar,
+    require_driven,
+    rig_nodes,
+    skin_share,
+)
 from renderer.deform import EYE_TURNS, HEAD_TURNS, Rig, about, fap_rotation
 from renderer.face import MOUTH_FEATURE_POINTS, Face, fapu_from_feature_points, vertex_normals
 from renderer.gltfio import GltfScene, read_gltf
 from renderer.lips import MOUTH_SHAPES, mouth_faps, mouth_weights
-from renderer.shapenames import VRM_PRESETS, arkit_spelling, canonical
 from renderer.skin import ZoneNormals, one_ring
 
 #: A normal delta smaller than this (per component) is rounding, not a turn of the surface
@@ -49,30 +50,6 @@ from renderer.skin import ZoneNormals, one_ring
 NORMAL_CHANGE = 1e-5
 #: Avatar file suffixes ``RenderSettings.face`` accepts.
 AVATAR_SUFFIXES: tuple[str, ...] = (".glb", ".gltf", ".vrm")
-#: The bones the rotations of the ARKit table turn (VRM humanoid names).
-BONE_OF_ROTATION = {
-    "HeadPitch": "head",
-    "HeadYaw": "head",
-    "HeadRoll": "head",
-    "LeftEyeYaw": "leftEye",
-    "LeftEyePitch": "leftEye",
-    "RightEyeYaw": "rightEye",
-    "RightEyePitch": "rightEye",
-}
-
-
-def driven() -> tuple[dict[str, list[int]], dict[str, list[int]]]:
-    """The blendshapes and the bones the ARKit table drives, each with the FAPs it drives."""
-    shapes: dict[str, list[int]] = {}
-    bones: dict[str, list[int]] = {}
-    for fap in ARKIT_MAP.faps:
-        for name in ARKIT_MAP.columns_of(fap):
-            store, key = (
-                (bones, BONE_OF_ROTATION[name]) if name in BONE_OF_ROTATION else (shapes, name)
-            )
-            if fap not in store.setdefault(key, []):
-                store[key].append(fap)
-    return shapes, bones
 
 
 def shape_faps(name: str) -> np.ndarray:
@@ -85,10 +62,6 @@ def shape_faps(name: str) -> np.ndarray:
     for fap, values in ARKIT_MAP.apply(column.__getitem__, set(BLENDSHAPES)).items():
         out[fap - 1] = values[0]
     return out
-
-
-def _canonical(name: str) -> str:
-    return re.sub(r"[^a-z0-9]", "", name.rsplit(".", 1)[-1].lower())
 
 
 @dataclass(eq=False)
@@ -209,202 +182,25 @@ class AvatarRig(Rig):
         return FaceFrame(pos, nrm, about(head, self.pivot), eyes["l"], eyes["r"])
 
 
-def _sidecar(path: Path, scene: GltfScene) -> dict[str, Any]:
-    spec = dict(scene.extras.get("facepair") or {})
-    side = path.with_name(path.stem + ".avatar.json")
-    if side.is_file():
-        try:
-            extra = json.loads(side.read_text(encoding="utf-8"))
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise InputError(f"not valid JSON: {exc}", path=side) from None
-        if not isinstance(extra, dict):
-            raise InputError("expected a JSON object", path=side)
-        spec.update(extra)
-    for key in ("blendshapes", "bones", "feature_points", "groups"):
-        if not isinstance(spec.get(key, {}), dict):
-            raise InputError("expected an object", path=side, field=key)
-    return spec
-
-
-def _find_shape(wanted: str, names: list[str], renamed: dict[str, Any]) -> int | None:
-    """Index of blendshape ``wanted`` in ``names``: the sidecar's name for it (keyed in any
-    convention), else the same shape in any naming convention (:func:`canonical`)."""
-    target = {canonical(k): v for k, v in renamed.items()}.get(canonical(wanted))
-    if isinstance(target, str):
-        return names.index(target) if target in names else None
-    keys = [canonical(n) for n in names]
-    key = canonical(wanted)
-    return keys.index(key) if key in keys else None
-
-
-def _shapes(
-    scene: GltfScene, needed: list[str], renamed: dict[str, Any]
-) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], dict[str, tuple[str, ...]]]:
-    """The avatar's shape for each ARKit name it has (the table's and the mouth's), by name in
-    any convention, then by VRM preset (:data:`VRM_PRESETS`) for those still missing."""
-    pool = dict(scene.targets)
-    pool.update({k: v for k, v in scene.expressions.items() if k not in pool})
-    names = list(pool)
-    shapes: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    drives: dict[str, tuple[str, ...]] = {}
-    for k in dict.fromkeys([*needed, *MOUTH_SHAPES]):
-        i = _find_shape(k, names, renamed)
-        if i is not None:
-            shapes[k] = pool[names[i]]
-    covered = set(shapes)
-    presets = {canonical(n): n for n in scene.expressions}
-    for key, stands in VRM_PRESETS.items():
-        if key in presets and not covered & set(stands):
-            slot = stands[0] if len(stands) == 1 else presets[key]
-            shapes[slot] = scene.expressions[presets[key]]
-            drives[slot] = stands
-            covered |= set(stands)
-    return shapes, drives
-
-
-def _find(wanted: str, names: list[str], renamed: dict[str, Any]) -> int | None:
-    """Index of ``wanted`` in ``names``: the sidecar's name for it, else a case- and
-    punctuation-blind match, else a name ending in it (``J_Bip_C_Head``, ``mixamorig:Head``)."""
-    target = renamed.get(wanted)
-    keys = [_canonical(n) for n in names]
-    if isinstance(target, str):
-        return names.index(target) if target in names else None
-    key = _canonical(wanted)
-    if key in keys:
-        return keys.index(key)
-    ends = [i for i, k in enumerate(keys) if k.endswith(key)]
-    return ends[0] if len(ends) == 1 else None
-
-
-def _subtree(parents: np.ndarray, root: int) -> np.ndarray:
-    inside = np.zeros(len(parents), bool)
-    for i in range(len(parents)):
-        j = i
-        while j >= 0 and not inside[j] and j != root:
-            j = parents[j]
-        inside[i] = j == root or (j >= 0 and inside[j])
-    return inside
-
-
-def _node_facts(scene: GltfScene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per node: how many vertices it moves (skinned to it by more than half, or in a mesh of
-    its subtree), its depth in the hierarchy, and the x of what it holds (else its own)."""
-    k = len(scene.parents)
-    depth = np.zeros(k, int)
-    for i in range(k):
-        j = scene.parents[i]
-        while j >= 0 and depth[i] <= k:
-            depth[i] += 1
-            j = scene.parents[j]
-    main = scene.influence_nodes[np.arange(len(scene.vertices)), scene.influence_weights.argmax(1)]
-    holds = np.zeros(k, int)
-    x = scene.world[:, 0, 3].copy()
-    for node in range(k):
-        inside = _subtree(scene.parents, node)[main]
-        holds[node] = int(inside.sum())
-        if holds[node]:
-            x[node] = float(scene.vertices[inside, 0].mean())
-    return holds, depth, x
-
-
-def _rig_nodes(scene: GltfScene, spec: dict[str, Any]) -> tuple[dict[str, int | None], str]:
-    """The head and eye nodes (None where absent) and how the eyes were found: the sidecar's
-    and the VRM humanoid's names first, then the naming conventions of
-    :mod:`renderer.avatareyes` with the sides taken from the geometry."""
-    bones = spec.get("bones", {})
-
-    def named(k: str) -> int | None:
-        if isinstance(bones.get(k), int):
-            return int(bones[k])
-        if isinstance(bones.get(k), str) or k not in scene.humanoid:
-            return _find(k, scene.node_names, bones) if k == "head" or k in bones else None
-        return scene.humanoid[k]
-
-    nodes: dict[str, int | None] = {k: named(k) for k in ("head", "leftEye", "rightEye")}
-    how = "as named in the sidecar or the VRM humanoid"
-    if nodes["leftEye"] is None or nodes["rightEye"] is None:
-        labels = [f"{n} {m}" for n, m in zip(scene.node_names, scene.mesh_names, strict=True)]
-        found = find_eyes(labels, *_node_facts(scene))
-        if found is not None:
-            nodes["leftEye"], nodes["rightEye"] = found.nodes["l"], found.nodes["r"]
-            how = found.how
-    return nodes, how
-
-
-def _eye_error(scene: GltfScene, path: Path) -> InputError:
-    seen = [
-        n
-        for n, m in zip(scene.node_names, scene.mesh_names, strict=True)
-        if "eye" in f"{n}{m}".lower()
-    ]
-    found = f"nodes naming an eye: {', '.join(seen[:8])}" if seen else "no node names an eye"
-    return InputError(
-        f"the eyes cannot be found ({found}); name the eye nodes in {path.stem}.avatar.json "
-        '({"bones": {"leftEye": ..., "rightEye": ...}}, the character\'s own left and right; '
-        "see docs/reference/renderer.md, Avatars)",
-        path=path,
-    )
-
-
 def load_avatar(path: str | Path) -> AvatarFace:
     """Read a glTF / VRM avatar as an :class:`AvatarFace` (see the module docstring)."""
     path = Path(path)
     scene = read_gltf(path)
-    spec = _sidecar(path, scene)
+    spec = read_sidecar(path, scene)
     shapes_needed, _bones = driven()
     renamed = spec.get("blendshapes", {})
-    shapes, drives = _shapes(scene, list(shapes_needed), renamed)
-    absent = {canonical(k) for k, v in renamed.items() if v is None}
-    covered = set(shapes) | {s for d in drives.values() for s in d}
-    lacking = [
-        f"blendshape {arkit_spelling(k)} (FAP {', '.join(map(str, faps))})"
-        for k, faps in shapes_needed.items()
-        if k not in covered and canonical(k) not in absent
-    ]
-    nodes, eyes_how = _rig_nodes(scene, spec)
+    shapes, drives = find_shapes(scene, list(shapes_needed), renamed)
+    nodes, eyes_how = rig_nodes(scene, spec)
     unskinned = scene.skinned is None or not scene.skinned.any()
-    if nodes["head"] is None and not unskinned:
-        lacking.append("bone head (FAP 48, 49, 50)")
-    if lacking:
-        raise InputError(
-            "missing " + "; ".join(lacking) + " (rename them in "
-            f"{path.stem}.avatar.json, or declare them absent with null; see "
-            "docs/reference/renderer.md)",
-            path=path,
-        )
+    require_driven(path, shapes, drives, renamed, nodes["head"] is None and not unskinned)
     eye_nodes = (nodes["leftEye"], nodes["rightEye"])
     if any(i is None or not 0 <= i < len(scene.parents) for i in eye_nodes):
-        raise _eye_error(scene, path)
+        raise eye_error(scene, path)
     targets = {k: (dp.astype(np.float32), dn.astype(np.float32)) for k, (dp, dn) in shapes.items()}
-    total = np.maximum(scene.influence_weights.sum(axis=1), 1e-12)
-
-    def share(node: int) -> np.ndarray:
-        inside = _subtree(scene.parents, node)[scene.influence_nodes]
-        return (scene.influence_weights * inside).sum(axis=1) / total
-
     v = scene.vertices
-    groups = {
-        f"eyeball_{s}": np.flatnonzero(share(nodes[b]) > 0.5)  # type: ignore[arg-type]
-        for s, b in (("l", "leftEye"), ("r", "rightEye"))
-    }
-    pivots = {
-        s: scene.world[nodes[b], :3, 3].copy()  # type: ignore[index]
-        for s, b in (("l", "leftEye"), ("r", "rightEye"))
-    }
-    pupils = dict(pivots)
-    balls = {s: v[groups[f"eyeball_{s}"]] for s in ("l", "r")}
-    middles = {s: (b.min(axis=0) + b.max(axis=0)) / 2.0 for s, b in balls.items() if len(b)}
-    inter_eye = float(
-        np.linalg.norm(middles["l"] - middles["r"])
-        if len(middles) == 2
-        else np.linalg.norm(pivots["l"] - pivots["r"])
-    )
-    for s in ("l", "r"):
-        placed = eye_geometry(balls[s], pivots[s], max(inter_eye, 1e-9))
-        if placed is not None:  # a bone away from its eyeball (VRoid's): the eyeball decides
-            pupils[s], pivots[s] = placed
+    groups, pivots, pupils = _eyes(scene, *eye_nodes)  # type: ignore[arg-type]
     # a head made of unskinned meshes (Face Cap's) turns as one, its eyes and teeth too
-    head = np.ones(len(v)) if unskinned else share(nodes["head"])  # type: ignore[arg-type]
+    head = np.ones(len(v)) if unskinned else skin_share(scene, nodes["head"])  # type: ignore[arg-type]
     for name, value in spec.get("groups", {}).items():
         groups[name] = np.asarray(value, dtype=np.int64)
     eyes = (pupils["l"] + pupils["r"]) / 2.0
@@ -414,39 +210,10 @@ def load_avatar(path: str | Path) -> AvatarFace:
         if nodes["head"] is not None
         else eyes + np.array([0.0, -0.87, -1.61]) * es  # the built-in head's proportions
     )
-    fp_vertices: dict[str, int] = {}
     points: dict[str, np.ndarray] = {"3.5": pupils["l"], "3.6": pupils["r"], "7.1": neck}
-    for name, value in spec.get("feature_points", {}).items():
-        if isinstance(value, int) and 0 <= value < len(v):
-            fp_vertices[name] = value
-            points[name] = v[value].copy()
-        elif isinstance(value, list) and len(value) == 3:
-            points[name] = np.array(value, dtype=np.float64)
-        else:
-            raise InputError(
-                "expected a vertex index or [x, y, z]", path=path, field=f"feature_points.{name}"
-            )
+    fp_vertices = _given_points(spec, v, points, path)
     notes = [f"eyes found {eyes_how}"]
-    pool = {k: dp for k, (dp, _) in scene.expressions.items()}
-    pool.update({k: dp for k, (dp, _) in scene.targets.items()})
-    opening = opening_shape(pool, head_region(v, pupils["l"], pupils["r"]))
-    jaw = targets.get("JawOpen")
-    if opening is not None and jaw is not None and not np.abs(jaw[0]).any():
-        # VRoid's exports carry an empty jawOpen: FAP 3 opens the jaw by the shape that does
-        shape = scene.targets.get(opening[0]) or scene.expressions.get(opening[0])
-        if shape is not None:
-            targets["JawOpen"] = (shape[0].astype(np.float32), shape[1].astype(np.float32))
-            notes.append(f"jawOpen moves nothing: {opening[0]} opens the jaw instead")
-    if not all(k in fp_vertices for k in MOUTH_FEATURE_POINTS):
-        if opening is None:
-            raise InputError(
-                "no mouth shape (jawOpen, aa, mouthOpen, mouth...) moves the face below the "
-                "eyes: the mouth cannot be found (give its feature points 2.2-2.9 in "
-                f"{path.stem}.avatar.json)",
-                path=path,
-            )
-        fp_vertices.update(mouth_points(v, opening[1], pupils["l"], pupils["r"]))
-        points.update({k: v[fp_vertices[k]].copy() for k in MOUTH_FEATURE_POINTS})
+    notes += _mouth(scene, targets, pupils, (points, fp_vertices), path)
     # one texture for the whole avatar is sampled per pixel, as the built-in head's is
     colors = scene.colors if scene.untextured_colors is None else scene.untextured_colors
     return AvatarFace(
@@ -468,6 +235,86 @@ def load_avatar(path: str | Path) -> AvatarFace:
         eyes_found=eyes_how,
         notes=notes,
     )
+
+
+def _eyes(
+    scene: GltfScene, left: int, right: int
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """The eyeball groups (the vertices skinned to each eye bone by more than half), the
+    eyes' centres of rotation and their pupils: at the eye bones, or at the eyeballs where a
+    bone sits away from its eyeball (:func:`renderer.avatareyes.eye_geometry`)."""
+    v = scene.vertices
+    bones = {"l": left, "r": right}
+    groups = {f"eyeball_{s}": np.flatnonzero(skin_share(scene, b) > 0.5) for s, b in bones.items()}
+    pivots = {s: scene.world[b, :3, 3].copy() for s, b in bones.items()}
+    pupils = dict(pivots)
+    balls = {s: v[groups[f"eyeball_{s}"]] for s in ("l", "r")}
+    middles = {s: (b.min(axis=0) + b.max(axis=0)) / 2.0 for s, b in balls.items() if len(b)}
+    inter_eye = float(
+        np.linalg.norm(middles["l"] - middles["r"])
+        if len(middles) == 2
+        else np.linalg.norm(pivots["l"] - pivots["r"])
+    )
+    for s in ("l", "r"):
+        placed = eye_geometry(balls[s], pivots[s], max(inter_eye, 1e-9))
+        if placed is not None:  # a bone away from its eyeball (VRoid's): the eyeball decides
+            pupils[s], pivots[s] = placed
+    return groups, pivots, pupils
+
+
+def _given_points(
+    spec: dict[str, Any], v: np.ndarray, points: dict[str, np.ndarray], path: Path
+) -> dict[str, int]:
+    """The sidecar's feature points added to ``points``; returns those that are vertices."""
+    fp_vertices: dict[str, int] = {}
+    for name, value in spec.get("feature_points", {}).items():
+        if isinstance(value, int) and 0 <= value < len(v):
+            fp_vertices[name] = value
+            points[name] = v[value].copy()
+        elif isinstance(value, list) and len(value) == 3:
+            points[name] = np.array(value, dtype=np.float64)
+        else:
+            raise InputError(
+                "expected a vertex index or [x, y, z]", path=path, field=f"feature_points.{name}"
+            )
+    return fp_vertices
+
+
+def _mouth(
+    scene: GltfScene,
+    targets: dict[str, tuple[np.ndarray, np.ndarray]],
+    pupils: dict[str, np.ndarray],
+    found: tuple[dict[str, np.ndarray], dict[str, int]],
+    path: Path,
+) -> list[str]:
+    """The mouth found by the shape that opens it (:mod:`renderer.avatarmouth`): its feature
+    points where the sidecar gives none, added to ``found`` (the feature points and those
+    that are vertices), and that shape as ``JawOpen`` where the avatar's moves nothing;
+    returns what was inferred."""
+    v = scene.vertices
+    points, fp_vertices = found
+    notes = []
+    pool = {k: dp for k, (dp, _) in scene.expressions.items()}
+    pool.update({k: dp for k, (dp, _) in scene.targets.items()})
+    opening = opening_shape(pool, head_region(v, pupils["l"], pupils["r"]))
+    jaw = targets.get("JawOpen")
+    if opening is not None and jaw is not None and not np.abs(jaw[0]).any():
+        # VRoid's exports carry an empty jawOpen: FAP 3 opens the jaw by the shape that does
+        shape = scene.targets.get(opening[0]) or scene.expressions.get(opening[0])
+        if shape is not None:
+            targets["JawOpen"] = (shape[0].astype(np.float32), shape[1].astype(np.float32))
+            notes.append(f"jawOpen moves nothing: {opening[0]} opens the jaw instead")
+    if not all(k in fp_vertices for k in MOUTH_FEATURE_POINTS):
+        if opening is None:
+            raise InputError(
+                "no mouth shape (jawOpen, aa, mouthOpen, mouth...) moves the face below the "
+                "eyes: the mouth cannot be found (give its feature points 2.2-2.9 in "
+                f"{path.stem}.avatar.json)",
+                path=path,
+            )
+        fp_vertices.update(mouth_points(v, opening[1], pupils["l"], pupils["r"]))
+        points.update({k: v[fp_vertices[k]].copy() for k in MOUTH_FEATURE_POINTS})
+    return notes
 
 
 def _fapu(points: dict[str, np.ndarray]) -> dict[str, float]:

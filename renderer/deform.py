@@ -1,24 +1,12 @@
 """FAP deformation of a :class:`~renderer.face.Face`: raised-cosine zones, jaw, eyelids, eyes, head.
 
 Follows the MPEG-4 FBA deformation as the open player Xface implements it (project reference
-``mpeg4-fap``): a vertex at distance ``d`` from a FAP's feature point moves by
-``w(d) * value * FAPU`` along the FAP's direction, with the raised-cosine influence
-``w(d) = (1 + cos(pi d / dmax)) / 2`` for ``d < dmax``. Each FAP's feature point, direction,
-FAPU, rotation axis and side are read from the FAP table (:mod:`app.stimuli.fap`), so this
-module states only how the face moves. Translational FAPs:
-
-* lips, inner (4-13) and outer (51-60), push (16, 17) and chin (18), with the upper- and
-  lower-lip FAPs kept to their own lip (Parke's unconnected lips, thesis sec. 2.1.2);
-* eyebrows, raise (31-36) and squeeze (37/38). The brows use a smooth field separable in width
-  and height (:func:`renderer.browfield.brow_field`) instead of radial zones, and a lowered
-  brow saturates before the skin between brow and lid would fold.
-
-The normals of the skin a part (the mouth, the brows) moves are recomputed when it moves
+``mpeg4-fap``). Each FAP's feature point, direction, FAPU, rotation axis and side are read from
+the FAP table (:mod:`app.stimuli.fap`), so this module states only how the face moves. The
+translational FAPs (lips, chin, brows) move raised-cosine zones about their feature points
+(:mod:`renderer.fapzones`, where the zones and their sources are); the normals of the skin a
+part (the mouth, the brows) moves are recomputed when it moves
 (:class:`renderer.skin.SkinPart`).
-
-Zones along one lip or brow reach exactly to the neighbouring feature point, so each feature
-point moves by value * FAPU and equal values move the lip or brow uniformly; an inner/outer lip
-pair shares a vertex by proximity (the nearer feature point wins).
 
 Rotations:
 
@@ -57,7 +45,6 @@ from app.stimuli.fap import (
     AXIS,
     DIRECTION,
     EYEBROW_RAISE,
-    EYEBROW_SQUEEZE,
     EYEBROWS,
     EYELIDS,
     FAPS,
@@ -67,66 +54,23 @@ from app.stimuli.fap import (
     HEAD_PITCH,
     HEAD_ROLL,
     HEAD_YAW,
-    INNER_LIPS,
     JAW_LIPS,
-    LIP_PUSH_CHIN,
     OPEN_JAW,
-    OUTER_LIPS,
     SHIFT_JAW,
     SIDE,
     THRUST_JAW,
     fapu_values,
 )
-from renderer.browfield import BROW_LOWER_ROOM, BROW_RAMP_END, brow_field
 from renderer.face import Face
+from renderer.fapzones import direction, on_side, translation_basis
 from renderer.rigweights import derive_weights
 from renderer.skin import SkinPart, one_ring
-
-#: Outer lip FAP of each inner one, and outer lip feature point of each inner one.
-_OUTER_FAP = dict(zip(INNER_LIPS, OUTER_LIPS, strict=True))
-_OUTER_OF = {FEATURE_POINT[i]: FEATURE_POINT[o] for i, o in _OUTER_FAP.items()}
-#: Lip zones whose weights are normalised together (vertical motion of one lip): the feature
-#: points along each inner lip, corners included.
-_CHAINS = {
-    "upper": ("2.2", "2.6", "2.7", "2.4", "2.5"),
-    "lower": ("2.3", "2.8", "2.9", "2.4", "2.5"),
-}
 
 #: The FAPs of the jaw and lips (set to zero for the mouth at rest that the mosaic shows).
 MOUTH_FAPS: tuple[int, ...] = tuple(sorted(JAW_LIPS))
 
 #: Every FAP the deformation moves (the groups the stimulus engine produces).
 SUPPORTED_FAPS: tuple[int, ...] = tuple(sorted(JAW_LIPS + EYELIDS + GAZE + EYEBROWS + HEAD))
-
-
-def _direction(fap: int) -> np.ndarray:
-    """The unit vector a positive value of translational ``fap`` moves its feature point."""
-    return np.array(DIRECTION[fap])
-
-
-def _on_side(faps: tuple[int, ...], side: str) -> tuple[int, ...]:
-    return tuple(f for f in faps if SIDE.get(f) == side)
-
-
-def raised_cosine(d: np.ndarray, dmax: float) -> np.ndarray:
-    """Xface's influence ``(1 + cos(pi d / dmax)) / 2`` inside ``dmax``, 0 outside."""
-    return np.where(d < dmax, 0.5 * (1.0 + np.cos(np.pi * np.minimum(d / dmax, 1.0))), 0.0)
-
-
-def _chain_weights(v: np.ndarray, points: list[np.ndarray]) -> np.ndarray:
-    """Raised-cosine zones along a chain of feature points (a lip, a brow), (k, n).
-
-    Each zone reaches exactly to the nearest other point of the chain, so a feature point
-    moves by its own FAP alone (weight 1) and, between two points, the two zones sum to one
-    (cos^2 + sin^2): equal values move the chain uniformly.
-    """
-    pts = np.asarray(points, dtype=np.float64)
-    gaps = np.linalg.norm(pts[:, None] - pts[None], axis=2)
-    np.fill_diagonal(gaps, np.inf)
-    reach = np.maximum(gaps.min(axis=1), 1e-6)
-    return np.stack(
-        [raised_cosine(np.linalg.norm(v - p, axis=1), r) for p, r in zip(pts, reach, strict=True)]
-    )
 
 
 _IDENTITY = np.eye(4)
@@ -137,7 +81,7 @@ MOUTH_FAPS_INDEX = np.array(MOUTH_FAPS) - 1
 #: The rotation FAPs of each eyeball (yaw, then pitch) and of the head (yaw, pitch, roll), in
 #: the order their rotations compose.
 EYE_TURNS = {
-    side: tuple(sorted(_on_side(GAZE, side), key=lambda f: AXIS[f] != "y")) for side in ("l", "r")
+    side: tuple(sorted(on_side(GAZE, side), key=lambda f: AXIS[f] != "y")) for side in ("l", "r")
 }
 HEAD_TURNS = (HEAD_YAW, HEAD_PITCH, HEAD_ROLL)
 
@@ -196,66 +140,13 @@ class Rig:
 
     def __init__(self, face: Face) -> None:
         self.face = face
-        v = face.vertices.astype(np.float64)
         self.v0 = face.vertices.astype(np.float32)
         self.n0 = face.normals()
         self.weights = derive_weights(face)
         fu = fapu_values(face.fapu)
         self.fapu = fu
         fp = face.feature_points
-        eyeball = np.zeros(face.n_vertices, bool)
-        for side in ("l", "r"):
-            eyeball[face.groups[f"eyeball_{side}"]] = True
-        mw0, es0 = face.fapu["MW0"], face.fapu["ES0"]
-
-        columns: dict[int, np.ndarray] = {}  # fap -> (n, 3) displacement per unit FAP value
-        for name, chain in _CHAINS.items():
-            for layer_fps, tag in ((chain, "inner"), (tuple(_OUTER_OF[c] for c in chain), "outer")):
-                norm = _chain_weights(v, [fp[c] for c in layer_fps])
-                norm *= self.weights[f"{name}_lip"] * ~eyeball
-                for fap in INNER_LIPS:  # vertical ones; a corner FAP moves both lips
-                    pt, direction = FEATURE_POINT[fap], _direction(fap)
-                    if pt not in chain or direction[0] != 0:
-                        continue
-                    f = fap if tag == "inner" else _OUTER_FAP[fap]
-                    w = norm[chain.index(pt)] * self._pair_share(v, pt, tag)
-                    columns[f] = columns.get(f, 0) + w[:, None] * direction * fu[FAPS[fap].unit]
-        for fap in INNER_LIPS:  # horizontal ones: the corners stretch
-            pt, direction = FEATURE_POINT[fap], _direction(fap)
-            if direction[0] == 0:
-                continue
-            for f, p, tag in ((fap, pt, "inner"), (_OUTER_FAP[fap], _OUTER_OF[pt], "outer")):
-                w = raised_cosine(np.linalg.norm(v - fp[p], axis=1), 0.5 * mw0) * ~eyeball
-                columns[f] = (
-                    (w * self._pair_share(v, pt, tag))[:, None] * direction * fu[FAPS[fap].unit]
-                )
-        for fap in LIP_PUSH_CHIN:  # the chin (2.10) moves with the lower lip
-            pt = FEATURE_POINT[fap]
-            lip = "upper" if pt in _CHAINS["upper"] else "lower"
-            w = raised_cosine(np.linalg.norm(v - fp[pt], axis=1), 0.7 * mw0)
-            w = w * self.weights[f"{lip}_lip"] * ~eyeball
-            columns[fap] = w[:, None] * _direction(fap) * fu[FAPS[fap].unit]
-        self.brow_lower_limit = np.inf  # FAP units: lowering saturates at this
-        upper_lid = {SIDE[f]: FEATURE_POINT[f] for f in EYELIDS if DIRECTION[f][1] < 0}
-        for side in ("l", "r"):
-            faps = _on_side(EYEBROW_RAISE, side)  # inner, middle, outer
-            pts = np.array([fp[FEATURE_POINT[f]] for f in faps])
-            lid = fp[upper_lid[side]]
-            field = brow_field(v, pts, lid, face.fapu["ENS0"]) * ~eyeball
-            ens = fu[FAPS[faps[0]].unit]
-            room = float(np.min(pts[:, 1] - BROW_RAMP_END * face.fapu["ENS0"] - lid[1]))
-            self.brow_lower_limit = min(
-                self.brow_lower_limit, BROW_LOWER_ROOM * max(room, 0.0) / 1.5 / ens
-            )
-            for j, f in enumerate(faps):
-                columns[f] = field[j][:, None] * _direction(f) * fu[FAPS[f].unit]
-            mask = field.sum(axis=0)
-            (f,) = _on_side(EYEBROW_SQUEEZE, side)
-            squeeze = (
-                raised_cosine(np.linalg.norm(v - fp[FEATURE_POINT[f]], axis=1), 0.5 * es0) * mask
-            )
-            columns[f] = squeeze[:, None] * _direction(f) * fu[FAPS[f].unit]
-
+        columns, self.brow_lower_limit = translation_basis(face, self.weights, fu)
         self.basis_faps = np.array(sorted(columns))
         self._brow_columns = np.isin(self.basis_faps, EYEBROW_RAISE)
         stacked = np.stack([columns[f] for f in self.basis_faps])  # (k, n, 3)
@@ -271,7 +162,7 @@ class Rig:
         lever = max(chin[2] - hinge[2], 0.3 * float(np.linalg.norm(chin - hinge)))
         self.jaw_rad_per_unit = fu[FAPS[OPEN_JAW].unit] / lever
         #: jaw shift (to the right) and thrust (forward) per unit FAP value
-        self.jaw_shift = {f: _direction(f) * fu[FAPS[f].unit] for f in (SHIFT_JAW, THRUST_JAW)}
+        self.jaw_shift = {f: direction(f) * fu[FAPS[f].unit] for f in (SHIFT_JAW, THRUST_JAW)}
         self.jaw_zone = np.flatnonzero(self.weights["jaw"] > 1e-6)
         self.jaw_w = self.weights["jaw"][self.jaw_zone]
         self.lids = []
@@ -282,7 +173,7 @@ class Rig:
             centre = face.eye_centre(side)
             margin = fp[FEATURE_POINT[fap]]
             r = max(float(np.linalg.norm(margin - centre)), 1e-9)
-            sign = -_direction(fap)[1]  # a positive turn about x moves the margin down
+            sign = -direction(fap)[1]  # a positive turn about x moves the margin down
             self.lids.append((fap, zone, layer[zone], centre, sign * fu[FAPS[fap].unit] / r))
         self._set_pose({s: face.eye_centre(s) for s in ("l", "r")})
         #: the vertices only the jaw and lip FAPs change (None: other FAPs reach them too)
@@ -299,14 +190,6 @@ class Rig:
         self._still = np.flatnonzero(head_w <= 0.0)
         self._blend = np.flatnonzero((head_w > 0.0) & (head_w < 1.0))
         self._blend_w = head_w[self._blend][:, None]
-
-    def _pair_share(self, v: np.ndarray, inner_pt: str, tag: str) -> np.ndarray:
-        """Share of an inner or outer lip FAP at each vertex: the nearer feature point wins."""
-        fp = self.face.feature_points
-        d_in = np.linalg.norm(v - fp[inner_pt], axis=1)
-        d_out = np.linalg.norm(v - fp[_OUTER_OF[inner_pt]], axis=1)
-        total = np.maximum(d_in + d_out, 1e-9)
-        return d_out / total if tag == "inner" else d_in / total
 
     def deform(self, faps: np.ndarray) -> FaceFrame:
         """Deform the neutral face by one frame of FAPs (68 values in FAPU, FAP k at k-1)."""

@@ -31,7 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-from renderer.avatar import driven, shape_faps
+from renderer.avatar import shape_faps
+from renderer.avatarnames import driven
 from renderer.deform import Rig
 from renderer.gltfwrite import MeshOut, write_glb
 from renderer.headmodel import builtin_face

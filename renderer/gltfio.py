@@ -8,13 +8,14 @@ world transforms). Morph targets are matched across primitives by name (``mesh.e
 .targetNames``, the convention of Blender's exporter, or the primitive's ``extras``); a
 primitive without a target contributes zeros to it. Base colours come from ``COLOR_0`` and
 ``baseColorFactor`` per vertex and from the ``baseColor`` textures per pixel, every material's
-in one atlas with its alpha mode (:mod:`renderer.gltftexture`); the specular strength from the
-material's roughness and metalness. Normals are unit length whatever the node transforms'
-scale. VRM 0.x avatars face -z and are turned half round about y so that every avatar faces
-+z, as glTF and the renderer expect (Khronos, glTF 2.0 sec. 3.4; VRM 1.0 "Model orientation").
+in one atlas with its alpha mode; the specular strength from the material's roughness and
+metalness (:mod:`renderer.gltfmaterial`). Normals are unit length whatever the node
+transforms' scale. VRM 0.x avatars face -z and are turned half round about y so that every
+avatar faces +z, as glTF and the renderer expect (Khronos, glTF 2.0 sec. 3.4; VRM 1.0 "Model
+orientation").
 
 Writing is :mod:`renderer.gltfwrite`. pygltflib parses the container; accessors are decoded
-here with numpy.
+with numpy (:mod:`renderer.gltfaccessor`).
 
 Example
 -------
@@ -31,7 +32,6 @@ Example
 
 from __future__ import annotations
 
-import base64
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -40,26 +40,10 @@ from typing import Any
 import numpy as np
 
 from app.errors import InputError
-from renderer.gltfdecode import check_required, texture_source, texture_transform, unpack
+from renderer.gltfaccessor import read_accessor
+from renderer.gltfdecode import check_required, unpack
+from renderer.gltfmaterial import primitive_colors, texture_atlas
 from renderer.gltfrig import bind_transforms, to_rest, vrm_expressions
-from renderer.gltftexture import WHITE, Tile, build_atlas, decode_image
-
-#: glTF accessor component type -> numpy dtype (glTF 2.0 sec. 3.6.2.2).
-COMPONENT_TYPES = {
-    5120: np.int8,
-    5121: np.uint8,
-    5122: np.int16,
-    5123: np.uint16,
-    5125: np.uint32,
-    5126: np.float32,
-}
-_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
-#: Specular strength of a fully smooth dielectric (the renderer's 4th colour column).
-SPECULAR_SMOOTH = 0.5
-#: Elements an accessor without data of its own may declare (all zeros but for sparse ones).
-MAX_SPARSE_ELEMENTS = 10_000_000
-#: Application-specific vertex attribute carrying the renderer's specular strength.
-SPECULAR_ATTRIBUTE = "_SPECULAR"
 
 
 @dataclass
@@ -123,56 +107,6 @@ def _load(path: Path):
         raise InputError(f"malformed glTF buffers: {reason}", path=path) from None
 
 
-def _accessor(gltf, blob: bytes, index: int, path: Path) -> np.ndarray:
-    """Accessor ``index`` as an (count, width) float64 or int array (normalised as declared)."""
-    try:
-        acc = gltf.accessors[index]
-        dtype = np.dtype(COMPONENT_TYPES[acc.componentType])
-        width = _WIDTH[acc.type]
-        if not 0 <= acc.count <= len(blob) + MAX_SPARSE_ELEMENTS:
-            raise ValueError(f"count {acc.count} does not fit the file")
-        out = np.zeros((acc.count, width), dtype)
-        if acc.bufferView is not None:
-            view = gltf.bufferViews[acc.bufferView]
-            start = (view.byteOffset or 0) + (acc.byteOffset or 0)
-            stride = view.byteStride or dtype.itemsize * width
-            need = start + stride * (acc.count - 1) + dtype.itemsize * width
-            if acc.count and need > len(blob):
-                raise ValueError("accessor reaches past its buffer")
-            raw = np.frombuffer(blob, np.uint8, count=max(need - start, 0), offset=start)
-            rows = (
-                np.lib.stride_tricks.as_strided(
-                    raw, (acc.count, dtype.itemsize * width), (stride, 1)
-                )
-                if acc.count
-                else raw
-            )
-            out = np.ascontiguousarray(rows).view(dtype).reshape(acc.count, width)
-        if acc.sparse is not None and acc.sparse.count:
-            sp = acc.sparse
-            idx = np.frombuffer(
-                blob,
-                COMPONENT_TYPES[sp.indices.componentType],
-                sp.count,
-                (gltf.bufferViews[sp.indices.bufferView].byteOffset or 0)
-                + (sp.indices.byteOffset or 0),
-            )
-            vals = np.frombuffer(
-                blob,
-                dtype,
-                sp.count * width,
-                (gltf.bufferViews[sp.values.bufferView].byteOffset or 0)
-                + (sp.values.byteOffset or 0),
-            ).reshape(sp.count, width)
-            out = out.copy()
-            out[idx.astype(np.int64)] = vals
-    except (IndexError, KeyError, ValueError, TypeError, AttributeError) as exc:
-        raise InputError(f"accessor {index} cannot be read: {exc}", path=path) from None
-    if acc.normalized and dtype.kind in "iu":
-        return np.maximum(out / float(np.iinfo(dtype.str).max), -1.0)
-    return out.astype(np.float64) if dtype.kind == "f" else out
-
-
 def _quat_matrix(q: list[float]) -> np.ndarray:
     x, y, z, w = q
     return np.array(
@@ -191,94 +125,6 @@ def _local(node) -> np.ndarray:
     rs = _quat_matrix(node.rotation or [0, 0, 0, 1]) * np.array(node.scale or [1, 1, 1])
     m[:3, :3], m[:3, 3] = rs, node.translation or [0, 0, 0]
     return m
-
-
-def _image_bytes(gltf, blob: bytes, index: int, base: Path) -> bytes | None:
-    image = gltf.images[index]
-    if image.bufferView is not None:
-        view = gltf.bufferViews[image.bufferView]
-        return blob[view.byteOffset or 0 : (view.byteOffset or 0) + view.byteLength]
-    if image.uri and image.uri.startswith("data:"):
-        return base64.b64decode(image.uri.split(",", 1)[1])
-    if image.uri:
-        target = (base / image.uri).resolve()
-        if not target.is_file() or base.resolve() not in target.parents:
-            raise ValueError(f"{image.uri} is not a file beside the glTF")
-        return target.read_bytes()
-    return None
-
-
-def _texture_rgba(gltf, blob: bytes, texture_index: int, path: Path) -> np.ndarray | None:
-    """The base colour image of texture ``texture_index`` as (h, w, 4) uint8 RGBA, or None
-    when the texture names no image. Its KTX2 (``KHR_texture_basisu``) or WebP
-    (``EXT_texture_webp``) source first, then its own ``source`` (the PNG or JPEG fallback such
-    files may carry); an image that names data it cannot decode is refused by name."""
-    try:
-        sources = [
-            i
-            for i in dict.fromkeys(
-                (texture_source(gltf, texture_index), _plain_source(gltf, texture_index))
-            )
-            if i is not None
-        ]
-    except (IndexError, TypeError, AttributeError):
-        return None
-    problem = ""
-    for index in sources:
-        try:
-            data = _image_bytes(gltf, blob, index, path.parent)
-            if data is not None:
-                return decode_image(data)
-        except (ValueError, IndexError, TypeError, AttributeError, OSError) as exc:
-            problem = f"image {index} cannot be read: {str(exc).splitlines()[0][:100]}"
-    if problem:
-        raise InputError(f"texture {texture_index}: {problem}", path=path)
-    return None
-
-
-def _plain_source(gltf, texture_index: int) -> int | None:
-    try:
-        return gltf.textures[texture_index].source
-    except (IndexError, TypeError):
-        return None
-
-
-#: A primitive's base colour texture: (texture index, alpha mode, cutoff), its UVs and image.
-TextureUse = tuple[tuple[int, str, float], np.ndarray, np.ndarray]
-
-
-def _colors(gltf, blob: bytes, prim, n: int, path: Path) -> tuple[np.ndarray, TextureUse | None]:
-    """Per-vertex display RGB and specular strength of a primitive (PBR-lite), without its
-    texture, and the texture it samples (see :data:`TextureUse`), if any."""
-    out = np.ones((n, 4))
-    texture = None
-    out[:, 3] = 0.18
-    mat = gltf.materials[prim.material] if prim.material is not None else None
-    pbr = mat.pbrMetallicRoughness if mat is not None else None
-    if pbr is not None:
-        # glTF factors are linear; the renderer's colours display-referred (its shader squares)
-        out[:, :3] *= np.sqrt(np.clip(np.array(pbr.baseColorFactor or [1, 1, 1, 1])[:3], 0, 1))
-        rough = 1.0 if pbr.roughnessFactor is None else pbr.roughnessFactor
-        metal = 1.0 if pbr.metallicFactor is None else pbr.metallicFactor
-        out[:, 3] = SPECULAR_SMOOTH * (1.0 - rough) * (1.0 - 0.5 * metal)
-        info = pbr.baseColorTexture
-        uv_name = f"TEXCOORD_{info.texCoord or 0}" if info is not None else None
-        uv_index = getattr(prim.attributes, uv_name, None) if uv_name else None
-        if info is not None and uv_index is not None:
-            rgba = _texture_rgba(gltf, blob, info.index, path)
-            if rgba is not None:
-                uv = texture_transform(info, _accessor(gltf, blob, uv_index, path)[:, :2])
-                mode = str(getattr(mat, "alphaMode", None) or "OPAQUE")
-                cut = getattr(mat, "alphaCutoff", None)
-                cutoff = 0.5 if cut is None else float(cut)
-                texture = ((int(info.index), mode, cutoff), uv, rgba)
-    if prim.attributes.COLOR_0 is not None:
-        c = _accessor(gltf, blob, prim.attributes.COLOR_0, path)
-        out[:, :3] *= np.sqrt(np.clip(c[:, :3], 0, 1))
-    spec = getattr(prim.attributes, SPECULAR_ATTRIBUTE, None)
-    if spec is not None:
-        out[:, 3] = _accessor(gltf, blob, spec, path)[:, 0]
-    return out, texture
 
 
 def _target_names(mesh, prim) -> list[str]:
@@ -323,6 +169,49 @@ def read_gltf(path: str | Path) -> GltfScene:
 
 
 def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
+    """The default scene as one :class:`GltfScene` (see the module docstring)."""
+    parents, world = _node_tree(gltf, path)
+    humanoid, turned = _humanoid(gltf)
+    parts: list[dict[str, Any]] = []
+    offset = 0
+    for i, node in enumerate(gltf.nodes):
+        if node.mesh is None:
+            continue
+        mesh = gltf.meshes[node.mesh]
+        skin = gltf.skins[node.skin] if node.skin is not None else None
+        for prim in mesh.primitives:
+            if prim.mode not in (None, 4) or prim.attributes.POSITION is None:
+                continue  # points and lines are not drawn
+            part = _primitive(gltf, blob, path, i, (mesh, skin, prim), world)
+            part["tri"] = part["tri"] + offset
+            parts.append(part)
+            offset += len(part["pos"])
+    if not parts or not sum(len(p["tri"]) for p in parts):
+        raise InputError("no triangle mesh in the scene", path=path)
+    scene = GltfScene(
+        **_merged(parts, path),
+        node_names=[str(node.name or f"node{i}") for i, node in enumerate(gltf.nodes)],
+        parents=parents,
+        world=world,
+        humanoid=humanoid,
+        extras=gltf.extras if isinstance(gltf.extras, dict) else {},
+    )
+    scene.expressions = vrm_expressions(gltf, parts, len(scene.vertices))
+    scene.skinned = np.concatenate([np.full(len(p["pos"]), p["skinned"]) for p in parts])
+    scene.mesh_names = [
+        str(gltf.meshes[node.mesh].name or "") if node.mesh is not None else ""
+        for node in gltf.nodes
+    ]
+    if any(p["texture"] for p in parts):
+        scene.uvs, scene.texture, baked = texture_atlas(parts, scene.colors)
+        scene.untextured_colors, scene.colors = scene.colors, baked
+    if turned:
+        _turn_half_round(scene)
+    return scene
+
+
+def _node_tree(gltf, path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Each node's parent (-1 at a root) and its world transform at rest, (k, 4, 4)."""
     k = len(gltf.nodes)
     parents = np.full(k, -1)
     for i, node in enumerate(gltf.nodes):
@@ -344,100 +233,110 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
 
     for i in range(k):
         resolve(i)
-    humanoid, turned = _humanoid(gltf)
-    parts: list[dict[str, Any]] = []
-    offset = 0
-    for i, node in enumerate(gltf.nodes):
-        if node.mesh is None:
-            continue
-        mesh = gltf.meshes[node.mesh]
-        skin = gltf.skins[node.skin] if node.skin is not None else None
-        for prim in mesh.primitives:
-            if prim.mode not in (None, 4) or prim.attributes.POSITION is None:
-                continue  # points and lines are not drawn
-            pos = _accessor(gltf, blob, prim.attributes.POSITION, path)[:, :3]
-            n = len(pos)
-            nrm = (
-                _accessor(gltf, blob, prim.attributes.NORMAL, path)[:, :3]
-                if prim.attributes.NORMAL is not None
-                else None
+    return parents, world
+
+
+def _primitive(
+    gltf, blob: bytes, path: Path, i: int, of: tuple[Any, Any, Any], world: np.ndarray
+) -> dict[str, Any]:
+    """Triangle primitive ``prim`` of node ``i``'s ``mesh`` (``of``: mesh, skin or None,
+    primitive), read and placed in the scene's space: positions, normals, triangles (into its
+    own vertices), morph target deltas by name and by index, influences, colours, texture."""
+    mesh, skin, prim = of
+    node = gltf.nodes[i]
+    pos = read_accessor(gltf, blob, prim.attributes.POSITION, path)[:, :3]
+    n = len(pos)
+    nrm = (
+        read_accessor(gltf, blob, prim.attributes.NORMAL, path)[:, :3]
+        if prim.attributes.NORMAL is not None
+        else None
+    )
+    flat = (
+        read_accessor(gltf, blob, prim.indices, path).astype(np.int64).reshape(-1)
+        if prim.indices is not None
+        else np.arange(n)
+    )
+    tri = flat[: len(flat) // 3 * 3].reshape(-1, 3)
+    if len(tri) and (tri.min() < 0 or tri.max() >= n):
+        raise InputError(f"mesh {node.mesh}: indices beyond its {n} vertices", path=path)
+    deltas = {}
+    for name, t in zip(_target_names(mesh, prim), prim.targets or [], strict=True):
+        dp = (
+            read_accessor(gltf, blob, t["POSITION"], path)[:, :3]
+            if isinstance(t, dict) and t.get("POSITION") is not None
+            else np.zeros((n, 3))
+        )
+        dn = (
+            read_accessor(gltf, blob, t["NORMAL"], path)[:, :3]
+            if isinstance(t, dict) and t.get("NORMAL") is not None
+            else np.zeros((n, 3))
+        )
+        deltas[name] = (dp, dn)
+    skinned = (
+        skin is not None
+        and prim.attributes.JOINTS_0 is not None
+        and prim.attributes.WEIGHTS_0 is not None
+    )
+    if skinned:
+        joints = read_accessor(gltf, blob, prim.attributes.JOINTS_0, path).astype(int)
+        if joints.max(initial=0) >= len(skin.joints):
+            raise InputError(f"skin {node.skin}: joint index beyond its joints", path=path)
+        nodes = np.asarray(skin.joints)[joints]
+        weights = read_accessor(gltf, blob, prim.attributes.WEIGHTS_0, path)
+        bind = (
+            bind_transforms(
+                read_accessor(gltf, blob, skin.inverseBindMatrices, path),
+                world[np.asarray(skin.joints)],
+                path,
             )
-            flat = (
-                _accessor(gltf, blob, prim.indices, path).astype(np.int64).reshape(-1)
-                if prim.indices is not None
-                else np.arange(n)
-            )
-            tri = flat[: len(flat) // 3 * 3].reshape(-1, 3)
-            if len(tri) and (tri.min() < 0 or tri.max() >= n):
-                raise InputError(f"mesh {node.mesh}: indices beyond its {n} vertices", path=path)
-            deltas = {}
-            for name, t in zip(_target_names(mesh, prim), prim.targets or [], strict=True):
-                dp = (
-                    _accessor(gltf, blob, t["POSITION"], path)[:, :3]
-                    if isinstance(t, dict) and t.get("POSITION") is not None
-                    else np.zeros((n, 3))
-                )
-                dn = (
-                    _accessor(gltf, blob, t["NORMAL"], path)[:, :3]
-                    if isinstance(t, dict) and t.get("NORMAL") is not None
-                    else np.zeros((n, 3))
-                )
-                deltas[name] = (dp, dn)
-            if (
-                skin is not None
-                and prim.attributes.JOINTS_0 is not None
-                and prim.attributes.WEIGHTS_0 is not None
-            ):
-                joints = _accessor(gltf, blob, prim.attributes.JOINTS_0, path).astype(int)
-                if joints.max(initial=0) >= len(skin.joints):
-                    raise InputError(f"skin {node.skin}: joint index beyond its joints", path=path)
-                nodes = np.asarray(skin.joints)[joints]
-                weights = _accessor(gltf, blob, prim.attributes.WEIGHTS_0, path)
-                bind = (
-                    bind_transforms(
-                        _accessor(gltf, blob, skin.inverseBindMatrices, path),
-                        world[np.asarray(skin.joints)],
-                        path,
-                    )
-                    if skin.inverseBindMatrices is not None
-                    else None
-                )
-                if bind is not None:
-                    pos, nrm, deltas = to_rest(bind[joints], weights, pos, nrm, deltas)
-                skinned = True
-            else:
-                skinned = False
-                m = world[i]
-                pos = pos @ m[:3, :3].T + m[:3, 3]
-                # normals and their deltas by the inverse transpose (row-wise), without its
-                # scale: a delta stays in proportion to the unit normal it is added to
-                turn = np.linalg.inv(m[:3, :3])
-                turn /= np.cbrt(max(abs(float(np.linalg.det(turn))), 1e-300))
-                if nrm is not None:
-                    nrm = nrm @ turn
-                for name, (dp, dn) in deltas.items():
-                    deltas[name] = (dp @ m[:3, :3].T, dn @ turn)
-                nodes = np.tile([i, i, i, i], (n, 1))
-                weights = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
-            plain, texture = _colors(gltf, blob, prim, n, path)
-            parts.append(
-                {
-                    "mesh": node.mesh,
-                    "skinned": skinned,
-                    "by_index": [deltas[name] for name in _target_names(mesh, prim)],
-                    "pos": pos,
-                    "nrm": nrm,
-                    "tri": tri + offset,
-                    "deltas": deltas,
-                    "plain": plain,
-                    "texture": texture,
-                    "nodes": nodes,
-                    "weights": weights,
-                }
-            )
-            offset += n
-    if not parts or not sum(len(p["tri"]) for p in parts):
-        raise InputError("no triangle mesh in the scene", path=path)
+            if skin.inverseBindMatrices is not None
+            else None
+        )
+        if bind is not None:
+            pos, nrm, deltas = to_rest(bind[joints], weights, pos, nrm, deltas)
+    else:
+        pos, nrm, deltas = _by_node(world[i], pos, nrm, deltas)
+        nodes = np.tile([i, i, i, i], (n, 1))
+        weights = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+    plain, texture = primitive_colors(gltf, blob, prim, n, path)
+    return {
+        "mesh": node.mesh,
+        "skinned": skinned,
+        "by_index": [deltas[name] for name in _target_names(mesh, prim)],
+        "pos": pos,
+        "nrm": nrm,
+        "tri": tri,
+        "deltas": deltas,
+        "plain": plain,
+        "texture": texture,
+        "nodes": nodes,
+        "weights": weights,
+    }
+
+
+def _by_node(
+    m: np.ndarray,
+    pos: np.ndarray,
+    nrm: np.ndarray | None,
+    deltas: dict[str, tuple[np.ndarray, np.ndarray]],
+) -> tuple[np.ndarray, np.ndarray | None, dict[str, tuple[np.ndarray, np.ndarray]]]:
+    """An unskinned primitive taken to the scene's space by its node's world transform
+    ``m``: positions by ``m``; normals and their deltas by the inverse transpose (row-wise),
+    without its scale, so a delta stays in proportion to the unit normal it is added to."""
+    pos = pos @ m[:3, :3].T + m[:3, 3]
+    turn = np.linalg.inv(m[:3, :3])
+    turn /= np.cbrt(max(abs(float(np.linalg.det(turn))), 1e-300))
+    if nrm is not None:
+        nrm = nrm @ turn
+    for name, (dp, dn) in deltas.items():
+        deltas[name] = (dp @ m[:3, :3].T, dn @ turn)
+    return pos, nrm, deltas
+
+
+def _merged(parts: list[dict[str, Any]], path: Path) -> dict[str, Any]:
+    """The :class:`GltfScene` fields of the primitives as one vertex list: positions, unit
+    normals (None unless every primitive has them), triangles, colours, influences, and each
+    morph target across all of them (zeros in a primitive without it)."""
     names = list(dict.fromkeys(name for p in parts for name in p["deltas"]))
     zeros = [np.zeros((len(p["pos"]), 3)) for p in parts]
     targets = {
@@ -456,63 +355,15 @@ def _flatten(gltf, blob: bytes, path: Path) -> GltfScene:
         normals = np.where(length > 1e-12, normals / np.maximum(length, 1e-300), normals)
     if not np.isfinite(vertices).all():
         raise InputError("vertex positions must be finite numbers", path=path)
-    plain = np.vstack([p["plain"] for p in parts])
-    scene = GltfScene(
-        vertices=vertices,
-        normals=normals,
-        triangles=np.vstack([p["tri"] for p in parts]),
-        colors=plain,
-        targets=targets,  # type: ignore[arg-type]
-        influence_nodes=np.vstack([p["nodes"] for p in parts]),
-        influence_weights=np.vstack([p["weights"] for p in parts]),
-        node_names=[str(node.name or f"node{i}") for i, node in enumerate(gltf.nodes)],
-        parents=parents,
-        world=world,
-        humanoid=humanoid,
-        extras=gltf.extras if isinstance(gltf.extras, dict) else {},
-    )
-    scene.expressions = vrm_expressions(gltf, parts, len(vertices))
-    scene.skinned = np.concatenate([np.full(len(p["pos"]), p["skinned"]) for p in parts])
-    scene.mesh_names = [
-        str(gltf.meshes[node.mesh].name or "") if node.mesh is not None else ""
-        for node in gltf.nodes
-    ]
-    if any(p["texture"] for p in parts):
-        _texture_atlas(scene, parts)
-    if turned:
-        _turn_half_round(scene)
-    return scene
-
-
-def _texture_atlas(scene: GltfScene, parts: list[dict[str, Any]]) -> None:
-    """Every primitive's base colour texture in one atlas the renderer samples per pixel
-    (:mod:`renderer.gltftexture`); ``colors`` gets each vertex's texel for what reads
-    colours per vertex."""
-    keys: dict[tuple[int, str, float], int] = {}
-    tiles: list[Tile] = []
-    for p in parts:
-        if p["texture"] is not None and p["texture"][0] not in keys:
-            key, _, image = p["texture"]
-            keys[key] = len(tiles)
-            tiles.append(Tile(image, key[1], key[2]))
-    if any(p["texture"] is None for p in parts):
-        tiles.append(WHITE)
-    atlas = build_atlas(tiles)
-    uvs = []
-    for p in parts:
-        if p["texture"] is None:
-            uvs.append(atlas.place(len(tiles) - 1, np.full((len(p["pos"]), 2), 0.5)))
-        else:
-            uvs.append(atlas.place(keys[p["texture"][0]], p["texture"][1]))
-    scene.uvs = np.vstack(uvs).astype(np.float32)
-    scene.texture = atlas.image if atlas.cutout else np.ascontiguousarray(atlas.image[..., :3])
-    scene.untextured_colors = scene.colors
-    h, w = atlas.image.shape[:2]
-    rows = np.clip((scene.uvs[:, 1] * h).astype(int), 0, h - 1)
-    cols = np.clip((scene.uvs[:, 0] * w).astype(int), 0, w - 1)
-    baked = scene.colors.copy()
-    baked[:, :3] *= atlas.image[rows, cols, :3] / 255.0
-    scene.colors = baked
+    return {
+        "vertices": vertices,
+        "normals": normals,
+        "triangles": np.vstack([p["tri"] for p in parts]),
+        "colors": np.vstack([p["plain"] for p in parts]),
+        "targets": targets,
+        "influence_nodes": np.vstack([p["nodes"] for p in parts]),
+        "influence_weights": np.vstack([p["weights"] for p in parts]),
+    }
 
 
 def _turn_half_round(scene: GltfScene) -> None:

@@ -25,7 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from renderer.gltfio import COMPONENT_TYPES, SPECULAR_ATTRIBUTE
+from renderer.gltfaccessor import COMPONENT_TYPES
+from renderer.gltfmaterial import SPECULAR_ATTRIBUTE
 
 
 @dataclass

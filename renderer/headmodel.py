@@ -25,7 +25,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from renderer import headparts as hp
+import renderer.headparts as hp
 from renderer.face import OPTIONAL_GROUPS, REQUIRED_GROUPS, Face, fapu_from_feature_points
 from renderer.mouthparts import mouth_parts, oral_cavity
 from renderer.neckear import ear, neck_and_shoulders

@@ -8,7 +8,7 @@ known FAP tracks in, the clip the capture would have recorded out.
 * Markers: the thesis' 13 face markers on the deformed skin and the 4 post markers of the
   head-mounted frame rigidly attached to the head (:mod:`app.stimuli.capture.markerset`).
   The face is posed by the renderer's own deformation (:meth:`renderer.deform.Rig.posed`)
-  and seen through its camera (:func:`renderer.gl.camera_for`), so the markers move as the
+  and seen through its camera (:func:`renderer.camera.camera_for`), so the markers move as the
   rendered face does.
 * Each marker is a disc of ``marker_mm`` diameter (at least ``min_diameter_px``), drawn with
   anti-aliased edges at its sub-pixel position; a skin marker facing away from the camera
@@ -41,9 +41,9 @@ from scipy import ndimage
 from app.stimuli.capture.markerset import HEAD_FRAME, MARKERS, POSTS, SITES, HeadFrame
 from app.stimuli.fap import AU_RADIANS, HEAD_PITCH, HEAD_ROLL, HEAD_YAW
 from app.stimuli.track import MotionTrack
+from renderer.camera import camera_for, project
 from renderer.deform import Rig
 from renderer.face import Face
-from renderer.gl import camera_for, project
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ it finds on the mesh (:func:`mesh_face`):
   (:func:`app.stimuli.meshes.regions.find_lips`);
 * the eyes (3.5, 3.6): the eyeballs' fronts where the mesh has eyeballs, else where a head's
   proportions put them (0.45 W above the mouth, 0.41 W apart, W the head's width); the camera
-  is framed on them and the mouth (:func:`renderer.gl.camera_for`), so by the mesh's own size;
+  is framed on them and the mouth (:func:`renderer.camera.camera_for`), so by the mesh's own size;
 * the head's pivot (7.1): FLAME's neck joint, else below and behind the eyes as on the built-in
   head; the head turns (FAPs 48-50) about it, rigidly, or as far as FLAME's skinning to the
   neck and above says (:meth:`renderer.deform.Rig.posed`), and the eyeballs turn with the gaze

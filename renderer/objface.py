@@ -164,6 +164,37 @@ def paint_eyes(
 def load_face(json_path: str | Path) -> Face:
     """Read and validate a face JSON file and its OBJ mesh."""
     path = Path(json_path)
+    spec = _read_spec(path)
+    vertices, triangles, rgb = read_obj(path.parent / spec["mesh"])
+    n = len(vertices)
+    feature_points, fp_vertices = _feature_points(spec, vertices, path)
+    groups = _groups(spec, n, path)
+    fapu = _fapu(spec, feature_points, path)
+    weights = _weights(spec, n, path)
+    pivot = spec.get("jaw_pivot")
+    if pivot is not None and not (isinstance(pivot, list) and len(pivot) == 3):
+        raise InputError("expected [x, y, z]", path=path, field="jaw_pivot")
+
+    colors = np.empty((n, 4))
+    colors[:, :3] = rgb if rgb is not None else SKIN_RGB
+    colors[:, 3] = 0.18
+    paint_eyes(colors, vertices, groups, feature_points)
+    return Face(
+        vertices=vertices.astype(np.float32),
+        triangles=triangles.astype(np.int32),
+        colors=colors.astype(np.float32),
+        feature_points=feature_points,
+        fp_vertices=fp_vertices,
+        fapu=fapu,
+        groups=groups,
+        weights=weights,
+        jaw_pivot=None if pivot is None else np.array(pivot, dtype=np.float64),
+        name=str(spec.get("name", path.stem)),
+    )
+
+
+def _read_spec(path: Path) -> dict[str, Any]:
+    """The face JSON file as an object of the known format that names its OBJ mesh."""
     if not path.is_file():
         raise InputError("face file not found", path=path)
     try:
@@ -178,9 +209,14 @@ def load_face(json_path: str | Path) -> Face:
         )
     if not isinstance(spec.get("mesh"), str):
         raise InputError("missing: the OBJ file name", path=path, field="mesh")
-    vertices, triangles, rgb = read_obj(path.parent / spec["mesh"])
-    n = len(vertices)
+    return spec
 
+
+def _feature_points(
+    spec: dict[str, Any], vertices: np.ndarray, path: Path
+) -> tuple[dict[str, np.ndarray], dict[str, int]]:
+    """Every feature point's position, and the vertex of those given as vertices (all the
+    required points present, the mouth's as vertices)."""
     fps_in = spec.get("feature_points")
     if not isinstance(fps_in, dict):
         raise InputError(
@@ -204,7 +240,11 @@ def load_face(json_path: str | Path) -> Face:
             path=path,
             field="feature_points",
         )
+    return feature_points, fp_vertices
 
+
+def _groups(spec: dict[str, Any], n: int, path: Path) -> dict[str, np.ndarray]:
+    """The vertex groups the renderer knows, the required ones present."""
     groups_in = spec.get("groups")
     if not isinstance(groups_in, dict):
         raise InputError(
@@ -213,12 +253,18 @@ def load_face(json_path: str | Path) -> Face:
     missing = [name for name in REQUIRED_GROUPS if name not in groups_in]
     if missing:
         raise InputError("missing group", path=path, field=f"groups.{missing[0]}")
-    groups = {
+    return {
         name: _vertex_list(groups_in[name], n, path, f"groups.{name}")
         for name in REQUIRED_GROUPS + OPTIONAL_GROUPS
         if name in groups_in
     }
 
+
+def _fapu(
+    spec: dict[str, Any], feature_points: dict[str, np.ndarray], path: Path
+) -> dict[str, float]:
+    """The FAPU measured from the feature points, replaced by those the file gives; all
+    positive."""
     fapu = fapu_from_feature_points(feature_points)
     given = spec.get("fapu", {})
     if not isinstance(given, dict):
@@ -241,8 +287,13 @@ def load_face(json_path: str | Path) -> Face:
             path=path,
             field="feature_points",
         )
+    return fapu
 
-    weights = {}
+
+def _weights(spec: dict[str, Any], n: int, path: Path) -> dict[str, np.ndarray]:
+    """The rig's weight layers the file gives, each a weight per vertex (the layer's default,
+    1 for ``head`` and 0 for the others, where the file gives none)."""
+    weights: dict[str, np.ndarray] = {}
     for name, pairs in (spec.get("weights") or {}).items():
         field = f"weights.{name}"
         if name not in WEIGHT_LAYERS:
@@ -265,26 +316,7 @@ def load_face(json_path: str | Path) -> Face:
             )
         arr[idx] = w
         weights[name] = arr
-    pivot = spec.get("jaw_pivot")
-    if pivot is not None and not (isinstance(pivot, list) and len(pivot) == 3):
-        raise InputError("expected [x, y, z]", path=path, field="jaw_pivot")
-
-    colors = np.empty((n, 4))
-    colors[:, :3] = rgb if rgb is not None else SKIN_RGB
-    colors[:, 3] = 0.18
-    paint_eyes(colors, vertices, groups, feature_points)
-    return Face(
-        vertices=vertices.astype(np.float32),
-        triangles=triangles.astype(np.int32),
-        colors=colors.astype(np.float32),
-        feature_points=feature_points,
-        fp_vertices=fp_vertices,
-        fapu=fapu,
-        groups=groups,
-        weights=weights,
-        jaw_pivot=None if pivot is None else np.array(pivot, dtype=np.float64),
-        name=str(spec.get("name", path.stem)),
-    )
+    return weights
 
 
 def write_face(face: Face, json_path: str | Path) -> Path:

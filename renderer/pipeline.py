@@ -24,14 +24,15 @@ from typing import Any
 
 import numpy as np
 
+import renderer.defaults as defaults
 from app.errors import InputError
 from app.stimuli.track import MotionTrack
-from renderer import defaults
 from renderer.avatar import AvatarFace, AvatarRig
+from renderer.camera import project
 from renderer.deform import MOUTH_FAPS_INDEX, FaceFrame, Rig
 from renderer.face import MOUTH_FEATURE_POINTS, Face
 from renderer.faceregions import face_envelopes, mesh_frames_of, never_covered
-from renderer.gl import FaceCanvas, device_name, project
+from renderer.gl import FaceCanvas, device_name
 from renderer.meshface import MeshFace, MeshRig
 from renderer.mosaic import cells_meeting, mouth_box, pixelate_face
 from renderer.mouthregion import MotionEnvelope
@@ -109,8 +110,7 @@ class _Drawer:
         envelopes: list[MotionEnvelope] | None = None,
         mesh_frames: list[np.ndarray | None] | None = None,
     ) -> None:
-        self.dense, self.size = dense, size
-        self.faces = faces
+        self.dense, self.size, self.faces = dense, size, faces
         self.rigs = [rig_for(f) for f in faces]
         self.mesh_frames = mesh_frames or [None] * len(faces)
         self.mosaic_block, self.mosaic_margin = mosaic_block, mosaic_margin

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from app.cli import main
 from app.errors import InputError
-from renderer.avatar import AvatarRig, driven, load_avatar, mouth_points
+from renderer.avatar import AvatarRig, load_avatar, mouth_points
 from renderer.deform import Rig
 from renderer.headmodel import builtin_face
 from renderer.pipeline import render_frames
@@ -38,13 +38,6 @@ def _rename_node(old, new):
         next(n for n in gltf.nodes if n.name == old).name = new
 
     return edit
-
-
-def test_driven_table_names_shapes_bones_and_their_faps():
-    shapes, bones = driven()
-    assert shapes["JawOpen"] == [3]
-    assert sorted(shapes["BrowDownLeft"]) == [31, 33, 35]
-    assert sorted(bones["head"]) == [48, 49, 50] and sorted(bones["leftEye"]) == [23, 25]
 
 
 def test_missing_blendshape_names_it_and_its_faps(exported_head, tmp_path):

@@ -17,7 +17,7 @@ from click.testing import CliRunner
 from app.cli import main
 from app.stimuli.track import MotionTrack
 from renderer.avatar import AvatarRig, load_avatar
-from renderer.gl import camera_for, project
+from renderer.camera import camera_for, project
 from renderer.pipeline import render_frames
 from tests.renderer.avatar_fixtures import (
     EYE_NAMES,

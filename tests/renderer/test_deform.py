@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from renderer.deform import SUPPORTED_FAPS, Rig, raised_cosine
+from renderer.deform import SUPPORTED_FAPS, Rig
 from renderer.headmodel import builtin_face
 
 
@@ -25,11 +25,6 @@ def _moved(rig, faps, fp):
     frame = rig.deform(faps)
     i = rig.face.fp_vertices[fp]
     return frame.positions[i].astype(float) - rig.face.vertices[i].astype(float)
-
-
-def test_raised_cosine_known_values():
-    d = np.array([0.0, 5.0, 10.0, 20.0])
-    assert np.allclose(raised_cosine(d, 10.0), [1.0, 0.5, 0.0, 0.0])
 
 
 def test_neutral_faps_leave_the_mesh_unchanged(rig):

@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from renderer.camera import project
 from renderer.deform import Rig
-from renderer.gl import FaceCanvas, project
+from renderer.gl import FaceCanvas
 from renderer.headmodel import builtin_face
 
 pytestmark = pytest.mark.gl
@@ -53,7 +54,7 @@ def _eyeball(img):
 def _eye_boxes(rig):
     """Pixel boxes around both eyes (1.6 eyeball radii about each centre)."""
     face = rig.face
-    from renderer.gl import camera_for
+    from renderer.camera import camera_for
 
     vp, _ = camera_for(rig)
     boxes = []
@@ -151,7 +152,7 @@ def test_the_hairline_is_painted_as_designed():
     # along the scalp must follow the designed hairline (hair_mask) closely
     from scipy.ndimage import map_coordinates
 
-    from renderer.gl import camera_for
+    from renderer.camera import camera_for
     from renderer.headmodel import CENTRE, _skin_sdf
     from renderer.sdf import ray_surface
     from renderer.skinpaint import hair_mask

@@ -15,7 +15,7 @@ from scipy import ndimage
 
 from app.stimuli.meshes.sequence import MeshSequence
 from app.stimuli.track import MotionTrack
-from renderer.gl import camera_for, project
+from renderer.camera import camera_for, project
 from renderer.headmodel import builtin_face
 from renderer.meshface import MeshFace, MeshRig, mesh_face
 from renderer.pipeline import render_frames, rig_for

@@ -12,8 +12,8 @@ import pytest
 from scipy import ndimage
 
 from app.stimuli.track import MotionTrack
+from renderer.camera import camera_for, project
 from renderer.deform import MOUTH_FAPS, Rig
-from renderer.gl import camera_for, project
 from renderer.headmodel import builtin_face
 from renderer.mouthregion import motion_envelope, upper_face
 from renderer.pipeline import render_frames

@@ -7,8 +7,8 @@ from hypothesis import strategies as st
 
 from app.errors import InputError
 from renderer import RenderSettings
+from renderer.camera import camera_for, project
 from renderer.deform import Rig
-from renderer.gl import camera_for, project
 from renderer.headmodel import N_AZIMUTH, N_ELEVATION, builtin_face
 from renderer.skintexture import (
     brow_strands,
