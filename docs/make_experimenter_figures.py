@@ -3,9 +3,9 @@
     PYTHONPATH=. python docs/make_experimenter_figures.py
 
 Runs the browser tests that walk the experimenter's side end to end
-(tests/test_browser_experimenter.py: a study made on the form, piloted, opened, taken by two
+(tests/web/test_browser_experimenter.py: a study made on the form, piloted, opened, taken by two
 participants, one of them left out for a failed catch trial) and every page type through
-axe-core (tests/test_browser_axe.py, which shoots the questionnaire page at phone size), with
+axe-core (tests/web/test_browser_axe.py, which shoots the questionnaire page at phone size), with
 their screenshots in a temporary folder, and copies the ones the docs show here:
 experimenter-study.png, experimenter-monitor.png and participant-questionnaire.png.
 """
@@ -28,8 +28,8 @@ FIGURES = {
     "participant-questionnaire.png": "participant-questionnaire.png",
 }
 TESTS = (
-    "tests/test_browser_experimenter.py::test_an_experimenter_runs_a_study_from_start_to_end",
-    "tests/test_browser_axe.py::test_every_page_type_passes_axe",
+    "tests/web/test_browser_experimenter.py::test_an_experimenter_runs_a_study_from_start_to_end",
+    "tests/web/test_browser_axe.py::test_every_page_type_passes_axe",
 )
 
 

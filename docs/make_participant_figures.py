@@ -5,13 +5,13 @@
 Renders one demo pair (app/data/demo/speech.wav: speech-driven prosody on the left, Perlin-noise
 prosody on the right) with ``renderer.render_pair``, then runs the browser test that puts that
 clip on the trial page at desktop (1366x768) and phone (390x844) size and checks its layout
-(tests/test_browser_participant.py::test_trial_page_layout_and_screenshots), saving
+(tests/web/test_browser_participant.py::test_trial_page_layout_and_screenshots), saving
 participant-trial-desktop.png and participant-trial-phone.png here; then the same clip in a
 German and an Arabic (right-to-left) study, and the audio check before the first trial, at
-desktop size (tests/participant/test_language_browser.py): participant-trial-german-desktop.png,
+desktop size (tests/web/participant/test_language_browser.py): participant-trial-german-desktop.png,
 participant-trial-arabic-desktop.png and participant-audio-check-desktop.png. Then renders one face
 (speech-driven prosody, ``renderer.render_single``) and runs the rating design's layout test
-(tests/test_browser_rating.py::test_rating_page_layout_and_screenshots) for
+(tests/web/test_browser_rating.py::test_rating_page_layout_and_screenshots) for
 participant-rating-desktop.png (the five ACR levels) and participant-rating-phone.png (the
 slider), and the parallel design's test for participant-parallel-desktop.png and -phone.png.
 """
@@ -47,14 +47,14 @@ def main() -> None:
         }
         for tests in (
             [
-                "tests/test_browser_participant.py::test_trial_page_layout_and_screenshots",
-                "tests/participant/test_language_browser.py",
+                "tests/web/test_browser_participant.py::test_trial_page_layout_and_screenshots",
+                "tests/web/participant/test_language_browser.py",
                 "-k",
                 "desktop or layout_and_screenshots",
             ],
             [
-                "tests/test_browser_rating.py::test_rating_page_layout_and_screenshots",
-                "tests/test_browser_rating.py::test_a_participant_rates_every_version_in_parallel",
+                "tests/web/test_browser_rating.py::test_rating_page_layout_and_screenshots",
+                "tests/web/test_browser_rating.py::test_a_participant_rates_every_version_in_parallel",
             ],
         ):
             pytest = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider"]

@@ -179,7 +179,8 @@ def make_app(url: str, media: Path, **config):
             "JOB_RUNNER": "inline",
             "REDIS_URL": None,
             # one PBKDF2 round: production's scrypt costs 0.1 s a hash, paid for every
-            # experimenter a test makes and at every login (tests/test_security.py keeps it)
+            # experimenter a test makes and at every login
+            # (tests/web/infra/test_security.py keeps it)
             "PASSWORD_HASH_METHOD": "pbkdf2:sha256:1",
             **config,
         }
@@ -603,7 +604,7 @@ def stub_pipeline(monkeypatch, tiny_video):
 
     from app.web.extensions import db
     from app.web.infra.storage import media_dir
-    from app.web.jobs import tasks
+    from app.web.jobs import bodies
     from app.web.models import Stimulus
 
     def fake_generate(study, progress):
@@ -621,5 +622,5 @@ def stub_pipeline(monkeypatch, tiny_video):
         db.session.commit()
         return f"{len(rows)} clips rendered (stub)"
 
-    monkeypatch.setitem(tasks.TASKS, "generate", fake_generate)
-    monkeypatch.setitem(tasks.TASKS, "render", fake_render)
+    monkeypatch.setitem(bodies.TASKS, "generate", fake_generate)
+    monkeypatch.setitem(bodies.TASKS, "render", fake_render)

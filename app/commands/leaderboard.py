@@ -36,7 +36,7 @@ def run_jobs(job_ids: list[int]) -> None:
     from tqdm import tqdm
 
     from app.web.extensions import db
-    from app.web.jobs.tasks import run_job
+    from app.web.jobs.bodies import run_job
     from app.web.models import Job
 
     if current_app.config.get("REDIS_URL"):

@@ -19,7 +19,7 @@ def run_jobs_here(study_id: int, kinds: tuple[str, ...]) -> None:
     from tqdm import tqdm
 
     from app.web.extensions import db, transaction
-    from app.web.jobs.tasks import run_job
+    from app.web.jobs.bodies import run_job
     from app.web.models import Job
 
     for kind in kinds:

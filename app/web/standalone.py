@@ -13,6 +13,7 @@ from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
+from app.web import create_app
 from app.web.extensions import db
 
 if TYPE_CHECKING:
@@ -21,9 +22,6 @@ if TYPE_CHECKING:
 
 def offline_app(config: Mapping[str, Any] | None = None) -> Flask:
     """The application from the environment and ``config``, with no deployment key required."""
-    # Imported here: the application's views import the jobs, whose entry points use this module.
-    from app.web import create_app
-
     return create_app({**(config or {}), "REQUIRE_SECRET_KEY": False})
 
 

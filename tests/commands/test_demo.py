@@ -31,7 +31,7 @@ def _stub_jobs(monkeypatch, web) -> list:
     """Generation and rendering stubbed (the pipeline is tested on its own), run in this
     process with their progress bars; returns the job kinds run "apart"."""
     from app.commands import demo as commands
-    from app.web.jobs import tasks
+    from app.web.jobs import bodies
 
     def fake_generate(study, progress):
         progress(1, 1)
@@ -49,8 +49,8 @@ def _stub_jobs(monkeypatch, web) -> list:
         db.session.commit()
         return "stub"
 
-    monkeypatch.setitem(tasks.TASKS, "generate", fake_generate)
-    monkeypatch.setitem(tasks.TASKS, "render", fake_render)
+    monkeypatch.setitem(bodies.TASKS, "generate", fake_generate)
+    monkeypatch.setitem(bodies.TASKS, "render", fake_render)
     apart = []
 
     def run_here(app, study_id, kinds, log=None):

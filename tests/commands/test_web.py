@@ -81,7 +81,7 @@ def test_serve_refuses_to_start_without_a_real_key(monkeypatch, tmp_path):
 
 
 def test_the_shipped_example_creates_a_study(app, monkeypatch, web, repo_root):
-    """The same app/data/examples/study.toml the web takes as an upload (tests/experimenter)."""
+    """The same app/data/examples/study.toml the web takes as an upload (tests/web/experimenter)."""
     _env(monkeypatch, app)
     web.user("lab@example.org")
     created = CliRunner().invoke(

@@ -1,6 +1,6 @@
 """A fake Prolific API v1 on loopback, for the tests: the operations facepair calls, with the
 behaviour Prolific documents for them, every request (and every answer) validated against
-``tests/prolific/openapi-subset.yaml`` (the public OpenAPI document's shapes).
+``tests/web/prolific/openapi-subset.yaml`` (the public OpenAPI document's shapes).
 
 What it models: studies (draft -> PUBLISH -> ACTIVE, places only raised, test studies),
 submissions (RESERVED/ACTIVE -> AWAITING REVIEW -> APPROVED/REJECTED; RETURNED, TIMED-OUT),
@@ -37,7 +37,7 @@ from werkzeug.wrappers import Request, Response
 from tests.support.liveserver import serve
 
 SPEC = yaml.safe_load(
-    (Path(__file__).resolve().parents[1] / "prolific" / "openapi-subset.yaml").read_text()
+    (Path(__file__).resolve().parents[1] / "web" / "prolific" / "openapi-subset.yaml").read_text()
 )
 TOKEN = "test-token-5f3c9a"  # a fake token: the tests check it never leaks
 _ids = itertools.count(1)

@@ -1,7 +1,7 @@
 """API blueprint: JSON endpoints (votes, progress, job status)."""
 
-from flask import Blueprint
+# Their routes register on bp.
+from app.web.api import prolific, views  # noqa: F401
+from app.web.api.blueprint import bp
 
-bp = Blueprint("api", __name__, url_prefix="/api/v1")
-
-from app.web.api import prolific, views  # noqa: E402, F401  (their routes register on bp)
+__all__ = ["bp"]

@@ -14,7 +14,7 @@ import os
 
 from flask import abort, current_app, jsonify, request
 
-from app.web.api import bp
+from app.web.api.blueprint import bp
 from app.web.prolific.client import setting
 from app.web.prolific.outcomes import MAX_AGE_SECONDS, receive
 

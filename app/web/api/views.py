@@ -17,13 +17,13 @@ import sqlalchemy as sa
 from flask import Response, abort, current_app, jsonify, make_response, request, url_for
 
 from app.trials.rules import instructed_side
-from app.web.api import bp
+from app.web.api.blueprint import bp
 from app.web.extensions import db
 from app.web.infra import limits
 from app.web.infra.accounts import current_user, study_access
 from app.web.infra.i18n import use_language
 from app.web.infra.limits import fits
-from app.web.jobs.tasks import sweep_study_jobs
+from app.web.jobs.sweep import sweep_study_jobs
 from app.web.models import Job, Participant, Trial
 from app.web.study.medialog import MediaLogError, environment_fields
 from app.web.study.participants import end_for_browser

@@ -54,7 +54,8 @@ from app.web.infra.media import media_response
 from app.web.infra.security import REPORT_CONTENT_SECURITY_POLICY, safe_next
 from app.web.infra.storage import media_file, report_path
 from app.web.jobs import EnqueueError, enqueue
-from app.web.jobs.tasks import JOB_KINDS, sweep_study_jobs
+from app.web.jobs.bodies import JOB_KINDS
+from app.web.jobs.sweep import sweep_study_jobs
 from app.web.models import Job, Stimulus, Study, StudyShare
 from app.web.study.enrolment import dropped_after, release_dropped, unstarted_after
 from app.web.study.exports import ratings_csv, votes_csv

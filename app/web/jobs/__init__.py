@@ -10,15 +10,20 @@ id to a runner, always after the commit that created the row:
   hangs in it, and a render thread would stall the process answering participants;
 * ``JOB_RUNNER="inline"`` runs it at once in this process (tests).
 
-Rows whose runner died are found by :func:`app.web.jobs.tasks.sweep_stale` and can be retried. A
+Rows whose runner died are found by :func:`app.web.jobs.sweep.sweep_stale` and can be retried. A
 row waiting in a local runner's queue is kept alive by the web process holding it (a heartbeat
 thread, :func:`beat_held`): if that process is restarted its queue is gone, the beats stop and
 the sweeper fails the row instead of leaving it queued forever.
+
+A spawned process and RQ take the job's entry point by its name
+(:mod:`app.web.jobs.tasks`), never imported here: each builds its own application, whose
+factory imports the blueprints, which import this package to enqueue jobs.
 """
 
 from __future__ import annotations
 
 import functools
+import importlib
 import logging
 import multiprocessing
 import threading
@@ -26,12 +31,13 @@ import time
 from concurrent.futures import Future, ProcessPoolExecutor
 from typing import TYPE_CHECKING, Any
 
+from app.web.jobs.queue import JOB_TIMEOUT, QUEUE, rq_job_id
+
 if TYPE_CHECKING:
     from flask import Flask
 
-QUEUE = "facepair"
-#: Longest a job may run in RQ before it is stopped (a study's whole render).
-JOB_TIMEOUT = 6 * 3600
+#: The entry point of a spawned job process (its application, then the job).
+CHILD_ENTRY = "app.web.jobs.tasks.run_in_child"
 #: Configuration a spawned job process needs to build its own application.
 CHILD_CONFIG = ("SQLALCHEMY_DATABASE_URI", "SQLALCHEMY_ENGINE_OPTIONS", "MEDIA_ROOT", "TESTING")
 
@@ -47,11 +53,6 @@ class EnqueueError(RuntimeError):
     """The job could not be handed to its runner (e.g. Redis unreachable)."""
 
 
-def rq_job_id(job_id: int) -> str:
-    """The RQ job id of row ``job_id`` (so the sweeper can ask RQ about it)."""
-    return f"facepair-job-{job_id}"
-
-
 def _process_executor() -> ProcessPoolExecutor:
     global _local
     with _lock:
@@ -64,13 +65,11 @@ def _process_executor() -> ProcessPoolExecutor:
         return _local
 
 
-def run_in_child(job_id: int, config: dict[str, Any]) -> str:
-    """Entry point of a spawned job process: its own application, then the job."""
-    from app.web.jobs.tasks import run_job
-    from app.web.standalone import app_context, offline_app
-
-    with app_context(offline_app({**config, "JOB_RUNNER": "inline"})):
-        return run_job(job_id)
+def _run_named(target: str, *args: Any) -> Any:
+    """Call the function named ``target`` (``package.module.function``) with ``args``: what a
+    spawned job process runs, importing the entry point there, as an RQ worker does."""
+    module, _, name = target.rpartition(".")
+    return getattr(importlib.import_module(module), name)(*args)
 
 
 def _when_finished(app: Flask, job_id: int, future: Future[str]) -> None:
@@ -163,7 +162,7 @@ def enqueue(app: Flask, job_id: int) -> Future[str] | None:
             raise EnqueueError(f"the job queue (REDIS_URL) is unreachable: {exc}") from None
         return None
     if runner == "inline":
-        from app.web.jobs.tasks import run_job
+        from app.web.jobs.bodies import run_job
 
         with app.app_context():
             run_job(job_id)
@@ -171,7 +170,7 @@ def enqueue(app: Flask, job_id: int) -> Future[str] | None:
     from app.web.infra.media import DEFAULTS as MEDIA_SETTINGS
 
     config = {key: app.config[key] for key in (*CHILD_CONFIG, *MEDIA_SETTINGS) if key in app.config}
-    future = _process_executor().submit(run_in_child, job_id, config)
+    future = _process_executor().submit(_run_named, CHILD_ENTRY, job_id, config)
     future.add_done_callback(functools.partial(_when_finished, app, job_id))
     _hold(app, job_id, future)
     return future

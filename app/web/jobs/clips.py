@@ -1,18 +1,19 @@
 """A study's render split into one RQ job per clip, so N workers render N clips at once.
 
-The render job's row is the parent. Run by an RQ worker, it queues one job per clip still to
-render (:func:`render_clip_standalone`, RQ id :func:`clip_job_id`) and one closing job that
-depends on all of them (:func:`finish_render_standalone`, RQ id :func:`finish_job_id`), then
-returns with its row ``queued`` again: while the clips wait their turn the sweeper asks RQ
-about the closing job, not the heartbeat. The first clip job to start sets the row
-``running``; each adds one to the row's ``done`` (the study page
-shows k of n clips, summed over the workers) and renews its heartbeat every frame; the closing
-job ends the row ``done`` when every clip is in place, ``failed`` otherwise. The clip jobs carry
-the parent's id as their first argument, so the lifecycle of :mod:`app.web.jobs` applies to them
-unchanged: a failing clip (an exception, a timeout, a killed work horse) marks the parent
-failed with its reason at once, the clips still queued behind it then skip, and a worker that
-vanished leaves the row without heartbeat until the sweeper fails it. A retry renders only
-the clips not yet in place.
+The render job's row is the parent. Run by an RQ worker, it queues
+(:func:`app.web.jobs.bodies.split_render`) one job per clip still to render
+(:func:`render_clip_standalone`, RQ id :func:`~app.web.jobs.queue.clip_job_id`) and one closing
+job that depends on all of them (:func:`finish_render_standalone`, RQ id
+:func:`~app.web.jobs.queue.finish_job_id`), then returns with its row ``queued`` again: while
+the clips wait their turn the sweeper asks RQ about the closing job, not the heartbeat. The
+first clip job to start sets the row ``running``; each adds one to the row's ``done`` (the study
+page shows k of n clips, summed over the workers) and renews its heartbeat every frame; the
+closing job ends the row ``done`` when every clip is in place, ``failed`` otherwise. The clip
+jobs carry the parent's id as their first argument, so the lifecycle of :mod:`app.web.jobs`
+applies to them unchanged: a failing clip (an exception, a timeout, a killed work horse) marks
+the parent failed with its reason at once, the clips still queued behind it then skip, and a
+worker that vanished leaves the row without heartbeat until the sweeper fails it. A retry
+renders only the clips not yet in place.
 """
 
 from __future__ import annotations
@@ -25,79 +26,16 @@ from typing import Any
 
 import sqlalchemy as sa
 from flask import current_app
-from rq import Callback, Queue, get_current_job
-from rq.job import Dependency
+from rq import get_current_job
 from sqlalchemy.exc import SQLAlchemyError
 
 from app.web.extensions import db, transaction
-from app.web.jobs import JOB_TIMEOUT, QUEUE, rq_job_id
 from app.web.jobs.rendering import render_inputs, render_stimulus, rendered, rendering_finished
 from app.web.jobs.rows import beat_interval, failure_message, mark_failed
 from app.web.models import Job, Stimulus, Study, utcnow
 from app.web.standalone import app_context, offline_app
 
 log = logging.getLogger(__name__)
-
-
-def clip_job_id(job_id: int, stimulus_id: int) -> str:
-    """The RQ id of the job rendering stimulus ``stimulus_id`` for render row ``job_id``."""
-
-    return f"{rq_job_id(job_id)}-clip-{stimulus_id}"
-
-
-def finish_job_id(job_id: int) -> str:
-    """The RQ id of the job that ends render row ``job_id`` once its clip jobs have ended."""
-
-    return f"{rq_job_id(job_id)}-finish"
-
-
-def split_render(study: Study, job_id: int, progress: Callable[[int, int], None]) -> bool:
-    """Queue one RQ job per clip of ``study`` still to render and the closing job, on the
-    queue of the RQ job running now; False (nothing queued) when every clip is in place."""
-
-    _, stimuli = render_inputs(study)
-    todo = [s.id for s in stimuli if not rendered(study, s)]
-    if not todo:
-        return False
-    progress(len(stimuli) - len(todo), len(stimuli))
-    # Queued again until a worker starts its first clip: the clips may wait behind other
-    # studies' longer than JOB_STALE_AFTER_SECONDS, and the sweeper asks RQ about a queued
-    # row (the closing job, deferred while clips are left) instead of its heartbeat.
-    with transaction() as session:
-        session.execute(
-            sa.update(Job)
-            .where(Job.id == job_id)
-            .values(
-                status="queued", message=f"{len(todo)} clips queued, one job each, for any worker"
-            )
-        )
-    queue = Queue(QUEUE, connection=get_current_job().connection)  # type: ignore[union-attr]
-    failed = Callback("app.web.jobs.tasks.rq_failed")
-    clips = queue.enqueue_many(
-        [
-            Queue.prepare_data(
-                "app.web.jobs.clips.render_clip_standalone",
-                (job_id, stimulus_id),
-                job_id=clip_job_id(job_id, stimulus_id),
-                timeout=JOB_TIMEOUT,
-                on_failure=failed,
-                result_ttl=JOB_TIMEOUT,
-            )
-            for stimulus_id in todo
-        ]
-    )
-    # allow_failure: the closing job runs after a failed clip too, and says what is missing.
-    queue.enqueue(
-        "app.web.jobs.clips.finish_render_standalone",
-        job_id,
-        len(stimuli) - len(todo),
-        job_id=finish_job_id(job_id),
-        job_timeout=600,
-        on_failure=failed,
-        depends_on=Dependency(jobs=clips, allow_failure=True),
-        result_ttl=JOB_TIMEOUT,
-    )
-    return True
 
 
 def _worker_name() -> str:

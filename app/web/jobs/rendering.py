@@ -1,5 +1,5 @@
 """Rendering a study's clips: what every runner of a render shares, whether one job renders
-them all in turn (:func:`app.web.jobs.tasks.render_clips`) or each clip is a job of its own on
+them all in turn (:func:`app.web.jobs.bodies.render_clips`) or each clip is a job of its own on
 the RQ workers (:mod:`app.web.jobs.clips`).
 
 The renderer is imported inside :func:`render_stimulus`: the web process never loads its GL stack.
