@@ -43,6 +43,10 @@ BLUEPRINTS = (
 #: The services and what they stand on: no request handling, so no blueprint.
 SERVICES = ("app/web/study", "app/web/infra", "app/web/jobs", "app/web/prolific", "app/web/board")
 GL = ("moderngl", "renderer.gl")
+#: The packages whose modules may import no circle, and what is left out of them: Alembic's
+#: migration scripts, which nothing imports.
+GRAPHED = ("app", "renderer")
+NOT_GRAPHED = ("app/web/migrations",)
 
 
 def _files(pattern: str) -> list[Path]:
@@ -51,20 +55,21 @@ def _files(pattern: str) -> list[Path]:
     return sorted((REPO / pattern).rglob("*.py"))
 
 
-def _module_name(path: Path) -> str:
-    if not path.is_relative_to(REPO):
+def _module_name(path: Path, root: Path = REPO) -> str:
+    if not path.is_relative_to(root):
         return path.stem
-    parts = path.relative_to(REPO).with_suffix("").parts
+    parts = path.relative_to(root).with_suffix("").parts
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
-def imports(path: Path) -> list[tuple[str, bool]]:
+def imports(path: Path, root: Path = REPO, *, type_checking: bool = True) -> list[tuple[str, bool]]:
     """Every module ``path`` imports, absolute, with whether the import is at module level
-    (run on import) rather than inside a function or an ``if TYPE_CHECKING`` block."""
+    (run on import) rather than inside a function or an ``if TYPE_CHECKING`` block; with
+    ``type_checking=False`` the imports of an ``if TYPE_CHECKING`` block (which never run) are
+    left out. Module names are relative to ``root``."""
     tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-    package = (
-        _module_name(path) if path.name == "__init__.py" else _module_name(path).rpartition(".")[0]
-    )
+    name = _module_name(path, root)
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found: list[tuple[str, bool]] = []
 
     def visit(node: ast.AST, top: bool) -> None:
@@ -73,7 +78,11 @@ def imports(path: Path) -> list[tuple[str, bool]]:
                 child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)
             )
             if isinstance(child, ast.If) and "TYPE_CHECKING" in ast.unparse(child.test):
-                inner = False
+                if type_checking:
+                    visit(child, False)
+                else:  # its ``else`` runs
+                    visit(ast.Module(body=child.orelse, type_ignores=[]), top)
+                continue
             if isinstance(child, ast.Import):
                 found.extend((alias.name, top) for alias in child.names)
             elif isinstance(child, ast.ImportFrom):
@@ -88,6 +97,69 @@ def imports(path: Path) -> list[tuple[str, bool]]:
 
     visit(tree, True)
     return found
+
+
+def import_graph(
+    root: Path, packages: tuple[str, ...], left_out: tuple[str, ...] = ()
+) -> dict[str, dict[str, bool]]:
+    """Each module of ``packages`` (folders under ``root``) -> the modules of the same packages
+    it imports, each with whether some import of it is at module level; imports inside a
+    function count, those of an ``if TYPE_CHECKING`` block do not (they never run).
+
+    An import names what it imports, as :func:`imports` reads it: ``import a.b`` and
+    ``from a.b import f`` the module ``a.b``; ``from a import b`` the package ``a`` (whose
+    namespace is asked for ``b``) and, where ``b`` is a module, the module ``a.b`` too. The
+    package ``a`` that Python initialises before loading ``a.b`` is not an edge of ``a.b``'s
+    importer: a package's ``__init__`` may import its own modules (it is their facade) while
+    they import each other by their full names.
+    """
+    skipped = tuple(root / folder for folder in left_out)
+    paths = {
+        _module_name(path, root): path
+        for package in packages
+        for path in sorted((root / package).rglob("*.py"))
+        if not any(path.is_relative_to(folder) for folder in skipped)
+    }
+    graph: dict[str, dict[str, bool]] = {}
+    for module, path in paths.items():
+        edges = graph.setdefault(module, {})
+        for name, top in imports(path, root, type_checking=False):
+            if name in paths and name != module:
+                edges[name] = edges.get(name, False) or top
+    return graph
+
+
+def import_circles(graph: dict[str, dict[str, bool]]) -> list[tuple[str, ...]]:
+    """The strongly connected components of ``graph`` with more than one module, each sorted:
+    the modules each of which imports, directly or through the others, every other one."""
+
+    def reachable(start: str) -> set[str]:
+        seen: set[str] = set()
+        todo = [start]
+        while todo:
+            for name in graph[todo.pop()]:
+                if name not in seen:
+                    seen.add(name)
+                    todo.append(name)
+        return seen
+
+    reach = {module: reachable(module) for module in graph}
+    components = {
+        tuple(sorted(other for other in reach[module] if module in reach[other]))
+        for module in graph
+        if module in reach[module]
+    }
+    return sorted(c for c in components if len(c) > 1)
+
+
+def _describe(circle: tuple[str, ...], graph: dict[str, dict[str, bool]]) -> str:
+    arrows = [
+        f"    {module} -> {name}" + ("" if top else " (in a function)")
+        for module in circle
+        for name, top in sorted(graph[module].items())
+        if name in circle
+    ]
+    return "\n".join([f"{len(circle)} modules: {', '.join(circle)}", *arrows])
 
 
 def _is(name: str, prefixes: tuple[str, ...]) -> bool:
@@ -180,3 +252,52 @@ def test_the_check_sees_a_forbidden_import(tmp_path: Path) -> None:
     assert ("moderngl", False) in names
     assert ("flask", False) in names
     assert any(name.endswith("models.Vote") for name, _ in names)
+
+
+def test_no_import_circles() -> None:
+    """No import circle between the modules of ``app`` and ``renderer``: each module can be
+    read, tested and moved after those it imports. An import inside a function counts (it only
+    puts the circle off until the first call); an ``if TYPE_CHECKING`` one does not.
+
+    How a package's ``__init__`` counts (:func:`import_graph`): its imports of its own modules
+    are edges like any others (they run when the package loads; leaving them out would hide
+    every circle through a package), and a package that re-exports its modules (a facade)
+    stands above them. Those modules import each other by their full names
+    (``from renderer.face import Face``, ``import renderer.defaults as defaults``): importing a
+    module is not an import of the packages above it, which Python initialises first. What a
+    module takes from a package is an edge to that package's ``__init__``: a name it defines
+    (``from app.stimuli.conditions import DISPLAY_NAMES``) or one of its modules asked of it
+    (``from renderer import defaults``). So a module that takes something from its own package,
+    which imports the module back, is a circle; what both need goes in a module named for what
+    it is (a blueprint's ``bp`` in its ``blueprint.py``)."""
+    graph = import_graph(REPO, GRAPHED, NOT_GRAPHED)
+    assert len(graph) > 200  # the globs still find the project
+    circles = import_circles(graph)
+    assert not circles, "import circles:\n" + "\n".join(_describe(c, graph) for c in circles)
+
+
+def test_the_check_sees_an_import_circle(tmp_path: Path) -> None:
+    """The check above can fail: a module that takes a name from its own package inside a
+    function, relatively, while the package imports it, is a circle; imports that only a type
+    checker reads, and a package importing the modules that import each other, are not."""
+    package = tmp_path / "pkg"
+    (package / "sub").mkdir(parents=True)
+    files = {
+        "__init__.py": "from typing import TYPE_CHECKING\nfrom pkg.shapes import Shape\n"
+        "NAMES = {}\nif TYPE_CHECKING:\n    from pkg.later import Later\n",
+        "shapes.py": "class Shape:\n    def name(self):\n        from . import NAMES\n",
+        "later.py": "from pkg import shapes\nfrom pkg.sub.leaf import LEAF\n",
+        "sub/__init__.py": "from pkg.sub.leaf import LEAF\n",
+        "sub/leaf.py": "import pkg.sub.other\nLEAF = 1\n",
+        "sub/other.py": "",
+    }
+    for name, text in files.items():
+        (package / name).write_text(text, encoding="utf-8")
+    graph = import_graph(tmp_path, ("pkg",))
+    assert graph["pkg.shapes"] == {"pkg": False}
+    assert graph["pkg.later"] == {"pkg": True, "pkg.shapes": True, "pkg.sub.leaf": True}
+    assert "pkg.later" not in graph["pkg"]
+    assert graph["pkg.sub.leaf"] == {"pkg.sub.other": True}
+    circles = import_circles(graph)
+    assert circles == [("pkg", "pkg.shapes")]
+    assert "pkg.shapes -> pkg (in a function)" in _describe(circles[0], graph)
