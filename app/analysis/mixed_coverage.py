@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from app.analysis.mixed_btd import MIN_VARIANCE, _Model, fit_mixed_btd
+from app.analysis.mixed_btd import fit_mixed_btd
+from app.analysis.mixed_btd_model import MIN_VARIANCE, MixedBTDModel
 
 
 @dataclass(frozen=True)
@@ -67,7 +68,7 @@ def fixed_wald(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
     t = np.array(t, dtype=float)
     n = t.shape[2]
     t[:, :, np.arange(n), np.arange(n)] = 0.0
-    model = _Model(t)
+    model = MixedBTDModel(t)
     var = np.full(2, MIN_VARIANCE)
     z, _, at, ok, _ = model.mode(var, np.zeros(model.m), np.zeros((model.P, n)), tol=1e-9)
     cov = at.s_inv[: model.nf, : model.nf]
