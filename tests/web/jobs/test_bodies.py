@@ -17,6 +17,7 @@ from app.web.infra.storage import media_dir
 from app.web.models import Job, Study, Track
 from app.web.study.studies import create_study
 from tests.conftest import create_test_user, write_tone_wav
+from tests.support.jobrows import add_job, job_row
 
 TOML = """
 title = "Named conditions"
@@ -102,20 +103,6 @@ def test_a_trackers_ground_truth_is_converted_and_its_gaps_reported(app, tmp_pat
     np.testing.assert_allclose(track[49], -(truth - neutral) / 1e-5, atol=60)
 
 
-def _job(app, study_id, **fields):
-    with app.app_context():
-        job = Job(study_id=study_id, kind="render", **fields)
-        db.session.add(job)
-        db.session.commit()
-        return job.id
-
-
-def _row(app, job_id):
-    with app.app_context():
-        job = db.session.get(Job, job_id)
-        return job.status, job.message
-
-
 def test_run_job_keeps_a_heartbeat(app, web, monkeypatch):
     from app.web.jobs import bodies
 
@@ -128,7 +115,7 @@ def test_run_job_keeps_a_heartbeat(app, web, monkeypatch):
         return "ok"
 
     monkeypatch.setitem(bodies.TASKS, "render", slow)
-    job_id = _job(app, web.study(video=False))
+    job_id = add_job(app, web.study(video=False))
     with app.app_context():
         assert bodies.run_job(job_id) == "done"
     assert beats[0] is not None and all(b is not None for b in beats)
@@ -171,11 +158,11 @@ def test_a_clip_longer_than_the_stale_timeout_keeps_its_job_alive(app, web, monk
 
     monkeypatch.setattr(renderer, "render_pair", slow_clip)
     monkeypatch.setattr("app.stimuli.io.load_track", lambda path: None)
-    job_id = _job(app, study_id)
+    job_id = add_job(app, study_id)
     with app.app_context():
         assert bodies.run_job(job_id) == "done"
     assert swept and not any(swept)
-    assert _row(app, job_id)[0] == "done"
+    assert job_row(app, job_id)[0] == "done"
 
 
 def test_a_progress_report_the_database_cannot_take_is_skipped(app, web, monkeypatch):
@@ -191,7 +178,7 @@ def test_a_progress_report_the_database_cannot_take_is_skipped(app, web, monkeyp
         raise OperationalError("UPDATE job", {}, Exception("connection refused"))
         yield  # pragma: no cover
 
-    job_id = _job(app, web.study(video=False), status="running")
+    job_id = add_job(app, web.study(video=False), status="running")
     with app.app_context():
         report = bodies._progress(job_id, min_interval=0.0)
         monkeypatch.setattr(bodies, "transaction", away)

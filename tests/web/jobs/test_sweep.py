@@ -3,27 +3,13 @@ the reason, on the study page and in the job status it polls."""
 
 import datetime as dt
 
-from app.web.extensions import db
-from app.web.models import Job, utcnow
-
-
-def _job(app, study_id, **fields):
-    with app.app_context():
-        job = Job(study_id=study_id, kind="render", **fields)
-        db.session.add(job)
-        db.session.commit()
-        return job.id
-
-
-def _row(app, job_id):
-    with app.app_context():
-        job = db.session.get(Job, job_id)
-        return job.status, job.message
+from app.web.models import utcnow
+from tests.support.jobrows import add_job, job_row
 
 
 def test_running_job_without_a_sign_of_life_is_swept(app, client, web):
     study_id = web.study(video=False)
-    silent = _job(
+    silent = add_job(
         app,
         study_id,
         status="running",
@@ -31,14 +17,14 @@ def test_running_job_without_a_sign_of_life_is_swept(app, client, web):
         total=16,
         heartbeat_at=utcnow() - dt.timedelta(hours=1),
     )
-    alive = _job(app, study_id, status="running", done=1, total=16, heartbeat_at=utcnow())
-    queued = _job(app, study_id)
+    alive = add_job(app, study_id, status="running", done=1, total=16, heartbeat_at=utcnow())
+    queued = add_job(app, study_id)
     web.login(client)
     page = client.get(f"/experimenter/studies/{study_id}").get_data(as_text=True)
-    status, message = _row(app, silent)
+    status, message = job_row(app, silent)
     assert status == "failed" and message.startswith("no sign of life for over 900 s")
     assert message in page and f"/jobs/{silent}/retry" in page
-    assert _row(app, alive)[0] == "running" and _row(app, queued)[0] == "queued"
+    assert job_row(app, alive)[0] == "running" and job_row(app, queued)[0] == "queued"
     # The progress API the page polls sweeps too.
     app.config["JOB_STALE_AFTER_SECONDS"] = 0
     assert client.get(f"/api/v1/jobs/{alive}").json["status"] == "failed"
@@ -47,10 +33,10 @@ def test_running_job_without_a_sign_of_life_is_swept(app, client, web):
 def test_job_the_queue_lost_is_swept(app, client, web, redis_url):
     app.config["REDIS_URL"] = redis_url
     study_id = web.study(video=False)
-    lost = _job(app, study_id, status="running", heartbeat_at=utcnow())
+    lost = add_job(app, study_id, status="running", heartbeat_at=utcnow())
     web.login(client)
     client.get(f"/experimenter/studies/{study_id}")
-    status, message = _row(app, lost)
+    status, message = job_row(app, lost)
     assert status == "failed" and message.startswith("the job queue lost it")
 
 
@@ -69,7 +55,7 @@ def test_a_job_rq_reports_failed_is_swept_with_its_error(app, client, web, redis
 
     app.config["REDIS_URL"] = redis_url
     study_id = web.study(video=False)
-    job_id = _job(app, study_id, status="running", heartbeat_at=utcnow())
+    job_id = add_job(app, study_id, status="running", heartbeat_at=utcnow())
     connection = Redis.from_url(redis_url)
     # this process's own database: jobs other tests queued and left would run in the burst
     # below (renders of studies long gone: a minute)
@@ -80,7 +66,7 @@ def test_a_job_rq_reports_failed_is_swept_with_its_error(app, client, web, redis
     connection.close()
     web.login(client)
     client.get(f"/experimenter/studies/{study_id}")
-    status, message = _row(app, job_id)
+    status, message = job_row(app, job_id)
     assert status == "failed"
     assert message == (
         "the job queue reports it failed (ValueError: invalid literal for int() "
