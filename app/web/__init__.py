@@ -2,13 +2,19 @@
 
 - ``extensions`` (unbound, initialised here), ``models`` (the typed SQLAlchemy models) and
   ``hooks`` (database pragmas, the idle-connection ping, the error pages);
-- the blueprints ``participant``, ``experimenter``, ``questionnaire`` and ``api``: they call
-  the services and never each other;
-- ``study``: the services (studies, enrolment, votes, participants, exports, privacy,
-  questionnaires, monitor, recruitment, media logs), with no request objects;
-- ``infra``: limits, security, storage and media delivery;
-- ``jobs``: background jobs (the render job is the only importer of the renderer);
-- ``templates``, ``static`` and ``migrations``.
+- the blueprints ``participant``, ``experimenter``, ``questionnaire``, ``api`` and
+  ``leaderboard`` (each ``bp`` in its ``blueprint`` module): they call the services and never
+  each other;
+- ``study``: the services (studies, enrolment, votes, ratings, plays, participants, exports,
+  privacy, questionnaires, monitor, recruitment, media logs, ...), with no request objects;
+- ``infra``: accounts, passwords, limits, security, storage and media delivery;
+- ``jobs``: background jobs (their bodies, the queue's names, the sweeper); the entry points a
+  runner starts by dotted name (``jobs.tasks``, ``jobs.clips``) are never imported here, and
+  the renderer is imported only inside functions (a render, a WebM rendition, a new study's
+  face);
+- ``prolific`` (recruitment through Prolific's API) and ``board`` (the leaderboard's seasons);
+- ``standalone``: the application of a process that answers no request;
+- ``templates``, ``static``, ``migrations`` and ``translations``.
 """
 
 from __future__ import annotations
