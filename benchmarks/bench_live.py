@@ -44,7 +44,7 @@ def main() -> None:
         os.sched_setaffinity(0, {args.core})
 
     from app.stimuli.live.condition import DEFAULT_MODEL_PATH
-    from app.stimuli.live.model import load_model
+    from app.stimuli.live.modelfile import load_model
     from app.stimuli.live.stream import LiveGenerator
     from app.stimuli.speech import extract_features, load_audio
 

@@ -145,7 +145,7 @@ def live_jitter_table(repeat: int = 30, seeds: int = 3) -> str:
     the reference speaker (seed 123): sd and the share of variance above 4 Hz per channel."""
     from app.stimuli.live.condition import DEFAULT_MODEL_PATH
     from app.stimuli.live.evaluation import CHANNELS, high_frequency_fraction, motion_channels
-    from app.stimuli.live.model import load_model
+    from app.stimuli.live.modelfile import load_model
     from app.stimuli.live.stream import generate_track
     from app.stimuli.reference_speaker import synthesize_reference
     from app.stimuli.speech import SpeechFeatures, extract_features

@@ -505,7 +505,9 @@ def train_live(
 
     from app.errors import InputError
     from app.stimuli.io import load_track
-    from app.stimuli.live.model import save_model, train_live_model
+    from app.stimuli.live.model import train_live_model
+    from app.stimuli.live.modelfile import save_model
+    from app.stimuli.reference_speaker import synthesize_reference
     from app.stimuli.speech import SpeechFeatures, extract_features
 
     if reference and ground_truth:
@@ -536,8 +538,6 @@ def train_live(
                 )
             feats.append(f)
             if reference:
-                from app.stimuli.reference_speaker import synthesize_reference
-
                 truths.append(
                     synthesize_reference(f, seed=reference_seed + i, version=int(reference_version))
                 )

@@ -8,21 +8,9 @@ Format (``docs/reference/stimuli.md``, "The .fap format"; ISO/IEC 14496-2 for th
     <frame index> <the values of the masked positions, in mask order>
     ...                                           (a mask line and a value line per frame)
 
-The mask's length says the dialect, and the dialect says how to count values:
-
-========================  ================================  ====================================
-mask position             Xface / MPEG-4, 68 values         Greta, 69 values
-========================  ================================  ====================================
-1                         FAP 1 viseme: 4 values            FAP 1 viseme: 1 value
-2                         FAP 2 expression: 6 values        FAP 2 expression: 1 value
-3 .. 68                   FAP 3 .. 68: 1 value each         FAP 3 .. 68: 1 value each
-69                        (none)                            an extra entry, not a FAP: 1 value
-========================  ================================  ====================================
-
-Greta's FAP list has a null entry before FAP 1, which its writer skips, and one entry after
-FAP 68, which it writes; so position i is FAP i in both dialects. The MPEG-4 widths of FAP 1
-(select1, select2, blend, def) and FAP 2 (select1, intensity1, select2, intensity2, init_face,
-def) hold in Xface's reader, while Greta writes one integer for every masked position.
+The mask's length says the dialect, and the dialect says how to count values: Xface/MPEG-4's
+68 positions give FAP 1 four values and FAP 2 six, Greta's 69 one value each
+(:mod:`app.stimuli.fapdialects` has the table).
 
 Reading rules, chosen so that a file never yields a silently wrong track:
 
@@ -36,8 +24,9 @@ Reading rules, chosen so that a file never yields a silently wrong track:
   the same dialect keeps them. Greta's extra entry is read past. Values are integers in the
   32-bit range.
 * Files that facepair wrote in Greta style before this layout was known (first comment line
-  exactly :data:`_WRITER_LINE`, 69-value masks) put a null FAP 0 first and FAP i at position
-  i + 1, with the MPEG-4 widths; they are read that way, so they read back unchanged.
+  exactly :data:`~app.stimuli.fapdialects.WRITER_LINE`, 69-value masks) put a null FAP 0 first
+  and FAP i at position i + 1, with the MPEG-4 widths; they are read that way, so they read
+  back unchanged.
 * Frames are placed by their index. Indices must increase. Frames missing from the sequence,
   and a channel masked off in some frames, are linearly interpolated from its neighbours;
   frames before the first index hold the first frame. A file whose last index is below the
@@ -62,82 +51,31 @@ Example
 from __future__ import annotations
 
 import io
-from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 from typing import IO
 
 import numpy as np
 
 from app.errors import InputError
-from app.stimuli.fap import FAPS, N_FAPS
+from app.stimuli.fap import FAPS
+from app.stimuli.fapdialects import (
+    GRETA,
+    GRETA_WRITER_LINE,
+    HIGH_LEVEL_WIDTH,
+    WRITER_LINE,
+    XFACE,
+    Dialect,
+    count_error,
+    dialect_of,
+    mask_layout,
+)
 from app.stimuli.track import MotionTrack
 
-#: Values a frame carries for the high-level FAPs in MPEG-4 and Xface (viseme: select1,
-#: select2, blend, def; expression: select1, intensity1, select2, intensity2, init_face, def).
-_HIGH_LEVEL_WIDTH = {1: 4, 2: 6}
 #: Largest frame count a header may give: over 2 hours at 120 Hz; a bound on memory.
 MAX_FRAMES = 1_000_000
 #: FAP values are 32-bit integers in both players.
 _INT32 = 2**31 - 1
 _META_KEYS = ("source", "speaker")
-#: First line of every file facepair writes; alone, it also marks the early Greta-style files.
-_WRITER_LINE = "MPEG-4 FAP stream written by facepair"
-_GRETA_WRITER_LINE = _WRITER_LINE + " in Greta's layout: FAP 1..68, then one extra entry"
-
-
-@dataclass(frozen=True)
-class _Dialect:
-    """How one dialect lays out a mask: the FAP at each position (0: none) and value widths."""
-
-    name: str
-    faps: tuple[int, ...]
-    high_level_widths: bool  # True: MPEG-4's 4 and 6 values for FAP 1 and 2
-
-    def width(self, fap: int) -> int:
-        return _HIGH_LEVEL_WIDTH.get(fap, 1) if self.high_level_widths else 1
-
-
-_XFACE = _Dialect(
-    "68-value mask: Xface/MPEG-4, 4 values for FAP 1, 6 for FAP 2",
-    tuple(range(1, N_FAPS + 1)),
-    True,
-)
-_GRETA = _Dialect(
-    "69-value mask: Greta, one value per masked position", (*range(1, N_FAPS + 1), 0), False
-)
-_EARLY_FACEPAIR_GRETA = _Dialect(
-    "69-value mask of an early facepair file: null FAP 0, then FAP 1..68, MPEG-4 widths",
-    (0, *range(1, N_FAPS + 1)),
-    True,
-)
-
-
-@lru_cache(maxsize=256)
-def _layout(
-    dialect: _Dialect, bits: tuple[int, ...]
-) -> tuple[np.ndarray, np.ndarray, int, tuple[tuple[int, int, int], ...]]:
-    """For a mask: the kept FAP columns (0-based), their places on the value line, the width,
-    and (FAP, place, width) of the masked high-level FAPs 1 and 2.
-
-    Places count from 1 (place 0 is the frame index). Columns are the low-level FAPs 3..68.
-    """
-    columns, places, high, place = [], [], [], 1
-    for fap, bit in zip(dialect.faps, bits, strict=True):
-        if not bit:
-            continue
-        if fap in _HIGH_LEVEL_WIDTH:
-            high.append((fap, place, dialect.width(fap)))
-        elif fap:
-            columns.append(fap - 1)
-            places.append(place)
-        place += dialect.width(fap)
-    return (
-        np.array(columns, dtype=np.intp),
-        np.array(places, dtype=np.intp),
-        place - 1,
-        tuple(high),
-    )
 
 
 def _lines(f: IO[str]):
@@ -213,36 +151,6 @@ def _header(text: str, path: str, line: int) -> tuple[str, float, int]:
     return " ".join(tokens[1:-2]), fps, n_frames
 
 
-def _dialect_of(mask: list[int], early_facepair: bool, path: str, line: int) -> _Dialect:
-    if len(mask) == N_FAPS:
-        return _XFACE
-    if len(mask) == N_FAPS + 1:
-        return _EARLY_FACEPAIR_GRETA if early_facepair else _GRETA
-    raise InputError(
-        f"mask line: expected 68 (Xface) or 69 (Greta) values of 0/1, got {len(mask)}",
-        path=path,
-        line=line,
-    )
-
-
-def _count_error(
-    dialect: _Dialect, bits: tuple[int, ...], got: int, path: str, line: int
-) -> InputError:
-    """The one line for a value line of the wrong length: what each dialect expects."""
-    masked = [fap for fap, bit in zip(dialect.faps, bits, strict=True) if bit]
-    if dialect.high_level_widths:
-        other = f"Greta, one value each, would expect {len(masked)}"
-    else:
-        mpeg4 = sum(_HIGH_LEVEL_WIDTH.get(fap, 1) for fap in masked)
-        other = f"Xface/MPEG-4, 4 for FAP 1 and 6 for FAP 2, would expect {mpeg4}"
-    return InputError(
-        f"value line: expected the frame index and {_layout(dialect, bits)[2]} values for the "
-        f"{len(masked)} masked positions ({dialect.name}; {other}), got {got} numbers",
-        path=path,
-        line=line,
-    )
-
-
 def _parse(f: IO[str], path: str) -> MotionTrack:
     meta: dict[str, str] = {}
     lines = []
@@ -269,7 +177,7 @@ def _parse(f: IO[str], path: str) -> MotionTrack:
             path=path,
             line=body[-1][0],
         )
-    dialect: _Dialect | None = None
+    dialect: Dialect | None = None
     frames: list[tuple[int, np.ndarray, np.ndarray]] = []
     high_level: dict[str, list[list[int]]] = {}
     last_index = -1
@@ -278,7 +186,7 @@ def _parse(f: IO[str], path: str) -> MotionTrack:
         value_no, value_text = body[k + 1]
         mask = _ints(mask_text.split(), path, mask_no, "mask line")
         if dialect is None:
-            dialect = _dialect_of(mask, first_comment == _WRITER_LINE, path, mask_no)
+            dialect = dialect_of(mask, first_comment == WRITER_LINE, path, mask_no)
         elif len(mask) != len(dialect.faps):
             raise InputError(
                 f"mask line: {len(mask)} values after {len(dialect.faps)}-value masks; "
@@ -289,10 +197,10 @@ def _parse(f: IO[str], path: str) -> MotionTrack:
         if any(m not in (0, 1) for m in mask):
             raise InputError("mask line: expected only 0 and 1", path=path, line=mask_no)
         bits = tuple(mask)
-        columns, places, width, high = _layout(dialect, bits)
+        columns, places, width, high = mask_layout(dialect, bits)
         vals = _ints(value_text.split(), path, value_no, "value line")
         if len(vals) != width + 1:
-            raise _count_error(dialect, bits, len(vals), path, value_no)
+            raise count_error(dialect, bits, len(vals), path, value_no)
         index = vals[0]
         if index < 0 or index <= last_index:
             after = f" after {last_index}" if last_index >= 0 else ""
@@ -328,7 +236,7 @@ def _parse(f: IO[str], path: str) -> MotionTrack:
     metadata = {}
     if high_level and dialect is not None:
         metadata["high_level"] = {
-            "widths": {str(f): dialect.width(f) for f in _HIGH_LEVEL_WIDTH},
+            "widths": {str(f): dialect.width(f) for f in HIGH_LEVEL_WIDTH},
             "fps": fps,
             "n_frames": n_frames,
             "frames": high_level,
@@ -362,7 +270,7 @@ def high_level_note(track: MotionTrack) -> str | None:
 
 
 def _high_level_rows(
-    track: MotionTrack, dialect: _Dialect
+    track: MotionTrack, dialect: Dialect
 ) -> tuple[dict[int, dict[int, list[int]]], str | None]:
     """FAP -> frame -> values of the high-level FAPs to write, or why they cannot be."""
     high = track.metadata.get("high_level")
@@ -418,7 +326,7 @@ def write_fap(
     :func:`read_fap` reads back. A track holding FAP 1 or 2 (high-level, not motion; the reader
     reads past them) or a value beyond the 32-bit range is refused with an :class:`InputError`.
     """
-    high = [c for c in track.channels if c in _HIGH_LEVEL_WIDTH]
+    high = [c for c in track.channels if c in HIGH_LEVEL_WIDTH]
     if high:
         raise InputError(
             f"FAP {high[0]} ({FAPS[high[0]].name}) is a high-level parameter, not motion: "
@@ -432,7 +340,7 @@ def write_fap(
         )
     ints = ints.astype(np.int64)
     out = io.StringIO()
-    out.write(f"# {_GRETA_WRITER_LINE if greta else _WRITER_LINE}\n")
+    out.write(f"# {GRETA_WRITER_LINE if greta else WRITER_LINE}\n")
     for key in _META_KEYS:
         value = " ".join(str(getattr(track, key)).split())
         if value:
@@ -440,7 +348,7 @@ def write_fap(
     fps = int(track.fps) if float(track.fps).is_integer() else repr(track.fps)
     name = " ".join(track.name.split()) or "facepair"
     out.write(f"2.1 {name} {fps} {track.n_frames}\n")
-    dialect = _GRETA if greta else _XFACE
+    dialect = GRETA if greta else XFACE
     kept, left_out = _high_level_rows(track, dialect)
     if left_out:
         out.write(f"# {left_out}\n")

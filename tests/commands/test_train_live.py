@@ -5,7 +5,7 @@ from __future__ import annotations
 from click.testing import CliRunner
 
 from app.cli import main
-from app.stimuli.live.model import load_model
+from app.stimuli.live.modelfile import load_model
 
 
 def test_train_live_on_the_demo_ground_truth(repo_root, tmp_path):

@@ -5,16 +5,12 @@ BlendShapeCount,`` then the 52 ARKit blendshapes in the app's order (:data:`BLEN
 ``EyeBlinkLeft`` ... ``TongueOut``, coefficients 0-1) and 9 rotations ``HeadYaw, HeadPitch,
 HeadRoll, LeftEyeYaw, LeftEyePitch, LeftEyeRoll, RightEyeYaw, RightEyePitch, RightEyeRoll``
 (radians, the values the app also streams); ``BlendShapeCount`` is 61. ``Timecode`` is
-``HH:MM:SS:FF.sss``: frame ``FF`` of the app's frame rate (60 by default, 30 on request).
-What the digits after the point hold differs between writers: a sub-frame fraction in the
-app's takes (so a frame stored a hair early reads ``44.999``, the next ``46.000``), a running
-counter (``01.001``, ``02.002``) in files written by speech-driven tools in this layout
-(NeuroSync), nothing at all in others (OpenFaceFX's ``hello.arkit.csv``). :func:`frame_times`
-reads the times both ways, with and without the fraction, and keeps the one whose steps are
-whole frames. Columns are found by name, case-insensitively, so files from other ARKit
-recorders with the same names read too. Columns that hold one value in every frame are
-reported; FAPs whose columns are all 0 (a take recorded with head rotation off) are left out
-with a warning rather than imported as a still head (:meth:`FapMapping.constant`).
+``HH:MM:SS:FF.sss``: frame ``FF`` of the app's frame rate (60 by default, 30 on request),
+read by :mod:`app.stimuli.capture.timecode`. Columns are found by name, case-insensitively,
+so files from other ARKit recorders with the same names read too. Columns that hold one value
+in every frame are reported; FAPs whose columns are all 0 (a take recorded with head rotation
+off) are left out with a warning rather than imported as a still head
+(:meth:`FapMapping.constant`).
 
 The mapping is :func:`arkit_mapping`; docs/reference/capture.md tabulates it with the source of each
 sign: ARKit's face frame is x to the face's left, y up, z out of the face, so FAP 48-50 =
@@ -35,7 +31,6 @@ it cannot carry, are dropped), so facepair's tracks play on ARKit rigs and MetaH
 from __future__ import annotations
 
 import csv
-import re
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -44,6 +39,7 @@ import numpy as np
 from app.errors import InputError
 from app.stimuli.capture.csvfile import read_numeric_csv
 from app.stimuli.capture.mapping import IRISD_CLOSED, LID_SHARE, FapMapping, columns_to_track
+from app.stimuli.capture.timecode import TIMECODE, frame_times, timecode_problem
 from app.stimuli.capture.timeline import MAX_GAP_S
 from app.stimuli.fap import AU_RADIANS
 from app.stimuli.track import MotionTrack
@@ -128,7 +124,6 @@ BROW_SHAPES = (
 BROW_NEUTRALS = ("median", "none")
 #: A brow rest this far from ARKit's 0 (of 1) is said in the import summary.
 BROW_REST_SAID = 0.02
-_TIMECODE = re.compile(r"^(\d+):(\d{1,2}):(\d{1,2}):(\d{1,3})(?:\.(\d+))?$")
 
 
 def arkit_mapping(brow: float = BROW, jaw: float = JAW, flip: Iterable[str] = ()) -> FapMapping:
@@ -176,70 +171,6 @@ def is_arkit(header: list[str]) -> bool:
     return [h.lower() for h in header[:2]] == ["timecode", "blendshapecount"]
 
 
-def parse_timecode(text: str, app_fps: float) -> float:
-    """``HH:MM:SS:FF.sss`` -> seconds of frame ``FF`` of ``app_fps``.
-
-    The digits after the point are not used: exports of different app versions fill them
-    differently (``01.001``, ``02.002`` ... in some, sub-frame fractions in others), and a frame
-    is placed by its number alone.
-
-    >>> parse_timecode("00:00:01:30.507", 60.0)
-    1.5
-    """
-    m = _TIMECODE.match(text.strip())
-    if not m:
-        raise ValueError(f"expected a timecode HH:MM:SS:FF(.sss), got {text[:40]!r}")
-    h, mi, s, ff = (int(g) for g in m.groups()[:4])
-    return h * 3600 + mi * 60 + s + ff / app_fps
-
-
-def _irregular_steps(times: np.ndarray, app_fps: float) -> tuple[int, int]:
-    """How many steps between stamps are not a whole number of frames (or are 0), and how
-    many skip a frame (two or more frames long)."""
-    steps = np.diff(times) * app_fps
-    positive = steps[steps > 1e-9]
-    if not len(positive):
-        return len(steps), 0
-    unit = float(np.median(positive))
-    ratio = steps / unit
-    irregular = (np.abs(ratio - np.round(ratio)) > 0.25) | (np.round(ratio) < 1)
-    return int(irregular.sum()), int(np.sum(~irregular & (np.round(ratio) >= 2)))
-
-
-def _subframe(text: str) -> float:
-    """The digits after a timecode's point as a fraction (0 without them)."""
-    m = _TIMECODE.match(text.strip())
-    return float("0." + m.group(5)) if m and m.group(5) else 0.0
-
-
-def frame_times(stamps: list[str], app_fps: float) -> tuple[np.ndarray, bool]:
-    """Seconds of each timecode, and whether the digits after the point were used.
-
-    Both readings are tried: frame numbers alone (:func:`parse_timecode`) and frame numbers
-    plus the digits after the point as a fraction of a frame. The reading with fewer steps
-    that are not whole frames wins, then the one that skips fewer frames (a frame stored a
-    hair early, ``44.999`` before ``46.000``, is one frame from it, not two); a tie keeps the
-    frame numbers alone (a running counter, ``01.001``, ``02.002``, is no fraction).
-
-    >>> stamps = ["00:00:00:43.000", "00:00:00:44.000", "00:00:00:44.999", "00:00:00:46.000"]
-    >>> times, fraction = frame_times(stamps, 60.0)
-    >>> (np.diff(times) * 60).round(3).tolist(), fraction
-    ([1.0, 0.999, 1.001], True)
-    >>> times, fraction = frame_times(["00:00:00:42.999", "00:00:00:43.999", "00:00:00:44.999",
-    ...                                "00:00:00:46.000"], 60.0)
-    >>> (np.diff(times) * 60).round(3).tolist(), fraction
-    ([1.0, 1.0, 1.001], True)
-    """
-    whole = np.array([parse_timecode(s, app_fps) for s in stamps])
-    frac = np.array([_subframe(s) for s in stamps])
-    fine = whole + frac / app_fps
-    if not frac.any() or len(whole) < 2:
-        return whole, False
-    if _irregular_steps(fine, app_fps) < _irregular_steps(whole, app_fps):
-        return fine, True
-    return whole, False
-
-
 def read_arkit_csv(
     path: str | Path,
     fps: float = 30.0,
@@ -264,13 +195,13 @@ def read_arkit_csv(
         )
     p = Path(path)
     table = read_numeric_csv(
-        p, check_header=_header_problem, text_columns={"Timecode": _timecode_problem}
+        p, check_header=_header_problem, text_columns={"Timecode": timecode_problem}
     )
     header, data, rows = table.header, table.values, table.lines
     stamps = table.text[header[0]]
     names = {h.lower(): i for i, h in enumerate(header)}
     if app_fps is None:
-        top = max(int(_TIMECODE.match(s).group(4)) for s in stamps)  # type: ignore[union-attr]
+        top = max(int(TIMECODE.match(s).group(4)) for s in stamps)  # type: ignore[union-attr]
         app_fps = next((r for r in APP_RATES if r > top), 60.0)
     times, fraction = frame_times(stamps, app_fps)
 
@@ -315,10 +246,6 @@ def read_arkit_csv(
             "them as recorded"
         )
     return track
-
-
-def _timecode_problem(text: str) -> str | None:
-    return None if _TIMECODE.match(text) else f"expected HH:MM:SS:FF(.sss), got {text[:40]!r}"
 
 
 def _header_problem(header: list[str]) -> str | None:

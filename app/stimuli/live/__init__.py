@@ -5,7 +5,8 @@
 - :mod:`.gaze`: NDCCA gaze (sec. 6, eq. 8-15).
 - :mod:`.eyelids`: gaze-evoked lids by NNLS and log-normal blinks (sec. 7, eq. 16-19).
 - :mod:`.inputs`, :mod:`.audio`: the speech input, from features or a stream of audio blocks.
-- :mod:`.model`: training and the model file; :mod:`.stream`: the per-frame generator.
+- :mod:`.model`: the model and its training; :mod:`.modelfile`: its ``.npz`` file;
+  :mod:`.stream`: the per-frame generator.
 - :mod:`.condition`: the ``live_gmm`` prosody condition.
 
 The submodules are imported on use, so importing this package stays cheap.

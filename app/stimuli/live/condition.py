@@ -90,7 +90,7 @@ class LiveGmmCondition(ConditionModel):
 
     def _loaded(self) -> LiveModel:
         if self.model is None:
-            from app.stimuli.live.model import load_model
+            from app.stimuli.live.modelfile import load_model
 
             path = self.model_path or DEFAULT_MODEL_PATH
             if not path.exists():

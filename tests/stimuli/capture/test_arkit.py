@@ -10,7 +10,6 @@ from app.stimuli.capture import sniff_csv
 from app.stimuli.capture.arkit import (
     HEADER,
     arkit_mapping,
-    parse_timecode,
     read_arkit_csv,
     write_arkit_csv,
 )
@@ -36,12 +35,6 @@ def take(n=240, app_fps=60):
         "EyeBlinkRight": np.where((t % 2) > 1.8, 1.0, 0.0),
         "JawOpen": np.full(n, 0.25),
     }
-
-
-def test_timecodes():
-    assert parse_timecode("14:03:52:28.207", 60) == pytest.approx(14 * 3600 + 3 * 60 + 52 + 28 / 60)
-    with pytest.raises(ValueError, match="expected a timecode"):
-        parse_timecode("14:03:52", 60)
 
 
 def test_a_live_link_take_maps_to_faps(tmp_path):

@@ -9,7 +9,7 @@ import pytest
 from app.errors import InputError
 from app.stimuli.conditions import DISPLAY_NAMES, make_condition
 from app.stimuli.live.condition import DEFAULT_MODEL_PATH, LiveGmmCondition
-from app.stimuli.live.model import save_model
+from app.stimuli.live.modelfile import save_model
 from app.stimuli.live.stream import generate_track
 from app.stimuli.reference_speaker import synthesize_reference
 

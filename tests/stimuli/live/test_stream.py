@@ -13,7 +13,7 @@ from scipy import stats
 
 from app.stimuli.live.condition import DEFAULT_MODEL_PATH
 from app.stimuli.live.eyelids import BLINK_SHAPE, blink_onsets, closure_from_faps
-from app.stimuli.live.model import load_model
+from app.stimuli.live.modelfile import load_model
 from app.stimuli.live.stream import OUTPUT_CHANNELS, LiveGenerator, generate_track
 from app.stimuli.speech import SpeechFeatures
 
