@@ -54,6 +54,7 @@ from scipy import stats
 from app.analysis.btd import BOUND, JOD_PER_LOG_WORTH, fit_btd
 from app.analysis.json_values import json_number
 from app.analysis.mixed_btd_model import MIN_VARIANCE, MixedBTDModel
+from app.analysis.mixed_btd_variances import SchallUpdates, settle
 from app.analysis.scaling import canonical_participant_order
 
 
@@ -84,11 +85,6 @@ ESTIMATOR = "penalised quasi-likelihood, REML variances (Schall's update); Wald 
 #: The most variance updates a fit spends: a few dozen settle every study simulated
 #: (benchmarks/bench_analysis.py), one stuck near a bound stops here and says so.
 MAX_UPDATES = 300
-START_VARIANCES = (0.25, 0.25)  # participant, clip: sd 0.5 log-worth units
-CRAWL_VARIANCE = 0.01  # sd 0.1
-NEGLIGIBLE_VARIANCE = 4e-4  # sd 0.02 log-worth units (0.018 JOD): taken as absent
-LOG_MAX_VARIANCE = 3.0  # sd 4.48 log-worth units (4.1 JOD): the fit's bound on a variance
-MAX_VARIANCE = float(np.exp(LOG_MAX_VARIANCE))
 
 
 def fit_mixed_btd(
@@ -123,7 +119,9 @@ def _fit(
     tol: float,
     progress: Callable[[int, int], None] | None,
 ) -> MixedBTDFit:
-    """:func:`fit_mixed_btd` itself."""
+    """:func:`fit_mixed_btd` itself: the variances by
+    :func:`app.analysis.mixed_btd_variances.settle`, then the mode at them and the estimates
+    (:func:`_estimates`)."""
     P, K, n = t.shape[:3]
     t[:, :, np.arange(n), np.arange(n)] = 0.0  # same-condition pairs carry no preference
     # Participants in an order of their counts, not of their names: the same votes then give
@@ -142,85 +140,15 @@ def _fit(
     if votes == 0 or n < 2:
         return failed("no votes on pairs of different conditions")
     model = MixedBTDModel(t)
-    state: dict[str, Any] = {
-        "z": np.zeros(model.m),
-        "b": np.zeros((P, n)),
-        "t": None,
-        "ok": True,
-        "updates": 0,
-    }
-
-    def schall(log_var: np.ndarray) -> np.ndarray:
-        """One variance update in log variances, from the mode at ``exp(log_var)``."""
-        var = np.exp(log_var)
-        z, b, at, ok, t = model.mode(var, state["z"], state["b"], state["t"], one_step=True)
-        state.update(z=z, b=b, t=t, ok=state["ok"] and ok, updates=state["updates"] + 1)
-        if progress is not None:
-            progress(min(state["updates"], max_updates), max_updates)
-        update = model.variance_update(z, b, at, var)
-        new = np.where(np.isnan(update), var, update)
-        new = np.where(new < NEGLIGIBLE_VARIANCE, MIN_VARIANCE, new)  # EM crawls near 0
-        return np.log(new)
-
-    # SQUAREM (Varadhan & Roland 2008, Scand. J. Stat. 35, 335-353, scheme S3): two updates
-    # and an extrapolation along them per cycle; the fixed point is Schall's.
-    log_var = np.log(np.array(START_VARIANCES))
-    settled, probed, left = False, np.zeros(2, dtype=bool), np.inf
-    while state["updates"] + 3 <= max_updates:
-        one = schall(log_var)
-        two = schall(one)
-        r, v = one - log_var, two - 2.0 * one + log_var
-        left = _distance_left(r, two - one)
-        if left < tol:
-            log_var, settled = two, True
-            break
-        # a step length per variance: the two settle at their own pace, and the jitter of a
-        # settled one must not hold back the extrapolation of one still crawling
-        alpha = np.minimum(-1.0, -np.abs(r) / np.maximum(np.abs(v), 1e-12))
-        jump = log_var - 2.0 * alpha * r + alpha**2 * v
-        # at most a factor e**1.5 beyond the plain updates, and not below NEGLIGIBLE_VARIANCE:
-        # the update there, not the jump, decides on 0
-        jump = np.clip(
-            two + np.clip(jump - two, -1.5, 1.5), np.log(NEGLIGIBLE_VARIANCE), LOG_MAX_VARIANCE
-        )
-        bounded = jump >= LOG_MAX_VARIANCE
-        # a small variance still falling at nearly the same pace is EM's crawl towards 0:
-        # try NEGLIGIBLE_VARIANCE at once (its update says whether 0 is the answer)
-        crawl = (r < 0) & (two - one < 0.5 * r) & (two < np.log(CRAWL_VARIANCE)) & ~probed
-        jump = np.where(crawl, np.log(NEGLIGIBLE_VARIANCE), jump)
-        jump = np.where(two <= np.log(MIN_VARIANCE) + 1e-9, two, jump)  # absent stays so
-        saved = {key: state[key] for key in ("z", "b", "t", "ok")}
-        from_jump = True
-        try:
-            new = schall(jump)
-        except np.linalg.LinAlgError:
-            state["ok"] = False
-        if not state["ok"]:  # the extrapolation went too far: keep the plain updates
-            state.update(saved)
-            new, from_jump = schall(two), False
-        if not state["ok"]:
-            break
-        probed |= crawl & (new > np.log(NEGLIGIBLE_VARIANCE))  # 0 is not the answer: no more
-        # The update from the bound itself still points beyond it: the fixed point lies outside
-        # the bound (the jump is clipped there, so more cycles would only circle it; 200 of
-        # them took 0.3-0.4 s and ended as not converged anyway).
-        outward = bounded & (new > LOG_MAX_VARIANCE) & from_jump
-        if outward.any():
-            which = " and ".join(
-                name for name, out in zip(("participant", "clip"), outward, strict=True) if out
-            )
-            return failed(
-                f"the fit did not converge (the {which} SD"
-                + (" grows" if outward.sum() == 1 else "s grow")
-                + f" beyond the fit's bound of {np.sqrt(MAX_VARIANCE):.1f} log-worth units)",
-                int(state["updates"]),
-            )
-        log_var = new
+    updates = SchallUpdates(model, np.zeros(model.m), np.zeros((P, n)), max_updates, progress)
+    log_var, settled, left, beyond = settle(updates, tol)
+    if beyond is not None:
+        return failed(beyond, int(updates.count))
     var = np.exp(log_var)
-    iterations = int(state["updates"])
-    z, b = state["z"], state["b"]
-    z, b, at, ok, _ = model.mode(var, z, b, state["t"], tol=1e-9)
-    if not (ok and state["ok"] and np.all(np.isfinite(z)) and np.abs(z[: model.nf]).max() < BOUND):
+    iterations = int(updates.count)
+    z, b = updates.z, updates.b
+    z, b, at, ok, _ = model.mode(var, z, b, updates.t, tol=1e-9)
+    if not (ok and updates.ok and np.all(np.isfinite(z)) and np.abs(z[: model.nf]).max() < BOUND):
         return failed("the fit did not converge")
     stopped = None
     if not settled:
@@ -232,6 +160,24 @@ def _fit(
     cov = at.s_inv[: model.nf, : model.nf]
     if not np.all(np.diag(cov) >= 0):  # rounding on a nearly flat likelihood: no maximum
         return failed("the fit did not converge")
+    return _estimates(model, z, cov, var, votes, stopped, iterations=iterations, settled=settled)
+
+
+def _estimates(
+    model: MixedBTDModel,
+    z: np.ndarray,
+    cov: np.ndarray,
+    var: np.ndarray,
+    votes: int,
+    stopped: str | None,
+    *,
+    iterations: int,
+    settled: bool,
+) -> MixedBTDFit:
+    """The fit from the mode ``z`` at the variances ``var`` and the covariance ``cov`` of the
+    fixed effects: the scores centred to mean 0 with their standard errors, gamma, nu, the
+    SDs and the note (the design's, then ``stopped``)."""
+    n = model.n
     centre = np.eye(n) - 1.0 / n
     cov_theta = centre @ cov[:n, :n] @ centre
     notes = {
@@ -255,27 +201,6 @@ def _fit(
         iterations=iterations,
         settled=settled,
     )
-
-
-def _distance_left(first: np.ndarray, second: np.ndarray) -> float:
-    """How far two successive plain updates ``first`` and ``second`` (in log variances) leave
-    the iteration from its fixed point: the rest of a geometric series, ``|second| * rho / (1 -
-    rho)`` with the rate ``rho = |second / first|`` per variance (capped at 0.999), plus the
-    last step.
-
-    A small step alone does not say the variances have settled: near a variance of 0, EM
-    (Schall's update is one) crawls with a rate close to 1, and a stop on the step size
-    reported a clip SD of 0.11 where the REML estimate is 0 (EM's linear rate is the largest
-    fraction of missing information: Dempster, Laird & Rubin 1977, JRSS B 39, 1-38).
-
-    >>> _distance_left(np.array([1e-6, 1e-3]), np.array([5e-7, 1e-7]))  # rates 0.5 and 1e-4
-    1e-06
-    >>> round(_distance_left(np.array([1e-5]), np.array([0.99e-5])), 7)  # a crawl, rate 0.99
-    0.00099
-    """
-    first, second = np.abs(first), np.abs(second)
-    rate = np.minimum(np.divide(second, first, out=np.zeros_like(second), where=first > 0), 0.999)
-    return float(np.max(second + second * rate / (1.0 - rate), initial=0.0))
 
 
 def _sd(var: float) -> float:

@@ -4,8 +4,9 @@
 The layout: ``{"clips": {CLIP: SECTION}, "pooled": SECTION,
 "participants": {ID: {...}}}`` plus ``"conditions"``, ``"input"`` (source, votes, skipped bad
 rows) and ``"options"`` (how undecided votes were treated, bootstrap settings). A SECTION holds
-ballots, undecided, confusion, scores, paired_t, agreement, sign_tests and scale; see
-docs/reference/analysis.md for every field. The result is plain JSON (NaN written as null).
+ballots, undecided, confusion, scores, paired_t, agreement, sign_tests and scale
+(:func:`app.analysis.clip_statistics.clip_statistics`); see docs/reference/analysis.md for
+every field. The result is plain JSON (NaN written as null).
 """
 
 from __future__ import annotations
@@ -13,187 +14,35 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from app.analysis.agreement import coefficient_of_agreement
 from app.analysis.answer_details import reason_summary, strength_summary
 from app.analysis.appropriateness import appropriateness, without_appropriateness
-from app.analysis.btd import btd_summary
+from app.analysis.clip_statistics import clip_statistics
 from app.analysis.consistence import consistence_p, consistence_row, consistence_table
 from app.analysis.counts import (
     UNDECIDED_TREATMENTS,
     VoteCounts,
-    ballots,
     count_votes,
-    undecided_pairs,
     wins,
 )
 from app.analysis.json_values import json_number as _num
 from app.analysis.mixed_btd import mixed_btd_summary
-from app.analysis.participant_level import one_judgement_per_participant, participant_level_tests
 from app.analysis.quality import (
     QUALITY_FIELDS,
+    ExclusionRule,
     excluded_participants,
     parse_rules,
     participant_quality,
 )
-from app.analysis.scaling import JOD_SIGMA, bootstrap_scale, connected
-from app.analysis.signtest import sign_test_p
-from app.analysis.ttest import holm, paired_t_many
+from app.analysis.scaling import JOD_SIGMA
 from app.analysis.votes import ANALYSED_KINDS, VotesTable, read_votes
 from app.errors import InputError
-
-
-def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
-    return np.triu_indices(n, 1)
-
-
-def _section(
-    t: np.ndarray,
-    names: Sequence[str],
-    *,
-    undecided: str,
-    bootstrap: int,
-    seed: int,
-    confidence: float,
-    anchor: int | None,
-) -> dict[str, Any]:
-    """Statistics of one clip (or the pool): ``t`` is (P, n, n, 3) for that clip."""
-    seen = t.sum(axis=(1, 2, 3)) > 0
-    t = t[seen]
-    total = t.sum(axis=0)
-    n = len(names)
-    won = wins(t)
-    und = undecided_pairs(t)
-    judged = wins(t, undecided).astype(float)
-    off = ~np.eye(n, dtype=bool)
-    i, j = _pairs(n)
-
-    # Per-participant scores: their ballots per condition (NaN where never shown).
-    shown = (t.sum(axis=(2, 3)) + t.sum(axis=(1, 3))) > 0
-    scores = np.where(shown, judged.sum(axis=-1), np.nan)
-    tt = paired_t_many(scores[:, i], scores[:, j], confidence=confidence)
-    p_holm = holm(tt["p"])
-    paired = [
-        {
-            "a": names[a],
-            "b": names[b],
-            **{k: _num(tt[k][q]) for k in ("mean", "sd", "sem", "ci_low", "ci_high", "t", "p")},
-            "n": int(tt["n"][q]),
-            "df": None if np.isnan(tt["df"][q]) else int(tt["df"][q]),
-            "p_holm": _num(p_holm[q]),
-        }
-        for q, (a, b) in enumerate(zip(i, j, strict=True))
-    ]
-
-    pooled_judged = np.where(off, judged.sum(axis=0), 0.0)
-    raw_agree = coefficient_of_agreement(pooled_judged).as_dict()
-    agree: dict[str, Any] = {k: _num(v) for k, v in raw_agree.items()}
-    agree["undecided"] = undecided
-    agree["undecided_votes"] = int(total[..., 2][off].sum())
-
-    w_all, u_all = won.sum(axis=0), und.sum(axis=0)
-    signs = []
-    for a, b in zip(i, j, strict=True):
-        win, loss, tie = int(w_all[a, b]), int(w_all[b, a]), int(u_all[a, b])
-        if win + loss + tie == 0:
-            continue
-        signs.append(
-            {
-                "a": names[a],
-                "b": names[b],
-                "wins": win,
-                "losses": loss,
-                "undecided": tie,
-                "p": _num(sign_test_p(win, loss, tie)),
-                "p_split": _num(sign_test_p(win, loss, tie, undecided_rule="split")),
-                "p_undecided_as_losses": _num(sign_test_p(win, loss, tie, undecided_rule="loss")),
-            }
-        )
-    holm_signs = holm([s["p"] for s in signs]) if signs else np.zeros(0)
-    for s, ph in zip(signs, holm_signs, strict=True):
-        s["p_holm"] = _num(ph)
-
-    scale_rows, note = _scale(
-        np.where(off, judged, 0.0),
-        names,
-        bootstrap=bootstrap,
-        seed=seed,
-        confidence=confidence,
-        anchor=anchor,
-    )
-    ballot_counts = ballots(total)
-    return {
-        "votes": int(total.sum()),
-        "participants": int(seen.sum()),
-        "ballots": {c: int(v) for c, v in zip(names, ballot_counts, strict=True)},
-        "undecided": int(total[..., 2].sum()),
-        "same_condition_votes": int(np.trace(total.sum(axis=-1))),
-        "confusion": {
-            "conditions": list(names),
-            "left": total[..., 0].tolist(),
-            "right": total[..., 1].tolist(),
-            "undecided": total[..., 2].tolist(),
-        },
-        "scores": {
-            c: {
-                "mean": _num(np.nanmean(scores[:, q])) if shown[:, q].any() else None,
-                "sd": _num(np.nanstd(scores[:, q], ddof=1)) if shown[:, q].sum() > 1 else None,
-            }
-            for q, c in enumerate(names)
-        },
-        "paired_t": paired,
-        "agreement": agree,
-        "sign_tests": signs,
-        "scale": scale_rows,
-        "scale_note": note,
-        "participant_level": participant_level_tests(
-            t, names, bootstrap=bootstrap, seed=seed, confidence=confidence
-        ),
-        "one_per_participant": one_judgement_per_participant(t, names),
-        "btd": btd_summary(t, names, bootstrap=bootstrap, seed=seed, confidence=confidence),
-    }
-
-
-def _scale(
-    per_participant: np.ndarray,
-    names: Sequence[str],
-    *,
-    bootstrap: int,
-    seed: int,
-    confidence: float,
-    anchor: int | None,
-) -> tuple[list[dict[str, Any]], str | None]:
-    """Case V rows for the conditions that were compared; others (and a split graph) get None."""
-    pooled = per_participant.sum(axis=0)
-    active = np.flatnonzero((pooled + pooled.T).sum(axis=1) > 0)
-    empty = [{"condition": c, "score": None, "ci_low": None, "ci_high": None} for c in names]
-    if active.size < 2:
-        return empty, "fewer than two conditions have decided comparisons"
-    sub = per_participant[:, active][:, :, active]
-    if not connected(sub.sum(axis=0)):
-        return empty, "the compared pairs do not link all conditions; no common scale"
-    sub_anchor = None
-    if anchor is not None:
-        if anchor not in active:
-            return empty, f"anchor {names[anchor]!r} was never compared"
-        sub_anchor = int(np.flatnonzero(active == anchor)[0])
-    scale, low, high = bootstrap_scale(
-        sub, replicates=bootstrap, seed=seed, confidence=confidence, anchor=sub_anchor
-    )
-    for q, c in enumerate(active.tolist()):
-        empty[c] = {
-            "condition": names[c],
-            "score": _num(scale[q]),
-            "ci_low": _num(low[q]),
-            "ci_high": _num(high[q]),
-        }
-    missing = [names[c] for c in range(len(names)) if c not in set(active.tolist())]
-    return empty, (f"never compared: {', '.join(missing)}" if missing else None)
 
 
 def _participants(counts: VoteCounts) -> dict[str, Any]:
@@ -330,6 +179,8 @@ def _analyze(
     mixed_model: bool,
     progress: Callable[[int, int], None] | None,
 ) -> dict[str, Any]:
+    """:func:`analyze` itself: the options checked, the votes the statistics use
+    (:func:`_analysed_votes`), the sections and the mixed model (:func:`_sections`)."""
     if undecided not in UNDECIDED_TREATMENTS:
         raise InputError(
             f"must be one of {', '.join(UNDECIDED_TREATMENTS)}, got {undecided!r}",
@@ -342,6 +193,85 @@ def _analyze(
         if isinstance(votes, VotesTable)
         else read_votes(votes, skip_bad_rows=skip_bad_rows, conditions=conditions)
     )
+    used = _analysed_votes(table, conditions, exclude)
+    table, counts, rules, excluded = used.table, used.counts, used.rules, used.excluded
+    names = counts.conditions
+    anchor_idx = None
+    if anchor is not None:
+        if anchor not in names:
+            raise InputError(f"unknown condition {anchor!r}", field="anchor")
+        anchor_idx = names.index(anchor)
+    kw: dict[str, Any] = {
+        "undecided": undecided,
+        "bootstrap": bootstrap,
+        "seed": seed,
+        "confidence": confidence,
+        "anchor": anchor_idx,
+    }
+    clips, pooled, participants = _sections(
+        counts, kw, mixed_model=mixed_model, confidence=confidence, progress=progress
+    )
+    return {
+        "conditions": list(names),
+        "input": {
+            "source": table.source,
+            "votes": len(table),
+            "skipped_rows": table.skipped,
+            "problems": list(table.problems),
+            "participants": len(counts.participants),
+            "clips": list(counts.clips),
+            "excluded_participants": len(excluded),
+            "catch_votes": used.catch_votes,
+            "left_out": used.left_out,
+        },
+        "options": {
+            "undecided": undecided,
+            "bootstrap": bootstrap,
+            "seed": seed,
+            "confidence": confidence,
+            "anchor": anchor,
+            "scale": "Thurstone Case V, least squares, JOD units",
+            "jod_sigma": JOD_SIGMA,
+            "exclude": [str(r) for r in rules],
+            "mixed_model": mixed_model,
+        },
+        "clips": clips,
+        "pooled": pooled,
+        "participants": participants,
+        "quality": {
+            "rules": [str(r) for r in rules],
+            "excluded": excluded,
+            "fields": dict(QUALITY_FIELDS),
+            "participants": used.quality,
+        },
+        "appropriateness": used.appropriate,
+        "strengths": strength_summary(table.frame, names),
+        "reasons": reason_summary(table.frame, names),
+    }
+
+
+@dataclass(frozen=True)
+class _AnalysedVotes:
+    """The votes the statistics use and what was set aside on the way: catch votes and the
+    participants the export left out (:func:`_analysed_rows`), the appropriateness test of the
+    mismatch pairs, and the participants the quality ``rules`` exclude."""
+
+    table: VotesTable
+    counts: VoteCounts
+    rules: list[ExclusionRule]
+    quality: dict[str, Any]
+    excluded: dict[str, list[str]]
+    appropriate: dict[str, dict[str, Any]]
+    catch_votes: int
+    left_out: dict[str, str]
+
+
+def _analysed_votes(
+    table: VotesTable, conditions: Sequence[str] | None, exclude: str | Sequence[str] | None
+) -> _AnalysedVotes:
+    """The votes of ``table`` the pair statistics use, counted over ``conditions`` (None: the
+    conditions voted on), with the participants the quality rules ``exclude`` holds left
+    out."""
     table, catch_votes, left_out = _analysed_rows(table)
     if len(table) == 0:
         raise InputError("no valid votes to analyse", path=table.source)
@@ -366,18 +296,23 @@ def _analyze(
             table.frame[kept].reset_index(drop=True), table.skipped, table.problems, table.source
         )
         counts = count_votes(table, names)
-    anchor_idx = None
-    if anchor is not None:
-        if anchor not in names:
-            raise InputError(f"unknown condition {anchor!r}", field="anchor")
-        anchor_idx = names.index(anchor)
-    kw: dict[str, Any] = {
-        "undecided": undecided,
-        "bootstrap": bootstrap,
-        "seed": seed,
-        "confidence": confidence,
-        "anchor": anchor_idx,
-    }
+    return _AnalysedVotes(
+        table, counts, rules, quality, excluded, appropriate, catch_votes, left_out
+    )
+
+
+def _sections(
+    counts: VoteCounts,
+    kw: dict[str, Any],
+    *,
+    mixed_model: bool,
+    confidence: float,
+    progress: Callable[[int, int], None] | None,
+) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
+    """Each clip's section, the pooled one (with the participants' consistence and, when
+    ``mixed_model``, the mixed model) and the participants, reporting to ``progress``; ``kw``
+    holds the options of :func:`app.analysis.clip_statistics.clip_statistics`."""
+    names = counts.conditions
     # the sections count one each; the mixed model its variance updates (a few dozen)
     sections = len(counts.clips) + 1
     total = sections + (MIXED_STEPS if mixed_model else 0)
@@ -407,48 +342,12 @@ def _analyze(
         )
         clips = {}
         for k, clip in enumerate(counts.clips):
-            clips[clip] = _section(counts.tensor[:, k], names, **kw)
+            clips[clip] = clip_statistics(counts.tensor[:, k], names, **kw)
             advance("sections")
-        pooled = _section(counts.tensor.sum(axis=1), names, **kw)
+        pooled = clip_statistics(counts.tensor.sum(axis=1), names, **kw)
         advance("sections")
         participants = _participants(counts)
         pooled["consistence"] = _consistence_summary(participants, len(names))
         pooled["mixed_btd"] = mixed.result() if mixed is not None else None
     report(total, total)
-    return {
-        "conditions": list(names),
-        "input": {
-            "source": table.source,
-            "votes": len(table),
-            "skipped_rows": table.skipped,
-            "problems": list(table.problems),
-            "participants": len(counts.participants),
-            "clips": list(counts.clips),
-            "excluded_participants": len(excluded),
-            "catch_votes": catch_votes,
-            "left_out": left_out,
-        },
-        "options": {
-            "undecided": undecided,
-            "bootstrap": bootstrap,
-            "seed": seed,
-            "confidence": confidence,
-            "anchor": anchor,
-            "scale": "Thurstone Case V, least squares, JOD units",
-            "jod_sigma": JOD_SIGMA,
-            "exclude": [str(r) for r in rules],
-            "mixed_model": mixed_model,
-        },
-        "clips": clips,
-        "pooled": pooled,
-        "participants": participants,
-        "quality": {
-            "rules": [str(r) for r in rules],
-            "excluded": excluded,
-            "fields": dict(QUALITY_FIELDS),
-            "participants": quality,
-        },
-        "appropriateness": appropriate,
-        "strengths": strength_summary(table.frame, names),
-        "reasons": reason_summary(table.frame, names),
-    }
+    return clips, pooled, participants

@@ -1,6 +1,6 @@
 """The votes frame built from typed blocks, and the memory the blocks leave behind.
 
-:func:`join_columns` joins the blocks :mod:`app.analysis.votes` types into the frame of
+:func:`join_columns` joins the blocks :mod:`app.analysis.vote_values` types into the frame of
 :class:`~app.analysis.votes.VotesTable`: a column at a time, written once into its full-length
 array (text as a categorical of the values its rows use, choices as a categorical of
 ``CHOICES``, counts ``Int64``, numbers ``Float64``, flags ``boolean``, times UTC), so at most

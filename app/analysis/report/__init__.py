@@ -7,8 +7,9 @@ import one way, each only those listed before it:
   text prints numbers;
 - :mod:`~app.analysis.report.figures`: the matplotlib figures;
 - :mod:`~app.analysis.report.mixed_document`, :mod:`~app.analysis.report.inference_document`,
-  :mod:`~app.analysis.report.answer_document` and :mod:`~app.analysis.report.rating_document`:
-  the sections, each a list of blocks;
+  :mod:`~app.analysis.report.answer_document`, :mod:`~app.analysis.report.rating_document` and
+  :mod:`~app.analysis.report.study_document`: the sections, each a list of blocks;
+- :mod:`~app.analysis.report.results_text`: a paired-comparison study's results in words;
 - :mod:`~app.analysis.report.document`: :func:`~app.analysis.report.document.build_document`,
   every block of a report in reading order;
 - :mod:`~app.analysis.report.writer`: :func:`~app.analysis.report.writer.write_report`, the

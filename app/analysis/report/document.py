@@ -13,14 +13,12 @@ from typing import Any
 from app.analysis.report import figures
 from app.analysis.report.answer_document import answer_detail_blocks
 from app.analysis.report.blocks import (
-    ALPHA,
     MAX_LISTED_PARTICIPANTS,
     Block,
     Heading,
     Paragraph,
     Plot,
     Table,
-    counted,
     fmt,
     fmt_p,
     judgements_per_pair,
@@ -29,6 +27,8 @@ from app.analysis.report.blocks import (
 from app.analysis.report.inference_document import METHOD_TEXT as MODEL_TEXT
 from app.analysis.report.inference_document import inference_blocks
 from app.analysis.report.rating_document import rating_blocks
+from app.analysis.report.results_text import results_paragraphs
+from app.analysis.report.study_document import study_blocks
 
 METHOD_TEXT = (
     "Ballots are the collapsed ballots of the thesis (sec. 5.2): the times a condition was "
@@ -51,109 +51,6 @@ METHOD_TEXT = (
     "1 JOD = 75 % preference; percentile intervals from {boot} bootstrap resamples of "
     "participants (seed {seed}).",
 )
-
-
-def _p_eq(p: float | None) -> str:
-    text = fmt_p(p)
-    return f"p {text}" if text.startswith("<") else f"p = {text}"
-
-
-def _summary_text(r: dict[str, Any]) -> list[str]:
-    """The results paragraphs: the statistics in words, strongest findings first."""
-    pooled, info, opts = r["pooled"], r["input"], r["options"]
-    und_rule = (
-        "undecided votes excluded"
-        if opts["undecided"] == "exclude"
-        else "undecided votes split half to each side"
-    )
-    n_clips = len(info["clips"])
-    out = [
-        f"{counted(info['participants'], 'participant')} cast "
-        f"{counted(info['votes'], 'vote')} on {counted(n_clips, 'clip')} "
-        f"({pooled['undecided']} undecided, "
-        f"{100.0 * pooled['undecided'] / max(pooled['votes'], 1):.1f} %; "
-        f"{pooled['same_condition_votes']} votes on same-condition pairs)."
-        + (
-            f" {info['skipped_rows']} bad rows of the votes file were skipped and are not "
-            "part of any statistic."
-            if info["skipped_rows"]
-            else " No rows of the votes file were skipped."
-        )
-    ]
-    ag = pooled["agreement"]
-    if ag["u"] is not None:
-        verdict = "agreed beyond chance" if ag["p"] < ALPHA else "did not agree beyond chance"
-        spread = judgements_per_pair(pooled, opts["undecided"])
-        out.append(
-            f"Pooled over clips, the judgements {verdict} (Kendall & Babington Smith "
-            f"u = {ag['u']:.3f}, χ²({ag['df']:.2f}) = {ag['chi2']:.2f}, {_p_eq(ag['p'])}; "
-            f"continuity-corrected {_p_eq(ag['p_corrected'])}; {spread} judgements per pair, "
-            f"{und_rule})."
-        )
-    names = sorted(r["conditions"], key=lambda c: -pooled["ballots"][c])
-    listing = ", ".join(f"{c} ({pooled['ballots'][c]})" for c in names)
-    out.append(f"Ballots per condition, pooled over clips, in decreasing order: {listing}.")
-    signs = pooled["sign_tests"]
-    if signs:
-        sig = [s for s in signs if s["p_holm"] is not None and s["p_holm"] < ALPHA]
-        parts = []
-        for s in sig:
-            better, worse = (s["a"], s["b"]) if s["wins"] > s["losses"] else (s["b"], s["a"])
-            hi, lo = max(s["wins"], s["losses"]), min(s["wins"], s["losses"])
-            parts.append(
-                f"{better} over {worse} ({hi} vs {lo}, {s['undecided']} undecided, "
-                f"Holm-adjusted {_p_eq(s['p_holm'])})"
-            )
-        text = (
-            f"Exact sign tests (undecided votes excluded, Holm-adjusted over "
-            f"{counted(len(signs), 'pair')}) found {len(sig)} of "
-            f"{counted(len(signs), 'pair')} different"
-        )
-        out.append(text + (": " + "; ".join(parts) + "." if parts else "."))
-    tt = [t for t in pooled["paired_t"] if t["p_holm"] is not None and t["p_holm"] < ALPHA]
-    if pooled["paired_t"]:
-        parts = [
-            f"{t['a']} − {t['b']}: M = {t['mean']:.2f}, SD = {t['sd']:.2f}, "
-            f"t({t['df']}) = {t['t']:.2f}, Holm {_p_eq(t['p_holm'])}, 95 % CI "
-            f"[{t['ci_low']:.2f}, {t['ci_high']:.2f}]"
-            for t in tt
-        ]
-        out.append(
-            "Paired t-tests on each participant's ballots per condition "
-            f"({len(tt)} of {counted(len(pooled['paired_t']), 'pair')} significant "
-            "after Holm)" + (": " + "; ".join(parts) + "." if parts else ".")
-        )
-    scale = [s for s in pooled["scale"] if s["score"] is not None]
-    if scale:
-        scale.sort(key=lambda s: -s["score"])
-        ci = int(round(100 * opts["confidence"]))
-        listed = ", ".join(
-            f"{s['condition']} {s['score']:.2f} [{fmt(s['ci_low'])}, {fmt(s['ci_high'])}]"
-            for s in scale
-        )
-        origin = f"{opts['anchor']} fixed at 0" if opts["anchor"] else "mean fixed at 0"
-        out.append(
-            f"On the Thurstone Case V scale (JOD, {origin}; {ci} % bootstrap intervals "
-            f"over participants, {opts['bootstrap']} replicates): {listed}."
-        )
-    cs = pooled.get("consistence")
-    if cs and cs["median_zeta"] is not None:
-        out.append(
-            f"The participants' median coefficient of consistence was "
-            f"ζ = {cs['median_zeta']:.2f} (mean {cs['mean_zeta']:.2f}; 1 = no circular "
-            f"triad). The test of consistence could be run for {cs['tested']} of "
-            f"{counted(cs['participants'], 'participant')} and rejected random choice at "
-            ".05 for "
-            f"{cs['significant_05']}"
-            + (
-                f" (with {cs['conditions']} conditions even a perfectly consistent judge "
-                f"reaches only P = {cs['min_p']:.3f})"
-                if cs.get("min_p", 0) >= 0.05
-                else ""
-            )
-            + "."
-        )
-    return out
 
 
 def _ballot_table(r: dict[str, Any]) -> Table:
@@ -321,51 +218,6 @@ def _participant_table(r: dict[str, Any]) -> Table:
     )
 
 
-def _study_blocks(study: dict[str, Any]) -> list[Block]:
-    """The report's head when a study describes the votes: its title, the date, the design
-    and the command that writes the same report from the exported votes."""
-    blocks: list[Block] = [Heading(study["title"], 1)]
-    blocks.append(Paragraph(f"Report written {study['date']}. " + study.get("design", "")))
-    if study.get("participants"):
-        blocks.append(Paragraph(study["participants"]))
-    blocks += _questionnaire_blocks(study.get("questionnaire") or [])
-    if study.get("command"):
-        blocks.append(
-            Paragraph(
-                "To reproduce this report from the exported votes "
-                f"({study.get('votes_file', 'votes.csv')}): {study['command']}"
-            )
-        )
-    return blocks
-
-
-def _questionnaire_blocks(summary: list[dict[str, Any]]) -> list[Block]:
-    """The included participants' questionnaire answers: options counted, numbers summarised,
-    free texts listed."""
-    if not summary:
-        return []
-    rows = []
-    for q in summary:
-        if q["kind"] == "choice":
-            given = "; ".join(f"{c}: {n}" for c, n in q["counts"].items() if n)
-        elif q["kind"] == "number":
-            given = (
-                f"median {q['median']:g}, range {q['min']:g}-{q['max']:g}" if q["answered"] else ""
-            )
-        else:
-            given = " | ".join(q["texts"])
-        rows.append([q["text"], f"{q['answered']} of {q['asked']}", given or "-"])
-    return [
-        Heading("Questionnaire", 2),
-        Table(
-            "Answers of the included participants.",
-            ["Question", "Answered", "Answers"],
-            rows,
-            numeric=[False, True, False],
-        ),
-    ]
-
-
 def _left_out_table(left_out: dict[str, str]) -> Table:
     rows = [[pid, why] for pid, why in sorted(left_out.items())]
     return Table(
@@ -416,9 +268,9 @@ def build_document(r: dict[str, Any]) -> list[Block]:
     """Every block of the report, in reading order (a rating study's:
     :func:`app.analysis.report.rating_document.rating_blocks`)."""
     if r.get("kind") == "rating":
-        return (_study_blocks(r["study"]) if r.get("study") else []) + rating_blocks(r)
+        return (study_blocks(r["study"]) if r.get("study") else []) + rating_blocks(r)
     pooled = r["pooled"]
-    doc: list[Block] = _study_blocks(r["study"]) if r.get("study") else []
+    doc: list[Block] = study_blocks(r["study"]) if r.get("study") else []
     doc.append(Heading("Results", 1))
     # the file's name only: a report shared from a server never shows the server's folders
     source = Path(r["input"]["source"]).name if r["input"]["source"] else "in-memory votes"
@@ -429,7 +281,7 @@ def build_document(r: dict[str, Any]) -> list[Block]:
             f"{r['input']['skipped_rows']}."
         )
     )
-    doc += [Paragraph(t) for t in _summary_text(r)]
+    doc += [Paragraph(t) for t in results_paragraphs(r)]
     if r["input"].get("left_out"):
         doc.append(_left_out_table(r["input"]["left_out"]))
     doc.append(Heading("Ballots"))

@@ -92,22 +92,6 @@ def test_catch_rows_and_excluded_participants_stay_out(tmp_path):
     ]
 
 
-def test_a_study_head_names_the_study_and_the_command():
-    votes = simulate_votes({"a": 0.0, "b": 1.0}, participants=3, clips=("x",))
-    results = analyze(votes, bootstrap=0)
-    results["study"] = {
-        "title": "Eyebrows",
-        "date": "2026-12-01 10:00 UTC",
-        "design": "Design: all_ordered.",
-        "participants": "3 included.",
-        "command": "facepair analyze votes.csv --report report.html",
-    }
-    blocks = build_document(results)
-    assert isinstance(blocks[0], Heading) and blocks[0].text == "Eyebrows"
-    texts = [b.text for b in blocks if isinstance(b, Paragraph)]
-    assert any("facepair analyze votes.csv --report report.html" in t for t in texts)
-
-
 def test_the_appropriateness_test_has_its_section_when_the_study_had_it():
     import pandas as pd
 
