@@ -6,37 +6,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from app.analysis.answer_details import LEVELS, reason_summary, strength_summary
-
-# (left, right, choice, strength, reasons): a vs b and b vs a, both presentation orders.
-VOTES = [
-    ("a", "b", "left", 2, "lips;eyes"),  # clearly a
-    ("b", "a", "right", 2, "lips"),  # clearly a, shown on the right
-    ("a", "b", "left", 1, ""),  # slightly a
-    ("b", "a", "left", 1, "head"),  # slightly b
-    ("a", "b", "undecided", 0, "eyes"),  # cannot decide
-    ("a", "c", "right", 2, "lips"),  # clearly c
-]
-
-
-def _frame(rows=VOTES, participant="p1"):
-    return pd.DataFrame(
-        [
-            {
-                "participant": participant,
-                "clip": "s1",
-                "left": left,
-                "right": right,
-                "choice": choice,
-                "strength": strength,
-                "reasons": reasons,
-            }
-            for left, right, choice, strength, reasons in rows
-        ]
-    )
+from tests.support.answer_votes import VOTES, answer_frame
 
 
 def test_levels_are_counted_per_pair_from_its_first_condition():
-    summary = strength_summary(_frame(), ["a", "b", "c"])
+    summary = strength_summary(answer_frame(), ["a", "b", "c"])
     assert summary["levels"] == list(LEVELS)
     ab, ac = summary["pairs"]
     assert (ab["a"], ab["b"], ab["counts"], ab["votes"]) == ("a", "b", [2, 1, 1, 1, 0], 5)
@@ -47,24 +21,24 @@ def test_levels_are_counted_per_pair_from_its_first_condition():
 
 
 def test_the_conditions_order_names_the_first_of_a_pair():
-    ba = strength_summary(_frame(), ["b", "a", "c"])["pairs"][0]
+    ba = strength_summary(answer_frame(), ["b", "a", "c"])["pairs"][0]
     assert (ba["a"], ba["b"], ba["counts"]) == ("b", "a", [0, 1, 1, 1, 2])
 
 
 def test_three_level_votes_have_no_strength_summary():
-    frame = _frame().assign(strength=pd.array([pd.NA] * len(VOTES), dtype="Int64"))
+    frame = answer_frame().assign(strength=pd.array([pd.NA] * len(VOTES), dtype="Int64"))
     assert strength_summary(frame, ["a", "b", "c"]) is None
-    assert strength_summary(_frame().drop(columns="strength"), ["a", "b"]) is None
+    assert strength_summary(answer_frame().drop(columns="strength"), ["a", "b"]) is None
 
 
 def test_reason_tags_by_the_condition_chosen():
-    summary = reason_summary(_frame(), ["a", "b", "c"])
+    summary = reason_summary(answer_frame(), ["a", "b", "c"])
     assert list(summary["tags"]) == ["lips", "eyes", "head"]  # by falling total, then name
     assert summary["tags"]["lips"] == {"total": 3, "a": 2, "b": 0, "c": 1, "undecided": 0}
     assert summary["tags"]["eyes"] == {"total": 2, "a": 1, "b": 0, "c": 0, "undecided": 1}
     assert summary["tags"]["head"] == {"total": 1, "a": 0, "b": 1, "c": 0, "undecided": 0}
     assert (summary["votes"], summary["of"]) == (5, 6)
-    assert reason_summary(_frame().assign(reasons=""), ["a", "b", "c"]) is None
+    assert reason_summary(answer_frame().assign(reasons=""), ["a", "b", "c"]) is None
 
 
 @settings(max_examples=60, deadline=None)
@@ -82,7 +56,7 @@ def test_reason_tags_by_the_condition_chosen():
     )
 )
 def test_every_counted_vote_is_one_level_and_every_tag_one_tick(rows):
-    frame = _frame(rows)
+    frame = answer_frame(rows)
     summary = strength_summary(frame, ["a", "b", "c"])
     countable = sum(
         left != right and ((choice == "undecided") == (strength == 0))

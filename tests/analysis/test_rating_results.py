@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
@@ -21,62 +20,12 @@ from app.analysis.rating_results import (
 )
 from app.cli import main
 from app.errors import InputError
-
-TRUE_MOS = {"none": 2.0, "random": 3.0, "ground_truth": 4.5}
-
-
-def _rows(n_participants: int = 12, seed: int = 3) -> list[dict]:
-    """ACR-like ratings with known condition means, participant and clip offsets, noise."""
-    rng = np.random.default_rng(seed)
-    person = rng.normal(0, 0.3, n_participants)
-    clip = {"s2": -0.2, "s7": 0.2}
-    rows = []
-    for p in range(n_participants):
-        for k, offset in clip.items():
-            for c, mu in TRUE_MOS.items():
-                score = int(np.clip(np.rint(mu + person[p] + offset + rng.normal(0, 0.4)), 1, 5))
-                rows.append(
-                    {
-                        "participant": f"P{p:02d}",
-                        "clip": k,
-                        "condition": c,
-                        "score": score,
-                        "scale": "acr5",
-                        "kind": "trial",
-                        "excluded": "",
-                    }
-                )
-        rows.append(
-            {
-                "participant": f"P{p:02d}",
-                "clip": "s2",
-                "condition": "none",
-                "score": 1 if p else 4,
-                "scale": "acr5",
-                "kind": "catch",
-                "excluded": "",
-            }
-        )
-    # a participant the export marks excluded, rating everything Excellent
-    for k in clip:
-        for c in TRUE_MOS:
-            rows.append(
-                {
-                    "participant": "PX",
-                    "clip": k,
-                    "condition": c,
-                    "score": 5,
-                    "scale": "acr5",
-                    "kind": "trial",
-                    "excluded": "failed a catch trial",
-                }
-            )
-    return rows
+from tests.support.rating_rows import TRUE_MOS, acr_rows, parallel_rows
 
 
 def test_known_means_are_recovered_and_the_left_out_named(tmp_path):
     path = tmp_path / "ratings.csv"
-    path.write_text(ratings_text(_rows()))
+    path.write_text(ratings_text(acr_rows()))
     assert is_ratings_file(path)
     results = analyze_ratings(read_ratings(path), source=str(path))
     mos = results["mos"]
@@ -92,7 +41,7 @@ def test_known_means_are_recovered_and_the_left_out_named(tmp_path):
 
 
 def test_analyze_command_on_a_ratings_file(tmp_path):
-    (tmp_path / "ratings.csv").write_text(ratings_text(_rows()))
+    (tmp_path / "ratings.csv").write_text(ratings_text(acr_rows()))
     out = CliRunner().invoke(
         main,
         [
@@ -157,33 +106,9 @@ def test_any_table_is_read_or_refused_in_one_line(cells):
         assert table["score"].between(0, 100).all()
 
 
-def _parallel_rows() -> list[dict]:
-    """Four participants x four clips of a parallel test; P03 rates the hidden reference 60
-    on one clip in four (25 % > 15 %), P02 on none."""
-    rows = []
-    for p in range(4):
-        for k in range(4):
-            for item, (c, score) in enumerate((("gt", 95), ("a", 40 + 10 * p), ("b", 70))):
-                if c == "gt" and p == 3 and k == 0:
-                    score = 60
-                rows.append(
-                    {
-                        "participant": f"P{p:02d}",
-                        "clip": f"s{k}",
-                        "condition": c,
-                        "item": item + 1,
-                        "reference": c == "gt",
-                        "score": score,
-                        "scale": "slider",
-                        "kind": "trial",
-                    }
-                )
-    return rows
-
-
 def test_parallel_post_screening_leaves_out_who_misses_the_hidden_reference(tmp_path):
     path = tmp_path / "ratings.csv"
-    path.write_text(ratings_text(_parallel_rows()))
+    path.write_text(ratings_text(parallel_rows()))
     results = analyze_ratings(read_ratings(path))
     assert list(results["input"]["left_out"]) == ["P03"]
     assert "below 90 on 1 of 4 clips" in results["input"]["left_out"]["P03"]
@@ -215,7 +140,7 @@ def test_a_ratings_file_without_its_scores_is_named_as_ratings(tmp_path):
 def test_a_test_whose_post_screening_leaves_out_everyone_says_so(tmp_path):
     """Every participant misses the hidden reference: the one line begins as any ratings
     table without a rating does, and names the screening, how many it left out and its rule."""
-    rows = [{**row, "score": 50} if row["reference"] else row for row in _parallel_rows()]
+    rows = [{**row, "score": 50} if row["reference"] else row for row in parallel_rows()]
     path = tmp_path / "ratings.csv"
     path.write_text(ratings_text(rows))
     with pytest.raises(InputError) as caught:
@@ -234,7 +159,7 @@ def test_a_test_whose_post_screening_leaves_out_everyone_says_so(tmp_path):
 def test_the_screened_column_is_for_people(tmp_path):
     """``screened`` (the export's record of the post-screening) is not read back: the analysis
     decides the screening from the scores, and a file without the column reads the same."""
-    rows = _parallel_rows()
+    rows = parallel_rows()
     with_column = tmp_path / "new.csv"
     with_column.write_text(
         ratings_text([{**row, "screened": "a note" if row["participant"] == "P00" else ""}

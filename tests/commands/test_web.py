@@ -6,11 +6,7 @@ from click.testing import CliRunner
 from app.cli import main
 from app.web.extensions import db
 from app.web.models import Study
-
-
-def _env(monkeypatch, app):
-    monkeypatch.setenv("DATABASE_URL", app.config["SQLALCHEMY_DATABASE_URI"])
-    monkeypatch.setenv("MEDIA_ROOT", app.config["MEDIA_ROOT"])
+from tests.support.cli import cli_env
 
 
 def _study_file(tmp_path, web, **toml):
@@ -21,7 +17,7 @@ def _study_file(tmp_path, web, **toml):
 
 
 def test_experimenter_add_and_study_create(app, monkeypatch, tmp_path, web):
-    _env(monkeypatch, app)
+    cli_env(monkeypatch, app)
     runner = CliRunner()
     added = runner.invoke(
         main,
@@ -45,7 +41,7 @@ def test_experimenter_add_and_study_create(app, monkeypatch, tmp_path, web):
 
 
 def test_study_create_errors_are_one_line(app, monkeypatch, tmp_path, web):
-    _env(monkeypatch, app)
+    cli_env(monkeypatch, app)
     path = _study_file(tmp_path, web)
     unknown = CliRunner().invoke(main, ["study", "create", str(path), "--owner", "no@x.org"])
     assert unknown.exit_code == 2 and "--owner: no experimenter" in unknown.output
@@ -82,7 +78,7 @@ def test_serve_refuses_to_start_without_a_real_key(monkeypatch, tmp_path):
 
 def test_the_shipped_example_creates_a_study(app, monkeypatch, web, repo_root):
     """The same app/data/examples/study.toml the web takes as an upload (tests/web/experimenter)."""
-    _env(monkeypatch, app)
+    cli_env(monkeypatch, app)
     web.user("lab@example.org")
     created = CliRunner().invoke(
         main,

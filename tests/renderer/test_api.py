@@ -1,6 +1,5 @@
 """Clips decoded back: frame count and rate, size, audio length, mosaic, order, cache."""
 
-import re
 import subprocess
 
 import imageio_ffmpeg
@@ -8,43 +7,13 @@ import numpy as np
 import pytest
 
 from app.errors import InputError
-from app.stimuli.track import MotionTrack
 from renderer import RenderSettings, render_pair, render_single, render_still
 from renderer.headmodel import builtin_face
 from renderer.pipeline import render_frames
+from tests.support.clips import decode, moving_tracks
 
 SIZE = 160
 SETTINGS = RenderSettings(size=SIZE, mosaic_block=16)
-
-
-def _tracks(n=45):
-    t = np.arange(n) / 30.0
-    a = MotionTrack.from_channels(30.0, {3: 300 + 300 * np.sin(9 * t), 49: 20000 * np.sin(t)})
-    b = MotionTrack.from_channels(30.0, {3: 250 + 250 * np.sin(6 * t), 31: 100 * t})
-    return a, b
-
-
-def decode(path):
-    """(metadata, frames) of an MP4, decoded with the bundled ffmpeg."""
-    exe = imageio_ffmpeg.get_ffmpeg_exe()
-    info = subprocess.run(
-        [exe, "-hide_banner", "-i", str(path)], capture_output=True, text=True
-    ).stderr
-    video = next(line for line in info.splitlines() if "Video:" in line)
-    size = tuple(int(x) for x in re.search(r", (\d+)x(\d+)", video).groups())
-    meta = {
-        "codec": video.split("Video:")[1].split()[0],
-        "size": size,
-        "fps": float(re.search(r"([\d.]+) fps", video).group(1)),
-        "pix_fmt": "yuv420p" if "yuv420p" in video else video,
-    }
-    raw = subprocess.run(
-        [exe, "-v", "error", "-i", str(path), "-f", "rawvideo", "-pix_fmt", "rgb24", "-"],
-        capture_output=True,
-        check=True,
-    ).stdout
-    frames = np.frombuffer(raw, np.uint8).reshape(-1, size[1], size[0], 3)
-    return meta, list(frames)
 
 
 def audio_seconds(path, rate=16000):
@@ -74,7 +43,7 @@ def audio_seconds(path, rate=16000):
 @pytest.mark.gl
 @pytest.mark.parametrize("audio_len", [0.7, 3.0])
 def test_pair_clip_decodes_with_track_length_rate_size_and_audio(tmp_path, tone_wav, audio_len):
-    a, b = _tracks()
+    a, b = moving_tracks()
     out = render_pair(a, b, tone_wav(audio_len), tmp_path / "clip.mp4", settings=SETTINGS)
     meta, frames = decode(out)
     assert len(frames) == 45
@@ -88,7 +57,7 @@ def test_pair_clip_decodes_with_track_length_rate_size_and_audio(tmp_path, tone_
 
 @pytest.mark.gl
 def test_mosaic_blocks_survive_encoding_within_codec_tolerance(tmp_path, tone_wav):
-    a, b = _tracks(20)
+    a, b = moving_tracks(20)
     out = render_pair(a, b, tone_wav(1.0), tmp_path / "clip.mp4", settings=SETTINGS)
     _, frames = decode(out)
     raw = render_frames(
@@ -117,7 +86,7 @@ def test_mosaic_blocks_survive_encoding_within_codec_tolerance(tmp_path, tone_wa
 
 @pytest.mark.gl
 def test_swapping_sides_swaps_the_halves(tmp_path):
-    a, b = _tracks(3)
+    a, b = moving_tracks(3)
     ab = render_still(a, 2, tmp_path / "ab.png", right=b, settings=SETTINGS)
     ba = render_still(b, 2, tmp_path / "ba.png", right=a, settings=SETTINGS)
     import imageio.v3 as iio
@@ -129,7 +98,7 @@ def test_swapping_sides_swaps_the_halves(tmp_path):
 
 @pytest.mark.gl
 def test_single_clip_and_still(tmp_path, tone_wav):
-    a, _ = _tracks(10)
+    a, _ = moving_tracks(10)
     out = render_single(a, tone_wav(1.0), tmp_path / "one.mp4", settings=SETTINGS)
     meta, frames = decode(out)
     assert len(frames) == 10 and tuple(meta["size"]) == (SIZE, SIZE)
@@ -139,7 +108,7 @@ def test_single_clip_and_still(tmp_path, tone_wav):
 
 @pytest.mark.gl
 def test_cache_serves_the_same_render_and_never_a_stale_one(tmp_path, tone_wav):
-    a, b = _tracks(8)
+    a, b = moving_tracks(8)
     audio = tone_wav(1.0)
     calls = []
     cache = tmp_path / "cache"
@@ -182,7 +151,7 @@ def test_cache_serves_the_same_render_and_never_a_stale_one(tmp_path, tone_wav):
 def test_the_webm_rendition_shows_the_same_frames_and_is_cached_beside_the_mp4(tmp_path, tone_wav):
     """One render writes both renditions from the same frames; the cache hands back both,
     and a WebM asked of a cached MP4 that has none renders the clip again."""
-    a, b = _tracks(8)
+    a, b = moving_tracks(8)
     audio = tone_wav(1.0)
     cache = tmp_path / "cache"
     render_pair(a, b, audio, tmp_path / "0.mp4", settings=SETTINGS, cache_dir=cache)
@@ -229,6 +198,6 @@ def test_bad_settings_and_audio_are_input_errors(tmp_path):
         RenderSettings(antialias="fxaa")
     with pytest.raises(InputError, match="encode_threads: must be a whole number"):
         RenderSettings(encode_threads=True)
-    a, b = _tracks(3)
+    a, b = moving_tracks(3)
     with pytest.raises(InputError, match="audio file not found"):
         render_pair(a, b, tmp_path / "missing.wav", tmp_path / "x.mp4", settings=SETTINGS)

@@ -38,10 +38,10 @@ def test_what_cannot_be_drawn_is_an_input_error(text, message):
 @pytest.mark.gl
 def test_a_rendered_pair_carries_the_caption_and_another_cache_entry(tmp_path, tone_wav):
     from renderer import RenderSettings, render_pair
-    from tests.renderer.test_api import _tracks, decode
+    from tests.support.clips import decode, moving_tracks
 
     settings = RenderSettings(size=128, mosaic_block=16)
-    a, b = _tracks(6)
+    a, b = moving_tracks(6)
     plain = render_pair(
         a, b, tone_wav(0.3), tmp_path / "plain.mp4", settings=settings, cache_dir=tmp_path / "cache"
     )

@@ -37,7 +37,7 @@ def test_a_clip_without_audio_has_the_frames_written(tmp_path):
     with ClipWriter(out, 64, 48, 25.0, 5) as writer:
         for k in range(5):
             writer.write(np.full((48, 64, 3), 40 * k, np.uint8))
-    from tests.renderer.test_api import decode
+    from tests.support.clips import decode
 
     meta, decoded = decode(out)
     assert meta["size"] == (64, 48) and len(decoded) == 5
@@ -119,7 +119,7 @@ def _assert_blinded_webm(path, frames: int) -> None:
     data = path.read_bytes()
     for leak in (b"zebraface", b"speech_driven", b"Lavc", b"libvpx", b"title"):
         assert leak not in data, leak
-    from tests.renderer.test_api import decode
+    from tests.support.clips import decode
 
     meta, decoded = decode(path)
     assert meta["size"] == (64, 48) and len(decoded) == frames

@@ -14,27 +14,11 @@ from scipy import ndimage
 
 from renderer.camera import project
 from renderer.deform import Rig
-from renderer.gl import FaceCanvas
 from renderer.headmodel import builtin_face
+from tests.support.head_pixels import SIZE, draw_head
 
 pytestmark = pytest.mark.gl
-SIZE = 368
 GAZE_20_DEG = np.radians(20.0) / 1e-5  # FAP units (1e-5 rad)
-
-
-def _draw(rig, *faps_list, antialias="edges"):
-    canvas = FaceCanvas(rig, SIZE, len(faps_list), antialias=antialias, background=(0.5, 0.5, 0.5))
-    try:
-        frames = []
-        for faps in faps_list:
-            f = np.zeros(68)
-            for k, v in faps.items():
-                f[k - 1] = v
-            frames.append(rig.deform(f))
-        img = canvas.draw(frames).copy()
-    finally:
-        canvas.release()
-    return [img[:, k * SIZE : (k + 1) * SIZE].astype(float) for k in range(len(faps_list))]
 
 
 @pytest.fixture(scope="module")
@@ -70,7 +54,7 @@ def _eye_boxes(rig):
 
 def test_turned_eyeballs_stay_behind_the_lids(marked_eyes):
     # a ball turning about its centre fills the same space: what shows of it may not grow
-    rest, *turned = _draw(
+    rest, *turned = draw_head(
         marked_eyes,
         {},
         {23: GAZE_20_DEG, 24: GAZE_20_DEG},
@@ -85,7 +69,7 @@ def test_turned_eyeballs_stay_behind_the_lids(marked_eyes):
 
 
 def test_closed_lids_cover_the_eye(marked_eyes):
-    rest, closed = _draw(marked_eyes, {}, {19: 1024.0, 20: 1024.0}, antialias="none")
+    rest, closed = draw_head(marked_eyes, {}, {19: 1024.0, 20: 1024.0}, antialias="none")
     assert _eyeball(rest).sum() > 400
     assert _eyeball(closed).sum() <= 0.04 * _eyeball(rest).sum()  # a slit at most
 
@@ -101,7 +85,7 @@ def test_the_skin_above_both_eyes_has_the_same_fine_detail():
     # the mesh's shading (a crease above one eye only); the plain look, as the textured one
     # adds skin detail that is not mirror-symmetric, by design
     rig = Rig(builtin_face("plain"))
-    (rest,) = _draw(rig, {})
+    (rest,) = draw_head(rig, {})
     left, right = _eye_boxes(rig)
     lum = rest @ np.array([0.299, 0.587, 0.114])
     detail = lum - ndimage.gaussian_filter(lum, 2.0)
@@ -131,7 +115,7 @@ def _brow_top(img, box):
 def test_brows_move_smoothly_over_the_range_tracks_produce(value):
     rig = Rig(builtin_face())
     faps = {k: value for k in range(31, 37)}
-    rest, moved = _draw(rig, {}, faps)
+    rest, moved = draw_head(rig, {}, faps)
     for box in _eye_boxes(rig):
         top0, has0 = _brow_top(rest, box)
         top1, has1 = _brow_top(moved, box)
@@ -161,7 +145,7 @@ def test_the_hairline_is_painted_as_designed():
     h = hair_mask(face.vertices.astype(float))
     colors = np.column_stack([1.0 - h, h, np.zeros_like(h), np.zeros_like(h)])
     rig = Rig(dataclasses.replace(face, colors=colors.astype(np.float32)))
-    (img,) = _draw(rig, {}, antialias="none")
+    (img,) = draw_head(rig, {}, antialias="none")
     share = img[..., 1] / np.maximum(img[..., 0] + img[..., 1], 1.0)
     vp, _ = camera_for(rig)
     el = np.radians(np.linspace(0.0, 80.0, 4001))
@@ -183,7 +167,7 @@ def test_no_seam_runs_along_the_crown():
     # stays level (the front and side maps met there edge-on, a crease 15 levels deep, and
     # the pole's fan swirled the texture)
     rig = Rig(builtin_face())
-    (img,) = _draw(rig, {48: np.radians(20.0) / 1e-5})
+    (img,) = draw_head(rig, {48: np.radians(20.0) / 1e-5})
     lum = img.mean(axis=2)
     background = np.round(np.array([0.5, 0.5, 0.5]) * 255)
     head = (img != background).any(axis=2).any(axis=1)

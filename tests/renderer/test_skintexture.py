@@ -17,7 +17,7 @@ from renderer.skintexture import (
     skin_texture,
     white_uv,
 )
-from tests.renderer.test_headlook import SIZE, _draw
+from tests.support.head_pixels import SIZE, draw_head
 
 
 @pytest.fixture(scope="module")
@@ -125,7 +125,7 @@ def _luminance(img):
 
 
 def test_key_and_fill_light_both_halves_of_the_face(rig):
-    (img,) = _draw(rig, {})
+    (img,) = draw_head(rig, {})
     vp, _ = camera_for(rig)
     lum = _luminance(img)
     cheeks = project(vp, np.array([[38.0, -28.0, 82.0], [-38.0, -28.0, 82.0]]), SIZE)
@@ -146,7 +146,7 @@ def test_the_lashes_close_with_the_lids(rig):
     vp, _ = camera_for(rig)
     fp = rig.face.feature_points
     close = {19: 600.0, 20: 600.0}
-    open_img, closed_img = _draw(rig, {}, close)
+    open_img, closed_img = draw_head(rig, {}, close)
     moved = rig.deform(np.array([close.get(k, 0.0) for k in range(1, 69)]))
     top = project(vp, np.array([fp["3.1"], moved.positions[rig.face.fp_vertices["3.1"]]]), SIZE)
     x, y = top[0]
@@ -156,14 +156,14 @@ def test_the_lashes_close_with_the_lids(rig):
     assert n_before > 20 and n_after > 20  # the lash line is there, open or closed
     assert after - before == pytest.approx(top[1][1] - top[0][1], abs=3.0)
     plain = Rig(builtin_face("plain"))
-    (plain_img,) = _draw(plain, {})
+    (plain_img,) = draw_head(plain, {})
     assert _dark_rows(plain_img, box)[1] < 0.5 * n_before  # the lashes are what is dark
 
 
 def test_the_brows_rise_in_the_image_with_faps_31_to_34(rig):
     vp, _ = camera_for(rig)
     raise_ = {31: 150.0, 32: 150.0, 33: 150.0, 34: 150.0}
-    rest, raised = _draw(rig, {}, raise_)
+    rest, raised = draw_head(rig, {}, raise_)
     frame = rig.deform(np.array([raise_.get(k, 0.0) for k in range(1, 69)]))
     for name in ("4.3", "4.4"):
         i = rig.face.fp_vertices[name]

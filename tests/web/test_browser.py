@@ -16,67 +16,17 @@ import sqlalchemy as sa
 
 from app.web.extensions import db
 from app.web.models import Participant, Study, Trial, Vote
-from tests.conftest import PASSWORD
+from tests.support.browser import (
+    DESKTOP,
+    PHONE,
+    create_and_open,
+    ready_to_vote,
+    shown_trial_id,
+    trial_page_loads,
+    until_gone,
+)
 
 pytestmark = pytest.mark.browser
-
-PHONE = {"width": 390, "height": 844}
-DESKTOP = {"width": 1280, "height": 860}
-
-
-def _trial_id(page) -> int:
-    return int(page.locator(".player").get_attribute("data-trial-id"))
-
-
-def _gone(page, trial: int) -> None:
-    """Wait until the trial's player has left the page (a selector wait: the pages' CSP
-    forbids the eval a wait_for_function string needs)."""
-    page.wait_for_selector(f'.player[data-trial-id="{trial}"]', state="detached")
-
-
-def trial_page_loads(page) -> list[str]:
-    """The trial pages ``page`` loads from now on (documents whose URL holds ``/trial``),
-    filled in as it goes."""
-    loads: list[str] = []
-    page.on(
-        "request",
-        lambda r: (
-            loads.append(r.url) if r.resource_type == "document" and "/trial" in r.url else None
-        ),
-    )
-    return loads
-
-
-def _ready_to_vote(page) -> None:
-    """Wait for the preload, play the clip (Space), wait until voting is allowed."""
-    page.wait_for_selector(".play:not([disabled])")
-    page.keyboard.press("Space")
-    page.wait_for_selector(".vote:not([disabled])")
-
-
-def log_in(page, url: str) -> None:
-    """The test experimenter logs in on the login page."""
-    page.goto(f"{url}/experimenter/")
-    page.fill("input[name=email]", "exp@example.org")
-    page.fill("input[name=password]", PASSWORD)
-    page.click("input[type=submit]")
-
-
-def create_and_open(page, url: str, toml, wav) -> None:
-    """The test experimenter logs in, uploads the study file and its speech, generates the
-    tracks, renders the clips (two) and opens recruitment, on the pages as a person would."""
-    log_in(page, url)
-    page.click("text=New study")
-    page.set_input_files("input[name=file-study_file]", str(toml))
-    page.set_input_files("input[name=file-media]", str(wav))
-    page.click("input[name=file-submit]")
-    page.wait_for_selector("text=Study created")
-    page.click("text=1. Generate tracks")
-    page.wait_for_selector(".job-done")
-    page.click("text=2. Render clips")
-    page.wait_for_selector("text=2 of 2 clips rendered")
-    page.click("text=Open recruitment")
-    page.wait_for_selector(".badge-open")
 
 
 def test_pairs_go_on_in_place_with_their_instruction_progress_and_no_stale_resend(
@@ -116,7 +66,7 @@ def test_pairs_go_on_in_place_with_their_instruction_progress_and_no_stale_resen
         step = 0
         while "/trial" in page.url:
             page.wait_for_selector(".player[data-trial-id]")
-            trial = _trial_id(page)
+            trial = shown_trial_id(page)
             with live_server.app.app_context():
                 row = db.session.get(Trial, trial)
                 kind, expected = row.kind, row.expected
@@ -133,7 +83,7 @@ def test_pairs_go_on_in_place_with_their_instruction_progress_and_no_stale_resen
             else:
                 assert instructed.count() == 0
             shown.append((kind, expected))
-            _ready_to_vote(page)
+            ready_to_vote(page)
             if step == 2:
                 # The connection drops and comes back: the first vote's resend, long done,
                 # is not sent again, and this pair stays on screen as it is.
@@ -143,10 +93,10 @@ def test_pairs_go_on_in_place_with_their_instruction_progress_and_no_stale_resen
                 # happens, so no state of the page marks its end; a busy host can only make
                 # the check weaker, never fail it).
                 page.wait_for_timeout(500)
-                assert _trial_id(page) == trial
+                assert shown_trial_id(page) == trial
                 assert page.locator(".vote:not([disabled])").count() == 3
             page.click(f'.vote[data-choice="{expected if kind == "catch" else "left"}"]')
-            _gone(page, trial)
+            until_gone(page, trial)
             step += 1
         page.wait_for_url("**/done")
     finally:
@@ -172,7 +122,7 @@ def test_participant_walks_through_a_whole_study(live_server, browser, shots):
         page.keyboard.press("Enter")  # the agree button has the focus
         page.wait_for_url("**/instructions")
         # The practice pair, keyboard only; its answer is not stored.
-        _ready_to_vote(page)
+        ready_to_vote(page)
         page.keyboard.press("1")
         page.wait_for_selector("text=Practice answer: left")
         page.screenshot(path=shots / "participant-instructions.png", full_page=True)
@@ -180,12 +130,12 @@ def test_participant_walks_through_a_whole_study(live_server, browser, shots):
         step = 0
         while "/trial" in page.url:
             page.wait_for_selector(".player[data-trial-id]")
-            trial = _trial_id(page)
+            trial = shown_trial_id(page)
             if step == 1:
                 # Reload in the middle: the same trial comes back.
                 page.reload()
-                assert _trial_id(page) == trial
-            _ready_to_vote(page)
+                assert shown_trial_id(page) == trial
+            ready_to_vote(page)
             if step == 0:
                 page.screenshot(path=shots / "participant-trial-desktop.png")
             choice = ("left", "right", "undecided")[step % 3]
@@ -212,7 +162,7 @@ def test_participant_walks_through_a_whole_study(live_server, browser, shots):
             else:
                 page.click(f'.vote[data-choice="{choice}"]')
             clicked[trial] = choice
-            _gone(page, trial)
+            until_gone(page, trial)
             page.wait_for_load_state()
             step += 1
         page.wait_for_url("**/done")
@@ -249,9 +199,9 @@ def test_trial_page_on_a_phone(live_server, browser, shots):
         assert page.evaluate("document.documentElement.scrollWidth") <= PHONE["width"]
         for box in (page.locator(".vote").nth(i).bounding_box() for i in range(3)):
             assert box["height"] >= 44 and box["x"] >= 0 and box["x"] + box["width"] <= 390
-        trial = _trial_id(page)
+        trial = shown_trial_id(page)
         page.tap('.vote[data-choice="right"]')
-        _gone(page, trial)
+        until_gone(page, trial)
     finally:
         context.close()
     with live_server.app.app_context():
@@ -284,11 +234,11 @@ def test_experimenter_creates_a_study_and_downloads_votes(
                 person.click("text=I agree")
                 person.click("#start")
                 while "/trial" in person.url:
-                    _ready_to_vote(person)
-                    trial = _trial_id(person)
+                    ready_to_vote(person)
+                    trial = shown_trial_id(person)
                     person.click(f'.vote[data-choice="{choice}"]')
                     clicked.append(choice)
-                    _gone(person, trial)
+                    until_gone(person, trial)
                     person.wait_for_load_state()
             finally:
                 other.close()

@@ -10,14 +10,14 @@ import sqlalchemy as sa
 
 from app.web.extensions import db
 from app.web.models import Participant, Stimulus, Study, Trial, Vote
-from tests.web.study.test_adaptive import EIGHT
-from tests.web.test_browser import (
+from tests.support.browser import (
     DESKTOP,
-    _gone,
-    _ready_to_vote,
-    _trial_id,
+    ready_to_vote,
+    shown_trial_id,
     trial_page_loads,
+    until_gone,
 )
+from tests.support.studies import EIGHT_CONDITIONS
 
 pytestmark = pytest.mark.browser
 
@@ -35,21 +35,21 @@ def _take_part(live_server, chromium, slug, pid, shots_dir=None):  # noqa: ANN00
         page.goto(f"{live_server.url}/s/{slug}?PROLIFIC_PID={pid}&STUDY_ID=st&SESSION_ID=se")
         page.click("text=I agree")
         page.wait_for_url("**/instructions")
-        _ready_to_vote(page)  # the practice pair
+        ready_to_vote(page)  # the practice pair
         page.keyboard.press("1")
         page.click("#start")
         step = 0
         while "/trial" in page.url:
             page.wait_for_selector(".player[data-trial-id]")
-            trial = _trial_id(page)
+            trial = shown_trial_id(page)
             assert page.get_attribute(".player", "data-preload-url") is None
-            _ready_to_vote(page)
+            ready_to_vote(page)
             if step == 3 and shots_dir is not None:
                 page.screenshot(path=shots_dir / "participant-trial-adaptive.png")
             choice = ("left", "right", "undecided")[step % 3]
             page.click(f'.vote[data-choice="{choice}"]')
             clicked[trial] = choice
-            _gone(page, trial)
+            until_gone(page, trial)
             page.wait_for_load_state()
             step += 1
         page.wait_for_url("**/done")
@@ -62,7 +62,7 @@ def _take_part(live_server, chromium, slug, pid, shots_dir=None):  # noqa: ANN00
 
 
 def test_two_participants_take_an_adaptive_study(live_server, browser, shots):  # noqa: F811
-    study_id = live_server.study(design="adaptive", extra=EIGHT)
+    study_id = live_server.study(design="adaptive", extra=EIGHT_CONDITIONS)
     with live_server.app.app_context():
         slug = db.session.get(Study, study_id).slug
     for pid in ("ad-1", "ad-2"):

@@ -10,9 +10,8 @@ from app.web.extensions import db
 from app.web.models import Study, Trial
 from tests.conftest import ParticipantActions
 from tests.support.axe import axe_script, violations
-from tests.web.questionnaire.test_views import BEFORE, QUESTIONS
-from tests.web.questionnaire.test_views import _answer as answer_page
-from tests.web.test_browser import DESKTOP, PHONE, log_in
+from tests.support.browser import DESKTOP, PHONE, log_in
+from tests.support.questionnaire import BEFORE, QUESTIONS, answer_page
 
 pytestmark = pytest.mark.browser
 

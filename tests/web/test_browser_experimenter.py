@@ -14,12 +14,12 @@ import sqlalchemy as sa
 
 from app.web.extensions import db
 from app.web.models import Participant, Study, Trial
-from tests.web.test_browser import (
+from tests.support.browser import (
     DESKTOP,
-    _gone,
-    _ready_to_vote,
-    _trial_id,
     log_in,
+    ready_to_vote,
+    shown_trial_id,
+    until_gone,
 )
 
 pytestmark = pytest.mark.browser
@@ -37,12 +37,12 @@ def _take_part(browser, app, url: str, *, catch_answer: str) -> None:
         page.wait_for_url("**/instructions")
         page.click("#start")
         while "/trial" in page.url:
-            _ready_to_vote(page)
-            trial = _trial_id(page)
+            ready_to_vote(page)
+            trial = shown_trial_id(page)
             with app.app_context():
                 kind = db.session.get(Trial, trial).kind
             page.click(f'.vote[data-choice="{catch_answer if kind == "catch" else "left"}"]')
-            _gone(page, trial)
+            until_gone(page, trial)
             page.wait_for_load_state()
         page.wait_for_url("**/done")
     finally:

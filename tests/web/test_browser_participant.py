@@ -20,10 +20,10 @@ import sqlalchemy as sa
 from app.web.extensions import db
 from app.web.models import Participant, Study, Trial
 from tests.conftest import create_test_study, login, make_clip
-from tests.support.waits import played, until, until_page
-from tests.web.test_browser import (
+from tests.support.browser import (
     trial_page_loads,
 )
+from tests.support.waits import played, until, until_page
 
 pytestmark = pytest.mark.browser
 

@@ -15,9 +15,9 @@ from app.web.extensions import db
 from app.web.models import Participant, Study
 from app.web.prolific.models import ProlificStudy
 from tests.support.axe import axe_script, violations
+from tests.support.browser import DESKTOP, log_in
 from tests.support.fake_prolific import TOKEN, FakeProlific, running
 from tests.web.prolific.conftest import PROLIFIC_TABLE, take_part
-from tests.web.test_browser import DESKTOP, log_in
 
 pytestmark = pytest.mark.browser
 

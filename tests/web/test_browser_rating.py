@@ -23,10 +23,10 @@ from app.analysis.rating_results import analyze_ratings, read_ratings
 from app.web.extensions import db
 from app.web.models import Participant, Rating, Study, Trial
 from tests.conftest import create_test_study, login
-from tests.support.waits import played, until
-from tests.web.test_browser import (
+from tests.support.browser import (
     trial_page_loads,
 )
+from tests.support.waits import played, until
 
 pytestmark = pytest.mark.browser
 
@@ -325,7 +325,7 @@ def test_an_experimenter_runs_a_rating_study_through_the_pipeline(
     """The study file uploaded, its single faces generated and rendered (the stub pipeline),
     recruitment opened, a participant from the study link to the code, and the ratings
     downloaded from the study page are the ones stored."""
-    from tests.web.test_browser import create_and_open
+    from tests.support.browser import create_and_open
 
     live_server.user()
     toml = tmp_path / "study.toml"

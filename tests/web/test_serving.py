@@ -56,14 +56,14 @@ def test_the_access_line_holds_the_route_not_the_token_query_or_address():
 def test_the_app_records_each_requests_route(app, client, participant, web):
     from flask import request, request_tearing_down
 
-    from tests.web.participant.test_views import _slug
+    from tests.support.studies import study_slug
 
     seen = {}
 
     def read(_sender, **_extra):
         seen[request.path] = request.environ.get("facepair.route")
 
-    token = participant.join(_slug(app, web.study()))
+    token = participant.join(study_slug(app, web.study()))
     with request_tearing_down.connected_to(read, app):
         client.get(f"/p/{token}/trial")
         client.get("/no/such/page")

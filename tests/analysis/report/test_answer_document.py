@@ -1,5 +1,5 @@
 """The report section on the answer details (``app.analysis.report.answer_document``), on
-votes whose answers are known (those of ``tests/analysis/test_answer_details.py``)."""
+votes whose answers are known (those of ``tests/support/answer_votes.py``)."""
 
 import pandas as pd
 
@@ -7,11 +7,11 @@ from app.analysis import analyze
 from app.analysis.report.answer_document import answer_detail_blocks
 from app.analysis.report.blocks import Heading, Plot, Table
 from app.analysis.report.document import build_document
-from tests.analysis.test_answer_details import _frame
+from tests.support.answer_votes import answer_frame
 
 
 def test_the_report_has_the_tables_and_figures_only_when_asked():
-    frame = pd.concat([_frame(participant="p1"), _frame(participant="p2")])
+    frame = pd.concat([answer_frame(participant="p1"), answer_frame(participant="p2")])
     results = analyze(frame, conditions=["a", "b", "c"], bootstrap=20, mixed_model=False)
     assert results["strengths"]["pooled"] == [4, 2, 2, 2, 2]
     assert results["reasons"]["tags"]["lips"]["total"] == 6

@@ -6,7 +6,7 @@ from __future__ import annotations
 from app.analysis.rating_results import analyze_ratings, ratings_text, read_ratings
 from app.analysis.report.blocks import Heading, Paragraph, Plot, Table
 from app.analysis.report.rating_document import mos_figure, rating_blocks, summary_text
-from tests.analysis.test_rating_results import _parallel_rows, _rows
+from tests.support.rating_rows import acr_rows, parallel_rows
 
 
 def _results(rows, tmp_path, **options):
@@ -16,7 +16,7 @@ def _results(rows, tmp_path, **options):
 
 
 def test_the_blocks_of_a_rating_report(tmp_path):
-    results = _results(_rows(), tmp_path)
+    results = _results(acr_rows(), tmp_path)
     blocks = rating_blocks(results)
     kinds = [type(b).__name__ for b in blocks]
     assert kinds[:2] == ["Heading", "Paragraph"] and "Plot" in kinds
@@ -38,7 +38,7 @@ def test_the_blocks_of_a_rating_report(tmp_path):
 
 
 def test_a_parallel_report_says_its_post_screening(tmp_path):
-    blocks = rating_blocks(_results(_parallel_rows(), tmp_path))
+    blocks = rating_blocks(_results(parallel_rows(), tmp_path))
     said = " ".join(b.text for b in blocks if isinstance(b, Paragraph))
     assert "Post-screening (ITU-R BS.1534-3, sec. 4.1.2" in said and "left out by it: P03" in said
 

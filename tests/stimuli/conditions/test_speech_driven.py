@@ -7,7 +7,7 @@ from app.stimuli.conditions.head_arx import DEFAULT_MODEL_PATH
 from app.stimuli.conditions.speech_driven import resolve_threshold
 from app.stimuli.reference_speaker import synthesize_reference
 from app.stimuli.speech import SpeechFeatures, features_from_samples
-from tests.stimuli.conditions.test_eyebrow_rule import known_contours
+from tests.support.speech_contours import known_contours
 
 
 def known_features():

@@ -236,9 +236,9 @@ def test_an_account_flood_does_not_lock_out_its_owner(app, web):
 
 
 def test_cli_add_errors_are_one_line(app, monkeypatch, tmp_path):
-    from tests.commands.test_web import _env
+    from tests.support.cli import cli_env
 
-    _env(monkeypatch, app)
+    cli_env(monkeypatch, app)
     runner = CliRunner()
     ok = runner.invoke(
         main, ["experimenter", "add", "lab@example.org", "--password", "a long passphrase"]
@@ -268,10 +268,10 @@ def test_cli_against_an_unmigrated_database_is_one_line(monkeypatch, tmp_path):
 
 
 def test_cli_password_change_ends_logins(app, monkeypatch, web):
-    from tests.commands.test_web import _env
+    from tests.support.cli import cli_env
 
     client = _logged_in(app, web)
-    _env(monkeypatch, app)
+    cli_env(monkeypatch, app)
     result = CliRunner().invoke(
         main, ["experimenter", "password", "exp@example.org", "--password", "a fresh passphrase"]
     )
@@ -285,11 +285,11 @@ def _unlock_link(app, monkeypatch, email="exp@example.org") -> str:
     """``facepair experimenter unlock`` run with the server's key; returns the printed link."""
     import secrets
 
-    from tests.commands.test_web import _env
+    from tests.support.cli import cli_env
 
     key = secrets.token_hex(32)
     app.config["SECRET_KEY"] = key  # the server's key, as the command reads it
-    _env(monkeypatch, app)
+    cli_env(monkeypatch, app)
     monkeypatch.setenv("SECRET_KEY", key)
     result = CliRunner().invoke(
         main, ["experimenter", "unlock", email, "--site", "https://studies.example.org/"]
@@ -361,9 +361,9 @@ def test_a_bad_or_expired_unlock_link_changes_nothing(app, web, monkeypatch, tok
 
 
 def test_unlock_names_an_unknown_experimenter_in_one_line(app, monkeypatch):
-    from tests.commands.test_web import _env
+    from tests.support.cli import cli_env
 
-    _env(monkeypatch, app)
+    cli_env(monkeypatch, app)
     monkeypatch.setenv("SECRET_KEY", "a" * 64)
     weak = CliRunner().invoke(main, ["experimenter", "unlock", "exp@example.org"])
     assert weak.exit_code == 2 and weak.output.startswith("facepair: error: SECRET_KEY: guessable")

@@ -1,7 +1,6 @@
 """Media through Flask, the front proxy (X-Accel-Redirect) or a bucket (pre-signed URLs): the
 same access check before each, and a participant never gets another participant's clip."""
 
-import socket
 import urllib.error
 import urllib.request
 
@@ -14,58 +13,10 @@ from app.errors import InputError
 from app.web.extensions import db
 from app.web.infra import media
 from app.web.models import Participant, Stimulus, Study, Trial
+from tests.support.s3 import BUCKET, s3_env, s3_server, use_backend  # noqa: F401 (fixtures)
+from tests.support.served import free_port
 
-BUCKET = "facepair-test"
 LEAKS = ("X-Accel-Redirect", "Location")
-
-
-def _free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return sock.getsockname()[1]
-
-
-@pytest.fixture(scope="module")
-def s3_server():
-    """An S3 server on this machine (moto), never the internet."""
-    from moto.server import ThreadedMotoServer
-
-    port = _free_port()
-    server = ThreadedMotoServer(ip_address="127.0.0.1", port=port, verbose=False)
-    server.start()
-    try:
-        yield f"http://127.0.0.1:{port}"
-    finally:
-        server.stop()
-
-
-@pytest.fixture
-def s3_env(s3_server, monkeypatch):
-    """Credentials as a deployment sets them: in the environment, never in the config."""
-    for key, value in {
-        "AWS_ACCESS_KEY_ID": "testing",
-        "AWS_SECRET_ACCESS_KEY": "testing",
-        "AWS_DEFAULT_REGION": "us-east-1",
-    }.items():
-        monkeypatch.setenv(key, value)
-    media._clients.clear()
-    yield s3_server
-    media._clients.clear()
-
-
-def use_backend(app, backend: str, request) -> None:
-    """Switch ``app`` to ``backend`` and put the rendered clips where it serves them from."""
-    app.config["MEDIA_BACKEND"] = backend
-    if backend != "s3":
-        return
-    endpoint = request.getfixturevalue("s3_env")
-    app.config.update(MEDIA_URL=f"s3://{BUCKET}/media", MEDIA_S3_ENDPOINT=endpoint)
-    with app.app_context():
-        client = media.s3_client()
-        if BUCKET not in {b["Name"] for b in client.list_buckets().get("Buckets", [])}:
-            client.create_bucket(Bucket=BUCKET)
-        for study in db.session.scalars(sa.select(Study)):
-            media.publish_folder(study, "videos")
 
 
 def _trials_of(app, token: str) -> list[int]:
@@ -304,7 +255,7 @@ def test_a_store_that_is_away_fails_the_job_and_the_request_with_one_line(
     app.config.update(
         MEDIA_BACKEND="s3",
         MEDIA_URL=f"s3://{BUCKET}",
-        MEDIA_S3_ENDPOINT=f"http://127.0.0.1:{_free_port()}",
+        MEDIA_S3_ENDPOINT=f"http://127.0.0.1:{free_port()}",
     )  # nobody listens
     with app.app_context():
         job = Job(study_id=study_id, kind="generate")

@@ -18,39 +18,14 @@ from app.web.models import Job, Study, Track
 from app.web.study.studies import create_study
 from tests.conftest import create_test_user, write_tone_wav
 from tests.support.jobrows import add_job, job_row
-
-TOML = """
-title = "Named conditions"
-question = "Which face moves more naturally?"
-design = "unordered_counterbalanced"
-seed = 5
-eyes = "still"
-practice = false
-
-[render]
-size = 128
-mosaic_block = 16
-
-[[conditions]]
-name = "calm"
-model = "random"
-settings = {{ octaves = 1, persistence = 0.5 }}
-
-[[conditions]]
-name = "lively"
-model = "random"
-
-[[clips]]
-name = "s1"
-audio = "s1.wav"
-"""
+from tests.support.studies import NAMED_CONDITIONS
 
 
 def test_named_conditions_keep_their_model_settings_and_render_settings(app, tmp_path):
     from app.web.jobs.bodies import generate_tracks
 
     write_tone_wav(tmp_path / "s1.wav", seconds=1.0)
-    spec = loads_study(TOML.format(), base_dir=tmp_path)
+    spec = loads_study(NAMED_CONDITIONS.format(), base_dir=tmp_path)
     with app.app_context():
         study = create_study(create_test_user(), spec)
         db.session.commit()
@@ -81,7 +56,7 @@ def test_a_trackers_ground_truth_is_converted_and_its_gaps_reported(app, tmp_pat
     success = np.ones(30, int)
     success[10:13] = 0
     write_openface(tmp_path / "openface.csv", t, {"pose_Ry": 0.1 * np.sin(t)}, success=success)
-    text = TOML.format().replace(
+    text = NAMED_CONDITIONS.format().replace(
         'audio = "s1.wav"', 'audio = "s1.wav"\nground_truth = "openface.csv"'
     )
     text = text.replace(
@@ -286,7 +261,7 @@ def test_a_teams_own_system_output_is_a_condition_with_its_import_said(app, tmp_
         t,
         {"BrowInnerUp": np.where(t > 0.5, 0.4, 0.0), "JawOpen": 0.3 + 0 * t},
     )
-    text = TOML.format().replace(
+    text = NAMED_CONDITIONS.format().replace(
         'name = "lively"\nmodel = "random"', 'name = "ours"\ntracks = { s1 = "ours_s1.csv" }'
     )
     spec = loads_study(text, base_dir=tmp_path)
@@ -311,7 +286,8 @@ def test_a_teams_own_system_output_is_a_condition_with_its_import_said(app, tmp_
 
 
 def _upload_study(tmp_path, seconds: float, extra: str = "") -> str:
-    """The TOML study with a condition uploaded as a FAP track of ``seconds``, jaw moving."""
+    """The study of :data:`NAMED_CONDITIONS` with a condition uploaded as a FAP track of
+    ``seconds``, jaw moving."""
     from app.stimuli.fapfile import write_fap
     from app.stimuli.track import MotionTrack
 
@@ -319,7 +295,7 @@ def _upload_study(tmp_path, seconds: float, extra: str = "") -> str:
     n = round(seconds * 30)
     jaw = 400 * np.sin(np.linspace(0, 6, n)) ** 2
     write_fap(MotionTrack.from_channels(30.0, {3: jaw, 48: 100 * jaw}), tmp_path / "Our Take.fap")
-    return extra + TOML.format().replace(
+    return extra + NAMED_CONDITIONS.format().replace(
         'name = "lively"\nmodel = "random"', 'name = "ours"\ntracks = { s1 = "Our Take.fap" }'
     )
 
@@ -429,7 +405,7 @@ def test_a_study_renders_its_pairs_with_an_avatar_of_each_structure(app, tmp_pat
     else:
         avatar = build_avatar(kind, tmp_path)
     write_tone_wav(tmp_path / "s1.wav", seconds=0.3)
-    text = TOML.format().replace(
+    text = NAMED_CONDITIONS.format().replace(
         "[render]\nsize = 128\nmosaic_block = 16",
         f'[render]\nsize = 64\nmosaic_block = 8\nface = "{avatar.name}"',
     )

@@ -19,7 +19,7 @@ from app.web.extensions import db
 from app.web.models import Stimulus, Study
 from app.web.study.studies import create_study
 from tests.conftest import create_test_user, csrf_token, write_tone_wav
-from tests.web.infra.test_media import s3_env, s3_server, use_backend  # noqa: F401 (fixtures)
+from tests.support.s3 import s3_env, s3_server, use_backend  # noqa: F401 (fixtures)
 
 CONDITIONS = {"zebraface": "none", "quokkamotion": "random", "ibexprosody": "speech_driven"}
 #: What a leak would look like besides the condition names: the model names a participant

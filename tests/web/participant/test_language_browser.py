@@ -16,7 +16,8 @@ from app.web.extensions import db
 from app.web.models import Participant, Study, Vote
 from app.web.study import audiocheck
 from tests.conftest import create_test_study
-from tests.web.participant.test_player_browser import _context, _shot, _slug
+from tests.support.browser import device_context, screenshot
+from tests.support.studies import study_slug
 
 pytestmark = pytest.mark.browser
 
@@ -45,11 +46,11 @@ def _first_trial(live_server, chromium, tmp_path, clip, viewport, touch, agree: 
         study = db.session.get(Study, study_id)
         study.title, study.question, study.undecided_label = WORDS[language]
         db.session.commit()
-    context = _context(chromium, viewport, touch)
+    context = device_context(chromium, viewport, touch)
     page = context.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
-    page.goto(f"{live_server.url}/s/{_slug(live_server.app, study_id)}")
+    page.goto(f"{live_server.url}/s/{study_slug(live_server.app, study_id)}")
     press = page.tap if touch else page.click
     press(f"text={agree}")
     page.wait_for_url("**/instructions")
@@ -100,7 +101,7 @@ def test_the_left_answer_is_under_the_left_face_in_a_right_to_left_study(
         trial = int(page.get_attribute(".player", "data-trial-id"))
         press(".play")
         page.wait_for_selector(".vote:not([disabled])")
-        _shot(page, f"participant-trial-arabic-{name}")
+        screenshot(page, f"participant-trial-arabic-{name}")
         press('.vote[data-choice="left"]')
         page.wait_for_selector(f'.player[data-trial-id="{trial}"]', state="detached")
     finally:
@@ -137,7 +138,7 @@ def test_a_german_study_speaks_german_to_the_vote(
         page.wait_for_selector(".vote:not([disabled])")
         page.wait_for_selector(".play:has-text('Erneut abspielen')")
         assert page.inner_text(".plays-left") == "Noch 1 Wiedergabe"
-        _shot(page, f"participant-trial-german-{name}")
+        screenshot(page, f"participant-trial-german-{name}")
         trial = int(page.get_attribute(".player", "data-trial-id"))
         press('.vote[data-choice="right"]')
         page.wait_for_selector(f'.player[data-trial-id="{trial}"]', state="detached")
@@ -174,13 +175,13 @@ def test_the_audio_check_plays_its_sounds_and_opens_the_trials(
         tiny_video,
         extra='[audio_check]\nkind = "huggins"\ntrials = 2\npass_mark = 2\n',
     )
-    context = _context(browser, viewport, touch)
+    context = device_context(browser, viewport, touch)
     page = context.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
     press = page.tap if touch else page.click
     try:
-        page.goto(f"{live_server.url}/s/{_slug(live_server.app, study_id)}")
+        page.goto(f"{live_server.url}/s/{study_slug(live_server.app, study_id)}")
         press("text=I agree")
         page.wait_for_url("**/instructions")
         press("#start")
@@ -198,7 +199,7 @@ def test_the_audio_check_plays_its_sounds_and_opens_the_trials(
             press(".play-sounds")
             page.wait_for_selector(".sound-choice:not([disabled])")
             if question == 1:
-                _shot(page, f"participant-audio-check-{name}")
+                screenshot(page, f"participant-audio-check-{name}")
             with live_server.app.app_context():
                 person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
                 target = audiocheck._targets(person.audio_check, 1, 2)[question - 1]
@@ -284,29 +285,29 @@ def test_the_rating_designs_speak_of_their_own_pages(
         study = db.session.get(Study, study_id)
         study.title, study.question, study.consent, study.instructions = words["study"]
         db.session.commit()
-    context = _context(browser, {"width": 1366, "height": 768}, False)
+    context = device_context(browser, {"width": 1366, "height": 768}, False)
     page = context.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
     name = f"participant-{design}-{{}}-{language}"
     try:
-        page.goto(f"{live_server.url}/s/{_slug(live_server.app, study_id)}")
+        page.goto(f"{live_server.url}/s/{study_slug(live_server.app, study_id)}")
         consent = page.inner_text("main")
         other = "parallel" if design == "rating" else "rating"
         assert words[design] in consent and words[other] not in consent
-        _shot(page, name.format("consent"))
+        screenshot(page, name.format("consent"))
         page.click(f"text={words['agree']}")
         page.wait_for_url("**/instructions")
-        _shot(page, name.format("instructions"))
+        screenshot(page, name.format("instructions"))
         page.click("#start")
         page.wait_for_selector(".rater[data-trial-id]")
         if design == "rating":
             page.wait_for_selector(".play:not([disabled])")
-            _shot(page, name.format("trial"))
+            screenshot(page, name.format("trial"))
             return
         page.wait_for_selector(".overlay-text")
         assert page.inner_text(".overlay-text") == words["start"]
-        _shot(page, name.format("trial"))
+        screenshot(page, name.format("trial"))
         # The keyboard alone, as the instructions say: Tab to each button and slider, Space
         # presses a button, the arrow keys move a slider.
         page.focus(".item-play.reference")

@@ -6,16 +6,16 @@ card. Debian's chromium driven by Playwright against a live server."""
 
 from __future__ import annotations
 
-import os
 from contextlib import contextmanager
-from pathlib import Path
 
 import pytest
 import sqlalchemy as sa
 
 from app.web.extensions import db
-from app.web.models import Study, Vote
+from app.web.models import Vote
 from tests.conftest import create_test_study, make_clip
+from tests.support.browser import device_context, screenshot
+from tests.support.studies import study_slug
 
 pytestmark = pytest.mark.browser
 
@@ -36,23 +36,8 @@ def long_clip(tmp_path_factory):
     return make_clip(tmp_path_factory.mktemp("long") / "long.mp4", seconds=3)
 
 
-def _slug(app, study_id: int) -> str:
-    with app.app_context():
-        return db.session.get(Study, study_id).slug
-
-
-def _shot(page, name: str) -> None:
-    """A screenshot to ``$FACEPAIR_SCREENSHOTS`` when that is set (to look at the page)."""
-    if os.environ.get("FACEPAIR_SCREENSHOTS"):
-        page.screenshot(path=Path(os.environ["FACEPAIR_SCREENSHOTS"]) / f"{name}.png")
-
-
 def _press(page, selector: str, touch: bool) -> None:
     (page.tap if touch else page.click)(selector)
-
-
-def _context(chromium, viewport: dict, touch: bool):
-    return chromium.new_context(viewport=viewport, is_mobile=touch, has_touch=touch)
 
 
 @contextmanager
@@ -60,8 +45,8 @@ def _trial(live_server, chromium, tmp_path, clip, viewport: dict, touch: bool, *
     """A page on the first trial of a new study (``toml`` as for ``create_test_study``), its
     clip ready to play; the page's script errors must stay none."""
     study_id = create_test_study(live_server.app, tmp_path, clip, **toml)
-    slug = _slug(live_server.app, study_id)
-    context = _context(chromium, viewport, touch)
+    slug = study_slug(live_server.app, study_id)
+    context = device_context(chromium, viewport, touch)
     page = context.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
@@ -137,7 +122,7 @@ def test_choosing_an_answer_brings_the_reason_tags_into_view(
         _press(page, '.vote[data-choice="left"][data-strength="2"]', touch)
         # shown and brought into view in one step of the page's script
         page.wait_for_selector(".reasons:not([hidden])")
-        _shot(page, f"participant-reasons-{name}")
+        screenshot(page, f"participant-reasons-{name}")
         box = page.locator(".reasons .confirm").bounding_box()
         assert box["y"] >= 0 and box["y"] + box["height"] <= viewport["height"], box
         assert box["x"] >= 0 and box["x"] + box["width"] <= viewport["width"], box
@@ -180,12 +165,12 @@ def test_instructions_speak_of_keys_on_desktops_and_of_taps_on_phones(
     viewport,
     touch,
 ):
-    slug = _slug(live_server.app, live_server.study())
-    context = _context(browser, viewport, touch)
+    slug = study_slug(live_server.app, live_server.study())
+    context = device_context(browser, viewport, touch)
     page = context.new_page()
     try:
         page.goto(f"{live_server.url}/s/{slug}")
-        _shot(page, f"participant-consent-{name}")
+        screenshot(page, f"participant-consent-{name}")
         consent = page.locator("form input[type=submit], form button[type=submit]").bounding_box()
         card = page.locator(".card").bounding_box()
         # The consent button stays inside its card, the card inside the window.
@@ -196,7 +181,7 @@ def test_instructions_speak_of_keys_on_desktops_and_of_taps_on_phones(
         assert page.evaluate("document.documentElement.scrollWidth") <= viewport["width"]
         _press(page, "text=I agree", touch)
         page.wait_for_url("**/instructions")
-        _shot(page, f"participant-instructions-{name}")
+        screenshot(page, f"participant-instructions-{name}")
         text = page.inner_text("ul.keys")
         if touch:
             assert "Space" not in text and "Press" not in text, text

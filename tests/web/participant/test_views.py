@@ -6,7 +6,7 @@ import sqlalchemy as sa
 from app.web.extensions import db
 from app.web.models import Participant, Study, Trial, Vote
 from tests.conftest import csrf_token
-from tests.web.study.test_adaptive import EIGHT
+from tests.support.studies import EIGHT_CONDITIONS, study_slug
 
 
 def _status(client, url):
@@ -16,13 +16,8 @@ def _status(client, url):
     return response.status_code
 
 
-def _slug(app, study_id):
-    with app.app_context():
-        return db.session.get(Study, study_id).slug
-
-
 def test_whole_study_with_reload_and_resume(app, client, participant, web):
-    slug = _slug(app, web.study())
+    slug = study_slug(app, web.study())
     token = participant.join(slug, "PROLIFIC_PID=pp1&STUDY_ID=st1&SESSION_ID=se1")
     assert client.get(f"/p/{token}/instructions").status_code == 200
     assert _status(client, f"/p/{token}/practice.mp4") == 200
@@ -53,19 +48,19 @@ def test_whole_study_with_reload_and_resume(app, client, participant, web):
 
 
 def test_consent_needs_csrf_and_an_open_study(app, client, web):
-    slug = _slug(app, web.study())
+    slug = study_slug(app, web.study())
     assert client.post(f"/s/{slug}", data={"agree": "1"}).status_code == 400  # no CSRF token
     with app.app_context():
         assert db.session.scalar(sa.select(sa.func.count(Participant.id))) == 0
-    paused = _slug(app, web.study(status="paused"))
+    paused = study_slug(app, web.study(status="paused"))
     assert client.get(f"/s/{paused}").status_code == 503
-    draft = _slug(app, web.study(video=False))
+    draft = study_slug(app, web.study(video=False))
     assert client.get(f"/s/{draft}").status_code == 404
     assert client.get("/s/not-a-study").status_code == 404
 
 
 def test_tokens_are_private(app, client, participant, web):
-    slug = _slug(app, web.study())
+    slug = study_slug(app, web.study())
     token = participant.join(slug)
     other = ParticipantLike(app)
     other_token = other.join(slug)
@@ -95,7 +90,7 @@ class ParticipantLike:
 
 def test_closed_study_stops_trials(app, client, participant, web):
     study_id = web.study()
-    token = participant.join(_slug(app, study_id))
+    token = participant.join(study_slug(app, study_id))
     with app.app_context():
         db.session.get(Study, study_id).status = "closed"
         db.session.commit()
@@ -113,7 +108,7 @@ def _play(client, token, trial_id):
 def test_plays_are_counted_by_the_server_and_a_reload_gives_none_back(
     app, client, participant, web
 ):
-    token = participant.join(_slug(app, web.study(replay="max_plays", max_plays=2)))
+    token = participant.join(study_slug(app, web.study(replay="max_plays", max_plays=2)))
     trial_id = participant.current_trial()
     assert _play(client, token, trial_id).get_json() == {"plays": 1, "plays_left": 1}
     assert _play(client, token, trial_id).get_json() == {"plays": 2, "plays_left": 0}
@@ -129,7 +124,7 @@ def test_plays_are_counted_by_the_server_and_a_reload_gives_none_back(
 
 
 def test_a_prolific_id_enrols_once_and_resumes_with_its_session_id(app, client, participant, web):
-    slug = _slug(app, web.study())
+    slug = study_slug(app, web.study())
     token = participant.join(slug, "PROLIFIC_PID=same&STUDY_ID=s&SESSION_ID=a")
     client.delete_cookie(f"fp-{web_study_id(app, slug)}")  # another device: no cookie
     again = client.get(f"/s/{slug}?PROLIFIC_PID=same&STUDY_ID=s&SESSION_ID=a")
@@ -150,7 +145,7 @@ def test_a_prolific_id_alone_takes_over_nobody(app, participant, web, query):
     """Another browser with the victim's Prolific ID (and no or another SESSION_ID) gets a
     page saying the study was started, with what to do, and nothing of the victim's: no
     participant link, no cookie; GET and the consent POST alike."""
-    slug = _slug(app, web.study())
+    slug = study_slug(app, web.study())
     token = participant.join(slug, "PROLIFIC_PID=victim&STUDY_ID=s&SESSION_ID=a")
     stranger = app.test_client()
     for answer in (
@@ -191,7 +186,7 @@ def web_study_id(app, slug):
 
 
 def test_back_after_a_vote_never_shows_the_practice_again(app, client, participant, web):
-    token = participant.join(_slug(app, web.study()))
+    token = participant.join(study_slug(app, web.study()))
     assert client.get(f"/p/{token}/instructions").status_code == 200
     trial = client.get(f"/p/{token}/trial")
     assert trial.headers["Cache-Control"] == "no-store"
@@ -204,7 +199,7 @@ DESIGN_EXTRA = {
     "all_ordered": "",
     "reference": 'reference = "none"\n',
     "unordered_counterbalanced": "",
-    "adaptive": EIGHT,
+    "adaptive": EIGHT_CONDITIONS,
     "rating": "",
     "parallel": 'reference = "none"\n',
 }
@@ -220,7 +215,7 @@ def test_practice_false_means_no_practice_in_every_design(app, client, participa
         settings = "practice = false\n" if not practice else ""
         extra = settings + DESIGN_EXTRA[design]
         study_id = web.study(design=design, catch_kind=catch_kind, extra=extra)
-        token = participant.join(_slug(app, study_id))
+        token = participant.join(study_slug(app, study_id))
         page = client.get(f"/p/{token}/instructions").get_data(as_text=True)
         shown = practice and design not in ("rating", "parallel")
         assert ("Practice pair" in page) == shown, (design, practice)
@@ -237,7 +232,7 @@ def test_study_text_is_paragraphs_not_ragged_lines(app, client, participant, web
     from app.web.participant.views import paragraphs
 
     assert str(paragraphs("one\ntwo <b>\n\n  three\n")) == "<p>one two &lt;b&gt;</p><p>three</p>"
-    token = participant.join(_slug(app, web.study()))
+    token = participant.join(study_slug(app, web.study()))
     assert "<p>Watch both faces.</p>" in client.get(f"/p/{token}/instructions").get_data(
         as_text=True
     )
@@ -251,7 +246,7 @@ def test_answer_buttons_are_mirror_images(app, client, participant, web):
     votes = re.search(r"\n\.votes \{([^}]*)\}", css).group(1)
     assert "grid-auto-columns: minmax(0, 1fr)" in votes and "auto 1fr" not in votes
     for undecided in (True, False):
-        token = participant.join(_slug(app, web.study(undecided=undecided)))
+        token = participant.join(study_slug(app, web.study(undecided=undecided)))
         page = client.get(f"/p/{token}/trial").get_data(as_text=True)
         labels = re.findall(r'class="vote" data-choice="(\w+)"', page)
         assert labels == (["left", "undecided", "right"] if undecided else ["left", "right"])
@@ -270,7 +265,7 @@ screened_out_code = "SCREENED-9"
 
 def test_five_levels_reasons_and_the_stop_rule(app, client, participant, web):
     token = participant.join(
-        _slug(
+        study_slug(
             app,
             web.study(design="all_ordered", catch=2, extra=FIVE.replace("[answer]", "\n[answer]")),
         )
@@ -298,7 +293,7 @@ def test_five_levels_reasons_and_the_stop_rule(app, client, participant, web):
 
 
 def test_the_completion_code_waits_for_the_last_vote(app, client, participant, web):
-    token = participant.join(_slug(app, web.study()))
+    token = participant.join(study_slug(app, web.study()))
     early = client.get(f"/p/{token}/done")
     assert early.status_code == 302 and b"DONE-123" not in early.data
     while (trial_id := participant.current_trial()) is not None:
@@ -308,7 +303,7 @@ def test_the_completion_code_waits_for_the_last_vote(app, client, participant, w
 
 
 def test_clips_answer_ranges_with_a_long_private_cache(app, client, participant, web):
-    token = participant.join(_slug(app, web.study()))
+    token = participant.join(study_slug(app, web.study()))
     trial_id = participant.current_trial()
     part = client.get(f"/p/{token}/video/{trial_id}", headers={"Range": "bytes=0-99"})
     assert part.status_code == 206 and len(part.data) == 100
@@ -325,7 +320,7 @@ def test_the_page_takes_its_answers_keys_and_replay_rule_from_the_rules(
     from app.trials.rules import answers, key_map
 
     token = participant.join(
-        _slug(app, web.study(undecided=False, replay="max_plays", max_plays=2))
+        study_slug(app, web.study(undecided=False, replay="max_plays", max_plays=2))
     )
     guide = client.get(f"/p/{token}/instructions").get_data(as_text=True)
     assert "<kbd>←</kbd>/<kbd>1</kbd> for “Left”" in guide and "↓" not in guide
@@ -347,7 +342,7 @@ def test_one_address_cannot_flood_a_study_with_consents(app, web):
     """200 consents from one address took 255 list slots against a target of 20; now the
     address gets 10 a minute, then a page asking it to wait (429, Retry-After), while another
     address still enrols and a returning participant still resumes."""
-    slug = _slug(app, web.study())
+    slug = study_slug(app, web.study())
     flood = app.test_client()
     codes = []
     for _ in range(14):
@@ -365,18 +360,18 @@ def test_one_address_cannot_flood_a_study_with_consents(app, web):
 
 
 def test_resumes_and_refused_forms_do_not_count_against_the_address(app, participant, web):
-    slug = _slug(app, web.study())
+    slug = study_slug(app, web.study())
     participant.join(slug)
     for _ in range(15):  # the same browser coming back: resumed, not enrolled
         assert participant.client.post(f"/s/{slug}").status_code in (302, 400)
-    other_study = _slug(app, web.study())
+    other_study = study_slug(app, web.study())
     assert _consent(participant.client, other_study).status_code == 302
 
 
 def test_the_consent_limits_are_configurable_and_can_be_switched_off(app, web):
     app.config["CONSENT_LIMIT_PER_ADDRESS"] = ""
     app.config["CONSENT_LIMIT_PER_STUDY"] = "3 per minute"
-    slug = _slug(app, web.study())
+    slug = study_slug(app, web.study())
     codes = []
     for i in range(5):
         client = app.test_client()

@@ -11,40 +11,12 @@ from hypothesis import strategies as st
 
 from app.web.extensions import db
 from app.web.models import Participant, Study
-
-QUESTIONS = """demographics = true
-[[questions]]
-name = "comments"
-text = "Any comments?"
-page = "after"
-required = false
-[[questions]]
-name = "hours"
-text = "Hours of screen time a day"
-page = "after"
-type = "number"
-min = 0
-max = 24
-"""
-BEFORE = {
-    "age_band": "25-34",
-    "gender": "female",
-    "native_language": "Welsh",
-    "vision_corrected": "no",
-    "animation_experience": "none",
-}
+from tests.support.questionnaire import BEFORE, QUESTIONS, answer_page
 
 
 def _slug(app, study_id):
     with app.app_context():
         return db.session.get(Study, study_id).slug
-
-
-def _answer(client, token, page, **values):
-    url = f"/p/{token}/questions/{page}"
-    form = client.get(url).get_data(as_text=True)
-    csrf = re.search(r'name="csrf_token" type="hidden" value="([^"]+)"', form).group(1)
-    return client.post(url, data={"csrf_token": csrf, **values})
 
 
 def test_the_path_passes_through_both_pages(app, client, web, participant):
@@ -56,11 +28,11 @@ def test_the_path_passes_through_both_pages(app, client, web, participant):
     before = participant.client.get(f"/p/{token}/questions/before").get_data(as_text=True)
     assert 'class="required-mark"' in before and "(required)" in before
     assert "<fieldset" in before and 'class="option"' in before
-    missing = _answer(participant.client, token, "before", **(BEFORE | {"gender": ""}))
+    missing = answer_page(participant.client, token, "before", **(BEFORE | {"gender": ""}))
     assert missing.status_code == 400
     text = missing.get_data(as_text=True)
     assert "an answer is required" in text and 'value="Welsh"' in text  # the rest kept
-    assert _answer(participant.client, token, "before", **BEFORE).headers["Location"] == (
+    assert answer_page(participant.client, token, "before", **BEFORE).headers["Location"] == (
         f"/p/{token}/instructions"
     )
     while (trial := participant.current_trial()) is not None:
@@ -70,9 +42,9 @@ def test_the_path_passes_through_both_pages(app, client, web, participant):
     after = participant.client.get(f"/p/{token}/questions/after").get_data(as_text=True)
     assert 'id="hint-hours">A number from 0 to 24.</small>' in after
     assert 'aria-describedby="hint-hours"' in after and "(optional)" in after
-    bad = _answer(participant.client, token, "after", hours="25")
+    bad = answer_page(participant.client, token, "after", hours="25")
     assert "must be at most 24, got 25" in bad.get_data(as_text=True)
-    ok = _answer(participant.client, token, "after", hours="3.5", comments="Nice faces")
+    ok = answer_page(participant.client, token, "after", hours="3.5", comments="Nice faces")
     assert ok.headers["Location"] == f"/p/{token}/done"
     assert participant.client.get(f"/p/{token}/done").status_code == 200
     # A page is answered once.
@@ -137,12 +109,12 @@ def test_the_demographic_questions_speak_the_study_language_and_store_codes(
     assert {"prefer not to say", "I work in animation", "65 or over", "rot"} <= values
     # The label shown is not an answer: the option's code is.
     label = DEMOGRAPHIC_WORDS[language]["prefer not to say"]
-    refused = _answer(participant.client, token, "before", **(BEFORE | {"gender": label}))
+    refused = answer_page(participant.client, token, "before", **(BEFORE | {"gender": label}))
     assert refused.status_code == 400
     kept = refused.get_data(as_text=True)
     assert 'id="error-gender"' in kept and 'value="Welsh"' in kept
     answers = BEFORE | {"age_band": "prefer not to say", "gender": "non-binary", "fav": "rot"}
-    assert _answer(participant.client, token, "before", **answers).status_code == 302
+    assert answer_page(participant.client, token, "before", **answers).status_code == 302
     with app.app_context():
         person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
         assert person.answers == {"before": answers}
@@ -157,10 +129,10 @@ def test_the_report_summarises_the_answers(app, client, web, participant):
     for hours in ("2", "6"):
         participant.client = app.test_client()
         token = participant.join(_slug(app, study_id))
-        _answer(participant.client, token, "before", **BEFORE)
+        answer_page(participant.client, token, "before", **BEFORE)
         while (trial := participant.current_trial()) is not None:
             participant.vote(trial, "left")
-        _answer(participant.client, token, "after", hours=hours)
+        answer_page(participant.client, token, "after", hours=hours)
     web.login(client)
     token = web.csrf(client, f"/experimenter/studies/{study_id}")
     client.post(f"/experimenter/studies/{study_id}/status/close", data={"csrf_token": token})

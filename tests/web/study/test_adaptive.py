@@ -8,10 +8,7 @@ from app.trials.adaptive import fit_posterior, information_gain, wins_from_votes
 from app.web.extensions import db
 from app.web.models import Condition, Stimulus, Study, Trial, Vote
 from tests.conftest import ParticipantActions
-
-EIGHT = "".join(
-    f'\n[[conditions]]\nname = "r{k}"\nmodel = "random"\n' for k in range(6)
-)  # with the file's two: eight conditions
+from tests.support.studies import EIGHT_CONDITIONS
 
 
 def _pairs_of(app, token):
@@ -53,7 +50,7 @@ def _gain_now(app, study_id):
 
 
 def test_each_answer_carries_the_most_informative_pair_not_yet_judged(app, web):
-    study_id = web.study(design="adaptive", extra=EIGHT)
+    study_id = web.study(design="adaptive", extra=EIGHT_CONDITIONS)
     with app.app_context():
         slug = db.session.get(Study, study_id).slug
     rng = np.random.default_rng(0)

@@ -38,9 +38,9 @@ def test_the_parallel_monitor_counts_whom_the_post_screening_would_leave_out(
     from app.web.models import Participant
     from app.web.study.monitor import rating_monitor
     from app.web.study.participants import remove
-    from tests.web.study.test_ratings import _parallel_participants
+    from tests.support.rating import parallel_participants
 
-    study_id = _parallel_participants(app, client, participant, web, (95, 50, 40))
+    study_id = parallel_participants(app, client, participant, web, (95, 50, 40))
     with app.app_context():
         study = db.session.get(Study, study_id)
         third = db.session.scalar(sa.select(Participant).where(Participant.number == 2))

@@ -122,13 +122,13 @@ def test_a_study_without_a_report_has_no_package_yet(app, client, web):
 def test_a_rating_studys_package_holds_its_ratings_and_reproduces_the_report(
     app, client, web, participant, tmp_path, monkeypatch
 ):
-    from tests.web.study.test_ratings import _rate_all
+    from tests.support.rating import rate_all
 
     study_id = web.study(design="rating", catch_kind="instructed", catch=1)
     with app.app_context():
         slug = db.session.get(Study, study_id).slug
     for score, check in ((4, 1), (5, 1), (3, 1), (5, 3)):  # the last misses the check
-        _rate_all(app, client, participant, slug, score, check=check)
+        rate_all(app, client, participant, slug, score, check=check)
         client.delete_cookie(f"fp-{study_id}")
     web.login(client)
     token = web.csrf(client, f"/experimenter/studies/{study_id}")
@@ -237,13 +237,13 @@ def test_no_file_of_a_package_names_a_server_path(
     """A pair study's and a rating study's packages name their files by their place in the
     package (``votes.csv``, ``ratings.csv``): never the server's instance or media folder,
     in results.json, the report's HTML or its PDF."""
-    from tests.web.study.test_ratings import _rate_all
+    from tests.support.rating import rate_all
 
     rating = web.study(design="rating", catch_kind="instructed", catch=1)
     with app.app_context():
         slug = db.session.get(Study, rating).slug
     for score in (4, 5, 3):
-        _rate_all(app, client, participant, slug, score)
+        rate_all(app, client, participant, slug, score)
         client.delete_cookie(f"fp-{rating}")
     pair = _closed_study(app, client, web, participant)
     token = web.csrf(client, f"/experimenter/studies/{rating}")

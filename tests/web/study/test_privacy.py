@@ -221,7 +221,7 @@ def test_a_rating_participant_has_answered_the_trials_they_rated(app, client, we
     """``answered`` counts a rating study's answers too: the trials rated (a parallel page
     rates every version of its clip: one trial), with the checks rated and passed."""
     from tests.conftest import ParticipantActions
-    from tests.web.study.test_ratings import PARALLEL, _rate
+    from tests.support.rating import PARALLEL, rate_trial
 
     rating = web.study(design="rating", catch_kind="instructed", catch=1)
     person = ParticipantActions(app.test_client(), app)
@@ -229,7 +229,7 @@ def test_a_rating_participant_has_answered_the_trials_they_rated(app, client, we
     while (trial := person.current_trial()) is not None:
         with app.app_context():
             check = db.session.get(Trial, trial).kind == "catch"
-        assert _rate(person.client, token, trial, 1 if check else 4).status_code == 201
+        assert rate_trial(person.client, token, trial, 1 if check else 4).status_code == 201
     parallel = web.study(design="parallel", extra=PARALLEL)
     person = ParticipantActions(app.test_client(), app)
     token = person.join(_slug(app, parallel))
@@ -253,9 +253,9 @@ def test_deleting_a_rating_participant_on_request(app, client, participant, web)
     """A rating study's participant is deleted with their ratings (their trials cannot go
     while ratings name them), and the message counts ratings."""
     from app.web.models import Rating
-    from tests.web.study.test_ratings import _parallel_participants
+    from tests.support.rating import parallel_participants
 
-    study_id = _parallel_participants(app, client, participant, web, (95, 95))
+    study_id = parallel_participants(app, client, participant, web, (95, 95))
     web.login(client)
     page = _delete(client, web, study_id, "P0000").get_data(as_text=True)
     assert "Deleted P0000: 2 ratings" in page

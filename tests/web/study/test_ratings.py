@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 
 from app.web.extensions import db
 from app.web.models import Participant, Rating, Study
+from tests.support.rating import PARALLEL, parallel_participants, rate_all, rate_trial
 
 SLIDER = '[rating]\nscale = "slider"\n'
 
@@ -30,22 +31,6 @@ def _join(app, participant, web, **toml: Any) -> tuple[str, int]:
     return token, trial
 
 
-def _rate(client, token: str, trial_id: int, score: Any = 4, **extra: Any):
-    payload = {
-        "token": token,
-        "trial_id": trial_id,
-        "score": score,
-        "plays": 1,
-        "watched_to_end": True,
-        "response_ms": 900,
-        "presented_at": "2026-01-01T10:00:00Z",
-        "idempotency_key": extra.pop("key", None) or secrets.token_hex(8),
-        "media": {"watched_ms": 500, "played_to_end": True},
-        **extra,
-    }
-    return client.post("/api/v1/ratings", json=payload)
-
-
 def _ratings(app) -> list[Rating]:
     with app.app_context():
         return list(db.session.scalars(sa.select(Rating).order_by(Rating.id)))
@@ -58,20 +43,20 @@ def test_a_participant_rates_every_trial_once_and_finishes(app, client, particip
     video = client.get(f"/p/{token}/video/{trial}")
     assert "filename=clip-01.mp4" in video.headers["Content-Disposition"]
     video.close()
-    first = _rate(client, token, trial, 5, key="rating-key-1")
+    first = rate_trial(client, token, trial, 5, key="rating-key-1")
     assert first.status_code == 201, first.get_json()
     body = first.get_json()
     assert body["status"] == "recorded" and body["rating"]["score"] == 5
     assert (body["answered"], body["total"]) == (1, 2)
-    again = _rate(client, token, trial, 2, key="rating-key-1")
+    again = rate_trial(client, token, trial, 2, key="rating-key-1")
     assert again.status_code == 200 and again.get_json()["rating"]["score"] == 5
-    other_key = _rate(client, token, trial, 3)
+    other_key = rate_trial(client, token, trial, 3)
     assert other_key.status_code == 200 and other_key.get_json()["status"] == "duplicate"
     second = participant.current_trial()
     assert second is not None and second != trial
-    reused = _rate(client, token, second, 3, key="rating-key-1")
+    reused = rate_trial(client, token, second, 3, key="rating-key-1")
     assert reused.status_code == 409 and "idempotency_key" in reused.get_json()["error"]
-    assert _rate(client, token, second, 1).status_code == 201
+    assert rate_trial(client, token, second, 1).status_code == 201
     assert participant.current_trial() is None
     rows = _ratings(app)
     assert [r.score for r in rows] == [5, 1]
@@ -88,12 +73,12 @@ def test_the_slider_takes_0_to_100_and_votes_are_refused(app, client, participan
     token, trial = _join(app, participant, web, extra=SLIDER)
     page = client.get(f"/p/{token}/trial").get_data(as_text=True)
     assert 'type="range"' in page
-    refused = _rate(client, token, trial, 101)
+    refused = rate_trial(client, token, trial, 101)
     assert refused.status_code == 400
     assert refused.get_json()["error"] == "score: expected a whole number from 0 to 100"
     vote = participant.vote(trial)
     assert vote.status_code >= 400
-    assert _rate(client, token, trial, 63).status_code == 201
+    assert rate_trial(client, token, trial, 63).status_code == 201
 
 
 def test_a_refused_rating_is_a_rating_error_never_a_vote_error(app, participant, web):
@@ -158,7 +143,7 @@ def test_each_rating_answer_carries_the_next_clip_as_its_page_shows_it(
                 "catch": 'class="instructed"' in page,
             }
             preloaded.append(carried["preload_url"])
-        answer = _rate(client, token, trial, 1)  # "Bad": every check passed
+        answer = rate_trial(client, token, trial, 1)  # "Bad": every check passed
         assert answer.status_code == 201, answer.get_json()
         carried = answer.get_json()["next_trial"]
         seen += 1
@@ -208,12 +193,12 @@ def test_a_missed_check_ends_the_session_under_the_stop_rule(app, client, partic
         if trial is None:
             break
         page = client.get(f"/p/{token}/trial").get_data(as_text=True)
-        response = _rate(client, token, trial, 4)  # never "Bad": fails the first check
+        response = rate_trial(client, token, trial, 4)  # never "Bad": fails the first check
         if 'class="instructed"' in page:
             assert response.status_code == 201
             # screened out: no next clip to go on to; the page learns why from the trial page
             assert "next_trial" not in response.get_json()
-            closed = _rate(client, token, participant.current_trial() or trial, 4)
+            closed = rate_trial(client, token, participant.current_trial() or trial, 4)
             break
     assert closed is not None and closed.status_code == 409 and closed.get_json()["closed"]
     with app.app_context():
@@ -272,21 +257,8 @@ def test_any_field_value_is_stored_or_refused_in_one_line(
 def test_a_body_that_is_no_rating_is_refused(app, client, participant, web):
     token, trial = _join(app, participant, web)
     assert client.post("/api/v1/ratings", data="x").status_code == 400
-    assert _rate(client, "no-such-token", trial).status_code == 403
-    assert _rate(client, token, trial, "4").get_json()["error"].startswith("score:")
-
-
-def _rate_all(app, client, participant, slug: str, score: int, *, check: int = 1) -> str:
-    """A participant from consent to done, rating every clip ``score`` (checks ``check``)."""
-    from app.web.models import Trial
-
-    token = participant.join(slug)
-    while (trial := participant.current_trial()) is not None:
-        with app.app_context():
-            kind = db.session.get(Trial, trial).kind
-        response = _rate(client, token, trial, check if kind == "catch" else score)
-        assert response.status_code == 201, response.get_json()
-    return token
+    assert rate_trial(client, "no-such-token", trial).status_code == 403
+    assert rate_trial(client, token, trial, "4").get_json()["error"].startswith("score:")
 
 
 def test_ratings_csv_and_the_closing_report(app, client, participant, web, tmp_path):
@@ -302,9 +274,9 @@ def test_ratings_csv_and_the_closing_report(app, client, participant, web, tmp_p
     with app.app_context():
         slug = db.session.get(Study, study_id).slug
     for score in (4, 5, 3):
-        _rate_all(app, client, participant, slug, score)
+        rate_all(app, client, participant, slug, score)
         client.delete_cookie(f"fp-{study_id}")
-    _rate_all(app, client, participant, slug, 5, check=3)  # misses the check
+    rate_all(app, client, participant, slug, 5, check=3)  # misses the check
     client.delete_cookie(f"fp-{study_id}")
     web.login(client)
     text = client.get(f"/experimenter/studies/{study_id}/ratings.csv").get_data(as_text=True)
@@ -337,9 +309,6 @@ def test_ratings_csv_and_the_closing_report(app, client, participant, web, tmp_p
         missed: "failed a catch trial (0 of 1 passed)"
     }
     assert again["mos"]["raw_mos"] == {"none": 4.0, "random": 4.0}
-
-
-PARALLEL = 'reference = "none"\n'
 
 
 def _join_parallel(app, participant, web) -> tuple[str, int]:
@@ -505,7 +474,7 @@ def test_the_monitor_tallies_ratings_per_condition(app, client, participant, web
     with app.app_context():
         slug = db.session.get(Study, study_id).slug
     for score, check in ((4, 1), (5, 1), (3, 1), (2, 4)):
-        _rate_all(app, client, participant, slug, score, check=check)
+        rate_all(app, client, participant, slug, score, check=check)
         client.delete_cookie(f"fp-{study_id}")
     with app.app_context():
         from app.web.study.monitor import rating_monitor
@@ -532,29 +501,6 @@ def test_the_monitor_tallies_ratings_per_condition(app, client, participant, web
     assert 'id="stat-ratings">' + str(real) in page and "3.50" in page
 
 
-def _parallel_participants(app, client, participant, web, reference_scores) -> int:
-    """A parallel study with one finished participant per score given to the hidden
-    reference (the other version rated 60); its id."""
-    from app.web.models import Trial
-    from app.web.study.ratings import shown_items
-
-    study_id = web.study(design="parallel", extra=PARALLEL)
-    with app.app_context():
-        slug = db.session.get(Study, study_id).slug
-    for reference_score in reference_scores:
-        token = participant.join(slug)
-        trial = participant.current_trial()
-        with app.app_context():
-            row = db.session.get(Trial, trial)
-            shown = [c.name for c in shown_items(row.participant, row)]
-        scores = [reference_score if c == "none" else 60 for c in shown]
-        payload = {"token": token, "trial_id": trial, "scores": scores, "plays": 2}
-        payload["idempotency_key"] = f"screen-{trial:08d}"
-        assert client.post("/api/v1/ratings", json=payload).status_code == 201
-        client.delete_cookie(f"fp-{study_id}")
-    return study_id
-
-
 def test_a_parallel_study_its_post_screening_empties_says_so(app, client, participant, web):
     """Both participants miss the hidden reference: the report page speaks of ratings and
     names the post-screening and whom it left out, ratings.csv says why beside each rating,
@@ -564,7 +510,7 @@ def test_a_parallel_study_its_post_screening_empties_says_so(app, client, partic
 
     from app.web.models import Job
 
-    study_id = _parallel_participants(app, client, participant, web, (50, 40))
+    study_id = parallel_participants(app, client, participant, web, (50, 40))
     web.login(client)
     text = client.get(f"/experimenter/studies/{study_id}/ratings.csv").get_data(as_text=True)
     rows = list(csv.DictReader(io.StringIO(text)))

@@ -6,7 +6,7 @@ from app.errors import InputError
 from app.trials.studyfile import loads_study
 from app.web.study.studies import create_study
 from tests.conftest import create_test_user, write_tone_wav
-from tests.web.jobs.test_bodies import TOML
+from tests.support.studies import NAMED_CONDITIONS
 
 
 def test_exclusion_rules_from_the_study_file_reach_the_study_and_bad_ones_are_refused(
@@ -14,13 +14,15 @@ def test_exclusion_rules_from_the_study_file_reach_the_study_and_bad_ones_are_re
 ):
     write_tone_wav(tmp_path / "s1.wav", seconds=1.0)
     good = loads_study(
-        TOML.format().replace(
+        NAMED_CONDITIONS.format().replace(
             "practice = false", 'practice = false\nexclude = "catch<1.0,side_p<0.001"'
         ),
         base_dir=tmp_path,
     )
     bad = loads_study(
-        TOML.format().replace("practice = false", 'practice = false\nexclude = "sidebias>2"'),
+        NAMED_CONDITIONS.format().replace(
+            "practice = false", 'practice = false\nexclude = "sidebias>2"'
+        ),
         base_dir=tmp_path,
     )
     with app.app_context():
