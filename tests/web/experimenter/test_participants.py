@@ -8,11 +8,7 @@ import sqlalchemy as sa
 
 from app.web.extensions import db
 from app.web.models import Participant, Study, StudyList, Trial
-
-
-def _slug(app, study_id):
-    with app.app_context():
-        return db.session.get(Study, study_id).slug
+from tests.support.studies import study_slug
 
 
 def _run(app, participant, slug, *, catch_answer, pid):
@@ -30,7 +26,7 @@ def _run(app, participant, slug, *, catch_answer, pid):
 
 def test_table_statuses_catch_scores_and_the_export(app, client, web, participant):
     study_id = web.study(design="all_ordered", catch=2)
-    slug = _slug(app, study_id)
+    slug = study_slug(app, study_id)
     _run(app, participant, slug, catch_answer="undecided", pid="5f0000000000000000000001")
     _run(app, participant, slug, catch_answer="left", pid="5f0000000000000000000002")
     participant.client = app.test_client()
@@ -66,7 +62,7 @@ def test_table_statuses_catch_scores_and_the_export(app, client, web, participan
 
 def test_excluding_by_hand_frees_the_list_slot(app, client, web, participant):
     study_id = web.study(design="all_ordered")
-    slug = _slug(app, study_id)
+    slug = study_slug(app, study_id)
     _run(app, participant, slug, catch_answer="undecided", pid="pid-a")
     web.login(client)
     page = f"/experimenter/studies/{study_id}/monitor"
@@ -104,7 +100,7 @@ def test_excluding_by_hand_frees_the_list_slot(app, client, web, participant):
 
 def test_a_returned_submission(app, client, web, participant):
     study_id = web.study(design="all_ordered")
-    participant.join(_slug(app, study_id))
+    participant.join(study_slug(app, study_id))
     web.login(client)
     token = web.csrf(client, f"/experimenter/studies/{study_id}/monitor?refresh=0")
     client.post(
@@ -145,7 +141,7 @@ def _answer_before(participant, token):
 
 def test_a_screened_out_participant_has_one_status_everywhere(app, client, web, participant):
     study_id = web.study(design="all_ordered", catch=2, extra=SCREENING)
-    slug = _slug(app, study_id)
+    slug = study_slug(app, study_id)
     for catch_answer in ("undecided", "left"):  # the second fails the first check: stopped
         participant.client = app.test_client()
         _answer_before(participant, participant.join(slug))
@@ -189,7 +185,7 @@ def test_participants_export_has_a_pilot_column(app, client, web, participant):
     token = web.csrf(client, base)
     client.post(f"{base}/status/open", data={"csrf_token": token})
     participant.client = app.test_client()
-    participant.join(_slug(app, study_id))
+    participant.join(study_slug(app, study_id))
     people = _csv(client, f"{base}/participants.csv")
     assert [(r["participant"], r["pilot"]) for r in people] == [
         ("P0000", "true"),
@@ -211,7 +207,7 @@ def _take_out(client, study_id, label, how, reason=""):
 
 def test_an_exclusion_is_undone_and_the_slot_taken_again(app, client, web, participant):
     study_id = web.study(design="all_ordered")
-    _run(app, participant, _slug(app, study_id), catch_answer="undecided", pid="pid-a")
+    _run(app, participant, study_slug(app, study_id), catch_answer="undecided", pid="pid-a")
     web.login(client)
     assigned = sa.select(sa.func.sum(StudyList.n_assigned))
     _take_out(client, study_id, "P0000", "excluded", "spoke to a neighbour")
@@ -233,7 +229,7 @@ def test_an_exclusion_is_undone_and_the_slot_taken_again(app, client, web, parti
 
 def test_the_note_on_a_returned_submission_is_kept(app, client, web, participant):
     study_id = web.study(design="all_ordered")
-    _run(app, participant, _slug(app, study_id), catch_answer="undecided", pid="pid-b")
+    _run(app, participant, study_slug(app, study_id), catch_answer="undecided", pid="pid-b")
     web.login(client)
     _take_out(client, study_id, "P0000", "returned", "  asked to return:  no sound ")
     base = f"/experimenter/studies/{study_id}"

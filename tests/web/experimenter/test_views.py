@@ -10,11 +10,7 @@ import sqlalchemy as sa
 from app.web.extensions import db
 from app.web.models import Job, Participant, Stimulus, Study, Track, User
 from tests.conftest import PASSWORD
-
-
-def _slug(app, study_id):
-    with app.app_context():
-        return db.session.get(Study, study_id).slug
+from tests.support.studies import study_slug
 
 
 def _post(client, url, **data):
@@ -293,7 +289,7 @@ def _finish(app, participant, slug, choice):
 
 def test_monitor_export_and_report(app, client, participant, web):
     study_id = web.study(design="all_ordered")
-    slug = _slug(app, study_id)
+    slug = study_slug(app, study_id)
     _finish(app, participant, slug, "left")
     _finish(app, participant, slug, "right")
     web.login(client)
@@ -333,7 +329,7 @@ def test_report_applies_the_studys_exclusion_rules(app, participant, web):
     from app.web.study.exports import write_report_files
 
     study_id = web.study(design="all_ordered")
-    slug = _slug(app, study_id)
+    slug = study_slug(app, study_id)
     _finish(app, participant, slug, "left")
     _finish(app, participant, slug, "right")
     with app.app_context():
@@ -358,7 +354,7 @@ def test_dropped_participants_give_their_slot_back(app, client, participant, web
     from app.web.models import StudyList
 
     study_id = web.study()
-    token = participant.join(_slug(app, study_id))
+    token = participant.join(study_slug(app, study_id))
     with app.app_context():
         person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
         person.last_seen_at = person.last_seen_at.replace(year=2000)

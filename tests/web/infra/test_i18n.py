@@ -23,6 +23,7 @@ from app.web.study import audiocheck
 from app.web.study.enrolment import SESSION_ENDED
 from app.web.study.wording import ended_reason
 from tests.conftest import ParticipantActions, csrf_token
+from tests.support.studies import study_slug
 
 REPO = Path(__file__).resolve().parents[3]
 PLACEHOLDER = re.compile(r"%\(\w+\)[sd]|%%")
@@ -90,16 +91,11 @@ def test_every_catalogue_is_complete_with_matching_placeholders(lang):
 # --- pages -------------------------------------------------------------------------------
 
 
-def _slug(app, study_id):
-    with app.app_context():
-        return db.session.get(Study, study_id).slug
-
-
 def test_html_lang_and_dir_follow_the_study_language(app, client, web):
-    german = _slug(app, web.study(extra='language = "de-AT"'))
+    german = study_slug(app, web.study(extra='language = "de-AT"'))
     page = client.get(f"/s/{german}").get_data(as_text=True)
     assert '<html lang="de-AT" dir="ltr">' in page and "Ich stimme zu" in page
-    arabic = _slug(app, web.study(extra='language = "ar"'))
+    arabic = study_slug(app, web.study(extra='language = "ar"'))
     page = client.get(f"/s/{arabic}").get_data(as_text=True)
     assert '<html lang="ar" dir="rtl">' in page and "أوافق" in page
     # The experimenter's side stays English.
@@ -110,7 +106,7 @@ def test_the_please_wait_page_speaks_the_study_language(app, web):
     """The consent limit answers before the view reads the study: its page still finds the
     study's language."""
     app.config["CONSENT_LIMIT_PER_ADDRESS"] = "1 per minute"
-    slug = _slug(app, web.study(extra='language = "es"'))
+    slug = study_slug(app, web.study(extra='language = "es"'))
     browser = app.test_client()
     codes = []
     for _ in range(2):
@@ -129,7 +125,7 @@ def _study_id(app, slug: str) -> int:
 
 def test_a_closed_vote_says_why_in_the_study_language(app, client, participant, web):
     study_id = web.study(extra='language = "fr"')
-    token = participant.join(_slug(app, study_id))
+    token = participant.join(study_slug(app, study_id))
     trial = participant.current_trial()
     with app.app_context():
         db.session.get(Study, study_id).status = "closed"
@@ -284,7 +280,7 @@ def test_no_fixed_string_escapes_translation_on_any_participant_page(pseudo_app,
     result pages, under the pseudo-locale."""
     app = pseudo_app
     client = app.test_client()
-    slug = _slug(app, web.study(**PSEUDO_STUDY))
+    slug = study_slug(app, web.study(**PSEUDO_STUDY))
     pages = {"consent": client.get(f"/s/{slug}?PROLIFIC_PID=p1&SESSION_ID=s1")}
     person = ParticipantActions(client, app)
     token = person.join(slug, "PROLIFIC_PID=p1&SESSION_ID=s1")
@@ -302,7 +298,7 @@ def test_no_fixed_string_escapes_translation_on_any_participant_page(pseudo_app,
         person.vote(trial, expected or "left")
     pages["done"] = client.get(f"/p/{token}/done")
     # The audio check: a question, the retry after a failed attempt, the end.
-    checked = _slug(app, web.study(extra=AUDIO_CHECK))
+    checked = study_slug(app, web.study(extra=AUDIO_CHECK))
     listener = ParticipantActions(app.test_client(), app)
     heard = listener.join(checked)
     url = f"/p/{heard}/audio-check"
@@ -324,7 +320,7 @@ def test_no_fixed_string_escapes_translation_on_any_participant_page(pseudo_app,
     assert "audio check end" in pages and "audio check retry" in pages
     stranger = app.test_client()
     pages["already started"] = stranger.get(f"/s/{slug}?PROLIFIC_PID=p1&SESSION_ID=other")
-    paused = _slug(app, web.study(status="paused"))
+    paused = study_slug(app, web.study(status="paused"))
     pages["paused"] = client.get(f"/s/{paused}")
     with app.app_context():
         study = db.session.scalar(sa.select(Study).where(Study.slug == slug))
@@ -402,7 +398,7 @@ def test_no_fixed_string_escapes_translation_on_the_rating_pages(pseudo_app, web
     else:
         extra = f'[rating]\nscale = "{design}"\n[attention]\nmax_failed = 2\n'
         toml = dict(design="rating", catch=1, catch_kind="instructed", extra=extra)
-    slug = _slug(app, web.study(**toml))
+    slug = study_slug(app, web.study(**toml))
     person = ParticipantActions(client, app)
     token = person.join(slug)
     pages = {"instructions": client.get(f"/p/{token}/instructions")}

@@ -15,6 +15,7 @@ from app.web.infra import media
 from app.web.models import Participant, Stimulus, Study, Trial
 from tests.support.s3 import BUCKET, s3_env, s3_server, use_backend  # noqa: F401 (fixtures)
 from tests.support.served import free_port
+from tests.support.studies import study_slug
 
 LEAKS = ("X-Accel-Redirect", "Location")
 
@@ -45,7 +46,7 @@ def _bytes_of(response) -> bytes:
 def test_a_participant_gets_only_the_clips_of_their_own_schedule(
     app, client, web, participant, backend, request
 ):
-    slug = _slug(app, web.study())
+    slug = study_slug(app, web.study())
     other = type(participant)(app.test_client(), app)
     other.join(slug)
     participant.join(slug)
@@ -71,11 +72,6 @@ def test_a_participant_gets_only_the_clips_of_their_own_schedule(
         stolen = client.get(f"/p/{participant.token}/video/{trial_id}")
         assert stolen.status_code in (403, 404)
         assert not any(header in stolen.headers for header in LEAKS)
-
-
-def _slug(app, study_id: int) -> str:
-    with app.app_context():
-        return db.session.get(Study, study_id).slug
 
 
 @pytest.mark.parametrize("backend", ["local", "accel", "s3"])
@@ -211,7 +207,7 @@ def test_deleted_participants_and_studies_leave_nothing_in_the_bucket(
 
     use_backend(app, "s3", request)
     study_id = web.study()
-    participant.join(_slug(app, study_id))
+    participant.join(study_slug(app, study_id))
     with app.app_context():
         study = db.session.get(Study, study_id)
         media.publish_folder(study, "videos")

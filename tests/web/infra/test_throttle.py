@@ -7,13 +7,9 @@ import pytest
 import sqlalchemy as sa
 
 from app.web.extensions import db
-from app.web.models import Participant, Study
+from app.web.models import Participant
 from tests.support.served import consent_crowd, facepair_serve, serve_env
-
-
-def _slug(app, study_id: int) -> str:
-    with app.app_context():
-        return db.session.get(Study, study_id).slug
+from tests.support.studies import study_slug
 
 
 def _participants(app, study_id: int) -> int:
@@ -31,7 +27,7 @@ def test_four_workers_let_through_no_more_consents_than_the_address_limit(
     the limit is 10 a minute per address and study. Before, each worker counted its own (36
     of 60 passed without Redis), and with Redis a check before the count let 11 through."""
     study_id = web.study()
-    slug = _slug(app, study_id)
+    slug = study_slug(app, study_id)
     settings = {
         "DATABASE_URL": app.config["SQLALCHEMY_DATABASE_URI"],
         "SECRET_KEY": secrets.token_hex(32),

@@ -21,6 +21,7 @@ from app.web.study.exports import vote_rows
 from app.web.study.participants import participant_table
 from app.web.study.privacy import participants_csv
 from tests.conftest import csrf_token
+from tests.support.studies import study_slug
 
 HUGGINS = """[audio_check]
 kind = "huggins"
@@ -31,11 +32,6 @@ trials = 3
 pass_mark = 3
 attempts = 2
 """
-
-
-def _slug(app, study_id):
-    with app.app_context():
-        return db.session.get(Study, study_id).slug
 
 
 def _key(app, token: str, attempt: int) -> list[int]:
@@ -62,7 +58,7 @@ def _csv_row(app, study_id) -> dict[str, str]:
 
 def test_the_trial_waits_for_the_check_and_a_pass_opens_it(app, client, participant, web):
     study_id = web.study(extra=HUGGINS)
-    token = participant.join(_slug(app, study_id))
+    token = participant.join(study_slug(app, study_id))
     first = client.get(f"/p/{token}/trial")
     assert first.status_code == 302 and first.headers["Location"].endswith("/audio-check")
     page = client.get(f"/p/{token}/audio-check").get_data(as_text=True)
@@ -98,7 +94,7 @@ def test_a_failed_check_may_be_repeated_then_excludes_the_participant(
     app, client, participant, web
 ):
     study_id = web.study(extra=TWO_TRIES)
-    token = participant.join(_slug(app, study_id))
+    token = participant.join(study_slug(app, study_id))
     client.get(f"/p/{token}/audio-check")
     for attempt in (1, 2):
         key = _key(app, token, attempt)
@@ -131,7 +127,7 @@ def test_a_failed_check_may_be_repeated_then_excludes_the_participant(
 def test_no_vote_before_the_check(app, client, participant, web):
     """A vote sent without the trial page (its trial's id guessed) waits for the check too."""
     study_id = web.study(extra=HUGGINS)
-    token = participant.join(_slug(app, study_id))
+    token = participant.join(study_slug(app, study_id))
     with app.app_context():
         person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
         trial = min(t.id for t in person.trials if t.kind != "practice")
@@ -142,7 +138,7 @@ def test_no_vote_before_the_check(app, client, participant, web):
 
 def test_a_study_without_a_check_goes_straight_to_the_trials(app, client, participant, web):
     study_id = web.study()
-    token = participant.join(_slug(app, study_id))
+    token = participant.join(study_slug(app, study_id))
     assert client.get(f"/p/{token}/trial").status_code == 200
     assert client.get(f"/p/{token}/audio-check").status_code == 302
     assert client.get(f"/p/{token}/audio-check/1-1.wav").status_code == 404
@@ -150,7 +146,7 @@ def test_a_study_without_a_check_goes_straight_to_the_trials(app, client, partic
 
 
 def test_a_resent_answer_counts_once(app, client, participant, web):
-    token = participant.join(_slug(app, web.study(extra=HUGGINS)))
+    token = participant.join(study_slug(app, web.study(extra=HUGGINS)))
     client.get(f"/p/{token}/audio-check")
     for _ in range(3):
         _answer(client, token, 1, 1, 0)
@@ -177,7 +173,7 @@ def test_any_answer_form_is_stored_or_refused_never_a_server_error(app, web, for
     client = app.test_client()
     from tests.conftest import ParticipantActions
 
-    token = ParticipantActions(client, app).join(_slug(app, web.study(extra=TWO_TRIES)))
+    token = ParticipantActions(client, app).join(study_slug(app, web.study(extra=TWO_TRIES)))
     url = f"/p/{token}/audio-check"
     response = client.post(url, data={"csrf_token": csrf_token(client, url), **form})
     assert response.status_code < 500

@@ -17,9 +17,10 @@ import pytest
 import sqlalchemy as sa
 
 from app.web.extensions import db
-from app.web.models import Participant, Rating, Study, Vote
+from app.web.models import Participant, Rating, Vote
 from tests.conftest import create_test_study
 from tests.support.engines import ENGINES, open_page
+from tests.support.studies import study_slug
 
 pytestmark = pytest.mark.browser
 
@@ -38,11 +39,6 @@ RECORDED_AS = {
     "webkit": "WebKitGTK",
     "webkit-no-h264": "WebKitGTK",
 }
-
-
-def _slug(app, study_id: int) -> str:
-    with app.app_context():
-        return db.session.get(Study, study_id).slug
 
 
 def _take_part(page, base: str, slug: str, pid: str, *, rating: bool) -> tuple[dict, set]:
@@ -108,10 +104,10 @@ def test_a_pair_study_and_a_rating_study_taken_in_each_engine(
     )
     with open_page(engine, request, DESKTOP) as page:
         voted, pair_renditions = _take_part(
-            page, live_server.url, _slug(app, pairs), "pp-1", rating=False
+            page, live_server.url, study_slug(app, pairs), "pp-1", rating=False
         )
         rated, rating_renditions = _take_part(
-            page, live_server.url, _slug(app, ratings), "pp-2", rating=True
+            page, live_server.url, study_slug(app, ratings), "pp-2", rating=True
         )
         errors = page.errors()
         page.goto("about:blank")  # the done page would go on to the platform

@@ -15,15 +15,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from app.web.extensions import db
-from app.web.models import Participant, Study, StudyList
+from app.web.models import Participant, StudyList
 from tests.conftest import ParticipantActions
+from tests.support.studies import study_slug
 
 BROWSER_REASON = "browser cannot play the clips (no H.264 or WebM/VP9)"
-
-
-def _slug(app, study_id):
-    with app.app_context():
-        return db.session.get(Study, study_id).slug
 
 
 def _get(client, url, **kwargs):
@@ -39,7 +35,7 @@ def _attributes(page: str, name: str) -> list[str]:
 
 def test_every_clip_page_offers_the_webm_where_the_study_has_one(app, client, web, tiny_webm):
     study_id = web.study(design="all_ordered", webm=tiny_webm)
-    token = ParticipantActions(client, app).join(_slug(app, study_id))
+    token = ParticipantActions(client, app).join(study_slug(app, study_id))
     instructions = client.get(f"/p/{token}/instructions").get_data(as_text=True)
     assert _attributes(instructions, "data-webm-url") == [f"/p/{token}/practice.webm"]
     assert _attributes(instructions, "data-unplayable-url") == [
@@ -55,7 +51,7 @@ def test_every_clip_page_offers_the_webm_where_the_study_has_one(app, client, we
 def test_a_study_without_webm_offers_the_mp4_alone(app, client, web):
     """Clips rendered before renditions existed: the page offers what exists, and the WebM
     routes have nothing to send."""
-    token = ParticipantActions(client, app).join(_slug(app, web.study()))
+    token = ParticipantActions(client, app).join(study_slug(app, web.study()))
     page = client.get(f"/p/{token}/trial").get_data(as_text=True)
     trial = int(_attributes(page, "data-trial-id")[0])
     assert "webm" not in page
@@ -66,7 +62,7 @@ def test_a_study_without_webm_offers_the_mp4_alone(app, client, web):
 
 
 def test_the_webm_is_served_as_the_mp4_is(app, client, web, tiny_webm):
-    token = ParticipantActions(client, app).join(_slug(app, web.study(webm=tiny_webm)))
+    token = ParticipantActions(client, app).join(study_slug(app, web.study(webm=tiny_webm)))
     page = client.get(f"/p/{token}/trial").get_data(as_text=True)
     trial = int(_attributes(page, "data-trial-id")[0])
     whole = _get(client, f"/p/{token}/webm/{trial}")
@@ -87,19 +83,19 @@ def test_the_webm_is_served_as_the_mp4_is(app, client, web, tiny_webm):
     )
     # another participant's trial is not theirs to fetch
     other = ParticipantActions(app.test_client(), app)
-    other.join(_slug(app, web.study(webm=tiny_webm)))
+    other.join(study_slug(app, web.study(webm=tiny_webm)))
     assert _get(other.client, f"/p/{other.token}/webm/{trial}").status_code == 404
 
 
 def test_an_answer_carries_the_next_trials_webm(app, client, participant, web, tiny_webm):
-    token = participant.join(_slug(app, web.study(design="all_ordered", webm=tiny_webm)))
+    token = participant.join(study_slug(app, web.study(design="all_ordered", webm=tiny_webm)))
     trial = participant.current_trial()
     answer = participant.vote(trial).get_json()["next_trial"]
     assert answer["webm_url"] == f"/p/{token}/webm/{answer['trial_id']}"
     following = answer["preload_url"].rsplit("/", 1)[1]
     assert answer["preload_webm_url"] == f"/p/{token}/webm/{following}"
     without = ParticipantActions(app.test_client(), app)
-    without.join(_slug(app, web.study(design="all_ordered")))
+    without.join(study_slug(app, web.study(design="all_ordered")))
     plain = without.vote(without.current_trial()).get_json()["next_trial"]
     assert plain["webm_url"] is None and plain["preload_webm_url"] is None
 
@@ -109,7 +105,7 @@ def test_the_rating_designs_offer_the_webm(app, client, web, tiny_webm):
     (the parallel design): each by its place, as its MP4."""
     rating = ParticipantActions(client, app)
     study_id = web.study(design="rating", catch_kind="instructed", webm=tiny_webm)
-    token = rating.join(_slug(app, study_id))
+    token = rating.join(study_slug(app, study_id))
     page = client.get(f"/p/{token}/trial").get_data(as_text=True)
     trial = int(_attributes(page, "data-trial-id")[0])
     assert _attributes(page, "data-webm-url") == [f"/p/{token}/webm/{trial}"]
@@ -129,7 +125,7 @@ def test_the_rating_designs_offer_the_webm(app, client, web, tiny_webm):
 
     parallel = ParticipantActions(app.test_client(), app)
     study = web.study(design="parallel", extra='reference = "none"\n', webm=tiny_webm)
-    token = parallel.join(_slug(app, study))
+    token = parallel.join(study_slug(app, study))
     page = parallel.client.get(f"/p/{token}/trial").get_data(as_text=True)
     trial = int(_attributes(page, "data-trial-id")[0])
     assert _attributes(page, "data-reference-webm-url") == [f"/p/{token}/webm/{trial}"]
@@ -152,7 +148,7 @@ def test_a_browser_that_plays_no_rendition_ends_the_session(app, client, web, ti
     session ends with a page in the study's language that says which browsers work, and the
     exports say why."""
     study_id = web.study(webm=tiny_webm, extra='language = "de"')
-    slug = _slug(app, study_id)
+    slug = study_slug(app, study_id)
     person = ParticipantActions(client, app)
     token = person.join(slug, "PROLIFIC_PID=pp-webkit&SESSION_ID=se-1")
     assert _assigned(app, study_id) == 1
@@ -199,7 +195,7 @@ def test_an_old_study_says_it_had_no_webm_to_offer(app, client, web):
     """Clips without a WebM: the reason says so, so the experimenter knows that making the
     renditions (facepair study renditions) would have let this browser in."""
     study_id = web.study()
-    token = ParticipantActions(client, app).join(_slug(app, study_id))
+    token = ParticipantActions(client, app).join(study_slug(app, study_id))
     ended = client.post(f"/api/v1/participants/{token}/unplayable")
     assert ended.status_code == 200
     with app.app_context():
@@ -209,7 +205,7 @@ def test_an_old_study_says_it_had_no_webm_to_offer(app, client, web):
 
 def test_the_end_is_refused_to_strangers_and_the_finished(app, client, participant, web):
     assert client.post("/api/v1/participants/nobody/unplayable").status_code == 404
-    token = participant.join(_slug(app, web.study()))
+    token = participant.join(study_slug(app, web.study()))
     while (trial := participant.current_trial()) is not None:
         participant.vote(trial)
     finished = client.post(f"/api/v1/participants/{token}/unplayable")
@@ -221,7 +217,7 @@ def test_the_end_is_refused_to_strangers_and_the_finished(app, client, participa
 def test_hostile_ends_and_clip_requests_never_give_a_5xx(app, client, web, tiny_webm):
     """Any token, trial number and User-Agent header: a refusal or the end, never a 5xx; the
     environment's browser is a bounded, printable name."""
-    token = ParticipantActions(client, app).join(_slug(app, web.study(webm=tiny_webm)))
+    token = ParticipantActions(client, app).join(study_slug(app, web.study(webm=tiny_webm)))
     header = st.text(st.characters(min_codepoint=32, max_codepoint=255), max_size=400)
     path = st.text(st.characters(codec="ascii", categories=("L", "N", "P")), max_size=40)
 

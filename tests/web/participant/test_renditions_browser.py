@@ -15,8 +15,9 @@ import pytest
 import sqlalchemy as sa
 
 from app.web.extensions import db
-from app.web.models import Participant, Study, StudyList, Vote
+from app.web.models import Participant, StudyList, Vote
 from tests.conftest import create_test_study
+from tests.support.studies import study_slug
 
 pytestmark = pytest.mark.browser
 
@@ -48,11 +49,6 @@ def _undecodable(route) -> None:
     )
 
 
-def _slug(app, study_id: int) -> str:
-    with app.app_context():
-        return db.session.get(Study, study_id).slug
-
-
 def _browser(chromium, behaviour: str):
     context = chromium.new_context(viewport=DESKTOP)
     context.add_init_script(f"window.name = {behaviour!r};\n" + NO_H264)
@@ -76,7 +72,7 @@ def test_a_browser_without_h264_takes_the_study_from_the_webm(
     context, page, errors, asked = _browser(browser, behaviour)
     voted = 0
     try:
-        page.goto(f"{live_server.url}/s/{_slug(live_server.app, study_id)}")
+        page.goto(f"{live_server.url}/s/{study_slug(live_server.app, study_id)}")
         page.click("text=I agree")
         page.wait_for_url("**/instructions")
         # the practice pair plays, from its WebM
@@ -130,7 +126,7 @@ def test_a_browser_that_plays_no_rendition_ends_on_a_page_that_says_so(
     context, page, errors, _ = _browser(browser, behaviour)
     page.route(re.compile(r".*/(webm/\d+|practice\.webm)$"), _undecodable)
     try:
-        page.goto(f"{live_server.url}/s/{_slug(live_server.app, study_id)}")
+        page.goto(f"{live_server.url}/s/{study_slug(live_server.app, study_id)}")
         page.click("form .primary")
         page.wait_for_url("**/unplayable")
         assert page.inner_text("h1") == title
@@ -143,7 +139,7 @@ def test_a_browser_that_plays_no_rendition_ends_on_a_page_that_says_so(
         if os.environ.get("FACEPAIR_SCREENSHOTS"):
             assert Path(shots / f"participant-unplayable-{language}.png").is_file()
         # the study link again: the same final page, not the trials
-        page.goto(f"{live_server.url}/s/{_slug(live_server.app, study_id)}")
+        page.goto(f"{live_server.url}/s/{study_slug(live_server.app, study_id)}")
         page.wait_for_url("**/unplayable")
     finally:
         context.close()

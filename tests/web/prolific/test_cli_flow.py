@@ -14,6 +14,7 @@ from app.web.models import Participant
 from app.web.prolific import outbox
 from app.web.prolific.models import ProlificCall, ProlificStudy
 from tests.support.fake_prolific import TOKEN
+from tests.support.studies import study_slug
 from tests.web.prolific.conftest import cli, take_part
 
 pytestmark = pytest.mark.slow
@@ -72,7 +73,7 @@ def test_the_flow_from_the_cli_sends_each_call_once(
     study = fake.studies[prolific_id]
     assert study["status"] == "ACTIVE" and study["reward"] == 150
     assert study["external_study_url"] == (
-        f"https://facepair.example.org/s/{_slug(app, sid)}?PROLIFIC_PID={{{{%PROLIFIC_PID%}}}}"
+        f"https://facepair.example.org/s/{study_slug(app, sid)}?PROLIFIC_PID={{{{%PROLIFIC_PID%}}}}"
         "&STUDY_ID={{%STUDY_ID%}}&SESSION_ID={{%SESSION_ID%}}"
     )
     assert study["completion_codes"][0]["code"] == "DONE-123"
@@ -167,10 +168,3 @@ def test_the_flow_from_the_cli_sends_each_call_once(
     with app.app_context():
         for table in db.metadata.sorted_tables:
             assert TOKEN not in repr(db.session.execute(table.select()).all()), table.name
-
-
-def _slug(app, study_id: int) -> str:
-    from app.web.models import Study
-
-    with app.app_context():
-        return db.session.get_one(Study, study_id).slug

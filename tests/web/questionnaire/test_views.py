@@ -10,18 +10,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from app.web.extensions import db
-from app.web.models import Participant, Study
+from app.web.models import Participant
 from tests.support.questionnaire import BEFORE, QUESTIONS, answer_page
-
-
-def _slug(app, study_id):
-    with app.app_context():
-        return db.session.get(Study, study_id).slug
+from tests.support.studies import study_slug
 
 
 def test_the_path_passes_through_both_pages(app, client, web, participant):
     study_id = web.study(design="all_ordered", extra=QUESTIONS)
-    token = participant.join(_slug(app, study_id))
+    token = participant.join(study_slug(app, study_id))
     page = participant.client.get(f"/p/{token}/instructions")
     assert page.headers["Location"] == f"/p/{token}/questions/before"
     assert participant.client.get(f"/p/{token}/trial").headers["Location"].endswith("/before")
@@ -98,7 +94,7 @@ def test_the_demographic_questions_speak_the_study_language_and_store_codes(
     own += 'choices = ["rot", "blau"]\n'
     extra = f'language = "{language}"\ndemographics = true\n' + own
     study_id = web.study(design="all_ordered", extra=extra)
-    token = participant.join(_slug(app, study_id))
+    token = participant.join(study_slug(app, study_id))
     page = participant.client.get(f"/p/{token}/questions/before").get_data(as_text=True)
     shown = set(re.findall(r">([^<>]+)<", page))
     for english, translated in DEMOGRAPHIC_WORDS[language].items():
@@ -128,7 +124,7 @@ def test_the_report_summarises_the_answers(app, client, web, participant):
     study_id = web.study(design="all_ordered", extra=QUESTIONS)
     for hours in ("2", "6"):
         participant.client = app.test_client()
-        token = participant.join(_slug(app, study_id))
+        token = participant.join(study_slug(app, study_id))
         answer_page(participant.client, token, "before", **BEFORE)
         while (trial := participant.current_trial()) is not None:
             participant.vote(trial, "left")
@@ -144,14 +140,14 @@ def test_the_report_summarises_the_answers(app, client, web, participant):
 
 
 def test_a_study_without_questions_goes_straight_on(app, web, participant):
-    token = participant.join(_slug(app, web.study()))
+    token = participant.join(study_slug(app, web.study()))
     assert participant.client.get(f"/p/{token}/instructions").status_code == 200
     assert participant.client.get(f"/p/{token}/questions/before").status_code == 302
 
 
 def test_hostile_answers_never_give_a_5xx(app, web, participant):
     study_id = web.study(design="all_ordered", extra=QUESTIONS)
-    token = participant.join(_slug(app, study_id))
+    token = participant.join(study_slug(app, study_id))
     url = f"/p/{token}/questions/before"
     form = participant.client.get(url).get_data(as_text=True)
     csrf = re.search(r'name="csrf_token" type="hidden" value="([^"]+)"', form).group(1)

@@ -11,11 +11,7 @@ import sqlalchemy as sa
 from app.web.extensions import db
 from app.web.models import Participant, Stimulus, Study, StudyList
 from app.web.study.enrolment import release_dropped, schedule
-
-
-def _slug(app, study_id: int) -> str:
-    with app.app_context():
-        return db.session.get(Study, study_id).slug
+from tests.support.studies import study_slug
 
 
 def _go_idle(app, token: str) -> None:
@@ -47,7 +43,7 @@ def _answer_all(participant) -> int:
 
 def test_a_dropped_participant_who_returns_takes_the_slot_back(app, client, participant, web):
     study_id = web.study(design="all_ordered")
-    token = participant.join(_slug(app, study_id))
+    token = participant.join(study_slug(app, study_id))
     trial = participant.current_trial()
     assert participant.vote(trial).status_code == 201
     _go_idle(app, token)
@@ -66,7 +62,7 @@ def test_a_dropped_participant_who_returns_takes_the_slot_back(app, client, part
 
 def test_a_returning_vote_alone_takes_the_slot_back(app, participant, web):
     study_id = web.study(design="all_ordered")
-    token = participant.join(_slug(app, study_id))
+    token = participant.join(study_slug(app, study_id))
     trial = participant.current_trial()  # the page was open before the pause
     _go_idle(app, token)
     with app.app_context():
@@ -79,7 +75,7 @@ def test_a_returning_vote_alone_takes_the_slot_back(app, participant, web):
 
 def test_refused_when_the_study_file_says_so(app, client, participant, web):
     study_id = web.study(design="all_ordered", extra='rejoin = "refuse"')
-    token = participant.join(_slug(app, study_id))
+    token = participant.join(study_slug(app, study_id))
     trial = participant.current_trial()
     _go_idle(app, token)
     with app.app_context():
@@ -102,7 +98,7 @@ def test_new_arrivals_are_balanced_over_those_still_taking_part(app, client, web
     from tests.conftest import ParticipantActions
 
     study_id = web.study(design="all_ordered")
-    slug = _slug(app, study_id)
+    slug = study_slug(app, study_id)
     first = ParticipantActions(app.test_client(), app)
     first.join(slug)
     _go_idle(app, first.token)
@@ -118,7 +114,7 @@ def test_release_and_return_never_count_a_slot_twice(app, participant, web):
     from app.web.study.enrolment import touch
 
     study_id = web.study(design="all_ordered")
-    token = participant.join(_slug(app, study_id))
+    token = participant.join(study_slug(app, study_id))
     _go_idle(app, token)
     with app.app_context():
         study = db.session.get(Study, study_id)
@@ -131,7 +127,7 @@ def test_release_and_return_never_count_a_slot_twice(app, participant, web):
 
 
 def test_schedule_is_reproducible_from_the_stored_seed(app, participant, web):
-    slug = _slug(app, web.study(catch=1))
+    slug = study_slug(app, web.study(catch=1))
     token = participant.join(slug)
     with app.app_context():
         person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
@@ -148,7 +144,7 @@ def test_schedule_is_reproducible_from_the_stored_seed(app, participant, web):
 
 
 def test_lists_are_balanced_from_the_assignment_table(app, client, web):
-    slug = _slug(app, web.study())
+    slug = study_slug(app, web.study())
     tokens = []
     for _ in range(4):
         fresh = app.test_client()  # a new browser: no cookie
@@ -197,7 +193,7 @@ def test_the_design_read_once_matches_the_studys_rows(app, participant, web):
 def test_a_consent_reads_the_design_only_the_first_time(app, client, web):
     from tests.conftest import ParticipantActions
 
-    slug = _slug(app, web.study(design="all_ordered", catch=1))
+    slug = study_slug(app, web.study(design="all_ordered", catch=1))
     design_tables = ("clip", "condition", "pair", "study_list", "stimulus")
     statements: list[str] = []
 
@@ -232,12 +228,12 @@ def test_a_study_created_again_under_the_same_id_gets_its_own_design(app, web):
     from tests.conftest import ParticipantActions
 
     first = web.study(design="all_ordered")
-    ParticipantActions(app.test_client(), app).join(_slug(app, first))
+    ParticipantActions(app.test_client(), app).join(study_slug(app, first))
     with app.app_context():
         delete_study(db.session.get(Study, first))
         db.session.commit()
     second = web.study(catch=1)
-    token = ParticipantActions(app.test_client(), app).join(_slug(app, second))
+    token = ParticipantActions(app.test_client(), app).join(study_slug(app, second))
     with app.app_context():
         person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
         own = set(db.session.scalars(sa.select(Stimulus.id).where(Stimulus.study_id == second)))
@@ -265,7 +261,7 @@ def test_a_trial_page_marks_the_participant_seen_then_counts(app, participant, w
     from app.web.study.enrolment import touch_with_progress
     from app.web.study.progress import progress
 
-    token = participant.join(_slug(app, web.study(design="all_ordered")))
+    token = participant.join(study_slug(app, web.study(design="all_ordered")))
     participant.vote(participant.current_trial())
     _go_idle(app, token)  # idle, not yet released
     statements: list[str] = []
@@ -294,7 +290,7 @@ def test_a_released_participant_s_trial_page_takes_the_slot_back_or_ends(app, pa
     for rejoin, expected_slots in (("resume", 1), ("refuse", 0)):
         who = participant.__class__(app.test_client(), app)
         extra = f'rejoin = "{rejoin}"\n'
-        token = who.join(_slug(app, web.study(extra=extra)))
+        token = who.join(study_slug(app, web.study(extra=extra)))
         _go_idle(app, token)
         with app.app_context():
             person = db.session.scalar(sa.select(Participant).where(Participant.token == token))
@@ -313,7 +309,7 @@ def test_a_released_participant_s_trial_page_takes_the_slot_back_or_ends(app, pa
 
 
 def test_a_trial_page_sets_the_start_once(app, participant, web):
-    token = participant.join(_slug(app, web.study(design="all_ordered")))
+    token = participant.join(study_slug(app, web.study(design="all_ordered")))
     participant.current_trial()
     first = _row(app, token).started_at
     assert first is not None
@@ -327,7 +323,9 @@ def test_a_left_out_participant_s_resent_last_vote_takes_no_slot_back(app, parti
     for rejoin in ("resume", "refuse"):
         who = participant.__class__(app.test_client(), app)
         token = who.join(
-            _slug(app, web.study(design="all_ordered", catch=2, extra=f'rejoin = "{rejoin}"\n'))
+            study_slug(
+                app, web.study(design="all_ordered", catch=2, extra=f'rejoin = "{rejoin}"\n')
+            )
         )
         with app.app_context():
             kinds = dict(db.session.execute(sa.select(Trial.id, Trial.kind)).all())
@@ -359,7 +357,7 @@ def _idle_for(app, token: str, minutes: float) -> None:
 def test_a_consent_that_never_starts_gives_its_slot_back_early(app, participant, web, client):
     """20 minutes after consent without a first trial: released (UNSTARTED_AFTER_MINUTES, 15),
     while a participant who started and paused as long keeps the slot (DROPPED_AFTER, 30)."""
-    slug = _slug(app, web.study(design="all_ordered"))
+    slug = study_slug(app, web.study(design="all_ordered"))
     idle = participant.join(slug)  # consented, never opened a trial
     from tests.conftest import ParticipantActions
 
@@ -458,6 +456,6 @@ def test_a_crowd_of_consents_to_four_workers_all_enrol(app, web, tmp_path):
         'CONSENT_LIMIT_PER_ADDRESS = ""\nCONSENT_LIMIT_PER_STUDY = ""\n'
     )
     with facepair_serve(env, workers=4, log=tmp_path / "serve.log") as base:
-        codes = consent_crowd(base, _slug(app, study_id), 20)
+        codes = consent_crowd(base, study_slug(app, study_id), 20)
     assert codes == [302] * 20, codes
     assert _slots(app) == 20

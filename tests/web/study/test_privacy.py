@@ -15,13 +15,9 @@ from hypothesis import strategies as st
 from app.web.extensions import db
 from app.web.models import Participant, Study, StudyList, Trial, Vote
 from app.web.study.labels import pseudonym
+from tests.support.studies import study_slug
 
 PID = "5f2a0c7e9b1d3e4f5a6b7c8d"
-
-
-def _slug(app, study_id: int) -> str:
-    with app.app_context():
-        return db.session.get(Study, study_id).slug
 
 
 def _join(app, slug: str, pid: str, votes: int = 1):
@@ -58,7 +54,7 @@ def test_pseudonyms_are_stable_distinct_and_name_nobody(key, first, second):
 
 def test_exports_are_pseudonymised_unless_raw_ids_are_asked_for(app, client, web):
     study_id = web.study(design="all_ordered")
-    slug = _slug(app, study_id)
+    slug = study_slug(app, study_id)
     _join(app, slug, PID, votes=4)
     _join(app, slug, "60aa11bb22cc33dd44ee55ff", votes=2)
     web.login(client)
@@ -81,7 +77,7 @@ def test_exports_are_pseudonymised_unless_raw_ids_are_asked_for(app, client, web
     assert raw[0]["prolific_pid"] == PID and raw[0]["prolific_session_id"] == f"session-{PID}"
     # Pseudonyms link exports of one study, never two studies.
     other = web.study(design="all_ordered")
-    _join(app, _slug(app, other), PID)
+    _join(app, study_slug(app, other), PID)
     again = _csv(client.get(f"/experimenter/studies/{other}/participants.csv"))
     assert again[0]["prolific_pid"] != rows[0]["prolific_pid"]
     assert _csv(client.get(url))[0]["prolific_pid"] == rows[0]["prolific_pid"]
@@ -89,7 +85,7 @@ def test_exports_are_pseudonymised_unless_raw_ids_are_asked_for(app, client, web
 
 def test_only_the_owner_gets_the_participants(app, client, web):
     study_id = web.study()
-    _join(app, _slug(app, study_id), PID)
+    _join(app, study_slug(app, study_id), PID)
     web.user("other@example.org")
     web.login(client, "other@example.org")
     url = f"/experimenter/studies/{study_id}/participants.csv"
@@ -124,7 +120,7 @@ def _counts(app, study_id: int) -> tuple[int, int, int, int]:
 
 def test_deleting_one_participant_on_request(app, client, web):
     study_id = web.study(design="all_ordered")
-    slug = _slug(app, study_id)
+    slug = study_slug(app, study_id)
     _join(app, slug, PID, votes=3)
     _join(app, slug, "60aa11bb22cc33dd44ee55ff", votes=2)
     assert _counts(app, study_id) == (2, 5, 10, 2)  # 4 trials + the practice each
@@ -140,7 +136,7 @@ def test_deleting_one_participant_on_request(app, client, web):
 
 def test_deleting_by_label_or_pseudonym(app, client, web):
     study_id = web.study(design="all_ordered")
-    slug = _slug(app, study_id)
+    slug = study_slug(app, study_id)
     _join(app, slug, PID)
     _join(app, slug, "60aa11bb22cc33dd44ee55ff")
     web.login(client)
@@ -154,7 +150,7 @@ def test_deleting_by_label_or_pseudonym(app, client, web):
 
 def test_nothing_is_deleted_without_a_match_or_confirmation(app, client, web):
     study_id = web.study()
-    _join(app, _slug(app, study_id), PID)
+    _join(app, study_slug(app, study_id), PID)
     web.login(client)
     assert "Nothing deleted: no participant" in _delete(client, web, study_id, "P0042").get_data(
         as_text=True
@@ -172,7 +168,7 @@ def test_a_deletion_removes_the_report_computed_with_their_votes(app, client, we
     from app.web.infra.storage import report_path
 
     study_id = web.study()
-    _join(app, _slug(app, study_id), PID)
+    _join(app, study_slug(app, study_id), PID)
     web.login(client)
     with app.app_context():
         path = report_path(db.session.get(Study, study_id))
@@ -188,7 +184,7 @@ def test_the_personal_data_routes_never_answer_5xx(app, web):
     from hypothesis import HealthCheck
 
     study_id = web.study()
-    _join(app, _slug(app, study_id), PID)
+    _join(app, study_slug(app, study_id), PID)
     client = app.test_client()
     web.login(client)
     page = f"/experimenter/studies/{study_id}"
@@ -225,14 +221,14 @@ def test_a_rating_participant_has_answered_the_trials_they_rated(app, client, we
 
     rating = web.study(design="rating", catch_kind="instructed", catch=1)
     person = ParticipantActions(app.test_client(), app)
-    token = person.join(_slug(app, rating))
+    token = person.join(study_slug(app, rating))
     while (trial := person.current_trial()) is not None:
         with app.app_context():
             check = db.session.get(Trial, trial).kind == "catch"
         assert rate_trial(person.client, token, trial, 1 if check else 4).status_code == 201
     parallel = web.study(design="parallel", extra=PARALLEL)
     person = ParticipantActions(app.test_client(), app)
-    token = person.join(_slug(app, parallel))
+    token = person.join(study_slug(app, parallel))
     page = {"token": token, "trial_id": person.current_trial(), "scores": [90, 40], "plays": 2}
     page["idempotency_key"] = "parallel-answered-1"
     assert person.client.post("/api/v1/ratings", json=page).status_code == 201
