@@ -301,3 +301,28 @@ def test_the_check_sees_an_import_circle(tmp_path: Path) -> None:
     circles = import_circles(graph)
     assert circles == [("pkg", "pkg.shapes")]
     assert "pkg.shapes -> pkg (in a function)" in _describe(circles[0], graph)
+
+
+def _test_module_imports(root: Path) -> list[str]:
+    """Every import of one test module by another under ``root``/tests, as "file: module"."""
+    found = []
+    for path in sorted((root / "tests").rglob("*.py")):
+        for name, _top in imports(path, root):
+            if name.startswith("tests.") and name.rpartition(".")[2].startswith("test_"):
+                found.append(f"{path.relative_to(root)}: {name}")
+    return found
+
+
+def test_test_modules_never_import_each_other() -> None:
+    """A helper two test modules share lives in ``tests/support/`` (or a ``conftest.py``),
+    not in one of them: a test module is run, not imported."""
+    assert _test_module_imports(REPO) == []
+
+
+def test_the_check_sees_a_test_module_imported(tmp_path: Path) -> None:
+    (tmp_path / "tests" / "web").mkdir(parents=True)
+    (tmp_path / "tests" / "web" / "test_a.py").write_text("def helper():\n    return 1\n")
+    (tmp_path / "tests" / "test_b.py").write_text(
+        "def test_b():\n    from tests.web.test_a import helper\n\n    assert helper() == 1\n"
+    )
+    assert _test_module_imports(tmp_path) == ["tests/test_b.py: tests.web.test_a"]
