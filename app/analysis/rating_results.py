@@ -115,16 +115,23 @@ def read_ratings(source: str | Path | pd.DataFrame) -> pd.DataFrame:
                 dtype=str,
                 keep_default_na=False,
                 encoding="utf-8-sig",
-                # the columns the analysis reads: the times and playback columns of a study
-                # of thousands were two thirds of the memory
-                usecols=lambda name: str(name).strip() in ANALYSED,
                 # read a block of rows at a time: the parser holds each block's text as one
                 # Python string per value until the block is stored compactly, which for a
                 # whole file of 40,000 ratings was six times its size
                 chunksize=READ_ROWS,
             )
             with chunks:
-                frame = pd.concat(list(chunks), ignore_index=True)
+                # every column parsed, so a row with more fields than the header is refused
+                # (a parser told to keep some columns drops the extra fields without a word),
+                # and only the columns the analysis reads kept: the times and playback
+                # columns of a study of thousands were two thirds of the memory
+                frame = pd.concat(
+                    [
+                        block[[c for c in block.columns if str(c).strip() in ANALYSED]]
+                        for block in chunks
+                    ],
+                    ignore_index=True,
+                )
         except FileNotFoundError:
             raise InputError("no such file", path=path) from None
         except (OSError, UnicodeDecodeError, pd.errors.ParserError) as exc:

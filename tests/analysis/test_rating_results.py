@@ -72,6 +72,8 @@ def test_analyze_command_on_a_ratings_file(tmp_path):
         ("participant,clip,condition,score\np,s,a,\n", ":2: score: expected a whole number"),
         ("participant,clip,condition,score,kind\np,s,a,3,practice\n", ":2: kind: expected"),
         ("participant,clip,condition,score\n,s,a,3\n", ":2: participant: empty"),
+        # a field more than the header names: refused, not its last field dropped
+        ("participant,clip,condition,score\np,s,a,3\np,s,b,4,9\n", "Expected 4 fields in line 3"),
     ],
 )
 def test_a_bad_file_is_one_line(tmp_path, text, message):
