@@ -23,6 +23,9 @@ import numpy as np
 from scipy import sparse
 
 MIN_VARIANCE = 1e-8  # a random effect taken as absent
+#: Vote cells :meth:`MixedBTDModel._per_cell` takes at a time (its temporaries, 256 KB each,
+#: stay in the core's cache).
+CHUNK = 1 << 15
 
 
 class MixedBTDModel:
@@ -37,13 +40,18 @@ class MixedBTDModel:
         self.m = self.nf + (self.K * self.n if self.use_c else 0)
         # the cells that hold votes, (participant, clip, left, right): a design shows each
         # participant a few pairs per clip, so most of the (P, K, n, n) cells are empty
-        total = t.sum(axis=-1)
-        cp, ck, ci, cj = np.nonzero(total)
-        self.y = t[cp, ck, ci, cj]  # (N, 3)
-        self.total = total[cp, ck, ci, cj]
-        n, K, cells = self.n, self.K, len(cp)
+        n, K = self.n, self.K
+        by_cell = t.reshape(-1, 3)
+        total = by_cell[:, 0] + by_cell[:, 1] + by_cell[:, 2]
+        at_cell = np.flatnonzero(total)  # ((p K + k) n + i) n + j, in order
+        self.y = by_cell[at_cell]  # (N, 3)
+        self.total = total[at_cell]
+        cells = len(at_cell)
+        pk, cj = np.divmod(at_cell, n)
+        pk, ci = np.divmod(pk, n)  # pk = p K + k
+        cp, ck = np.divmod(pk, K)
         # the cells' worths in the flattened (P, K, n) worths
-        self.at_wi, self.at_wj = (cp * K + ck) * n + ci, (cp * K + ck) * n + cj
+        self.at_wi, self.at_wj = pk * n + ci, pk * n + cj
 
         # A vote's log-likelihood depends on its worths through a_i - a_j alone, so its
         # derivative in a_j is minus that in a_i, and its n x n Hessian block is its second
@@ -71,8 +79,9 @@ class MixedBTDModel:
         # (i, j) and (j, i), laid out as the participant-dense block B (P, n, m) holds them,
         # after its fixed-effect columns, so the product lands in B itself
         self.sums = {"y_l": float(self.y[:, 0].sum()), "y_t": float(self.y[:, 2].sum())}
+        chunk = min(cells, CHUNK)
         self.work = {
-            key: np.empty(cells) for key in ("delta", "pl", "pt", "d", "pr", "tpl", "tpt", "spare")
+            key: np.empty(chunk) for key in ("delta", "pl", "pt", "d", "pr", "tpl", "tpt", "spare")
         }
         self.work["hess"] = np.empty(cells)
         self.work["per_cell"] = np.empty((cells, 3 if self.ties else 2))
@@ -80,8 +89,10 @@ class MixedBTDModel:
         self.y_half = self.y[:, 0] + self.y[:, 2] / 2.0  # a left vote counts 1, undecided 1/2
         width, offset = (self.m, self.nf) if self.use_c else (K * n, 0)
 
+        corner = cp * (n * width) + ck * n + offset  # the block's (0, 0)
+
         def at(row: np.ndarray, column: np.ndarray) -> np.ndarray:
-            return (cp * n + row) * width + offset + ck * n + column
+            return corner + row * width + column
 
         self.to_block = incidence(
             [at(ci, ci), at(cj, cj), at(ci, cj), at(cj, ci)],
@@ -113,11 +124,34 @@ class MixedBTDModel:
             worth[:] = b[:, None, :]
         worth += z[:n]
         flat = worth.reshape(-1)
+        per_cell, hess = w["per_cell"], w["hess"]
+        # the sums of the log-likelihood and of the fixed effects' curvature (w_xy), in
+        # order: y_l delta, y_t delta, total log D, tpl, tpl pl, tpt, tpl pt, tpt pt
+        acc = np.zeros(8)
+        for start in range(0, len(self.total), CHUNK):
+            part = slice(start, min(start + CHUNK, len(self.total)))
+            self._chunk(flat, part, lam, kap, acc)
+        sums = {"tpl": float(acc[3]), "w_ll": float(acc[3] - acc[4])}
+        ll = float(acc[0]) + lam * self.sums["y_l"] - float(acc[2])
+        if self.ties:
+            ll += float(acc[1]) / 2.0 + kap * self.sums["y_t"]
+            sums.update(tpt=float(acc[5]), w_lt=-float(acc[6]), w_tt=float(acc[5] - acc[7]))
+        return ll, per_cell, hess, sums
+
+    def _chunk(
+        self, flat: np.ndarray, part: slice, lam: float, kap: float, acc: np.ndarray
+    ) -> None:
+        """:meth:`_per_cell` for the cells ``part``: its columns of the per-cell arrays, its
+        terms added to ``acc``. A chunk's temporaries stay in the core's cache, where the
+        whole arrays (a few megabytes each) went out to memory at every step."""
+        w = self.work
+        size = part.stop - part.start
         delta, pl, pt, d, pr, tpl, tpt, spare = (
-            w[k] for k in ("delta", "pl", "pt", "d", "pr", "tpl", "tpt", "spare")
+            w[k][:size] for k in ("delta", "pl", "pt", "d", "pr", "tpl", "tpt", "spare")
         )
-        np.take(flat, self.at_wi, out=delta)
-        delta -= np.take(flat, self.at_wj, out=spare)
+        per_cell, hess = w["per_cell"][part], w["hess"][part]
+        np.take(flat, self.at_wi[part], out=delta)
+        delta -= np.take(flat, self.at_wj[part], out=spare)
         # (exponents held within +-600: far beyond any estimable effect, short of overflow)
         np.add(delta, lam, out=pl)
         np.clip(pl, -600.0, 600.0, out=pl)
@@ -132,19 +166,19 @@ class MixedBTDModel:
         np.reciprocal(d, out=pr)
         pl *= pr  # P(left)
         np.log(d, out=d)
-        y_l, y_t, total = self.y[:, 0], self.y[:, 2], self.total
-        ll = float(y_l @ delta) + lam * self.sums["y_l"] - float(total @ d)
+        y_l, y_t, total = self.y[part, 0], self.y[part, 2], self.total[part]
+        acc[0] += y_l @ delta
+        acc[2] += total @ d
         np.multiply(total, pl, out=tpl)
-        per_cell = w["per_cell"]
-        g, with_l, hess = per_cell[:, 0], per_cell[:, 1], w["hess"]
-        np.subtract(self.y_half, tpl, out=g)
+        g, with_l = per_cell[:, 0], per_cell[:, 1]
+        np.subtract(self.y_half[part], tpl, out=g)
         np.multiply(tpl, pr, out=hess)  # w_ll + w_lt + w_tt / 4, without ties
         with_l[:] = hess  # w_ll + w_lt / 2, without ties
-        sums = {"tpl": float(tpl.sum())}
-        sums["w_ll"] = sums["tpl"] - float(tpl @ pl)
+        acc[3] += tpl.sum()
+        acc[4] += tpl @ pl
         if self.ties:
             pt *= pr  # P(undecided)
-            ll += float(y_t @ delta) / 2.0 + kap * self.sums["y_t"]
+            acc[1] += y_t @ delta
             np.multiply(total, pt, out=tpt)
             np.multiply(tpt, 0.5, out=spare)
             g -= spare
@@ -158,10 +192,9 @@ class MixedBTDModel:
             np.subtract(pr, pl, out=spare)
             spare *= tpt
             np.multiply(spare, 0.5, out=per_cell[:, 2])  # w_lt + w_tt / 2
-            sums["tpt"] = float(tpt.sum())
-            sums["w_lt"] = -float(tpl @ pt)
-            sums["w_tt"] = sums["tpt"] - float(tpt @ pt)
-        return ll, per_cell, hess, sums
+            acc[5] += tpt.sum()
+            acc[6] += tpl @ pt
+            acc[7] += tpt @ pt
 
     def terms(self, z: np.ndarray, b: np.ndarray) -> dict[str, Any]:
         """Log-likelihood, its gradient and minus its Hessian in blocks: dense-dense C,

@@ -1,6 +1,7 @@
 """The likelihood and solve of :mod:`app.analysis.mixed_btd_model`."""
 
 import numpy as np
+import pytest
 
 from app.analysis.mixed_btd_model import MixedBTDModel
 from app.analysis.mixed_coverage import Truth, simulate_counts
@@ -39,3 +40,20 @@ def test_derivatives_match_finite_differences():
     for p in range(model.P):
         np.testing.assert_allclose(blocks[p, :, p, :], at["A"][p], atol=1e-4)
     np.testing.assert_allclose(hess[m:, :m].reshape(model.P, model.n, m), at["B"], atol=1e-4)
+
+
+def test_terms_taken_a_chunk_at_a_time_are_those_of_one_pass(monkeypatch):
+    import app.analysis.mixed_btd_model as module
+
+    rng = np.random.default_rng(4)
+    t = _study(Truth(), 9, 4, 2)
+    whole = MixedBTDModel(t)
+    z, b = rng.normal(0, 0.3, whole.m), rng.normal(0, 0.3, (whole.P, whole.n))
+    at = whole.terms(z, b)
+    monkeypatch.setattr(module, "CHUNK", 7)  # far from a divisor of the cells
+    chunked = MixedBTDModel(t)
+    assert len(chunked.total) > 5 * 7
+    again = chunked.terms(z, b)
+    assert again["ll"] == pytest.approx(at["ll"], rel=1e-12)
+    for key in ("gz", "gb", "C", "A", "B"):
+        np.testing.assert_allclose(again[key], at[key], rtol=1e-12, atol=1e-12)
