@@ -34,7 +34,6 @@ from app.errors import InputError
 #: Bytes Arrow reads per block: about 9,000 votes of the full export (it reads a few blocks
 #: ahead, so larger blocks hold more of the file at once).
 BLOCK_BYTES = 1 << 20
-_TEXT = pa.dictionary(pa.int32(), pa.string())
 
 
 class NotPlain(Exception):
@@ -81,10 +80,9 @@ def arrow_blocks(path: Path, header: list[str], unique: Collection[str] = ()) ->
     if len(set(header)) != len(header):
         raise NotPlain  # Arrow would need unique names; the exact path reports repeated ones
     keys = [f"c{k}" for k in range(len(header))]  # header names may be any text
-    types = {
-        key: pa.string() if name in unique else _TEXT
-        for key, name in zip(keys, header, strict=True)
-    }
+    # every column parsed as text, the others dictionary-encoded here (a column left empty,
+    # as most optional ones are, needs no hashing: 0.27 s against 0.37 s for 600,000 votes)
+    types = dict.fromkeys(keys, pa.string())
     try:
         reader = pacsv.open_csv(
             path,
@@ -103,11 +101,7 @@ def arrow_blocks(path: Path, header: list[str], unique: Collection[str] = ()) ->
             columns: dict[str, Any] = {}
             for key, name in zip(keys, header, strict=True):
                 column = batch.column(key)
-                columns[name] = (
-                    column
-                    if name in unique
-                    else (column.indices.to_numpy().astype(np.int32, copy=False), column.dictionary)
-                )
+                columns[name] = column if name in unique else _codes(column)
             # every distinct value of the block at once: two scans, whatever the width
             distinct = pa.concat_arrays([c[1] for c in columns.values() if isinstance(c, tuple)])
             if quoted_or_nul(distinct):
@@ -118,6 +112,17 @@ def arrow_blocks(path: Path, header: list[str], unique: Collection[str] = ()) ->
             line += rows
     except (pa.ArrowException, OSError, UnicodeDecodeError):
         raise NotPlain from None
+
+
+def _codes(column: pa.StringArray) -> tuple[np.ndarray, pa.StringArray]:
+    """A text column as its codes (int32) and distinct values, in order of first use."""
+    offsets = np.frombuffer(
+        column.buffers()[1], dtype=np.int32, count=len(column) + 1, offset=column.offset * 4
+    )
+    if len(column) == 0 or offsets[-1] == offsets[0]:  # every value empty
+        return np.zeros(len(column), np.int32), pa.array([""] if len(column) else [], pa.string())
+    encoded = column.dictionary_encode()
+    return encoded.indices.to_numpy().astype(np.int32, copy=False), encoded.dictionary
 
 
 def exact_rows(path: Path) -> tuple[list[str], Block, list[InputError]]:
