@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from scipy import optimize
 
+from app.analysis.btd_likelihood import batched_terms, design_matrix, vote_cells
 from app.analysis.json_values import json_number
 from app.analysis.scaling import canonical_participant_order, connected, resampled_sums
 from app.analysis.signtest import sign_test_p
@@ -42,63 +43,6 @@ from app.analysis.signtest import sign_test_p
 JOD_PER_LOG_WORTH = float(1.0 / np.log(3.0))
 BOUND = 15.0  # |theta|, |log g|, |log nu| beyond this: the maximum is at infinity
 TOLERANCE = 1e-8
-
-
-def design_matrix(n: int, ties: bool = True) -> np.ndarray:
-    """(n, n, outcomes, n + 1 + ties) features of the linear predictors of each cell.
-
-    Parameters in order: theta_1..theta_n, lambda = log g, kappa = log nu (only with ties).
-    """
-    k = n + 1 + int(ties)
-    x = np.zeros((n, n, 2 + int(ties), k))
-    idx = np.arange(n)
-    x[idx, :, 0, idx] = 1.0  # left chosen: theta_i ...
-    x[:, :, 0, n] = 1.0  # ... + lambda
-    x[:, idx, 1, idx] = 1.0  # right chosen: theta_j
-    if ties:
-        x[idx, :, 2, idx] += 0.5  # undecided: (theta_i + theta_j) / 2 + kappa
-        x[:, idx, 2, idx] += 0.5
-        x[:, :, 2, n + 1] = 1.0
-    return x
-
-
-def _cells(counts: np.ndarray, ties: bool) -> np.ndarray:
-    """(B, cells, outcomes) counts of the off-diagonal cells (identical pairs dropped)."""
-    n = counts.shape[-2]
-    off = ~np.eye(n, dtype=bool)
-    c = counts[..., off, :]
-    return c if ties else c[..., :2]
-
-
-def _terms(
-    beta: np.ndarray, cells: np.ndarray, x: np.ndarray, penalty: bool = True
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Objective (negative log-likelihood plus (sum theta)^2 / 2), gradient and Hessian, batched.
-
-    The penalty fixes the mean of theta at 0 without moving the maximum (the likelihood does not
-    change when every theta moves together) and makes the Hessian invertible in that direction.
-    """
-    n_cells, n_out, k = x.shape
-    eta = np.einsum("cok,bk->bco", x, beta)
-    eta_max = eta.max(axis=-1, keepdims=True)
-    log_d = eta_max[..., 0] + np.log(np.exp(eta - eta_max).sum(axis=-1))
-    p = np.exp(eta - log_d[..., None])
-    total = cells.sum(axis=-1)
-    nll = -((cells * eta).sum(axis=(1, 2)) - (total * log_d).sum(axis=1))
-    grad = -np.einsum("bco,cok->bk", cells - total[..., None] * p, x)
-    mean_x = np.einsum("bco,cok->bck", p, x)
-    second = (total[..., None] * p).reshape(len(beta), -1) @ np.einsum(
-        "cok,col->cokl", x, x
-    ).reshape(n_cells * n_out, k * k)
-    weighted = np.swapaxes(total[..., None] * mean_x, 1, 2)
-    hess = second.reshape(-1, k, k) - weighted @ mean_x
-    if penalty:
-        n = k - 1 - int(n_out == 3)
-        s = beta[:, :n].sum(axis=1)
-        nll = nll + 0.5 * s**2
-        grad[:, :n] += s[:, None]
-        hess[:, :n, :n] += 1.0
-    return nll, grad, hess
 
 
 def log_likelihood(counts: np.ndarray, theta: np.ndarray, gamma: float, nu: float) -> float:
@@ -109,7 +53,7 @@ def log_likelihood(counts: np.ndarray, theta: np.ndarray, gamma: float, nu: floa
     off = ~np.eye(len(theta), dtype=bool)
     if not ties and counts[off][:, 2].sum() > 0:
         return float("-inf")
-    nll, _, _ = _terms(beta, _cells(counts[None], ties), x[off.ravel()], penalty=False)
+    nll, _, _ = batched_terms(beta, vote_cells(counts[None], ties), x[off.ravel()], penalty=False)
     return float(-nll[0])
 
 
@@ -172,7 +116,7 @@ def fit_btd(counts: np.ndarray, *, side: bool = True) -> BTDFit:
             "the compared pairs do not link all conditions",
         )
     ties, x = _setup(counts)
-    cells = _cells(counts[None], ties)
+    cells = vote_cells(counts[None], ties)
     if not side:
         # lambda leaves the likelihood; the penalty lambda^2 / 2 holds it at 0 exactly
         x = x.copy()
@@ -181,11 +125,11 @@ def fit_btd(counts: np.ndarray, *, side: bool = True) -> BTDFit:
     hold[n] = 0.0 if side else 1.0
 
     def objective(beta: np.ndarray) -> tuple[float, np.ndarray]:
-        nll, grad, _ = _terms(beta[None], cells, x)
+        nll, grad, _ = batched_terms(beta[None], cells, x)
         return float(nll[0]) + 0.5 * float(hold @ beta**2), grad[0] + hold * beta
 
     def hessian(beta: np.ndarray) -> np.ndarray:
-        return _terms(beta[None], cells, x)[2][0] + np.diag(hold)
+        return batched_terms(beta[None], cells, x)[2][0] + np.diag(hold)
 
     res = optimize.minimize(
         objective,
@@ -228,10 +172,10 @@ def fit_btd_many(
     """
     counts = np.asarray(counts, dtype=float)
     ties, x = _setup(counts)
-    cells = _cells(counts, ties)
+    cells = vote_cells(counts, ties)
     b, k = counts.shape[0], x.shape[-1]
     beta = np.zeros((b, k)) if start is None or len(start) != k else np.tile(start, (b, 1))
-    nll, grad, hess = _terms(beta, cells, x)
+    nll, grad, hess = batched_terms(beta, cells, x)
     done = np.zeros(b, dtype=bool)
     ridge = 1e-10 * np.eye(k)
     for _ in range(max_iter):
@@ -240,7 +184,7 @@ def fit_btd_many(
         scale = np.ones(b)
         for _half in range(30):
             trial = beta + scale[:, None] * step
-            new = _terms(trial, cells, x)
+            new = batched_terms(trial, cells, x)
             # rounding of sums over many votes: a step is worse only beyond its precision
             worse = ~(new[0] <= nll + 1e-10 * np.maximum(1.0, np.abs(nll))) & ~done
             if not worse.any():
@@ -256,15 +200,24 @@ def fit_btd_many(
 
 
 def bootstrap_btd(
-    per_participant: np.ndarray, replicates: int, seed: int, confidence: float
+    per_participant: np.ndarray,
+    replicates: int,
+    seed: int,
+    confidence: float,
+    resampled: np.ndarray | None = None,
 ) -> tuple[np.ndarray, int]:
     """Percentile intervals (k, 2) of (theta..., g, nu) and the replicates that converged.
 
     ``per_participant`` is (P, n, n, 3), resampled as
-    :func:`app.analysis.scaling.bootstrap_weights` draws. Too few converged replicates: NaN.
+    :func:`app.analysis.scaling.bootstrap_weights` draws, or ``resampled`` (replicates, n, n,
+    3): those sums made already. Too few converged replicates: NaN.
     """
     p, n = per_participant.shape[0], per_participant.shape[-2]
-    boot = resampled_sums(per_participant.reshape(p, -1), replicates, seed).reshape(-1, n, n, 3)
+    boot = (
+        resampled_sums(per_participant.reshape(p, -1), replicates, seed).reshape(-1, n, n, 3)
+        if resampled is None
+        else resampled
+    )
     beta, ok = fit_btd_many(boot)
     values = np.column_stack([beta[:, :n], np.exp(beta[:, n:])])
     if values.shape[1] == n + 1:
@@ -284,7 +237,7 @@ def leave_one_out_loglik(per_participant: np.ndarray) -> np.ndarray:
     whole, whole_ok = fit_btd_many(total[None])
     beta, ok = fit_btd_many(rest, start=whole[0] if whole_ok[0] else None)
     ties, x = _setup(rest)
-    nll, _, _ = _terms(beta, _cells(per_participant, ties), x, penalty=False)
+    nll, _, _ = batched_terms(beta, vote_cells(per_participant, ties), x, penalty=False)
     own = per_participant[..., ~np.eye(per_participant.shape[-2], dtype=bool), 2].sum(axis=-1)
     impossible = (~np.full(p, ties)) & (own > 0)
     return np.where(ok & ~impossible, -nll, np.nan)
@@ -316,10 +269,13 @@ def btd_summary(
     bootstrap: int = 1000,
     seed: int = 0,
     confidence: float = 0.95,
+    resampled: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """The model for one clip (or pooled) as JSON: scores (log worth, mean 0), nu, gamma,
     percentile intervals over participants, the log-likelihood, votes, JOD and the check of
-    identical pairs. ``t`` is (P, n, n, 3). Conditions without any vote get null."""
+    identical pairs. ``t`` is (P, n, n, 3). Conditions without any vote get null.
+    ``resampled``: the resampled sums of ``t`` (replicates, n, n, 3) made already
+    (:mod:`app.analysis.section_resamples`); without them they are made here."""
     t = np.asarray(t, dtype=float)
     t = t[t.sum(axis=(1, 2, 3)) > 0]
     n = len(names)
@@ -344,8 +300,12 @@ def btd_summary(
     used = 0
     if fit.converged and bootstrap > 0 and t.shape[0] > 1:
         sub = t[:, active][:, :, active]
-        sub = sub[canonical_participant_order(sub)]
-        ci, used = bootstrap_btd(sub, bootstrap, seed, confidence)
+        if resampled is None:
+            sub = sub[canonical_participant_order(sub)]
+            ci, used = bootstrap_btd(sub, bootstrap, seed, confidence)
+        else:
+            boot = resampled[:, active][:, :, active]
+            ci, used = bootstrap_btd(sub, bootstrap, seed, confidence, resampled=boot)
     scores: dict[str, Any] = {c: None for c in names}
     intervals: dict[str, Any] = {c: [None, None] for c in names}
     for q, c in enumerate(active.tolist()):

@@ -19,8 +19,13 @@ from app.analysis.agreement import coefficient_of_agreement
 from app.analysis.btd import btd_summary
 from app.analysis.counts import ballots, undecided_pairs, wins
 from app.analysis.json_values import json_number as _num
-from app.analysis.participant_level import one_judgement_per_participant, participant_level_tests
+from app.analysis.participant_level import (
+    net_preference,
+    one_judgement_per_participant,
+    participant_level_tests,
+)
 from app.analysis.scaling import bootstrap_scale, connected
+from app.analysis.section_resamples import resample_section, section_order
 from app.analysis.signtest import sign_test_p
 from app.analysis.ttest import holm, paired_t_many
 
@@ -47,6 +52,11 @@ def clip_statistics(
     """
     seen = t.sum(axis=(1, 2, 3)) > 0
     t = t[seen]
+    # every resampled statistic from one product, in one order of the participants
+    ordered, resamples = t, None
+    if bootstrap > 0 and t.shape[0] > 1:
+        ordered = t[section_order(t)]
+        resamples = resample_section(ordered, net_preference(ordered), bootstrap, seed)
     total = t.sum(axis=0)
     n = len(names)
     won = wins(t)
@@ -67,6 +77,7 @@ def clip_statistics(
         seed=seed,
         confidence=confidence,
         anchor=anchor,
+        resampled=None if resamples is None else resamples.judgements(undecided),
     )
     ballot_counts = ballots(total)
     return {
@@ -94,10 +105,22 @@ def clip_statistics(
         "scale": scale_rows,
         "scale_note": note,
         "participant_level": participant_level_tests(
-            t, names, bootstrap=bootstrap, seed=seed, confidence=confidence
+            ordered,
+            names,
+            bootstrap=bootstrap,
+            seed=seed,
+            confidence=confidence,
+            resamples=resamples,
         ),
         "one_per_participant": one_judgement_per_participant(t, names),
-        "btd": btd_summary(t, names, bootstrap=bootstrap, seed=seed, confidence=confidence),
+        "btd": btd_summary(
+            ordered,
+            names,
+            bootstrap=bootstrap,
+            seed=seed,
+            confidence=confidence,
+            resampled=None if resamples is None else resamples.counts,
+        ),
     }
 
 
@@ -168,8 +191,10 @@ def _scale(
     seed: int,
     confidence: float,
     anchor: int | None,
+    resampled: np.ndarray | None,
 ) -> tuple[list[dict[str, Any]], str | None]:
-    """Case V rows for the conditions that were compared; others (and a split graph) get None."""
+    """Case V rows for the conditions that were compared; others (and a split graph) get None.
+    ``resampled``: each resample's judgements (replicates, n, n), or None to resample here."""
     pooled = per_participant.sum(axis=0)
     active = np.flatnonzero((pooled + pooled.T).sum(axis=1) > 0)
     empty = [{"condition": c, "score": None, "ci_low": None, "ci_high": None} for c in names]
@@ -184,7 +209,12 @@ def _scale(
             return empty, f"anchor {names[anchor]!r} was never compared"
         sub_anchor = int(np.flatnonzero(active == anchor)[0])
     scale, low, high = bootstrap_scale(
-        sub, replicates=bootstrap, seed=seed, confidence=confidence, anchor=sub_anchor
+        sub,
+        replicates=bootstrap,
+        seed=seed,
+        confidence=confidence,
+        anchor=sub_anchor,
+        resampled=None if resampled is None else resampled[:, active][:, :, active],
     )
     for q, c in enumerate(active.tolist()):
         empty[c] = {

@@ -35,6 +35,7 @@ from app.analysis.agreement import coefficient_of_agreement
 from app.analysis.counts import undecided_pairs, wins
 from app.analysis.json_values import json_number as _num
 from app.analysis.scaling import DENSE_FROM, bootstrap_columns, canonical_participant_order
+from app.analysis.section_resamples import SectionResamples, pair_groups
 from app.analysis.signed_rank import signed_rank_test
 from app.analysis.signtest import sign_test_p
 from app.analysis.ttest import holm
@@ -94,17 +95,9 @@ def bootstrap_rank_biserial(d: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """
     columns = weights if weights.dtype == np.float32 else resample_columns(weights)
     replicates = columns.shape[1]
-    keep = np.flatnonzero(~np.isnan(d) & (d != 0))
-    x = d[keep]
-    if x.size == 0:
+    rows, cols, g = pair_groups(d)
+    if g == 0:
         return np.full(replicates, np.nan)
-    distinct, group = np.unique(np.abs(x), return_inverse=True)
-    g = distinct.size
-    # each resample's weight per distinct |d| (rows 0..g-1) and its positive part (g..2g-1):
-    # a sparse indicator of participants by group times the resamples' columns, one pass
-    positive = x > 0
-    rows = np.concatenate([group, g + group[positive]])
-    cols = np.concatenate([keep, keep[positive]])
     member = sparse.csr_matrix(
         (np.ones(rows.size, np.float32), (rows, cols)), shape=(2 * g, columns.shape[0])
     )
@@ -112,7 +105,13 @@ def bootstrap_rank_biserial(d: np.ndarray, weights: np.ndarray) -> np.ndarray:
     # where the indicator is (a few distinct |d| with most participants in one)
     dense = member.nnz >= DENSE_FROM * member.shape[0] * member.shape[1]
     sums = ((member.toarray() if dense else member) @ columns).T.astype(np.float64)
-    in_group, positive_w = sums[:, :g], sums[:, g:]
+    return rank_biserial_of_groups(sums[:, :g], sums[:, g:])
+
+
+def rank_biserial_of_groups(in_group: np.ndarray, positive_w: np.ndarray) -> np.ndarray:
+    """r of each resample from its weight in each group of equal ``|d|`` (ascending) and in
+    that group's positive part, both (replicates, g): the mid-rank of a group is the weight
+    of the groups before it plus (its weight + 1) / 2 (:func:`bootstrap_rank_biserial`)."""
     before = np.cumsum(in_group, axis=1) - in_group
     mid = before + (in_group + 1.0) / 2.0
     plus = (mid * positive_w).sum(axis=1)
@@ -144,20 +143,23 @@ def participant_level_tests(
     bootstrap: int = 1000,
     seed: int = 0,
     confidence: float = 0.95,
+    resamples: SectionResamples | None = None,
 ) -> list[dict[str, Any]]:
     """Wilcoxon signed-rank test of d_p per pair, rank-biserial r with bootstrap CI, Holm.
 
     ``t`` is (P, n, n, 3) for one clip (or pooled over clips). Participants are put in an order
-    given by their data before resampling, so relabelling them changes nothing. Returns one
-    dict per pair that at least one participant judged: a, b, n_participants, median_d, W, p,
-    p_holm, effect, effect_ci.
+    given by their data before resampling, so relabelling them changes nothing. ``resamples``:
+    the section's resampled sums (:func:`app.analysis.section_resamples.resample_section`) of
+    ``t``'s participants with votes, already in that order; without them each pair is
+    resampled here. Returns one dict per pair that at least one participant judged: a, b,
+    n_participants, median_d, W, p, p_holm, effect, effect_ci.
     """
     t = t[t.sum(axis=(1, 2, 3)) > 0]
-    if t.shape[0] > 1:
+    if t.shape[0] > 1 and resamples is None:
         t = t[canonical_participant_order(t)]
     d = net_preference(t)
     i, j = np.triu_indices(len(names), 1)
-    resampled = bootstrap > 0 and t.shape[0] > 1
+    resampled = bootstrap > 0 and t.shape[0] > 1 and resamples is None
     # one copy of the resamples' weights for every pair (and every section)
     columns = bootstrap_columns(t.shape[0], bootstrap, seed) if resampled else None
     rows = []
@@ -178,11 +180,12 @@ def participant_level_tests(
             w, p = signed_rank_test(judged[None, :])
             row["W"], row["p"] = _num(w[0]), _num(p[0])
         row["effect"] = rank_biserial(judged)
-        row["effect_ci"] = (
-            _percentile_ci(bootstrap_rank_biserial(col, columns), confidence)
-            if columns is not None
-            else [None, None]
-        )
+        row["effect_ci"] = [None, None]
+        if resamples is not None:
+            r_boot = rank_biserial_of_groups(*resamples.groups[q])
+            row["effect_ci"] = _percentile_ci(r_boot, confidence)
+        elif columns is not None:
+            row["effect_ci"] = _percentile_ci(bootstrap_rank_biserial(col, columns), confidence)
         rows.append(row)
     adjusted = holm([np.nan if r["p"] is None else r["p"] for r in rows])
     for r, ph in zip(rows, adjusted, strict=True):
