@@ -54,7 +54,7 @@ from scipy import stats
 from app.analysis.btd import BOUND, JOD_PER_LOG_WORTH, fit_btd
 from app.analysis.json_values import json_number
 from app.analysis.mixed_btd_model import MIN_VARIANCE, MixedBTDModel
-from app.analysis.mixed_btd_variances import SchallUpdates, settle
+from app.analysis.mixed_btd_variances import SchallUpdates, moment_variances, settle
 from app.analysis.scaling import canonical_participant_order
 
 
@@ -140,8 +140,12 @@ def _fit(
     if votes == 0 or n < 2:
         return failed("no votes on pairs of different conditions")
     model = MixedBTDModel(t)
-    updates = SchallUpdates(model, np.zeros(model.m), np.zeros((P, n)), max_updates, progress)
-    log_var, settled, left, beyond = settle(updates, tol)
+    # the effects start at the fixed model's estimates, the variances at moment estimates
+    # made from the terms there (:func:`app.analysis.mixed_btd_variances.moment_variances`)
+    z, b = _fixed_start(model, t), np.zeros((P, n))
+    at_start = model.terms(z, b)
+    updates = SchallUpdates(model, z, b, max_updates, progress, t=at_start)
+    log_var, settled, left, beyond = settle(updates, tol, moment_variances(model, at_start))
     if beyond is not None:
         return failed(beyond, int(updates.count))
     var = np.exp(log_var)
@@ -161,6 +165,19 @@ def _fit(
     if not np.all(np.diag(cov) >= 0):  # rounding on a nearly flat likelihood: no maximum
         return failed("the fit did not converge")
     return _estimates(model, z, cov, var, votes, stopped, iterations=iterations, settled=settled)
+
+
+def _fixed_start(model: MixedBTDModel, t: np.ndarray) -> np.ndarray:
+    """The dense effects at the fixed model's estimates (scores, log gamma, log nu; the clip
+    effects 0), or all 0 when that model has no finite estimate."""
+    z = np.zeros(model.m)
+    fixed = fit_btd(t.sum(axis=(0, 1)))
+    if fixed.converged and fixed.gamma > 0 and (fixed.nu > 0 or not model.ties):
+        z[: model.n] = fixed.theta
+        z[model.n] = np.log(fixed.gamma)
+        if model.ties:
+            z[model.n + 1] = np.log(fixed.nu)
+    return z
 
 
 def _estimates(

@@ -1,8 +1,14 @@
 import numpy as np
 import pytest
 
-from app.analysis.mixed_btd import fit_mixed_btd, mixed_btd_summary
-from app.analysis.mixed_btd_variances import _beyond_bound
+from app.analysis.mixed_btd import _fixed_start, fit_mixed_btd, mixed_btd_summary
+from app.analysis.mixed_btd_model import MixedBTDModel
+from app.analysis.mixed_btd_variances import (
+    CRAWL_VARIANCE,
+    START_VARIANCES,
+    _beyond_bound,
+    moment_variances,
+)
 from app.analysis.mixed_coverage import Truth, simulate_counts
 
 
@@ -71,3 +77,33 @@ def test_the_note_names_every_sd_beyond_the_bound():
         "the fit did not converge (the participant and clip SDs grow beyond the fit's bound "
         "of 4.5 log-worth units)"
     )
+
+
+@pytest.mark.parametrize(("sd_participant", "sd_clip"), [(0.5, 0.3), (0.3, 0.15)])
+def test_the_moment_start_lies_near_the_variances_it_estimates(sd_participant, sd_clip):
+    """Moment estimates from the fixed model's terms land near the simulated variances (and
+    so near the REML fit the updates reach from them)."""
+    truth = Truth(sd_participant=sd_participant, sd_clip=sd_clip)
+    t = simulate_counts(truth, 400, 12, np.random.default_rng(5)).astype(float)
+    n = t.shape[2]
+    t[:, :, np.arange(n), np.arange(n)] = 0.0
+    model = MixedBTDModel(t)
+    z = _fixed_start(model, t)
+    start = moment_variances(model, model.terms(z, np.zeros((model.P, n))))
+    fit = fit_mixed_btd(t)
+    assert np.sqrt(start[0]) == pytest.approx(sd_participant, rel=0.25)
+    assert np.sqrt(start[1]) == pytest.approx(sd_clip, rel=0.4)
+    assert np.sqrt(start[0]) == pytest.approx(fit.sd_participant, rel=0.15)
+
+
+def test_without_random_effects_the_moment_start_is_the_usual_one():
+    """No participant or clip effect in the votes: the estimates fall at or below the cut-off
+    and the updates start where they always did (the crawl towards 0 is probed as before)."""
+    truth = Truth(sd_participant=0.0, sd_clip=0.0)
+    t = simulate_counts(truth, 300, 6, np.random.default_rng(6)).astype(float)
+    model = MixedBTDModel(t)
+    z = _fixed_start(model, t)
+    start = moment_variances(model, model.terms(z, np.zeros((model.P, model.n))))
+    assert all(s in (START_VARIANCES[q], CRAWL_VARIANCE) for q, s in enumerate(start))
+    fit = fit_mixed_btd(t)
+    assert fit.converged and fit.sd_clip < 0.05
