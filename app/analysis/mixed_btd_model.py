@@ -41,17 +41,23 @@ class MixedBTDModel:
         # the cells that hold votes, (participant, clip, left, right): a design shows each
         # participant a few pairs per clip, so most of the (P, K, n, n) cells are empty
         n, K = self.n, self.K
+        width, offset = (self.m, self.nf) if self.use_c else (K * n, 0)
+        # indices in 32 bits where they fit: half the memory to fault in and to stream
+        index = np.int32 if max(t.size, self.P * n * width) < 2**31 else np.int64
         by_cell = t.reshape(-1, 3)
         total = by_cell[:, 0] + by_cell[:, 1] + by_cell[:, 2]
-        at_cell = np.flatnonzero(total)  # ((p K + k) n + i) n + j, in order
-        self.y = by_cell[at_cell]  # (N, 3)
-        self.total = total[at_cell]
+        at_cell = np.flatnonzero(total).astype(index)  # ((p K + k) n + i) n + j, in order
+        self.y = by_cell[at_cell].astype(np.float64)  # (N, 3)
+        self.total = total[at_cell].astype(np.float64)
+        del total
         cells = len(at_cell)
         pk, cj = np.divmod(at_cell, n)
         pk, ci = np.divmod(pk, n)  # pk = p K + k
         cp, ck = np.divmod(pk, K)
         # the cells' worths in the flattened (P, K, n) worths
-        self.at_wi, self.at_wj = pk * n + ci, pk * n + cj
+        pk *= n
+        self.at_wi, self.at_wj = pk + ci, pk + cj
+        del pk, at_cell
 
         # A vote's log-likelihood depends on its worths through a_i - a_j alone, so its
         # derivative in a_j is minus that in a_i, and its n x n Hessian block is its second
@@ -60,24 +66,32 @@ class MixedBTDModel:
         # fixed signed incidence matrices, made once, a column per cell (one sparse product
         # against several quantities at once is 3-10x faster than a bincount per quantity and
         # side, and the columns need no sorting to build)
-        def incidence(rows: list[np.ndarray], signs: list[float], size: int) -> sparse.csc_array:
-            at = np.empty(cells * len(rows), dtype=np.int32 if size < 2**31 else np.int64)
-            for q, row in enumerate(rows):
-                at[q :: len(rows)] = row
-            values = np.empty(at.size)
-            for q, sign in enumerate(signs):
-                values[q :: len(rows)] = sign
-            return sparse.csc_array(
-                (values, at, np.arange(0, at.size + 1, len(rows), dtype=at.dtype)),
-                shape=(size, cells),
-            )
+        pair_signs = np.tile(np.array([1.0, -1.0]), cells)  # i then j, shared by two matrices
+        pair_starts = np.arange(0, 2 * cells + 1, 2, dtype=index)
 
-        self.to_p = incidence([cp * n + ci, cp * n + cj], [1.0, -1.0], self.P * n)
-        self.to_k = incidence([ck * n + ci, ck * n + cj], [1.0, -1.0], K * n)
+        self.to_p = sparse.csc_array(
+            (pair_signs, _interleaved(cp * n, [ci, cj], index), pair_starts),
+            shape=(self.P * n, cells),
+        )
+        self.to_k = sparse.csc_array(
+            (pair_signs, _interleaved(ck * n, [ci, cj], index), pair_starts),
+            shape=(K * n, cells),
+        )
 
         # the n x n Hessian blocks of each (participant, clip): +1 at (i, i) and (j, j), -1 at
         # (i, j) and (j, i), laid out as the participant-dense block B (P, n, m) holds them,
         # after its fixed-effect columns, so the product lands in B itself
+        corner = cp * (n * width)  # the block's (0, 0)
+        corner += ck * n + offset
+        row_i, row_j = ci * width, cj * width
+        self.to_block = sparse.csc_array(
+            (
+                np.tile(np.array([1.0, 1.0, -1.0, -1.0]), cells),
+                _interleaved(corner, [row_i + ci, row_j + cj, row_i + cj, row_j + ci], index),
+                np.arange(0, 4 * cells + 1, 4, dtype=index),
+            ),
+            shape=(self.P * n * width, cells),
+        )
         self.sums = {"y_l": float(self.y[:, 0].sum()), "y_t": float(self.y[:, 2].sum())}
         chunk = min(cells, CHUNK)
         self.work = {
@@ -87,18 +101,6 @@ class MixedBTDModel:
         self.work["per_cell"] = np.empty((cells, 3 if self.ties else 2))
         self.work["worth"] = np.empty((self.P, K, n))
         self.y_half = self.y[:, 0] + self.y[:, 2] / 2.0  # a left vote counts 1, undecided 1/2
-        width, offset = (self.m, self.nf) if self.use_c else (K * n, 0)
-
-        corner = cp * (n * width) + ck * n + offset  # the block's (0, 0)
-
-        def at(row: np.ndarray, column: np.ndarray) -> np.ndarray:
-            return corner + row * width + column
-
-        self.to_block = incidence(
-            [at(ci, ci), at(cj, cj), at(ci, cj), at(cj, ci)],
-            [1.0, 1.0, -1.0, -1.0],
-            self.P * n * width,
-        )
 
     def _per_cell(
         self, z: np.ndarray, b: np.ndarray
@@ -196,9 +198,13 @@ class MixedBTDModel:
             acc[6] += tpl @ pt
             acc[7] += tpt @ pt
 
-    def terms(self, z: np.ndarray, b: np.ndarray) -> dict[str, Any]:
+    def terms(self, z: np.ndarray, b: np.ndarray, slot: int | None = None) -> dict[str, Any]:
         """Log-likelihood, its gradient and minus its Hessian in blocks: dense-dense C,
         participant blocks A (P, n, n) and participant-dense B (P, n, m).
+
+        ``slot`` (0 or 1): the large arrays go into the model's own pair of that number,
+        rewritten at the next call with the same slot (the fit alternates the two, so the
+        terms of the point it stands on survive those of a trial step); None: new arrays.
 
         Every vote's worths are a = theta + b_p + c_k, so the derivatives are taken in the
         (participant, clip) worths of the cells that hold votes and summed into participants,
@@ -209,17 +215,19 @@ class MixedBTDModel:
         """
         P, K, n, m, nf = self.P, self.K, self.n, self.m, self.nf
         ll, per_cell, hess, sums = self._per_cell(z, b)
-        by_p = self.to_p @ per_cell  # (P n, 2 or 3)
+        by_p = self._product(self.to_p, per_cell, slot, "by_p")  # (P n, 2 or 3)
         by_k = self.to_k @ per_cell  # (K n, 2 or 3)
         # the (participant, clip) n x n blocks of minus the Hessian in the worths, in B
-        placed = self.to_block @ hess
+        placed = self._product(self.to_block, hess, slot, "placed")
         if self.use_c:
             bb = placed.reshape(P, n, m)
             blocks = bb[:, :, nf:].reshape(P, n, K, n)
         else:
             bb, blocks = np.empty((P, n, m)), placed.reshape(P, n, K, n)
         g_p, h_al_p = by_p[:, 0].reshape(P, n), by_p[:, 1].reshape(P, n)
-        aa = np.einsum("pikj->pij", blocks)  # (P, n, n); 5x faster than .sum(axis=2)
+        aa = np.einsum(  # (P, n, n); 5x faster than .sum(axis=2)
+            "pikj->pij", blocks, out=None if slot is None else self._array(f"aa{slot}", (P, n, n))
+        )
         per_clip = blocks.sum(axis=0).transpose(1, 0, 2)  # (K, n, n)
         gz, gb = np.zeros(m), np.zeros((P, n))
         cc = np.zeros((m, m))
@@ -254,7 +262,22 @@ class MixedBTDModel:
             aa = np.zeros((P, n, n))
         upper = np.triu(cc, 1)
         cc = np.triu(cc) + upper.T  # filled above the diagonal only
-        return {"ll": ll, "gz": gz, "gb": gb, "C": cc, "A": aa, "B": bb}
+        return {"ll": ll, "gz": gz, "gb": gb, "C": cc, "A": aa, "B": bb, "slot": slot}
+
+    def _array(self, key: str, shape: tuple[int, ...]) -> np.ndarray:
+        """The model's own array ``key`` (made at the first call)."""
+        if key not in self.work:
+            self.work[key] = np.empty(shape)
+        return self.work[key]
+
+    def _product(
+        self, matrix: sparse.csc_array, x: np.ndarray, slot: int | None, name: str
+    ) -> np.ndarray:
+        """``matrix @ x``, into the model's array ``name`` of ``slot`` when one is given."""
+        if slot is None:
+            return np.asarray(matrix @ x)
+        out = self._array(f"{name}{slot}", (matrix.shape[0], *x.shape[1:]))
+        return sparse_product_into(matrix, x, out)
 
     def penalised(self, z: np.ndarray, b: np.ndarray, var: np.ndarray, ll: float) -> float:
         """F: minus the log-likelihood plus the random effects' Gaussian penalty (and the
@@ -330,7 +353,7 @@ class MixedBTDModel:
         effects per variance update). At the fixed point of the variance updates the step is 0
         and the solve is the mode's; on the way, each update costs one pass over the votes and
         one solve instead of two passes and three solves."""
-        t = self.terms(z, b) if t is None else t
+        t = self.terms(z, b, slot=0) if t is None else t
         f = self.penalised(z, b, var, t["ll"])
         for _ in range(max_iter):
             try:
@@ -340,7 +363,7 @@ class MixedBTDModel:
             scale = 1.0
             for _half in range(30):
                 z_new, b_new = z - scale * step.dz, b - scale * step.db
-                t_new = self.terms(z_new, b_new)
+                t_new = self.terms(z_new, b_new, slot=_other_slot(t))
                 f_new = self.penalised(z_new, b_new, var, t_new["ll"])
                 if f_new <= f + 1e-10 * max(1.0, abs(f)):
                     break
@@ -384,6 +407,51 @@ class MixedBTDModel:
             trace_c = float(np.trace(at.s_inv[self.nf :, self.nf :]))
             out[1] = (float((c**2).sum()) + trace_c) / c.size
         return out
+
+
+def _interleaved(base: np.ndarray, rows: list[np.ndarray], index: type) -> np.ndarray:
+    """``base + rows[q]`` for each q, interleaved: the row indices of a column per cell."""
+    out = np.empty(base.size * len(rows), dtype=index)
+    for q, row in enumerate(rows):
+        np.add(base, row, out=out[q :: len(rows)])
+    return out
+
+
+def _other_slot(t: dict[str, Any]) -> int:
+    """The slot a trial step's terms may use: not the one ``t`` holds its arrays in."""
+    return 1 - t["slot"] if t.get("slot") is not None else 0
+
+
+def sparse_product_into(matrix: sparse.csc_array, x: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """``matrix @ x`` (x a vector or a C-contiguous matrix of float64) written into ``out``.
+
+    scipy's own product makes its result anew each time: for the model's 15 MB block array
+    that was a fresh allocation to fault in at every update, which cost more than the
+    product. Its compiled kernels take an output array; where they are missing (a later
+    scipy) the product is copied in.
+    """
+    kernels = _sparse_kernels()
+    rows, columns = matrix.shape
+    if kernels is None or x.dtype != np.float64 or not x.flags.c_contiguous:
+        out[...] = matrix @ x
+        return out
+    out.fill(0.0)
+    if x.ndim == 1:
+        kernels.csc_matvec(rows, columns, matrix.indptr, matrix.indices, matrix.data, x, out)
+    else:
+        flat = out.reshape(-1)  # a view: out is the model's own contiguous array
+        kernels.csc_matvecs(
+            rows, columns, x.shape[1], matrix.indptr, matrix.indices, matrix.data, x.ravel(), flat
+        )
+    return out
+
+
+def _sparse_kernels() -> Any:
+    try:
+        from scipy.sparse import _sparsetools
+    except ImportError:  # pragma: no cover - scipy moved its kernels
+        return None
+    return _sparsetools if hasattr(_sparsetools, "csc_matvecs") else None
 
 
 @dataclass(frozen=True)

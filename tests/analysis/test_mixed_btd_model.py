@@ -57,3 +57,32 @@ def test_terms_taken_a_chunk_at_a_time_are_those_of_one_pass(monkeypatch):
     assert again["ll"] == pytest.approx(at["ll"], rel=1e-12)
     for key in ("gz", "gb", "C", "A", "B"):
         np.testing.assert_allclose(again[key], at[key], rtol=1e-12, atol=1e-12)
+
+
+def test_terms_in_the_models_own_arrays_are_those_made_anew_and_survive_the_other_slot():
+    rng = np.random.default_rng(6)
+    model = MixedBTDModel(_study(Truth(), 7, 3, 3))
+    z, b = rng.normal(0, 0.3, model.m), rng.normal(0, 0.3, (model.P, model.n))
+    fresh = model.terms(z, b)
+    kept = model.terms(z, b, slot=0)
+    for key in ("gz", "gb", "C", "A", "B"):
+        np.testing.assert_array_equal(kept[key], fresh[key])
+    model.terms(z + 0.1, b - 0.1, slot=1)  # a trial step beside it
+    for key in ("gz", "gb", "C", "A", "B"):
+        np.testing.assert_array_equal(kept[key], fresh[key])
+
+
+@pytest.mark.parametrize("columns", [None, 1, 3])
+def test_a_sparse_product_written_into_an_array_is_scipys(columns):
+    from scipy import sparse
+
+    from app.analysis.mixed_btd_model import sparse_product_into
+
+    rng = np.random.default_rng(7)
+    matrix = sparse.random_array((40, 25), density=0.2, format="csc", rng=rng)
+    x = rng.normal(size=25 if columns is None else (25, columns))
+    out = np.full((40,) if columns is None else (40, columns), np.nan)
+    np.testing.assert_allclose(sparse_product_into(matrix, x, out), matrix @ x, rtol=1e-14)
+    np.testing.assert_allclose(out, matrix @ x, rtol=1e-14)
+    strided = np.asfortranarray(x) if columns else x[::1]
+    np.testing.assert_allclose(sparse_product_into(matrix, strided, out), matrix @ x, rtol=1e-14)
