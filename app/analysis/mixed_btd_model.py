@@ -411,7 +411,7 @@ class MixedBTDModel:
 
 def _interleaved(base: np.ndarray, rows: list[np.ndarray], index: type) -> np.ndarray:
     """``base + rows[q]`` for each q, interleaved: the row indices of a column per cell."""
-    out = np.empty(base.size * len(rows), dtype=index)
+    out: np.ndarray = np.empty(base.size * len(rows), dtype=index)
     for q, row in enumerate(rows):
         np.add(base, row, out=out[q :: len(rows)])
     return out
