@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 from scipy import sparse
 
+from app.analysis.mixed_btd_cells import Cells, incidences, sparse_product_into
+
 MIN_VARIANCE = 1e-8  # a random effect taken as absent
 #: Vote cells :meth:`MixedBTDModel._per_cell` takes at a time (its temporaries, 256 KB each,
 #: stay in the core's cache).
@@ -59,38 +61,11 @@ class MixedBTDModel:
         self.at_wi, self.at_wj = pk + ci, pk + cj
         del pk, at_cell
 
-        # A vote's log-likelihood depends on its worths through a_i - a_j alone, so its
-        # derivative in a_j is minus that in a_i, and its n x n Hessian block is its second
-        # derivative in that difference times (e_i - e_j)(e_i - e_j)'. The sums of the cells
-        # into participants, clips and (participant, clip) blocks are therefore products with
-        # fixed signed incidence matrices, made once, a column per cell (one sparse product
-        # against several quantities at once is 3-10x faster than a bincount per quantity and
-        # side, and the columns need no sorting to build)
-        pair_signs = np.tile(np.array([1.0, -1.0]), cells)  # i then j, shared by two matrices
-        pair_starts = np.arange(0, 2 * cells + 1, 2, dtype=index)
-
-        self.to_p = sparse.csc_array(
-            (pair_signs, _interleaved(cp * n, [ci, cj], index), pair_starts),
-            shape=(self.P * n, cells),
-        )
-        self.to_k = sparse.csc_array(
-            (pair_signs, _interleaved(ck * n, [ci, cj], index), pair_starts),
-            shape=(K * n, cells),
-        )
-
-        # the n x n Hessian blocks of each (participant, clip): +1 at (i, i) and (j, j), -1 at
-        # (i, j) and (j, i), laid out as the participant-dense block B (P, n, m) holds them,
-        # after its fixed-effect columns, so the product lands in B itself
-        corner = cp * (n * width)  # the block's (0, 0)
-        corner += ck * n + offset
-        row_i, row_j = ci * width, cj * width
-        self.to_block = sparse.csc_array(
-            (
-                np.tile(np.array([1.0, 1.0, -1.0, -1.0]), cells),
-                _interleaved(corner, [row_i + ci, row_j + cj, row_i + cj, row_j + ci], index),
-                np.arange(0, 4 * cells + 1, 4, dtype=index),
-            ),
-            shape=(self.P * n * width, cells),
+        # A vote's log-likelihood depends on its worths through a_i - a_j alone: the sums of
+        # the cells into participants, clips and (participant, clip) blocks are products
+        # with signed incidence matrices made once (:func:`incidences`)
+        self.to_p, self.to_k, self.to_block = incidences(
+            Cells(cp, ck, ci, cj), (self.P, K, n), width, offset, index
         )
         self.sums = {"y_l": float(self.y[:, 0].sum()), "y_t": float(self.y[:, 2].sum())}
         chunk = min(cells, CHUNK)
@@ -409,49 +384,9 @@ class MixedBTDModel:
         return out
 
 
-def _interleaved(base: np.ndarray, rows: list[np.ndarray], index: type) -> np.ndarray:
-    """``base + rows[q]`` for each q, interleaved: the row indices of a column per cell."""
-    out: np.ndarray = np.empty(base.size * len(rows), dtype=index)
-    for q, row in enumerate(rows):
-        np.add(base, row, out=out[q :: len(rows)])
-    return out
-
-
 def _other_slot(t: dict[str, Any]) -> int:
     """The slot a trial step's terms may use: not the one ``t`` holds its arrays in."""
     return 1 - t["slot"] if t.get("slot") is not None else 0
-
-
-def sparse_product_into(matrix: sparse.csc_array, x: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """``matrix @ x`` (x a vector or a C-contiguous matrix of float64) written into ``out``.
-
-    scipy's own product makes its result anew each time: for the model's 15 MB block array
-    that was a fresh allocation to fault in at every update, which cost more than the
-    product. Its compiled kernels take an output array; where they are missing (a later
-    scipy) the product is copied in.
-    """
-    kernels = _sparse_kernels()
-    rows, columns = matrix.shape
-    if kernels is None or x.dtype != np.float64 or not x.flags.c_contiguous:
-        out[...] = matrix @ x
-        return out
-    out.fill(0.0)
-    if x.ndim == 1:
-        kernels.csc_matvec(rows, columns, matrix.indptr, matrix.indices, matrix.data, x, out)
-    else:
-        flat = out.reshape(-1)  # a view: out is the model's own contiguous array
-        kernels.csc_matvecs(
-            rows, columns, x.shape[1], matrix.indptr, matrix.indices, matrix.data, x.ravel(), flat
-        )
-    return out
-
-
-def _sparse_kernels() -> Any:
-    try:
-        from scipy.sparse import _sparsetools
-    except ImportError:  # pragma: no cover - scipy moved its kernels
-        return None
-    return _sparsetools if hasattr(_sparsetools, "csc_matvecs") else None
 
 
 @dataclass(frozen=True)

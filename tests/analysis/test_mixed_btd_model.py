@@ -70,19 +70,3 @@ def test_terms_in_the_models_own_arrays_are_those_made_anew_and_survive_the_othe
     model.terms(z + 0.1, b - 0.1, slot=1)  # a trial step beside it
     for key in ("gz", "gb", "C", "A", "B"):
         np.testing.assert_array_equal(kept[key], fresh[key])
-
-
-@pytest.mark.parametrize("columns", [None, 1, 3])
-def test_a_sparse_product_written_into_an_array_is_scipys(columns):
-    from scipy import sparse
-
-    from app.analysis.mixed_btd_model import sparse_product_into
-
-    rng = np.random.default_rng(7)
-    matrix = sparse.random_array((40, 25), density=0.2, format="csc", rng=rng)
-    x = rng.normal(size=25 if columns is None else (25, columns))
-    out = np.full((40,) if columns is None else (40, columns), np.nan)
-    np.testing.assert_allclose(sparse_product_into(matrix, x, out), matrix @ x, rtol=1e-14)
-    np.testing.assert_allclose(out, matrix @ x, rtol=1e-14)
-    strided = np.asfortranarray(x) if columns else x[::1]
-    np.testing.assert_allclose(sparse_product_into(matrix, strided, out), matrix @ x, rtol=1e-14)
