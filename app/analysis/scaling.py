@@ -129,47 +129,51 @@ def bootstrap_weights(n_part: int, replicates: int, seed: int) -> np.ndarray:
     A resample of participants with replacement is a weight vector, so a statistic that is a
     sum over participants is recomputed for all replicates at once as ``weights @ data``.
     The same draws serve every statistic of an analysis (the pooled votes and each clip's,
-    the scale, the scores and the signed-rank effect sizes): they are drawn once (10,000
-    participants x 1,000 resamples take 0.05-0.1 s) and handed out read-only.
+    the scale, the scores and the signed-rank effect sizes): they are drawn once, as the
+    float32 rows of :func:`bootstrap_rows`, and handed out read-only.
 
     >>> bootstrap_weights(5, 3, seed=0).sum(axis=1).tolist()
     [5, 5, 5]
     """
-    rng = np.random.default_rng(seed)
-    kind = np.int32 if n_part < 2**31 else np.int64
-    counts = np.empty((replicates, n_part), kind)
-    # drawn _DRAWN_ROWS resamples at a time: the draws of all of them at once were another
-    # 40-80 MB to fault in (10,000 participants x 1,000 resamples)
-    for start in range(0, replicates, _DRAWN_ROWS):
-        rows = counts[start : start + _DRAWN_ROWS]
-        draws = rng.integers(0, n_part, size=rows.shape, dtype=kind)
-        for row, drawn in zip(rows, draws, strict=True):
-            row[:] = np.bincount(drawn, minlength=n_part)
+    counts = bootstrap_rows(n_part, replicates, seed).astype(
+        np.int32 if n_part < 2**31 else np.int64
+    )
     counts.flags.writeable = False
     return counts
 
 
-#: Resamples :func:`bootstrap_weights` draws in one call (part of what the seed gives).
+@functools.lru_cache(maxsize=4)
+def bootstrap_rows(n_part: int, replicates: int, seed: int) -> np.ndarray:
+    """The resamples' weights as drawn: (replicates, n_part) float32, read-only, the
+    left-hand side of the dense products below (whole counts below 2**24 are exact in
+    float32; a participant is drawn that often only among more than 16 million).
+
+    Drawn :data:`_DRAWN_ROWS` resamples at a time (10,000 participants x 1,000 resamples take
+    0.05-0.1 s): the draws of all of them at once, and an integer copy beside the float32
+    one, were another 80 MB to fault in."""
+    rng = np.random.default_rng(seed)
+    kind = np.int32 if n_part < 2**31 else np.int64
+    rows = np.empty((replicates, n_part), np.float32)
+    for start in range(0, replicates, _DRAWN_ROWS):
+        block = rows[start : start + _DRAWN_ROWS]
+        draws = rng.integers(0, n_part, size=block.shape, dtype=kind)
+        for row, drawn in zip(block, draws, strict=True):
+            row[:] = np.bincount(drawn, minlength=n_part)
+    rows.flags.writeable = False
+    return rows
+
+
+#: Resamples :func:`bootstrap_rows` draws in one call (part of what the seed gives).
 _DRAWN_ROWS = 64
 
 
 @functools.lru_cache(maxsize=4)
 def bootstrap_columns(n_part: int, replicates: int, seed: int) -> np.ndarray:
     """The weights of :func:`bootstrap_weights` by participant, ``(n_part, replicates)``
-    float32, contiguous and read-only: the right-hand side of the sparse products below,
-    converted once for every statistic (whole counts below 2**24 are exact in float32)."""
-    columns = np.ascontiguousarray(bootstrap_weights(n_part, replicates, seed).T, np.float32)
+    float32, contiguous and read-only: the right-hand side of the sparse products below."""
+    columns = np.ascontiguousarray(bootstrap_rows(n_part, replicates, seed).T)
     columns.flags.writeable = False
     return columns
-
-
-@functools.lru_cache(maxsize=4)
-def bootstrap_rows(n_part: int, replicates: int, seed: int) -> np.ndarray:
-    """The weights of :func:`bootstrap_weights` as float32, ``(replicates, n_part)``,
-    read-only: the left-hand side of the dense products below."""
-    rows = bootstrap_weights(n_part, replicates, seed).astype(np.float32)
-    rows.flags.writeable = False
-    return rows
 
 
 #: :func:`resampled_sums` multiplies densely when at least this share of the data is
@@ -197,9 +201,9 @@ def resampled_sums(data: np.ndarray, replicates: int, seed: int) -> np.ndarray:
     exact = np.issubdtype(data.dtype, np.integer) or bool(
         np.all((halves := data * 2.0) == np.round(halves))
     )
-    weights = bootstrap_weights(n_part, replicates, seed)
     heaviest = _heaviest(n_part, replicates, seed)
     if not exact or np.abs(data).sum(axis=0).max(initial=0) * heaviest >= 2.0**23:
+        weights = bootstrap_weights(n_part, replicates, seed)
         return np.asarray(weights @ data.astype(np.float64), np.float64)
     # columns without a count (a pair no one was shown) sum to 0: left out of the product
     used = np.flatnonzero(data.any(axis=0))
@@ -217,7 +221,7 @@ def resampled_sums(data: np.ndarray, replicates: int, seed: int) -> np.ndarray:
 @functools.lru_cache(maxsize=4)
 def _heaviest(n_part: int, replicates: int, seed: int) -> int:
     """The most times any participant is drawn in one resample of :func:`bootstrap_weights`."""
-    return int(bootstrap_weights(n_part, replicates, seed).max(initial=0))
+    return int(bootstrap_rows(n_part, replicates, seed).max(initial=0))
 
 
 def bootstrap_scale(
