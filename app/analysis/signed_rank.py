@@ -26,7 +26,7 @@ with the tie correction (scipy given a matrix decides over all its rows at once)
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
+from scipy import special, stats
 
 EXACT_WITH_TIES_UP_TO = 13  # scipy's limit for its enumerated p (2^13 < its 9,999 resamples)
 
@@ -50,7 +50,7 @@ def signed_rank_test(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     t_minus = np.where(d < 0, doubled, 0).sum(axis=1)
     w = np.minimum(t_plus, t_minus) / 2.0
     if d.shape[1] > EXACT_WITH_TIES_UP_TO:
-        return w, _scipys_p(d, nonzero)
+        return w, _scipys_p(d, nonzero, t_plus / 2.0)
     top = int(doubled.sum(axis=1).max()) + 1
     dist = np.zeros((d.shape[0], top))
     dist[:, 0] = 1.0
@@ -69,17 +69,34 @@ def signed_rank_test(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return w, np.where(nonzero.any(axis=1), p, np.nan)
 
 
-def _scipys_p(d: np.ndarray, nonzero: np.ndarray) -> np.ndarray:
-    """scipy's p of each row, its default method chosen per row as for that row alone."""
+def _scipys_p(d: np.ndarray, nonzero: np.ndarray, r_plus: np.ndarray) -> np.ndarray:
+    """scipy's p of each row, its default method chosen per row as for that row alone;
+    ``r_plus`` is each row's T+.
+
+    The normal approximation is scipy's formula written out (``wilcoxon``'s "asymptotic"
+    without continuity correction: z = (T+ - m (m + 1) / 4) / se with se^2 = (m (m + 1)
+    (2 m + 1) - sum (t^3 - t) / 2) / 24 over the groups of t tied |d|, p = 2 Phi(-|z|)),
+    to the same digits: scipy's own call spent 1.3 ms a row checking and re-ranking what
+    is ranked here already."""
     magnitudes = np.sort(np.where(nonzero, np.abs(d), np.nan), axis=1)  # zeros (NaN) last
-    ties = (np.diff(magnitudes, axis=1) == 0).any(axis=1)
+    same = np.diff(magnitudes, axis=1) == 0
+    ties = same.any(axis=1)
     exact = ~ties & nonzero.all(axis=1) & (d.shape[1] <= 50)
     p = np.full(d.shape[0], np.nan)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        for rows, method in ((exact, "exact"), (~exact, "asymptotic")):
-            if rows.any():
-                found = stats.wilcoxon(d[rows], axis=1, zero_method="wilcox", method=method)
-                p[rows] = found.pvalue
+    if exact.any():
+        with np.errstate(invalid="ignore", divide="ignore"):
+            found = stats.wilcoxon(d[exact], axis=1, zero_method="wilcox", method="exact")
+        p[exact] = found.pvalue
+    for row in np.flatnonzero(~exact):
+        m = float(nonzero[row].sum())
+        if m == 0:
+            continue
+        _, counts = np.unique(magnitudes[row, : int(m)], return_counts=True)
+        tied = counts.astype(np.float64)
+        mean = m * (m + 1.0) * 0.25
+        se = np.sqrt((m * (m + 1.0) * (2.0 * m + 1.0) - np.sum(tied**3 - tied) / 2) / 24)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            p[row] = 2 * special.ndtr(-np.abs((r_plus[row] - mean) / se))
     return np.where(nonzero.any(axis=1), p, np.nan)
 
 

@@ -100,3 +100,24 @@ def test_a_vector_and_a_missing_difference_are_refused_by_name():
         signed_rank_test(np.ones(3))
     with pytest.raises(ValueError, match="d holds NaN"):
         signed_rank_test(np.array([[1.0, np.nan, -2.0]]))
+
+
+@given(
+    st.integers(14, 400),
+    st.sampled_from(["net preferences", "rounded", "continuous"]),
+    st.integers(0, 2**31),
+)
+@settings(max_examples=120, deadline=None)
+def test_the_normal_approximation_is_scipys_to_the_last_digit(size, kind, seed):
+    """Beyond 13 differences the p is scipy's formula written out: equal, not close."""
+    rng = np.random.default_rng(seed)
+    values = {
+        "net preferences": [-1.0, -0.5, 0.0, 0.5, 1.0],
+        "rounded": list(np.round(rng.normal(size=9), 1)),
+        "continuous": list(rng.normal(size=size)),
+    }[kind]
+    d = rng.choice(values, size=size)
+    if not (d != 0).any():
+        return
+    _, p = signed_rank_test(d[None, :])
+    assert p[0] == stats.wilcoxon(d, zero_method="wilcox").pvalue
