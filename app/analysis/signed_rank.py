@@ -20,7 +20,8 @@ statistics, for every row of a matrix at once (the same recursion as the tie-fre
 distribution of Wilcoxon 1945 and Mann & Whitney 1947, on half-ranks). Beyond 13 differences
 the test is scipy's own, its method chosen for each row as a call on that row alone would
 choose it: exact without ties or zeros up to 50 differences, else the normal approximation
-with the tie correction (scipy given a matrix decides over all its rows at once).
+with the tie correction, its formula written out to scipy's digits (scipy given a matrix
+decides over all its rows at once).
 """
 
 from __future__ import annotations
