@@ -66,3 +66,15 @@ def test_every_counted_vote_is_one_level_and_every_tag_one_tick(rows):
     reasons = reason_summary(frame, ["a", "b", "c"])
     ticks = sum(len(set(filter(None, r[4].split(";")))) for r in rows)
     assert (sum(t["total"] for t in reasons["tags"].values()) if reasons else 0) == ticks
+
+
+def test_blank_reasons_are_no_tags_whatever_the_column_type():
+    base = {"choice": ["left", "right"], "left": ["a", "b"], "right": ["b", "a"]}
+    for reasons in (
+        pd.Series(["", " "]),
+        pd.Series(["", " "], dtype="category"),
+        pd.Categorical(["", ""], categories=["", "smooth"]),  # a category no row uses
+    ):
+        assert reason_summary(pd.DataFrame({**base, "reasons": reasons}), ["a", "b"]) is None
+    tagged = pd.DataFrame({**base, "reasons": pd.Categorical(["smooth", ""])})
+    assert reason_summary(tagged, ["a", "b"])["tags"]["smooth"]["a"] == 1
