@@ -335,6 +335,8 @@ class MixedBTDModel:
                 step = self.solve(z, b, var, t)
             except np.linalg.LinAlgError:
                 break
+            if not one_step and _largest(step) < tol:  # at the mode already: its solve is here
+                return z, b, step, True, t
             scale = 1.0
             for _half in range(30):
                 z_new, b_new = z - scale * step.dz, b - scale * step.db
@@ -382,6 +384,11 @@ class MixedBTDModel:
             trace_c = float(np.trace(at.s_inv[self.nf :, self.nf :]))
             out[1] = (float((c**2).sum()) + trace_c) / c.size
         return out
+
+
+def _largest(step: Solve) -> float:
+    """The largest change a Newton step makes to any effect."""
+    return float(max(np.abs(step.dz).max(initial=0.0), np.abs(step.db).max(initial=0.0)))
 
 
 def _other_slot(t: dict[str, Any]) -> int:
