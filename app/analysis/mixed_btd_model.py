@@ -3,8 +3,8 @@ and the Newton solve of its penalised quasi-likelihood, in blocks.
 
 For given variances of the participant and clip effects, :meth:`MixedBTDModel.mode` finds
 the joint mode of fixed and random effects (Breslow & Clayton 1993, JASA 88, 9-25, sec. 2)
-and :meth:`MixedBTDModel.variance_update` is Schall's (1991) REML update from it; the fit
-that alternates them, with its acceleration and stopping rule, is
+and :func:`app.analysis.mixed_btd_variances.schall_update` is Schall's (1991) REML update
+from it; the fit that alternates them, with its acceleration and stopping rule, is
 :func:`app.analysis.mixed_btd.fit_mixed_btd`.
 
 A vote's likelihood depends on its two worths through their difference alone, so the sums of
@@ -358,32 +358,6 @@ class MixedBTDModel:
                     break
         failed = Solve(np.zeros_like(z), np.zeros_like(b), np.eye(self.m), None, None)
         return z, b, failed, False, t
-
-    def variance_update(
-        self, z: np.ndarray, b: np.ndarray, at: Solve, var: np.ndarray
-    ) -> np.ndarray:
-        """Schall's (1991) REML update: var = (sum of squared modes + trace of their block of
-        H^-1) / number of effects, for the participant and the clip effects (NaN: not in the
-        design; an absent effect stays absent, the update cannot leave 0)."""
-        out = np.full(2, np.nan)
-        use_p, use_c = self.active(var)
-        if self.use_p:
-            out[0] = MIN_VARIANCE
-        if use_p and at.a_inv is not None and at.x is not None:
-            # tr(X S^-1 X') over the participants = tr(S^-1 X'X): one m x m product of the
-            # (P n, m) rows of X, no (P, n, m) temporaries
-            flat_x = at.x.reshape(-1, at.x.shape[-1])
-            trace = np.trace(at.a_inv, axis1=1, axis2=2).sum() + float(
-                (at.s_inv * (flat_x.T @ flat_x)).sum()
-            )
-            out[0] = (float((b**2).sum()) + trace) / b.size
-        if self.use_c:
-            out[1] = MIN_VARIANCE
-        if use_c:
-            c = z[self.nf :]
-            trace_c = float(np.trace(at.s_inv[self.nf :, self.nf :]))
-            out[1] = (float((c**2).sum()) + trace_c) / c.size
-        return out
 
 
 def _largest(step: Solve) -> float:

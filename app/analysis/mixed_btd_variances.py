@@ -6,7 +6,7 @@ Each update takes the effects one Newton step nearer their mode at the variances
 working-variate iteration of PQL, as ``glmmPQL`` alternates one weighted fit with the
 variances) and sets each variance to the sum of its squared modes plus the trace of its block
 of H^-1, over the number of effects
-(:meth:`app.analysis.mixed_btd_model.MixedBTDModel.variance_update`). A SQUAREM cycle takes
+(:func:`schall_update`). A SQUAREM cycle takes
 two updates and extrapolates along them, with a step length per variance; a small variance
 still falling at nearly the same pace is EM's crawl towards 0 and is probed at sd 0.02 at
 once; a variance below sd 0.02 is taken as 0; the jump stops at the fit's bound on a
@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from app.analysis.mixed_btd_model import MIN_VARIANCE, MixedBTDModel
+from app.analysis.mixed_btd_model import MIN_VARIANCE, MixedBTDModel, Solve
 
 #: Where the iteration starts, where it probes a crawl, what it takes as 0 and its bound.
 START_VARIANCES = (0.25, 0.25)  # participant, clip: sd 0.5 log-worth units
@@ -56,7 +56,7 @@ class SchallUpdates:
         self.z, self.b, self.t, self.ok, self.count = z, b, t, self.ok and ok, self.count + 1
         if self.progress is not None:
             self.progress(min(self.count, self.max_updates), self.max_updates)
-        update = self.model.variance_update(z, b, at, var)
+        update = schall_update(self.model, z, b, at, var)
         new = np.where(np.isnan(update), var, update)
         new = np.where(new < NEGLIGIBLE_VARIANCE, MIN_VARIANCE, new)  # EM crawls near 0
         return np.log(new)
@@ -67,6 +67,33 @@ class SchallUpdates:
 
     def restore(self, saved: tuple[np.ndarray, np.ndarray, dict[str, Any] | None, bool]) -> None:
         self.z, self.b, self.t, self.ok = saved
+
+
+def schall_update(
+    model: MixedBTDModel, z: np.ndarray, b: np.ndarray, at: Solve, var: np.ndarray
+) -> np.ndarray:
+    """Schall's (1991) REML update: var = (sum of squared modes + trace of their block of
+    H^-1) / number of effects, for the participant and the clip effects (NaN: not in the
+    design; an absent effect stays absent, the update cannot leave 0)."""
+    out = np.full(2, np.nan)
+    use_p, use_c = model.active(var)
+    if model.use_p:
+        out[0] = MIN_VARIANCE
+    if use_p and at.a_inv is not None and at.x is not None:
+        # tr(X S^-1 X') over the participants = tr(S^-1 X'X): one m x m product of the
+        # (P n, m) rows of X, no (P, n, m) temporaries
+        flat_x = at.x.reshape(-1, at.x.shape[-1])
+        trace = np.trace(at.a_inv, axis1=1, axis2=2).sum() + float(
+            (at.s_inv * (flat_x.T @ flat_x)).sum()
+        )
+        out[0] = (float((b**2).sum()) + trace) / b.size
+    if model.use_c:
+        out[1] = MIN_VARIANCE
+    if use_c:
+        c = z[model.nf :]
+        trace_c = float(np.trace(at.s_inv[model.nf :, model.nf :]))
+        out[1] = (float((c**2).sum()) + trace_c) / c.size
+    return out
 
 
 def settle(
