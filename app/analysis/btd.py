@@ -36,6 +36,7 @@ import numpy as np
 from scipy import optimize
 
 from app.analysis.btd_likelihood import batched_terms, design_matrix, vote_cells
+from app.analysis.counts import with_votes
 from app.analysis.json_values import json_number
 from app.analysis.scaling import canonical_participant_order, connected, resampled_sums
 from app.analysis.signtest import sign_test_p
@@ -277,7 +278,7 @@ def btd_summary(
     ``resampled``: the resampled sums of ``t`` (replicates, n, n, 3) made already
     (:mod:`app.analysis.section_resamples`); without them they are made here."""
     t = np.asarray(t, dtype=float)
-    t = t[t.sum(axis=(1, 2, 3)) > 0]
+    t = with_votes(t)
     n = len(names)
     off = ~np.eye(n, dtype=bool)
     pooled = t.sum(axis=0)

@@ -51,7 +51,7 @@ def clip_statistics(
     ``anchor`` is the index of the condition fixed at 0 on the scale (None: the mean).
     """
     seen = t.sum(axis=(1, 2, 3)) > 0
-    t = t[seen]
+    t = t if seen.all() else t[seen]
     # every resampled statistic from one product, in one order of the participants
     ordered, resamples = t, None
     if bootstrap > 0 and t.shape[0] > 1:

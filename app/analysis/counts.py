@@ -67,6 +67,13 @@ def wins(tensor: np.ndarray, undecided: str = "exclude") -> np.ndarray:
     return w
 
 
+def with_votes(t: np.ndarray) -> np.ndarray:
+    """The participants of ``t`` (P, n, n, 3) who voted at all (``t`` itself when all did:
+    a large study's section is not copied for nothing)."""
+    seen = t.reshape(t.shape[0], -1).sum(axis=1) > 0
+    return t if seen.all() else t[seen]
+
+
 def undecided_pairs(tensor: np.ndarray) -> np.ndarray:
     """(..., n, n) symmetric: undecided votes on the unordered pair {i, j}."""
     u = tensor[..., 2]

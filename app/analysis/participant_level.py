@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike
 from scipy import sparse, stats
 
 from app.analysis.agreement import coefficient_of_agreement
-from app.analysis.counts import undecided_pairs, wins
+from app.analysis.counts import undecided_pairs, wins, with_votes
 from app.analysis.json_values import json_number as _num
 from app.analysis.scaling import DENSE_FROM, bootstrap_columns, canonical_participant_order
 from app.analysis.section_resamples import SectionResamples, pair_groups
@@ -154,10 +154,10 @@ def participant_level_tests(
     resampled here. Returns one dict per pair that at least one participant judged: a, b,
     n_participants, median_d, W, p, p_holm, effect, effect_ci.
     """
-    t = t[t.sum(axis=(1, 2, 3)) > 0]
+    t = with_votes(t)
     if t.shape[0] > 1 and resamples is None:
         t = t[canonical_participant_order(t)]
-    d = net_preference(t)
+    d = net_preference(t) if resamples is None else resamples.d
     i, j = np.triu_indices(len(names), 1)
     resampled = bootstrap > 0 and t.shape[0] > 1 and resamples is None
     # one copy of the resamples' weights for every pair (and every section)

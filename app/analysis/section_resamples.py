@@ -33,10 +33,12 @@ from app.analysis.scaling import canonical_participant_order, resampled_sums
 class SectionResamples:
     """The resampled sums of a section: ``counts`` (replicates, n, n, 3), the vote counts of
     each resample, and per unordered pair (``np.triu_indices(n, 1)`` order) the resampled
-    weights of each group of equal ``|d|`` and of its positive part (:func:`group_sums`)."""
+    weights of each group of equal ``|d|`` and of its positive part (:func:`pair_groups`),
+    with ``d`` (P, C(n, 2)) the participants' net preferences they were made from."""
 
     counts: np.ndarray
     groups: tuple[tuple[np.ndarray, np.ndarray], ...]
+    d: np.ndarray
 
     def judgements(self, undecided: str) -> np.ndarray:
         """(replicates, n, n): each resample's judgements of i over j, the diagonal 0."""
@@ -80,7 +82,7 @@ def resample_section(t: np.ndarray, d: np.ndarray, replicates: int, seed: int) -
     sums = resampled_sums(np.hstack(columns), replicates, seed)
     counts = sums[:, :width].reshape(replicates, n, n, 3)
     groups = tuple((sums[:, s : s + g], sums[:, s + g : s + 2 * g]) for s, g in spans)
-    return SectionResamples(counts, groups)
+    return SectionResamples(counts, groups, d)
 
 
 def section_order(t: np.ndarray) -> np.ndarray:
