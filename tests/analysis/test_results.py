@@ -308,3 +308,28 @@ def _same(x, y, rel=1e-9, abs=1e-12):
     if isinstance(x, float) and isinstance(y, float):
         return x == pytest.approx(y, rel=rel, abs=abs)
     return x == y
+
+
+@pytest.mark.parametrize("cpus", [2, 8])
+def test_the_mixed_model_beside_the_sections_or_after_them_gives_the_same_numbers(
+    monkeypatch, cpus
+):
+    import app.analysis.results as results
+
+    rng = np.random.default_rng(3)
+    rows = [
+        (f"p{p}", f"s{k}", a, b, rng.choice(["left", "right", "undecided"]))
+        for p in range(12)
+        for k in range(3)
+        for a, b in permutations("ABC", 2)
+    ]
+    frame = pd.DataFrame(rows, columns=["participant", "clip", "left", "right", "choice"])
+    monkeypatch.setattr(results.os, "sched_getaffinity", lambda pid: set(range(cpus)))
+    assert results.side_by_side() == (cpus > results.SIDE_BY_SIDE_ABOVE)
+    steps = []
+    got = analyze(frame, bootstrap=50, progress=lambda done, total: steps.append((done, total)))
+    monkeypatch.setattr(results.os, "sched_getaffinity", lambda pid: set(range(10 - cpus)))
+    other = analyze(frame, bootstrap=50)
+    assert json.dumps(got, sort_keys=True) == json.dumps(other, sort_keys=True)
+    assert got["pooled"]["mixed_btd"]["sd_participant"] is not None
+    assert steps[-1][0] == steps[-1][1] and all(a <= b for a, b in steps)
