@@ -66,8 +66,8 @@ def resample_section(t: np.ndarray, d: np.ndarray, replicates: int, seed: int) -
     """Every resampled sum of a section in one product (see the module's docstring).
 
     ``t`` (P, n, n, 3) holds the section's participants with votes, already in the order of
-    :func:`app.analysis.scaling.canonical_participant_order`, and ``d`` (P, C(n, 2)) their net
-    preferences (:func:`app.analysis.participant_level.net_preference`)."""
+    :func:`section_order`, and ``d`` (P, C(n, 2)) their net preferences
+    (:func:`app.analysis.participant_level.net_preference`)."""
     p, n = t.shape[0], t.shape[-2]
     width = n * n * 3
     spans, columns = [], [t.reshape(p, width)]
