@@ -28,6 +28,7 @@ import pandas as pd
 
 from app.analysis.ratings import mixed_mos
 from app.analysis.vote_frame import system_allocator
+from app.analysis.vote_values import FLAGS
 from app.errors import InputError
 from app.trials.rating import SCALE_RANGE, catch_ceiling
 
@@ -157,15 +158,7 @@ def read_ratings(source: str | Path | pd.DataFrame) -> pd.DataFrame:
     if "excluded" not in frame.columns:
         frame["excluded"] = ""
     frame["excluded"] = frame["excluded"].astype(str).str.strip()
-    flags = {
-        "true": True,
-        "1": True,
-        "yes": True,
-        "false": False,
-        "0": False,
-        "no": False,
-        "": False,
-    }
+    flags = {**FLAGS, "": False}  # the votes' spellings; an empty reference field is false
     if "reference" not in frame.columns:
         frame["reference"] = ""
     spelt = frame["reference"].astype(str).str.strip().str.lower()
